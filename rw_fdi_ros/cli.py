@@ -1,0 +1,104 @@
+"""rw-fdi: the command line of rw_fdi_ros (run, scenarios, bench, bag)."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+
+def _cmd_run(args) -> int:
+    from .tools.run import run_scenario
+    from .tools.summary import format_summary
+    print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
+          " (plant, 3 PID controllers, recorder; private DDS domain)", flush=True)
+    outcome = run_scenario(args.scenario, seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs,
+                           emf_limit=args.emf_limit, command_timeout=args.command_timeout)
+    if outcome.summary:
+        print(format_summary(outcome.summary))
+    if not outcome.ok:
+        where = f" (node logs: {outcome.log_dir})" if outcome.log_dir and outcome.log_dir.exists() else ""
+        print(f"rw-fdi: run failed: {outcome.reason}{where}", file=sys.stderr)
+        return 1
+    rtf = outcome.summary["end_time"] / outcome.wall_time if outcome.summary else float("nan")
+    print(f"  wall time {outcome.wall_time:.1f} s ({rtf:.0f}x real time)")
+    return 0
+
+
+def _cmd_scenarios(args) -> int:
+    from .core.scenario import available_scenarios, load_scenario
+    for name in available_scenarios():
+        s = load_scenario(name)
+        print(f"{name:28s} {s.duration:6.0f} s  {s.description}")
+    return 0
+
+
+def _cmd_bench(args) -> int:
+    from .tools.bench import bench_graph
+    if args.what == "graph":
+        report = bench_graph(duration=args.duration, seed=args.seed)
+        print(json.dumps(report, indent=2) if args.json else report["text"])
+        return 0 if report["ok"] else 1
+    return 2
+
+
+def _cmd_bag(args) -> int:
+    from .storage.bag import read_bag
+    from .tools.summary import format_summary, run_summary
+    data = read_bag(args.bag)
+    state = "complete" if data.complete else f"incomplete: {data.note}"
+    print(f"{data.path}: {state}")
+    for topic in sorted(data.messages):
+        rows = data.messages[topic]
+        print(f"  {topic:28s} {data.types[topic]:38s} {len(rows):7d} msgs  "
+              f"{rows[0][0] * 1e-9:8.1f} .. {rows[-1][0] * 1e-9:8.1f} s")
+    if data.scenario_text:
+        print(format_summary(run_summary(data)))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="rw-fdi", description="Reaction-wheel FDI on a ROS 2 node graph.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    r = sub.add_parser("run", help="run one scenario through the whole graph and record a bag")
+    r.add_argument("--scenario", required=True, help="scenario name (see `rw-fdi scenarios`) or YAML file")
+    r.add_argument("--seed", type=int, default=None, help="seed for initial conditions and disturbance")
+    r.add_argument("--out", default="bags", help="directory for the bag (default: bags/)")
+    r.add_argument("--emf-limit", default="kf_scaled", choices=["kf_scaled", "pwm_saturation"],
+                   help="EMF torque-limiting model (physics.md [choice])")
+    r.add_argument("--command-timeout", type=float, default=5.0, help="wall seconds the plant waits for a command")
+    r.add_argument("--keep-logs", action="store_true", help="keep node logs also after a successful run")
+    r.set_defaults(func=_cmd_run)
+
+    s = sub.add_parser("scenarios", help="list the shipped scenarios")
+    s.set_defaults(func=_cmd_scenarios)
+
+    b = sub.add_parser("bench", help="benchmarks that print figures")
+    b.add_argument("what", choices=["graph"], help="graph: real-time factor of a recorded fault-free run")
+    b.add_argument("--duration", type=float, default=400.0)
+    b.add_argument("--seed", type=int, default=1)
+    b.add_argument("--json", action="store_true")
+    b.set_defaults(func=_cmd_bench)
+
+    g = sub.add_parser("bag", help="what a bag holds (also a truncated one) and its run summary")
+    g.add_argument("bag")
+    g.set_defaults(func=_cmd_bag)
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    from .core.scenario import ScenarioError
+    from .storage.bag import BagError
+    try:
+        return args.func(args)
+    except (ScenarioError, BagError, FileNotFoundError, ValueError) as exc:
+        print(f"rw-fdi: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("rw-fdi: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,260 @@
+"""Scenarios: a seed, a duration, initial conditions, set-point changes and a fault schedule.
+
+A scenario file (YAML, see README "Scenario format") fixes what is fixed;
+everything it leaves open is drawn from the thesis Table 2.3 envelope with
+the run's seed, so the same seed always gives the same run.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .wheel import NOMINAL
+
+AXES = ("x", "y", "z")
+FAULT_KINDS = ("bus_voltage", "current_limiter", "temperature", "ripple_gain")
+NOMINAL_VALUES = {k: getattr(NOMINAL, k) for k in FAULT_KINDS}
+
+# Thesis Table 2.3 ranges drawn per axis.
+ATTITUDE_RANGE_DEG = (-180.0, 180.0)
+BODY_RATE_RANGE = (-1.0e-4, 1.0e-4)
+WHEEL_SPEED_RANGE = (20.0, 30.0)
+SETPOINT_CHANGE_RANGE_DEG = (-5.0, 5.0)
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be run; the message is one line, fit for a user."""
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One fault on one wheel: from ``onset`` the field ``kind`` moves to ``value``.
+
+    ``ramp`` > 0 moves it linearly from nominal to ``value`` over that many seconds.
+    """
+
+    kind: str
+    wheel: int
+    onset: float
+    value: float
+    ramp: float = 0.0
+
+    def value_at(self, t):
+        nominal = NOMINAL_VALUES[self.kind]
+        if t < self.onset:
+            return nominal
+        if self.ramp > 0.0:
+            share = min((t - self.onset) / self.ramp, 1.0)
+            return nominal + share * (self.value - nominal)
+        return self.value
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "wheel": AXES[self.wheel], "onset": self.onset,
+                "value": self.value, "ramp": self.ramp}
+
+
+@dataclass(frozen=True)
+class SetpointChange:
+    time: float
+    change_deg: tuple | None  # None: drawn from Table 2.3 (-5..5 deg per axis)
+
+
+@dataclass(frozen=True)
+class InitialConditions:
+    attitude: np.ndarray      # [rad], per axis
+    body_rate: np.ndarray     # [rad/s]
+    wheel_speed: np.ndarray   # [rad/s]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    duration: float = 400.0
+    seed: int = 0
+    faults: tuple = ()
+    setpoints: tuple = (SetpointChange(0.0, None),)
+    initial: dict = field(default_factory=dict)  # fixed initial conditions (deg / rad/s)
+    description: str = ""
+    source_text: str = ""     # the YAML it came from, recorded in every bag
+
+    def with_seed(self, seed: int) -> "Scenario":
+        return replace(self, seed=int(seed))
+
+    def with_faults(self, faults) -> "Scenario":
+        return replace(self, faults=tuple(faults))
+
+    # -- draws ---------------------------------------------------------------
+    def _rng(self):
+        return np.random.default_rng([int(self.seed), 0])
+
+    def disturbance_rng(self):
+        """Independent stream for the external disturbance (eq. 2.34)."""
+        return np.random.default_rng([int(self.seed), 1])
+
+    def draws(self):
+        """Initial conditions and set-point changes, Table 2.3 uniform draws unless fixed."""
+        rng = self._rng()
+        att = rng.uniform(*ATTITUDE_RANGE_DEG, 3)
+        rate = rng.uniform(*BODY_RATE_RANGE, 3)
+        speed = rng.uniform(*WHEEL_SPEED_RANGE, 3)
+        changes = [rng.uniform(*SETPOINT_CHANGE_RANGE_DEG, 3) for _ in self.setpoints]
+        fixed = self.initial
+        att = np.asarray(fixed.get("attitude_deg", att), float)
+        rate = np.asarray(fixed.get("body_rate", rate), float)
+        speed = np.asarray(fixed.get("wheel_speed", speed), float)
+        ic = InitialConditions(np.deg2rad(att), rate, speed)
+        steps = []
+        for sp, drawn in zip(self.setpoints, changes):
+            steps.append((sp.time, np.deg2rad(drawn if sp.change_deg is None else np.asarray(sp.change_deg, float))))
+        return ic, steps
+
+    def setpoint_schedule(self):
+        """(times, attitude set-points [rad] of shape (n, 3)): piecewise constant from each time on."""
+        ic, steps = self.draws()
+        times, values, current = [], [], ic.attitude.copy()
+        for t, change in sorted(steps, key=lambda s: s[0]):
+            current = current + change
+            times.append(t)
+            values.append(current.copy())
+        if not times or times[0] > 0.0:
+            times.insert(0, 0.0)
+            values.insert(0, ic.attitude.copy())
+        return np.asarray(times, float), np.asarray(values, float)
+
+    def effective_text(self) -> str:
+        """The scenario YAML with the seed actually used: what a bag records, enough to redo the run."""
+        raw = yaml.safe_load(self.source_text) if self.source_text else {"name": self.name}
+        raw = dict(raw or {})
+        raw["seed"] = int(self.seed)
+        raw.setdefault("name", self.name)
+        return yaml.safe_dump(raw, sort_keys=False)
+
+    def fault_free(self) -> "Scenario":
+        return replace(self, faults=())
+
+
+def setpoint_at(times, values, t):
+    """Set-point in force at time t from a schedule of :meth:`Scenario.setpoint_schedule`."""
+    i = int(np.searchsorted(times, t + 1e-9, side="right")) - 1
+    return values[max(i, 0)]
+
+
+def operating_point_at(faults, t):
+    """Per-wheel operating point at time t: dict kind -> array (3,), thesis Table 2.3 when healthy."""
+    op = {k: np.full(3, NOMINAL_VALUES[k]) for k in FAULT_KINDS}
+    for f in faults:
+        op[f.kind][f.wheel] = f.value_at(t)
+    return op
+
+
+# -- parsing -----------------------------------------------------------------
+def _num(where, value, lo=None, hi=None):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise ScenarioError(f"{where}: expected a finite number, got {value!r}")
+    if (lo is not None and value < lo) or (hi is not None and value > hi):
+        raise ScenarioError(f"{where}: {value} is outside [{lo}, {hi}]")
+    return float(value)
+
+
+def _axis(where, value):
+    if isinstance(value, str) and value.lower() in AXES:
+        return AXES.index(value.lower())
+    if isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 3:
+        return value
+    raise ScenarioError(f"{where}: wheel must be one of x, y, z, got {value!r}")
+
+
+_FAULT_LIMITS = {"bus_voltage": (0.0, 40.0), "current_limiter": (0.0, 1.0),
+                 "temperature": (-100.0, 400.0), "ripple_gain": (0.0, 10.0)}
+
+
+def _fault(where, raw, duration):
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{where}: expected a mapping with kind, wheel, onset, value")
+    unknown = set(raw) - {"kind", "wheel", "onset", "value", "ramp"}
+    if unknown:
+        raise ScenarioError(f"{where}: unknown field(s) {sorted(unknown)}")
+    kind = raw.get("kind")
+    if kind not in FAULT_KINDS:
+        raise ScenarioError(f"{where}.kind: must be one of {', '.join(FAULT_KINDS)}, got {kind!r}")
+    for key in ("wheel", "onset", "value"):
+        if key not in raw:
+            raise ScenarioError(f"{where}: missing '{key}'")
+    return Fault(kind=kind, wheel=_axis(f"{where}.wheel", raw["wheel"]),
+                 onset=_num(f"{where}.onset", raw["onset"], 0.0, duration),
+                 value=_num(f"{where}.value", raw["value"], *_FAULT_LIMITS[kind]),
+                 ramp=_num(f"{where}.ramp", raw.get("ramp", 0.0), 0.0, None))
+
+
+def _vector(where, raw):
+    if not isinstance(raw, (list, tuple)) or len(raw) != 3:
+        raise ScenarioError(f"{where}: expected a list of 3 numbers (x, y, z)")
+    return tuple(_num(f"{where}[{i}]", v) for i, v in enumerate(raw))
+
+
+def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
+    """Parse and validate scenario YAML; every problem is a one-line ScenarioError."""
+    try:
+        raw = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark else ""
+        raise ScenarioError(f"{origin}:{where} is not valid YAML ({getattr(exc, 'problem', exc)})") from None
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{origin}: a scenario is a YAML mapping (name, duration, faults, ...)")
+    unknown = set(raw) - {"name", "description", "duration", "seed", "faults", "setpoints", "initial"}
+    if unknown:
+        raise ScenarioError(f"{origin}: unknown field(s) {sorted(unknown)}")
+    duration = _num(f"{origin}: duration", raw.get("duration", 400.0), 1.0, 1e6)
+    seed = raw.get("seed", 0)
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise ScenarioError(f"{origin}: seed must be a non-negative integer, got {seed!r}")
+    faults_raw = raw.get("faults") or []
+    if not isinstance(faults_raw, list):
+        raise ScenarioError(f"{origin}: faults must be a list")
+    faults = tuple(_fault(f"{origin}: faults[{i}]", f, duration) for i, f in enumerate(faults_raw))
+    sps_raw = raw.get("setpoints", [{"time": 0.0, "change_deg": "random"}])
+    if not isinstance(sps_raw, list):
+        raise ScenarioError(f"{origin}: setpoints must be a list")
+    setpoints = []
+    for i, sp in enumerate(sps_raw):
+        where = f"{origin}: setpoints[{i}]"
+        if not isinstance(sp, dict) or "time" not in sp:
+            raise ScenarioError(f"{where}: expected a mapping with time and change_deg")
+        change = sp.get("change_deg", "random")
+        setpoints.append(SetpointChange(_num(f"{where}.time", sp["time"], 0.0, duration),
+                                        None if change == "random" else _vector(f"{where}.change_deg", change)))
+    initial_raw = raw.get("initial") or {}
+    if not isinstance(initial_raw, dict):
+        raise ScenarioError(f"{origin}: initial must be a mapping")
+    bad = set(initial_raw) - {"attitude_deg", "body_rate", "wheel_speed"}
+    if bad:
+        raise ScenarioError(f"{origin}: initial: unknown field(s) {sorted(bad)}")
+    initial = {k: _vector(f"{origin}: initial.{k}", v) for k, v in initial_raw.items()}
+    name = str(raw.get("name") or Path(origin).stem)
+    return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
+                    initial=initial, description=str(raw.get("description", "")), source_text=text)
+
+
+def scenario_dir() -> Path:
+    from ..paths import config_dir
+    return config_dir() / "scenarios"
+
+
+def available_scenarios():
+    return sorted(p.stem for p in scenario_dir().glob("*.yaml"))
+
+
+def load_scenario(name_or_path: str) -> Scenario:
+    """A scenario by file path or by name in config/scenarios/."""
+    path = Path(name_or_path)
+    if not path.suffix and not path.exists():
+        path = scenario_dir() / f"{name_or_path}.yaml"
+        if not path.exists():
+            raise ScenarioError(f"unknown scenario '{name_or_path}' (known: {', '.join(available_scenarios())})")
+    if not path.is_file():
+        raise ScenarioError(f"scenario file not found: {name_or_path}")
+    return parse_scenario(path.read_text(), origin=str(path))

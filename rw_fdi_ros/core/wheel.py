@@ -1,0 +1,185 @@
+"""High-fidelity reaction wheel (Bialke model, thesis 2.2.2, Fig. 2.2).
+
+Plain functions over numpy arrays: every argument broadcasts, so the same
+code steps one wheel in the live plant node and a batch of wheels in a
+Monte-Carlo study. The reconstructed parts of the block diagram follow
+``shared/spec/physics.md``; the items it marks [choice] are fields of
+:class:`WheelParams`.
+
+Sign convention: a positive torque command voltage (tcv) asks for a positive
+motor torque, which spins the wheel up and pushes the body the other way
+(reaction torque = -net wheel torque, eq. 2.18).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, asdict
+
+import numpy as np
+
+EMF_LIMITS = ("kf_scaled", "pwm_saturation")
+
+
+@dataclass(frozen=True)
+class WheelParams:
+    """Thesis Table 2.2 (ITHACO Type A) plus the modelling choices of physics.md."""
+
+    driver_gain: float = 0.19            # G_d [A/V]
+    driver_bandwidth: float = 2000.0     # w_d [rad/s]; treated as algebraic (0.5 ms << 0.1 s step)
+    torque_constant: float = 0.029       # k_t [N m/A]
+    emf_constant: float = 0.029          # k_e [V/(rad/s)]
+    overspeed_gain: float = 95.0         # k_s [V/(rad/s)]
+    overspeed_threshold: float = 690.0   # w_s [rad/s]
+    coulomb_friction: float = 0.002      # tau_c [N m]
+    inertia: float = 0.0077              # J [kg m^2]
+    poles: int = 36                      # N
+    ripple_coefficient: float = 0.22     # B (peak-to-peak share of motor torque)
+    input_resistance: float = 2.0        # R_IN [ohm]
+    quiescent_power: float = 3.0         # P_q [W]
+    bridge_resistance: float = 2.0       # R_B [ohm]
+    voltage_feedback_gain: float = 0.5   # K_f [V/V]
+    noise_angle: float = 0.05            # theta_a [rad]
+    noise_frequency: float = 0.2         # w_a [rad/s]
+    command_limit: float = 5.0           # +-5 V torque command range
+    diode_drop: float = 1.0              # reverse-polarity diode [V], eq. 2.13
+    # [choice] EMF torque limiting: 'kf_scaled' (default) or 'pwm_saturation'.
+    emf_limit: str = "kf_scaled"
+    # [choice] ripple amplitude as a share of B: 0.5 reads B as peak-to-peak.
+    ripple_amplitude_share: float = 0.5
+    # [choice] coulomb friction tau_c*tanh(w/w_c): smooth through zero speed so
+    # the integrator does not chatter; 0.05 rad/s is far below the 20-30 rad/s regime.
+    coulomb_smoothing_speed: float = 0.05
+
+    def __post_init__(self):
+        if self.emf_limit not in EMF_LIMITS:
+            raise ValueError(f"emf_limit must be one of {EMF_LIMITS}, got {self.emf_limit!r}")
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class OperatingPoint:
+    """Thesis Table 2.3 normal operation; faults move these values."""
+
+    bus_voltage: float = 8.0       # V_bus [V]
+    current_limiter: float = 1.0   # share of motor current that reaches the motor
+    temperature: float = 23.0      # T [deg C]
+    ripple_gain: float = 1.0       # multiplies the ripple coefficient B
+
+
+NOMINAL = OperatingPoint()
+
+
+def viscous_coefficient(temperature, params: WheelParams = WheelParams()):
+    """Viscous friction coefficient tau_v(T) [N m s/rad], eq. 2.15, clamped at 0.
+
+    tau_v = (0.049 - 0.0002 (T + 30)) 1e-2; 3.84e-4 at 23 C, 0 from 215 C on.
+    """
+    del params  # same law for every wheel of the type; kept for a uniform signature
+    return np.maximum((0.049 - 0.0002 * (np.asarray(temperature, float) + 30.0)) * 1e-2, 0.0)
+
+
+def emf_current_limit(bus_voltage, speed, params: WheelParams = WheelParams()):
+    """Largest motoring current |I| the bridge can drive, eqs. 2.9-2.14.
+
+    With the bus current of eq. 2.12 (motoring, so w I = |w| |I|)
+        I_bus = (R_B I^2 + 0.04 |I| V_bus + P_q + k_e |w| |I|) / (V_bus - 1)
+    and the available voltage V_avail = V_bus - 1 - R_IN I_bus, the limit
+        R_B |I| + k_e |w| <= g V_avail      (g = K_f or 1, the [choice])
+    is a quadratic a I^2 + b I + c <= 0 whose positive root is returned
+    (0 when there is none: the back-EMF alone eats the headroom).
+    """
+    p = params
+    g = p.voltage_feedback_gain if p.emf_limit == "kf_scaled" else 1.0
+    v_bus = np.asarray(bus_voltage, float)
+    w = np.abs(np.asarray(speed, float))
+    vd = np.maximum(v_bus - p.diode_drop, 1e-9)
+    a = g * p.input_resistance * p.bridge_resistance
+    b = vd * p.bridge_resistance + g * p.input_resistance * (0.04 * v_bus + p.emf_constant * w)
+    c = vd * p.emf_constant * w - g * vd**2 + g * p.input_resistance * p.quiescent_power
+    disc = np.maximum(b * b - 4.0 * a * c, 0.0)
+    root = (-b + np.sqrt(disc)) / (2.0 * a)
+    return np.where(c < 0.0, root, 0.0)
+
+
+def motor_current(tcv, speed, bus_voltage, current_limiter, params: WheelParams = WheelParams()):
+    """Motor current I_m [A] for a torque command voltage (Fig. 2.2, steps 1-5).
+
+    Clamp to +-5 V, speed limiter (eq. 2.8), driver gain G_d (its 0.5 ms lag
+    is algebraic at our 0.1 s step), EMF limiting in the motoring quadrant
+    only (H_b, eq. 2.13), then the current-loss fault (current limiter).
+    """
+    p = params
+    w = np.asarray(speed, float)
+    v = np.clip(np.asarray(tcv, float), -p.command_limit, p.command_limit)
+    over = np.abs(w) >= p.overspeed_threshold
+    v = v - np.where(over, p.overspeed_gain * (np.abs(w) - p.overspeed_threshold) * np.sign(w), 0.0)
+    current = p.driver_gain * v
+    motoring = current * w > 0.0
+    i_max = emf_current_limit(bus_voltage, w, p)
+    current = np.where(motoring, np.clip(current, -i_max, i_max), current)
+    return current * current_limiter
+
+
+def friction_torque(speed, temperature, params: WheelParams = WheelParams()):
+    """Bearing friction [N m]: viscous tau_v(T) w (eq. 2.15) plus smoothed coulomb tau_c."""
+    w = np.asarray(speed, float)
+    coulomb = params.coulomb_friction * np.tanh(w / params.coulomb_smoothing_speed)
+    return viscous_coefficient(temperature, params) * w + coulomb
+
+
+def torque_noise(t, params: WheelParams = WheelParams()):
+    """Bearing torque noise J theta_a w_a^2 sin(w_a t) [N m], eq. 2.16 (1.54e-5 N m)."""
+    p = params
+    return p.inertia * p.noise_angle * p.noise_frequency**2 * np.sin(p.noise_frequency * np.asarray(t, float))
+
+
+def net_torque(tcv, speed, t, op, params: WheelParams = WheelParams()):
+    """Net torque on the flywheel without ripple, tau_n = tau_m - friction + noise (eqs. 2.11, 2.19-2.20).
+
+    ``op`` is anything with bus_voltage, current_limiter and temperature
+    attributes (an :class:`OperatingPoint` or arrays of them per wheel).
+    """
+    tau_m = params.torque_constant * motor_current(tcv, speed, op.bus_voltage, op.current_limiter, params)
+    return tau_m - friction_torque(speed, op.temperature, params) + torque_noise(t, params), tau_m
+
+
+def torque_ripple(motor_torque, wheel_angle, ripple_gain, params: WheelParams = WheelParams()):
+    """Commutation torque ripple [N m]: (B/2) gain tau_m sin(N theta) (Fig. 2.2, [choice]).
+
+    At ~143 Hz it averages out of the body motion over a 0.1 s step, so the
+    plant applies it to the sampled output torque at the sampled wheel angle.
+    """
+    amp = params.ripple_amplitude_share * params.ripple_coefficient * np.asarray(ripple_gain, float)
+    return amp * motor_torque * np.sin(params.poles * np.asarray(wheel_angle, float))
+
+
+def holding_tcv(speed, temperature=23.0, params: WheelParams = WheelParams()):
+    """Command voltage whose motor torque cancels friction at ``speed`` (wheel in equilibrium)."""
+    return friction_torque(speed, temperature, params) / (params.driver_gain * params.torque_constant)
+
+
+@dataclass(frozen=True)
+class LinearWheel:
+    """State-space form of the linearised wheel, eq. 2.22.
+
+    F_w(s) = -G_d k_t J s / (J s + tau_v) = D + B C / (s - A) with
+    A = -tau_v/J, D = -G_d k_t, B C = G_d k_t tau_v / J.
+    """
+
+    A: float
+    B: float
+    C: float
+    D: float
+
+
+def linearised_wheel(temperature=23.0, params: WheelParams = WheelParams(), output_gain=0.01759) -> LinearWheel:
+    """Thesis 3.3 numbers: A=-0.04987, B=0.01563, C=0.01759, D=-0.00551 at 23 C.
+
+    Only B C is fixed by eq. 2.22; ``output_gain`` is the thesis' C, B follows.
+    """
+    tau_v = float(viscous_coefficient(temperature, params))
+    gk = params.driver_gain * params.torque_constant
+    a = -tau_v / params.inertia
+    bc = gk * tau_v / params.inertia
+    return LinearWheel(A=a, B=bc / output_gain, C=output_gain, D=-gk)

@@ -1,0 +1,194 @@
+"""Our launcher: every node its own process, a private DDS domain, supervised to the end.
+
+No ``ros2 launch`` exists on these machines, so this is what the CLI and CI
+use. It never hangs: a node that dies ends the run with its own one-line
+reason; a graph that stops making progress is killed after a watchdog;
+hung rclpy processes (they swallow SIGTERM) get SIGKILL after a grace
+period. The recorder is always asked to finalise the bag before that.
+"""
+from __future__ import annotations
+
+import fcntl
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+DOMAIN_RANGE = range(101, 233)   # 0..232 is valid; low ids stay free for people's own graphs
+_LOCK_DIR = Path(tempfile.gettempdir()) / "rw_fdi_ros_domains"
+
+
+class DomainLease:
+    """An exclusive ROS_DOMAIN_ID for this process tree, held by an flock until released."""
+
+    def __init__(self, preferred: int | None = None):
+        _LOCK_DIR.mkdir(exist_ok=True)
+        candidates = list(DOMAIN_RANGE)
+        start = (os.getpid() * 7) % len(candidates)
+        candidates = candidates[start:] + candidates[:start]
+        if preferred is not None:
+            candidates = [preferred] + [c for c in candidates if c != preferred]
+        for domain in candidates:
+            fh = open(_LOCK_DIR / f"{domain}.lock", "w")
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                fh.close()
+                continue
+            self.domain_id, self._fh = domain, fh
+            return
+        raise RuntimeError("no free ROS_DOMAIN_ID in 101..232 (too many runs at once)")
+
+    def release(self):
+        if self._fh:
+            self._fh.close()
+            self._fh = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+def ros_environment(domain_id: int, log_dir: Path) -> dict:
+    """Environment for node processes: loopback-only discovery on a private domain."""
+    env = dict(os.environ)
+    env.update(ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               ROS_LOG_DIR=str(log_dir), RMW_IMPLEMENTATION="rmw_fastrtps_cpp", PYTHONUNBUFFERED="1")
+    env.pop("ROS_LOCALHOST_ONLY", None)   # ignored by kilted; do not pretend it helps
+    env.pop("ROS_STATIC_PEERS", None)
+    return env
+
+
+def stop_process(proc: subprocess.Popen, grace: float = 3.0, sig=signal.SIGINT):
+    """Ask politely, then SIGKILL: rclpy swallows SIGTERM when hung."""
+    if proc.poll() is not None:
+        return
+    try:
+        proc.send_signal(sig)
+        proc.wait(timeout=grace)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=5)
+    except ProcessLookupError:
+        pass
+
+
+class _QuotingDumper(yaml.SafeDumper):
+    """Quotes every string: rcl's YAML reads a bare 'y' (the axis) as a boolean."""
+
+
+_QuotingDumper.add_representer(str, lambda d, v: d.represent_scalar("tag:yaml.org,2002:str", v, style="'"))
+
+
+@dataclass
+class GraphResult:
+    ok: bool
+    reason: str
+    wall_time: float
+    exit_codes: dict
+    log_dir: Path | None = None
+
+
+def _last_line(path: Path) -> str:
+    try:
+        lines = [ln.strip() for ln in path.read_text(errors="replace").splitlines() if ln.strip()]
+    except OSError:
+        return ""
+    errors = [ln for ln in lines if ": error: " in ln]
+    return (errors or lines or [""])[-1][:300]
+
+
+class GraphProcesses:
+    """Start a list of :class:`NodeSpec` as processes and supervise them."""
+
+    def __init__(self, nodes, domain_id: int, work_dir: Path, python: str = sys.executable):
+        self.nodes = nodes
+        self.domain_id = domain_id
+        self.work_dir = Path(work_dir)
+        self.work_dir.mkdir(parents=True, exist_ok=True)
+        self.env = ros_environment(domain_id, self.work_dir / "ros_log")
+        self.python = python
+        self.procs = {}
+
+    def start(self):
+        params = {n.name: {"ros__parameters": n.parameters} for n in self.nodes}
+        params_file = self.work_dir / "params.yaml"
+        params_file.write_text(yaml.dump(params, Dumper=_QuotingDumper, sort_keys=False))
+        for n in self.nodes:
+            cmd = [self.python, "-m", n.module, "--ros-args", "-r", f"__node:={n.name}",
+                   "--params-file", str(params_file), "--log-level", "warn"]
+            log = open(self.work_dir / f"{n.name}.log", "w")
+            self.procs[n.name] = subprocess.Popen(cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT,
+                                                  stdin=subprocess.DEVNULL, start_new_session=True)
+            log.close()
+        return self
+
+    def reason_of(self, name: str) -> str:
+        code = self.procs[name].returncode
+        how = f"killed by signal {-code}" if code is not None and code < 0 else f"exit code {code}"
+        line = _last_line(self.work_dir / f"{name}.log")
+        return f"{name} stopped ({how})" + (f": {line}" if line else "")
+
+    def stop_all(self, first=("recorder",)):
+        """Stop everything; the recorder last so it can finalise what the others sent."""
+        others = [n for n in self.procs if n not in first]
+        for name in others:
+            stop_process(self.procs[name])
+        for name in first:
+            if name in self.procs:
+                stop_process(self.procs[name], grace=10.0)
+
+    def run(self, main: str = "plant", watchdog: float = 600.0, finisher: str | None = "recorder",
+            finish_timeout: float = 30.0) -> GraphResult:
+        """Wait for ``main`` to end; then for ``finisher``; any other essential death fails the run."""
+        t0 = time.monotonic()
+        essential = {n.name for n in self.nodes if n.essential}
+        try:
+            while True:
+                time.sleep(0.02)
+                main_code = self.procs[main].poll()
+                dead = [n for n in essential if n != main and self.procs[n].poll() is not None
+                        and not (n == finisher and self.procs[n].returncode == 0)]
+                if dead and (main_code is None or main_code != 0):
+                    # a helper died first: that is the reason, not the plant's timeout that follows
+                    return self._fail(self.reason_of(dead[0]), t0)
+                if main_code is not None:
+                    if main_code != 0:
+                        return self._fail(self.reason_of(main), t0)
+                    break
+                if time.monotonic() - t0 > watchdog:
+                    return self._fail(f"graph did not finish within {watchdog:g} s (watchdog)", t0)
+            if finisher and finisher in self.procs:
+                try:
+                    self.procs[finisher].wait(timeout=finish_timeout)
+                except subprocess.TimeoutExpired:
+                    return self._fail(f"{finisher} did not finish within {finish_timeout:g} s after {main}", t0)
+                if self.procs[finisher].returncode != 0:
+                    return self._fail(self.reason_of(finisher), t0)
+            self.stop_all()
+            return GraphResult(True, "completed", time.monotonic() - t0, self.exit_codes(), self.work_dir)
+        except KeyboardInterrupt:
+            return self._fail("interrupted", t0)
+        finally:
+            self.stop_all()
+
+    def _fail(self, reason, t0):
+        self.stop_all()
+        return GraphResult(False, reason, time.monotonic() - t0, self.exit_codes(), self.work_dir)
+
+    def exit_codes(self):
+        return {n: p.returncode for n, p in self.procs.items()}
+
+
+def cleanup(result: GraphResult, keep: bool):
+    if result.log_dir and not keep:
+        shutil.rmtree(result.log_dir, ignore_errors=True)

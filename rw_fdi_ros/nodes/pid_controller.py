@@ -1,0 +1,87 @@
+"""pid_controller: one axis' PID (eq. 2.36); started once per axis with the ``axis`` parameter.
+
+For each plant step it takes the attitude and body rate stamped k and
+answers with the torque command voltage stamped k on /<axis>/tcv_command.
+"""
+from __future__ import annotations
+
+import numpy as np
+from geometry_msgs.msg import Vector3Stamped
+from rclpy.parameter import Parameter
+
+from ..core.pid import PidController, design_gains
+from ..core.scenario import AXES, setpoint_at
+from ..core.spacecraft import INERTIA
+from . import topics as T
+from .convert import stamp_ns, vector_array, vector_msg
+from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+
+
+class PidControllerNode(GraphNode):
+    node_name = "pid_controller"
+
+    def __init__(self):
+        super().__init__(self.node_name)
+        self.declare_parameter("axis", "x")
+        axis = self.param("axis")
+        if axis not in AXES:
+            raise NodeError(f"parameter axis must be one of x, y, z, got {axis!r}", EXIT_BAD_INPUT)
+        i = AXES.index(axis)
+        design = design_gains(INERTIA[i])
+        self.declare_parameter("control_period", 0.1)
+        self.declare_parameter("kp", float(design.kp))   # N m / rad   (body torque)
+        self.declare_parameter("ki", float(design.ki))   # N m / (rad s)
+        self.declare_parameter("kd", float(design.kd))   # N m / (rad/s)
+        self.declare_parameter("setpoint_weight", design.setpoint_weight)
+        self.declare_parameter("initial_tcv", 0.0)       # [V] command held before t = 0
+        self.declare_parameter("setpoint_times", Parameter.Type.DOUBLE_ARRAY)  # [s]
+        self.declare_parameter("setpoints", Parameter.Type.DOUBLE_ARRAY)       # [rad]; empty: hold the first attitude
+        self.declare_parameter("min_subscribers", 1)     # plant (+ recorder) before the first command
+
+        times, values = self.param("setpoint_times") or [], self.param("setpoints") or []
+        if len(times) != len(values):
+            raise NodeError("setpoint_times and setpoints must have the same length", EXIT_BAD_INPUT)
+        self.schedule = (np.asarray(times, float), np.asarray(values, float)) if len(times) else None
+        gains = type(design)(kp=self.param("kp"), ki=self.param("ki"), kd=self.param("kd"),
+                             setpoint_weight=self.param("setpoint_weight"))
+        self.pid = PidController(gains, self.param("control_period"), initial_tcv=self.param("initial_tcv"))
+        self.axis, self.index = axis, i
+        self.pending = {}   # stamp -> {"attitude": value, "rate": value}
+        self.queue = []     # commands waiting for subscribers to match
+        self.min_subscribers = self.param("min_subscribers")
+        self.matched = False
+        self.pub = self.create_publisher(Vector3Stamped, T.tcv_command(axis), T.RELIABLE)
+        self.create_subscription(Vector3Stamped, T.ATTITUDE, lambda m: self._on_state("attitude", m), T.RELIABLE)
+        self.create_subscription(Vector3Stamped, T.BODY_RATE, lambda m: self._on_state("rate", m), T.RELIABLE)
+
+    def _on_state(self, kind, msg):
+        stamp = stamp_ns(msg.header.stamp)
+        entry = self.pending.setdefault(stamp, {})
+        entry[kind] = vector_array(msg)[self.index]
+        if len(entry) < 2:
+            return
+        del self.pending[stamp]
+        t = stamp * 1e-9
+        setpoint = setpoint_at(*self.schedule, t) if self.schedule else None
+        if setpoint is None:
+            setpoint = self.pid.origin if self.pid.origin is not None else entry["attitude"]
+        tcv = float(self.pid.update(setpoint, entry["attitude"], entry["rate"]))
+        command = [0.0, 0.0, 0.0]
+        command[self.index] = tcv
+        self.queue.append(vector_msg(stamp, command))
+        self.poll()
+
+    def poll(self):
+        if not self.queue:
+            return
+        self.matched = self.matched or self.pub.get_subscription_count() >= self.min_subscribers
+        if self.matched:
+            for msg in self.queue:
+                self.pub.publish(msg)
+            self.queue.clear()
+
+
+main = main_for(PidControllerNode)
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,195 @@
+"""plant: spacecraft + three reaction wheels, owner of /clock, stepped in lockstep.
+
+It publishes the sample of step k (stamped k * control_period), waits until
+every axis' command stamped k has arrived, advances one control period and
+publishes step k+1. A command missing for ``command_timeout`` wall seconds
+stops the run with an error naming the axis.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.duration import Duration
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Header, String
+
+from ..core.plant import Plant
+from ..core.scenario import AXES, FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
+from ..core.wheel import WheelParams
+from . import topics as T
+from .convert import step_stamp_ns, stamp_ns, time_msg, vector_array, vector_msg
+from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, main_for, wall_time
+
+
+class PlantNode(GraphNode):
+    node_name = "plant"
+
+    def __init__(self):
+        super().__init__(self.node_name)
+        self.declare_parameter("scenario", "fault_free")
+        self.declare_parameter("seed", -1)               # -1: the scenario file's seed
+        self.declare_parameter("duration", 0.0)          # 0: the scenario's duration [s]
+        self.declare_parameter("control_period", 0.1)    # lockstep tick [s]
+        self.declare_parameter("emf_limit", "kf_scaled")  # physics.md [choice]
+        self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
+        self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
+        self.declare_parameter("wait_for_subscribers", 0)  # extra subscribers per topic (1 = recorder)
+        self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
+        for axis in AXES:  # live fault injection: setting one injects from the current sim time
+            for kind in FAULT_KINDS:
+                self.declare_parameter(f"fault.{axis}.{kind}", NOMINAL_VALUES[kind])
+        self.add_on_set_parameters_callback(self._on_parameters)
+
+        try:
+            scenario = load_scenario(self.param("scenario"))
+            wheel = WheelParams(emf_limit=self.param("emf_limit"))
+        except (ScenarioError, ValueError) as exc:
+            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+        if self.param("seed") >= 0:
+            scenario = scenario.with_seed(self.param("seed"))
+        self.duration = self.param("duration") or scenario.duration
+        self.period = self.param("control_period")
+        self.last_step = int(round(self.duration / self.period))
+        self.scenario = scenario
+        self.plant = Plant(scenario, wheel=wheel, control_period=self.period)
+
+        pub = lambda msg_type, topic, qos=T.RELIABLE: self.create_publisher(msg_type, topic, qos)
+        from geometry_msgs.msg import Vector3Stamped
+        self.pub_clock = pub(Clock, T.CLOCK)
+        self.pub_vectors = {name: pub(Vector3Stamped, name) for name in
+                            (T.ATTITUDE, T.BODY_RATE, T.WHEEL_SPEED, T.TCV, T.REACTION_TORQUE, T.FAULT_EFFECT)}
+        self.pub_truth = pub(DiagnosticArray, T.FAULT_TRUTH)
+        self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
+        self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
+        self.subs = [self.create_subscription(Vector3Stamped, T.tcv_command(a),
+                                              lambda m, i=i: self._on_command(i, m), T.RELIABLE)
+                     for i, a in enumerate(AXES)]
+        self.commands = [None, None, None]
+        self.started = False
+        self.t_wait = wall_time()
+        self.truth_key = None
+        self.truth_due = 0.0
+        self.step_wall = []   # wall seconds from publishing step k to publishing step k+1
+        self.compute_wall = []  # of which the plant's own step computation
+        self.get_logger().info(f"scenario {scenario.name} seed {scenario.seed}, {self.duration:g} s; "
+                               f"waiting for the graph")
+
+    # -- parameters: live fault injection ----------------------------------------
+    def _on_parameters(self, params):
+        for p in params:
+            parts = p.name.split(".")
+            if len(parts) == 3 and parts[0] == "fault" and hasattr(self, "plant"):
+                value = float(p.value)
+                if not math.isfinite(value):
+                    return SetParametersResult(successful=False, reason="fault value must be finite")
+                fault = Fault(kind=parts[2], wheel=AXES.index(parts[1]), onset=self.plant.time, value=value)
+                self.plant.inject(fault)
+                self.get_logger().warn(f"injected {parts[2]}={value:g} on wheel {parts[1]} at {self.plant.time:.1f} s")
+        return SetParametersResult(successful=True)
+
+    # -- lockstep ------------------------------------------------------------------
+    def _graph_ready(self) -> bool:
+        extra = self.param("wait_for_subscribers")
+        if any(s.get_publisher_count() < 1 for s in self.subs):
+            return False
+        need = {name: extra for name in self.pub_vectors}
+        need[T.ATTITUDE] = need[T.BODY_RATE] = 3 + extra
+        if any(self.pub_vectors[n].get_subscription_count() < k for n, k in need.items()):
+            return False
+        return all(p.get_subscription_count() >= extra for p in (self.pub_clock, self.pub_truth, self.pub_scenario))
+
+    def poll(self):
+        now = wall_time()
+        if not self.started:
+            if self._graph_ready():
+                self.started = True
+                self.pub_scenario.publish(String(data=self.scenario.effective_text()))
+                self._publish(self.plant.sample())
+            elif now - self.t_wait > self.param("startup_timeout"):
+                missing = [a for a, s in zip(AXES, self.subs) if s.get_publisher_count() < 1]
+                what = f"no controller for axis {', '.join(missing)}" if missing else "subscribers missing"
+                self.fail(f"graph not ready after {self.param('startup_timeout'):g} s ({what})", EXIT_TIMEOUT)
+            return
+        if self.exit_code is None and now - self.t_wait > self.param("command_timeout"):
+            missing = [a for a, c in zip(AXES, self.commands) if c is None]
+            self.fail(f"no torque command from axis {', '.join(missing)} for step t={self.plant.time:.1f} s "
+                      f"within {self.param('command_timeout'):g} s", EXIT_TIMEOUT)
+
+    def _on_command(self, axis: int, msg):
+        if not self.started or self.exit_code is not None:
+            return
+        expected = step_stamp_ns(self.plant.step_index, self.period)
+        if stamp_ns(msg.header.stamp) != expected:
+            return  # a stale or early command: the lockstep only takes this step's
+        value = float(vector_array(msg)[axis])
+        if not math.isfinite(value):
+            self.fail(f"torque command from axis {AXES[axis]} at t={self.plant.time:.1f} s is {value}",
+                      EXIT_BAD_INPUT)
+            return
+        self.commands[axis] = value
+        if all(c is not None for c in self.commands):
+            tcv = np.array(self.commands)
+            self.commands = [None, None, None]
+            t0 = wall_time()
+            sample = self.plant.step(tcv)
+            self.compute_wall.append(wall_time() - t0)
+            self.step_wall.append(t0 - self.t_wait)
+            self._publish(sample)
+
+    def _publish(self, sample):
+        self.t_wait = wall_time()
+        k = self.plant.step_index
+        stamp = step_stamp_ns(k, self.period)
+        self.pub_clock.publish(Clock(clock=time_msg(stamp)))
+        for name, values in ((T.ATTITUDE, sample.attitude), (T.BODY_RATE, sample.body_rate),
+                             (T.WHEEL_SPEED, sample.wheel_speed), (T.TCV, sample.tcv),
+                             (T.REACTION_TORQUE, sample.reaction_torque), (T.FAULT_EFFECT, sample.fault_effect)):
+            self.pub_vectors[name].publish(vector_msg(stamp, values[0]))
+        self._publish_truth(stamp, sample)
+        if k >= self.last_step:
+            self.pub_done.publish(Header(stamp=time_msg(stamp), frame_id="completed"))
+            self.finish()
+
+    def _publish_truth(self, stamp, sample):
+        """Ground truth on change and every truth_period: a DiagnosticArray, one status per wheel."""
+        op = {k: v[0] for k, v in sample.operating_point.items()}
+        key = tuple(tuple(np.round(v, 9)) for v in op.values())
+        if key == self.truth_key and sample.time + 1e-9 < self.truth_due:
+            return
+        self.truth_key = key
+        self.truth_due = sample.time + self.param("truth_period")
+        msg = DiagnosticArray()
+        msg.header.stamp = time_msg(stamp)
+        for i, axis in enumerate(AXES):
+            active = [f for f in self.plant.faults() if f.wheel == i and f.onset <= sample.time]
+            status = DiagnosticStatus(name=f"plant: wheel {axis} injected fault", hardware_id=f"reaction_wheel_{axis}")
+            status.level = DiagnosticStatus.ERROR if active else DiagnosticStatus.OK
+            status.message = "; ".join(f"{f.kind}={f.value:g} since {f.onset:g} s" for f in active) or "nominal"
+            status.values = [KeyValue(key=k, value=f"{op[k][i]:.9g}") for k in FAULT_KINDS]
+            status.values.append(KeyValue(key="onset", value=f"{min((f.onset for f in active), default=-1.0):g}"))
+            status.values.append(KeyValue(key="fault_effect", value=f"{sample.fault_effect[0][i]:.9g}"))
+            msg.status.append(status)
+        self.pub_truth.publish(msg)
+
+    def timing(self):
+        out = {"steps": len(self.step_wall)}
+        for key, vals in (("step", self.step_wall), ("compute", self.compute_wall)):
+            if vals:
+                v = np.asarray(vals) * 1e3
+                out[f"{key}_median_ms"] = float(np.median(v))
+                out[f"{key}_p99_ms"] = float(np.percentile(v, 99))
+        return out
+
+    def close(self):
+        # Let the recorder have everything before the process (and its DDS writers) go away.
+        for p in [self.pub_clock, self.pub_truth, self.pub_done, *self.pub_vectors.values()]:
+            p.wait_for_all_acked(Duration(seconds=5.0))
+
+
+main = main_for(PlantNode)
+
+if __name__ == "__main__":
+    main()

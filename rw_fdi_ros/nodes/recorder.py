@@ -1,0 +1,72 @@
+"""recorder: writes every topic of a run to a rosbag2 bag in MCAP storage.
+
+Raw CDR bytes go to the bag untouched (no deserialisation), with the
+message's own sim-time header stamp as log time, so a bag does not depend
+on machine load. It finalises the bag when the plant reports the run done
+(and every topic has caught up) or on SIGINT/SIGTERM; see storage/bag.py for
+what a SIGKILL leaves behind.
+"""
+from __future__ import annotations
+
+from rclpy.parameter import Parameter
+
+from ..storage.bag import BagError, BagWriter, header_stamp_ns
+from . import topics as T
+from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
+
+
+class RecorderNode(GraphNode):
+    node_name = "recorder"
+
+    def __init__(self):
+        super().__init__(self.node_name)
+        self.declare_parameter("output", "bags/run")          # bag directory to create
+        self.declare_parameter("flush_period", 10.0)          # sim seconds between chunk flushes
+        self.declare_parameter("extra_topics", Parameter.Type.STRING_ARRAY)   # 'name:pkg/msg/Type' beyond the graph's
+        self.declare_parameter("drain_timeout", 2.0)          # wall s to wait for stragglers after done
+        try:
+            self.bag = BagWriter(self.param("output"), int(self.param("flush_period") * 1e9))
+        except BagError as exc:
+            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+        rows = list(T.graph_topics())
+        for spec in self.param("extra_topics") or []:
+            name, _, type_name = spec.partition(":")
+            rows.append((name, type_name, T.RELIABLE))
+        self.last_stamp = {}
+        self.done_stamp = None
+        self.done_wall = 0.0
+        self.last_clock = 0
+        self.subs = []
+        for name, type_name, qos in rows:
+            self.bag.add_topic(name, type_name)
+            cls = T.message_class(type_name)
+            self.subs.append(self.create_subscription(cls, name, lambda raw, n=name: self._on_message(n, raw),
+                                                      qos, raw=True))
+        self.stamped = {name for name, type_name, _ in rows if type_name != "std_msgs/msg/String"}
+
+    def _on_message(self, topic, raw):
+        stamp = header_stamp_ns(raw, self.last_clock) if topic in self.stamped else self.last_clock
+        if topic == T.CLOCK:
+            self.last_clock = stamp
+        self.last_stamp[topic] = max(stamp, self.last_stamp.get(topic, 0))
+        self.bag.write(topic, stamp, bytes(raw))
+        if topic == T.PLANT_DONE:
+            self.done_stamp, self.done_wall = stamp, wall_time()
+
+    def poll(self):
+        if self.done_stamp is None:
+            return
+        lagging = [t for t in (T.CLOCK, T.ATTITUDE, T.REACTION_TORQUE, *map(T.tcv_command, T.AXES))
+                   if self.last_stamp.get(t, -1) < self.done_stamp]
+        if not lagging or wall_time() - self.done_wall > self.param("drain_timeout"):
+            self.finish()
+
+    def close(self):
+        self.bag.close()
+        self.get_logger().info(f"bag {self.param('output')}: {self.bag.count} messages")
+
+
+main = main_for(RecorderNode)
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,118 @@
+"""How every node process runs: init, an EventsExecutor in a spin_once loop, clean exit codes.
+
+architecture.md measured EventsExecutor in a spin_once loop as the fastest
+reliable choice here (MultiThreadedExecutor and background spinning hung).
+A node ends the loop by calling :meth:`GraphNode.finish`; a fatal problem
+becomes one line on stderr and a non-zero exit code, never a traceback.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+EXIT_OK = 0
+EXIT_ERROR = 1
+EXIT_BAD_INPUT = 2
+EXIT_TIMEOUT = 3
+
+
+class NodeError(RuntimeError):
+    """A fatal, explained problem: the process prints the message and exits with ``code``."""
+
+    def __init__(self, message: str, code: int = EXIT_ERROR):
+        super().__init__(message)
+        self.code = code
+
+
+class GraphNode(Node):
+    """A node whose process ends when it says so (finish/fail), not only on a signal."""
+
+    def __init__(self, name: str, **kwargs):
+        super().__init__(name, **kwargs)
+        self.exit_code: int | None = None
+        self.exit_message = ""
+
+    def finish(self, code: int = EXIT_OK, message: str = ""):
+        if self.exit_code is None:
+            self.exit_code, self.exit_message = code, message
+
+    def fail(self, message: str, code: int = EXIT_ERROR):
+        self.finish(code, message)
+
+    def poll(self):
+        """Called between callbacks (at least every 50 ms): timeouts live here."""
+
+    def close(self):
+        """Called once on the way out, also after a signal: flush files here."""
+
+    def timing(self) -> dict:
+        """Figures for ``rw-fdi bench`` (printed at exit when RW_FDI_TIMING=1)."""
+        return {}
+
+    def param(self, name):
+        """A parameter's value; None for a declared-but-unset typed parameter."""
+        from rclpy.exceptions import ParameterUninitializedException
+        try:
+            return self.get_parameter(name).value
+        except ParameterUninitializedException:
+            return None
+
+
+def spin_node(factory, args=None) -> int:
+    """Create the node, spin it until it finishes or a signal arrives, and return the exit code."""
+    rclpy.init(args=args)
+    node = None
+    name = getattr(factory, "node_name", "node")
+    code = EXIT_OK
+    message = ""
+    try:
+        node = factory()
+        name = node.get_name()
+        from rclpy.experimental import EventsExecutor
+        executor = EventsExecutor()
+        executor.add_node(node)
+        while node.exit_code is None and rclpy.ok():
+            executor.spin_once(timeout_sec=0.05)
+            node.poll()
+        code, message = (node.exit_code or EXIT_OK), node.exit_message
+    except NodeError as exc:
+        code, message = exc.code, str(exc)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        code = EXIT_OK if node is None or node.exit_code is None else node.exit_code
+        message = "" if node is None else node.exit_message
+    except Exception as exc:  # a bug: still one line, with the type
+        code, message = EXIT_ERROR, f"{type(exc).__name__}: {exc}"
+    finally:
+        if node is not None:
+            try:
+                node.close()
+            except Exception as exc:
+                code, message = EXIT_ERROR, f"while closing: {type(exc).__name__}: {exc}"
+            node.destroy_node()
+        rclpy.try_shutdown()
+    if node is not None and os.environ.get("RW_FDI_TIMING") == "1":
+        import resource
+        usage = resource.getrusage(resource.RUSAGE_SELF)
+        report = {"node": name, "cpu_s": time.process_time(), "max_rss_mb": usage.ru_maxrss / 1024.0,
+                  **node.timing()}
+        print("RW_FDI_TIMING " + json.dumps(report), flush=True)
+    if message:
+        print(f"{name}: {'error: ' if code else ''}{message}", file=sys.stderr, flush=True)
+    return code
+
+
+def main_for(factory):
+    """A console-script entry point for ``factory``."""
+    def main(args=None):
+        sys.exit(spin_node(factory, args=args if args is not None else sys.argv))
+    return main
+
+
+def wall_time() -> float:
+    return time.monotonic()

@@ -1,0 +1,52 @@
+"""Topic names, message types and QoS of the graph: one table every node and tool reads.
+
+Vectors are geometry_msgs/Vector3Stamped with x, y, z the spacecraft axes
+(one wheel per axis). Every message that analysis depends on carries a
+header stamp in sim time.
+"""
+from __future__ import annotations
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+AXES = ("x", "y", "z")
+
+CLOCK = "/clock"
+ATTITUDE = "/attitude"                # [rad], small-angle per-axis attitude
+BODY_RATE = "/body_rate"              # [rad/s]
+WHEEL_SPEED = "/wheel_speed"          # [rad/s]
+TCV = "/wheel/tcv"                    # applied torque command voltage per wheel [V]
+REACTION_TORQUE = "/wheel/reaction_torque"  # reaction torque per wheel on the body [N m]
+FAULT_EFFECT = "/fault/effect"        # reaction torque minus a healthy wheel's in the same state [N m]
+FAULT_TRUTH = "/fault/ground_truth"   # what is injected where since when (DiagnosticArray)
+SCENARIO = "/scenario"                # the scenario YAML (latched)
+PLANT_DONE = "/plant/done"            # std_msgs/Header: stamp = last step, frame_id = why it ended
+
+
+def tcv_command(axis: str) -> str:
+    """Per-axis controller output: Vector3Stamped with only that axis' component set [V]."""
+    return f"/{axis}/tcv_command"
+
+
+# Deep reliable queues: the recorder is not part of the lockstep and must not lose samples.
+RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def graph_topics():
+    """(topic, ROS type name, qos) of everything a run records."""
+    vec = "geometry_msgs/msg/Vector3Stamped"
+    rows = [(CLOCK, "rosgraph_msgs/msg/Clock", RELIABLE),
+            (ATTITUDE, vec, RELIABLE), (BODY_RATE, vec, RELIABLE), (WHEEL_SPEED, vec, RELIABLE),
+            (TCV, vec, RELIABLE), (REACTION_TORQUE, vec, RELIABLE), (FAULT_EFFECT, vec, RELIABLE),
+            (FAULT_TRUTH, "diagnostic_msgs/msg/DiagnosticArray", RELIABLE),
+            (SCENARIO, "std_msgs/msg/String", LATCHED), (PLANT_DONE, "std_msgs/msg/Header", LATCHED)]
+    rows += [(tcv_command(a), vec, RELIABLE) for a in AXES]
+    return rows
+
+
+def message_class(type_name: str):
+    """Import the rclpy message class for 'pkg/msg/Name'."""
+    import importlib
+    pkg, _, name = type_name.split("/")
+    return getattr(importlib.import_module(f"{pkg}.msg"), name)

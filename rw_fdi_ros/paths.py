@@ -1,0 +1,27 @@
+"""Where the package's data lives: the source tree here, share/ on a ROS 2 install."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+PACKAGE = "rw_fdi_ros"
+_SOURCE_ROOT = Path(__file__).resolve().parents[1]
+
+
+def config_dir() -> Path:
+    """config/ of the source tree, else <share>/rw_fdi_ros/config of an ament install."""
+    env = os.environ.get("RW_FDI_CONFIG")
+    if env:
+        return Path(env)
+    local = _SOURCE_ROOT / "config"
+    if local.is_dir():
+        return local
+    try:
+        from ament_index_python.packages import get_package_share_directory
+        return Path(get_package_share_directory(PACKAGE)) / "config"
+    except Exception:  # no ament index: fall back to the source layout
+        return local
+
+
+def bags_dir() -> Path:
+    return Path(os.environ.get("RW_FDI_BAGS", Path.cwd() / "bags"))

@@ -1,0 +1,64 @@
+"""One recorded run of the graph: scenario in, bag and summary out."""
+from __future__ import annotations
+
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..core.scenario import Scenario, load_scenario
+from ..launch.graph import graph_nodes
+from ..launch.launcher import DomainLease, GraphProcesses, cleanup
+from ..storage.bag import BagError, read_bag
+from .summary import run_summary
+
+
+@dataclass
+class RunOutcome:
+    ok: bool
+    reason: str
+    bag: Path
+    wall_time: float
+    summary: dict | None = None
+    log_dir: Path | None = None
+
+
+def bag_name(scenario: Scenario) -> str:
+    return f"{scenario.name}_s{scenario.seed:04d}"
+
+
+def resolve_scenario(ref: str, seed: int | None = None):
+    """(scenario, absolute file path the nodes can load) for a name or a path."""
+    scenario = load_scenario(ref)
+    path = Path(ref) if Path(ref).is_file() else None
+    if path is None:
+        from ..core.scenario import scenario_dir
+        path = scenario_dir() / f"{ref}.yaml"
+    if seed is not None:
+        scenario = scenario.with_seed(seed)
+    return scenario, str(path.resolve())
+
+
+def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | None = None,
+                 command_timeout: float = 5.0, watchdog: float | None = None, keep_logs: bool = False,
+                 emf_limit: str = "kf_scaled", extra_nodes=()) -> RunOutcome:
+    """Run the whole graph once, recording ``out_dir/<name>``; never raises for a failed run."""
+    scenario, path = resolve_scenario(ref, seed)
+    bag = Path(out_dir) / (name or bag_name(scenario))
+    if bag.exists():
+        shutil.rmtree(bag)
+    nodes = graph_nodes(scenario, path, bag, command_timeout=command_timeout, emf_limit=emf_limit)
+    nodes += list(extra_nodes)
+    watchdog = watchdog or max(120.0, scenario.duration)
+    with DomainLease() as lease:
+        work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_{bag.name}_"))
+        result = GraphProcesses(nodes, lease.domain_id, work).start().run(watchdog=watchdog)
+    outcome = RunOutcome(result.ok, result.reason, bag, result.wall_time, log_dir=work)
+    if bag.exists():
+        try:
+            outcome.summary = run_summary(read_bag(bag))
+        except (BagError, ValueError) as exc:
+            if outcome.ok:
+                outcome.ok, outcome.reason = False, str(exc)
+    cleanup(result, keep=keep_logs or not outcome.ok)
+    return outcome

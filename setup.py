@@ -1,0 +1,31 @@
+"""ament_python package: `ros2 run rw_fdi_ros <exe>` finds the console scripts in lib/rw_fdi_ros."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "rw_fdi_ros"
+NODES = ["plant", "pid_controller", "recorder"]
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/launch", glob("launch/*.py")),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/config/scenarios", glob("config/scenarios/*.yaml")),
+    ],
+    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "rosbags", "mcap"],
+    zip_safe=True,
+    maintainer="rw_fdi_ros developers",
+    maintainer_email="dev@rw-fdi.local",
+    description="Reaction-wheel FDI as a ROS 2 node graph",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [f"{n} = {PACKAGE}.nodes.{n}:main" for n in NODES]
+        + ["rw-fdi = rw_fdi_ros.cli:main"],
+    },
+)
