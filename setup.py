@@ -23,7 +23,6 @@ setup(
     maintainer_email="dev@rw-fdi.local",
     description="Reaction-wheel FDI as a ROS 2 node graph",
     license="Apache-2.0",
-    tests_require=["pytest"],
     entry_points={
         "console_scripts": [f"{n} = {PACKAGE}.nodes.{n}:main" for n in NODES]
         + ["rw-fdi = rw_fdi_ros.cli:main"],

@@ -55,7 +55,7 @@ def thesis_form(gains: PidGains, wheel: WheelParams = WheelParams()):
     gk = wheel.driver_gain * wheel.torque_constant
     k_d = -np.asarray(gains.kd) / gk
     s, p = gains.kp / gains.kd, gains.ki / gains.kd  # z1 + z2, z1 z2
-    disc = np.sqrt(np.maximum(s * s - 4 * p, 0.0) + 0j)
+    disc = np.sqrt(s * s - 4 * p + 0j)  # complex zeros for well-damped designs
     return k_d, (s + disc) / 2, (s - disc) / 2
 
 

@@ -183,3 +183,15 @@ def linearised_wheel(temperature=23.0, params: WheelParams = WheelParams(), outp
     a = -tau_v / params.inertia
     bc = gk * tau_v / params.inertia
     return LinearWheel(A=a, B=bc / output_gain, C=output_gain, D=-gk)
+
+
+def bus_fault_visible_above(bus_voltage, temperature=23.0, params: WheelParams = WheelParams()):
+    """Wheel speed [rad/s] above which holding it needs more current than the EMF limit allows.
+
+    Below it a bus-voltage drop leaves the wheel voltage headroom and is physically
+    invisible while the spacecraft holds attitude (physics.md, EMF limiting).
+    """
+    speeds = np.linspace(0.0, 100.0, 10001)
+    holding = friction_torque(speeds, temperature, params) / params.torque_constant
+    short = emf_current_limit(bus_voltage, speeds, params) < holding
+    return float(speeds[np.argmax(short)]) if short.any() else float("inf")

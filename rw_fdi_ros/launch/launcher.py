@@ -68,18 +68,21 @@ def ros_environment(domain_id: int, log_dir: Path) -> dict:
     return env
 
 
-def stop_process(proc: subprocess.Popen, grace: float = 3.0, sig=signal.SIGINT):
-    """Ask politely, then SIGKILL: rclpy swallows SIGTERM when hung."""
-    if proc.poll() is not None:
-        return
-    try:
-        proc.send_signal(sig)
-        proc.wait(timeout=grace)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait(timeout=5)
-    except ProcessLookupError:
-        pass
+def stop_processes(procs, grace: float = 3.0, sig=signal.SIGINT):
+    """Ask all politely at once, then SIGKILL what is left: rclpy swallows SIGTERM when hung."""
+    live = [p for p in procs if p.poll() is None]
+    for p in live:
+        try:
+            p.send_signal(sig)
+        except ProcessLookupError:
+            pass
+    deadline = time.monotonic() + grace
+    for p in live:
+        try:
+            p.wait(timeout=max(deadline - time.monotonic(), 0.01))
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait(timeout=5)
 
 
 class _QuotingDumper(yaml.SafeDumper):
@@ -140,12 +143,8 @@ class GraphProcesses:
 
     def stop_all(self, first=("recorder",)):
         """Stop everything; the recorder last so it can finalise what the others sent."""
-        others = [n for n in self.procs if n not in first]
-        for name in others:
-            stop_process(self.procs[name])
-        for name in first:
-            if name in self.procs:
-                stop_process(self.procs[name], grace=10.0)
+        stop_processes([p for n, p in self.procs.items() if n not in first])
+        stop_processes([self.procs[n] for n in first if n in self.procs], grace=10.0)
 
     def run(self, main: str = "plant", watchdog: float = 600.0, finisher: str | None = "recorder",
             finish_timeout: float = 30.0) -> GraphResult:
@@ -156,8 +155,8 @@ class GraphProcesses:
             while True:
                 time.sleep(0.02)
                 main_code = self.procs[main].poll()
-                dead = [n for n in essential if n != main and self.procs[n].poll() is not None
-                        and not (n == finisher and self.procs[n].returncode == 0)]
+                # a clean exit (0) is a node that saw the run end; a missing peer makes the plant time out
+                dead = [n for n in essential if n != main and self.procs[n].poll() not in (None, 0)]
                 if dead and (main_code is None or main_code != 0):
                     # a helper died first: that is the reason, not the plant's timeout that follows
                     return self._fail(self.reason_of(dead[0]), t0)

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped
+from std_msgs.msg import Header
+from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 
 from ..core.pid import PidController, design_gains
@@ -14,7 +16,7 @@ from ..core.scenario import AXES, setpoint_at
 from ..core.spacecraft import INERTIA
 from . import topics as T
 from .convert import stamp_ns, vector_array, vector_msg
-from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
 
 
 class PidControllerNode(GraphNode):
@@ -53,6 +55,9 @@ class PidControllerNode(GraphNode):
         self.pub = self.create_publisher(Vector3Stamped, T.tcv_command(axis), T.RELIABLE)
         self.create_subscription(Vector3Stamped, T.ATTITUDE, lambda m: self._on_state("attitude", m), T.RELIABLE)
         self.create_subscription(Vector3Stamped, T.BODY_RATE, lambda m: self._on_state("rate", m), T.RELIABLE)
+        # the run is over when the plant says so; the answer to its last sample goes out first
+        self.create_subscription(Header, T.PLANT_DONE, self._on_done, T.LATCHED)
+        self.done_stamp, self.done_wall, self.last_answered = None, 0.0, -1
 
     def _on_state(self, kind, msg):
         stamp = stamp_ns(msg.header.stamp)
@@ -69,9 +74,16 @@ class PidControllerNode(GraphNode):
         command = [0.0, 0.0, 0.0]
         command[self.index] = tcv
         self.queue.append(vector_msg(stamp, command))
+        self.last_answered = stamp
         self.poll()
 
+    def _on_done(self, msg):
+        self.done_stamp, self.done_wall = stamp_ns(msg.stamp), wall_time()
+
     def poll(self):
+        if self.done_stamp is not None and not self.queue and (
+                self.last_answered >= self.done_stamp or wall_time() - self.done_wall > 2.0):
+            self.finish()
         if not self.queue:
             return
         self.matched = self.matched or self.pub.get_subscription_count() >= self.min_subscribers
@@ -79,6 +91,10 @@ class PidControllerNode(GraphNode):
             for msg in self.queue:
                 self.pub.publish(msg)
             self.queue.clear()
+
+
+    def close(self):
+        self.pub.wait_for_all_acked(Duration(seconds=2.0))
 
 
 main = main_for(PidControllerNode)

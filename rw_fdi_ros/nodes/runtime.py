@@ -77,9 +77,17 @@ def spin_node(factory, args=None) -> int:
         from rclpy.experimental import EventsExecutor
         executor = EventsExecutor()
         executor.add_node(node)
+        profile_dir = os.environ.get("RW_FDI_PROFILE")  # developer aid: cProfile each node
+        if profile_dir:
+            import cProfile
+            profiler = cProfile.Profile()
+            profiler.enable()
         while node.exit_code is None and rclpy.ok():
             executor.spin_once(timeout_sec=0.05)
             node.poll()
+        if profile_dir:
+            profiler.disable()
+            profiler.dump_stats(os.path.join(profile_dir, f"{name}.prof"))
         code, message = (node.exit_code or EXIT_OK), node.exit_message
     except NodeError as exc:
         code, message = exc.code, str(exc)

@@ -1,0 +1,36 @@
+"""ROS 2 launch file for users with a full ROS 2 install (`ros2 launch rw_fdi_ros rw_fdi.launch.py`).
+
+It builds the same graph as `rw-fdi run` from rw_fdi_ros.launch.graph.graph_nodes,
+so both launchers start identical nodes with identical parameters. Not
+testable on machines without launch_ros; our own launcher is what CI uses.
+
+    ros2 launch rw_fdi_ros rw_fdi.launch.py scenario:=bus_5v5_x seed:=3 bag:=bags/demo
+"""
+import os
+
+from launch import LaunchDescription
+from launch.actions import OpaqueFunction, SetEnvironmentVariable
+from launch.substitutions import LaunchConfiguration
+from launch.actions import DeclareLaunchArgument
+from launch_ros.actions import Node
+
+
+def _nodes(context):
+    from rw_fdi_ros.tools.run import resolve_scenario
+    from rw_fdi_ros.launch.graph import graph_nodes
+    seed = int(LaunchConfiguration("seed").perform(context))
+    scenario, path = resolve_scenario(LaunchConfiguration("scenario").perform(context), seed if seed >= 0 else None)
+    bag = LaunchConfiguration("bag").perform(context) or None
+    return [Node(package="rw_fdi_ros", executable=n.executable, name=n.name, parameters=[n.parameters],
+                 output="screen") for n in graph_nodes(scenario, path, bag)]
+
+
+def generate_launch_description():
+    return LaunchDescription([
+        # discovery stays on this machine (ROS_LOCALHOST_ONLY is ignored from kilted on)
+        SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE", os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
+        DeclareLaunchArgument("scenario", default_value="fault_free", description="scenario name or YAML file"),
+        DeclareLaunchArgument("seed", default_value="-1", description="seed (-1: the scenario's)"),
+        DeclareLaunchArgument("bag", default_value="", description="bag directory to record (empty: no recorder)"),
+        OpaqueFunction(function=_nodes),
+    ])

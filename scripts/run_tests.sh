@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# The test suite (a few minutes on 2 cores); every ROS process stays on loopback in a private domain.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup_venv.sh
+export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+export ROS_LOG_DIR="$(mktemp -d /tmp/rw_fdi_test_roslog.XXXXXX)"
+exec .venv/bin/python -m pytest -q -p no:cacheprovider "$@" test

@@ -1,0 +1,77 @@
+"""Bag writing and reading, including a summary-less, truncated MCAP (killed recorder)."""
+import shutil
+
+import pytest
+from rosbags.typesys.stores.ros2_kilted import builtin_interfaces__msg__Time as Time
+from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Vector3 as Vector3
+from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Vector3Stamped as V3S
+from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as Header
+
+from rw_fdi_ros.storage.bag import BagError, BagWriter, bag_is_complete, header_stamp_ns, read_bag, typestore
+
+
+def vec(t_ns, x):
+    return V3S(header=Header(stamp=Time(sec=t_ns // 10**9, nanosec=t_ns % 10**9), frame_id="body"),
+               vector=Vector3(x=x, y=2 * x, z=3 * x))
+
+
+def write(path, n, flush_period_ns=10**9, close=True):
+    w = BagWriter(path, flush_period_ns)
+    w.add_topic("/a", "geometry_msgs/msg/Vector3Stamped")
+    for k in range(n):
+        w.write_message("/a", k * 10**8, vec(k * 10**8, float(k)))
+    if close:
+        w.close()
+    return w
+
+
+def test_roundtrip_complete_bag(tmp_path):
+    write(tmp_path / "b", 50)
+    assert bag_is_complete(tmp_path / "b")
+    data = read_bag(tmp_path / "b")
+    assert data.complete and len(data.topic("/a")) == 50
+    t, v = data.vectors("/a")
+    assert t[-1] == pytest.approx(4.9) and v[-1].tolist() == [49.0, 98.0, 147.0]
+
+
+def test_header_stamp_from_raw_cdr():
+    raw = typestore().serialize_cdr(vec(12_345_678_901, 1.0), "geometry_msgs/msg/Vector3Stamped")
+    assert header_stamp_ns(bytes(raw), -1) == 12_345_678_901
+
+
+def test_killed_writer_leaves_a_readable_prefix(tmp_path):
+    w = write(tmp_path / "k", 100, flush_period_ns=10**9, close=False)  # as if SIGKILLed: no close
+    w.writer.storage.bio.flush()
+    assert not bag_is_complete(tmp_path / "k")
+    data = read_bag(tmp_path / "k")
+    assert not data.complete
+    n = len(data.topic("/a"))
+    assert 90 <= n < 100                      # every flushed chunk, not the pending one
+    t, _ = data.vectors("/a")
+    assert list(t) == sorted(t)
+
+
+def test_truncated_file_mid_chunk(tmp_path):
+    write(tmp_path / "t", 100)
+    f = next((tmp_path / "t").glob("*.mcap"))
+    size = f.stat().st_size
+    with open(f, "r+b") as fh:
+        fh.truncate(size // 2)
+    data = read_bag(tmp_path / "t")
+    assert not data.complete and "truncated" in data.note
+    assert 0 < len(data.topic("/a")) < 100
+
+
+def test_not_a_bag_is_one_line_error(tmp_path):
+    with pytest.raises(BagError, match="no .mcap"):
+        read_bag(tmp_path)
+    (tmp_path / "x.mcap").write_bytes(b"garbage")
+    with pytest.raises(BagError):
+        read_bag(tmp_path)
+
+
+def test_writer_refuses_to_overwrite(tmp_path):
+    write(tmp_path / "b", 1)
+    with pytest.raises(BagError, match="already exists"):
+        BagWriter(tmp_path / "b")
+    shutil.rmtree(tmp_path / "b")

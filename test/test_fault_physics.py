@@ -1,0 +1,91 @@
+"""Thesis fault behaviours in the core plant + PID loop (no ROS), same seed faulty vs fault-free.
+
+Measured signals: pointing error, X's torque command voltage (tcv) and the
+recorded fault effect (reaction torque minus a healthy wheel's in the same
+state for the same command).
+"""
+import numpy as np
+import pytest
+
+from rw_fdi_ros.core.closed_loop import simulate
+from rw_fdi_ros.core.scenario import Fault, Scenario
+from rw_fdi_ros.core.wheel import WheelParams, bus_fault_visible_above
+
+SEEDS = range(20, 26)
+ONSET = 200.0
+
+
+def pair(kind, value, wheel=0, emf_limit="kf_scaled", seeds=SEEDS, duration=300.0):
+    runs = [Scenario("f", duration=duration, seed=s, faults=(Fault(kind, wheel, ONSET, value),)) for s in seeds]
+    w = WheelParams(emf_limit=emf_limit)
+    return simulate(runs, wheel=w), simulate([r.fault_free() for r in runs], wheel=w)
+
+
+def after(traj):
+    return traj.time >= ONSET
+
+
+def assert_y_z_unaffected(faulty, healthy):
+    a = after(faulty)
+    assert np.abs(faulty.tcv[a][..., 1:] - healthy.tcv[a][..., 1:]).max() < 0.01
+    assert np.rad2deg(np.abs(faulty.attitude[a][..., 1:] - healthy.attitude[a][..., 1:])).max() < 0.01
+    assert np.abs(faulty.fault_effect[..., 1:]).max() == 0.0
+
+
+def test_bus_4v_on_x_diverges_while_y_z_hold():
+    """Thesis Fig. 3.1: 8 -> 4 V on X at 200 s."""
+    f, h = pair("bus_voltage", 4.0)
+    final_x = np.rad2deg(np.abs(f.error[-1, :, 0]))
+    assert final_x.min() > 10.0                         # X diverges on every seed
+    assert np.rad2deg(np.abs(h.error[-1, :, 0])).max() < 0.05
+    assert np.rad2deg(np.abs(f.error[after(f)][..., 1:])).max() < 0.05
+    assert_y_z_unaffected(f, h)
+
+
+def test_bus_5v5_on_x_shows_only_above_the_headroom_speed():
+    """kf_scaled: visible above 23.5 rad/s, invisible below (physics.md)."""
+    threshold = bus_fault_visible_above(5.5)
+    assert threshold == pytest.approx(23.5, abs=0.1)
+    f, h = pair("bus_voltage", 5.5, seeds=range(40))
+    speed = h.wheel_speed[int(ONSET / 0.1), :, 0]
+    effect = np.abs(f.fault_effect[after(f)][..., 0]).max(axis=0)
+    fast, slow = speed > threshold + 0.5, speed < threshold - 0.5
+    assert fast.sum() >= 5 and slow.sum() >= 5
+    assert effect[fast].min() > 5e-3                    # > 5 mN m on the reaction torque
+    assert effect[slow].max() == 0.0
+    assert_y_z_unaffected(f, h)
+
+
+def test_bus_5v5_invisible_under_pwm_saturation_while_holding():
+    assert bus_fault_visible_above(5.5, params=WheelParams(emf_limit="pwm_saturation")) > 40.0
+    f, h = pair("bus_voltage", 5.5, emf_limit="pwm_saturation")
+    assert np.abs(f.fault_effect).max() == 0.0
+    np.testing.assert_array_equal(f.attitude, h.attitude)
+
+
+def test_current_limiter_0p6_on_x():
+    """Same reaction torque needs 1/0.6 the voltage: X's tcv rises by > 1 V, pointing holds."""
+    f, h = pair("current_limiter", 0.6)
+    a = after(f)
+    assert (f.tcv[a][..., 0] - h.tcv[a][..., 0]).max(axis=0).min() > 1.0
+    assert np.rad2deg(np.abs(f.error[a][..., 0])).max() < 0.2
+    assert np.abs(f.fault_effect[a][..., 0]).max(axis=0).min() > 5e-3
+    assert_y_z_unaffected(f, h)
+
+
+def test_temperature_plus_150_on_x():
+    """Eq. 2.15: friction falls from 3.84e-4 to 0.84e-4; X's holding tcv drops by > 1 V."""
+    f, h = pair("temperature", 173.0)
+    a = after(f)
+    end = -1
+    assert (h.tcv[end, :, 0] - f.tcv[end, :, 0]).min() > 1.0
+    assert np.abs(f.fault_effect[a][..., 0]).max(axis=0).min() > 3e-3
+    assert_y_z_unaffected(f, h)
+
+
+def test_ripple_increase_changes_only_the_sampled_torque():
+    f, h = pair("ripple_gain", 1.4)
+    np.testing.assert_array_equal(f.tcv, h.tcv)                  # a disturbance, not a fault
+    effect = np.abs(f.fault_effect[after(f)][..., 0])
+    motor = np.abs(h.reaction_torque).max()
+    assert 0 < effect.max() <= 0.4 * 0.11 * 0.03 and motor > 0

@@ -1,0 +1,237 @@
+"""The graph through real processes and DDS: bags, determinism, isolation, and failures.
+
+Every process runs in a private ROS_DOMAIN_ID with loopback-only discovery
+and is torn down (SIGKILL after a grace period) also when a test fails.
+"""
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rw_fdi_ros.launch.graph import graph_nodes
+from rw_fdi_ros.launch.launcher import DomainLease, GraphProcesses
+from rw_fdi_ros.nodes import topics as T
+from rw_fdi_ros.storage.bag import read_bag
+from rw_fdi_ros.tools.run import resolve_scenario, run_scenario
+
+BIN = Path(sys.executable).parent
+FAULT_RUN = """name: short_faults
+duration: 40.0
+seed: 5
+faults:
+  - {kind: bus_voltage, wheel: x, onset: 20.0, value: 4.0}
+  - {kind: current_limiter, wheel: z, onset: 25.0, value: 0.6}
+"""
+
+
+@pytest.fixture(scope="module")
+def scenario_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("scn") / "short_faults.yaml"
+    path.write_text(FAULT_RUN)
+    return path
+
+
+@pytest.fixture(scope="module")
+def runs(scenario_file, tmp_path_factory):
+    """seed 5 alone; then seeds 5 and 6 at the same time (two domains)."""
+    out = tmp_path_factory.mktemp("bags")
+    alone = run_scenario(str(scenario_file), seed=5, out_dir=out, name="alone")
+    results = {}
+    threads = [threading.Thread(target=lambda s=s, n=n: results.__setitem__(n, run_scenario(
+        str(scenario_file), seed=s, out_dir=out, name=n))) for s, n in ((5, "twin"), (6, "other"))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=300)
+    return alone, results["twin"], results["other"]
+
+
+def decoded(bag_path):
+    data = read_bag(bag_path)
+    out = {}
+    for topic, rows in data.messages.items():
+        if data.types[topic] == "geometry_msgs/msg/Vector3Stamped":
+            out[topic] = data.vectors(topic)
+        else:
+            out[topic] = [repr(m) for _, m in rows]
+    return out
+
+
+def test_fault_run_records_every_topic_readable_by_rosbags_and_mcap(runs):
+    alone, _, _ = runs
+    assert alone.ok, alone.reason
+    bag = alone.bag
+    assert (bag / "metadata.yaml").exists() and len(list(bag.glob("*.mcap"))) == 1
+
+    from rosbags.highlevel import AnyReader
+    with AnyReader([bag]) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        for conn, _, raw in reader.messages(connections=[c for c in reader.connections if c.topic == T.ATTITUDE]):
+            reader.deserialize(raw, conn.msgtype)
+    for topic, _, _ in T.graph_topics():
+        assert counts.get(topic, 0) > 0, topic
+    assert counts[T.ATTITUDE] == 401 and counts[T.CLOCK] == 401 and counts[T.tcv_command("y")] == 401
+
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    with open(next(bag.glob("*.mcap")), "rb") as fh:
+        seen = {}
+        for _, channel, _, msg in make_reader(fh, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
+            seen[channel.topic] = seen.get(channel.topic, 0) + 1
+    assert seen == counts
+
+    data = read_bag(bag)
+    for topic, rows in data.messages.items():
+        log_times = [t for t, _ in rows]
+        assert log_times == sorted(log_times)
+        if hasattr(rows[0][1], "header"):
+            stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m in rows]
+            assert stamps == log_times, topic            # log time is the sim-time stamp
+            assert all(b > a for a, b in zip(stamps, stamps[1:])) or topic == T.PLANT_DONE, topic
+    truth = data.topic(T.FAULT_TRUTH)
+    before = [m for t, m in truth if t < 20e9][-1]
+    late = truth[-1][1]
+    assert [s.level for s in before.status] == [0, 0, 0]            # OK before the first onset
+    assert [s.level for s in late.status] == [2, 0, 2]              # ERROR on x and z
+    assert [s.hardware_id for s in late.status] == ["reaction_wheel_x", "reaction_wheel_y", "reaction_wheel_z"]
+    assert late.status[0].message.startswith("bus_voltage=4 since 20") and "current_limiter" in late.status[2].message
+    # the plant's physics is the core's: X's pointing diverges after the bus drops to 4 V
+    summary = alone.summary
+    assert summary["final_error_deg"]["x"] > 1.0 and summary["final_error_deg"]["y"] < 0.5
+
+
+def test_same_seed_gives_identical_messages_and_parallel_runs_do_not_meet(runs):
+    alone, twin, other = runs
+    assert twin.ok and other.ok, (twin.reason, other.reason)
+    a, b, c = decoded(alone.bag), decoded(twin.bag), decoded(other.bag)
+    assert a.keys() == b.keys()
+    for topic in a:
+        if isinstance(a[topic], tuple):
+            np.testing.assert_array_equal(a[topic][0], b[topic][0], err_msg=topic)
+            np.testing.assert_array_equal(a[topic][1], b[topic][1], err_msg=topic)
+        else:
+            assert a[topic] == b[topic], topic
+    assert not np.array_equal(a[T.ATTITUDE][1], c[T.ATTITUDE][1])   # seed 6 is its own run
+    assert len(c[T.ATTITUDE][0]) == 401
+
+
+def cli(*args, timeout=60):
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    return subprocess.run([str(BIN / "rw-fdi"), *args], capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def test_cli_malformed_scenario_file(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("faults:\n  - {kind: bus_voltage, wheel: q, onset: 1, value: 5}\n")
+    t0 = time.monotonic()
+    r = cli("run", "--scenario", str(bad), "--out", str(tmp_path))
+    assert r.returncode == 2 and time.monotonic() - t0 < 20
+    assert r.stderr.strip().count("\n") == 0 and "wheel must be one of x, y, z" in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_cli_unknown_scenario_name(tmp_path):
+    r = cli("run", "--scenario", "no_such_thing", "--out", str(tmp_path))
+    assert r.returncode == 2 and "unknown scenario 'no_such_thing'" in r.stderr
+
+
+def graph(scenario_file, tmp_path, seed=5, tweak=None, flush=None):
+    scenario, path = resolve_scenario(str(scenario_file), seed)
+    scenario = scenario.__class__(**{**scenario.__dict__, "duration": 400.0})
+    bag = tmp_path / "bag"
+    nodes = graph_nodes(scenario, path, bag, command_timeout=3.0)
+    nodes[0].parameters["duration"] = 400.0
+    if flush:
+        nodes[-1].parameters["flush_period"] = flush
+    if tweak:
+        tweak(nodes)
+    lease = DomainLease()
+    procs = GraphProcesses(nodes, lease.domain_id, Path(tempfile.mkdtemp(prefix="rw_fdi_test_"))).start()
+    return procs, lease, bag
+
+
+def run_and_kill(procs, victim, when):
+    killer = threading.Thread(target=lambda: (when(), procs.procs[victim].send_signal(signal.SIGKILL)))
+    killer.start()
+    t0 = time.monotonic()
+    result = procs.run(watchdog=60)
+    killer.join()
+    return result, time.monotonic() - t0
+
+
+def test_nan_torque_command_stops_the_run_naming_the_axis(scenario_file, tmp_path):
+    def nan_gain(nodes):
+        nodes[2].parameters["kp"] = float("nan")   # pid_controller_y
+    procs, lease, bag = graph(scenario_file, tmp_path, tweak=nan_gain)
+    try:
+        t0 = time.monotonic()
+        result = procs.run(watchdog=60)
+        assert not result.ok and time.monotonic() - t0 < 30
+        assert "plant" in result.reason and "axis y" in result.reason and "nan" in result.reason
+        assert read_bag(bag).topic(T.ATTITUDE)            # the bag was finalised and reads
+    finally:
+        procs.stop_all()
+        lease.release()
+
+
+def test_controller_killed_mid_run(scenario_file, tmp_path):
+    procs, lease, bag = graph(scenario_file, tmp_path)
+    try:
+        result, took = run_and_kill(procs, "pid_controller_y", lambda: time.sleep(3.0))
+        assert not result.ok and took < 30
+        assert result.reason.startswith("pid_controller_y stopped (killed by signal 9)"), result.reason
+        data = read_bag(bag)
+        assert data.complete and len(data.topic(T.ATTITUDE)) > 0
+    finally:
+        procs.stop_all()
+        lease.release()
+
+
+def test_recorder_killed_mid_run_leaves_readable_bag(scenario_file, tmp_path):
+    procs, lease, bag = graph(scenario_file, tmp_path, flush=1.0)
+
+    def when_bag_has_data():
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            files = list(bag.glob("*.mcap"))
+            if files and files[0].stat().st_size > 20000:
+                return
+            time.sleep(0.05)
+    try:
+        result, took = run_and_kill(procs, "recorder", when_bag_has_data)
+        assert not result.ok and took < 30
+        assert result.reason.startswith("recorder stopped (killed by signal 9)")
+        data = read_bag(bag)
+        assert not data.complete
+        t, _ = data.vectors(T.ATTITUDE)
+        assert len(t) > 5 and np.all(np.diff(t) > 0)
+    finally:
+        procs.stop_all()
+        lease.release()
+
+
+def node_alone(exe, *ros_args, timeout=60):
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    with DomainLease() as lease:
+        env["ROS_DOMAIN_ID"] = str(lease.domain_id)
+        return subprocess.run([str(BIN / exe), "--ros-args", *ros_args], capture_output=True, text=True,
+                              timeout=timeout, env=env)
+
+
+def test_plant_alone_from_its_console_script():
+    r = node_alone("plant", "-p", "scenario:=no_such_thing")
+    assert r.returncode == 2 and "unknown scenario" in r.stderr and "Traceback" not in r.stderr
+    r = node_alone("plant", "-p", "startup_timeout:=1.0")
+    assert r.returncode == 3 and "no controller for axis x, y, z" in r.stderr
+
+
+def test_controller_alone_rejects_bad_axis():
+    r = node_alone("pid_controller", "-p", "axis:=w")
+    assert r.returncode == 2 and "axis must be one of x, y, z" in r.stderr

@@ -1,0 +1,66 @@
+"""Scenario files: shipped set, draws from Table 2.3, and one-line errors for bad input."""
+import numpy as np
+import pytest
+
+from rw_fdi_ros.core.scenario import (ScenarioError, available_scenarios, load_scenario, operating_point_at,
+                                      parse_scenario)
+
+SHIPPED = {"fault_free", "bus_4v_x", "bus_5v5_x", "current_0p6_x", "temperature_150_x", "bus_x_current_z",
+           "ripple_40_x"}
+
+
+def test_shipped_scenarios_load():
+    assert SHIPPED <= set(available_scenarios())
+    for name in SHIPPED:
+        s = load_scenario(name)
+        assert s.duration == 400.0
+    multi = load_scenario("bus_x_current_z")
+    assert [(f.kind, f.wheel, f.onset) for f in multi.faults] == [("bus_voltage", 0, 200.0),
+                                                                   ("current_limiter", 2, 250.0)]
+
+
+def test_draws_inside_table_2_3_and_repeatable():
+    s = load_scenario("fault_free")
+    for seed in range(50):
+        ic, steps = s.with_seed(seed).draws()
+        assert np.all(np.abs(np.rad2deg(ic.attitude)) <= 180)
+        assert np.all(np.abs(ic.body_rate) <= 1e-4)
+        assert np.all((ic.wheel_speed >= 20) & (ic.wheel_speed <= 30))
+        assert np.all(np.abs(np.rad2deg(steps[0][1])) <= 5)
+    a, b = s.with_seed(3).draws()[0], s.with_seed(3).draws()[0]
+    np.testing.assert_array_equal(a.attitude, b.attitude)
+
+
+def test_operating_point_follows_fault_schedule_and_ramps():
+    s = parse_scenario("faults:\n - {kind: current_limiter, wheel: y, onset: 100, value: 0.5, ramp: 50}\n")
+    assert operating_point_at(s.faults, 99.9)["current_limiter"][1] == 1.0
+    assert operating_point_at(s.faults, 125.0)["current_limiter"][1] == pytest.approx(0.75)
+    assert operating_point_at(s.faults, 300.0)["current_limiter"].tolist() == [1.0, 0.5, 1.0]
+
+
+def test_effective_text_records_the_seed():
+    s = load_scenario("bus_5v5_x").with_seed(42)
+    again = parse_scenario(s.effective_text())
+    assert again.seed == 42 and again.faults == s.faults
+
+
+@pytest.mark.parametrize("text, words", [
+    ("faults: [{kind: bus_voltage, wheel: w, onset: 1, value: 5}]", "wheel must be one of"),
+    ("faults: [{kind: voltage, wheel: x, onset: 1, value: 5}]", "kind: must be one of"),
+    ("faults: [{kind: bus_voltage, wheel: x, value: 5}]", "missing 'onset'"),
+    ("faults: [{kind: current_limiter, wheel: x, onset: 1, value: 2}]", "outside"),
+    ("duration: -5", "outside"),
+    ("duration: .nan", "finite number"),
+    ("speed: 3", "unknown field"),
+    ("faults: [1, 2", "not valid YAML"),
+    ("- a\n- b", "YAML mapping"),
+])
+def test_malformed_scenarios_give_one_line_errors(text, words):
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, origin="bad.yaml")
+    assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_unknown_scenario_name_lists_known_ones():
+    with pytest.raises(ScenarioError, match="unknown scenario 'nope'.*fault_free"):
+        load_scenario("nope")
