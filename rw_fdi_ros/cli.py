@@ -24,6 +24,22 @@ def _cmd_run(args) -> int:
     return 0
 
 
+def _cmd_campaign(args) -> int:
+    from .tools.campaign import run_campaign
+    res = run_campaign(args.scenario, args.runs, args.seed_start, args.out, fdi=args.fdi,
+                       executor=_executor(args))
+    print(f"campaign {args.scenario}: {len(res.done)} recorded, {len(res.skipped)} already complete, "
+          f"{len(res.failed)} failed -> {args.out}")
+    for seed, reason in res.failed:
+        print(f"  seed {seed}: {reason}", file=sys.stderr)
+    return 1 if res.failed else 0
+
+
+def _executor(args):
+    from .tools.campaign import LocalExecutor
+    return LocalExecutor(args.jobs)
+
+
 def _cmd_scenarios(args) -> int:
     from .core.scenario import available_scenarios, load_scenario
     for name in available_scenarios():
@@ -64,11 +80,20 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--scenario", required=True, help="scenario name (see `rw-fdi scenarios`) or YAML file")
     r.add_argument("--seed", type=int, default=None, help="seed for initial conditions and disturbance")
     r.add_argument("--out", default="bags", help="directory for the bag (default: bags/)")
-    r.add_argument("--emf-limit", default="kf_scaled", choices=["kf_scaled", "pwm_saturation"],
-                   help="EMF torque-limiting model (physics.md [choice])")
+    r.add_argument("--emf-limit", default=None, choices=["kf_scaled", "pwm_saturation"],
+                   help="EMF torque-limiting model (physics.md [choice]; default: the scenario's, else kf_scaled)")
     r.add_argument("--command-timeout", type=float, default=5.0, help="wall seconds the plant waits for a command")
     r.add_argument("--keep-logs", action="store_true", help="keep node logs also after a successful run")
     r.set_defaults(func=_cmd_run)
+
+    c = sub.add_parser("campaign", help="record N runs of a scenario (seeds S..S+N-1), resumable")
+    c.add_argument("--scenario", required=True, help="scenario name or YAML file")
+    c.add_argument("--runs", type=int, required=True)
+    c.add_argument("--seed-start", type=int, default=1)
+    c.add_argument("--out", required=True, help="directory for the bags")
+    c.add_argument("--jobs", type=int, default=None, help="runs at once (default: 2 on 2 cores)")
+    c.add_argument("--fdi", action="store_true", help="run the observers and isolation live too")
+    c.set_defaults(func=_cmd_campaign)
 
     s = sub.add_parser("scenarios", help="list the shipped scenarios")
     s.set_defaults(func=_cmd_scenarios)

@@ -25,6 +25,9 @@ WHEEL_SPEED_RANGE = (20.0, 30.0)
 SETPOINT_CHANGE_RANGE_DEG = (-5.0, 5.0)
 
 
+PLANT_KEYS = {"emf_limit", "control_period"}
+
+
 class ScenarioError(ValueError):
     """A scenario that cannot be run; the message is one line, fit for a user."""
 
@@ -78,6 +81,7 @@ class Scenario:
     setpoints: tuple = (SetpointChange(0.0, None),)
     initial: dict = field(default_factory=dict)  # fixed initial conditions (deg / rad/s)
     description: str = ""
+    plant: dict = field(default_factory=dict)   # plant choices the run was made under (emf_limit, ...)
     source_text: str = ""     # the YAML it came from, recorded in every bag
 
     def with_seed(self, seed: int) -> "Scenario":
@@ -124,11 +128,14 @@ class Scenario:
             values.insert(0, ic.attitude.copy())
         return np.asarray(times, float), np.asarray(values, float)
 
-    def effective_text(self) -> str:
-        """The scenario YAML with the seed actually used: what a bag records, enough to redo the run."""
+    def effective_text(self, plant: dict | None = None) -> str:
+        """The scenario YAML with the seed and plant choices actually used: what a bag records,
+        enough to redo the run."""
         raw = yaml.safe_load(self.source_text) if self.source_text else {"name": self.name}
         raw = dict(raw or {})
         raw["seed"] = int(self.seed)
+        if plant:
+            raw["plant"] = {**raw.get("plant", {}), **plant}
         raw.setdefault("name", self.name)
         return yaml.safe_dump(raw, sort_keys=False)
 
@@ -205,7 +212,7 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
         raise ScenarioError(f"{origin}:{where} is not valid YAML ({getattr(exc, 'problem', exc)})") from None
     if not isinstance(raw, dict):
         raise ScenarioError(f"{origin}: a scenario is a YAML mapping (name, duration, faults, ...)")
-    unknown = set(raw) - {"name", "description", "duration", "seed", "faults", "setpoints", "initial"}
+    unknown = set(raw) - {"name", "description", "duration", "seed", "faults", "setpoints", "initial", "plant"}
     if unknown:
         raise ScenarioError(f"{origin}: unknown field(s) {sorted(unknown)}")
     duration = _num(f"{origin}: duration", raw.get("duration", 400.0), 1.0, 1e6)
@@ -234,9 +241,17 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     if bad:
         raise ScenarioError(f"{origin}: initial: unknown field(s) {sorted(bad)}")
     initial = {k: _vector(f"{origin}: initial.{k}", v) for k, v in initial_raw.items()}
+    plant = raw.get("plant") or {}
+    if not isinstance(plant, dict) or set(plant) - PLANT_KEYS:
+        raise ScenarioError(f"{origin}: plant may set only {sorted(PLANT_KEYS)}")
+    if "emf_limit" in plant and plant["emf_limit"] not in ("kf_scaled", "pwm_saturation"):
+        raise ScenarioError(f"{origin}: plant.emf_limit must be kf_scaled or pwm_saturation")
+    if "control_period" in plant:
+        _num(f"{origin}: plant.control_period", plant["control_period"], 1e-3, 1.0)
     name = str(raw.get("name") or Path(origin).stem)
     return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
-                    initial=initial, description=str(raw.get("description", "")), source_text=text)
+                    initial=initial, description=str(raw.get("description", "")), plant=dict(plant),
+                    source_text=text)
 
 
 def scenario_dir() -> Path:

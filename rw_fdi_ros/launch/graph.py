@@ -26,9 +26,14 @@ class NodeSpec:
         return f"rw_fdi_ros.nodes.{self.executable}"
 
 
+FDI_PERIOD = 1.0
+
+
 def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command_timeout: float = 5.0,
-                emf_limit: str = "kf_scaled"):
-    """Plant, three PID controllers and (when ``bag``) the recorder for one run."""
+                emf_limit: str | None = None, fdi: dict | None = None):
+    """Plant, three PID controllers, (when ``fdi``) the observers and isolation, and (when ``bag``)
+    the recorder for one run. ``fdi`` maps 'models' / 'thresholds' to directories (None: shipped)."""
+    emf_limit = emf_limit or scenario.plant.get("emf_limit", "kf_scaled")
     ic, _ = scenario.draws()
     times, values = scenario.setpoint_schedule()
     hold = hold_command(ic.wheel_speed)
@@ -36,12 +41,35 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": CONTROL_PERIOD,
         "emf_limit": emf_limit, "command_timeout": command_timeout,
-        "wait_for_subscribers": 1 if recording else 0})]
+        "wait_for_subscribers": 1 if recording else 0, "observers": 4 if fdi is not None else 0})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "axis": axis, "control_period": CONTROL_PERIOD, "initial_tcv": float(hold[i]),
             "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]],
             "min_subscribers": 2 if recording else 1}))
+    if fdi is not None:
+        nodes += fdi_nodes(fdi, emf_limit, recording)
     if recording:
-        nodes.append(NodeSpec("recorder", "recorder", {"output": str(bag)}))
+        nodes.append(NodeSpec("recorder", "recorder", {"output": str(bag),
+                                                       "fdi_period": FDI_PERIOD if fdi is not None else 0.0}))
+    return nodes
+
+
+def fdi_nodes(fdi: dict, emf_limit: str, recording: bool):
+    """Three Elman observers, the linear observer and the isolation node."""
+    models, thresholds = fdi.get("models"), fdi.get("thresholds")
+    nodes = []
+    for axis in AXES:
+        params = {"axis": axis, "fdi_period": FDI_PERIOD, "min_subscribers": 1 + recording}
+        if models:
+            params["model"] = str(Path(models) / f"elman_{axis}.npz")
+        nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
+    nodes.append(NodeSpec("linear_observer", "linear_observer",
+                          {"fdi_period": FDI_PERIOD, "min_subscribers": 1 + recording}))
+    iso = {"emf_limit": emf_limit, "control_period": CONTROL_PERIOD, "fdi_period": FDI_PERIOD,
+           "persistence": int(fdi.get("persistence", 3)), "min_subscribers": int(recording)}
+    if thresholds:
+        iso.update(thresholds_elman=str(Path(thresholds) / "thresholds_elman.json"),
+                   thresholds_linear=str(Path(thresholds) / "thresholds_linear.json"))
+    nodes.append(NodeSpec("isolation", "isolation", iso))
     return nodes

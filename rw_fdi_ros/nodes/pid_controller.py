@@ -7,16 +7,16 @@ from __future__ import annotations
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped
-from std_msgs.msg import Header
-from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 
 from ..core.pid import PidController, design_gains
 from ..core.scenario import AXES, setpoint_at
 from ..core.spacecraft import INERTIA
 from . import topics as T
-from .convert import stamp_ns, vector_array, vector_msg
-from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
+from .convert import vector_msg
+from .gate import GatedPublisher
+from .sync import StampSync
+from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 
 
 class PidControllerNode(GraphNode):
@@ -48,53 +48,29 @@ class PidControllerNode(GraphNode):
                              setpoint_weight=self.param("setpoint_weight"))
         self.pid = PidController(gains, self.param("control_period"), initial_tcv=self.param("initial_tcv"))
         self.axis, self.index = axis, i
-        self.pending = {}   # stamp -> {"attitude": value, "rate": value}
-        self.queue = []     # commands waiting for subscribers to match
-        self.min_subscribers = self.param("min_subscribers")
-        self.matched = False
-        self.pub = self.create_publisher(Vector3Stamped, T.tcv_command(axis), T.RELIABLE)
-        self.create_subscription(Vector3Stamped, T.ATTITUDE, lambda m: self._on_state("attitude", m), T.RELIABLE)
-        self.create_subscription(Vector3Stamped, T.BODY_RATE, lambda m: self._on_state("rate", m), T.RELIABLE)
+        self.sync = StampSync(("attitude", "rate"), self._on_state)
+        self.pub = GatedPublisher(self.create_publisher(Vector3Stamped, T.tcv_command(axis), T.RELIABLE),
+                                  self.param("min_subscribers"))
+        self.create_subscription(Vector3Stamped, T.ATTITUDE, self.sync.callback("attitude"), T.RELIABLE)
+        self.create_subscription(Vector3Stamped, T.BODY_RATE, self.sync.callback("rate"), T.RELIABLE)
         # the run is over when the plant says so; the answer to its last sample goes out first
-        self.create_subscription(Header, T.PLANT_DONE, self._on_done, T.LATCHED)
-        self.done_stamp, self.done_wall, self.last_answered = None, 0.0, -1
+        self.follow_run_end()
 
-    def _on_state(self, kind, msg):
-        stamp = stamp_ns(msg.header.stamp)
-        entry = self.pending.setdefault(stamp, {})
-        entry[kind] = vector_array(msg)[self.index]
-        if len(entry) < 2:
-            return
-        del self.pending[stamp]
+    def _on_state(self, stamp, entry):
+        attitude, rate = entry["attitude"][self.index], entry["rate"][self.index]
         t = stamp * 1e-9
         setpoint = setpoint_at(*self.schedule, t) if self.schedule else None
         if setpoint is None:
-            setpoint = self.pid.origin if self.pid.origin is not None else entry["attitude"]
-        tcv = float(self.pid.update(setpoint, entry["attitude"], entry["rate"]))
+            setpoint = self.pid.origin if self.pid.origin is not None else attitude
+        tcv = float(self.pid.update(setpoint, attitude, rate))
         command = [0.0, 0.0, 0.0]
         command[self.index] = tcv
-        self.queue.append(vector_msg(stamp, command))
-        self.last_answered = stamp
-        self.poll()
-
-    def _on_done(self, msg):
-        self.done_stamp, self.done_wall = stamp_ns(msg.stamp), wall_time()
+        self.pub.publish(vector_msg(stamp, command))
+        self.last_handled = stamp
 
     def poll(self):
-        if self.done_stamp is not None and not self.queue and (
-                self.last_answered >= self.done_stamp or wall_time() - self.done_wall > 2.0):
+        if self.pub.flush() and self.run_ended():
             self.finish()
-        if not self.queue:
-            return
-        self.matched = self.matched or self.pub.get_subscription_count() >= self.min_subscribers
-        if self.matched:
-            for msg in self.queue:
-                self.pub.publish(msg)
-            self.queue.clear()
-
-
-    def close(self):
-        self.pub.wait_for_all_acked(Duration(seconds=2.0))
 
 
 main = main_for(PidControllerNode)

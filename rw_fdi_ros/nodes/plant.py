@@ -12,7 +12,6 @@ import math
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.duration import Duration
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Header, String
 
@@ -37,6 +36,7 @@ class PlantNode(GraphNode):
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
         self.declare_parameter("wait_for_subscribers", 0)  # extra subscribers per topic (1 = recorder)
+        self.declare_parameter("observers", 0)           # FDI nodes reading /wheel/tcv and reaction torque
         self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
         for axis in AXES:  # live fault injection: setting one injects from the current sim time
             for kind in FAULT_KINDS:
@@ -97,6 +97,7 @@ class PlantNode(GraphNode):
             return False
         need = {name: extra for name in self.pub_vectors}
         need[T.ATTITUDE] = need[T.BODY_RATE] = 3 + extra
+        need[T.TCV] = need[T.REACTION_TORQUE] = self.param("observers") + extra
         if any(self.pub_vectors[n].get_subscription_count() < k for n, k in need.items()):
             return False
         return all(p.get_subscription_count() >= extra for p in (self.pub_clock, self.pub_truth, self.pub_scenario))
@@ -106,7 +107,8 @@ class PlantNode(GraphNode):
         if not self.started:
             if self._graph_ready():
                 self.started = True
-                self.pub_scenario.publish(String(data=self.scenario.effective_text()))
+                self.pub_scenario.publish(String(data=self.scenario.effective_text(
+                    {"emf_limit": self.plant.wheel.emf_limit, "control_period": self.period})))
                 self._publish(self.plant.sample())
             elif now - self.t_wait > self.param("startup_timeout"):
                 missing = [a for a, s in zip(AXES, self.subs) if s.get_publisher_count() < 1]
@@ -175,19 +177,8 @@ class PlantNode(GraphNode):
         self.pub_truth.publish(msg)
 
     def timing(self):
-        out = {"steps": len(self.step_wall)}
-        for key, vals in (("step", self.step_wall), ("compute", self.compute_wall)):
-            if vals:
-                v = np.asarray(vals) * 1e3
-                out[f"{key}_median_ms"] = float(np.median(v))
-                out[f"{key}_p99_ms"] = float(np.percentile(v, 99))
-        return out
-
-    def close(self):
-        # Let the recorder have everything before the process (and its DDS writers) go away.
-        for p in [self.pub_clock, self.pub_truth, self.pub_done, *self.pub_vectors.values()]:
-            p.wait_for_all_acked(Duration(seconds=5.0))
-
+        from .timing import summary
+        return {"steps": len(self.step_wall), **summary(step=self.step_wall, compute=self.compute_wall)}
 
 main = main_for(PlantNode)
 

@@ -23,12 +23,16 @@ class RecorderNode(GraphNode):
         self.declare_parameter("output", "bags/run")          # bag directory to create
         self.declare_parameter("flush_period", 10.0)          # sim seconds between chunk flushes
         self.declare_parameter("extra_topics", Parameter.Type.STRING_ARRAY)   # 'name:pkg/msg/Type' beyond the graph's
-        self.declare_parameter("drain_timeout", 2.0)          # wall s to wait for stragglers after done
+        self.declare_parameter("drain_timeout", 5.0)          # wall s to wait for stragglers after done
+        self.declare_parameter("fdi_period", 0.0)             # > 0: the FDI nodes run; record their topics
         try:
             self.bag = BagWriter(self.param("output"), int(self.param("flush_period") * 1e9))
         except BagError as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         rows = list(T.graph_topics())
+        self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
+        if self.fdi_period_ns > 0:
+            rows += T.fdi_topics()
         for spec in self.param("extra_topics") or []:
             name, _, type_name = spec.partition(":")
             rows.append((name, type_name, T.RELIABLE))
@@ -56,12 +60,19 @@ class RecorderNode(GraphNode):
     def poll(self):
         if self.done_stamp is None:
             return
-        lagging = [t for t in (T.CLOCK, T.ATTITUDE, T.REACTION_TORQUE, *map(T.tcv_command, T.AXES))
-                   if self.last_stamp.get(t, -1) < self.done_stamp]
+        final = [T.CLOCK, T.ATTITUDE, T.REACTION_TORQUE, *map(T.tcv_command, T.AXES)]
+        if self.fdi_period_ns > 0:   # the FDI outputs of the last FDI sample
+            last_fdi = self.done_stamp - self.done_stamp % self.fdi_period_ns
+            final_fdi = [T.DIAGNOSTICS, T.residual_topic("linear"), *(T.residual_topic("elman", a) for a in T.AXES)]
+            lagging_fdi = [t for t in final_fdi if self.last_stamp.get(t, -1) < last_fdi]
+        else:
+            lagging_fdi = []
+        lagging = [t for t in final if self.last_stamp.get(t, -1) < self.done_stamp] + lagging_fdi
         if not lagging or wall_time() - self.done_wall > self.param("drain_timeout"):
             self.finish()
 
     def close(self):
+        super().close()
         self.bag.close()
         self.get_logger().info(f"bag {self.param('output')}: {self.bag.count} messages")
 

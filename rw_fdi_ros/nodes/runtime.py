@@ -38,6 +38,23 @@ class GraphNode(Node):
         self.exit_code: int | None = None
         self.exit_message = ""
 
+    def follow_run_end(self, grace: float = 2.0):
+        """End this node once the plant has published /plant/done and this node has handled
+        that stamp (``self.last_handled``), or ``grace`` wall seconds after it."""
+        from std_msgs.msg import Header
+        from . import topics as T
+        from .convert import stamp_ns
+        self.last_handled = -1
+        self._run_end = None
+
+        def on_done(msg):
+            self._run_end = (stamp_ns(msg.stamp), time.monotonic() + grace)
+        self.create_subscription(Header, T.PLANT_DONE, on_done, T.LATCHED)
+
+    def run_ended(self) -> bool:
+        end = getattr(self, "_run_end", None)
+        return end is not None and (self.last_handled >= end[0] or time.monotonic() > end[1])
+
     def finish(self, code: int = EXIT_OK, message: str = ""):
         if self.exit_code is None:
             self.exit_code, self.exit_message = code, message
@@ -49,7 +66,11 @@ class GraphNode(Node):
         """Called between callbacks (at least every 50 ms): timeouts live here."""
 
     def close(self):
-        """Called once on the way out, also after a signal: flush files here."""
+        """Called once on the way out, also after a signal. By default: let every reader have what
+        was published before the process and its DDS writers go away."""
+        from rclpy.duration import Duration
+        for pub in list(self.publishers):
+            pub.wait_for_all_acked(Duration(seconds=2.0))
 
     def timing(self) -> dict:
         """Figures for ``rw-fdi bench`` (printed at exit when RW_FDI_TIMING=1)."""

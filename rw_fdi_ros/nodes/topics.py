@@ -45,6 +45,40 @@ def graph_topics():
     return rows
 
 
+OBSERVERS = ("elman", "linear")
+DIAGNOSTICS = "/diagnostics"
+
+
+def estimate_topic(observer: str, axis: str | None = None) -> str:
+    """Estimated reaction torque [N m]; the Elman nodes publish one per axis (own component set)."""
+    return f"/fdi/{observer}/{axis}/estimate" if axis else f"/fdi/{observer}/estimate"
+
+
+def residual_topic(observer: str, axis: str | None = None) -> str:
+    """Residual: 40-sample moving average of |r - r^| [N m]."""
+    return f"/fdi/{observer}/{axis}/residual" if axis else f"/fdi/{observer}/residual"
+
+
+def fdi_output_topics(observer: str):
+    """What the isolation node publishes per observer: threshold, alarm (1/0 per axis), status."""
+    return {"threshold": f"/fdi/{observer}/threshold", "alarm": f"/fdi/{observer}/alarm",
+            "status": f"/fdi/{observer}/status"}
+
+
+def fdi_topics():
+    """(topic, type, qos) of the FDI half of the graph."""
+    vec, diag = "geometry_msgs/msg/Vector3Stamped", "diagnostic_msgs/msg/DiagnosticArray"
+    rows = []
+    for a in AXES:
+        rows += [(estimate_topic("elman", a), vec, RELIABLE), (residual_topic("elman", a), vec, RELIABLE)]
+    rows += [(estimate_topic("linear"), vec, RELIABLE), (residual_topic("linear"), vec, RELIABLE)]
+    for obs in OBSERVERS:
+        out = fdi_output_topics(obs)
+        rows += [(out["threshold"], vec, RELIABLE), (out["alarm"], vec, RELIABLE), (out["status"], diag, RELIABLE)]
+    rows.append((DIAGNOSTICS, diag, RELIABLE))
+    return rows
+
+
 def message_class(type_name: str):
     """Import the rclpy message class for 'pkg/msg/Name'."""
     import importlib

@@ -41,14 +41,13 @@ def resolve_scenario(ref: str, seed: int | None = None):
 
 def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | None = None,
                  command_timeout: float = 5.0, watchdog: float | None = None, keep_logs: bool = False,
-                 emf_limit: str = "kf_scaled", extra_nodes=()) -> RunOutcome:
+                 emf_limit: str | None = None, fdi: dict | None = None) -> RunOutcome:
     """Run the whole graph once, recording ``out_dir/<name>``; never raises for a failed run."""
     scenario, path = resolve_scenario(ref, seed)
     bag = Path(out_dir) / (name or bag_name(scenario))
     if bag.exists():
         shutil.rmtree(bag)
-    nodes = graph_nodes(scenario, path, bag, command_timeout=command_timeout, emf_limit=emf_limit)
-    nodes += list(extra_nodes)
+    nodes = graph_nodes(scenario, path, bag, command_timeout=command_timeout, emf_limit=emf_limit, fdi=fdi)
     watchdog = watchdog or max(120.0, scenario.duration)
     with DomainLease() as lease:
         work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_{bag.name}_"))

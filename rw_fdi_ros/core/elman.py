@@ -1,0 +1,117 @@
+"""Elman recurrent network NN(2x25x1) as a reaction-wheel observer (thesis 4.3), numpy only.
+
+    h_k = tanh(W_ih x_k + W_hh h_{k-1} + b_h)        (context layer = h_{k-1})
+    y_k = tanh(W_ho h_k + b_o)                         (eq. 4.10 on both layers)
+    x_k = [u_k / u_scale, r_{k-1} / r_scale]
+
+u is the torque command voltage, r the reaction torque. In training mode
+r_{k-1} is the measured torque (thesis Fig. 4.9); in recall mode it is the
+network's own previous output (Fig. 4.8), so the network keeps modelling a
+healthy wheel when the real one turns faulty. The live node runs recall
+mode with this code; training (tools/train.py) uses torch with the same
+equations, and a test proves both agree.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+HIDDEN = 25
+INPUTS = 2
+
+
+class ModelError(ValueError):
+    """A model file that cannot be used; one line naming the file and how to regenerate it."""
+
+
+REGENERATE = "regenerate with `rw-fdi train --bags DIR --out DIR` (or `rw-fdi defaults` for the shipped set)"
+
+
+@dataclass
+class ElmanWeights:
+    w_ih: np.ndarray   # (H, 2)
+    w_hh: np.ndarray   # (H, H)
+    b_h: np.ndarray    # (H,)
+    w_ho: np.ndarray   # (1, H)
+    b_o: np.ndarray    # (1,)
+    tcv_scale: float = 5.0      # [V] normalises u into [-1, 1] (the +-5 V command range)
+    torque_scale: float = 0.03  # [N m] normalises r into [-1, 1] (largest |r| in training)
+
+    def validate(self, origin="weights"):
+        h = self.w_hh.shape[0]
+        shapes = {"w_ih": (h, INPUTS), "w_hh": (h, h), "b_h": (h,), "w_ho": (1, h), "b_o": (1,)}
+        for name, shape in shapes.items():
+            got = getattr(self, name).shape
+            if got != shape:
+                raise ModelError(f"{origin}: {name} has shape {got}, expected {shape}; {REGENERATE}")
+            if not np.all(np.isfinite(getattr(self, name))):
+                raise ModelError(f"{origin}: {name} holds non-finite values; {REGENERATE}")
+        if not (self.tcv_scale > 0 and self.torque_scale > 0):
+            raise ModelError(f"{origin}: normalisation scales must be positive; {REGENERATE}")
+        return self
+
+    def save(self, path, card: dict | None = None):
+        """npz of arrays (never a pickle) plus a JSON card beside it."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(path, w_ih=self.w_ih, w_hh=self.w_hh, b_h=self.b_h, w_ho=self.w_ho, b_o=self.b_o,
+                 tcv_scale=np.array(self.tcv_scale), torque_scale=np.array(self.torque_scale))
+        if card is not None:
+            path.with_suffix(".json").write_text(json.dumps(card, indent=2))
+
+    @classmethod
+    def load(cls, path) -> "ElmanWeights":
+        path = Path(path)
+        if not path.is_file():
+            raise ModelError(f"model file not found: {path}; {REGENERATE}")
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                w = cls(**{k: z[k] for k in ("w_ih", "w_hh", "b_h", "w_ho", "b_o")},
+                        tcv_scale=float(z["tcv_scale"]), torque_scale=float(z["torque_scale"]))
+        except ModelError:
+            raise
+        except Exception as exc:  # zip/npz damage, missing arrays, pickled content
+            raise ModelError(f"{path}: not a readable Elman model ({type(exc).__name__}); {REGENERATE}") from None
+        return w.validate(str(path))
+
+    @classmethod
+    def random(cls, rng: np.random.Generator, hidden=HIDDEN, scale=0.1, **kw) -> "ElmanWeights":
+        """Thesis 4.3.3 initialisation range [-0.1, 0.1]."""
+        u = lambda *s: rng.uniform(-scale, scale, s)
+        return cls(u(hidden, INPUTS), u(hidden, hidden), u(hidden), u(1, hidden), u(1), **kw)
+
+
+class ElmanObserver:
+    """Recall-mode Elman network for one wheel: feed (u_k), get r^_k; state carried between calls."""
+
+    def __init__(self, weights: ElmanWeights):
+        self.w = weights
+        self.hidden = np.zeros(weights.w_hh.shape[0])
+        self.previous = None  # last output, normalised
+
+    def reset(self, reaction_torque: float = 0.0):
+        self.hidden[:] = 0.0
+        self.previous = reaction_torque / self.w.torque_scale
+
+    def update(self, tcv: float, reaction_torque: float | None = None) -> float:
+        """One FDI sample. ``reaction_torque`` (measured, previous sample) is used only in
+        training mode; recall mode passes None and feeds back its own estimate."""
+        w = self.w
+        if self.previous is None:
+            self.previous = 0.0
+        fed = self.previous if reaction_torque is None else reaction_torque / w.torque_scale
+        x0, x1 = tcv / w.tcv_scale, fed
+        self.hidden = np.tanh(w.w_ih[:, 0] * x0 + w.w_ih[:, 1] * x1 + w.w_hh @ self.hidden + w.b_h)
+        out = float(np.tanh(w.w_ho[0] @ self.hidden + w.b_o[0]))
+        self.previous = out
+        return out * w.torque_scale
+
+
+def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0):
+    """Recall-mode estimates for a sampled tcv series (what the node computes, sample by sample)."""
+    obs = ElmanObserver(weights)
+    obs.reset(initial_torque)
+    return np.array([obs.update(u) for u in np.asarray(tcv, float)])

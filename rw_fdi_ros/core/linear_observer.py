@@ -1,0 +1,70 @@
+"""Full-order Luenberger observer of the linearised wheel (thesis 3.3, eq. 3.1).
+
+    dx^/dt = A x^ + B u + L (y - y^),   y^ = C x^ + D u
+
+u is the torque command voltage, y the measured reaction torque. L puts the
+observer pole at 4x the wheel pole (A - L C = 4 A). The node runs it at its
+sample period, so it is discretised here (zero-order hold on u and y).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+from .wheel import LinearWheel, linearised_wheel
+
+
+def observer_gain(wheel: LinearWheel, speed_up: float = 4.0) -> float:
+    """L with eig(A - L C) = speed_up x eig(A), by pole placement (the dual of state feedback)."""
+    placed = signal.place_poles(np.array([[wheel.A]]), np.array([[wheel.C]]), [speed_up * wheel.A])
+    return float(placed.gain_matrix[0, 0])
+
+
+@dataclass(frozen=True)
+class DiscreteObserver:
+    """x^_{k+1} = Phi x^_k + Gu u_k + Gy y_k ;  y^_k = C x^_k + D u_k (ZOH of eq. 3.1)."""
+
+    phi: float
+    gamma_u: float
+    gamma_y: float
+    C: float
+    D: float
+    L: float
+    period: float
+
+
+def discretise(wheel: LinearWheel, period: float, speed_up: float = 4.0) -> DiscreteObserver:
+    """Exact ZOH discretisation of the observer with inputs [u, y]."""
+    L = observer_gain(wheel, speed_up)
+    a = np.array([[wheel.A - L * wheel.C]])
+    b = np.array([[wheel.B - L * wheel.D, L]])
+    ad, bd, *_ = signal.cont2discrete((a, b, np.eye(1), np.zeros((1, 2))), period, method="zoh")
+    return DiscreteObserver(phi=float(ad[0, 0]), gamma_u=float(bd[0, 0]), gamma_y=float(bd[0, 1]),
+                            C=wheel.C, D=wheel.D, L=L, period=period)
+
+
+class LinearObserver:
+    """Reaction-torque estimator for any number of wheels (arrays broadcast)."""
+
+    def __init__(self, period: float = 1.0, wheel: LinearWheel | None = None, speed_up: float = 4.0):
+        self.model = discretise(wheel or linearised_wheel(), period, speed_up)
+        self.state = None
+
+    def update(self, tcv, reaction_torque):
+        """Estimate y^_k from u_k and the state, then advance the state with the measured y_k."""
+        m = self.model
+        u = np.asarray(tcv, float)
+        y = np.asarray(reaction_torque, float)
+        if self.state is None:  # start on the measurement: no initial transient
+            self.state = (y - m.D * u) / m.C
+        estimate = m.C * self.state + m.D * u
+        self.state = m.phi * self.state + m.gamma_u * u + m.gamma_y * y
+        return estimate
+
+
+def estimate_series(tcv, reaction_torque, period: float = 1.0):
+    """Estimates for whole sampled series (time first); the offline tools use this."""
+    obs = LinearObserver(period)
+    return np.array([obs.update(u, y) for u, y in zip(tcv, reaction_torque)])

@@ -1,0 +1,157 @@
+"""isolation: residuals against threshold curves, persistence, which wheel is faulty and since when.
+
+For each observer (elman, linear) and axis it compares the residual of FDI
+sample k with the threshold curve at k and raises the axis' alarm after
+``persistence`` consecutive samples above (evaluation.md). Alarmed axes
+are the faulty wheels. It publishes per observer the thresholds, the alarm
+flags and a DiagnosticArray with residual, threshold, margin and first alarm
+per wheel, and /diagnostics with one status per wheel, decided by the
+``decision_observer`` (Elman by default) and stamped with the sim clock.
+"""
+from __future__ import annotations
+
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Vector3Stamped
+
+from ..core.detection import PERSISTENCE, AlarmRule, ThresholdCurves, ThresholdError
+from ..core.scenario import AXES
+from ..paths import config_dir
+from . import topics as T
+from .convert import time_msg, vector_msg
+from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from .gate import GatedPublisher
+from .sync import StampSync
+
+
+def default_thresholds(observer: str) -> str:
+    return str(config_dir() / "fdi" / f"thresholds_{observer}.json")
+
+
+class ObserverChannel:
+    """The alarm bookkeeping of one observer over three axes."""
+
+    def __init__(self, observer: str, curves: ThresholdCurves, persistence: int):
+        self.observer = observer
+        self.curves = curves
+        self.rules = {a: AlarmRule(persistence) for a in AXES}
+        self.latest = {}
+
+    def update(self, stamp_ns: int, residual):
+        t = stamp_ns * 1e-9
+        k = int(round(t / self.curves.sample_period))
+        rows = {}
+        for i, axis in enumerate(AXES):
+            threshold = self.curves.at(axis, k)
+            alarm = self.rules[axis].update(float(residual[i]), threshold, t)
+            rows[axis] = (float(residual[i]), threshold, alarm, self.rules[axis].first_alarm)
+        self.latest = rows
+        return rows
+
+
+def _status(name, axis, residual, threshold, alarm, first, extra=()):
+    s = DiagnosticStatus(name=name, hardware_id=f"reaction_wheel_{axis}")
+    s.level = DiagnosticStatus.ERROR if alarm else DiagnosticStatus.OK
+    s.message = f"faulty since {first:g} s" if alarm else ("recovered" if first is not None else "nominal")
+    s.values = [KeyValue(key="residual", value=f"{residual:.6g}"), KeyValue(key="threshold", value=f"{threshold:.6g}"),
+                KeyValue(key="margin", value=f"{threshold - residual:.6g}"),
+                KeyValue(key="first_alarm", value="none" if first is None else f"{first:g}"), *extra]
+    return s
+
+
+class IsolationNode(GraphNode):
+    node_name = "isolation"
+
+    def __init__(self):
+        super().__init__(self.node_name)
+        self.declare_parameter("thresholds_elman", "")     # empty: config/fdi/thresholds_elman.json
+        self.declare_parameter("thresholds_linear", "")
+        self.declare_parameter("persistence", PERSISTENCE)  # consecutive samples above the curve
+        self.declare_parameter("decision_observer", "elman")
+        self.declare_parameter("min_subscribers", 0)        # readers (the recorder) before output goes
+        # the running graph's plant choices: curves fitted under others are refused
+        self.declare_parameter("emf_limit", "kf_scaled")
+        self.declare_parameter("control_period", 0.1)
+        self.declare_parameter("fdi_period", 1.0)
+        plant = {"emf_limit": self.param("emf_limit"), "control_period": self.param("control_period"),
+                 "fdi_period": self.param("fdi_period")}
+        self.channels = {}
+        self.compute = []
+        for obs in T.OBSERVERS:
+            path = self.param(f"thresholds_{obs}") or default_thresholds(obs)
+            try:
+                curves = ThresholdCurves.load(path)
+                curves.check_compatible(plant, origin=path)
+                if abs(curves.sample_period - plant["fdi_period"]) > 1e-12:
+                    raise ThresholdError(f"{path}: sample period {curves.sample_period} s differs from the "
+                                         f"FDI period {plant['fdi_period']} s")
+            except ThresholdError as exc:
+                raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+            self.channels[obs] = ObserverChannel(obs, curves, self.param("persistence"))
+        self.decision = self.param("decision_observer")
+        if self.decision not in self.channels:
+            raise NodeError(f"decision_observer must be one of {', '.join(T.OBSERVERS)}", EXIT_BAD_INPUT)
+        gate = lambda msg_type, name: GatedPublisher(self.create_publisher(msg_type, name, T.RELIABLE),
+                                                     self.param("min_subscribers"))
+        self.pubs = {obs: {k: gate(DiagnosticArray if k == "status" else Vector3Stamped, name)
+                           for k, name in T.fdi_output_topics(obs).items()} for obs in T.OBSERVERS}
+        self.pub_diag = gate(DiagnosticArray, T.DIAGNOSTICS)
+        self.gates = [self.pub_diag] + [p for pubs in self.pubs.values() for p in pubs.values()]
+        self.done_samples = {}   # stamp -> set of observers handled
+        elman = StampSync(AXES, lambda stamp, v: self._on_residual(
+            "elman", stamp, [v[a][i] for i, a in enumerate(AXES)]))
+        for a in AXES:
+            self.create_subscription(Vector3Stamped, T.residual_topic("elman", a), elman.callback(a), T.RELIABLE)
+        linear = StampSync(("all",), lambda stamp, v: self._on_residual("linear", stamp, v["all"]))
+        self.create_subscription(Vector3Stamped, T.residual_topic("linear"), linear.callback("all"), T.RELIABLE)
+        self.follow_run_end()
+
+    def _on_residual(self, observer, stamp, residual):
+        t0 = time.perf_counter()
+        rows = self.channels[observer].update(stamp, residual)
+        pubs = self.pubs[observer]
+        pubs["threshold"].publish(vector_msg(stamp, [rows[a][1] for a in AXES]))
+        pubs["alarm"].publish(vector_msg(stamp, [float(rows[a][2]) for a in AXES]))
+        status = DiagnosticArray()
+        status.header.stamp = time_msg(stamp)
+        status.status = [_status(f"{observer} observer: wheel {a}", a, *rows[a]) for a in AXES]
+        pubs["status"].publish(status)
+        handled = self.done_samples.setdefault(stamp, set())
+        handled.add(observer)
+        if len(handled) == len(self.channels):
+            del self.done_samples[stamp]
+            self._publish_diagnostics(stamp)
+            self.last_handled = stamp
+        self.compute.append(time.perf_counter() - t0)
+
+    def _publish_diagnostics(self, stamp):
+        msg = DiagnosticArray()
+        msg.header.stamp = time_msg(stamp)
+        main = self.channels[self.decision].latest
+        for a in AXES:
+            extra = []
+            for obs, ch in self.channels.items():
+                if obs != self.decision:
+                    r, c, alarm, first = ch.latest[a]
+                    extra += [KeyValue(key=f"{obs}_residual", value=f"{r:.6g}"),
+                              KeyValue(key=f"{obs}_threshold", value=f"{c:.6g}"),
+                              KeyValue(key=f"{obs}_alarm", value=str(bool(alarm)).lower())]
+            msg.status.append(_status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
+                                      extra=extra))
+        self.pub_diag.publish(msg)
+
+    def poll(self):
+        flushed = all([g.flush() for g in self.gates])
+        if flushed and self.run_ended():
+            self.finish()
+
+    def timing(self):
+        from .timing import summary
+        return summary(compute=self.compute)
+
+
+main = main_for(IsolationNode)
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,13 @@
+"""Timing figures the nodes report to `rw-fdi bench` (median and p99, milliseconds)."""
+import numpy as np
+
+
+def summary(**series) -> dict:
+    out = {}
+    for name, values in series.items():
+        if len(values):
+            v = np.asarray(values) * 1e3
+            out[f"{name}_median_ms"] = float(np.median(v))
+            out[f"{name}_p99_ms"] = float(np.percentile(v, 99))
+            out[f"{name}_count"] = int(len(v))
+    return out

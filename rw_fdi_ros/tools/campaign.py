@@ -1,0 +1,78 @@
+"""Campaigns: many recorded runs of one scenario, several at once, resumable.
+
+Runs go through an executor (local threads driving graph processes by
+default); each run leases its own ROS_DOMAIN_ID, so parallel runs never
+meet. A run whose bag is already complete is skipped, so an interrupted
+campaign resumes where it stopped.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..core.scenario import load_scenario
+from ..storage.bag import bag_is_complete
+from .run import bag_name, run_scenario
+
+
+@dataclass
+class CampaignResult:
+    done: list      # bag paths recorded now
+    skipped: list   # complete bags already there
+    failed: list    # (seed, reason)
+
+
+class LocalExecutor:
+    """Runs callables on ``jobs`` threads; each call starts and supervises its own graph processes."""
+
+    def __init__(self, jobs: int | None = None):
+        self.jobs = jobs or max(1, min(2, os.cpu_count() or 1))
+
+    def map_unordered(self, fn, items):
+        with ThreadPoolExecutor(self.jobs) as pool:
+            futures = [pool.submit(fn, item) for item in items]
+            for fut in as_completed(futures):
+                yield fut.result()
+
+
+def _progress(total, desc):
+    from tqdm import tqdm
+    return tqdm(total=total, desc=desc, unit="run", file=sys.stderr, dynamic_ncols=True,
+                disable=None if sys.stderr.isatty() else False, mininterval=1.0)
+
+
+def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executor=None, fdi: bool = False,
+                 desc: str | None = None, **run_kwargs) -> CampaignResult:
+    """Record ``runs`` runs with seeds seed_start.. into ``out_dir``; complete bags are kept."""
+    out_dir = Path(out_dir)
+    scenario = load_scenario(scenario_ref)
+    seeds = list(range(seed_start, seed_start + runs))
+    todo, skipped = [], []
+    for seed in seeds:
+        bag = out_dir / bag_name(scenario.with_seed(seed))
+        (skipped if bag_is_complete(bag) else todo).append(seed if not bag_is_complete(bag) else bag)
+    executor = executor or LocalExecutor()
+    result = CampaignResult(done=[], skipped=skipped, failed=[])
+
+    def one(seed):
+        if fdi:
+            from .fdi import run_with_fdi
+            return seed, run_with_fdi(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
+        return seed, run_scenario(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
+
+    bar = _progress(len(seeds), desc or scenario.name)
+    bar.update(len(skipped))
+    try:
+        for seed, outcome in executor.map_unordered(one, todo):
+            if outcome.ok:
+                result.done.append(outcome.bag)
+            else:
+                result.failed.append((seed, outcome.reason))
+                bar.write(f"seed {seed}: {outcome.reason}")
+            bar.update(1)
+    finally:
+        bar.close()
+    return result

@@ -1,0 +1,100 @@
+"""A run with the FDI half live: which wheel is faulty and since when, per observer, beside the truth."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..core.scenario import AXES, parse_scenario
+from ..nodes import topics as T
+from ..storage.bag import BagData, read_bag
+from .run import RunOutcome, run_scenario
+
+
+def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int = 3,
+                 figure: bool = False, **kw) -> RunOutcome:
+    """Run the full graph (plant, PIDs, observers, isolation, recorder); attach the FDI verdict."""
+    outcome = run_scenario(ref, seed=seed, out_dir=out_dir,
+                           fdi={"models": models, "thresholds": thresholds, "persistence": persistence}, **kw)
+    if outcome.bag.exists():
+        try:
+            data = read_bag(outcome.bag)
+            outcome.summary = {**(outcome.summary or {}), "fdi": fdi_verdict(data)}
+            if figure:
+                outcome.summary["figure"] = str(plot_residuals(data, outcome.bag.parent / f"{outcome.bag.name}_fdi.png"))
+        except Exception as exc:  # the run's own failure reason matters more
+            if outcome.ok:
+                outcome.ok, outcome.reason = False, f"reading FDI results: {exc}"
+    return outcome
+
+
+def alarm_intervals(times, flags):
+    """[(start, end or None)] of the alarm flag series."""
+    out, start = [], None
+    for t, f in zip(times, flags):
+        if f and start is None:
+            start = t
+        elif not f and start is not None:
+            out.append((start, t))
+            start = None
+    if start is not None:
+        out.append((start, None))
+    return out
+
+
+def fdi_verdict(data: BagData) -> dict:
+    """Per observer and wheel: alarm intervals from the recorded /fdi/<observer>/alarm; plus the truth."""
+    scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
+    out = {"truth": {a: [f.as_dict() for f in scenario.faults if AXES[f.wheel] == a] for a in AXES}}
+    for obs in T.OBSERVERS:
+        t, alarm = data.vectors(T.fdi_output_topics(obs)["alarm"])
+        out[obs] = {a: alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(AXES)}
+    return out
+
+
+def format_verdict(v: dict) -> str:
+    def fmt(intervals):
+        if not intervals:
+            return "healthy"
+        parts = []
+        for s, e in intervals:
+            parts.append(f"faulty from {s:g} s" + (f" to {e:g} s (alarm lost)" if e is not None else ""))
+        return "; ".join(parts)
+
+    lines = [f"  {'wheel':6s}{'ground truth':34s}{'elman observer':34s}linear observer"]
+    for a in AXES:
+        truth = "; ".join(f"{f['kind']}={f['value']:g} from {f['onset']:g} s" for f in v["truth"][a]) or "healthy"
+        lines.append(f"  {a:6s}{truth:34s}{fmt(v['elman'][a]):34s}{fmt(v['linear'][a])}")
+    return "\n".join(lines)
+
+
+def plot_residuals(data: BagData, path: Path) -> Path:
+    """Residuals against threshold curves per observer and wheel (like thesis Figs. 4.19-4.23, 5.2/5.3)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    verdict = fdi_verdict(data)
+    fig, axes = plt.subplots(2, 3, figsize=(14, 6.5), sharex=True)
+    for row, obs in enumerate(T.OBSERVERS):
+        t_c, thr = data.vectors(T.fdi_output_topics(obs)["threshold"])
+        for i, a in enumerate(AXES):
+            ax = axes[row, i]
+            topic = T.residual_topic(obs, a) if obs == "elman" else T.residual_topic(obs)
+            t_r, res = data.vectors(topic)
+            ax.plot(t_r, res[:, i] * 1e3, label="residual", lw=1.2)
+            ax.plot(t_c, thr[:, i] * 1e3, "--", label="threshold (mean + 3σ)", lw=1.2, color="tab:red")
+            for f in verdict["truth"][a]:
+                ax.axvline(f["onset"], color="k", lw=0.8, alpha=0.6)
+                ax.text(f["onset"], ax.get_ylim()[1] * 0.9, f" {f['kind']}={f['value']:g}", fontsize=7)
+            for s, e in verdict[obs][a]:
+                ax.axvspan(s, e if e is not None else t_r[-1], color="tab:orange", alpha=0.15)
+            ax.set_title(f"{obs} observer, wheel {a}", fontsize=10)
+            ax.set_ylabel("10⁻³ N m")
+            ax.grid(alpha=0.3)
+    axes[1, 0].set_xlabel("sim time [s]")
+    axes[0, 0].legend(fontsize=8, loc="upper right")
+    fig.suptitle(f"{data.path.name}: residuals vs threshold curves (shaded: alarm)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
