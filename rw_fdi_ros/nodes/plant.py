@@ -12,6 +12,7 @@ import math
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.duration import Duration
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Header, String
 
@@ -152,6 +153,9 @@ class PlantNode(GraphNode):
             self.pub_vectors[name].publish(vector_msg(stamp, values[0]))
         self._publish_truth(stamp, sample)
         if k >= self.last_step:
+            # done only once every reader has the last sample: a recorder that sees done has it all
+            for pub in (self.pub_clock, self.pub_truth, *self.pub_vectors.values()):
+                pub.wait_for_all_acked(Duration(seconds=5.0))
             self.pub_done.publish(Header(stamp=time_msg(stamp), frame_id="completed"))
             self.finish()
 

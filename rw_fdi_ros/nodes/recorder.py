@@ -72,8 +72,7 @@ class RecorderNode(GraphNode):
             self.finish()
 
     def close(self):
-        super().close()
-        self.bag.close()
+        self.bag.close()   # the bag first: nothing else this node does matters as much
         self.get_logger().info(f"bag {self.param('output')}: {self.bag.count} messages")
 
 
