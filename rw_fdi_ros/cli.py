@@ -9,12 +9,26 @@ import sys
 def _cmd_run(args) -> int:
     from .tools.run import run_scenario
     from .tools.summary import format_summary
+    nodes = "plant, 3 PID controllers, recorder"
+    if args.fdi:
+        from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
+        check_fdi_files(args.models, args.thresholds, {"emf_limit": args.emf_limit} if args.emf_limit else None)
+        nodes = "plant, 3 PID controllers, 3 Elman observers, linear observer, isolation, recorder"
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
-          " (plant, 3 PID controllers, recorder; private DDS domain)", flush=True)
-    outcome = run_scenario(args.scenario, seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs,
-                           emf_limit=args.emf_limit, command_timeout=args.command_timeout)
+          f" ({nodes}; private DDS domain)", flush=True)
+    common = dict(seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs, emf_limit=args.emf_limit,
+                  command_timeout=args.command_timeout)
+    if args.fdi:
+        outcome = run_with_fdi(args.scenario, models=args.models, thresholds=args.thresholds,
+                               persistence=args.persistence, figure=True, **common)
+    else:
+        outcome = run_scenario(args.scenario, **common)
     if outcome.summary:
         print(format_summary(outcome.summary))
+        if "fdi" in outcome.summary:
+            print(f"fault detection and isolation (persistence P = {args.persistence}):")
+            print(format_verdict(outcome.summary["fdi"]))
+            print(f"  figure: {outcome.summary.get('figure')}")
     if not outcome.ok:
         where = f" (node logs: {outcome.log_dir})" if outcome.log_dir and outcome.log_dir.exists() else ""
         print(f"rw-fdi: run failed: {outcome.reason}{where}", file=sys.stderr)
@@ -40,6 +54,47 @@ def _executor(args):
     return LocalExecutor(args.jobs)
 
 
+def _cmd_train(args) -> int:
+    from .tools.offline import plant_conditions
+    from .tools.samples import load_samples
+    from .tools.train import train_models
+    samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
+    if args.runs:
+        samples = samples[:args.runs]
+    card = train_models(samples, args.out, mode=args.mode, epochs=args.epochs, plant=plant_conditions(samples))
+    print(f"trained 3 Elman networks ({args.mode} mode) on {len(samples)} runs in {card['train_seconds']:.0f} s "
+          f"-> {args.out}")
+    for a, c in card["axes"].items():
+        print(f"  {a}: final MSE {c['final_loss']:.2e} (normalised), torque scale {c['torque_scale']:.4f} N m")
+    return 0
+
+
+def _cmd_fit(args) -> int:
+    from .tools.offline import fit_thresholds, load_models
+    from .tools.samples import load_samples
+    from .paths import config_dir
+    import time
+    models_dir = args.models or str(config_dir() / "fdi")
+    models = load_models(models_dir)
+    t0 = time.monotonic()
+    samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
+    reliability = fit_thresholds(samples, models, args.out, model_ref=str(models_dir))
+    print(f"threshold curves from {len(samples)} fault-free runs in {time.monotonic() - t0:.0f} s -> {args.out}")
+    for obs, rel in reliability.items():
+        print(f"  {obs:7s} reliability " + "  ".join(f"{a}={v * 100:.0f}%" for a, v in rel.items()))
+    return 0
+
+
+def _cmd_defaults(args) -> int:
+    from .tools.defaults import format_report, regenerate_defaults
+    from .paths import config_dir
+    report = regenerate_defaults(work=args.work, out=args.out or config_dir() / "fdi", fit_runs=args.fit_runs,
+                                 heldout_runs=args.heldout_runs, train_runs=args.train_runs, epochs=args.epochs,
+                                 executor=_executor(args))
+    print(format_report(report))
+    return 0
+
+
 def _cmd_scenarios(args) -> int:
     from .core.scenario import available_scenarios, load_scenario
     for name in available_scenarios():
@@ -49,12 +104,11 @@ def _cmd_scenarios(args) -> int:
 
 
 def _cmd_bench(args) -> int:
-    from .tools.bench import bench_graph
-    if args.what == "graph":
-        report = bench_graph(duration=args.duration, seed=args.seed)
-        print(json.dumps(report, indent=2) if args.json else report["text"])
-        return 0 if report["ok"] else 1
-    return 2
+    from .tools.bench import bench_fdi, bench_graph
+    bench = bench_graph if args.what == "graph" else bench_fdi
+    report = bench(duration=args.duration, seed=args.seed)
+    print(json.dumps({k: v for k, v in report.items() if k != "text"}, indent=2) if args.json else report["text"])
+    return 0 if report["ok"] else 1
 
 
 def _cmd_bag(args) -> int:
@@ -84,6 +138,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="EMF torque-limiting model (physics.md [choice]; default: the scenario's, else kf_scaled)")
     r.add_argument("--command-timeout", type=float, default=5.0, help="wall seconds the plant waits for a command")
     r.add_argument("--keep-logs", action="store_true", help="keep node logs also after a successful run")
+    r.add_argument("--no-fdi", dest="fdi", action="store_false",
+                   help="without the observers and isolation (plant, controllers, recorder only)")
+    r.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
+    r.add_argument("--thresholds", default=None, help="threshold curve directory (default: config/fdi)")
+    r.add_argument("--persistence", type=int, default=3, help="samples above the curve before an alarm (P)")
     r.set_defaults(func=_cmd_run)
 
     c = sub.add_parser("campaign", help="record N runs of a scenario (seeds S..S+N-1), resumable")
@@ -95,11 +154,38 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--fdi", action="store_true", help="run the observers and isolation live too")
     c.set_defaults(func=_cmd_campaign)
 
+    t = sub.add_parser("train", help="train the three Elman observers from fault-free bags (torch)")
+    t.add_argument("--bags", required=True, help="directory of fault-free bags")
+    t.add_argument("--out", required=True, help="model directory to write (elman_<axis>.npz + cards)")
+    t.add_argument("--mode", default="recall", choices=["recall", "teacher"],
+                   help="recall: trained on its own feedback (ours); teacher: delayed measured torque (thesis)")
+    t.add_argument("--runs", type=int, default=None, help="use only the first N bags (thesis: 1)")
+    t.add_argument("--epochs", type=int, default=300)
+    t.set_defaults(func=_cmd_train)
+
+    f = sub.add_parser("fit-thresholds", help="fit mean + 3 sigma threshold curves from fault-free bags")
+    f.add_argument("--bags", required=True)
+    f.add_argument("--out", required=True)
+    f.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
+    f.set_defaults(func=_cmd_fit)
+
+    d = sub.add_parser("defaults", help="regenerate the shipped models and threshold curves from nothing")
+    d.add_argument("--work", default="bags/defaults", help="where the campaigns' bags go (resumable)")
+    d.add_argument("--out", default=None, help="default: config/fdi")
+    d.add_argument("--fit-runs", type=int, default=100)
+    d.add_argument("--heldout-runs", type=int, default=20)
+    d.add_argument("--train-runs", type=int, default=40)
+    d.add_argument("--epochs", type=int, default=300)
+    d.add_argument("--jobs", type=int, default=None)
+    d.set_defaults(func=_cmd_defaults)
+
     s = sub.add_parser("scenarios", help="list the shipped scenarios")
     s.set_defaults(func=_cmd_scenarios)
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
-    b.add_argument("what", choices=["graph"], help="graph: real-time factor of a recorded fault-free run")
+    b.add_argument("what", choices=["graph", "fdi"],
+                   help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
+                        "node callback times and memory")
     b.add_argument("--duration", type=float, default=400.0)
     b.add_argument("--seed", type=int, default=1)
     b.add_argument("--json", action="store_true")
@@ -117,7 +203,7 @@ def main(argv=None) -> int:
     from .storage.bag import BagError
     try:
         return args.func(args)
-    except (ScenarioError, BagError, FileNotFoundError, ValueError) as exc:
+    except (ScenarioError, BagError, FileNotFoundError, ValueError, RuntimeError) as exc:
         print(f"rw-fdi: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

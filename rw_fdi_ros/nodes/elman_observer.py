@@ -47,7 +47,7 @@ class ElmanObserverNode(GraphNode):
         self.observer = ElmanObserver(weights)
         self.residual = ResidualFilter(self.param("window"))
         self.started = False
-        self.compute = []
+        self.compute, self.callback = [], []   # seconds: core update / whole callback
         self.pub_estimate = GatedPublisher(self.create_publisher(Vector3Stamped, T.estimate_topic("elman", axis), T.RELIABLE), self.param("min_subscribers") - 1)
         self.pub_residual = GatedPublisher(self.create_publisher(Vector3Stamped, T.residual_topic("elman", axis), T.RELIABLE), self.param("min_subscribers"))
         subscribe_fdi_samples(self, self._on_sample, self.param("fdi_period"))
@@ -68,6 +68,7 @@ class ElmanObserverNode(GraphNode):
         own[self.index] = residual
         self.pub_residual.publish(vector_msg(stamp, own))
         self.last_handled = stamp
+        self.callback.append(time.perf_counter() - t0)
 
     def poll(self):
         flushed = self.pub_estimate.flush() & self.pub_residual.flush()
@@ -76,7 +77,7 @@ class ElmanObserverNode(GraphNode):
 
     def timing(self):
         from .timing import summary
-        return summary(compute=self.compute)
+        return summary(compute=self.compute, callback=self.callback)
 
 
 main = main_for(ElmanObserverNode)

@@ -30,7 +30,7 @@ class LinearObserverNode(GraphNode):
         self.declare_parameter("min_subscribers", 0)   # readers of the residual before the first sample goes
         self.observer = LinearObserver(self.param("fdi_period"), speed_up=self.param("speed_up"))
         self.filters = [ResidualFilter(self.param("window")) for _ in range(3)]
-        self.compute = []
+        self.compute, self.callback = [], []   # seconds: core update / whole callback
         self.pub_estimate = GatedPublisher(self.create_publisher(Vector3Stamped, T.estimate_topic("linear"), T.RELIABLE), self.param("min_subscribers") - 1)
         self.pub_residual = GatedPublisher(self.create_publisher(Vector3Stamped, T.residual_topic("linear"), T.RELIABLE), self.param("min_subscribers"))
         subscribe_fdi_samples(self, self._on_sample, self.param("fdi_period"))
@@ -44,6 +44,7 @@ class LinearObserverNode(GraphNode):
         self.pub_estimate.publish(vector_msg(stamp, estimate))
         self.pub_residual.publish(vector_msg(stamp, residual))
         self.last_handled = stamp
+        self.callback.append(time.perf_counter() - t0)
 
     def poll(self):
         flushed = self.pub_estimate.flush() & self.pub_residual.flush()
@@ -52,7 +53,7 @@ class LinearObserverNode(GraphNode):
 
     def timing(self):
         from .timing import summary
-        return summary(compute=self.compute)
+        return summary(compute=self.compute, callback=self.callback)
 
 
 main = main_for(LinearObserverNode)

@@ -45,3 +45,57 @@ def bench_graph(duration: float = 400.0, seed: int = 1) -> dict:
         lines.append(f"  FAILED: {outcome.reason}")
     report["text"] = "\n".join(lines)
     return report
+
+
+def _step_times(fn, n=20000):
+    import time
+    import numpy as np
+    out = np.empty(n)
+    for i in range(n):
+        t0 = time.perf_counter()
+        fn(i)
+        out[i] = time.perf_counter() - t0
+    return float(np.median(out) * 1e6), float(np.percentile(out, 99) * 1e6)
+
+
+def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
+    """Compute time of one FDI step per observer, callback times in the live nodes, node memory."""
+    import numpy as np
+    from ..core.detection import ResidualFilter
+    from ..core.elman import ElmanObserver
+    from ..core.linear_observer import LinearObserver
+    from ..paths import config_dir
+    from .fdi import run_with_fdi
+    from .offline import load_models
+    rng = np.random.default_rng(0)
+    u, r = rng.uniform(-5, 5, (20000, 3)), rng.uniform(-0.01, 0.01, (20000, 3))
+    weights = load_models(models or config_dir() / "fdi")
+    elman, resid = ElmanObserver(weights["x"]), ResidualFilter()
+    lin, lin_res = LinearObserver(1.0), [ResidualFilter() for _ in range(3)]
+
+    def elman_step(i):
+        resid.update(r[i, 0], elman.update(u[i, 0]))
+
+    def linear_step(i):
+        est = lin.update(u[i], r[i])
+        for j in range(3):
+            lin_res[j].update(r[i, j], est[j])
+    compute = {"elman (one axis)": _step_times(elman_step), "linear (three axes)": _step_times(linear_step)}
+
+    os.environ["RW_FDI_TIMING"] = "1"
+    out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_"))
+    scenario = out / "bench_fdi.yaml"
+    scenario.write_text(f"name: bench_fdi\nduration: {duration}\nseed: {seed}\n"
+                        "faults: [{kind: current_limiter, wheel: x, onset: 200, value: 0.6}]\n")
+    outcome = run_with_fdi(str(scenario), out_dir=out, models=models, keep_logs=True)
+    nodes = _timing_reports(outcome.log_dir) if outcome.log_dir else {}
+    lines = [f"FDI bench: one FDI step, core code only ({len(u)} samples)"]
+    for name, (med, p99) in compute.items():
+        lines.append(f"  {name:22s} median {med:7.1f} us   p99 {med if p99 < med else p99:7.1f} us")
+    lines.append(f"live graph ({duration:g} s, {outcome.wall_time:.1f} s wall, {'ok' if outcome.ok else outcome.reason}): "
+                 "callback time per FDI sample, memory")
+    for name, rep in sorted(nodes.items()):
+        cb = (f"callback median {rep['callback_median_ms'] * 1e3:7.1f} us  p99 {rep['callback_p99_ms'] * 1e3:7.1f} us"
+              if "callback_median_ms" in rep else " " * 46)
+        lines.append(f"  {name:18s} {cb}  max RSS {rep['max_rss_mb']:6.1f} MB  cpu {rep['cpu_s']:5.2f} s")
+    return {"ok": outcome.ok, "compute_us": compute, "nodes": nodes, "text": "\n".join(lines)}

@@ -11,6 +11,22 @@ from ..storage.bag import BagData, read_bag
 from .run import RunOutcome, run_scenario
 
 
+def check_fdi_files(models=None, thresholds=None, plant: dict | None = None):
+    """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError."""
+    from ..core.detection import ThresholdCurves
+    from ..core.elman import ElmanWeights
+    from ..launch.graph import CONTROL_PERIOD, FDI_PERIOD
+    from ..paths import config_dir
+    models = Path(models or config_dir() / "fdi")
+    thresholds = Path(thresholds or config_dir() / "fdi")
+    for a in AXES:
+        ElmanWeights.load(models / f"elman_{a}.npz")
+    plant = {"emf_limit": "kf_scaled", "control_period": CONTROL_PERIOD, "fdi_period": FDI_PERIOD, **(plant or {})}
+    for obs in T.OBSERVERS:
+        path = thresholds / f"thresholds_{obs}.json"
+        ThresholdCurves.load(path).check_compatible(plant, origin=str(path))
+
+
 def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int = 3,
                  figure: bool = False, **kw) -> RunOutcome:
     """Run the full graph (plant, PIDs, observers, isolation, recorder); attach the FDI verdict."""

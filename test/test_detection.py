@@ -1,0 +1,65 @@
+"""Residual filter, threshold fitting and the persistence rule against hand-made answers."""
+import json
+
+import numpy as np
+import pytest
+
+from rw_fdi_ros.core.detection import (AlarmRule, ResidualFilter, ThresholdCurves, ThresholdError, alarm_series,
+                                       fit_threshold_curve, residual_series)
+
+
+def test_residual_is_a_causal_moving_average_of_the_absolute_error():
+    f = ResidualFilter(window=3)
+    got = [f.update(a, 0.0) for a in [1.0, -2.0, 3.0, -4.0, 5.0]]
+    assert got == pytest.approx([1.0, 1.5, 2.0, 3.0, 4.0])
+    series = residual_series(np.array([[1.0], [-2.0], [3.0], [-4.0], [5.0]]), np.zeros((5, 1)), window=3)
+    assert series[:, 0] == pytest.approx(got)
+
+
+def test_threshold_curve_on_synthetic_residuals_with_known_mean_and_sigma():
+    t = np.arange(100)
+    mean, sigma = 1e-3 + 1e-5 * t, 2e-4 * (1 + np.sin(t / 10) ** 2)
+    z = np.random.default_rng(0).normal(size=(100, 100))
+    z = (z - z.mean(axis=0)) / z.std(axis=0)          # exactly mean 0, std 1 per time index
+    curve = fit_threshold_curve(mean + sigma * z)
+    np.testing.assert_allclose(curve, mean + 3 * sigma, rtol=1e-12)
+
+
+@pytest.mark.parametrize("above, persistence, alarms", [
+    ("0011101111000", 3, "0000100011000"),
+    ("0011101111000", 1, "0011101111000"),
+    ("0101010101010", 2, "0000000000000"),
+    ("1111111111111", 5, "0000111111111"),
+])
+def test_persistence_rule_on_hand_made_sequences(above, persistence, alarms):
+    residual = np.array([2.0 if c == "1" else 0.5 for c in above])
+    flags, first = alarm_series(residual, np.ones(len(residual)), np.arange(len(residual)) * 1.0, persistence)
+    assert "".join("1" if f else "0" for f in flags) == alarms
+    assert first == (alarms.index("1") if "1" in alarms else None)
+
+
+def test_equal_to_threshold_is_not_above():
+    rule = AlarmRule(1)
+    assert not rule.update(1.0, 1.0, 0.0) and rule.update(1.0 + 1e-12, 1.0, 1.0)
+
+
+def test_threshold_file_roundtrip_and_errors(tmp_path):
+    c = ThresholdCurves("elman", {a: np.linspace(1, 2, 5) for a in "xyz"}, seeds=[1, 2],
+                        plant={"emf_limit": "kf_scaled", "control_period": 0.1, "fdi_period": 1.0})
+    c.save(tmp_path / "t.json")
+    back = ThresholdCurves.load(tmp_path / "t.json")
+    assert back.at("y", 2) == pytest.approx(1.5) and back.at("y", 99) == pytest.approx(2.0)
+    back.check_compatible({"emf_limit": "kf_scaled", "control_period": 0.1})
+    with pytest.raises(ThresholdError, match="emf_limit='kf_scaled' but the graph runs emf_limit='pwm_saturation'.*"
+                                             "rw-fdi fit-thresholds"):
+        back.check_compatible({"emf_limit": "pwm_saturation"})
+    with pytest.raises(ThresholdError, match="threshold file not found.*rw-fdi fit-thresholds"):
+        ThresholdCurves.load(tmp_path / "nope.json")
+    (tmp_path / "bad.json").write_text("{not json")
+    with pytest.raises(ThresholdError, match="not a readable threshold file"):
+        ThresholdCurves.load(tmp_path / "bad.json")
+    raw = json.loads((tmp_path / "t.json").read_text())
+    raw["curves"]["z"] = [float("nan")]
+    (tmp_path / "nan.json").write_text(json.dumps(raw))
+    with pytest.raises(ThresholdError, match="finite curves"):
+        ThresholdCurves.load(tmp_path / "nan.json")

@@ -1,0 +1,83 @@
+"""Elman network: numpy recall mode equals torch; model files are data, and bad ones fail clearly."""
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from rw_fdi_ros.core.elman import ElmanObserver, ElmanWeights, ModelError, recall_series
+from rw_fdi_ros.tools.train import torch_forward, train_axis
+
+
+def weights(seed=0):
+    return ElmanWeights.random(np.random.default_rng(seed), 25, scale=0.5, tcv_scale=5.0, torque_scale=0.03)
+
+
+def as_torch(w):
+    return [torch.tensor(getattr(w, k), dtype=torch.float64) for k in ("w_ih", "w_hh", "b_h", "w_ho", "b_o")]
+
+
+def test_numpy_recall_equals_torch_recall():
+    w = weights(1)
+    rng = np.random.default_rng(2)
+    u = rng.uniform(-5, 5, (3, 120))
+    r0 = rng.uniform(-0.02, 0.02, 3)
+    r = np.zeros((3, 120))
+    r[:, 0] = r0
+    with torch.no_grad():
+        expected = torch_forward(as_torch(w), torch.tensor(u / 5.0), torch.tensor(r / 0.03), "recall").numpy() * 0.03
+    got = np.stack([recall_series(w, u[b], r0[b]) for b in range(3)])
+    np.testing.assert_allclose(got, expected, atol=1e-6, rtol=0)
+    assert np.abs(got).max() > 1e-3   # not a trivially zero network
+
+
+def test_numpy_teacher_mode_equals_torch_teacher_mode():
+    w = weights(3)
+    rng = np.random.default_rng(4)
+    u, r = rng.uniform(-5, 5, 80), rng.uniform(-0.03, 0.03, 80)
+    with torch.no_grad():
+        expected = torch_forward(as_torch(w), torch.tensor(u[None] / 5), torch.tensor(r[None] / 0.03),
+                                 "teacher").numpy()[0] * 0.03
+    obs = ElmanObserver(w)
+    obs.reset(r[0])
+    got = [obs.update(u[0])] + [obs.update(u[k], r[k - 1]) for k in range(1, 80)]
+    np.testing.assert_allclose(got, expected, atol=1e-6, rtol=0)
+
+
+def test_training_learns_a_wheel_like_response():
+    """Synthetic first-order wheel torque r = F_w(u) sampled at 1 s: both modes cut the MSE."""
+    rng = np.random.default_rng(5)
+    u = np.repeat(rng.uniform(-3, 3, (4, 12)), 10, axis=1)
+    r = np.zeros_like(u)
+    for k in range(1, u.shape[1]):
+        r[:, k] = 0.95 * r[:, k - 1] - 0.004 * (u[:, k] - u[:, k - 1])
+    for mode in ("teacher", "recall"):
+        w, losses = train_axis(u, r, mode=mode, epochs=60, lr=0.02)
+        assert losses[-1] < 0.5 * losses[0], (mode, losses[0], losses[-1])
+        assert w.w_hh.shape == (25, 25)
+
+
+def test_save_load_roundtrip_is_npz_without_pickle(tmp_path):
+    w = weights()
+    w.save(tmp_path / "m.npz", {"axis": "x"})
+    back = ElmanWeights.load(tmp_path / "m.npz")
+    np.testing.assert_array_equal(back.w_hh, w.w_hh)
+    assert json.loads((tmp_path / "m.json").read_text())["axis"] == "x"
+    with np.load(tmp_path / "m.npz", allow_pickle=False) as z:
+        assert all(z[k].dtype != object for k in z.files)
+
+
+def test_bad_model_files(tmp_path):
+    with pytest.raises(ModelError, match="model file not found.*rw-fdi train"):
+        ElmanWeights.load(tmp_path / "nope.npz")
+    (tmp_path / "corrupt.npz").write_bytes(b"PK\x03\x04 not really a zip")
+    with pytest.raises(ModelError, match="not a readable Elman model.*rw-fdi train"):
+        ElmanWeights.load(tmp_path / "corrupt.npz")
+    w = weights()
+    np.savez(tmp_path / "shape.npz", w_ih=np.zeros((25, 3)), w_hh=w.w_hh, b_h=w.b_h, w_ho=w.w_ho, b_o=w.b_o,
+             tcv_scale=np.array(5.0), torque_scale=np.array(0.03))
+    with pytest.raises(ModelError, match=r"w_ih has shape \(25, 3\), expected \(25, 2\)"):
+        ElmanWeights.load(tmp_path / "shape.npz")
+    np.savez(tmp_path / "pickled.npz", w_ih=np.array([object()], dtype=object))
+    with pytest.raises(ModelError, match="not a readable"):
+        ElmanWeights.load(tmp_path / "pickled.npz")
