@@ -4,7 +4,7 @@ from glob import glob
 from setuptools import find_packages, setup
 
 PACKAGE = "rw_fdi_ros"
-NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "isolation"]
+NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "isolation", "player"]
 
 setup(
     name=PACKAGE,

@@ -9,10 +9,13 @@ import sys
 def _cmd_run(args) -> int:
     from .tools.run import run_scenario
     from .tools.summary import format_summary
+    from .tools.run import resolve_scenario
+    scenario, _ = resolve_scenario(args.scenario, args.seed)   # a bad scenario is the first thing to say
     nodes = "plant, 3 PID controllers, recorder"
     if args.fdi:
         from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
-        check_fdi_files(args.models, args.thresholds, {"emf_limit": args.emf_limit} if args.emf_limit else None)
+        check_fdi_files(args.models, args.thresholds,
+                        {"emf_limit": args.emf_limit or scenario.plant.get("emf_limit", "kf_scaled")})
         nodes = "plant, 3 PID controllers, 3 Elman observers, linear observer, isolation, recorder"
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
           f" ({nodes}; private DDS domain)", flush=True)

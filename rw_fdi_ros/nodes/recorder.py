@@ -25,11 +25,14 @@ class RecorderNode(GraphNode):
         self.declare_parameter("extra_topics", Parameter.Type.STRING_ARRAY)   # 'name:pkg/msg/Type' beyond the graph's
         self.declare_parameter("drain_timeout", 5.0)          # wall s to wait for stragglers after done
         self.declare_parameter("fdi_period", 0.0)             # > 0: the FDI nodes run; record their topics
+        self.declare_parameter("record_plant", True)          # False: FDI outputs only (bag replay)
         try:
             self.bag = BagWriter(self.param("output"), int(self.param("flush_period") * 1e9))
         except BagError as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         rows = list(T.graph_topics())
+        if not self.param("record_plant"):
+            rows = [r for r in rows if r[0] in (T.CLOCK, T.SCENARIO, T.PLANT_DONE, T.FAULT_TRUTH)]
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
         if self.fdi_period_ns > 0:
             rows += T.fdi_topics()
@@ -61,6 +64,7 @@ class RecorderNode(GraphNode):
         if self.done_stamp is None:
             return
         final = [T.CLOCK, T.ATTITUDE, T.REACTION_TORQUE, *map(T.tcv_command, T.AXES)]
+        final = [t for t in final if t in self.bag.connections]
         if self.fdi_period_ns > 0:   # the FDI outputs of the last FDI sample
             last_fdi = self.done_stamp - self.done_stamp % self.fdi_period_ns
             final_fdi = [T.DIAGNOSTICS, T.residual_topic("linear"), *(T.residual_topic("elman", a) for a in T.AXES)]

@@ -126,8 +126,10 @@ def mcap_file(path) -> Path:
     return files[0]
 
 
-def read_bag(path, topics=None) -> BagData:
-    """Every message of a bag (or of the given topics), tolerant of a truncated or summary-less file."""
+def read_bag(path, topics=None, raw: bool = False) -> BagData:
+    """Every message of a bag (or of the given topics), tolerant of a truncated or summary-less file.
+
+    ``raw=True`` keeps the CDR bytes instead of decoding (what a player republishes)."""
     from mcap.exceptions import McapError
     from mcap.records import Channel, Footer, Message, Schema
     from mcap.stream_reader import StreamReader
@@ -149,7 +151,7 @@ def read_bag(path, topics=None) -> BagData:
                     topic = channels.get(rec.channel_id)
                     if topic is None or (wanted and topic not in wanted):
                         continue
-                    msg = store.deserialize_cdr(rec.data, data.types[topic])
+                    msg = bytes(rec.data) if raw else store.deserialize_cdr(rec.data, data.types[topic])
                     data.messages.setdefault(topic, []).append((rec.log_time, msg))
                 elif isinstance(rec, Footer):
                     data.complete = True

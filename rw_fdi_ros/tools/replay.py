@@ -1,0 +1,43 @@
+"""Replay a recorded bag through the observer and isolation nodes (rosbag replay for evaluation)."""
+from __future__ import annotations
+
+import shutil
+import tempfile
+from pathlib import Path
+
+from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_nodes
+from ..launch.launcher import DomainLease, GraphProcesses, cleanup
+from ..storage.bag import read_bag
+from .offline import plant_conditions
+from .run import RunOutcome
+from .samples import fdi_samples
+
+
+def replay_nodes(bag: Path, out_bag: Path, fdi: dict, emf_limit: str, rate: float = 0.0):
+    """Player + Elman x3 + linear + isolation + a recorder of the FDI outputs."""
+    nodes = fdi_nodes(fdi, emf_limit, recording=True)
+    nodes.append(NodeSpec("player", "player", {"bag": str(bag), "rate": float(rate), "min_subscribers": 4,
+                                               "pace_period": FDI_PERIOD}))
+    nodes.append(NodeSpec("recorder", "recorder", {"output": str(out_bag), "fdi_period": FDI_PERIOD,
+                                                   "record_plant": False}))
+    return nodes
+
+
+def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int = 3, rate: float = 0.0,
+               keep_logs: bool = False, watchdog: float = 300.0) -> RunOutcome:
+    """Replay ``bag``; the FDI outputs of the replay are recorded to ``out_bag``."""
+    bag, out_bag = Path(bag), Path(out_bag)
+    data = read_bag(bag, topics=["/scenario"])
+    samples = fdi_samples(read_bag(bag, topics=["/wheel/tcv", "/wheel/reaction_torque", "/scenario"]))
+    emf_limit = plant_conditions([samples])["emf_limit"]
+    del data
+    if out_bag.exists():
+        shutil.rmtree(out_bag)
+    nodes = replay_nodes(bag, out_bag, {"models": models, "thresholds": thresholds, "persistence": persistence},
+                         emf_limit, rate)
+    with DomainLease() as lease:
+        work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_replay_{bag.name}_"))
+        result = GraphProcesses(nodes, lease.domain_id, work).start().run(main="player", watchdog=watchdog)
+    outcome = RunOutcome(result.ok, result.reason, out_bag, result.wall_time, log_dir=work)
+    cleanup(result, keep=keep_logs or not outcome.ok)
+    return outcome
