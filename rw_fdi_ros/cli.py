@@ -53,8 +53,27 @@ def _cmd_campaign(args) -> int:
 
 
 def _executor(args):
-    from .tools.campaign import LocalExecutor
-    return LocalExecutor(args.jobs)
+    from .tools.campaign import make_executor
+    return make_executor(getattr(args, "jobs", None), getattr(args, "scheduler", None))
+
+
+def _cmd_evaluate(args) -> int:
+    from .tools.evaluate import evaluate, main_summary
+    report = evaluate(args.bags, args.report, models=args.models, thresholds=args.thresholds,
+                      persistence=args.persistence, executor=_executor(args))
+    print(main_summary(report))
+    print(f"report: {args.report}/report.md, {args.report}/report.json")
+    return 0 if report["runs"] else 1
+
+
+def _cmd_reproduce(args) -> int:
+    import time
+    from .tools.reproduce import reproduce
+    t0 = time.monotonic()
+    report = reproduce(args.out, args.scale, executor=_executor(args), persistence=args.persistence)
+    print(f"reproduce ({args.scale}) done in {time.monotonic() - t0:.0f} s wall: {report['runs']} runs evaluated; "
+          f"report {args.out}/report/report.md")
+    return 0
 
 
 def _cmd_train(args) -> int:
@@ -130,6 +149,7 @@ def _cmd_bag(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .core.detection import PERSISTENCE
     p = argparse.ArgumentParser(prog="rw-fdi", description="Reaction-wheel FDI on a ROS 2 node graph.")
     sub = p.add_subparsers(dest="command", required=True)
 
@@ -145,7 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="without the observers and isolation (plant, controllers, recorder only)")
     r.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
     r.add_argument("--thresholds", default=None, help="threshold curve directory (default: config/fdi)")
-    r.add_argument("--persistence", type=int, default=3, help="samples above the curve before an alarm (P)")
+    r.add_argument("--persistence", type=int, default=PERSISTENCE, help="samples above the curve before an alarm (P)")
     r.set_defaults(func=_cmd_run)
 
     c = sub.add_parser("campaign", help="record N runs of a scenario (seeds S..S+N-1), resumable")
@@ -155,6 +175,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--out", required=True, help="directory for the bags")
     c.add_argument("--jobs", type=int, default=None, help="runs at once (default: 2 on 2 cores)")
     c.add_argument("--fdi", action="store_true", help="run the observers and isolation live too")
+    c.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
     c.set_defaults(func=_cmd_campaign)
 
     t = sub.add_parser("train", help="train the three Elman observers from fault-free bags (torch)")
@@ -181,6 +202,24 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--epochs", type=int, default=300)
     d.add_argument("--jobs", type=int, default=None)
     d.set_defaults(func=_cmd_defaults)
+
+    e = sub.add_parser("evaluate", help="replay bags through the observers and isolation; write the report")
+    e.add_argument("--bags", required=True, help="directory of bags (searched recursively)")
+    e.add_argument("--report", required=True, help="directory for report.md, report.json, plots, replays")
+    e.add_argument("--models", default=None, help="default: config/fdi")
+    e.add_argument("--thresholds", default=None, help="default: config/fdi")
+    e.add_argument("--persistence", type=int, default=PERSISTENCE)
+    e.add_argument("--jobs", type=int, default=None)
+    e.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
+    e.set_defaults(func=_cmd_evaluate)
+
+    p2 = sub.add_parser("reproduce", help="the whole thesis study from nothing (resumable)")
+    p2.add_argument("--out", required=True)
+    p2.add_argument("--scale", default="small", choices=["small", "thesis"])
+    p2.add_argument("--persistence", type=int, default=PERSISTENCE)
+    p2.add_argument("--jobs", type=int, default=None)
+    p2.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
+    p2.set_defaults(func=_cmd_reproduce)
 
     s = sub.add_parser("scenarios", help="list the shipped scenarios")
     s.set_defaults(func=_cmd_scenarios)

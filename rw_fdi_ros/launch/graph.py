@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..core.detection import PERSISTENCE
 from ..core.plant import hold_command
 from ..core.scenario import AXES, Scenario
 
@@ -27,6 +28,7 @@ class NodeSpec:
 
 
 FDI_PERIOD = 1.0
+FDI_SAMPLING = "mean"   # core/sampling.py [choice]
 
 
 def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command_timeout: float = 5.0,
@@ -60,14 +62,16 @@ def fdi_nodes(fdi: dict, emf_limit: str, recording: bool):
     models, thresholds = fdi.get("models"), fdi.get("thresholds")
     nodes = []
     for axis in AXES:
-        params = {"axis": axis, "fdi_period": FDI_PERIOD, "min_subscribers": 1 + recording}
+        params = {"axis": axis, "fdi_period": FDI_PERIOD, "fdi_sampling": FDI_SAMPLING,
+                  "min_subscribers": 1 + recording}
         if models:
             params["model"] = str(Path(models) / f"elman_{axis}.npz")
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
     nodes.append(NodeSpec("linear_observer", "linear_observer",
-                          {"fdi_period": FDI_PERIOD, "min_subscribers": 1 + recording}))
+                          {"fdi_period": FDI_PERIOD, "fdi_sampling": FDI_SAMPLING, "min_subscribers": 1 + recording}))
     iso = {"emf_limit": emf_limit, "control_period": CONTROL_PERIOD, "fdi_period": FDI_PERIOD,
-           "persistence": int(fdi.get("persistence", 3)), "min_subscribers": int(recording)}
+           "fdi_sampling": FDI_SAMPLING,
+           "persistence": int(fdi.get("persistence", PERSISTENCE)), "min_subscribers": int(recording)}
     if thresholds:
         iso.update(thresholds_elman=str(Path(thresholds) / "thresholds_elman.json"),
                    thresholds_linear=str(Path(thresholds) / "thresholds_linear.json"))

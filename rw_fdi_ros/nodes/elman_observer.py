@@ -34,6 +34,7 @@ class ElmanObserverNode(GraphNode):
         self.declare_parameter("model", "")            # npz; empty: config/fdi/elman_<axis>.npz
         self.declare_parameter("fdi_period", 1.0)      # [s] sample period the network was trained at
         self.declare_parameter("window", WINDOW)
+        self.declare_parameter("fdi_sampling", "mean")  # mean over the FDI period, or 'instant' (thesis)
         self.declare_parameter("min_subscribers", 0)   # readers of the residual before the first sample goes       # residual moving-average length [samples]
         axis = self.param("axis")
         if axis not in AXES:
@@ -50,7 +51,10 @@ class ElmanObserverNode(GraphNode):
         self.compute, self.callback = [], []   # seconds: core update / whole callback
         self.pub_estimate = GatedPublisher(self.create_publisher(Vector3Stamped, T.estimate_topic("elman", axis), T.RELIABLE), self.param("min_subscribers") - 1)
         self.pub_residual = GatedPublisher(self.create_publisher(Vector3Stamped, T.residual_topic("elman", axis), T.RELIABLE), self.param("min_subscribers"))
-        subscribe_fdi_samples(self, self._on_sample, self.param("fdi_period"))
+        try:
+            subscribe_fdi_samples(self, self._on_sample, self.param("fdi_period"), self.param("fdi_sampling"))
+        except ValueError as exc:
+            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         self.follow_run_end()
 
     def _on_sample(self, stamp, tcv, torque):

@@ -39,7 +39,7 @@ class ObserverChannel:
         self.latest = {}
 
     def update(self, stamp_ns: int, residual):
-        t = stamp_ns * 1e-9
+        t = stamp_ns // 10**9 + (stamp_ns % 10**9) * 1e-9   # exact for whole seconds
         k = int(round(t / self.curves.sample_period))
         rows = {}
         for i, axis in enumerate(AXES):
@@ -74,8 +74,8 @@ class IsolationNode(GraphNode):
         self.declare_parameter("emf_limit", "kf_scaled")
         self.declare_parameter("control_period", 0.1)
         self.declare_parameter("fdi_period", 1.0)
-        plant = {"emf_limit": self.param("emf_limit"), "control_period": self.param("control_period"),
-                 "fdi_period": self.param("fdi_period")}
+        self.declare_parameter("fdi_sampling", "mean")
+        plant = {k: self.param(k) for k in ("emf_limit", "control_period", "fdi_period", "fdi_sampling")}
         self.channels = {}
         self.compute = []
         for obs in T.OBSERVERS:

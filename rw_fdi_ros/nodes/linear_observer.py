@@ -16,7 +16,7 @@ from . import topics as T
 from .convert import vector_msg
 from .fdi_sampling import subscribe_fdi_samples
 from .gate import GatedPublisher
-from .runtime import GraphNode, main_for
+from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 
 
 class LinearObserverNode(GraphNode):
@@ -27,13 +27,17 @@ class LinearObserverNode(GraphNode):
         self.declare_parameter("fdi_period", 1.0)    # [s] also the discretisation period
         self.declare_parameter("speed_up", 4.0)      # observer pole / wheel pole
         self.declare_parameter("window", WINDOW)
+        self.declare_parameter("fdi_sampling", "mean")  # mean over the FDI period, or 'instant' (thesis)
         self.declare_parameter("min_subscribers", 0)   # readers of the residual before the first sample goes
         self.observer = LinearObserver(self.param("fdi_period"), speed_up=self.param("speed_up"))
         self.filters = [ResidualFilter(self.param("window")) for _ in range(3)]
         self.compute, self.callback = [], []   # seconds: core update / whole callback
         self.pub_estimate = GatedPublisher(self.create_publisher(Vector3Stamped, T.estimate_topic("linear"), T.RELIABLE), self.param("min_subscribers") - 1)
         self.pub_residual = GatedPublisher(self.create_publisher(Vector3Stamped, T.residual_topic("linear"), T.RELIABLE), self.param("min_subscribers"))
-        subscribe_fdi_samples(self, self._on_sample, self.param("fdi_period"))
+        try:
+            subscribe_fdi_samples(self, self._on_sample, self.param("fdi_period"), self.param("fdi_sampling"))
+        except ValueError as exc:
+            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         self.follow_run_end()
 
     def _on_sample(self, stamp, tcv, torque):

@@ -105,8 +105,8 @@ class BagData:
 
     def vectors(self, name):
         """(time [s], values (n, 3)) of a Vector3Stamped topic, by header stamp."""
-        rows = sorted((m.header.stamp.sec * 1e9 + m.header.stamp.nanosec, m.vector) for _, m in self.topic(name))
-        t = np.array([r[0] for r in rows]) * 1e-9
+        rows = sorted(((m.header.stamp.sec, m.header.stamp.nanosec), m.vector) for _, m in self.topic(name))
+        t = np.array([sec + nsec * 1e-9 for (sec, nsec), _ in rows])   # exact for whole seconds
         v = np.array([[r[1].x, r[1].y, r[1].z] for r in rows]).reshape(-1, 3)
         return t, v
 

@@ -38,6 +38,26 @@ class LocalExecutor:
                 yield fut.result()
 
 
+class DaskExecutor:
+    """Submits each run to a dask.distributed cluster; every worker runs whole graphs, each run in its
+    own ROS_DOMAIN_ID (leased per machine), so runs on one worker or many never meet."""
+
+    def __init__(self, address):
+        from distributed import Client
+        self.client = address if hasattr(address, "submit") else Client(address)
+
+    def map_unordered(self, fn, items):
+        from distributed import as_completed as dask_completed
+        futures = self.client.map(fn, list(items), pure=False)
+        for fut in dask_completed(futures):
+            yield fut.result()
+
+
+def make_executor(jobs: int | None = None, scheduler: str | None = None):
+    """Local threads by default; a Dask cluster with ``scheduler`` (address like tcp://host:8786)."""
+    return DaskExecutor(scheduler) if scheduler else LocalExecutor(jobs)
+
+
 def _progress(total, desc):
     from tqdm import tqdm
     return tqdm(total=total, desc=desc, unit="run", file=sys.stderr, dynamic_ncols=True,

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.detection import ThresholdCurves
+from ..core.detection import PERSISTENCE, ThresholdCurves
 from ..core.scenario import AXES
 from .campaign import run_campaign
 from .offline import decisions, fit_thresholds, load_models, observe
@@ -52,7 +52,7 @@ def false_alarm_rates(samples, models, thresholds_dir, persistences=PERSISTENCES
 
 
 def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, heldout_runs=20, train_runs=40,
-                        epochs=300, persistence=3, executor=None) -> dict:
+                        epochs=300, persistence=PERSISTENCE, executor=None) -> dict:
     work, out = Path(work), Path(out)
     t0 = time.monotonic()
     stages = {}

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.detection import PERSISTENCE
 from ..core.scenario import AXES, parse_scenario
 from ..nodes import topics as T
 from ..storage.bag import BagData, read_bag
@@ -15,19 +16,20 @@ def check_fdi_files(models=None, thresholds=None, plant: dict | None = None):
     """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError."""
     from ..core.detection import ThresholdCurves
     from ..core.elman import ElmanWeights
-    from ..launch.graph import CONTROL_PERIOD, FDI_PERIOD
+    from ..launch.graph import CONTROL_PERIOD, FDI_PERIOD, FDI_SAMPLING
     from ..paths import config_dir
     models = Path(models or config_dir() / "fdi")
     thresholds = Path(thresholds or config_dir() / "fdi")
     for a in AXES:
         ElmanWeights.load(models / f"elman_{a}.npz")
-    plant = {"emf_limit": "kf_scaled", "control_period": CONTROL_PERIOD, "fdi_period": FDI_PERIOD, **(plant or {})}
+    plant = {"emf_limit": "kf_scaled", "control_period": CONTROL_PERIOD, "fdi_period": FDI_PERIOD,
+             "fdi_sampling": FDI_SAMPLING, **(plant or {})}
     for obs in T.OBSERVERS:
         path = thresholds / f"thresholds_{obs}.json"
         ThresholdCurves.load(path).check_compatible(plant, origin=str(path))
 
 
-def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int = 3,
+def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int = PERSISTENCE,
                  figure: bool = False, **kw) -> RunOutcome:
     """Run the full graph (plant, PIDs, observers, isolation, recorder); attach the FDI verdict."""
     outcome = run_scenario(ref, seed=seed, out_dir=out_dir,

@@ -16,7 +16,7 @@ from ..core.detection import WINDOW, ThresholdCurves, ThresholdError, alarm_seri
 from ..core.elman import ElmanWeights, ModelError, recall_series
 from ..core.linear_observer import estimate_series
 from ..core.scenario import AXES
-from ..launch.graph import CONTROL_PERIOD, FDI_PERIOD
+from ..launch.graph import CONTROL_PERIOD, FDI_PERIOD, FDI_SAMPLING
 
 DEFAULT_PLANT = {"emf_limit": "kf_scaled", "control_period": CONTROL_PERIOD}
 
@@ -52,7 +52,7 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     return ObserverRun(samples.time, r, est, {k: residual_series(r, v, window) for k, v in est.items()})
 
 
-def plant_conditions(samples_list) -> dict:
+def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
     """The plant choices the bags were recorded under; they must all agree."""
     import yaml
     from ..storage.bag import read_bag
@@ -63,7 +63,7 @@ def plant_conditions(samples_list) -> dict:
         seen.add(tuple(sorted(plant.items())))
     if len(seen) != 1:
         raise ThresholdError(f"bags recorded under different plant choices: {sorted(seen)}")
-    return {**dict(seen.pop()), "fdi_period": FDI_PERIOD}
+    return {**dict(seen.pop()), "fdi_period": FDI_PERIOD, "fdi_sampling": sampling}
 
 
 def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", window: int = WINDOW) -> dict:

@@ -5,6 +5,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from ..core.detection import PERSISTENCE
 from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_nodes
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
 from ..storage.bag import read_bag
@@ -23,7 +24,7 @@ def replay_nodes(bag: Path, out_bag: Path, fdi: dict, emf_limit: str, rate: floa
     return nodes
 
 
-def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int = 3, rate: float = 0.0,
+def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int = PERSISTENCE, rate: float = 0.0,
                keep_logs: bool = False, watchdog: float = 300.0) -> RunOutcome:
     """Replay ``bag``; the FDI outputs of the replay are recorded to ``out_bag``."""
     bag, out_bag = Path(bag), Path(out_bag)

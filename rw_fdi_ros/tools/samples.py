@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.sampling import sample_series
 from ..nodes.topics import REACTION_TORQUE, TCV
 from ..storage.bag import BagError, bag_is_complete, read_bag
 
@@ -21,26 +22,20 @@ class FdiSamples:
     reaction_torque: np.ndarray
 
 
-def on_period(times, period: float):
-    """Indices of stamps that fall on multiples of ``period`` (integer nanoseconds, exact)."""
-    ns = np.round(np.asarray(times) * 1e9).astype(np.int64)
-    return np.nonzero(ns % int(round(period * 1e9)) == 0)[0]
-
-
-def fdi_samples(data, period: float = 1.0) -> FdiSamples:
-    """Pair /wheel/tcv and /wheel/reaction_torque by stamp and keep the FDI-period samples."""
+def fdi_samples(data, period: float = 1.0, sampling: str = "mean") -> FdiSamples:
+    """Pair /wheel/tcv and /wheel/reaction_torque by stamp and make the FDI samples the nodes make."""
     t_u, u = data.vectors(TCV)
     t_r, r = data.vectors(REACTION_TORQUE)
     if len(t_u) == 0 or len(t_r) == 0:
         raise BagError(f"{data.path}: no {TCV} / {REACTION_TORQUE} messages")
     common, iu, ir = np.intersect1d(np.round(t_u * 1e9).astype(np.int64), np.round(t_r * 1e9).astype(np.int64),
                                     return_indices=True)
-    keep = on_period(common * 1e-9, period)
+    stamps, u_s, r_s = sample_series(common, u[iu], r[ir], period, sampling)
     seed = None
     if data.scenario_text:
         import yaml
         seed = (yaml.safe_load(data.scenario_text) or {}).get("seed")
-    return FdiSamples(bag=data.path, seed=seed, time=common[keep] * 1e-9, tcv=u[iu][keep], reaction_torque=r[ir][keep])
+    return FdiSamples(bag=data.path, seed=seed, time=stamps // 10**9 + (stamps % 10**9) * 1e-9, tcv=u_s, reaction_torque=r_s)
 
 
 def bag_dirs(root) -> list:
@@ -56,14 +51,14 @@ def bag_dirs(root) -> list:
     return dirs
 
 
-def load_samples(root, period: float = 1.0, complete_only: bool = True, on_skip=None) -> list:
+def load_samples(root, period: float = 1.0, complete_only: bool = True, on_skip=None, sampling: str = "mean") -> list:
     """FDI samples of every bag under ``root``; unreadable or incomplete bags are reported and skipped."""
     out = []
     for bag in bag_dirs(root):
         try:
             if complete_only and not bag_is_complete(bag):
                 raise BagError(f"{bag}: incomplete bag (no metadata.yaml or MCAP footer)")
-            out.append(fdi_samples(read_bag(bag, topics=[TCV, REACTION_TORQUE, "/scenario"]), period))
+            out.append(fdi_samples(read_bag(bag, topics=[TCV, REACTION_TORQUE, "/scenario"]), period, sampling))
         except BagError as exc:
             if on_skip is None:
                 raise

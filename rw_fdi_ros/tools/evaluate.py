@@ -1,0 +1,120 @@
+"""`rw-fdi evaluate`: replay bags through the observer and isolation nodes and report every figure.
+
+Each bag is replayed (player + Elman x3 + linear + isolation + recorder of
+the FDI outputs) into ``<report>/replays/<bag>``; a bag already replayed is
+not replayed again, so an interrupted evaluation resumes. A bad bag
+(truncated, no ground truth, recorded under other plant choices than the
+curves) is reported with its reason and skipped; the rest goes on.
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..core.detection import PERSISTENCE, ThresholdCurves, ThresholdError
+from ..core.elman import ModelError
+from ..core.scenario import AXES
+from ..nodes import topics as T
+from ..paths import config_dir
+from ..storage.bag import BagError, bag_is_complete, read_bag
+from .campaign import LocalExecutor, _progress
+from .metrics import OBSERVERS, RunEval, aggregate, scenario_of, series_from_bag
+from ..launch.graph import FDI_SAMPLING
+from .offline import DEFAULT_PLANT, load_models
+from .replay import replay_bag
+
+
+def find_bags(root) -> list:
+    """Every bag directory below ``root`` (a directory with a .mcap file), replays excluded."""
+    root = Path(root)
+    if not root.is_dir():
+        raise BagError(f"{root}: no such directory")
+    bags = sorted({p.parent for p in root.rglob("*.mcap") if "replays" not in p.parts})
+    return bags
+
+
+def _check_bag(bag: Path, curves: dict):
+    """Ground truth and plant choices of a bag, or a one-line reason to skip it."""
+    if not bag_is_complete(bag):
+        data = read_bag(bag, topics=["/scenario"])
+        raise BagError(f"{bag.name}: incomplete bag ({data.note or 'no metadata.yaml'})")
+    data = read_bag(bag, topics=["/scenario", T.FAULT_EFFECT])
+    scenario = scenario_of(data)
+    plant = {**DEFAULT_PLANT, **scenario.plant, "fdi_sampling": FDI_SAMPLING}
+    for c in curves.values():
+        c.check_compatible(plant, origin=f"{bag.name}: curves")
+    return scenario, data
+
+
+def evaluate_bag(bag: Path, replays: Path, curves: dict, models, thresholds, persistence: int) -> RunEval:
+    scenario, data = _check_bag(bag, curves)
+    out = replays / bag.name
+    if not bag_is_complete(out):
+        outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence)
+        if not outcome.ok:
+            raise BagError(f"{bag.name}: replay failed: {outcome.reason}")
+    series = series_from_bag(read_bag(out))
+    t, effect = data.vectors(T.FAULT_EFFECT)
+    onset = min((f.onset for f in scenario.faults), default=None)
+    peak = np.abs(effect[t >= onset]).max(axis=0) if onset is not None and len(t) else np.zeros(3)
+    return RunEval(bag=str(bag), scenario=scenario.name, seed=scenario.seed, faults=list(scenario.faults),
+                   series=series, fault_effect_peak=peak)
+
+
+def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: int = PERSISTENCE, executor=None,
+             plots: bool = True) -> dict:
+    report_dir = Path(report_dir)
+    report_dir.mkdir(parents=True, exist_ok=True)
+    models = str(models or config_dir() / "fdi")
+    thresholds = str(thresholds or config_dir() / "fdi")
+    load_models(models)   # a missing/corrupt model stops here, before any replay
+    curves = {obs: ThresholdCurves.load(Path(thresholds) / f"thresholds_{obs}.json") for obs in OBSERVERS}
+    bags = find_bags(bags_root)
+    if not bags:
+        raise BagError(f"{bags_root}: no bags to evaluate")
+    t0 = time.monotonic()
+    runs, skipped = [], []
+    executor = executor or LocalExecutor()
+
+    def one(bag):
+        try:
+            return evaluate_bag(bag, report_dir / "replays", curves, models, thresholds, persistence), None
+        except (BagError, ValueError, ThresholdError, ModelError) as exc:
+            return None, (str(bag), str(exc))
+
+    bar = _progress(len(bags), "evaluate (replay)")
+    for run, skip in executor.map_unordered(one, bags):
+        if run is not None:
+            runs.append(run)
+        else:
+            skipped.append(skip)
+            bar.write(f"skipped {skip[0]}: {skip[1]}")
+        bar.update(1)
+    bar.close()
+    runs.sort(key=lambda r: (r.scenario, r.seed))
+    level = {obs: {a: float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a]))
+                   for a in AXES} for obs, c in curves.items()}
+    figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level)
+    report = {"schema": "rw_fdi_ros/evaluation/1", "persistence": persistence, "models": models,
+              "thresholds": thresholds, "observable_level_Nm": level, "runs": len(runs),
+              "skipped": [{"bag": b, "reason": r} for b, r in skipped],
+              "observers": figures, "evaluate_seconds": time.monotonic() - t0}
+    (report_dir / "report.json").write_text(json.dumps(report, indent=1))
+    from .report import write_markdown, write_plots
+    if plots:
+        report["plots"] = write_plots(runs, figures, report_dir)
+    write_markdown(report, report_dir / "report.md")
+    (report_dir / "report.json").write_text(json.dumps(report, indent=1))
+    return report
+
+
+def main_summary(report: dict) -> str:
+    lines = [f"evaluated {report['runs']} runs ({len(report['skipped'])} skipped) in "
+             f"{report['evaluate_seconds']:.0f} s"]
+    for s in report["skipped"]:
+        lines.append(f"  skipped {s['bag']}: {s['reason']}")
+    return "\n".join(lines)
+

@@ -1,0 +1,203 @@
+"""Evaluation figures of evaluation.md from FDI outputs and ground truth (pure functions, no ROS).
+
+A run is judged from the series the isolation node publishes (residual,
+threshold, alarm per observer and axis) and from its scenario (ground
+truth). Definitions (evaluation.md, our choices where it is open):
+- detected: the faulty axis alarms at or after onset;
+- detection delay: first alarm at or after onset - onset;
+- time above threshold: length of the first alarm interval after onset
+  (to the end of the run if never lost): the thesis' "detection time";
+- gap [N m]: detected: largest residual - threshold after onset;
+  missed: smallest threshold - residual after onset;
+- correct: every faulty axis detected and no other axis alarmed at any time;
+- false alarm (fault-free, ripple runs): any axis alarmed at any time.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.scenario import AXES, Scenario
+from ..nodes import topics as T
+
+OBSERVERS = T.OBSERVERS
+DISTURBANCE_KINDS = ("ripple_gain",)   # changes that must not alarm
+
+
+@dataclass
+class Series:
+    time: np.ndarray
+    residual: np.ndarray    # (n, 3)
+    threshold: np.ndarray   # (n, 3)
+    alarm: np.ndarray       # (n, 3) bool
+
+
+@dataclass
+class RunEval:
+    bag: str
+    scenario: str
+    seed: int
+    faults: list                      # Fault objects
+    series: dict                      # observer -> Series
+    fault_effect_peak: np.ndarray = field(default_factory=lambda: np.zeros(3))  # after onset [N m]
+
+    @property
+    def faulty_axes(self):
+        return sorted({AXES[f.wheel] for f in self.faults if f.kind not in DISTURBANCE_KINDS})
+
+    @property
+    def onset(self):
+        return min((f.onset for f in self.faults), default=None)
+
+    @property
+    def category(self) -> str:
+        kinds = {f.kind for f in self.faults}
+        if not kinds:
+            return "fault_free"
+        if kinds <= set(DISTURBANCE_KINDS):
+            return "disturbance"
+        return "multiple" if len(self.faulty_axes) > 1 else "single"
+
+
+def series_from_bag(data) -> dict:
+    """observer -> Series from a bag holding the isolation node's outputs and the residuals."""
+    out = {}
+    for obs in OBSERVERS:
+        topics = T.fdi_output_topics(obs)
+        t, alarm = data.vectors(topics["alarm"])
+        t_c, thr = data.vectors(topics["threshold"])
+        if obs == "elman":
+            cols = [data.vectors(T.residual_topic(obs, a)) for a in AXES]
+            t_r = cols[0][0]
+            res = np.stack([c[1][:, i] for i, c in enumerate(cols)], axis=1) if len(t_r) else np.zeros((0, 3))
+        else:
+            t_r, res = data.vectors(T.residual_topic(obs))
+        n = min(len(t), len(t_c), len(t_r))
+        if n == 0:
+            raise ValueError(f"{data.path}: no {obs} FDI outputs")
+        out[obs] = Series(t[:n], res[:n], thr[:n], alarm[:n] > 0.5)
+    return out
+
+
+def axis_figures(s: Series, i: int, onset: float) -> dict:
+    """Detection figures of one axis after ``onset``."""
+    after = s.time >= onset
+    alarm = s.alarm[:, i] & after
+    gap = s.residual[after, i] - s.threshold[after, i]
+    if not alarm.any():
+        return {"detected": False, "delay": None, "time_above": None,
+                "gap": float(-gap.max()) if gap.size else None}
+    k = int(np.argmax(alarm))
+    end = k
+    while end < len(alarm) and alarm[end]:
+        end += 1
+    t_end = s.time[end] if end < len(alarm) else s.time[-1]
+    return {"detected": True, "delay": float(s.time[k] - onset), "time_above": float(t_end - s.time[k]),
+            "held_to_end": end == len(alarm), "gap": float(gap.max())}
+
+
+def judge(run: RunEval, observer: str) -> dict:
+    """Verdict of one run for one observer: alarms per axis, correctness, per-faulty-axis figures."""
+    s = run.series[observer]
+    alarmed = [a for i, a in enumerate(AXES) if s.alarm[:, i].any()]
+    out = {"alarmed_axes": alarmed, "false_alarm": bool(alarmed) and run.category in ("fault_free", "disturbance")}
+    if run.category in ("single", "multiple"):
+        figures = {}
+        for a in run.faulty_axes:
+            onset = min(f.onset for f in run.faults if AXES[f.wheel] == a)
+            figures[a] = axis_figures(s, AXES.index(a), onset)
+        others = [a for a in alarmed if a not in run.faulty_axes]
+        out["axes"] = figures
+        out["wrong_axes"] = others
+        out["correct"] = all(f["detected"] for f in figures.values()) and not others
+    return out
+
+
+def reliability(runs, curves_seeds, observer: str) -> dict:
+    """Share of fitting runs (seed in the curves' seeds, fault-free) under the curve at every point."""
+    fit = [r for r in runs if r.category == "fault_free" and r.seed in set(curves_seeds)]
+    if not fit:
+        return {"runs": 0}
+    out = {"runs": len(fit), "seeds": [r.seed for r in fit]}
+    for i, a in enumerate(AXES):
+        out[a] = float(np.mean([np.all(r.series[observer].residual[:, i] <= r.series[observer].threshold[:, i])
+                                for r in fit]))
+    return out
+
+
+def fault_label(run: RunEval) -> tuple:
+    """(kind, size) of a single-kind run, sizes as the thesis states them."""
+    kinds = sorted({f.kind for f in run.faults})
+    if len(kinds) != 1:
+        return ("multiple", "+".join(kinds))
+    f = run.faults[0]
+    if f.kind == "bus_voltage":
+        return ("bus_voltage", f"{round(100 * (1 - f.value / 8.0))}% off ({f.value:g} V)")
+    if f.kind == "current_limiter":
+        return ("current_limiter", f"{round(100 * (1 - f.value))}% loss")
+    if f.kind == "temperature":
+        return ("temperature", f"+{f.value - 23.0:g} C")
+    return (f.kind, f"+{round(100 * (f.value - 1))}%")
+
+
+def _rate(flags):
+    flags = list(flags)
+    return {"rate": float(np.mean(flags)) if flags else None, "n": len(flags)}
+
+
+def aggregate(runs, curves_seeds: dict, observable_level: dict) -> dict:
+    """All figures per observer; ``observable_level[obs][axis]``: the fault-free residual level [N m]."""
+    report = {}
+    for obs in OBSERVERS:
+        verdicts = {r.bag: judge(r, obs) for r in runs}
+        rep = {"reliability": reliability(runs, curves_seeds.get(obs, []), obs)}
+        heldout = [r for r in runs if r.category == "fault_free" and r.seed not in set(curves_seeds.get(obs, []))]
+        rep["false_alarm_heldout"] = {**_rate(verdicts[r.bag]["false_alarm"] for r in heldout),
+                                      "seeds": [r.seed for r in heldout]}
+        dist = [r for r in runs if r.category == "disturbance"]
+        rep["false_alarm_disturbance"] = {**_rate(verdicts[r.bag]["false_alarm"] for r in dist),
+                                          "seeds": [r.seed for r in dist]}
+        groups = {}
+        for r in runs:
+            if r.category in ("single", "multiple"):
+                groups.setdefault(fault_label(r), []).append(r)
+        cells = []
+        for (kind, size), members in sorted(groups.items()):
+            v = [verdicts[r.bag] for r in members]
+            observable = [r for r in members if all(
+                r.fault_effect_peak[AXES.index(a)] > observable_level[obs][a] for a in r.faulty_axes)]
+            figs = [f for x in v for f in x["axes"].values()]
+            det = [f for f in figs if f["detected"]]
+            cells.append({
+                "kind": kind, "size": size, "runs": len(members), "seeds": [r.seed for r in members],
+                "axes": sorted({a for r in members for a in r.faulty_axes}),
+                "correctness": _rate(x["correct"] for x in v),
+                "correctness_observable": _rate(verdicts[r.bag]["correct"] for r in observable),
+                "detected": _rate(f["detected"] for f in figs),
+                "delay_s": _stats([f["delay"] for f in det]),
+                "time_above_s": _stats([f["time_above"] for f in det]),
+                "held_to_end": _rate(f["held_to_end"] for f in det),
+                "gap_detected_mNm": _stats([f["gap"] * 1e3 for f in det]),
+                "gap_missed_mNm": _stats([f["gap"] * 1e3 for f in figs if not f["detected"] and f["gap"] is not None]),
+                "wrong_axis_runs": int(sum(bool(x["wrong_axes"]) for x in v)),
+            })
+        rep["faults"] = cells
+        report[obs] = rep
+    return report
+
+
+def _stats(values):
+    values = [v for v in values if v is not None]
+    if not values:
+        return None
+    a = np.asarray(values, float)
+    return {"median": float(np.median(a)), "min": float(a.min()), "max": float(a.max()), "n": len(a),
+            "values": [float(v) for v in a]}
+
+
+def scenario_of(data) -> Scenario:
+    from ..core.scenario import parse_scenario
+    if not data.scenario_text:
+        raise ValueError(f"{data.path}: no /scenario message (no ground truth)")
+    return parse_scenario(data.scenario_text, origin=f"{data.path}:/scenario")

@@ -1,0 +1,146 @@
+"""`rw-fdi reproduce`: the whole thesis study from nothing, resumable.
+
+fault-free fitting and held-out runs -> Table 4.2 runs (100 per kind at
+thesis scale) -> Table 5.1/5.2 grid of fault sizes -> ripple +40 % runs ->
+multiple-fault runs -> train -> fit thresholds -> evaluate by replay ->
+report. Faults rotate over the x, y and z wheels by seed, so isolation is
+tested in every direction. Every stage skips what is already complete.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from ..core.detection import PERSISTENCE
+from ..core.scenario import AXES
+from .campaign import run_campaign
+
+
+@dataclass(frozen=True)
+class Scale:
+    duration: float
+    onset: float
+    fit_runs: int
+    heldout_runs: int
+    table42_runs: int     # per fault kind
+    grid_runs: int        # per fault size
+    ripple_runs: int
+    multiple_runs: int
+    train_runs: int
+    epochs: int
+
+
+SCALES = {
+    # CI-sized: every stage and every figure of the report, a few runs each, 120 s runs
+    "small": Scale(duration=120.0, onset=60.0, fit_runs=6, heldout_runs=2, table42_runs=1, grid_runs=1,
+                   ripple_runs=1, multiple_runs=1, train_runs=6, epochs=40),
+    "thesis": Scale(duration=400.0, onset=200.0, fit_runs=100, heldout_runs=20, table42_runs=100, grid_runs=10,
+                    ripple_runs=20, multiple_runs=20, train_runs=40, epochs=300),
+}
+
+# (kind, value, label) of thesis Table 4.2 and the Tables 5.1/5.2 grid
+TABLE42 = [("bus_voltage", 5.5, "bus_5v5"), ("current_limiter", 0.6, "current_0p6"), ("temperature", 173.0, "temp_150")]
+GRID = ([("bus_voltage", 8.0 * (1 - p / 100), f"bus_{p}pct") for p in (10, 20, 30, 40)]
+        + [("current_limiter", 1 - p / 100, f"current_{p}pct") for p in (20, 30, 40, 50)]
+        + [("temperature", 23.0 + d, f"temp_{d}") for d in (60, 90, 120, 150)])
+SMALL_GRID = [GRID[1], GRID[7], GRID[9]]
+
+
+def _scenario(path: Path, name: str, scale: Scale, faults=()):
+    path.write_text(yaml.safe_dump({"name": name, "duration": scale.duration, "seed": 0,
+                                    "faults": [dict(f) for f in faults]}, sort_keys=False))
+    return str(path)
+
+
+def plan(out: Path, scale_name: str):
+    """[(group, scenario file, runs, seed_start)] of the whole study."""
+    s = SCALES[scale_name]
+    scen = out / "scenarios"
+    scen.mkdir(parents=True, exist_ok=True)
+    jobs = [("fit", _scenario(scen / "fault_free.yaml", "fault_free", s), s.fit_runs, 1000),
+            ("heldout", _scenario(scen / "fault_free.yaml", "fault_free", s), s.heldout_runs, 5000)]
+
+    def per_axis(group, kind, value, label, runs, seed0, first_axis=0):
+        for i, axis in enumerate(AXES):   # runs spread over the three wheels
+            n = runs // 3 + (1 if (i - first_axis) % 3 < runs % 3 else 0)
+            if n:
+                f = {"kind": kind, "wheel": axis, "onset": s.onset, "value": value}
+                jobs.append((group, _scenario(scen / f"{label}_{axis}.yaml", f"{label}_{axis}", s, [f]), n,
+                             seed0 + 1000 * i))
+
+    for k, (kind, value, label) in enumerate(TABLE42):
+        per_axis("table42", kind, value, label, s.table42_runs, 10000 + 100000 * k, first_axis=k)
+    for k, (kind, value, label) in enumerate(GRID if scale_name == "thesis" else SMALL_GRID):
+        per_axis("grid", kind, value, label, s.grid_runs, 20000 + 100000 * k, first_axis=k)
+    per_axis("ripple", "ripple_gain", 1.4, "ripple_40", s.ripple_runs, 30000, first_axis=1)
+    for i, axis in enumerate(AXES):
+        other = AXES[(i + 2) % 3]
+        n = s.multiple_runs // 3 + (1 if i < s.multiple_runs % 3 else 0)
+        if n:
+            faults = [{"kind": "bus_voltage", "wheel": axis, "onset": s.onset, "value": 5.5},
+                      {"kind": "current_limiter", "wheel": other, "onset": s.onset + s.duration / 8, "value": 0.6}]
+            jobs.append(("multiple", _scenario(scen / f"multiple_{axis}{other}.yaml", f"multiple_{axis}{other}", s,
+                                               faults), n, 40000 + 1000 * i))
+    return jobs
+
+
+def _commit():
+    try:
+        return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                              cwd=Path(__file__).resolve().parents[2]).stdout.strip()
+    except OSError:
+        return ""
+
+
+def reproduce(out, scale_name: str = "small", executor=None, persistence: int = PERSISTENCE) -> dict:
+    from .evaluate import evaluate
+    from .offline import fit_thresholds, load_models, plant_conditions
+    from .samples import load_samples
+    from .train import train_models
+    out = Path(out)
+    s = SCALES[scale_name]
+    t0 = time.monotonic()
+    stages = {}
+    jobs = plan(out, scale_name)
+    print(f"reproduce ({scale_name}): {sum(j[2] for j in jobs)} runs in {len(jobs)} campaigns -> {out}",
+          file=sys.stderr, flush=True)
+    for group in ("fit", "heldout", "table42", "grid", "ripple", "multiple"):
+        t = time.monotonic()
+        n = 0
+        for g, scenario, runs, seed in jobs:
+            if g == group:
+                res = run_campaign(scenario, runs, seed, out / "bags" / group, executor=executor,
+                                   desc=f"{group} {Path(scenario).stem}")
+                n += len(res.done)
+                if res.failed:
+                    print(f"{len(res.failed)} runs failed in {Path(scenario).stem}: {res.failed[0][1]}",
+                          file=sys.stderr)
+        stages[f"record {group}"] = {"seconds": time.monotonic() - t, "runs": n}
+
+    models = out / "models"
+    t = time.monotonic()
+    fit = load_samples(out / "bags" / "fit", on_skip=lambda m: print(f"skipped {m}", file=sys.stderr))
+    if not (models / "model_set.json").exists():
+        train_models(fit[:s.train_runs], models, mode="recall", epochs=s.epochs, plant=plant_conditions(fit))
+    stages["train"] = {"seconds": time.monotonic() - t, "runs": min(len(fit), s.train_runs)}
+    t = time.monotonic()
+    fit_thresholds(fit, load_models(models), models, model_ref=str(models))
+    stages["fit thresholds"] = {"seconds": time.monotonic() - t, "runs": len(fit)}
+    t = time.monotonic()
+    report = evaluate(out / "bags", out / "report", models=models, thresholds=models, persistence=persistence,
+                      executor=executor)
+    stages["evaluate (replay)"] = {"seconds": time.monotonic() - t, "runs": report["runs"]}
+    stages["total"] = {"seconds": time.monotonic() - t0, "runs": sum(j[2] for j in jobs)}
+    report["stages"] = stages
+    report["provenance"] = {"command": f"rw-fdi reproduce --out {out} --scale {scale_name}", "commit": _commit(),
+                            "scale": scale_name}
+    from .report import write_markdown
+    write_markdown(report, out / "report" / "report.md")
+    (out / "report" / "report.json").write_text(json.dumps(report, indent=1))
+    return report

@@ -1,0 +1,125 @@
+"""Evaluation metrics on hand-made bags with known alarms: exact figures expected."""
+import numpy as np
+import pytest
+import yaml
+from rosbags.typesys.stores.ros2_kilted import builtin_interfaces__msg__Time as Time
+from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Vector3 as Vector3
+from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Vector3Stamped as V3S
+from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as Header
+from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
+
+from rw_fdi_ros.core.sampling import FdiSampler, sample_series
+from rw_fdi_ros.nodes import topics as T
+from rw_fdi_ros.storage.bag import BagWriter, read_bag
+from rw_fdi_ros.tools.metrics import RunEval, aggregate, judge, scenario_of, series_from_bag
+
+N = 101   # samples 0..100 s
+AXES = "xyz"
+
+
+def vec(t, v):
+    return V3S(header=Header(stamp=Time(sec=int(t), nanosec=0), frame_id="body"),
+               vector=Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2])))
+
+
+def make_bag(path, faults, alarms, seed=1, residual_above=None):
+    """alarms: axis -> list of (start, end) seconds (end exclusive) for both observers."""
+    w = BagWriter(path)
+    vec_t = "geometry_msgs/msg/Vector3Stamped"
+    w.add_topic(T.SCENARIO, "std_msgs/msg/String")
+    for topic in [T.FAULT_EFFECT, T.residual_topic("linear")] + [T.residual_topic("elman", a) for a in AXES]:
+        w.add_topic(topic, vec_t)
+    for obs in T.OBSERVERS:
+        for k in ("threshold", "alarm"):
+            w.add_topic(T.fdi_output_topics(obs)[k], vec_t)
+    w.write_message(T.SCENARIO, 0, String(data=yaml.safe_dump({"name": "hand", "seed": seed, "duration": 100,
+                                                                 "faults": faults})))
+    for t in range(N):
+        alarm = [float(any(s <= t < e for s, e in alarms.get(a, []))) for a in AXES]
+        threshold = [1e-3] * 3
+        residual = [2e-3 if f else 0.5e-3 for f in alarm]
+        if residual_above:   # residual above the threshold without an alarm (before persistence kicks in)
+            residual = [max(r, residual_above.get(a, 0.0)) for a, r in zip(AXES, residual)]
+        ns = t * 10**9
+        w.write_message(T.FAULT_EFFECT, ns, vec(t, [5e-3 if any(f["wheel"] == a for f in faults) and t >= 50 else 0.0
+                                                    for a in AXES]))
+        for obs in T.OBSERVERS:
+            w.write_message(T.fdi_output_topics(obs)["threshold"], ns, vec(t, threshold))
+            w.write_message(T.fdi_output_topics(obs)["alarm"], ns, vec(t, alarm))
+        w.write_message(T.residual_topic("linear"), ns, vec(t, residual))
+        for i, a in enumerate(AXES):
+            own = [0.0, 0.0, 0.0]
+            own[i] = residual[i]
+            w.write_message(T.residual_topic("elman", a), ns, vec(t, own))
+    w.close()
+    return path
+
+
+def run_eval(path):
+    data = read_bag(path)
+    s = scenario_of(data)
+    t, eff = data.vectors(T.FAULT_EFFECT)
+    return RunEval(bag=str(path), scenario=s.name, seed=s.seed, faults=list(s.faults), series=series_from_bag(data),
+                   fault_effect_peak=np.abs(eff[t >= 50]).max(axis=0))
+
+
+FAULT_X = [{"kind": "current_limiter", "wheel": "x", "onset": 50.0, "value": 0.6}]
+
+
+def test_detection_at_a_known_delay_held_to_the_end(tmp_path):
+    r = run_eval(make_bag(tmp_path / "a", FAULT_X, {"x": [(62, 1000)]}))
+    v = judge(r, "elman")
+    assert v["correct"] and v["wrong_axes"] == []
+    f = v["axes"]["x"]
+    assert f["detected"] and f["delay"] == 12.0 and f["held_to_end"] and f["time_above"] == 100.0 - 62.0
+    assert f["gap"] == pytest.approx(1e-3)
+
+
+def test_lost_alarm_and_isolation_error(tmp_path):
+    lost = run_eval(make_bag(tmp_path / "lost", FAULT_X, {"x": [(55, 70)]}))
+    f = judge(lost, "linear")["axes"]["x"]
+    assert f["detected"] and f["delay"] == 5.0 and f["time_above"] == 15.0 and not f["held_to_end"]
+    wrong = run_eval(make_bag(tmp_path / "wrong", FAULT_X, {"x": [(60, 1000)], "z": [(80, 90)]}))
+    v = judge(wrong, "elman")
+    assert not v["correct"] and v["wrong_axes"] == ["z"] and v["axes"]["x"]["detected"]
+
+
+def test_false_alarm_and_missed_fault_gap(tmp_path):
+    ff = run_eval(make_bag(tmp_path / "ff", [], {"y": [(30, 35)]}, seed=7))
+    assert judge(ff, "elman")["false_alarm"] and ff.category == "fault_free"
+    missed = run_eval(make_bag(tmp_path / "missed", FAULT_X, {}, residual_above={"x": 0.8e-3}))
+    f = judge(missed, "elman")["axes"]["x"]
+    assert not f["detected"] and f["gap"] == pytest.approx(0.2e-3)   # threshold - residual
+
+
+def test_aggregate_counts_rates_and_seeds(tmp_path):
+    runs = [run_eval(make_bag(tmp_path / "d1", FAULT_X, {"x": [(62, 1000)]}, seed=1)),
+            run_eval(make_bag(tmp_path / "d2", FAULT_X, {"x": [(55, 70)], "z": [(80, 90)]}, seed=2)),
+            run_eval(make_bag(tmp_path / "fit", [], {}, seed=1000)),
+            run_eval(make_bag(tmp_path / "held", [], {"y": [(30, 35)]}, seed=5000)),
+            run_eval(make_bag(tmp_path / "held2", [], {}, seed=5001)),
+            run_eval(make_bag(tmp_path / "rip", [{"kind": "ripple_gain", "wheel": "x", "onset": 50.0, "value": 1.4}],
+                              {}, seed=3))]
+    level = {obs: {a: 1e-3 for a in AXES} for obs in T.OBSERVERS}
+    rep = aggregate(runs, {"elman": [1000], "linear": [1000]}, level)["elman"]
+    assert rep["reliability"]["runs"] == 1 and rep["reliability"]["x"] == 1.0
+    assert rep["false_alarm_heldout"] == {"rate": 0.5, "n": 2, "seeds": [5000, 5001]}
+    assert rep["false_alarm_disturbance"]["rate"] == 0.0 and rep["false_alarm_disturbance"]["n"] == 1
+    (cell,) = rep["faults"]
+    assert (cell["kind"], cell["size"], cell["runs"], cell["seeds"]) == ("current_limiter", "40% loss", 2, [1, 2])
+    assert cell["correctness"] == {"rate": 0.5, "n": 2} and cell["detected"] == {"rate": 1.0, "n": 2}
+    assert cell["delay_s"]["values"] == [12.0, 5.0] and cell["held_to_end"]["rate"] == 0.5
+    assert cell["wrong_axis_runs"] == 1
+    assert cell["correctness_observable"]["n"] == 2      # fault effect 5e-3 > level 1e-3
+
+
+def test_fdi_sampler_mean_and_instant():
+    stamps = np.arange(0, 31) * 100_000_000            # 0 .. 3 s at 0.1 s
+    u = np.arange(31, dtype=float)
+    t, um, _ = sample_series(stamps, u, u, period=1.0, mode="mean")
+    assert list(t) == [0, 10**9, 2 * 10**9, 3 * 10**9]
+    assert um.tolist() == [0.0, 5.5, 15.5, 25.5]           # mean of (t - 1 s, t]
+    _, ui, _ = sample_series(stamps, u, u, period=1.0, mode="instant")
+    assert ui.tolist() == [0.0, 10.0, 20.0, 30.0]
+    with pytest.raises(ValueError, match="sampling must be one of"):
+        FdiSampler(1.0, "median")
