@@ -29,7 +29,7 @@ class ObserverNode(GraphNode):
         self.declare_parameter("fdi_sampling", "mean")  # mean over the FDI period, or 'instant' (thesis)
         self.declare_parameter("window", WINDOW)        # residual moving-average length [samples]
         self.declare_parameter("min_subscribers", 0)    # readers of the residual before the first sample goes
-        self.compute, self.callback = [], []   # seconds: observe() / whole callback
+        self.compute, self.callback, self.callback_cpu = [], [], []   # s: observe() / callback wall / CPU
         try:
             self.sampler = FdiSampler(self.param("fdi_period"), self.param("fdi_sampling"))
         except ValueError as exc:
@@ -51,7 +51,7 @@ class ObserverNode(GraphNode):
         raise NotImplementedError
 
     def _on_pair(self, stamp, values):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         sample = self.sampler.add(stamp, values["tcv"], values["torque"])
         if sample is None:
             return
@@ -62,6 +62,7 @@ class ObserverNode(GraphNode):
         self.pub_residual.publish(vector_msg(stamp, residual))
         self.last_handled = stamp
         self.callback.append(time.perf_counter() - t0)
+        self.callback_cpu.append(time.thread_time() - c0)
 
     def poll(self):
         if not hasattr(self, "pub_estimate"):
@@ -72,4 +73,4 @@ class ObserverNode(GraphNode):
 
     def timing(self):
         from .timing import summary
-        return summary(compute=self.compute, callback=self.callback)
+        return summary(compute=self.compute, callback=self.callback, callback_cpu=self.callback_cpu)

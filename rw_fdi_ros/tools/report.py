@@ -122,7 +122,7 @@ def write_plots(runs, figures: dict, out: Path) -> list:
                 labels.append(f"{c['kind']}\n{c['size']}")
                 data.append(c["delay_s"]["values"])
         if data:
-            ax.boxplot(data, vert=False)
+            ax.boxplot(data, orientation="horizontal")
             ax.set_yticks(range(1, len(labels) + 1), labels, fontsize=7)
         ax.set_title(f"{obs}: detection delay [s]")
         ax.grid(alpha=0.3)
