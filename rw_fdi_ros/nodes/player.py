@@ -4,8 +4,10 @@ Raw CDR bytes go out as they were recorded, in log-time (= sim-time) order.
 Two modes:
 - ``rate`` > 0: paced by the wall clock, ``rate`` sim seconds per wall second;
 - ``rate`` = 0: as fast as the consumers keep up without dropping a message:
-  before moving past an FDI sample the player waits until ``pace_topic``
-  (the isolation node's /diagnostics by default) reports that sample done.
+  the player runs at most ``pace_window`` FDI samples ahead of what
+  ``pace_topic`` (the isolation node's /diagnostics) reports done; 20
+  samples are 200 messages per topic, well inside the 1000-deep reliable
+  queues, so nothing can be overwritten before it is read.
 """
 from __future__ import annotations
 
@@ -32,6 +34,7 @@ class PlayerNode(GraphNode):
         self.declare_parameter("rate", 0.0)               # 0: paced by the consumers; else sim s per wall s
         self.declare_parameter("pace_topic", T.DIAGNOSTICS)
         self.declare_parameter("pace_period", 1.0)        # FDI period [s]
+        self.declare_parameter("pace_window", 20)         # FDI samples the player may run ahead
         self.declare_parameter("min_subscribers", 0)      # readers of /wheel/tcv and reaction torque before starting
         self.declare_parameter("startup_timeout", 60.0)
         self.declare_parameter("stall_timeout", 10.0)     # wall s without consumer progress -> error
@@ -51,6 +54,7 @@ class PlayerNode(GraphNode):
         self.next = 0
         self.rate = self.param("rate")
         self.period_ns = int(round(self.param("pace_period") * 1e9))
+        self.window_ns = max(int(self.param("pace_window")) - 1, 0) * self.period_ns
         self.paced_until = -1          # consumers have finished every FDI sample up to this stamp
         self.waiting_for = None        # FDI stamp published, not yet reported done
         self.started = None
@@ -86,7 +90,7 @@ class PlayerNode(GraphNode):
                 if now < self.started + log_time * 1e-9 / self.rate:
                     return
             elif self.waiting_for is not None and log_time > self.waiting_for:
-                if self.paced_until < self.waiting_for:
+                if self.paced_until < self.waiting_for - self.window_ns:
                     if now - self.last_progress > self.param("stall_timeout"):
                         self.fail(f"consumers stalled: no {self.param('pace_topic')} for t="
                                   f"{self.waiting_for * 1e-9:g} s within {self.param('stall_timeout'):g} s",
