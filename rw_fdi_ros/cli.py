@@ -117,6 +117,17 @@ def _cmd_defaults(args) -> int:
     return 0
 
 
+def _cmd_screen(args) -> int:
+    from .core.scenario import load_scenario
+    from .tools.screen import format_screen, screen
+    first, _, last = args.seeds.partition("..")
+    seeds = range(int(first), int(last or first) + 1)
+    for name in args.scenario:
+        print(format_screen(name, screen(load_scenario(name), seeds, args.models, args.thresholds,
+                                         args.persistence)))
+    return 0
+
+
 def _cmd_scenarios(args) -> int:
     from .core.scenario import available_scenarios, load_scenario
     for name in available_scenarios():
@@ -220,6 +231,14 @@ def build_parser() -> argparse.ArgumentParser:
     p2.add_argument("--jobs", type=int, default=None)
     p2.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
     p2.set_defaults(func=_cmd_reproduce)
+
+    q = sub.add_parser("screen", help="FDI figures for many seeds in seconds (core loop + node code, no ROS)")
+    q.add_argument("--scenario", nargs="+", required=True)
+    q.add_argument("--seeds", default="100..129", help="A..B inclusive")
+    q.add_argument("--models", default=None)
+    q.add_argument("--thresholds", default=None)
+    q.add_argument("--persistence", type=int, default=PERSISTENCE)
+    q.set_defaults(func=_cmd_screen)
 
     s = sub.add_parser("scenarios", help="list the shipped scenarios")
     s.set_defaults(func=_cmd_scenarios)

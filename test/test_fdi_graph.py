@@ -176,3 +176,12 @@ def test_observer_node_alone_with_missing_model(tmp_path):
         r = subprocess.run([str(BIN / "elman_observer"), "--ros-args", "-p", f"model:={tmp_path}/m.npz"],
                            capture_output=True, text=True, timeout=60, env=env)
     assert r.returncode == 2 and "model file not found" in r.stderr and "rw-fdi train" in r.stderr
+
+
+def test_screen_without_ros_agrees_with_the_thesis_pattern():
+    """The ROS-free screen (same code as the nodes): Elman holds the current-loss alarm, linear loses it."""
+    from rw_fdi_ros.tools.screen import screen
+    out = screen(load_scenario("current_0p6_x"), range(12, 15))
+    assert out["elman"]["held"] == 3 and out["elman"]["lost"] == 0
+    assert out["linear"]["lost"] == 3 and out["linear"]["held"] == 0
+    assert all(d > 0 for d in out["elman"]["delays"])
