@@ -73,7 +73,10 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
     todo, skipped = [], []
     for seed in seeds:
         bag = out_dir / bag_name(scenario.with_seed(seed))
-        (skipped if bag_is_complete(bag) else todo).append(seed if not bag_is_complete(bag) else bag)
+        if bag_is_complete(bag):
+            skipped.append(bag)
+        else:
+            todo.append(seed)
     executor = executor or LocalExecutor()
     result = CampaignResult(done=[], skipped=skipped, failed=[])
 

@@ -28,10 +28,8 @@ def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int = PE
                keep_logs: bool = False, watchdog: float = 300.0) -> RunOutcome:
     """Replay ``bag``; the FDI outputs of the replay are recorded to ``out_bag``."""
     bag, out_bag = Path(bag), Path(out_bag)
-    data = read_bag(bag, topics=["/scenario"])
     samples = fdi_samples(read_bag(bag, topics=["/wheel/tcv", "/wheel/reaction_torque", "/scenario"]))
     emf_limit = plant_conditions([samples])["emf_limit"]
-    del data
     if out_bag.exists():
         shutil.rmtree(out_bag)
     nodes = replay_nodes(bag, out_bag, {"models": models, "thresholds": thresholds, "persistence": persistence},
