@@ -185,3 +185,27 @@ def test_screen_without_ros_agrees_with_the_thesis_pattern():
     assert out["elman"]["held"] == 3 and out["elman"]["lost"] == 0
     assert out["linear"]["lost"] >= 2 and out["linear"]["lost"] > out["linear"]["held"]
     assert all(d > 0 for d in out["elman"]["delays"])
+
+
+def test_nan_in_a_replayed_reaction_torque_stops_the_replay_with_a_reason(runs, tmp_path):
+    """A corrupted sample must not silently disable the alarm (NaN > threshold is False)."""
+    from rw_fdi_ros.storage.bag import BagWriter, typestore
+    from rw_fdi_ros.tools.replay import replay_bag
+    src = runs["current_0p6_x"].bag
+    data = read_bag(src, raw=True)
+    bad = tmp_path / "nan_bag"
+    w = BagWriter(bad)
+    for topic in data.messages:
+        w.add_topic(topic, data.types[topic])
+    rows = sorted((t, topic, raw) for topic, msgs in data.messages.items() for t, raw in msgs)
+    store = typestore()
+    for t, topic, raw in rows:
+        if topic == T.REACTION_TORQUE and t == 150 * 10**9:
+            msg = store.deserialize_cdr(raw, data.types[topic])
+            msg.vector.y = float("nan")
+            raw = store.serialize_cdr(msg, data.types[topic])
+        w.write(topic, t, raw)
+    w.close()
+    outcome = replay_bag(bad, tmp_path / "replayed", watchdog=120)
+    assert not outcome.ok
+    assert "non-finite input at t=150 s" in outcome.reason and "nan" in outcome.reason

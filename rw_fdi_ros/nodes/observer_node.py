@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 from geometry_msgs.msg import Vector3Stamped
 
 from ..core.detection import WINDOW
@@ -56,6 +57,11 @@ class ObserverNode(GraphNode):
         if sample is None:
             return
         stamp, tcv, torque = sample
+        if not (np.all(np.isfinite(tcv)) and np.all(np.isfinite(torque))):
+            # a NaN would silently disable the alarm (NaN > threshold is False): stop instead
+            self.fail(f"non-finite input at t={stamp * 1e-9:g} s: tcv={tcv.tolist()}, "
+                      f"reaction torque={torque.tolist()}", EXIT_BAD_INPUT)
+            return
         estimate, residual = self.observe(tcv, torque)
         self.compute.append(time.perf_counter() - t0)
         self.pub_estimate.publish(vector_msg(stamp, estimate))
