@@ -15,7 +15,7 @@ def _cmd_run(args) -> int:
     if args.fdi:
         from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
         check_fdi_files(args.models, args.thresholds,
-                        {"emf_limit": args.emf_limit or scenario.plant.get("emf_limit", "kf_scaled")})
+                        {**scenario.plant, **({"emf_limit": args.emf_limit} if args.emf_limit else {})})
         nodes = "plant, 3 PID controllers, 3 Elman observers, linear observer, isolation, recorder"
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
           f" ({nodes}; private DDS domain)", flush=True)

@@ -209,3 +209,11 @@ def test_nan_in_a_replayed_reaction_torque_stops_the_replay_with_a_reason(runs, 
     outcome = replay_bag(bad, tmp_path / "replayed", watchdog=120)
     assert not outcome.ok
     assert "non-finite input at t=150 s" in outcome.reason and "nan" in outcome.reason
+
+
+def test_scenario_plant_choice_reaches_the_compatibility_check(tmp_path):
+    scenario = tmp_path / "pwm.yaml"
+    scenario.write_text("name: pwm\nplant: {emf_limit: pwm_saturation}\nfaults: []\n")
+    one_line_error(cli("run", "--scenario", str(scenario), "--out", str(tmp_path)),
+                   "fitted with emf_limit='kf_scaled' but the graph runs emf_limit='pwm_saturation'",
+                   "rw-fdi fit-thresholds")

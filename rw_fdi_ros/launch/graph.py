@@ -36,28 +36,29 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     """Plant, three PID controllers, (when ``fdi``) the observers and isolation, and (when ``bag``)
     the recorder for one run. ``fdi`` maps 'models' / 'thresholds' to directories (None: shipped)."""
     emf_limit = emf_limit or scenario.plant.get("emf_limit", "kf_scaled")
+    period = float(scenario.plant.get("control_period", CONTROL_PERIOD))
     ic, _ = scenario.draws()
     times, values = scenario.setpoint_schedule()
     hold = hold_command(ic.wheel_speed)
     recording = bag is not None
     nodes = [NodeSpec("plant", "plant", {
-        "scenario": scenario_ref, "seed": scenario.seed, "control_period": CONTROL_PERIOD,
+        "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": emf_limit, "command_timeout": command_timeout,
         "wait_for_subscribers": 1 if recording else 0, "observers": 4 if fdi is not None else 0})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
-            "axis": axis, "control_period": CONTROL_PERIOD, "initial_tcv": float(hold[i]),
+            "axis": axis, "control_period": period, "initial_tcv": float(hold[i]),
             "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]],
             "min_subscribers": 2 if recording else 1}))
     if fdi is not None:
-        nodes += fdi_nodes(fdi, emf_limit, recording)
+        nodes += fdi_nodes(fdi, emf_limit, recording, period)
     if recording:
         nodes.append(NodeSpec("recorder", "recorder", {"output": str(bag),
                                                        "fdi_period": FDI_PERIOD if fdi is not None else 0.0}))
     return nodes
 
 
-def fdi_nodes(fdi: dict, emf_limit: str, recording: bool):
+def fdi_nodes(fdi: dict, emf_limit: str, recording: bool, control_period: float = CONTROL_PERIOD):
     """Three Elman observers, the linear observer and the isolation node."""
     models, thresholds = fdi.get("models"), fdi.get("thresholds")
     nodes = []
@@ -69,7 +70,7 @@ def fdi_nodes(fdi: dict, emf_limit: str, recording: bool):
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
     nodes.append(NodeSpec("linear_observer", "linear_observer",
                           {"fdi_period": FDI_PERIOD, "fdi_sampling": FDI_SAMPLING, "min_subscribers": 1 + recording}))
-    iso = {"emf_limit": emf_limit, "control_period": CONTROL_PERIOD, "fdi_period": FDI_PERIOD,
+    iso = {"emf_limit": emf_limit, "control_period": control_period, "fdi_period": FDI_PERIOD,
            "fdi_sampling": FDI_SAMPLING,
            "persistence": int(fdi.get("persistence", PERSISTENCE)), "min_subscribers": int(recording)}
     if thresholds:

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rosgraph_msgs.msg import Clock
@@ -32,8 +33,8 @@ class PlantNode(GraphNode):
         self.declare_parameter("scenario", "fault_free")
         self.declare_parameter("seed", -1)               # -1: the scenario file's seed
         self.declare_parameter("duration", 0.0)          # 0: the scenario's duration [s]
-        self.declare_parameter("control_period", 0.1)    # lockstep tick [s]
-        self.declare_parameter("emf_limit", "kf_scaled")  # physics.md [choice]
+        self.declare_parameter("control_period", 0.0)    # lockstep tick [s]; 0: the scenario's, else 0.1
+        self.declare_parameter("emf_limit", "")          # physics.md [choice]; empty: the scenario's, else kf_scaled
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
         self.declare_parameter("wait_for_subscribers", 0)  # extra subscribers per topic (1 = recorder)
@@ -46,19 +47,18 @@ class PlantNode(GraphNode):
 
         try:
             scenario = load_scenario(self.param("scenario"))
-            wheel = WheelParams(emf_limit=self.param("emf_limit"))
+            wheel = WheelParams(emf_limit=self.param("emf_limit") or scenario.plant.get("emf_limit", "kf_scaled"))
         except (ScenarioError, ValueError) as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         if self.param("seed") >= 0:
             scenario = scenario.with_seed(self.param("seed"))
         self.duration = self.param("duration") or scenario.duration
-        self.period = self.param("control_period")
+        self.period = self.param("control_period") or scenario.plant.get("control_period", 0.1)
         self.last_step = int(round(self.duration / self.period))
         self.scenario = scenario
         self.plant = Plant(scenario, wheel=wheel, control_period=self.period)
 
         pub = lambda msg_type, topic, qos=T.RELIABLE: self.create_publisher(msg_type, topic, qos)
-        from geometry_msgs.msg import Vector3Stamped
         self.pub_clock = pub(Clock, T.CLOCK)
         self.pub_vectors = {name: pub(Vector3Stamped, name) for name in
                             (T.ATTITUDE, T.BODY_RATE, T.WHEEL_SPEED, T.TCV, T.REACTION_TORQUE, T.FAULT_EFFECT)}

@@ -14,9 +14,9 @@ from .run import RunOutcome
 from .samples import fdi_samples
 
 
-def replay_nodes(bag: Path, out_bag: Path, fdi: dict, emf_limit: str, rate: float = 0.0):
+def replay_nodes(bag: Path, out_bag: Path, fdi: dict, plant: dict, rate: float = 0.0):
     """Player + Elman x3 + linear + isolation + a recorder of the FDI outputs."""
-    nodes = fdi_nodes(fdi, emf_limit, recording=True)
+    nodes = fdi_nodes(fdi, plant["emf_limit"], True, plant["control_period"])
     nodes.append(NodeSpec("player", "player", {"bag": str(bag), "rate": float(rate), "min_subscribers": 4,
                                                "pace_period": FDI_PERIOD}))
     nodes.append(NodeSpec("recorder", "recorder", {"output": str(out_bag), "fdi_period": FDI_PERIOD,
@@ -29,11 +29,11 @@ def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int = PE
     """Replay ``bag``; the FDI outputs of the replay are recorded to ``out_bag``."""
     bag, out_bag = Path(bag), Path(out_bag)
     samples = fdi_samples(read_bag(bag, topics=["/wheel/tcv", "/wheel/reaction_torque", "/scenario"]))
-    emf_limit = plant_conditions([samples])["emf_limit"]
+    plant = plant_conditions([samples])
     if out_bag.exists():
         shutil.rmtree(out_bag)
     nodes = replay_nodes(bag, out_bag, {"models": models, "thresholds": thresholds, "persistence": persistence},
-                         emf_limit, rate)
+                         plant, rate)
     with DomainLease() as lease:
         work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_replay_{bag.name}_"))
         result = GraphProcesses(nodes, lease.domain_id, work).start().run(main="player", watchdog=watchdog)
