@@ -20,7 +20,7 @@ import numpy as np
 from ..core.detection import PERSISTENCE, ThresholdCurves
 from ..core.scenario import AXES
 from .campaign import run_campaign
-from .offline import decisions, fit_thresholds, load_models, observe
+from .offline import decisions, fit_thresholds, load_models, observe, plant_conditions
 from .samples import load_samples
 from .train import train_models
 
@@ -74,8 +74,9 @@ def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, he
     t = time.monotonic()
     variants = {"teacher_1run": ("teacher", fit[:1]), f"recall_{train_runs}runs": ("recall", fit[:train_runs])}
     cards = {}
+    plant = plant_conditions(fit)
     for name, (mode, data) in variants.items():
-        cards[name] = train_models(data, out / "variants" / name, mode=mode, epochs=epochs)
+        cards[name] = train_models(data, out / "variants" / name, mode=mode, epochs=epochs, plant=plant)
     stages["training_s"] = time.monotonic() - t
 
     _log("[3/5] nominal residuals of each variant on held-out fault-free runs")
