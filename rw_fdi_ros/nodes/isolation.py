@@ -105,7 +105,7 @@ class IsolationNode(GraphNode):
             self.create_subscription(Vector3Stamped, T.residual_topic("elman", a), elman.callback(a), T.RELIABLE)
         linear = StampSync(("all",), lambda stamp, v: self._on_residual("linear", stamp, v["all"]))
         self.create_subscription(Vector3Stamped, T.residual_topic("linear"), linear.callback("all"), T.RELIABLE)
-        self.follow_run_end()
+        self.follow_run_end(period=plant["fdi_period"])
 
     def _on_residual(self, observer, stamp, residual):
         t0, c0 = time.perf_counter(), time.thread_time()

@@ -45,7 +45,7 @@ class ObserverNode(GraphNode):
         sync = StampSync(("tcv", "torque"), self._on_pair)
         self.create_subscription(Vector3Stamped, T.TCV, sync.callback("tcv"), T.RELIABLE)
         self.create_subscription(Vector3Stamped, T.REACTION_TORQUE, sync.callback("torque"), T.RELIABLE)
-        self.follow_run_end()
+        self.follow_run_end(period=self.param("fdi_period"))
 
     def observe(self, tcv, torque):
         """(estimate, residual) as 3-vectors for one FDI sample."""

@@ -55,6 +55,8 @@ class PlayerNode(GraphNode):
         self.rate = self.param("rate")
         self.period_ns = int(round(self.param("pace_period") * 1e9))
         self.window_ns = max(int(self.param("pace_window")) - 1, 0) * self.period_ns
+        fdi_rows = [t for t, topic, _ in self.rows if topic == T.REACTION_TORQUE and t % self.period_ns == 0]
+        self.last_fdi_ns = max(fdi_rows, default=-1)
         self.paced_until = -1          # consumers have finished every FDI sample up to this stamp
         self.waiting_for = None        # FDI stamp published, not yet reported done
         self.started = None
@@ -97,12 +99,17 @@ class PlayerNode(GraphNode):
                                   EXIT_TIMEOUT)
                     return
                 self.waiting_for = None
+            if topic == T.PLANT_DONE and self.rate <= 0 and self.paced_until < self.last_fdi_ns:
+                # the run's end goes out only once the consumers have finished every FDI sample
+                if now - self.last_progress > self.param("stall_timeout"):
+                    self.fail("consumers stalled at the end of the bag", EXIT_TIMEOUT)
+                return
             self.pubs[topic].publish(raw)
             if topic == T.REACTION_TORQUE and log_time % self.period_ns == 0 and self.rate <= 0:
                 self.waiting_for = log_time   # an FDI sample went out: let the consumers finish it
                 self.last_progress = now
             self.next += 1
-        if self.rate > 0 or self.paced_until >= self.rows[-1][0] - self.rows[-1][0] % self.period_ns:
+        if self.rate > 0 or self.paced_until >= self.last_fdi_ns:
             self.finish()
         elif now - self.last_progress > self.param("stall_timeout"):
             self.fail("consumers stalled at the end of the bag", EXIT_TIMEOUT)

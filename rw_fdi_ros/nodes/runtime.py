@@ -38,17 +38,23 @@ class GraphNode(Node):
         self.exit_code: int | None = None
         self.exit_message = ""
 
-    def follow_run_end(self, grace: float = 2.0):
-        """End this node once the plant has published /plant/done and this node has handled
-        that stamp (``self.last_handled``), or ``grace`` wall seconds after it."""
+    def follow_run_end(self, grace: float = 10.0, period: float = 0.0):
+        """End this node once the plant has published /plant/done and this node has handled its
+        last stamp (``self.last_handled``): the done stamp itself, or with ``period`` the last
+        multiple of it. ``grace`` wall seconds after done is only a safety net."""
         from std_msgs.msg import Header
         from . import topics as T
         from .convert import stamp_ns
         self.last_handled = -1
         self._run_end = None
 
+        period_ns = int(round(period * 1e9))
+
         def on_done(msg):
-            self._run_end = (stamp_ns(msg.stamp), time.monotonic() + grace)
+            last = stamp_ns(msg.stamp)
+            if period_ns > 0:
+                last -= last % period_ns
+            self._run_end = (last, time.monotonic() + grace)
         self.create_subscription(Header, T.PLANT_DONE, on_done, T.LATCHED)
 
     def run_ended(self) -> bool:
