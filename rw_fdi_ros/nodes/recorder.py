@@ -23,7 +23,7 @@ class RecorderNode(GraphNode):
         self.declare_parameter("output", "bags/run")          # bag directory to create
         self.declare_parameter("flush_period", 10.0)          # sim seconds between chunk flushes
         self.declare_parameter("extra_topics", Parameter.Type.STRING_ARRAY)   # 'name:pkg/msg/Type' beyond the graph's
-        self.declare_parameter("drain_timeout", 5.0)          # wall s to wait for stragglers after done
+        self.declare_parameter("drain_timeout", 5.0)          # after done: wall s without any message -> close
         self.declare_parameter("fdi_period", 0.0)             # > 0: the FDI nodes run; record their topics
         self.declare_parameter("record_plant", True)          # False: FDI outputs only (bag replay)
         try:
@@ -43,6 +43,7 @@ class RecorderNode(GraphNode):
         self.done_stamp = None
         self.done_wall = 0.0
         self.last_clock = 0
+        self.last_message_wall = wall_time()
         self.subs = []
         for name, type_name, qos in rows:
             self.bag.add_topic(name, type_name)
@@ -57,6 +58,7 @@ class RecorderNode(GraphNode):
             self.last_clock = stamp
         self.last_stamp[topic] = max(stamp, self.last_stamp.get(topic, 0))
         self.bag.write(topic, stamp, bytes(raw))
+        self.last_message_wall = wall_time()
         if topic == T.PLANT_DONE:
             self.done_stamp, self.done_wall = stamp, wall_time()
 
@@ -72,7 +74,8 @@ class RecorderNode(GraphNode):
         else:
             lagging_fdi = []
         lagging = [t for t in final if self.last_stamp.get(t, -1) < self.done_stamp] + lagging_fdi
-        if not lagging or wall_time() - self.done_wall > self.param("drain_timeout"):
+        # a loaded recorder may still be working through its queue: only silence ends the wait
+        if not lagging or wall_time() - max(self.done_wall, self.last_message_wall) > self.param("drain_timeout"):
             self.finish()
 
     def close(self):
