@@ -23,7 +23,7 @@ from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.nodes import topics as T
 from rw_fdi_ros.paths import config_dir
 from rw_fdi_ros.storage.bag import read_bag
-from rw_fdi_ros.tools.fdi import fdi_verdict, run_with_fdi
+from rw_fdi_ros.tools.fdi import run_with_fdi
 from rw_fdi_ros.tools.offline import load_models, observe
 from rw_fdi_ros.tools.samples import fdi_samples
 

@@ -1,6 +1,5 @@
 """PID design (eq. 2.36) and pointing over the Table 2.3 envelope, in the core without ROS."""
 import numpy as np
-import pytest
 
 from rw_fdi_ros.core.closed_loop import simulate, step_metrics
 from rw_fdi_ros.core.pid import design_gains, thesis_form
