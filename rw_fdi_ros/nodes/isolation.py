@@ -102,9 +102,9 @@ class IsolationNode(GraphNode):
         elman = StampSync(AXES, lambda stamp, v: self._on_residual(
             "elman", stamp, [v[a][i] for i, a in enumerate(AXES)]))
         for a in AXES:
-            self.create_subscription(Vector3Stamped, T.residual_topic("elman", a), elman.callback(a), T.RELIABLE)
+            elman.subscribe(self, a, T.residual_topic("elman", a), T.RELIABLE)
         linear = StampSync(("all",), lambda stamp, v: self._on_residual("linear", stamp, v["all"]))
-        self.create_subscription(Vector3Stamped, T.residual_topic("linear"), linear.callback("all"), T.RELIABLE)
+        linear.subscribe(self, "all", T.residual_topic("linear"), T.RELIABLE)
         self.follow_run_end(period=plant["fdi_period"])
 
     def _on_residual(self, observer, stamp, residual):

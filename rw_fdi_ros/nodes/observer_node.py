@@ -43,8 +43,8 @@ class ObserverNode(GraphNode):
                                            need - 1)
         self.pub_residual = GatedPublisher(self.create_publisher(Vector3Stamped, residual_topic, T.RELIABLE), need)
         sync = StampSync(("tcv", "torque"), self._on_pair)
-        self.create_subscription(Vector3Stamped, T.TCV, sync.callback("tcv"), T.RELIABLE)
-        self.create_subscription(Vector3Stamped, T.REACTION_TORQUE, sync.callback("torque"), T.RELIABLE)
+        sync.subscribe(self, "tcv", T.TCV, T.RELIABLE)
+        sync.subscribe(self, "torque", T.REACTION_TORQUE, T.RELIABLE)
         self.follow_run_end(period=self.param("fdi_period"))
 
     def observe(self, tcv, torque):

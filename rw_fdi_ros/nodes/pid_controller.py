@@ -13,7 +13,7 @@ from ..core.pid import PidController, design_gains
 from ..core.scenario import AXES, setpoint_at
 from ..core.spacecraft import INERTIA
 from . import topics as T
-from .convert import vector_msg
+from .convert import vector_cdr
 from .gate import GatedPublisher
 from .sync import StampSync
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
@@ -51,8 +51,8 @@ class PidControllerNode(GraphNode):
         self.sync = StampSync(("attitude", "rate"), self._on_state)
         self.pub = GatedPublisher(self.create_publisher(Vector3Stamped, T.tcv_command(axis), T.RELIABLE),
                                   self.param("min_subscribers"))
-        self.create_subscription(Vector3Stamped, T.ATTITUDE, self.sync.callback("attitude"), T.RELIABLE)
-        self.create_subscription(Vector3Stamped, T.BODY_RATE, self.sync.callback("rate"), T.RELIABLE)
+        self.sync.subscribe(self, "attitude", T.ATTITUDE, T.RELIABLE)
+        self.sync.subscribe(self, "rate", T.BODY_RATE, T.RELIABLE)
         # the run is over when the plant says so; the answer to its last sample goes out first
         self.follow_run_end()
 
@@ -65,7 +65,7 @@ class PidControllerNode(GraphNode):
         tcv = float(self.pid.update(setpoint, attitude, rate))
         command = [0.0, 0.0, 0.0]
         command[self.index] = tcv
-        self.pub.publish(vector_msg(stamp, command))
+        self.pub.publish(vector_cdr(stamp, command))
         self.last_handled = stamp
 
     def poll(self):

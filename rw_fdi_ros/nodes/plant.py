@@ -21,7 +21,7 @@ from ..core.plant import Plant
 from ..core.scenario import AXES, FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
 from ..core.wheel import WheelParams
 from . import topics as T
-from .convert import step_stamp_ns, stamp_ns, time_msg, vector_array, vector_msg
+from .convert import read_vector_cdr, step_stamp_ns, time_msg, vector_cdr
 from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, main_for, wall_time
 
 
@@ -66,7 +66,7 @@ class PlantNode(GraphNode):
         self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
         self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
         self.subs = [self.create_subscription(Vector3Stamped, T.tcv_command(a),
-                                              lambda m, i=i: self._on_command(i, m), T.RELIABLE)
+                                              lambda m, i=i: self._on_command(i, m), T.RELIABLE, raw=True)
                      for i, a in enumerate(AXES)]
         self.commands = [None, None, None]
         self.started = False
@@ -121,13 +121,13 @@ class PlantNode(GraphNode):
             self.fail(f"no torque command from axis {', '.join(missing)} for step t={self.plant.time:.1f} s "
                       f"within {self.param('command_timeout'):g} s", EXIT_TIMEOUT)
 
-    def _on_command(self, axis: int, msg):
+    def _on_command(self, axis: int, raw):
         if not self.started or self.exit_code is not None:
             return
-        expected = step_stamp_ns(self.plant.step_index, self.period)
-        if stamp_ns(msg.header.stamp) != expected:
+        stamp, values = read_vector_cdr(raw)
+        if stamp != step_stamp_ns(self.plant.step_index, self.period):
             return  # a stale or early command: the lockstep only takes this step's
-        value = float(vector_array(msg)[axis])
+        value = float(values[axis])
         if not math.isfinite(value):
             self.fail(f"torque command from axis {AXES[axis]} at t={self.plant.time:.1f} s is {value}",
                       EXIT_BAD_INPUT)
@@ -146,11 +146,13 @@ class PlantNode(GraphNode):
         self.t_wait = wall_time()
         k = self.plant.step_index
         stamp = step_stamp_ns(k, self.period)
+        # the controllers' inputs first: they compute while the rest goes out
+        for name, values in ((T.ATTITUDE, sample.attitude), (T.BODY_RATE, sample.body_rate)):
+            self.pub_vectors[name].publish(vector_cdr(stamp, values[0]))
         self.pub_clock.publish(Clock(clock=time_msg(stamp)))
-        for name, values in ((T.ATTITUDE, sample.attitude), (T.BODY_RATE, sample.body_rate),
-                             (T.WHEEL_SPEED, sample.wheel_speed), (T.TCV, sample.tcv),
+        for name, values in ((T.WHEEL_SPEED, sample.wheel_speed), (T.TCV, sample.tcv),
                              (T.REACTION_TORQUE, sample.reaction_torque), (T.FAULT_EFFECT, sample.fault_effect)):
-            self.pub_vectors[name].publish(vector_msg(stamp, values[0]))
+            self.pub_vectors[name].publish(vector_cdr(stamp, values[0]))
         self._publish_truth(stamp, sample)
         if k >= self.last_step:
             # done only once every reader has the last sample: a recorder that sees done has it all

@@ -8,6 +8,7 @@ from pathlib import Path
 from ..core.detection import PERSISTENCE
 from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_nodes
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
+from ..nodes.player import FDI_INPUTS
 from ..storage.bag import read_bag
 from .offline import plant_conditions
 from .run import RunOutcome
@@ -18,7 +19,7 @@ def replay_nodes(bag: Path, out_bag: Path, fdi: dict, plant: dict, rate: float =
     """Player + Elman x3 + linear + isolation + a recorder of the FDI outputs."""
     nodes = fdi_nodes(fdi, plant["emf_limit"], True, plant["control_period"])
     nodes.append(NodeSpec("player", "player", {"bag": str(bag), "rate": float(rate), "min_subscribers": 4,
-                                               "pace_period": FDI_PERIOD}))
+                                               "pace_period": FDI_PERIOD, "topics": FDI_INPUTS}))
     nodes.append(NodeSpec("recorder", "recorder", {"output": str(out_bag), "fdi_period": FDI_PERIOD,
                                                    "record_plant": False}))
     return nodes
