@@ -15,6 +15,11 @@ from launch.actions import DeclareLaunchArgument
 from launch_ros.actions import Node
 
 
+def config_dir():
+    from rw_fdi_ros.paths import config_dir as share_config
+    return share_config()
+
+
 def _nodes(context):
     from rw_fdi_ros.tools.run import resolve_scenario
     from rw_fdi_ros.launch.graph import graph_nodes
@@ -29,6 +34,9 @@ def generate_launch_description():
     return LaunchDescription([
         # discovery stays on this machine (ROS_LOCALHOST_ONLY is ignored from kilted on)
         SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE", os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
+        # 50 ms reliable-writer heartbeat (config/fastdds.xml): the run's end and bag replay wait on acks
+        SetEnvironmentVariable("FASTDDS_DEFAULT_PROFILES_FILE", os.environ.get(
+            "FASTDDS_DEFAULT_PROFILES_FILE", str(config_dir() / "fastdds.xml"))),
         DeclareLaunchArgument("scenario", default_value="fault_free", description="scenario name or YAML file"),
         DeclareLaunchArgument("seed", default_value="-1", description="seed (-1: the scenario's)"),
         DeclareLaunchArgument("bag", default_value="", description="bag directory to record (empty: no recorder)"),

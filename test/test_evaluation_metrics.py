@@ -111,6 +111,45 @@ def test_aggregate_counts_rates_and_seeds(tmp_path):
     assert cell["delay_s"]["values"] == [12.0, 5.0] and cell["held_to_end"]["rate"] == 0.5
     assert cell["wrong_axis_runs"] == 1
     assert cell["correctness_observable"]["n"] == 2      # fault effect 5e-3 > level 1e-3
+    assert cell["severity"] == pytest.approx(40.0)
+
+
+def test_severity_in_the_thesis_units():
+    from rw_fdi_ros.tools.metrics import severity
+    assert severity("bus_voltage", 5.5) == pytest.approx(31.25)      # "2.5 V off"
+    assert severity("bus_voltage", 6.4) == pytest.approx(20.0)       # "VBus 20 % off"
+    assert severity("current_limiter", 0.5) == pytest.approx(50.0)
+    assert severity("temperature", 83.0) == pytest.approx(60.0)
+    assert severity("ripple_gain", 1.4) == pytest.approx(40.0)
+
+
+def _cell(kind, sev, detected, correct=None, delays=()):
+    rate = lambda r, n=10: {"rate": r, "n": n}
+    stats = {"median": float(np.median(delays)), "min": min(delays), "max": max(delays), "n": len(delays),
+             "values": list(delays)} if delays else None
+    return {"kind": kind, "severity": sev, "detected": rate(detected), "correctness": rate(correct),
+            "held_to_end": rate(1.0 if detected else None, 10 if detected else 0), "delay_s": stats,
+            "time_above_s": None}
+
+
+def test_headline_smallest_detected_and_table42_cells():
+    from rw_fdi_ros.tools.report import headline, smallest_detected
+    cells = [_cell("bus_voltage", 10.0, 0.1), _cell("bus_voltage", 20.0, 0.5, delays=(20.0, 30.0)),
+             _cell("bus_voltage", 31.25, 0.9, correct=0.8, delays=(9.0,)), _cell("current_limiter", 20.0, 0.0),
+             _cell("temperature", 60.0, 0.4), _cell("temperature", 150.0, 1.0, correct=1.0, delays=(12.0,))]
+    assert smallest_detected(cells, "bus_voltage")["severity"] == 20.0
+    assert smallest_detected(cells, "current_limiter") is None
+    assert smallest_detected(cells, "temperature")["severity"] == 150.0
+    figures = {"elman": {"reliability": {"runs": 100, "x": 0.97, "y": 1.0, "z": 0.95},
+                         "false_alarm_heldout": {"rate": 0.05, "n": 20},
+                         "false_alarm_disturbance": {"rate": 0.0, "n": 20}, "faults": cells}}
+    rows = dict(headline(figures))
+    assert rows["threshold reliability x/y/z"]["elman"] == ("97/100/96 %", "97/100/95 % (n=100)")
+    assert rows["correctness, VBus 2.5 V off"]["elman"] == ("95 %", "80 % (n=10)")
+    assert rows["correctness, 40 % current loss"]["elman"][1] == "-"
+    assert rows["smallest fault detected in >= 50 % of its runs"]["elman"][1] == "VBus 20 % / current none / +150 C"
+    assert rows["detection delay at those sizes"]["elman"][1].startswith("median 20 s")
+    assert rows["alarm held after detection"]["elman"][1] == "held to end in 100 % of 50 detections"
 
 
 def test_fdi_sampler_mean_and_instant():

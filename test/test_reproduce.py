@@ -130,3 +130,16 @@ def test_dask_local_cluster_gives_the_same_bags_as_local_processes(tmp_path, stu
         a, b = read_bag(bag), read_bag(tmp_path / "dask" / bag.name)
         for topic in (T.ATTITUDE, T.REACTION_TORQUE, T.tcv_command("z")):
             np.testing.assert_array_equal(a.vectors(topic)[1], b.vectors(topic)[1])
+
+
+def test_a_resumed_study_keeps_its_stage_times(study):
+    """Run last: reproducing again finds every stage done, keeps the first session's figures, adds a session."""
+    out, first = study
+    again = reproduce(out, "small")
+    for stage in ("record fit", "record table42", "train", "evaluate (replay)"):
+        assert again["stages"][stage] == first["stages"][stage]
+    sessions = again["provenance"]["sessions"]
+    assert len(sessions) == 2 and all(s["commit"] == sessions[0]["commit"] for s in sessions)
+    assert again["stages"]["total"]["seconds"] > first["stages"]["total"]["seconds"]
+    assert "Sessions (a resumed study" in (out / "report" / "report.md").read_text()
+    validate_report(json.loads((out / "report" / "report.json").read_text()))

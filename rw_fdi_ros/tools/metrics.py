@@ -132,13 +132,25 @@ def fault_label(run: RunEval) -> tuple:
     if len(kinds) != 1:
         return ("multiple", "+".join(kinds))
     f = run.faults[0]
+    sev = severity(f.kind, f.value)
     if f.kind == "bus_voltage":
-        return ("bus_voltage", f"{round(100 * (1 - f.value / 8.0))}% off ({f.value:g} V)")
+        return ("bus_voltage", f"{round(sev)}% off ({f.value:g} V)")
     if f.kind == "current_limiter":
-        return ("current_limiter", f"{round(100 * (1 - f.value))}% loss")
+        return ("current_limiter", f"{round(sev)}% loss")
     if f.kind == "temperature":
-        return ("temperature", f"+{f.value - 23.0:g} C")
-    return (f.kind, f"+{round(100 * (f.value - 1))}%")
+        return ("temperature", f"+{sev:g} C")
+    return (f.kind, f"+{round(sev)}%")
+
+
+def severity(kind: str, value: float) -> float:
+    """How far a fault is from nominal in the thesis' own units: % off, % loss, degrees C, % ripple."""
+    if kind == "bus_voltage":
+        return 100.0 * (1.0 - value / 8.0)
+    if kind == "current_limiter":
+        return 100.0 * (1.0 - value)
+    if kind == "temperature":
+        return value - 23.0
+    return 100.0 * (value - 1.0)
 
 
 def _rate(flags):
@@ -163,7 +175,10 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict) -> dict:
             if r.category in ("single", "multiple"):
                 groups.setdefault(fault_label(r), []).append(r)
         cells = []
-        for (kind, size), members in sorted(groups.items()):
+        def order(item):
+            (kind, _), members = item
+            return kind, max(severity(f.kind, f.value) for f in members[0].faults)
+        for (kind, size), members in sorted(groups.items(), key=order):
             v = [verdicts[r.bag] for r in members]
             observable = [r for r in members if all(
                 r.fault_effect_peak[AXES.index(a)] > observable_level[obs][a] for a in r.faulty_axes)]
@@ -171,6 +186,8 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict) -> dict:
             det = [f for f in figs if f["detected"]]
             cells.append({
                 "kind": kind, "size": size, "runs": len(members), "seeds": [r.seed for r in members],
+                "severity": None if kind == "multiple" else severity(members[0].faults[0].kind,
+                                                                     members[0].faults[0].value),
                 "axes": sorted({a for r in members for a in r.faulty_axes}),
                 "correctness": _rate(x["correct"] for x in v),
                 "correctness_observable": _rate(verdicts[r.bag]["correct"] for r in observable),

@@ -98,6 +98,48 @@ def _commit():
         return ""
 
 
+class StageClock:
+    """Stage times of a study over all its sessions (a resumed study adds to what it already spent).
+
+    Kept in ``<out>/stages.json``: per stage the seconds and runs done, summed over sessions for
+    stages that resume (recording, evaluation) and replaced for stages that are redone whole
+    (threshold fitting); a stage that found nothing to do keeps its earlier figures.
+    """
+
+    def __init__(self, out: Path, command: str):
+        self.path = out / "stages.json"
+        self.data = {"stages": {}, "sessions": []}
+        if self.path.exists():
+            self.data = json.loads(self.path.read_text())
+        else:   # a study begun before stages.json existed: its report holds the first session
+            old = out / "report" / "report.json"
+            if old.exists():
+                prev = json.loads(old.read_text())
+                self.data["stages"] = {k: v for k, v in prev.get("stages", {}).items() if k != "total"}
+                if "total" in prev.get("stages", {}):
+                    self.data["sessions"].append({**prev.get("provenance", {}),
+                                                  "seconds": prev["stages"]["total"]["seconds"]})
+        self.session = {"command": command, "commit": _commit(), "seconds": 0.0}
+        self.data["sessions"].append(self.session)
+        self.t0 = time.monotonic()
+
+    def add(self, name: str, seconds: float, runs: int, redo: bool = False):
+        old = self.data["stages"].get(name)
+        if old is None or redo:
+            self.data["stages"][name] = {"seconds": seconds, "runs": runs}
+        elif runs:
+            self.data["stages"][name] = {"seconds": old["seconds"] + seconds, "runs": old["runs"] + runs}
+        self.save()
+
+    def save(self):
+        self.session["seconds"] = time.monotonic() - self.t0
+        self.path.write_text(json.dumps(self.data, indent=1))
+
+    def stages(self) -> dict:
+        total = sum(s["seconds"] for s in self.data["sessions"])
+        return {**self.data["stages"], "total": {"seconds": total, "runs": None}}
+
+
 def reproduce(out, scale_name: str = "small", executor=None, persistence: int = PERSISTENCE) -> dict:
     from .evaluate import evaluate
     from .offline import fit_thresholds, load_models, plant_conditions
@@ -105,9 +147,9 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int = 
     from .train import train_models
     out = Path(out)
     s = SCALES[scale_name]
-    t0 = time.monotonic()
-    stages = {}
     jobs = plan(out, scale_name)
+    command = f"rw-fdi reproduce --out {out} --scale {scale_name}"
+    clock = StageClock(out, command)
     print(f"reproduce ({scale_name}): {sum(j[2] for j in jobs)} runs in {len(jobs)} campaigns -> {out}",
           file=sys.stderr, flush=True)
     for group in ("fit", "heldout", "table42", "grid", "ripple", "multiple"):
@@ -121,25 +163,29 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int = 
                 if res.failed:
                     print(f"{len(res.failed)} runs failed in {Path(scenario).stem}: {res.failed[0][1]}",
                           file=sys.stderr)
-        stages[f"record {group}"] = {"seconds": time.monotonic() - t, "runs": n}
+        clock.add(f"record {group}", time.monotonic() - t, n)
 
     models = out / "models"
     t = time.monotonic()
     fit = load_samples(out / "bags" / "fit", on_skip=lambda m: print(f"skipped {m}", file=sys.stderr))
     if not (models / "model_set.json").exists():
         train_models(fit[:s.train_runs], models, mode="recall", epochs=s.epochs, plant=plant_conditions(fit))
-    stages["train"] = {"seconds": time.monotonic() - t, "runs": min(len(fit), s.train_runs)}
+        clock.add("train", time.monotonic() - t, min(len(fit), s.train_runs), redo=True)
     t = time.monotonic()
     fit_thresholds(fit, load_models(models), models, model_ref=str(models))
-    stages["fit thresholds"] = {"seconds": time.monotonic() - t, "runs": len(fit)}
+    clock.add("fit thresholds", time.monotonic() - t, len(fit), redo=True)
     t = time.monotonic()
+    replays = out / "report" / "replays"
+    before = sum(1 for _ in replays.iterdir()) if replays.is_dir() else 0
     report = evaluate(out / "bags", out / "report", models=models, thresholds=models, persistence=persistence,
                       executor=executor)
-    stages["evaluate (replay)"] = {"seconds": time.monotonic() - t, "runs": report["runs"]}
-    stages["total"] = {"seconds": time.monotonic() - t0, "runs": sum(j[2] for j in jobs)}
-    report["stages"] = stages
-    report["provenance"] = {"command": f"rw-fdi reproduce --out {out} --scale {scale_name}", "commit": _commit(),
-                            "scale": scale_name}
+    after = sum(1 for _ in replays.iterdir()) if replays.is_dir() else 0
+    clock.add("evaluate (replay)", time.monotonic() - t, after - before)
+    clock.save()
+    report["stages"] = clock.stages()
+    report["stages"]["total"]["runs"] = sum(j[2] for j in jobs)
+    report["provenance"] = {"command": command, "commit": clock.session["commit"], "scale": scale_name,
+                            "sessions": clock.data["sessions"]}
     from .report import write_markdown
     write_markdown(report, out / "report" / "report.md")
     (out / "report" / "report.json").write_text(json.dumps(report, indent=1))
