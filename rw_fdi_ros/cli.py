@@ -137,9 +137,11 @@ def _cmd_scenarios(args) -> int:
 
 
 def _cmd_bench(args) -> int:
-    from .tools.bench import bench_fdi, bench_graph
-    bench = bench_graph if args.what == "graph" else bench_fdi
-    report = bench(duration=args.duration, seed=args.seed)
+    from .tools.bench import bench_fdi, bench_graph, bench_study
+    if args.what == "study":
+        report = bench_study(runs=args.runs, duration=args.duration, seed=args.seed, jobs=args.jobs)
+    else:
+        report = (bench_graph if args.what == "graph" else bench_fdi)(duration=args.duration, seed=args.seed)
     print(json.dumps({k: v for k, v in report.items() if k != "text"}, indent=2) if args.json else report["text"])
     return 0 if report["ok"] else 1
 
@@ -244,9 +246,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_scenarios)
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
-    b.add_argument("what", choices=["graph", "fdi"],
+    b.add_argument("what", choices=["graph", "fdi", "study"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
-                        "node callback times and memory")
+                        "node callback times and memory; study: record and replay throughput and the "
+                        "thesis-scale reproduce time they give")
+    b.add_argument("--runs", type=int, default=8, help="study: runs to record and replay")
+    b.add_argument("--jobs", type=int, default=None, help="study: runs at a time (default: 2)")
     b.add_argument("--duration", type=float, default=400.0)
     b.add_argument("--seed", type=int, default=1)
     b.add_argument("--json", action="store_true")

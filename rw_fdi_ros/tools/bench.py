@@ -100,3 +100,43 @@ def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
               if "callback_median_ms" in rep else " " * 86)
         lines.append(f"  {name:18s} {cb}  max RSS {rep['max_rss_mb']:6.1f} MB  cpu {rep['cpu_s']:5.2f} s")
     return {"ok": outcome.ok, "compute_us": compute, "nodes": nodes, "text": "\n".join(lines)}
+
+
+def bench_study(runs: int = 8, duration: float = 400.0, seed: int = 1, jobs: int | None = None) -> dict:
+    """Throughput of the two stages that dominate `rw-fdi reproduce`: recording runs and replaying bags,
+    and what that makes of the thesis-scale study."""
+    import time
+    from ..paths import config_dir
+    from .campaign import LocalExecutor, run_campaign
+    from .replay import replay_bag
+    from .reproduce import SCALES, plan
+    out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_study_"))
+    scenario = out / "bench_study.yaml"
+    scenario.write_text(f"name: bench_study\nduration: {duration}\nseed: {seed}\n"
+                        f"faults: [{{kind: current_limiter, wheel: x, onset: {duration / 2:g}, value: 0.6}}]\n")
+    executor = LocalExecutor(jobs)
+    t0 = time.monotonic()
+    rec = run_campaign(str(scenario), runs, seed, out / "bags", executor=executor, desc="bench: record")
+    t_rec = time.monotonic() - t0
+    fdi = config_dir() / "fdi"
+    t0 = time.monotonic()
+    replays = list(executor.map_unordered(
+        lambda bag: replay_bag(bag, out / "replays" / bag.name, models=fdi, thresholds=fdi), rec.done))
+    t_rep = time.monotonic() - t0
+    ok = not rec.failed and len(rec.done) == runs and all(r.ok for r in replays)
+    study = sum(n for _, _, n, _ in plan(out / "plan", "thesis"))
+    per_rec, per_rep = t_rec / max(runs, 1), t_rep / max(len(replays), 1)
+    projected = study * (per_rec + per_rep)
+    lines = [f"study bench: {runs} runs of {duration:g} s, {executor.jobs} at a time ({os.cpu_count()} cores)",
+             f"  record  {t_rec:6.1f} s  -> {per_rec:5.2f} s per run,  {60 / per_rec:5.1f} runs/min",
+             f"  replay  {t_rep:6.1f} s  -> {per_rep:5.2f} s per bag,  {60 / per_rep:5.1f} bags/min",
+             f"  thesis scale ({study} runs, each recorded and replayed): ~{projected / 60:.0f} min "
+             "plus training and fitting (~2 min)" if duration == SCALES["thesis"].duration else
+             f"  (thesis-scale projection only for {SCALES['thesis'].duration:g} s runs)"]
+    if not ok:
+        lines.append(f"  FAILED: {rec.failed[:1] or [r.reason for r in replays if not r.ok][:1]}")
+    import shutil
+    shutil.rmtree(out, ignore_errors=True)
+    return {"ok": ok, "runs": runs, "jobs": executor.jobs, "record_s_per_run": per_rec,
+            "replay_s_per_bag": per_rep, "thesis_runs": study, "thesis_projected_min": projected / 60,
+            "text": "\n".join(lines)}
