@@ -21,7 +21,7 @@ from ..nodes import topics as T
 from ..paths import config_dir
 from ..storage.bag import BagError, bag_is_complete, read_bag
 from .campaign import LocalExecutor, _progress
-from .metrics import OBSERVERS, RunEval, aggregate, scenario_of, series_from_bag
+from .metrics import OBSERVERS, RunEval, aggregate, fdi_output_topics, scenario_of, series_from_bag
 from ..launch.graph import FDI_SAMPLING
 from .offline import DEFAULT_PLANT, load_models
 from .replay import replay_bag
@@ -56,7 +56,7 @@ def evaluate_bag(bag: Path, replays: Path, curves: dict, models, thresholds, per
         outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence)
         if not outcome.ok:
             raise BagError(f"{bag.name}: replay failed: {outcome.reason}")
-    series = series_from_bag(read_bag(out))
+    series = series_from_bag(read_bag(out, topics=fdi_output_topics()))
     t, effect = data.vectors(T.FAULT_EFFECT)
     onset = min((f.onset for f in scenario.faults), default=None)
     peak = np.abs(effect[t >= onset]).max(axis=0) if onset is not None and len(t) else np.zeros(3)

@@ -60,6 +60,12 @@ class RunEval:
         return "multiple" if len(self.faulty_axes) > 1 else "single"
 
 
+def fdi_output_topics() -> list:
+    """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more)."""
+    rows = [T.residual_topic("elman", a) for a in AXES] + [T.residual_topic("linear")]
+    return rows + [t for obs in OBSERVERS for k, t in T.fdi_output_topics(obs).items() if k != "status"]
+
+
 def series_from_bag(data) -> dict:
     """observer -> Series from a bag holding the isolation node's outputs and the residuals."""
     out = {}

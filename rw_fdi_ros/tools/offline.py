@@ -53,12 +53,12 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
 
 
 def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
-    """The plant choices the bags were recorded under; they must all agree."""
+    """The plant choices the bags were recorded under (FdiSamples or bag paths); they must all agree."""
     import yaml
     from ..storage.bag import read_bag
     seen = set()
     for s in samples_list:
-        text = read_bag(s.bag, topics=["/scenario"]).scenario_text or ""
+        text = read_bag(getattr(s, "bag", s), topics=["/scenario"]).scenario_text or ""
         plant = {**DEFAULT_PLANT, **((yaml.safe_load(text) or {}).get("plant") or {})}
         seen.add(tuple(sorted(plant.items())))
     if len(seen) != 1:

@@ -9,10 +9,8 @@ from ..core.detection import PERSISTENCE
 from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_nodes
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
 from ..nodes.player import FDI_INPUTS
-from ..storage.bag import read_bag
 from .offline import plant_conditions
 from .run import RunOutcome
-from .samples import fdi_samples
 
 
 def replay_nodes(bag: Path, out_bag: Path, fdi: dict, plant: dict, rate: float = 0.0):
@@ -29,8 +27,7 @@ def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int = PE
                keep_logs: bool = False, watchdog: float = 300.0) -> RunOutcome:
     """Replay ``bag``; the FDI outputs of the replay are recorded to ``out_bag``."""
     bag, out_bag = Path(bag), Path(out_bag)
-    samples = fdi_samples(read_bag(bag, topics=["/wheel/tcv", "/wheel/reaction_torque", "/scenario"]))
-    plant = plant_conditions([samples])
+    plant = plant_conditions([bag])
     if out_bag.exists():
         shutil.rmtree(out_bag)
     nodes = replay_nodes(bag, out_bag, {"models": models, "thresholds": thresholds, "persistence": persistence},
