@@ -55,7 +55,7 @@ def evaluate_bag(bag: Path, replays: Path, curves: dict, models, thresholds, per
     if not bag_is_complete(out):
         outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence)
         if not outcome.ok and "stalled" in outcome.reason:
-            # about 1 replay in 200 under full load: a consumer's DDS reader matched the player's writer
+            # 3 replays in 580 under full load: most likely a consumer's DDS reader matched the player's writer
             # only after the first burst, lost it, and the paced player waits for it forever; a fresh
             # graph replays the bag from the start (the FDI nodes keep no state between graphs)
             outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence)
