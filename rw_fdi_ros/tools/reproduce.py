@@ -176,11 +176,13 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int = 
     clock.add("fit thresholds", time.monotonic() - t, len(fit), redo=True)
     t = time.monotonic()
     replays = out / "report" / "replays"
-    before = sum(1 for _ in replays.iterdir()) if replays.is_dir() else 0
+    def replayed():   # complete replays only: a stalled one leaves an incomplete directory behind
+        from ..storage.bag import bag_is_complete
+        return sum(bag_is_complete(p) for p in replays.iterdir()) if replays.is_dir() else 0
+    before = replayed()
     report = evaluate(out / "bags", out / "report", models=models, thresholds=models, persistence=persistence,
                       executor=executor)
-    after = sum(1 for _ in replays.iterdir()) if replays.is_dir() else 0
-    clock.add("evaluate (replay)", time.monotonic() - t, after - before)
+    clock.add("evaluate (replay)", time.monotonic() - t, replayed() - before)
     clock.save()
     report["stages"] = clock.stages()
     report["stages"]["total"]["runs"] = sum(j[2] for j in jobs)
