@@ -114,6 +114,15 @@ def test_aggregate_counts_rates_and_seeds(tmp_path):
     assert cell["severity"] == pytest.approx(40.0)
 
 
+def test_false_alarm_before_onset_of_faulty_runs(tmp_path):
+    runs = [run_eval(make_bag(tmp_path / "early", FAULT_X, {"y": [(10, 20)], "x": [(62, 1000)]}, seed=7)),
+            run_eval(make_bag(tmp_path / "clean", FAULT_X, {"x": [(62, 1000)]}, seed=8)),
+            run_eval(make_bag(tmp_path / "late", FAULT_X, {"z": [(80, 90)]}, seed=9))]
+    level = {obs: {a: 1e-3 for a in AXES} for obs in T.OBSERVERS}
+    rep = aggregate(runs, {"elman": [], "linear": []}, level)["elman"]
+    assert rep["false_alarm_before_onset"] == {"rate": pytest.approx(1 / 3), "n": 3, "alarmed_seeds": [7]}
+
+
 def test_severity_in_the_thesis_units():
     from rw_fdi_ros.tools.metrics import severity
     assert severity("bus_voltage", 5.5) == pytest.approx(31.25)      # "2.5 V off"

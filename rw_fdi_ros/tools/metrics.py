@@ -10,7 +10,8 @@ truth). Definitions (evaluation.md, our choices where it is open):
 - gap [N m]: detected: largest residual - threshold after onset;
   missed: smallest threshold - residual after onset;
 - correct: every faulty axis detected and no other axis alarmed at any time;
-- false alarm (fault-free, ripple runs): any axis alarmed at any time.
+- false alarm (fault-free, ripple runs): any axis alarmed at any time;
+  also, over the faulty runs, any alarm before the onset (their fault-free part).
 """
 from __future__ import annotations
 
@@ -176,6 +177,10 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict) -> dict:
         dist = [r for r in runs if r.category == "disturbance"]
         rep["false_alarm_disturbance"] = {**_rate(verdicts[r.bag]["false_alarm"] for r in dist),
                                           "seeds": [r.seed for r in dist]}
+        # the fault-free first part of every faulty run: 27x the held-out runs' sample of fault-free time
+        faulty = [r for r in runs if r.category in ("single", "multiple")]
+        early = [bool(r.series[obs].alarm[r.series[obs].time < r.onset].any()) for r in faulty]
+        rep["false_alarm_before_onset"] = {**_rate(early), "alarmed_seeds": [r.seed for r, e in zip(faulty, early) if e]}
         groups = {}
         for r in runs:
             if r.category in ("single", "multiple"):
