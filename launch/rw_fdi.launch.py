@@ -13,11 +13,7 @@ from launch.actions import OpaqueFunction, SetEnvironmentVariable
 from launch.substitutions import LaunchConfiguration
 from launch.actions import DeclareLaunchArgument
 from launch_ros.actions import Node
-
-
-def config_dir():
-    from rw_fdi_ros.paths import config_dir as share_config
-    return share_config()
+from rw_fdi_ros.paths import fastdds_profiles
 
 
 def _nodes(context):
@@ -35,8 +31,7 @@ def generate_launch_description():
         # discovery stays on this machine (ROS_LOCALHOST_ONLY is ignored from kilted on)
         SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE", os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
         # 50 ms reliable-writer heartbeat (config/fastdds.xml): the run's end and bag replay wait on acks
-        SetEnvironmentVariable("FASTDDS_DEFAULT_PROFILES_FILE", os.environ.get(
-            "FASTDDS_DEFAULT_PROFILES_FILE", str(config_dir() / "fastdds.xml"))),
+        SetEnvironmentVariable("FASTDDS_DEFAULT_PROFILES_FILE", fastdds_profiles() or ""),
         DeclareLaunchArgument("scenario", default_value="fault_free", description="scenario name or YAML file"),
         DeclareLaunchArgument("seed", default_value="-1", description="seed (-1: the scenario's)"),
         DeclareLaunchArgument("bag", default_value="", description="bag directory to record (empty: no recorder)"),

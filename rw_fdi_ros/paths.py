@@ -23,5 +23,12 @@ def config_dir() -> Path:
         return local
 
 
+def fastdds_profiles() -> str | None:
+    """FASTDDS_DEFAULT_PROFILES_FILE for the graph: the user's own, else config/fastdds.xml (50 ms
+    reliable-writer heartbeat: a run's end and paced bag replay wait on acknowledgements)."""
+    profiles = config_dir() / "fastdds.xml"
+    return os.environ.get("FASTDDS_DEFAULT_PROFILES_FILE") or (str(profiles) if profiles.is_file() else None)
+
+
 def bags_dir() -> Path:
     return Path(os.environ.get("RW_FDI_BAGS", Path.cwd() / "bags"))

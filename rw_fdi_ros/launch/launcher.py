@@ -21,7 +21,7 @@ from pathlib import Path
 
 import yaml
 
-from ..paths import config_dir
+from ..paths import fastdds_profiles
 
 DOMAIN_RANGE = range(101, 233)   # 0..232 is valid; low ids stay free for people's own graphs
 _LOCK_DIR = Path(tempfile.gettempdir()) / "rw_fdi_ros_domains"
@@ -65,10 +65,8 @@ def ros_environment(domain_id: int, log_dir: Path) -> dict:
     env = dict(os.environ)
     env.update(ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                ROS_LOG_DIR=str(log_dir), RMW_IMPLEMENTATION="rmw_fastrtps_cpp", PYTHONUNBUFFERED="1")
-    # our Fast DDS defaults (50 ms heartbeat, see config/fastdds.xml) unless the user brings their own
-    profiles = config_dir() / "fastdds.xml"
-    if profiles.is_file():
-        env.setdefault("FASTDDS_DEFAULT_PROFILES_FILE", str(profiles))
+    if fastdds_profiles():
+        env["FASTDDS_DEFAULT_PROFILES_FILE"] = fastdds_profiles()
     env.pop("ROS_LOCALHOST_ONLY", None)   # ignored by kilted; do not pretend it helps
     env.pop("ROS_STATIC_PEERS", None)
     return env

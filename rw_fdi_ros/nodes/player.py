@@ -103,16 +103,13 @@ class PlayerNode(GraphNode):
                     return
                 self.waiting_for = None
             if topic == T.PLANT_DONE and self.rate <= 0 and self.paced_until < self.last_fdi_ns:
-                # the run's end goes out only once the consumers have finished every FDI sample
-                if now - self.last_progress > self.param("stall_timeout"):
-                    self.fail("consumers stalled at the end of the bag", EXIT_TIMEOUT)
-                return
+                break   # the run's end goes out only once the consumers have finished every FDI sample
             self.pubs[topic].publish(raw)
             if topic == T.REACTION_TORQUE and log_time % self.period_ns == 0 and self.rate <= 0:
                 self.waiting_for = log_time   # an FDI sample went out: let the consumers finish it
                 self.last_progress = now
             self.next += 1
-        if self.rate > 0 or self.paced_until >= self.last_fdi_ns:
+        if self.next == len(self.rows) and (self.rate > 0 or self.paced_until >= self.last_fdi_ns):
             self.finish()
         elif now - self.last_progress > self.param("stall_timeout"):
             self.fail("consumers stalled at the end of the bag", EXIT_TIMEOUT)

@@ -1,6 +1,8 @@
 """Pairing of messages that belong to the same sim-time stamp, across topics."""
 from __future__ import annotations
 
+from geometry_msgs.msg import Vector3Stamped
+
 from .convert import read_vector_cdr
 
 
@@ -20,7 +22,6 @@ class StampSync:
 
     def subscribe(self, node, name: str, topic: str, qos):
         """A raw subscription of ``node`` to ``topic`` feeding input ``name``."""
-        from geometry_msgs.msg import Vector3Stamped
         return node.create_subscription(Vector3Stamped, topic, self.callback(name), qos, raw=True)
 
     def add(self, name, stamp, values):

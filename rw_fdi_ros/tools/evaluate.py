@@ -54,11 +54,6 @@ def evaluate_bag(bag: Path, replays: Path, curves: dict, models, thresholds, per
     out = replays / bag.name
     if not bag_is_complete(out):
         outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence)
-        if not outcome.ok and "stalled" in outcome.reason:
-            # 3 replays in 580 under full load: most likely a consumer's DDS reader matched the player's writer
-            # only after the first burst, lost it, and the paced player waits for it forever; a fresh
-            # graph replays the bag from the start (the FDI nodes keep no state between graphs)
-            outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence)
         if not outcome.ok:
             raise BagError(f"{bag.name}: replay failed: {outcome.reason}")
     series = series_from_bag(read_bag(out, topics=fdi_output_topics()))
