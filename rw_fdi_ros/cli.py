@@ -14,8 +14,8 @@ def _cmd_run(args) -> int:
     nodes = "plant, 3 PID controllers, recorder"
     if args.fdi:
         from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
-        check_fdi_files(args.models, args.thresholds,
-                        {**scenario.plant, **({"emf_limit": args.emf_limit} if args.emf_limit else {})})
+        check_fdi_files(args.models, args.thresholds, scenario.plant_choices(emf_limit=args.emf_limit),
+                        args.fdi_method)
         nodes = "plant, 3 PID controllers, 3 Elman observers, linear observer, isolation, recorder"
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
           f" ({nodes}; private DDS domain)", flush=True)
@@ -23,13 +23,14 @@ def _cmd_run(args) -> int:
                   command_timeout=args.command_timeout)
     if args.fdi:
         outcome = run_with_fdi(args.scenario, models=args.models, thresholds=args.thresholds,
-                               persistence=args.persistence, figure=True, **common)
+                               persistence=args.persistence, figure=True, method=args.fdi_method, **common)
     else:
         outcome = run_scenario(args.scenario, **common)
     if outcome.summary:
         print(format_summary(outcome.summary))
         if "fdi" in outcome.summary:
-            print(f"fault detection and isolation (persistence P = {args.persistence}):")
+            print(f"fault detection and isolation ({args.fdi_method}"
+                  + (f", persistence P = {args.persistence}" if args.persistence else "") + "):")
             print(format_verdict(outcome.summary["fdi"]))
             print(f"  figure: {outcome.summary.get('figure')}")
     if not outcome.ok:
@@ -83,7 +84,8 @@ def _cmd_train(args) -> int:
     samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
     if args.runs:
         samples = samples[:args.runs]
-    card = train_models(samples, args.out, mode=args.mode, epochs=args.epochs, plant=plant_conditions(samples))
+    card = train_models(samples, args.out, mode=args.mode, epochs=args.epochs, plant=plant_conditions(samples),
+                        speed_aware=args.fdi_method == "speed_aware")
     print(f"trained 3 Elman networks ({args.mode} mode) on {len(samples)} runs in {card['train_seconds']:.0f} s "
           f"-> {args.out}")
     for a, c in card["axes"].items():
@@ -92,7 +94,7 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_fit(args) -> int:
-    from .tools.offline import fit_thresholds, load_models
+    from .tools.offline import fdi_method_of, fit_thresholds, load_models
     from .tools.samples import load_samples
     from .paths import config_dir
     import time
@@ -100,10 +102,18 @@ def _cmd_fit(args) -> int:
     models = load_models(models_dir)
     t0 = time.monotonic()
     samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
-    reliability = fit_thresholds(samples, models, args.out, model_ref=str(models_dir))
-    print(f"threshold curves from {len(samples)} fault-free runs in {time.monotonic() - t0:.0f} s -> {args.out}")
-    for obs, rel in reliability.items():
-        print(f"  {obs:7s} reliability " + "  ".join(f"{a}={v * 100:.0f}%" for a, v in rel.items()))
+    if not 0.0 < args.false_alarm_rate < 1.0:
+        raise ValueError(f"--false-alarm-rate must lie in (0, 1), got {args.false_alarm_rate}")
+    result = fit_thresholds(samples, models, args.out, model_ref=str(models_dir),
+                            false_alarm_rate=args.false_alarm_rate, persistence=args.persistence)
+    print(f"thresholds from {len(samples)} fault-free runs in {time.monotonic() - t0:.0f} s -> {args.out}")
+    speed_aware = fdi_method_of(models) == "speed_aware"
+    for obs, row in result.items():
+        if speed_aware:
+            print(f"  {obs:7s} band c [1e-3 N m] " + "  ".join(f"{a}={v * 1e3:.4f}" for a, v in row.items())
+                  + f"  (per-run false-alarm rate {args.false_alarm_rate:g})")
+        else:
+            print(f"  {obs:7s} reliability " + "  ".join(f"{a}={v * 100:.0f}%" for a, v in row.items()))
     return 0
 
 
@@ -112,19 +122,30 @@ def _cmd_defaults(args) -> int:
     from .paths import config_dir
     report = regenerate_defaults(work=args.work, out=args.out or config_dir() / "fdi", fit_runs=args.fit_runs,
                                  heldout_runs=args.heldout_runs, train_runs=args.train_runs, epochs=args.epochs,
-                                 executor=_executor(args))
+                                 executor=_executor(args), false_alarm_rate=args.false_alarm_rate)
     print(format_report(report))
     return 0
+
+
+def parse_seeds(text: str, option: str) -> range:
+    """'A..B' (inclusive) or 'A' -> range; a one-line ValueError naming the option otherwise."""
+    first, sep, last = text.partition("..")
+    try:
+        a, b = int(first), int(last if sep else first)
+    except ValueError:
+        raise ValueError(f"{option} must be A..B or A with whole numbers, got {text!r}") from None
+    if b < a:
+        raise ValueError(f"{option} {text}: the last seed is below the first")
+    return range(a, b + 1)
 
 
 def _cmd_screen(args) -> int:
     from .core.scenario import load_scenario
     from .tools.screen import format_screen, screen
-    first, _, last = args.seeds.partition("..")
-    seeds = range(int(first), int(last or first) + 1)
+    seeds = parse_seeds(args.seeds, "--seeds")
     for name in args.scenario:
         print(format_screen(name, screen(load_scenario(name), seeds, args.models, args.thresholds,
-                                         args.persistence)))
+                                         args.persistence, args.fdi_method)))
     return 0
 
 
@@ -140,6 +161,10 @@ def _cmd_bench(args) -> int:
     from .tools.bench import bench_fdi, bench_graph, bench_study
     if args.what == "study":
         report = bench_study(runs=args.runs, duration=args.duration, seed=args.seed, jobs=args.jobs)
+    elif args.what == "detection":
+        from .tools.detection_bench import bench_detection
+        report = bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell,
+                                 out=args.out)
     else:
         report = (bench_graph if args.what == "graph" else bench_fdi)(duration=args.duration, seed=args.seed)
     print(json.dumps({k: v for k, v in report.items() if k != "text"}, indent=2) if args.json else report["text"])
@@ -162,7 +187,7 @@ def _cmd_bag(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .core.detection import PERSISTENCE
+    from .core.detection import FALSE_ALARM_RATE, METHODS
     p = argparse.ArgumentParser(prog="rw-fdi", description="Reaction-wheel FDI on a ROS 2 node graph.")
     sub = p.add_subparsers(dest="command", required=True)
 
@@ -178,7 +203,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="without the observers and isolation (plant, controllers, recorder only)")
     r.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
     r.add_argument("--thresholds", default=None, help="threshold curve directory (default: config/fdi)")
-    r.add_argument("--persistence", type=int, default=PERSISTENCE, help="samples above the curve before an alarm (P)")
+    r.add_argument("--persistence", type=int, default=None,
+                   help="samples above the threshold before an alarm (P; default: the threshold file's)")
+    r.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
+                   help="speed_aware (ours: wheel speed, signed residual, designed false-alarm rate) or thesis "
+                        "(2-input Elman, |r - r^|, mean + 3 sigma curves); picks config/fdi or config/fdi/thesis")
     r.set_defaults(func=_cmd_run)
 
     c = sub.add_parser("campaign", help="record N runs of a scenario (seeds S..S+N-1), resumable")
@@ -198,12 +227,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="recall: trained on its own feedback (ours); teacher: delayed measured torque (thesis)")
     t.add_argument("--runs", type=int, default=None, help="use only the first N bags (thesis: 1)")
     t.add_argument("--epochs", type=int, default=300)
+    t.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
+                   help="speed_aware: 3 inputs with the wheel speed (ours); thesis: 2 inputs")
     t.set_defaults(func=_cmd_train)
 
-    f = sub.add_parser("fit-thresholds", help="fit mean + 3 sigma threshold curves from fault-free bags")
+    f = sub.add_parser("fit-thresholds", help="fit the thresholds of both observers from fault-free bags "
+                                              "(speed_aware models: bands for a designed false-alarm rate; "
+                                              "thesis models: mean + 3 sigma curves)")
     f.add_argument("--bags", required=True)
     f.add_argument("--out", required=True)
     f.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
+    f.add_argument("--false-alarm-rate", type=float, default=FALSE_ALARM_RATE,
+                   help="designed per-run false-alarm probability (speed_aware; default %(default)g)")
+    f.add_argument("--persistence", type=int, default=None,
+                   help="P the thresholds are fitted for (default: 3 speed_aware, 5 thesis)")
     f.set_defaults(func=_cmd_fit)
 
     d = sub.add_parser("defaults", help="regenerate the shipped models and threshold curves from nothing")
@@ -214,6 +251,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--train-runs", type=int, default=40)
     d.add_argument("--epochs", type=int, default=300)
     d.add_argument("--jobs", type=int, default=None)
+    d.add_argument("--false-alarm-rate", type=float, default=FALSE_ALARM_RATE,
+                   help="designed per-run false-alarm probability of the speed-aware set (default %(default)g)")
     d.set_defaults(func=_cmd_defaults)
 
     e = sub.add_parser("evaluate", help="replay bags through the observers and isolation; write the report")
@@ -221,7 +260,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--report", required=True, help="directory for report.md, report.json, plots, replays")
     e.add_argument("--models", default=None, help="default: config/fdi")
     e.add_argument("--thresholds", default=None, help="default: config/fdi")
-    e.add_argument("--persistence", type=int, default=PERSISTENCE)
+    e.add_argument("--persistence", type=int, default=None, help="P (default: the threshold file's)")
     e.add_argument("--jobs", type=int, default=None)
     e.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
     e.set_defaults(func=_cmd_evaluate)
@@ -229,7 +268,7 @@ def build_parser() -> argparse.ArgumentParser:
     p2 = sub.add_parser("reproduce", help="the whole thesis study from nothing (resumable)")
     p2.add_argument("--out", required=True)
     p2.add_argument("--scale", default="small", choices=["small", "thesis"])
-    p2.add_argument("--persistence", type=int, default=PERSISTENCE)
+    p2.add_argument("--persistence", type=int, default=None, help="P (default: the threshold file's)")
     p2.add_argument("--jobs", type=int, default=None)
     p2.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
     p2.set_defaults(func=_cmd_reproduce)
@@ -239,17 +278,23 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--seeds", default="100..129", help="A..B inclusive")
     q.add_argument("--models", default=None)
     q.add_argument("--thresholds", default=None)
-    q.add_argument("--persistence", type=int, default=PERSISTENCE)
+    q.add_argument("--persistence", type=int, default=None, help="P (default: the threshold file's)")
+    q.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
+                   help="which shipped set when --models is not given (config/fdi or config/fdi/thesis)")
     q.set_defaults(func=_cmd_screen)
 
     s = sub.add_parser("scenarios", help="list the shipped scenarios")
     s.set_defaults(func=_cmd_scenarios)
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
-    b.add_argument("what", choices=["graph", "fdi", "study"],
+    b.add_argument("what", choices=["graph", "fdi", "study", "detection"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
                         "node callback times and memory; study: record and replay throughput and the "
-                        "thesis-scale reproduce time they give")
+                        "thesis-scale reproduce time they give; detection: false-alarm and detection rates "
+                        "with 95 %% intervals on >= 1000 held-out runs, both FDI methods (core loop)")
+    b.add_argument("--fault-free-runs", type=int, default=1000, help="detection: fault-free runs")
+    b.add_argument("--runs-per-cell", type=int, default=200, help="detection: runs per fault or ripple case")
+    b.add_argument("--out", default="reports/detection", help="detection: report directory")
     b.add_argument("--runs", type=int, default=8, help="study: runs to record and replay")
     b.add_argument("--jobs", type=int, default=None, help="study: runs at a time (default: 2)")
     b.add_argument("--duration", type=float, default=400.0)

@@ -23,6 +23,11 @@ def config_dir() -> Path:
         return local
 
 
+def fdi_dir(method: str = "speed_aware") -> Path:
+    """The shipped FDI models and thresholds: config/fdi (ours, speed-aware) or config/fdi/thesis."""
+    return config_dir() / "fdi" / ("thesis" if method == "thesis" else "")
+
+
 def fastdds_profiles() -> str | None:
     """FASTDDS_DEFAULT_PROFILES_FILE for the graph: the user's own, else config/fastdds.xml (50 ms
     reliable-writer heartbeat: a run's end and paced bag replay wait on acknowledgements)."""

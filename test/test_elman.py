@@ -81,3 +81,25 @@ def test_bad_model_files(tmp_path):
     np.savez(tmp_path / "pickled.npz", w_ih=np.array([object()], dtype=object))
     with pytest.raises(ModelError, match="not a readable"):
         ElmanWeights.load(tmp_path / "pickled.npz")
+
+
+def test_speed_aware_network_numpy_recall_equals_torch_and_roundtrips(tmp_path):
+    """Three inputs (u, own previous output, wheel speed): numpy == torch; the file keeps speed_scale."""
+    w = ElmanWeights.random(np.random.default_rng(6), 25, scale=0.5, tcv_scale=5.0, torque_scale=0.03,
+                            speed_scale=33.0)
+    assert w.inputs == 3 and w.w_ih.shape == (25, 3)
+    rng = np.random.default_rng(7)
+    u, speed = rng.uniform(-5, 5, (2, 90)), rng.uniform(20, 30, (2, 90))
+    r0 = rng.uniform(-0.02, 0.02, 2)
+    r = np.zeros((2, 90))
+    r[:, 0] = r0
+    with torch.no_grad():
+        expected = torch_forward(as_torch(w), torch.tensor(u / 5.0), torch.tensor(r / 0.03), "recall",
+                                 torch.tensor(speed / 33.0)).numpy() * 0.03
+    got = np.stack([recall_series(w, u[b], r0[b], speed[b]) for b in range(2)])
+    np.testing.assert_allclose(got, expected, atol=1e-6, rtol=0)
+    w.save(tmp_path / "m.npz")
+    back = ElmanWeights.load(tmp_path / "m.npz")
+    assert back.speed_aware and back.speed_scale == 33.0
+    with pytest.raises(ValueError, match="needs the wheel speed"):
+        ElmanObserver(back).update(1.0)

@@ -27,7 +27,8 @@ def test_thesis_form_and_eq_2_42():
 
 
 def test_pointing_over_table_2_3_envelope():
-    """24 seeds, fault-free: overshoot < 20 %, 5 % settling < 30 s, |error| < 0.2 deg after 30 s."""
+    """24 seeds, fault-free, wheel momentum coupled (the default): overshoot < 20 %, 5 % settling < 30 s
+    (step_metrics' bands), |error| < 0.2 deg after 30 s."""
     runs = [Scenario("fault_free", duration=150.0, seed=s) for s in range(1000, 1024)]
     traj = simulate(runs)
     overshoot, settling, _ = step_metrics(traj)

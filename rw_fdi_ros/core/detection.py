@@ -1,8 +1,17 @@
-"""Residuals, threshold curves and the alarm rule (thesis 3.2, 4.3.3; evaluation.md).
+"""Residuals, thresholds and the alarm rule (thesis 3.2, 4.3.3; evaluation.md).
 
-residual_k   = mean(|r_j - r^_j|, j = k-W+1..k)           moving average, W = 40 FDI samples
-threshold_k  = mean_n(residual_k) + 3 std_n(residual_k)   over N fault-free runs n (eq. 4.11)
-alarm        = residual above threshold for P consecutive samples
+Two methods, chosen by ``fdi_method`` (one setting for the whole FDI):
+
+``thesis`` (the thesis as written):
+    residual_k   = mean(|r_j - r^_j|, j = k-W+1..k)           moving average, W = 40 FDI samples
+    threshold_k  = mean_n(residual_k) + 3 std_n(residual_k)   over N fault-free runs n (eq. 4.11)
+    alarm        = residual above threshold for P = 5 consecutive samples
+
+``speed_aware`` (ours, README "FDI design"):
+    residual_k   = mean(r_j - r^_j, j = k-W+1..k)             signed: zero-mean ripple cancels
+    bound_k      = (B/2) g_max |mean(p_j)| + kappa mean(|r_j|)   aliased ripple (telemetry.py) + model error
+    threshold_k  = c_axis + bound_k                           c: designed false-alarm rate (fit_band)
+    alarm        = |residual| above threshold for P consecutive samples
 The first W-1 samples average what exists so far (the thesis leaves it open).
 """
 from __future__ import annotations
@@ -16,6 +25,11 @@ import numpy as np
 
 WINDOW = 40
 SIGMAS = 3.0
+METHODS = ("speed_aware", "thesis")
+# Ripple gains up to g_max are a disturbance the bound covers (a +60 % ripple must not alarm; thesis 5.3).
+RIPPLE_GAIN_MAX = 2.0
+FALSE_ALARM_RATE = 1e-3       # designed per-run false-alarm probability of the speed-aware FDI
+PERSISTENCE_SPEED_AWARE = 3
 # P: the smallest persistence whose Elman false-alarm rate on the 20 held-out fault-free runs is
 # <= 5 % (config/fdi/defaults_report.md: 15 / 10 / 10 / 5 / 5 % for P = 1 / 2 / 3 / 5 / 8); it costs
 # P - 1 seconds of detection delay.
@@ -43,6 +57,86 @@ class ResidualFilter:
         self.buffer.append(err)
         self.total += err
         return self.total / len(self.buffer)
+
+
+class SignedResidual:
+    """Speed-aware residual of one wheel: signed moving mean of r - r^ and what it may hold unfaulted.
+
+    ``update(actual, estimate, ripple_phasor)`` -> (residual, bound) with
+    bound = (B/2) g_max |mean(p)| + kappa mean(|r|): the aliased ripple's largest contribution
+    (ripple_phasor: the FDI sample's mean of tau_m e^{i N theta}, telemetry.py) plus the
+    observer's own model error, which grows with the torque the wheel is asked for
+    (``uncertainty_gain`` kappa: 0 for the nominal wheel model, measured on the training runs
+    for an Elman network, tools/train.py).
+    """
+
+    def __init__(self, window: int = WINDOW, share: float | None = None, ripple_gain_max: float = RIPPLE_GAIN_MAX,
+                 uncertainty_gain: float = 0.0):
+        self.errors = deque(maxlen=window)
+        self.phasors = deque(maxlen=window)
+        self.torques = deque(maxlen=window)
+        self.scale = (ripple_share() if share is None else share) * ripple_gain_max
+        self.kappa = float(uncertainty_gain)
+
+    def update(self, actual, estimate, ripple_phasor):
+        self.errors.append(float(actual) - float(estimate))
+        self.phasors.append(complex(ripple_phasor))
+        self.torques.append(abs(float(actual)))
+        n = len(self.errors)
+        # sums over a deque of <= 40 values: exact, and no drift from running totals
+        bound = self.scale * abs(sum(self.phasors)) / n + self.kappa * sum(self.torques) / n
+        return sum(self.errors) / n, bound
+
+
+def ripple_share(params=None) -> float:
+    """(B/2): the ripple amplitude per unit motor torque at ripple gain 1 (wheel.torque_ripple)."""
+    from .wheel import WheelParams
+    p = params or WheelParams()
+    return p.ripple_amplitude_share * p.ripple_coefficient
+
+
+def run_statistic(excess, persistence: int):
+    """max_k of min(excess_j, j = k-P+1..k): the largest level the alarm rule would have crossed.
+
+    ``excess``: |residual| - bound per sample (time on axis 0). An alarm with band c fires in a
+    run exactly when its statistic exceeds c.
+    """
+    e = np.asarray(excess, float)
+    if len(e) < persistence:
+        return np.full(e.shape[1:], -np.inf)
+    from numpy.lib.stride_tricks import sliding_window_view
+    return sliding_window_view(e, persistence, axis=0).min(axis=-1).max(axis=0)
+
+
+def gumbel_fit(maxima):
+    """(mu, beta) of a Gumbel distribution by moments: beta = s sqrt(6) / pi, mu = mean - 0.5772 beta."""
+    m = np.asarray(maxima, float)
+    beta = max(float(m.std(ddof=1)) * np.sqrt(6.0) / np.pi, 1e-12)
+    return float(m.mean()) - 0.5772156649 * beta, beta
+
+
+def gumbel_quantile(mu: float, beta: float, probability: float) -> float:
+    """x with P(M <= x) = probability: mu - beta ln(-ln p)."""
+    return mu - beta * np.log(-np.log(probability))
+
+
+def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", "y", "z")) -> dict:
+    """Band c per axis for a per-run false-alarm probability ``false_alarm_rate`` over all axes.
+
+    ``statistics``: (runs, axes) run statistics of fault-free fitting runs (run_statistic). Each
+    axis gets alpha / n_axes (Bonferroni); its run maxima are fitted with a Gumbel law (the
+    limit law of maxima of light-tailed sequences), whose (1 - alpha/n) quantile is c: an
+    empirical quantile of a few hundred runs cannot reach 1e-3. Never below the largest
+    fitting-run statistic.
+    """
+    s = np.asarray(statistics, float)
+    per_axis = false_alarm_rate / len(axes)
+    out = {}
+    for i, a in enumerate(axes):
+        mu, beta = gumbel_fit(s[:, i])
+        out[a] = {"band": max(gumbel_quantile(mu, beta, 1.0 - per_axis), float(s[:, i].max())),
+                  "gumbel_mu": mu, "gumbel_beta": beta, "fitting_max": float(s[:, i].max())}
+    return out
 
 
 def fit_threshold_curve(residuals, sigmas: float = SIGMAS):
@@ -78,6 +172,26 @@ def residual_series(actual, estimate, window: int = WINDOW):
     return out
 
 
+def window_mean(values, window: int = WINDOW):
+    """Moving mean over the last ``window`` samples (time first); the first W-1 average what exists."""
+    v = np.asarray(values, float)
+    c = np.cumsum(v, axis=0)
+    n = np.minimum(np.arange(1, len(v) + 1), window).reshape((-1,) + (1,) * (v.ndim - 1))
+    lagged = np.concatenate([np.zeros((window,) + v.shape[1:]), c[:-window]]) if len(v) > window else np.zeros_like(c)
+    return (c - lagged[:len(v)]) / n
+
+
+def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW, uncertainty_gains=(0.0, 0.0, 0.0)):
+    """(residuals, bounds) of whole series (time first, one column per axis) through :class:`SignedResidual`."""
+    actual, estimate, phasor = (np.asarray(x) for x in (actual, estimate, ripple_phasor))
+    res, bound = np.empty(actual.shape), np.empty(actual.shape)
+    for j in range(actual.shape[1]):
+        f = SignedResidual(window, uncertainty_gain=uncertainty_gains[j])
+        rows = [f.update(a, e, p) for a, e, p in zip(actual[:, j], estimate[:, j], phasor[:, j])]
+        res[:, j], bound[:, j] = [r[0] for r in rows], [r[1] for r in rows]
+    return res, bound
+
+
 def alarm_series(residual, threshold, times, persistence: int = PERSISTENCE):
     """(alarm flags, first alarm time or None) of one axis through :class:`AlarmRule`."""
     rule = AlarmRule(persistence)
@@ -97,6 +211,10 @@ class ThresholdCurves:
     seeds: list = field(default_factory=list)
     plant: dict = field(default_factory=dict)   # emf_limit, control_period, ... of the fitting runs
     model: str = ""                  # the model card the residuals came from
+    method: str = "thesis"           # 'thesis': time-indexed curves; 'speed_aware': constant bands c
+    persistence: int = PERSISTENCE   # P the curves are meant for (the band's false-alarm rate needs it)
+    false_alarm_rate: float | None = None   # designed per-run rate (speed_aware)
+    calibration: dict = field(default_factory=dict)  # how the bands were fitted (speed_aware)
 
     def at(self, axis: str, k: int) -> float:
         c = self.curves[axis]
@@ -108,7 +226,9 @@ class ThresholdCurves:
         path.write_text(json.dumps({
             "observer": self.observer, "sample_period": self.sample_period, "window": self.window,
             "sigmas": self.sigmas, "runs": len(self.seeds), "seeds": self.seeds, "plant": self.plant,
-            "model": self.model, "curves": {a: [float(v) for v in c] for a, c in self.curves.items()}}, indent=1))
+            "model": self.model, "method": self.method, "persistence": self.persistence,
+            "false_alarm_rate": self.false_alarm_rate, "calibration": self.calibration,
+            "curves": {a: [float(v) for v in c] for a, c in self.curves.items()}}, indent=1))
 
     @classmethod
     def load(cls, path) -> "ThresholdCurves":
@@ -120,18 +240,37 @@ class ThresholdCurves:
             curves = {a: np.asarray(c, float) for a, c in raw["curves"].items()}
             out = cls(observer=raw["observer"], curves=curves, sample_period=float(raw["sample_period"]),
                       window=int(raw["window"]), sigmas=float(raw["sigmas"]), seeds=list(raw["seeds"]),
-                      plant=dict(raw["plant"]), model=str(raw.get("model", "")))
+                      plant=dict(raw["plant"]), model=str(raw.get("model", "")),
+                      method=str(raw.get("method", "thesis")), persistence=int(raw.get("persistence", PERSISTENCE)),
+                      false_alarm_rate=raw.get("false_alarm_rate"), calibration=dict(raw.get("calibration") or {}))
         except (ValueError, KeyError, TypeError) as exc:
             raise ThresholdError(f"{path}: not a readable threshold file ({type(exc).__name__}: {exc}); {REFIT}") from None
         if set(out.curves) != {"x", "y", "z"} or any(len(c) == 0 or not np.all(np.isfinite(c))
                                                      for c in out.curves.values()):
             raise ThresholdError(f"{path}: needs finite curves for axes x, y, z; {REFIT}")
+        if out.method not in METHODS:
+            raise ThresholdError(f"{path}: unknown method {out.method!r} (known: {', '.join(METHODS)}); {REFIT}")
+        if out.persistence < 1:
+            raise ThresholdError(f"{path}: persistence must be >= 1, got {out.persistence}; {REFIT}")
         return out
 
-    def check_compatible(self, plant: dict, origin: str = "thresholds"):
-        """Refuse curves fitted under other plant choices than the running graph's."""
-        for key, value in plant.items():
-            fitted = self.plant.get(key)
-            if fitted is not None and fitted != value:
-                raise ThresholdError(f"{origin}: fitted with {key}={fitted!r} but the graph runs {key}={value!r}; "
-                                     f"{REFIT}")
+    def check_method(self, method: str, origin: str = "thresholds"):
+        """Refuse curves of another FDI method than the running graph's."""
+        if self.method != method:
+            raise ThresholdError(f"{origin}: fitted for fdi_method={self.method!r} but the graph runs "
+                                 f"fdi_method={method!r}; {REFIT}")
+
+    def check_compatible(self, plant, origin: str = "thresholds"):
+        """Refuse curves fitted under other plant choices than the running graph's.
+
+        ``plant``: the running :class:`PlantChoices`, or a mapping of the choices to check. A
+        choice the file does not record was fitted under its legacy value (plant_choices.LEGACY).
+        """
+        from .plant_choices import PlantChoices
+        fitted = PlantChoices.from_recorded(self.plant)
+        if isinstance(plant, dict):
+            keys, running = list(plant), PlantChoices(**{**fitted.as_dict(), **plant})
+        else:
+            keys, running = None, plant
+        for key, was, now in running.differences(fitted, keys):
+            raise ThresholdError(f"{origin}: fitted with {key}={was!r} but the graph runs {key}={now!r}; {REFIT}")

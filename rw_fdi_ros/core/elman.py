@@ -2,7 +2,12 @@
 
     h_k = tanh(W_ih x_k + W_hh h_{k-1} + b_h)        (context layer = h_{k-1})
     y_k = tanh(W_ho h_k + b_o)                         (eq. 4.10 on both layers)
-    x_k = [u_k / u_scale, r_{k-1} / r_scale]
+    x_k = [u_k / u_scale, r_{k-1} / r_scale]                       thesis, NN(2x25x1)
+    x_k = [u_k / u_scale, r_{k-1} / r_scale, Omega_k / w_scale]    speed-aware, NN(3x25x1)
+
+The speed-aware network also sees the measured wheel speed Omega: the holding
+command of a healthy wheel varies by ~0.7 V over 20-30 rad/s (friction), so
+without it a healthy fast wheel and a faulty slow one look alike.
 
 u is the torque command voltage, r the reaction torque. In training mode
 r_{k-1} is the measured torque (thesis Fig. 4.9); in recall mode it is the
@@ -39,10 +44,25 @@ class ElmanWeights:
     b_o: np.ndarray    # (1,)
     tcv_scale: float = 5.0      # [V] normalises u into [-1, 1] (the +-5 V command range)
     torque_scale: float = 0.03  # [N m] normalises r into [-1, 1] (largest |r| in training)
+    speed_scale: float = 0.0    # [rad/s] normalises Omega; 0: no speed input (the thesis' network)
+    # kappa: the network's fault-free error bound per unit of mean |r| (detection.SignedResidual)
+    uncertainty_gain: float = 0.0
+
+    @property
+    def inputs(self) -> int:
+        return INPUTS + (self.speed_scale > 0)
+
+    @property
+    def speed_aware(self) -> bool:
+        return self.speed_scale > 0
 
     def validate(self, origin="weights"):
         h = self.w_hh.shape[0]
-        shapes = {"w_ih": (h, INPUTS), "w_hh": (h, h), "b_h": (h,), "w_ho": (1, h), "b_o": (1,)}
+        if not (np.isfinite(self.speed_scale) and self.speed_scale >= 0):
+            raise ModelError(f"{origin}: speed_scale must be >= 0; {REGENERATE}")
+        if not (np.isfinite(self.uncertainty_gain) and 0 <= self.uncertainty_gain < 10):
+            raise ModelError(f"{origin}: uncertainty_gain must lie in [0, 10); {REGENERATE}")
+        shapes = {"w_ih": (h, self.inputs), "w_hh": (h, h), "b_h": (h,), "w_ho": (1, h), "b_o": (1,)}
         for name, shape in shapes.items():
             got = getattr(self, name).shape
             if got != shape:
@@ -58,7 +78,8 @@ class ElmanWeights:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         np.savez(path, w_ih=self.w_ih, w_hh=self.w_hh, b_h=self.b_h, w_ho=self.w_ho, b_o=self.b_o,
-                 tcv_scale=np.array(self.tcv_scale), torque_scale=np.array(self.torque_scale))
+                 tcv_scale=np.array(self.tcv_scale), torque_scale=np.array(self.torque_scale),
+                 speed_scale=np.array(self.speed_scale), uncertainty_gain=np.array(self.uncertainty_gain))
         if card is not None:
             path.with_suffix(".json").write_text(json.dumps(card, indent=2))
 
@@ -70,7 +91,9 @@ class ElmanWeights:
         try:
             with np.load(path, allow_pickle=False) as z:
                 w = cls(**{k: z[k] for k in ("w_ih", "w_hh", "b_h", "w_ho", "b_o")},
-                        tcv_scale=float(z["tcv_scale"]), torque_scale=float(z["torque_scale"]))
+                        tcv_scale=float(z["tcv_scale"]), torque_scale=float(z["torque_scale"]),
+                        speed_scale=float(z["speed_scale"]) if "speed_scale" in z.files else 0.0,
+                        uncertainty_gain=float(z["uncertainty_gain"]) if "uncertainty_gain" in z.files else 0.0)
         except ModelError:
             raise
         except Exception as exc:  # zip/npz damage, missing arrays, pickled content
@@ -81,7 +104,8 @@ class ElmanWeights:
     def random(cls, rng: np.random.Generator, hidden=HIDDEN, scale=0.1, **kw) -> "ElmanWeights":
         """Thesis 4.3.3 initialisation range [-0.1, 0.1]."""
         u = lambda *s: rng.uniform(-scale, scale, s)
-        return cls(u(hidden, INPUTS), u(hidden, hidden), u(hidden), u(1, hidden), u(1), **kw)
+        inputs = INPUTS + (kw.get("speed_scale", 0.0) > 0)
+        return cls(u(hidden, inputs), u(hidden, hidden), u(hidden), u(1, hidden), u(1), **kw)
 
 
 class ElmanObserver:
@@ -96,22 +120,29 @@ class ElmanObserver:
         self.hidden[:] = 0.0
         self.previous = reaction_torque / self.w.torque_scale
 
-    def update(self, tcv: float, reaction_torque: float | None = None) -> float:
+    def update(self, tcv: float, reaction_torque: float | None = None, wheel_speed: float | None = None) -> float:
         """One FDI sample. ``reaction_torque`` (measured, previous sample) is used only in
-        training mode; recall mode passes None and feeds back its own estimate."""
+        training mode; recall mode passes None and feeds back its own estimate.
+        ``wheel_speed`` is required by a speed-aware network and ignored by the thesis' one."""
         w = self.w
         if self.previous is None:
             self.previous = 0.0
         fed = self.previous if reaction_torque is None else reaction_torque / w.torque_scale
         x0, x1 = tcv / w.tcv_scale, fed
-        self.hidden = np.tanh(w.w_ih[:, 0] * x0 + w.w_ih[:, 1] * x1 + w.w_hh @ self.hidden + w.b_h)
+        drive = w.w_ih[:, 0] * x0 + w.w_ih[:, 1] * x1
+        if w.speed_aware:
+            if wheel_speed is None:
+                raise ValueError("a speed-aware Elman network needs the wheel speed")
+            drive = drive + w.w_ih[:, 2] * (wheel_speed / w.speed_scale)
+        self.hidden = np.tanh(drive + w.w_hh @ self.hidden + w.b_h)
         out = float(np.tanh(w.w_ho[0] @ self.hidden + w.b_o[0]))
         self.previous = out
         return out * w.torque_scale
 
 
-def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0):
+def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel_speed=None):
     """Recall-mode estimates for a sampled tcv series (what the node computes, sample by sample)."""
     obs = ElmanObserver(weights)
     obs.reset(initial_torque)
-    return np.array([obs.update(u) for u in np.asarray(tcv, float)])
+    speeds = [None] * len(tcv) if wheel_speed is None else np.asarray(wheel_speed, float)
+    return np.array([obs.update(u, None, w) for u, w in zip(np.asarray(tcv, float), speeds)])

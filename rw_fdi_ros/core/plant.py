@@ -1,5 +1,11 @@
 """The plant: rigid body (eq. 2.27) driven by three Bialke wheels (Fig. 2.2) with faults.
 
+[choice] ``wheel_momentum_coupling`` (default on): the wheels' stored momentum
+h_w = J Omega enters the body's Euler equations and the body's angular
+acceleration enters the wheels' (see :func:`body_acceleration`), as in every
+multibody simulator (Basilisk's BalancedWheels, test/test_basilisk.py); off is
+eq. 2.27 as the thesis writes it, body and wheels driven only by tau_n.
+
 One class, batched over runs: shape (B, 3) arrays, axis order x, y, z. The
 live plant node holds a batch of one; Monte-Carlo tools hold many.
 
@@ -47,7 +53,7 @@ class Plant:
     """Spacecraft with three reaction wheels for a batch of scenarios."""
 
     def __init__(self, scenarios, wheel: wm.WheelParams = wm.WheelParams(), control_period=0.1,
-                 substeps=1, inertia=INERTIA, disturbance=True):
+                 substeps=1, inertia=INERTIA, disturbance=True, wheel_momentum_coupling=True):
         if isinstance(scenarios, Scenario):
             scenarios = [scenarios]
         self.scenarios = list(scenarios)
@@ -56,6 +62,7 @@ class Plant:
         self.substeps = int(substeps)
         self.inertia = np.asarray(inertia, float)
         self.disturbance = disturbance
+        self.wheel_momentum_coupling = bool(wheel_momentum_coupling)
         draws = [s.draws()[0] for s in self.scenarios]
         self.attitude = np.array([d.attitude for d in draws])
         self.body_rate = np.array([d.body_rate for d in draws])
@@ -89,7 +96,12 @@ class Plant:
         rate, _att, speed, _ang = state
         tau_n, _ = wm.net_torque(tcv, speed, t, op, self.wheel)
         torque = -tau_n + dist  # reaction torque of each wheel on its axis, eq. 2.18
-        return (body_acceleration(rate, torque, self.inertia), rate, tau_n / self.wheel.inertia, speed)
+        j = self.wheel.inertia
+        if not self.wheel_momentum_coupling:
+            return body_acceleration(rate, torque, self.inertia), rate, tau_n / j, speed
+        rate_dot = body_acceleration(rate, torque, self.inertia, wheel_momentum=j * speed, wheel_inertia=j)
+        # J (dOmega/dt + dw/dt) = tau_n: the tachometer's Omega is relative to the accelerating body
+        return rate_dot, rate, tau_n / j - rate_dot, speed
 
     def step(self, tcv) -> PlantSample:
         """Hold ``tcv`` (B, 3) over one control period and return the sample at its end."""

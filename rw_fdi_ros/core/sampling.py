@@ -18,34 +18,38 @@ SAMPLINGS = ("mean", "instant")
 
 
 class FdiSampler:
-    """Feed (stamp_ns, u, r) at the control rate; get (stamp_ns, u, r) back on every FDI stamp."""
+    """Feed (stamp_ns, *signals) at the control rate; get (stamp_ns, signals) back on every FDI stamp.
+
+    ``signals`` are arrays (real or complex); the result holds their means over the period
+    (``mean``) or their values at the stamp (``instant``).
+    """
 
     def __init__(self, period: float = 1.0, mode: str = "mean"):
         if mode not in SAMPLINGS:
             raise ValueError(f"FDI sampling must be one of {SAMPLINGS}, got {mode!r}")
         self.period_ns = int(round(period * 1e9))
         self.mode = mode
-        self.sum_u = self.sum_r = 0.0
+        self.sums = None
         self.count = 0
 
-    def add(self, stamp_ns: int, u, r):
-        u, r = np.asarray(u, float), np.asarray(r, float)
-        self.sum_u, self.sum_r, self.count = self.sum_u + u, self.sum_r + r, self.count + 1
+    def add(self, stamp_ns: int, *signals):
+        values = [np.asarray(s) for s in signals]
+        self.sums = values if self.sums is None else [a + v for a, v in zip(self.sums, values)]
+        self.count += 1
         if stamp_ns % self.period_ns:
             return None
-        if self.mode == "mean":
-            out = (stamp_ns, self.sum_u / self.count, self.sum_r / self.count)
-        else:
-            out = (stamp_ns, u, r)
-        self.sum_u = self.sum_r = 0.0
+        out = [a / self.count for a in self.sums] if self.mode == "mean" else [np.array(v) for v in values]
+        self.sums = None
         self.count = 0
-        return out
+        return stamp_ns, out
 
 
 def sample_series(stamps_ns, u, r, period: float = 1.0, mode: str = "mean"):
     """Whole control-rate series -> (stamps_ns, u, r) at the FDI period, through :class:`FdiSampler`."""
     sampler = FdiSampler(period, mode)
-    rows = [row for row in (sampler.add(int(s), ui, ri) for s, ui, ri in zip(stamps_ns, u, r)) if row is not None]
+    rows = [row for row in (sampler.add(int(s), np.asarray(ui, float), np.asarray(ri, float))
+                            for s, ui, ri in zip(stamps_ns, u, r)) if row is not None]
     if not rows:
         return np.zeros(0, np.int64), np.zeros((0,) + np.shape(u)[1:]), np.zeros((0,) + np.shape(r)[1:])
-    return (np.array([x[0] for x in rows], np.int64), np.array([x[1] for x in rows]), np.array([x[2] for x in rows]))
+    return (np.array([x[0] for x in rows], np.int64), np.array([x[1][0] for x in rows]),
+            np.array([x[1][1] for x in rows]))

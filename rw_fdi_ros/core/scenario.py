@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
 from .wheel import NOMINAL
 
 AXES = ("x", "y", "z")
@@ -25,7 +26,7 @@ WHEEL_SPEED_RANGE = (20.0, 30.0)
 SETPOINT_CHANGE_RANGE_DEG = (-5.0, 5.0)
 
 
-PLANT_KEYS = {"emf_limit", "control_period"}
+PLANT_KEYS = set(SCENARIO_KEYS)
 
 
 class ScenarioError(ValueError):
@@ -139,6 +140,10 @@ class Scenario:
         raw.setdefault("name", self.name)
         return yaml.safe_dump(raw, sort_keys=False)
 
+    def plant_choices(self, **overrides) -> PlantChoices:
+        """The choices this scenario runs under (its ``plant:`` mapping, then overrides not None)."""
+        return PlantChoices.for_scenario(self.plant, **overrides)
+
     def fault_free(self) -> "Scenario":
         return replace(self, faults=())
 
@@ -244,10 +249,12 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     plant = raw.get("plant") or {}
     if not isinstance(plant, dict) or set(plant) - PLANT_KEYS:
         raise ScenarioError(f"{origin}: plant may set only {sorted(PLANT_KEYS)}")
-    if "emf_limit" in plant and plant["emf_limit"] not in ("kf_scaled", "pwm_saturation"):
-        raise ScenarioError(f"{origin}: plant.emf_limit must be kf_scaled or pwm_saturation")
     if "control_period" in plant:
         _num(f"{origin}: plant.control_period", plant["control_period"], 1e-3, 1.0)
+    try:
+        PlantChoices.for_scenario(plant)
+    except PlantChoiceError as exc:
+        raise ScenarioError(f"{origin}: plant.{exc}") from None
     name = str(raw.get("name") or Path(origin).stem)
     return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
                     initial=initial, description=str(raw.get("description", "")), plant=dict(plant),

@@ -9,15 +9,26 @@ INERTIA = np.array([17.0, 15.0, 22.0])
 DISTURBANCE_SIGMA = 5.68e-5
 
 
-def body_acceleration(body_rate, torque, inertia=INERTIA):
-    """Euler's equations for principal axes, eq. 2.27.
+def body_acceleration(body_rate, torque, inertia=INERTIA, wheel_momentum=None, wheel_inertia=0.0):
+    """Euler's equations of a rigid body carrying three body-axis wheels; arrays of shape (..., 3).
 
-    I_xx dw_x/dt = tau_x - w_y w_z (I_zz - I_yy), and cyclic; arrays of shape (..., 3).
+    With the wheels' stored momentum h_w = J_w Omega (Omega relative to the body, what a
+    tachometer reads) the rotational equations of body and wheels are (Hughes, Spacecraft
+    Attitude Dynamics, ch. 7; Basilisk's BalancedWheels model)
+
+        (I - J_w) dw/dt = tau - w x (I w + h_w)       tau: external + reaction torques
+        J_w (dOmega/dt + dw/dt) = tau_n               (the wheel side, see Plant)
+
+    where I is the inertia with the wheels locked. ``wheel_momentum=None`` drops h_w and
+    J_w: eq. 2.27 as the thesis writes it, I dw/dt = tau - w x (I w).
     """
     w = np.asarray(body_rate, float)
     inertia = np.asarray(inertia, float)
     h = inertia * w
-    # w x (I w): the gyroscopic terms of eq. 2.27 (written out: np.cross costs 10x on 3-vectors)
+    if wheel_momentum is not None:
+        h = h + wheel_momentum
+        inertia = inertia - wheel_inertia
+    # w x h (written out: np.cross costs 10x on 3-vectors)
     coupling = np.stack((w[..., 1] * h[..., 2] - w[..., 2] * h[..., 1],
                          w[..., 2] * h[..., 0] - w[..., 0] * h[..., 2],
                          w[..., 0] * h[..., 1] - w[..., 1] * h[..., 0]), axis=-1)

@@ -8,11 +8,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..core.detection import PERSISTENCE
 from ..core.plant import hold_command
+from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.scenario import AXES, Scenario
 
-CONTROL_PERIOD = 0.1
+CONTROL_PERIOD = DEFAULT.control_period
 
 
 @dataclass
@@ -27,52 +27,63 @@ class NodeSpec:
         return f"rw_fdi_ros.nodes.{self.executable}"
 
 
-FDI_PERIOD = 1.0
-FDI_SAMPLING = "mean"   # core/sampling.py [choice]
+FDI_PERIOD = DEFAULT.fdi_period
+FDI_SAMPLING = DEFAULT.fdi_sampling   # core/sampling.py [choice]
 
 
 def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command_timeout: float = 5.0,
                 emf_limit: str | None = None, fdi: dict | None = None):
     """Plant, three PID controllers, (when ``fdi``) the observers and isolation, and (when ``bag``)
     the recorder for one run. ``fdi`` maps 'models' / 'thresholds' to directories (None: shipped)."""
-    emf_limit = emf_limit or scenario.plant.get("emf_limit", "kf_scaled")
-    period = float(scenario.plant.get("control_period", CONTROL_PERIOD))
+    choices = scenario.plant_choices(emf_limit=emf_limit)
+    period = choices.control_period
     ic, _ = scenario.draws()
     times, values = scenario.setpoint_schedule()
     hold = hold_command(ic.wheel_speed)
     recording = bag is not None
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
-        "emf_limit": emf_limit, "command_timeout": command_timeout,
-        "wait_for_subscribers": 1 if recording else 0, "observers": 4 if fdi is not None else 0})]
+        "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
+        "command_timeout": command_timeout,
+        "wait_for_subscribers": 1 if recording else 0, "observers": 4 if fdi is not None else 0,
+        "speed_observers": 4 if fdi is not None and fdi_method(fdi) == "speed_aware" else 0})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "axis": axis, "control_period": period, "initial_tcv": float(hold[i]),
             "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]],
             "min_subscribers": 2 if recording else 1}))
     if fdi is not None:
-        nodes += fdi_nodes(fdi, emf_limit, recording, period)
+        nodes += fdi_nodes(fdi, choices, recording)
     if recording:
         nodes.append(NodeSpec("recorder", "recorder", {"output": str(bag),
                                                        "fdi_period": FDI_PERIOD if fdi is not None else 0.0}))
     return nodes
 
 
-def fdi_nodes(fdi: dict, emf_limit: str, recording: bool, control_period: float = CONTROL_PERIOD):
-    """Three Elman observers, the linear observer and the isolation node."""
-    models, thresholds = fdi.get("models"), fdi.get("thresholds")
+def fdi_method(fdi: dict) -> str:
+    """The FDI method of an ``fdi`` mapping: 'speed_aware' (default) or 'thesis'."""
+    return fdi.get("method") or "speed_aware"
+
+
+def fdi_nodes(fdi: dict, choices: PlantChoices, recording: bool):
+    """Three Elman observers, the linear observer and the isolation node (told the run's choices).
+
+    ``fdi``: models / thresholds directories (None: the shipped set of the method), persistence
+    (None: the threshold file's), method ('speed_aware' or 'thesis')."""
+    models, thresholds, method = fdi.get("models"), fdi.get("thresholds"), fdi_method(fdi)
     nodes = []
     for axis in AXES:
-        params = {"axis": axis, "fdi_period": FDI_PERIOD, "fdi_sampling": FDI_SAMPLING,
+        params = {"axis": axis, "fdi_method": method, "fdi_period": choices.fdi_period,
+                  "fdi_sampling": choices.fdi_sampling,
                   "min_subscribers": 1 + recording}
         if models:
             params["model"] = str(Path(models) / f"elman_{axis}.npz")
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
     nodes.append(NodeSpec("linear_observer", "linear_observer",
-                          {"fdi_period": FDI_PERIOD, "fdi_sampling": FDI_SAMPLING, "min_subscribers": 1 + recording}))
-    iso = {"emf_limit": emf_limit, "control_period": control_period, "fdi_period": FDI_PERIOD,
-           "fdi_sampling": FDI_SAMPLING,
-           "persistence": int(fdi.get("persistence", PERSISTENCE)), "min_subscribers": int(recording)}
+                          {"fdi_method": method, "fdi_period": choices.fdi_period,
+                           "fdi_sampling": choices.fdi_sampling, "min_subscribers": 1 + recording}))
+    iso = {**choices.as_dict(), "fdi_method": method, "persistence": int(fdi.get("persistence") or 0),
+           "min_subscribers": int(recording)}
     if thresholds:
         iso.update(thresholds_elman=str(Path(thresholds) / "thresholds_elman.json"),
                    thresholds_linear=str(Path(thresholds) / "thresholds_linear.json"))

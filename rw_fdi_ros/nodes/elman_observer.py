@@ -1,22 +1,20 @@
 """elman_observer: one wheel's Elman network in recall mode (thesis Fig. 4.8), started once per axis.
 
 Every FDI sample (1 s) it estimates the reaction torque from the command
-voltage and its own previous estimate, and publishes the estimate and the
-residual (40-sample moving average of |r - r^|). numpy only, no torch.
+voltage, its own previous estimate and (speed-aware method) the wheel speed,
+and publishes the estimate, the residual and the ripple bound: the signed
+40-sample mean of r - r^ with its bound (speed_aware) or the 40-sample mean of
+|r - r^| with bound 0 (thesis). numpy only, no torch.
 """
 from __future__ import annotations
 
-from ..core.detection import ResidualFilter
-from ..core.elman import ElmanObserver, ElmanWeights, ModelError
+from ..core.detection import ResidualFilter, SignedResidual
+from ..core.elman import REGENERATE, ElmanObserver, ElmanWeights, ModelError
 from ..core.scenario import AXES
-from ..paths import config_dir
+from ..paths import fdi_dir
 from . import topics as T
 from .observer_node import ObserverNode
 from .runtime import EXIT_BAD_INPUT, NodeError, main_for
-
-
-def default_model(axis: str) -> str:
-    return str(config_dir() / "fdi" / f"elman_{axis}.npz")
 
 
 class ElmanObserverNode(ObserverNode):
@@ -25,30 +23,42 @@ class ElmanObserverNode(ObserverNode):
     def __init__(self):
         super().__init__(self.node_name)
         self.declare_parameter("axis", "x")
-        self.declare_parameter("model", "")            # npz; empty: config/fdi/elman_<axis>.npz
+        self.declare_parameter("model", "")            # npz; empty: the shipped one of fdi_method
         axis = self.param("axis")
         if axis not in AXES:
             raise NodeError(f"parameter axis must be one of x, y, z, got {axis!r}", EXIT_BAD_INPUT)
+        path = self.param("model") or str(fdi_dir(self.method) / f"elman_{axis}.npz")
         try:
-            weights = ElmanWeights.load(self.param("model") or default_model(axis))
+            weights = ElmanWeights.load(path)
+            if weights.speed_aware != self.speed_aware:
+                raise ModelError(f"{path}: a {weights.inputs}-input network cannot run fdi_method={self.method!r} "
+                                 f"({'3 inputs with the wheel speed' if self.speed_aware else '2 inputs'} needed); "
+                                 f"{REGENERATE}")
         except ModelError as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         self.index = AXES.index(axis)
         self.observer = ElmanObserver(weights)
-        self.residual = ResidualFilter(self.param("window"))
+        window = self.param("window")
+        self.residual = (SignedResidual(window, uncertainty_gain=weights.uncertainty_gain) if self.speed_aware
+                         else ResidualFilter(window))
         self.started = False
-        self.start(T.estimate_topic("elman", axis), T.residual_topic("elman", axis))
+        self.start(T.estimate_topic("elman", axis), T.residual_topic("elman", axis), T.bound_topic("elman", axis))
 
-    def observe(self, tcv, torque):
-        u, r = float(tcv[self.index]), float(torque[self.index])
+    def observe(self, sample):
+        i = self.index
+        u, r = float(sample.tcv[i]), float(sample.reaction_torque[i])
         if not self.started:  # recall mode starts from the first measured torque
             self.observer.reset(r)
             self.started = True
-        estimate = self.observer.update(u)
-        own_estimate, own_residual = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
-        own_estimate[self.index] = estimate
-        own_residual[self.index] = self.residual.update(r, estimate)
-        return own_estimate, own_residual
+        own = [[0.0, 0.0, 0.0] for _ in range(3)]
+        if self.speed_aware:
+            estimate = self.observer.update(u, None, float(sample.wheel_speed[i]))
+            residual, bound = self.residual.update(r, estimate, sample.ripple_phasor[i])
+        else:
+            estimate = self.observer.update(u)
+            residual, bound = self.residual.update(r, estimate), 0.0
+        own[0][i], own[1][i], own[2][i] = estimate, residual, bound
+        return own
 
 
 main = main_for(ElmanObserverNode)

@@ -1,13 +1,17 @@
-"""linear_observer: the Luenberger observer of thesis 3.3 for the three wheels at once.
+"""linear_observer: the model-based observer of the three wheels at once.
 
-Poles 4x the linearised wheel pole, discretised (ZOH) at the node's FDI
-period; publishes the estimated reaction torque and the residual per axis.
+thesis: the Luenberger observer of thesis 3.3, poles 4x the linearised wheel
+pole, discretised (ZOH) at the node's FDI period; residual 40-sample mean of
+|r - r^|. speed_aware: with the tachometer measuring the wheel's state, the
+observer needs no state estimate: r^ is the nominal wheel model's reaction
+torque at the measured command and speed (core/telemetry.py), residual the
+signed 40-sample mean of r - r^ with its ripple bound.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..core.detection import ResidualFilter
+from ..core.detection import ResidualFilter, SignedResidual
 from ..core.linear_observer import LinearObserver
 from . import topics as T
 from .observer_node import ObserverNode
@@ -19,14 +23,20 @@ class LinearObserverNode(ObserverNode):
 
     def __init__(self):
         super().__init__(self.node_name)
-        self.declare_parameter("speed_up", 4.0)      # observer pole / wheel pole
+        self.declare_parameter("speed_up", 4.0)      # observer pole / wheel pole (thesis method)
         self.observer = LinearObserver(self.param("fdi_period"), speed_up=self.param("speed_up"))
-        self.filters = [ResidualFilter(self.param("window")) for _ in range(3)]
-        self.start(T.estimate_topic("linear"), T.residual_topic("linear"))
+        window = self.param("window")
+        self.filters = [(SignedResidual if self.speed_aware else ResidualFilter)(window) for _ in range(3)]
+        self.start(T.estimate_topic("linear"), T.residual_topic("linear"), T.bound_topic("linear"))
 
-    def observe(self, tcv, torque):
-        estimate = self.observer.update(tcv, torque)
-        return estimate, np.array([f.update(r, e) for f, r, e in zip(self.filters, torque, estimate)])
+    def observe(self, sample):
+        torque = sample.reaction_torque
+        if self.speed_aware:
+            estimate = sample.model_torque
+            rows = [f.update(r, e, p) for f, r, e, p in zip(self.filters, torque, estimate, sample.ripple_phasor)]
+            return estimate, np.array([x[0] for x in rows]), np.array([x[1] for x in rows])
+        estimate = self.observer.update(sample.tcv, torque)
+        return estimate, np.array([f.update(r, e) for f, r, e in zip(self.filters, torque, estimate)]), np.zeros(3)
 
 
 main = main_for(LinearObserverNode)

@@ -1,9 +1,10 @@
-"""What both observer kinds share: FDI samples in, estimate and residual out.
+"""What both observer kinds share: wheel telemetry in, estimate, residual and ripple bound out.
 
-:class:`ObserverNode` takes the plant's tcv and reaction torque at the
-control rate, makes FDI samples with :class:`FdiSampler`, calls the
-subclass' ``observe`` once per sample and publishes the estimate and the
-residual (gated until their readers are matched, so no sample is lost).
+:class:`ObserverNode` takes the plant's tcv and reaction torque (and, for the
+speed-aware method, the wheel speed) at the control rate, makes FDI samples
+with :class:`TelemetrySampler`, calls the subclass' ``observe`` once per
+sample and publishes the estimate, the residual and the ripple bound (gated
+until their readers are matched, so no sample is lost).
 """
 from __future__ import annotations
 
@@ -12,8 +13,8 @@ import time
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped
 
-from ..core.detection import WINDOW
-from ..core.sampling import FdiSampler
+from ..core.detection import METHODS, WINDOW
+from ..core.telemetry import TelemetrySampler
 from . import topics as T
 from .convert import vector_msg
 from .gate import GatedPublisher
@@ -26,54 +27,69 @@ class ObserverNode(GraphNode):
 
     def __init__(self, name: str):
         super().__init__(name)
+        self.declare_parameter("fdi_method", "speed_aware")  # speed_aware (ours) or thesis
         self.declare_parameter("fdi_period", 1.0)       # [s] FDI sample period (and discretisation period)
         self.declare_parameter("fdi_sampling", "mean")  # mean over the FDI period, or 'instant' (thesis)
         self.declare_parameter("window", WINDOW)        # residual moving-average length [samples]
         self.declare_parameter("min_subscribers", 0)    # readers of the residual before the first sample goes
         self.compute, self.callback, self.callback_cpu = [], [], []   # s: observe() / callback wall / CPU
+        self.method = self.param("fdi_method")
+        if self.method not in METHODS:
+            raise NodeError(f"parameter fdi_method must be one of {', '.join(METHODS)}, got {self.method!r}",
+                            EXIT_BAD_INPUT)
+        self.speed_aware = self.method == "speed_aware"
+        if self.speed_aware and self.param("fdi_sampling") != "mean":
+            raise NodeError("fdi_method speed_aware needs fdi_sampling 'mean' (its ripple bound is a mean)",
+                            EXIT_BAD_INPUT)
         try:
-            self.sampler = FdiSampler(self.param("fdi_period"), self.param("fdi_sampling"))
+            self.sampler = TelemetrySampler(self.param("fdi_period"), self.param("fdi_sampling"))
         except ValueError as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
 
-    def start(self, estimate_topic: str, residual_topic: str):
+    def start(self, estimate_topic: str, residual_topic: str, bound_topic: str):
         """Publishers and subscriptions, once the subclass knows its topics."""
         need = self.param("min_subscribers")
-        self.pub_estimate = GatedPublisher(self.create_publisher(Vector3Stamped, estimate_topic, T.RELIABLE),
-                                           need - 1)
-        self.pub_residual = GatedPublisher(self.create_publisher(Vector3Stamped, residual_topic, T.RELIABLE), need)
-        sync = StampSync(("tcv", "torque"), self._on_pair)
-        sync.subscribe(self, "tcv", T.TCV, T.RELIABLE)
-        sync.subscribe(self, "torque", T.REACTION_TORQUE, T.RELIABLE)
+        pub = lambda topic, readers: GatedPublisher(self.create_publisher(Vector3Stamped, topic, T.RELIABLE), readers)
+        self.pub_estimate = pub(estimate_topic, need - 1)
+        self.pub_residual = pub(residual_topic, need)
+        self.pub_bound = pub(bound_topic, need)
+        inputs = {"tcv": T.TCV, "torque": T.REACTION_TORQUE}
+        if self.speed_aware:
+            inputs["speed"] = T.WHEEL_SPEED
+        sync = StampSync(tuple(inputs), self._on_inputs)
+        for name, topic in inputs.items():
+            sync.subscribe(self, name, topic, T.RELIABLE)
         self.follow_run_end(period=self.param("fdi_period"))
 
-    def observe(self, tcv, torque):
-        """(estimate, residual) as 3-vectors for one FDI sample."""
+    def observe(self, sample):
+        """(estimate, residual, bound) as 3-vectors for one FdiSample."""
         raise NotImplementedError
 
-    def _on_pair(self, stamp, values):
+    def _on_inputs(self, stamp, values):
         t0, c0 = time.perf_counter(), time.thread_time()
-        sample = self.sampler.add(stamp, values["tcv"], values["torque"])
+        sample = self.sampler.add(stamp, values["tcv"], values["torque"], values.get("speed"))
         if sample is None:
             return
-        stamp, tcv, torque = sample
-        if not (np.all(np.isfinite(tcv)) and np.all(np.isfinite(torque))):
+        inputs = [sample.tcv, sample.reaction_torque] + ([sample.wheel_speed] if self.speed_aware else [])
+        if not all(np.all(np.isfinite(x)) for x in inputs):
             # a NaN would silently disable the alarm (NaN > threshold is False): stop instead
-            self.fail(f"non-finite input at t={stamp * 1e-9:g} s: tcv={tcv.tolist()}, "
-                      f"reaction torque={torque.tolist()}", EXIT_BAD_INPUT)
+            self.fail(f"non-finite input at t={sample.stamp_ns * 1e-9:g} s: tcv={sample.tcv.tolist()}, "
+                      f"reaction torque={sample.reaction_torque.tolist()}"
+                      + (f", wheel speed={sample.wheel_speed.tolist()}" if self.speed_aware else ""), EXIT_BAD_INPUT)
             return
-        estimate, residual = self.observe(tcv, torque)
+        estimate, residual, bound = self.observe(sample)
         self.compute.append(time.perf_counter() - t0)
-        self.pub_estimate.publish(vector_msg(stamp, estimate))
-        self.pub_residual.publish(vector_msg(stamp, residual))
-        self.last_handled = stamp
+        self.pub_estimate.publish(vector_msg(sample.stamp_ns, estimate))
+        self.pub_residual.publish(vector_msg(sample.stamp_ns, residual))
+        self.pub_bound.publish(vector_msg(sample.stamp_ns, bound))
+        self.last_handled = sample.stamp_ns
         self.callback.append(time.perf_counter() - t0)
         self.callback_cpu.append(time.thread_time() - c0)
 
     def poll(self):
         if not hasattr(self, "pub_estimate"):
             return
-        flushed = self.pub_estimate.flush() & self.pub_residual.flush()
+        flushed = self.pub_estimate.flush() & self.pub_residual.flush() & self.pub_bound.flush()
         if flushed and self.run_ended():
             self.finish()
 

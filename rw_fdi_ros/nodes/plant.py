@@ -14,6 +14,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
+from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Header, String
 
@@ -35,10 +36,12 @@ class PlantNode(GraphNode):
         self.declare_parameter("duration", 0.0)          # 0: the scenario's duration [s]
         self.declare_parameter("control_period", 0.0)    # lockstep tick [s]; 0: the scenario's, else 0.1
         self.declare_parameter("emf_limit", "")          # physics.md [choice]; empty: the scenario's, else kf_scaled
+        self.declare_parameter("wheel_momentum_coupling", Parameter.Type.BOOL)  # unset: the scenario's, else true
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
         self.declare_parameter("wait_for_subscribers", 0)  # extra subscribers per topic (1 = recorder)
         self.declare_parameter("observers", 0)           # FDI nodes reading /wheel/tcv and reaction torque
+        self.declare_parameter("speed_observers", 0)     # FDI nodes reading /wheel_speed too (speed_aware)
         self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
         for axis in AXES:  # live fault injection: setting one injects from the current sim time
             for kind in FAULT_KINDS:
@@ -47,16 +50,20 @@ class PlantNode(GraphNode):
 
         try:
             scenario = load_scenario(self.param("scenario"))
-            wheel = WheelParams(emf_limit=self.param("emf_limit") or scenario.plant.get("emf_limit", "kf_scaled"))
+            self.choices = scenario.plant_choices(emf_limit=self.param("emf_limit"),
+                                                  wheel_momentum_coupling=self.param("wheel_momentum_coupling"),
+                                                  control_period=self.param("control_period") or None)
+            wheel = WheelParams(emf_limit=self.choices.emf_limit)
         except (ScenarioError, ValueError) as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         if self.param("seed") >= 0:
             scenario = scenario.with_seed(self.param("seed"))
         self.duration = self.param("duration") or scenario.duration
-        self.period = self.param("control_period") or scenario.plant.get("control_period", 0.1)
+        self.period = self.choices.control_period
         self.last_step = int(round(self.duration / self.period))
         self.scenario = scenario
-        self.plant = Plant(scenario, wheel=wheel, control_period=self.period)
+        self.plant = Plant(scenario, wheel=wheel, control_period=self.period,
+                           wheel_momentum_coupling=self.choices.wheel_momentum_coupling)
 
         pub = lambda msg_type, topic, qos=T.RELIABLE: self.create_publisher(msg_type, topic, qos)
         self.pub_clock = pub(Clock, T.CLOCK)
@@ -99,6 +106,7 @@ class PlantNode(GraphNode):
         need = {name: extra for name in self.pub_vectors}
         need[T.ATTITUDE] = need[T.BODY_RATE] = 3 + extra
         need[T.TCV] = need[T.REACTION_TORQUE] = self.param("observers") + extra
+        need[T.WHEEL_SPEED] = self.param("speed_observers") + extra
         if any(self.pub_vectors[n].get_subscription_count() < k for n, k in need.items()):
             return False
         return all(p.get_subscription_count() >= extra for p in (self.pub_clock, self.pub_truth, self.pub_scenario))
@@ -108,8 +116,7 @@ class PlantNode(GraphNode):
         if not self.started:
             if self._graph_ready():
                 self.started = True
-                self.pub_scenario.publish(String(data=self.scenario.effective_text(
-                    {"emf_limit": self.plant.wheel.emf_limit, "control_period": self.period})))
+                self.pub_scenario.publish(String(data=self.scenario.effective_text(self.choices.scenario_dict())))
                 self._publish(self.plant.sample())
             elif now - self.t_wait > self.param("startup_timeout"):
                 missing = [a for a, s in zip(AXES, self.subs) if s.get_publisher_count() < 1]

@@ -24,7 +24,7 @@ PLANT_OUTPUTS = [T.CLOCK, T.ATTITUDE, T.BODY_RATE, T.WHEEL_SPEED, T.TCV, T.REACT
                  T.FAULT_TRUTH, T.SCENARIO, T.PLANT_DONE]
 # what the observer and isolation nodes (and the recorder of their outputs) read: bag replay for
 # evaluation plays only these, which halves the player's work
-FDI_INPUTS = [T.CLOCK, T.TCV, T.REACTION_TORQUE, T.FAULT_TRUTH, T.SCENARIO, T.PLANT_DONE]
+FDI_INPUTS = [T.CLOCK, T.TCV, T.REACTION_TORQUE, T.WHEEL_SPEED, T.FAULT_TRUTH, T.SCENARIO, T.PLANT_DONE]
 
 
 class PlayerNode(GraphNode):
@@ -39,6 +39,7 @@ class PlayerNode(GraphNode):
         self.declare_parameter("pace_period", 1.0)        # FDI period [s]
         self.declare_parameter("pace_window", 20)         # FDI samples the player may run ahead
         self.declare_parameter("min_subscribers", 0)      # readers of /wheel/tcv and reaction torque before starting
+        self.declare_parameter("speed_subscribers", 0)    # readers of /wheel_speed before starting (speed_aware)
         self.declare_parameter("startup_timeout", 60.0)
         self.declare_parameter("stall_timeout", 10.0)     # wall s without consumer progress -> error
         topics = self.param("topics") or PLANT_OUTPUTS
@@ -76,8 +77,8 @@ class PlayerNode(GraphNode):
 
     def _ready(self):
         need = self.param("min_subscribers")
-        inputs = all(self.pubs[t].get_subscription_count() >= need for t in (T.TCV, T.REACTION_TORQUE)
-                     if t in self.pubs)
+        need = {T.TCV: need, T.REACTION_TORQUE: need, T.WHEEL_SPEED: self.param("speed_subscribers")}
+        inputs = all(self.pubs[t].get_subscription_count() >= k for t, k in need.items() if t in self.pubs)
         return inputs and (self.pace_sub is None or self.pace_sub.get_publisher_count() >= 1)
 
     def poll(self):

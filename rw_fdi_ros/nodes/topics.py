@@ -55,8 +55,13 @@ def estimate_topic(observer: str, axis: str | None = None) -> str:
 
 
 def residual_topic(observer: str, axis: str | None = None) -> str:
-    """Residual: 40-sample moving average of |r - r^| [N m]."""
+    """Residual [N m]: 40-sample mean of r - r^ (speed_aware, signed) or of |r - r^| (thesis)."""
     return f"/fdi/{observer}/{axis}/residual" if axis else f"/fdi/{observer}/residual"
+
+
+def bound_topic(observer: str, axis: str | None = None) -> str:
+    """What aliased commutation ripple can add to the residual [N m] (speed_aware; 0 for thesis)."""
+    return f"/fdi/{observer}/{axis}/ripple_bound" if axis else f"/fdi/{observer}/ripple_bound"
 
 
 def fdi_output_topics(observer: str):
@@ -70,8 +75,10 @@ def fdi_topics():
     vec, diag = "geometry_msgs/msg/Vector3Stamped", "diagnostic_msgs/msg/DiagnosticArray"
     rows = []
     for a in AXES:
-        rows += [(estimate_topic("elman", a), vec, RELIABLE), (residual_topic("elman", a), vec, RELIABLE)]
-    rows += [(estimate_topic("linear"), vec, RELIABLE), (residual_topic("linear"), vec, RELIABLE)]
+        rows += [(estimate_topic("elman", a), vec, RELIABLE), (residual_topic("elman", a), vec, RELIABLE),
+                 (bound_topic("elman", a), vec, RELIABLE)]
+    rows += [(estimate_topic("linear"), vec, RELIABLE), (residual_topic("linear"), vec, RELIABLE),
+             (bound_topic("linear"), vec, RELIABLE)]
     for obs in OBSERVERS:
         out = fdi_output_topics(obs)
         rows += [(out["threshold"], vec, RELIABLE), (out["alarm"], vec, RELIABLE), (out["status"], diag, RELIABLE)]

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.detection import PERSISTENCE, ThresholdCurves, ThresholdError
+from ..core.detection import ThresholdCurves, ThresholdError
 from ..core.elman import ModelError
 from ..core.scenario import AXES
 from ..nodes import topics as T
@@ -22,8 +22,9 @@ from ..paths import config_dir
 from ..storage.bag import BagError, bag_is_complete, read_bag
 from .campaign import LocalExecutor, _progress
 from .metrics import OBSERVERS, RunEval, aggregate, fdi_output_topics, scenario_of, series_from_bag
+from ..core.plant_choices import PlantChoices
 from ..launch.graph import FDI_SAMPLING
-from .offline import DEFAULT_PLANT, load_models
+from .offline import fdi_method_of, load_models, model_card
 from .replay import replay_bag
 
 
@@ -43,17 +44,18 @@ def _check_bag(bag: Path, curves: dict):
         raise BagError(f"{bag.name}: incomplete bag ({data.note or 'no metadata.yaml'})")
     data = read_bag(bag, topics=["/scenario", T.FAULT_EFFECT])
     scenario = scenario_of(data)
-    plant = {**DEFAULT_PLANT, **scenario.plant, "fdi_sampling": FDI_SAMPLING}
+    plant = PlantChoices.from_recorded(scenario.plant).with_(fdi_sampling=FDI_SAMPLING)
     for c in curves.values():
         c.check_compatible(plant, origin=f"{bag.name}: curves")
     return scenario, data
 
 
-def evaluate_bag(bag: Path, replays: Path, curves: dict, models, thresholds, persistence: int) -> RunEval:
+def evaluate_bag(bag: Path, replays: Path, curves: dict, models, thresholds, persistence: int | None,
+                 method: str = "speed_aware") -> RunEval:
     scenario, data = _check_bag(bag, curves)
     out = replays / bag.name
     if not bag_is_complete(out):
-        outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence)
+        outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence, method=method)
         if not outcome.ok:
             raise BagError(f"{bag.name}: replay failed: {outcome.reason}")
     series = series_from_bag(read_bag(out, topics=fdi_output_topics()))
@@ -64,14 +66,18 @@ def evaluate_bag(bag: Path, replays: Path, curves: dict, models, thresholds, per
                    series=series, fault_effect_peak=peak)
 
 
-def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: int = PERSISTENCE, executor=None,
+def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: int | None = None, executor=None,
              plots: bool = True) -> dict:
+    """Replay every bag under ``bags_root`` through the FDI nodes; the method follows the models."""
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
     models = str(models or config_dir() / "fdi")
-    thresholds = str(thresholds or config_dir() / "fdi")
-    load_models(models)   # a missing/corrupt model stops here, before any replay
+    thresholds = str(thresholds or models)
+    method = fdi_method_of(load_models(models))   # a missing/corrupt model stops here, before any replay
     curves = {obs: ThresholdCurves.load(Path(thresholds) / f"thresholds_{obs}.json") for obs in OBSERVERS}
+    for obs, c in curves.items():
+        c.check_method(method, origin=f"{thresholds}/thresholds_{obs}.json")
+    persistence = persistence or curves["elman"].persistence
     bags = find_bags(bags_root)
     if not bags:
         raise BagError(f"{bags_root}: no bags to evaluate")
@@ -81,7 +87,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
 
     def one(bag):
         try:
-            return evaluate_bag(bag, report_dir / "replays", curves, models, thresholds, persistence), None
+            return evaluate_bag(bag, report_dir / "replays", curves, models, thresholds, persistence, method), None
         except (BagError, ValueError, ThresholdError, ModelError) as exc:
             return None, (str(bag), str(exc))
 
@@ -97,8 +103,12 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
     runs.sort(key=lambda r: (r.scenario, r.seed))
     level = {obs: {a: float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a]))
                    for a in AXES} for obs, c in curves.items()}
-    figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level)
-    report = {"schema": "rw_fdi_ros/evaluation/1", "persistence": persistence, "models": models,
+    try:
+        training = model_card(models).get("seeds", [])
+    except ModelError:   # a model set without its card: nothing known to exclude
+        training = []
+    figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level, training)
+    report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence, "models": models,
               "thresholds": thresholds, "observable_level_Nm": level, "runs": len(runs),
               "skipped": [{"bag": b, "reason": r} for b, r in skipped],
               "observers": figures, "evaluate_seconds": time.monotonic() - t0}

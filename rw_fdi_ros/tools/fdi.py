@@ -1,38 +1,45 @@
 """A run with the FDI half live: which wheel is faulty and since when, per observer, beside the truth."""
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 
+import numpy as np
 
-from ..core.detection import PERSISTENCE
+
 from ..core.scenario import AXES, parse_scenario
 from ..nodes import topics as T
 from ..storage.bag import BagData, read_bag
 from .run import RunOutcome, run_scenario
 
 
-def check_fdi_files(models=None, thresholds=None, plant: dict | None = None):
-    """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError."""
+def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "speed_aware"):
+    """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError.
+
+    ``plant``: the run's PlantChoices (default: the defaults); ``method``: the FDI method."""
     from ..core.detection import ThresholdCurves
-    from ..core.elman import ElmanWeights
-    from ..launch.graph import CONTROL_PERIOD, FDI_PERIOD, FDI_SAMPLING
-    from ..paths import config_dir
-    models = Path(models or config_dir() / "fdi")
-    thresholds = Path(thresholds or config_dir() / "fdi")
+    from ..core.elman import REGENERATE, ElmanWeights, ModelError
+    from ..core.plant_choices import DEFAULT
+    from ..paths import fdi_dir
+    models = Path(models or fdi_dir(method))
+    thresholds = Path(thresholds or fdi_dir(method))
     for a in AXES:
-        ElmanWeights.load(models / f"elman_{a}.npz")
-    plant = {"emf_limit": "kf_scaled", "control_period": CONTROL_PERIOD, "fdi_period": FDI_PERIOD,
-             "fdi_sampling": FDI_SAMPLING, **(plant or {})}
+        path = models / f"elman_{a}.npz"
+        if ElmanWeights.load(path).speed_aware != (method == "speed_aware"):
+            raise ModelError(f"{path}: not a network for fdi_method={method!r}; {REGENERATE}")
+    plant = plant or DEFAULT
     for obs in T.OBSERVERS:
         path = thresholds / f"thresholds_{obs}.json"
-        ThresholdCurves.load(path).check_compatible(plant, origin=str(path))
+        curves = ThresholdCurves.load(path)
+        curves.check_method(method, origin=str(path))
+        curves.check_compatible(plant, origin=str(path))
 
 
-def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int = PERSISTENCE,
-                 figure: bool = False, **kw) -> RunOutcome:
+def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int | None = None,
+                 figure: bool = False, method: str = "speed_aware", **kw) -> RunOutcome:
     """Run the full graph (plant, PIDs, observers, isolation, recorder); attach the FDI verdict."""
-    outcome = run_scenario(ref, seed=seed, out_dir=out_dir,
-                           fdi={"models": models, "thresholds": thresholds, "persistence": persistence}, **kw)
+    outcome = run_scenario(ref, seed=seed, out_dir=out_dir, fdi={"models": models, "thresholds": thresholds,
+                                                                 "persistence": persistence, "method": method}, **kw)
     if outcome.bag.exists():
         try:
             data = read_bag(outcome.bag)
@@ -85,21 +92,36 @@ def format_verdict(v: dict) -> str:
     return "\n".join(lines)
 
 
+_PLOT_LOCK = threading.Lock()   # matplotlib (its mathtext parser above all) is not thread-safe
+
+
 def plot_residuals(data: BagData, path: Path) -> Path:
-    """Residuals against threshold curves per observer and wheel (like thesis Figs. 4.19-4.23, 5.2/5.3)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    """|Residual| against threshold per observer and wheel (like thesis Figs. 4.19-4.23, 5.2/5.3).
+
+    Speed-aware runs (a non-zero ripple bound) are drawn on a log scale: their thresholds sit
+    two orders of magnitude below the fault signatures. Campaign threads plot one at a time."""
+    with _PLOT_LOCK:
+        return _plot_residuals(data, path)
+
+
+def _plot_residuals(data: BagData, path: Path) -> Path:
+    from matplotlib.figure import Figure   # no pyplot: its global figure stack is not thread-safe
     verdict = fdi_verdict(data)
-    fig, axes = plt.subplots(2, 3, figsize=(14, 6.5), sharex=True)
+    fig = Figure(figsize=(14, 6.5))
+    axes = fig.subplots(2, 3, sharex=True)
     for row, obs in enumerate(T.OBSERVERS):
         t_c, thr = data.vectors(T.fdi_output_topics(obs)["threshold"])
         for i, a in enumerate(AXES):
             ax = axes[row, i]
             topic = T.residual_topic(obs, a) if obs == "elman" else T.residual_topic(obs)
             t_r, res = data.vectors(topic)
-            ax.plot(t_r, res[:, i] * 1e3, label="residual", lw=1.2)
-            ax.plot(t_c, thr[:, i] * 1e3, "--", label="threshold (mean + 3σ)", lw=1.2, color="tab:red")
+            _, bound = data.vectors(T.bound_topic(obs, a) if obs == "elman" else T.bound_topic(obs))
+            speed_aware = bound.size and np.any(bound[:, i] != 0.0)
+            ax.plot(t_r, np.abs(res[:, i]) * 1e3, label="|residual|", lw=1.2)
+            ax.plot(t_c, thr[:, i] * 1e3, "--", label="threshold (c + bound)" if speed_aware else
+                    "threshold (mean + 3σ)", lw=1.2, color="tab:red")
+            if speed_aware:
+                ax.set_yscale("log")
             for f in verdict["truth"][a]:
                 ax.axvline(f["onset"], color="k", lw=0.8, alpha=0.6)
                 ax.text(f["onset"], ax.get_ylim()[1] * 0.9, f" {f['kind']}={f['value']:g}", fontsize=7)
@@ -113,5 +135,4 @@ def plot_residuals(data: BagData, path: Path) -> Path:
     fig.suptitle(f"{data.path.name}: residuals vs threshold curves (shaded: alarm)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path

@@ -83,7 +83,8 @@ def series_from_bag(data) -> dict:
         n = min(len(t), len(t_c), len(t_r))
         if n == 0:
             raise ValueError(f"{data.path}: no {obs} FDI outputs")
-        out[obs] = Series(t[:n], res[:n], thr[:n], alarm[:n] > 0.5)
+        # the alarm compares the residual's magnitude (the speed-aware residual is signed)
+        out[obs] = Series(t[:n], np.abs(res[:n]), thr[:n], alarm[:n] > 0.5)
     return out
 
 
@@ -165,13 +166,16 @@ def _rate(flags):
     return {"rate": float(np.mean(flags)) if flags else None, "n": len(flags)}
 
 
-def aggregate(runs, curves_seeds: dict, observable_level: dict) -> dict:
-    """All figures per observer; ``observable_level[obs][axis]``: the fault-free residual level [N m]."""
+def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=()) -> dict:
+    """All figures per observer; ``observable_level[obs][axis]``: the fault-free residual level [N m].
+
+    Held-out runs are fault-free runs the thresholds were not fitted on and the models not trained on."""
     report = {}
     for obs in OBSERVERS:
         verdicts = {r.bag: judge(r, obs) for r in runs}
         rep = {"reliability": reliability(runs, curves_seeds.get(obs, []), obs)}
-        heldout = [r for r in runs if r.category == "fault_free" and r.seed not in set(curves_seeds.get(obs, []))]
+        used = set(curves_seeds.get(obs, [])) | set(training_seeds)
+        heldout = [r for r in runs if r.category == "fault_free" and r.seed not in used]
         rep["false_alarm_heldout"] = {**_rate(verdicts[r.bag]["false_alarm"] for r in heldout),
                                       "seeds": [r.seed for r in heldout]}
         dist = [r for r in runs if r.category == "disturbance"]

@@ -1,8 +1,8 @@
 """The observers run offline on recorded FDI samples, with the very code the nodes run.
 
-ElmanObserver.update, LinearObserver.update, ResidualFilter.update and
-AlarmRule.update are stepped sample by sample here exactly as in the
-elman_observer, linear_observer and isolation nodes.
+ElmanObserver.update, LinearObserver.update, ResidualFilter.update,
+SignedResidual.update and AlarmRule.update are stepped sample by sample here
+exactly as in the elman_observer, linear_observer and isolation nodes.
 """
 from __future__ import annotations
 
@@ -12,13 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.detection import WINDOW, ThresholdCurves, ThresholdError, alarm_series, residual_series
+from ..core.detection import (FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, WINDOW, ThresholdCurves,
+                              ThresholdError, fit_band, residual_series, run_statistic,
+                              signed_residual_series)
 from ..core.elman import ElmanWeights, ModelError, recall_series
 from ..core.linear_observer import estimate_series
 from ..core.scenario import AXES
-from ..launch.graph import CONTROL_PERIOD, FDI_PERIOD, FDI_SAMPLING
+from ..launch.graph import FDI_PERIOD, FDI_SAMPLING
 
-DEFAULT_PLANT = {"emf_limit": "kf_scaled", "control_period": CONTROL_PERIOD}
 
 
 def load_models(models_dir) -> dict:
@@ -36,38 +37,64 @@ def model_card(models_dir) -> dict:
 
 @dataclass
 class ObserverRun:
-    """Estimates and residuals (n, 3) of both observers on one run's FDI samples."""
+    """Estimates, residuals and ripple bounds (n, 3) of both observers on one run's FDI samples."""
 
     time: np.ndarray
     reaction_torque: np.ndarray
     estimate: dict      # observer -> (n, 3)
-    residual: dict      # observer -> (n, 3)
+    residual: dict      # observer -> (n, 3); signed (speed_aware) or >= 0 (thesis)
+    bound: dict         # observer -> (n, 3); 0 for the thesis method
+    method: str = "thesis"
+
+
+def fdi_method_of(models: dict) -> str:
+    """'speed_aware' for networks with the wheel-speed input, else 'thesis'."""
+    return "speed_aware" if all(w.speed_aware for w in models.values()) else "thesis"
 
 
 def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PERIOD) -> ObserverRun:
+    """Both observers over one run; the method follows the Elman models (thesis: 2 inputs)."""
     r = samples.reaction_torque
-    elman = np.stack([recall_series(models[a], samples.tcv[:, i], r[0, i]) for i, a in enumerate(AXES)], axis=1)
-    linear = estimate_series(samples.tcv, r, period)
-    est = {"elman": elman, "linear": linear}
-    return ObserverRun(samples.time, r, est, {k: residual_series(r, v, window) for k, v in est.items()})
+    method = fdi_method_of(models)
+    if method == "thesis":
+        elman = np.stack([recall_series(models[a], samples.tcv[:, i], r[0, i]) for i, a in enumerate(AXES)], axis=1)
+        est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period)}
+        zero = np.zeros_like(r)
+        return ObserverRun(samples.time, r, est, {k: residual_series(r, v, window) for k, v in est.items()},
+                           {k: zero for k in est})
+    if samples.wheel_speed is None:
+        raise ValueError("speed-aware observers need FDI samples with wheel speed (fdi_sampling 'mean')")
+    elman = np.stack([recall_series(models[a], samples.tcv[:, i], r[0, i], samples.wheel_speed[:, i])
+                      for i, a in enumerate(AXES)], axis=1)
+    est = {"elman": elman, "linear": samples.model_torque}
+    residual, bound = {}, {}
+    gains = {"elman": [models[a].uncertainty_gain for a in AXES], "linear": [0.0, 0.0, 0.0]}
+    for k, v in est.items():
+        residual[k], bound[k] = signed_residual_series(r, v, samples.ripple_phasor, window, gains[k])
+    return ObserverRun(samples.time, r, est, residual, bound, method)
 
 
 def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
-    """The plant choices the bags were recorded under (FdiSamples or bag paths); they must all agree."""
+    """The plant choices the bags were recorded under (FdiSamples or bag paths), as a mapping;
+    they must all agree."""
     import yaml
+    from ..core.plant_choices import PlantChoices
     from ..storage.bag import read_bag
     seen = set()
     for s in samples_list:
         text = read_bag(getattr(s, "bag", s), topics=["/scenario"]).scenario_text or ""
-        plant = {**DEFAULT_PLANT, **((yaml.safe_load(text) or {}).get("plant") or {})}
-        seen.add(tuple(sorted(plant.items())))
+        recorded = PlantChoices.from_recorded((yaml.safe_load(text) or {}).get("plant"))
+        seen.add(recorded.with_(fdi_period=FDI_PERIOD, fdi_sampling=sampling))
     if len(seen) != 1:
-        raise ThresholdError(f"bags recorded under different plant choices: {sorted(seen)}")
-    return {**dict(seen.pop()), "fdi_period": FDI_PERIOD, "fdi_sampling": sampling}
+        raise ThresholdError(f"bags recorded under different plant choices: {sorted(map(str, seen))}")
+    return seen.pop().as_dict()
 
 
-def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", window: int = WINDOW) -> dict:
-    """Fit mean + 3 sigma curves for both observers from fault-free runs; returns reliability per axis."""
+def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", window: int = WINDOW,
+                   false_alarm_rate: float = FALSE_ALARM_RATE, persistence: int | None = None) -> dict:
+    """Fit both observers' thresholds from fault-free runs (the method follows the models):
+    thesis: mean + 3 sigma curves, returns reliability per axis; speed_aware: bands c for the
+    designed per-run ``false_alarm_rate`` at persistence P, returns the bands."""
     from ..core.detection import fit_threshold_curve
     n = min(len(s.time) for s in samples_list)
     runs = [observe(s, models, window) for s in samples_list]
@@ -75,23 +102,55 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     seeds = [s.seed for s in samples_list]
     out_dir = Path(out_dir)
     report = {}
+    describe = {"elman": model_ref, "linear": "linearised wheel, poles 4x"}
+    if runs and runs[0].method == "speed_aware":
+        p = persistence or PERSISTENCE_SPEED_AWARE
+        describe["linear"] = "nominal wheel model at the measured speed"
+        for obs in ("elman", "linear"):
+            stats = np.array([run_statistic(np.abs(run.residual[obs]) - run.bound[obs], p) for run in runs])
+            bands = fit_band(stats, false_alarm_rate)
+            ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in AXES},
+                            sample_period=FDI_PERIOD, window=window, sigmas=float("nan"), seeds=seeds, plant=plant,
+                            model=describe[obs], method="speed_aware", persistence=p,
+                            false_alarm_rate=false_alarm_rate,
+                            calibration={"law": "Gumbel by moments per axis, alpha / 3 each", "axes": bands,
+                                         "run_statistic": "max over k of min(|residual| - bound) over P samples"}
+                            ).save(out_dir / f"thresholds_{obs}.json")
+            report[obs] = {a: bands[a]["band"] for a in AXES}
+        return report
     for obs in ("elman", "linear"):
         stack = np.stack([run.residual[obs][:n] for run in runs])          # (runs, n, 3)
         curves = {a: fit_threshold_curve(stack[:, :, i]) for i, a in enumerate(AXES)}
         ThresholdCurves(observer=obs, curves=curves, sample_period=FDI_PERIOD, window=window, seeds=seeds,
-                        plant=plant, model=model_ref if obs == "elman" else "linearised wheel, poles 4x").save(
+                        plant=plant, model=describe[obs], persistence=persistence or PERSISTENCE).save(
             out_dir / f"thresholds_{obs}.json")
         report[obs] = {a: float(np.mean(np.all(stack[:, :, i] <= curves[a], axis=1))) for i, a in enumerate(AXES)}
     return report
 
 
-def decisions(run: ObserverRun, curves: dict, persistence: int) -> dict:
-    """observer -> axis -> (alarm flags, first alarm time) with the isolation node's rule."""
+def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -> dict:
+    """observer -> metrics.Series (|residual|, threshold + bound, alarm), stepped through the isolation
+    node's ObserverChannel: what the node would publish for this run (P: the curves' own unless given)."""
+    from ..core.isolation import ObserverChannel
+    from .metrics import Series
+    stamps = np.round(run.time * 1e9).astype(np.int64)
     out = {}
     for obs, c in curves.items():
+        c.check_method(run.method, origin=f"thresholds_{obs}")
+        channel = ObserverChannel(obs, c, persistence)
+        rows = [channel.update(int(s), r, b) for s, r, b in zip(stamps, run.residual[obs], run.bound[obs])]
+        col = lambda j: np.array([[row[a][j] for a in AXES] for row in rows]).reshape(len(rows), 3)
+        out[obs] = Series(run.time, np.abs(col(0)), col(1), col(2).astype(bool))
+    return out
+
+
+def decisions(run: ObserverRun, curves: dict, persistence: int | None = None) -> dict:
+    """observer -> axis -> (alarm flags, first alarm time) of :func:`fdi_series`."""
+    out = {}
+    for obs, s in fdi_series(run, curves, persistence).items():
         out[obs] = {}
         for i, a in enumerate(AXES):
-            k = np.round(run.time / c.sample_period).astype(int)
-            threshold = np.array([c.at(a, j) for j in k])
-            out[obs][a] = alarm_series(run.residual[obs][:, i], threshold, run.time, persistence)
+            flags = s.alarm[:, i]
+            up = np.nonzero(flags)[0]   # AlarmRule's first alarm: where the flag first goes up
+            out[obs][a] = (flags, float(s.time[up[0]]) if up.size else None)
     return out

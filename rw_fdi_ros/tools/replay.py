@@ -5,8 +5,8 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from ..core.detection import PERSISTENCE
-from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_nodes
+from ..core.plant_choices import PlantChoices
+from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_method, fdi_nodes
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
 from ..nodes.player import FDI_INPUTS
 from .offline import plant_conditions
@@ -15,23 +15,25 @@ from .run import RunOutcome
 
 def replay_nodes(bag: Path, out_bag: Path, fdi: dict, plant: dict, rate: float = 0.0):
     """Player + Elman x3 + linear + isolation + a recorder of the FDI outputs."""
-    nodes = fdi_nodes(fdi, plant["emf_limit"], True, plant["control_period"])
+    nodes = fdi_nodes(fdi, PlantChoices(**plant), True)
+    speed = 4 if fdi_method(fdi) == "speed_aware" else 0
     nodes.append(NodeSpec("player", "player", {"bag": str(bag), "rate": float(rate), "min_subscribers": 4,
+                                               "speed_subscribers": speed,
                                                "pace_period": FDI_PERIOD, "topics": FDI_INPUTS}))
     nodes.append(NodeSpec("recorder", "recorder", {"output": str(out_bag), "fdi_period": FDI_PERIOD,
                                                    "record_plant": False}))
     return nodes
 
 
-def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int = PERSISTENCE, rate: float = 0.0,
-               keep_logs: bool = False, watchdog: float = 300.0) -> RunOutcome:
+def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int | None = None, rate: float = 0.0,
+               keep_logs: bool = False, watchdog: float = 300.0, method: str | None = None) -> RunOutcome:
     """Replay ``bag``; the FDI outputs of the replay are recorded to ``out_bag``."""
     bag, out_bag = Path(bag), Path(out_bag)
     plant = plant_conditions([bag])
     if out_bag.exists():
         shutil.rmtree(out_bag)
-    nodes = replay_nodes(bag, out_bag, {"models": models, "thresholds": thresholds, "persistence": persistence},
-                         plant, rate)
+    nodes = replay_nodes(bag, out_bag, {"models": models, "thresholds": thresholds, "persistence": persistence,
+                                        "method": method}, plant, rate)
     for attempt in range(2):
         with DomainLease() as lease:
             work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_replay_{bag.name}_"))

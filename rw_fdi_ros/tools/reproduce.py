@@ -17,7 +17,6 @@ from pathlib import Path
 
 import yaml
 
-from ..core.detection import PERSISTENCE
 from ..core.scenario import AXES
 from .campaign import run_campaign
 
@@ -38,9 +37,10 @@ class Scale:
 
 SCALES = {
     # CI-sized: every stage and every figure of the report, a few runs each, 120 s runs
+    # fit_runs: the fault-free runs of the "fit" group; the first train_runs train, the rest fit thresholds
     "small": Scale(duration=120.0, onset=60.0, fit_runs=6, heldout_runs=2, table42_runs=1, grid_runs=1,
-                   ripple_runs=1, multiple_runs=1, train_runs=6, epochs=40),
-    "thesis": Scale(duration=400.0, onset=200.0, fit_runs=100, heldout_runs=20, table42_runs=100, grid_runs=10,
+                   ripple_runs=1, multiple_runs=1, train_runs=2, epochs=40),
+    "thesis": Scale(duration=400.0, onset=200.0, fit_runs=140, heldout_runs=20, table42_runs=100, grid_runs=10,
                     ripple_runs=20, multiple_runs=20, train_runs=40, epochs=300),
 }
 
@@ -140,7 +140,7 @@ class StageClock:
         return {**self.data["stages"], "total": {"seconds": total, "runs": None}}
 
 
-def reproduce(out, scale_name: str = "small", executor=None, persistence: int = PERSISTENCE) -> dict:
+def reproduce(out, scale_name: str = "small", executor=None, persistence: int | None = None) -> dict:
     from .evaluate import evaluate
     from .offline import fit_thresholds, load_models, plant_conditions
     from .samples import load_samples
@@ -167,10 +167,12 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int = 
 
     models = out / "models"
     t = time.monotonic()
-    fit = load_samples(out / "bags" / "fit", on_skip=lambda m: print(f"skipped {m}", file=sys.stderr))
+    recorded = sorted(load_samples(out / "bags" / "fit", on_skip=lambda m: print(f"skipped {m}", file=sys.stderr)),
+                      key=lambda x: x.seed)
+    train, fit = recorded[:s.train_runs], recorded[s.train_runs:]   # never the same run for both
     if not (models / "model_set.json").exists():
-        train_models(fit[:s.train_runs], models, mode="recall", epochs=s.epochs, plant=plant_conditions(fit))
-        clock.add("train", time.monotonic() - t, min(len(fit), s.train_runs), redo=True)
+        train_models(train, models, mode="recall", epochs=s.epochs, plant=plant_conditions(recorded))
+        clock.add("train", time.monotonic() - t, len(train), redo=True)
     t = time.monotonic()
     fit_thresholds(fit, load_models(models), models, model_ref=str(models))
     clock.add("fit thresholds", time.monotonic() - t, len(fit), redo=True)

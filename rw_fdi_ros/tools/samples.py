@@ -1,4 +1,4 @@
-"""FDI samples out of bags: the 1 s samples of command voltage and reaction torque the observers see."""
+"""FDI samples out of bags: the 1 s samples the observers see (core/telemetry.py, as the nodes make them)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -6,36 +6,57 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.sampling import sample_series
-from ..nodes.topics import REACTION_TORQUE, TCV
+from ..core.telemetry import sample_telemetry
+from ..nodes.topics import REACTION_TORQUE, TCV, WHEEL_SPEED
 from ..storage.bag import BagError, bag_is_complete, read_bag
 
 
 @dataclass
 class FdiSamples:
-    """One run at the FDI period: time (n,), tcv (n, 3) [V], reaction torque (n, 3) [N m]."""
+    """One run at the FDI period, (n, 3) arrays per wheel: tcv [V], reaction torque [N m], and for the
+    speed-aware observers wheel speed [rad/s], the nominal model's torque [N m] and the ripple phasor."""
 
-    bag: Path
+    bag: Path | None
     seed: int | None
     time: np.ndarray
     tcv: np.ndarray
     reaction_torque: np.ndarray
+    wheel_speed: np.ndarray | None = None
+    model_torque: np.ndarray | None = None
+    ripple_phasor: np.ndarray | None = None
 
 
-def fdi_samples(data, period: float = 1.0, sampling: str = "mean") -> FdiSamples:
-    """Pair /wheel/tcv and /wheel/reaction_torque by stamp and make the FDI samples the nodes make."""
-    t_u, u = data.vectors(TCV)
-    t_r, r = data.vectors(REACTION_TORQUE)
-    if len(t_u) == 0 or len(t_r) == 0:
-        raise BagError(f"{data.path}: no {TCV} / {REACTION_TORQUE} messages")
-    common, iu, ir = np.intersect1d(np.round(t_u * 1e9).astype(np.int64), np.round(t_r * 1e9).astype(np.int64),
-                                    return_indices=True)
-    stamps, u_s, r_s = sample_series(common, u[iu], r[ir], period, sampling)
+def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0,
+                        sampling: str = "mean", bag=None, seed=None) -> FdiSamples:
+    """Control-rate series (time first) -> FdiSamples through the nodes' TelemetrySampler."""
+    rows = sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed, period, sampling)
+    stamps = np.array([row.stamp_ns for row in rows], np.int64)
+    stack = lambda name: None if not rows or getattr(rows[0], name) is None else np.array([getattr(x, name)
+                                                                                         for x in rows])
+    empty = np.zeros((0, 3))
+    return FdiSamples(bag=bag, seed=seed, time=stamps // 10**9 + (stamps % 10**9) * 1e-9,
+                      tcv=stack("tcv") if rows else empty, reaction_torque=stack("reaction_torque") if rows else empty,
+                      wheel_speed=stack("wheel_speed"), model_torque=stack("model_torque"),
+                      ripple_phasor=stack("ripple_phasor"))
+
+
+def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: bool = True) -> FdiSamples:
+    """Pair /wheel/tcv, /wheel/reaction_torque (and /wheel_speed) by stamp; make the nodes' FDI samples."""
+    topics = [TCV, REACTION_TORQUE] + ([WHEEL_SPEED] if speed_aware else [])
+    series = [data.vectors(t) for t in topics]
+    if any(len(t) == 0 for t, _ in series):
+        raise BagError(f"{data.path}: no {' / '.join(topics)} messages")
+    stamps = [np.round(t * 1e9).astype(np.int64) for t, _ in series]
+    common = stamps[0]
+    for s in stamps[1:]:
+        common = np.intersect1d(common, s)
+    values = [v[np.searchsorted(s, common)] for s, (_, v) in zip(stamps, series)]
     seed = None
     if data.scenario_text:
         import yaml
         seed = (yaml.safe_load(data.scenario_text) or {}).get("seed")
-    return FdiSamples(bag=data.path, seed=seed, time=stamps // 10**9 + (stamps % 10**9) * 1e-9, tcv=u_s, reaction_torque=r_s)
+    return samples_from_series(common, values[0], values[1], values[2] if speed_aware else None, period, sampling,
+                               bag=data.path, seed=seed)
 
 
 def bag_dirs(root) -> list:
@@ -58,7 +79,8 @@ def load_samples(root, period: float = 1.0, complete_only: bool = True, on_skip=
         try:
             if complete_only and not bag_is_complete(bag):
                 raise BagError(f"{bag}: incomplete bag (no metadata.yaml or MCAP footer)")
-            out.append(fdi_samples(read_bag(bag, topics=[TCV, REACTION_TORQUE, "/scenario"]), period, sampling))
+            data = read_bag(bag, topics=[TCV, REACTION_TORQUE, WHEEL_SPEED, "/scenario"])
+            out.append(fdi_samples(data, period, sampling, speed_aware=sampling == "mean"))
         except BagError as exc:
             if on_skip is None:
                 raise

@@ -1,53 +1,94 @@
-"""`rw-fdi screen`: FDI figures for many seeds in seconds, without ROS.
+"""`rw-fdi screen`: FDI verdicts for many seeds without ROS, by the node code on the core loop.
 
 The core closed loop (the plant and PID code the nodes run) simulates a
-batch of seeds; FdiSampler, the observers and the alarm rule (the code the
-observer and isolation nodes run) judge them. The graph gives the same
-residuals to 1e-15 (test_fdi_graph.py); use it to screen, and `rw-fdi
-evaluate` on recorded bags for the figures of record.
+batch of runs; TelemetrySampler, the observers and ObserverChannel (the code
+the observer and isolation nodes run) make the series the isolation node
+would publish, and tools.metrics.judge (the verdict `rw-fdi evaluate` uses)
+judges them. The graph gives the same verdicts (test_screen_matches_graph.py);
+use it for large samples, `rw-fdi evaluate` on recorded bags for replays.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..core.closed_loop import simulate
-from ..core.detection import PERSISTENCE, ThresholdCurves
-from ..core.sampling import sample_series
-from ..core.scenario import AXES
-from ..paths import config_dir
-from .offline import decisions, load_models, observe
-from .samples import FdiSamples
+from ..core.detection import ThresholdCurves
+from ..core.wheel import WheelParams
+from ..paths import fdi_dir
+from .metrics import RunEval, judge
+from .offline import fdi_series, load_models, observe
+from .samples import samples_from_series
+
+BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
 
 
-def screen(scenario, seeds, models=None, thresholds=None, persistence: int = PERSISTENCE) -> dict:
-    models_dir = models or config_dir() / "fdi"
-    thresholds_dir = thresholds or config_dir() / "fdi"
-    weights = load_models(models_dir)
-    curves = {o: ThresholdCurves.load(f"{thresholds_dir}/thresholds_{o}.json") for o in ("elman", "linear")}
-    runs = [scenario.with_seed(s) for s in seeds]
-    traj = simulate(runs)
-    stamps = np.round(traj.time * 1e9).astype(np.int64)
-    faulty = {AXES[f.wheel] for f in scenario.faults if f.kind != "ripple_gain"}
-    out = {o: {"runs": len(runs), "any_alarm": 0, "correct": 0, "wrong_axis": 0, "held": 0, "lost": 0,
-               "delays": []} for o in curves}
-    for b, seed in enumerate(seeds):
-        st, u, r = sample_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b])
-        verdict = decisions(observe(FdiSamples(None, seed, st * 1e-9, u, r), weights), curves, persistence)
-        for obs, axes in verdict.items():
-            alarmed = {a for a, (_, first) in axes.items() if first is not None}
-            o = out[obs]
-            o["any_alarm"] += bool(alarmed)
-            o["wrong_axis"] += bool(alarmed - faulty)
-            if faulty:
-                o["correct"] += faulty <= alarmed and not alarmed - faulty
-                for a in faulty:
-                    flags, first = axes[a]
-                    onset = min(f.onset for f in runs[b].faults if AXES[f.wheel] == a)
-                    after = np.nonzero(flags & (st * 1e-9 >= onset))[0]
-                    if after.size:
-                        o["delays"].append(float(st[after[0]] * 1e-9 - onset))
-                        o["held" if flags[-1] else "lost"] += 1
+def load_fdi(models=None, thresholds=None, method: str = "speed_aware"):
+    """(Elman weights, {observer: ThresholdCurves}) from directories (None: the shipped set of ``method``)."""
+    models = models or fdi_dir(method)
+    weights = load_models(models)
+    curves = {o: ThresholdCurves.load(f"{thresholds or models}/thresholds_{o}.json") for o in ("elman", "linear")}
+    return weights, curves
+
+
+def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None) -> list:
+    """RunEval of every scenario (one seed each; equal durations within a batch)."""
+    return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress)["fdi"]
+
+
+def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None) -> dict:
+    """name -> [RunEval] for several FDI sets {name: (weights, curves)} judged on the same simulated runs."""
+    out = {name: [] for name in fdi_sets}
+    for start in range(0, len(scenarios), BATCH):
+        batch = scenarios[start:start + BATCH]
+        choices = batch[0].plant_choices()
+        for _, curves in fdi_sets.values():
+            for c in curves.values():
+                c.check_compatible(choices, origin=f"thresholds_{c.observer}.json")
+        traj = simulate(batch, wheel=WheelParams(emf_limit=choices.emf_limit), control_period=choices.control_period,
+                        wheel_momentum_coupling=choices.wheel_momentum_coupling)
+        stamps = np.round(traj.time * 1e9).astype(np.int64)
+        for b, scenario in enumerate(batch):
+            samples = samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
+                                          seed=scenario.seed)
+            onset = min((f.onset for f in scenario.faults), default=None)
+            after = traj.time >= onset if onset is not None else np.zeros(len(traj.time), bool)
+            peak = np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any() else np.zeros(3)
+            for name, (weights, curves) in fdi_sets.items():
+                out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,
+                                         seed=scenario.seed, faults=list(scenario.faults),
+                                         series=fdi_series(observe(samples, weights), curves, persistence),
+                                         fault_effect_peak=peak))
+        if progress:
+            progress(len(batch))
     return out
+
+
+def summarize(runs) -> dict:
+    """observer -> counts of the shared verdict (metrics.judge) over ``runs``."""
+    out = {}
+    for obs in ("elman", "linear"):
+        o = {"runs": len(runs), "any_alarm": 0, "correct": 0, "wrong_axis": 0, "held": 0, "lost": 0, "delays": []}
+        for r in runs:
+            v = judge(r, obs)
+            o["any_alarm"] += bool(v["alarmed_axes"])
+            if "axes" in v:
+                o["correct"] += v["correct"]
+                o["wrong_axis"] += bool(v["wrong_axes"])
+                for f in v["axes"].values():
+                    if f["detected"]:
+                        o["delays"].append(f["delay"])
+                        o["held" if f["held_to_end"] else "lost"] += 1
+            else:
+                o["wrong_axis"] += bool(v["alarmed_axes"])
+        out[obs] = o
+    return out
+
+
+def screen(scenario, seeds, models=None, thresholds=None, persistence: int | None = None,
+           method: str = "speed_aware") -> dict:
+    """Counts per observer over ``seeds`` of one scenario (see :func:`summarize`)."""
+    weights, curves = load_fdi(models, thresholds, method)
+    return summarize(screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, persistence))
 
 
 def format_screen(name, out) -> str:
@@ -58,3 +99,4 @@ def format_screen(name, out) -> str:
         lines.append(f"{name:20s} {obs:7s} runs {o['runs']:3d}  any alarm {o['any_alarm']:3d}  correct {o['correct']:3d}"
                      f"  wrong axis {o['wrong_axis']:3d}  held {o['held']:3d}  lost {o['lost']:3d}  {delay}")
     return "\n".join(lines)
+

@@ -34,11 +34,12 @@ def _torch():
     return torch
 
 
-def torch_forward(params, u, r, mode: str):
+def torch_forward(params, u, r, mode: str, speed=None):
     """Network outputs (B, T), normalised; ``params`` = (w_ih, w_hh, b_h, w_ho, b_o) torch tensors.
 
     Recall mode feeds back its own output; teacher mode feeds the measured r_{k-1}.
-    Both start from the measured r_0 as the delayed input of sample 0.
+    Both start from the measured r_0 as the delayed input of sample 0. ``speed`` (B, T),
+    normalised, is the third input of a speed-aware network.
     """
     torch = _torch()
     w_ih, w_hh, b_h, w_ho, b_o = params
@@ -46,7 +47,10 @@ def torch_forward(params, u, r, mode: str):
     fed = r[:, 0]
     outs = []
     for k in range(u.shape[1]):
-        h = torch.tanh(u[:, k:k + 1] * w_ih[:, 0] + fed[:, None] * w_ih[:, 1] + h @ w_hh.T + b_h)
+        drive = u[:, k:k + 1] * w_ih[:, 0] + fed[:, None] * w_ih[:, 1]
+        if speed is not None:
+            drive = drive + speed[:, k:k + 1] * w_ih[:, 2]
+        h = torch.tanh(drive + h @ w_hh.T + b_h)
         y = torch.tanh(h @ w_ho.T + b_o)[:, 0]
         outs.append(y)
         fed = y if mode == "recall" else r[:, k]
@@ -54,21 +58,26 @@ def torch_forward(params, u, r, mode: str):
 
 
 def train_axis(tcv, torque, mode: str = "recall", epochs: int = 400, lr: float = 0.01, seed: int = 0,
-               torque_scale: float | None = None, progress=None):
-    """Fit one wheel's network on (runs, samples) arrays; returns (weights, loss history)."""
+               torque_scale: float | None = None, progress=None, wheel_speed=None):
+    """Fit one wheel's network on (runs, samples) arrays; returns (weights, loss history).
+
+    With ``wheel_speed`` (runs, samples) the network is speed-aware (three inputs)."""
     torch = _torch()
     torque_scale = torque_scale or float(np.abs(torque).max() * 1.1)
-    w0 = ElmanWeights.random(np.random.default_rng(seed), HIDDEN, tcv_scale=5.0, torque_scale=torque_scale)
+    speed_scale = 0.0 if wheel_speed is None else float(np.abs(wheel_speed).max() * 1.1)
+    w0 = ElmanWeights.random(np.random.default_rng(seed), HIDDEN, tcv_scale=5.0, torque_scale=torque_scale,
+                             speed_scale=speed_scale)
     params = [torch.tensor(getattr(w0, k), dtype=torch.float64, requires_grad=True)
               for k in ("w_ih", "w_hh", "b_h", "w_ho", "b_o")]
     u = torch.tensor(np.asarray(tcv) / 5.0, dtype=torch.float64)
     r = torch.tensor(np.asarray(torque) / torque_scale, dtype=torch.float64)
+    w = None if wheel_speed is None else torch.tensor(np.asarray(wheel_speed) / speed_scale, dtype=torch.float64)
     opt = torch.optim.Adam(params, lr=lr)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs, eta_min=lr / 20)
     losses = []
     for _ in range(epochs):
         opt.zero_grad()
-        loss = torch.mean((torch_forward(params, u, r, mode) - r) ** 2)
+        loss = torch.mean((torch_forward(params, u, r, mode, w) - r) ** 2)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(params, 1.0)
         opt.step()
@@ -77,12 +86,37 @@ def train_axis(tcv, torque, mode: str = "recall", epochs: int = 400, lr: float =
         if progress:
             progress(1, losses[-1])
     arrays = {k: p.detach().numpy().copy() for k, p in zip(("w_ih", "w_hh", "b_h", "w_ho", "b_o"), params)}
-    return ElmanWeights(**arrays, tcv_scale=5.0, torque_scale=torque_scale).validate(), losses
+    return ElmanWeights(**arrays, tcv_scale=5.0, torque_scale=torque_scale,
+                        speed_scale=speed_scale).validate(), losses
+
+
+def uncertainty_gain(weights, samples, axis: int, margin: float = 2.0, active: float = 1e-3) -> float:
+    """kappa: how much the network errs per unit of the torque it is asked for, on its training runs.
+
+    The largest (|residual| - ripple bound) / mean(|r|) over samples where mean(|r|) > ``active``
+    N m (a manoeuvre), times ``margin`` for runs it was not trained on. The network's error grows
+    with the torque demand (it models slews less well than holding), so its residual bound does
+    too (detection.SignedResidual); the band c then covers what is left.
+    """
+    from ..core.detection import signed_residual_series, window_mean
+    from ..core.elman import recall_series
+    worst = 0.0
+    for s in samples:
+        r = s.reaction_torque[:, axis:axis + 1]
+        est = recall_series(weights, s.tcv[:, axis], r[0, 0], s.wheel_speed[:, axis])[:, None]
+        res, bound = signed_residual_series(r, est, s.ripple_phasor[:, axis:axis + 1])
+        demand = window_mean(np.abs(r))
+        busy = demand > active
+        if busy.any():
+            worst = max(worst, float(((np.abs(res) - bound)[busy] / demand[busy]).max()))
+    return margin * worst
 
 
 def train_models(samples, out_dir, mode: str = "recall", epochs: int = 400, plant: dict | None = None,
-                 seed: int = 0, quiet: bool = False) -> dict:
-    """Train x, y, z networks on a list of FdiSamples and save them with cards; returns the set card."""
+                 seed: int = 0, quiet: bool = False, speed_aware: bool = True) -> dict:
+    """Train x, y, z networks on a list of FdiSamples and save them with cards; returns the set card.
+
+    ``speed_aware``: three inputs with the wheel speed (ours); False: the thesis' two."""
     from tqdm import tqdm
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}")
@@ -92,7 +126,7 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = 400, plan
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
-    card = {"mode": mode, "epochs": epochs, "hidden": HIDDEN, "samples_per_run": n,
+    card = {"mode": mode, "speed_aware": speed_aware, "epochs": epochs, "hidden": HIDDEN, "samples_per_run": n,
             "bags": [str(s.bag) for s in samples], "seeds": [s.seed for s in samples],
             "plant": plant or {}, "axes": {}}
     bar = tqdm(total=3 * epochs, desc=f"train elman ({mode}, {len(samples)} runs)", unit="epoch",
@@ -104,12 +138,17 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = 400, plan
         def tick(k, loss, axis=axis):
             bar.update(k)
             bar.set_postfix(axis=axis, mse=f"{loss:.2e}")
-        weights, losses = train_axis(tcv, torque, mode, epochs, seed=seed + i, progress=tick)
+        speed = np.stack([s.wheel_speed[:n, i] for s in samples]) if speed_aware else None
+        weights, losses = train_axis(tcv, torque, mode, epochs, seed=seed + i, progress=tick, wheel_speed=speed)
+        if speed_aware:
+            weights.uncertainty_gain = uncertainty_gain(weights, samples, i)
         axis_card = {**{k: v for k, v in card.items() if k != "axes"}, "axis": axis,
                      "final_loss": losses[-1], "first_loss": losses[0], "tcv_scale": weights.tcv_scale,
-                     "torque_scale": weights.torque_scale}
+                     "torque_scale": weights.torque_scale, "speed_scale": weights.speed_scale,
+                     "uncertainty_gain": weights.uncertainty_gain}
         weights.save(out_dir / f"elman_{axis}.npz", axis_card)
-        card["axes"][axis] = {"final_loss": losses[-1], "torque_scale": weights.torque_scale}
+        card["axes"][axis] = {"final_loss": losses[-1], "torque_scale": weights.torque_scale,
+                              "uncertainty_gain": weights.uncertainty_gain}
     bar.close()
     card["train_seconds"] = time.monotonic() - t0
     (out_dir / "model_set.json").write_text(json.dumps(card, indent=2))

@@ -1,0 +1,89 @@
+"""The choices a run is made under, as one object (physics.md [choice] items, sampling periods).
+
+A run's choices are built once, from the scenario's ``plant:`` mapping with any
+command-line overrides, and travel as this object: the plant node records them
+in the bag's /scenario, model cards and threshold files record the ones they
+were made under, and the FDI refuses files made under other choices.
+
+Files and bags written before a choice existed were made under its legacy value
+(``LEGACY``), not under today's default: a recorded mapping that lacks a key is
+read with the legacy value, a scenario that lacks it gets the default.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields, replace
+
+from .sampling import SAMPLINGS as FDI_SAMPLINGS
+from .wheel import EMF_LIMITS
+
+# what a scenario file may set under `plant:` (the rest is fixed by the graph)
+SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period")
+# the value a recorded mapping without the key was made under
+LEGACY = {"wheel_momentum_coupling": False}
+
+
+class PlantChoiceError(ValueError):
+    """A choice with a value the package does not know; one line for the user."""
+
+
+@dataclass(frozen=True)
+class PlantChoices:
+    """emf_limit: EMF torque limiting of the wheel drive (physics.md); wheel_momentum_coupling:
+    the wheels' momentum h_w in the body's Euler equations (on: complete physics, off: eq. 2.27
+    as the thesis writes it); control_period: lockstep tick [s]; fdi_period / fdi_sampling:
+    the observers' sample period [s] and how control-rate data becomes one FDI sample."""
+
+    emf_limit: str = "kf_scaled"
+    wheel_momentum_coupling: bool = True
+    control_period: float = 0.1
+    fdi_period: float = 1.0
+    fdi_sampling: str = "mean"
+
+    def __post_init__(self):
+        if self.emf_limit not in EMF_LIMITS:
+            raise PlantChoiceError(f"emf_limit must be one of {', '.join(EMF_LIMITS)}, got {self.emf_limit!r}")
+        if not isinstance(self.wheel_momentum_coupling, bool):
+            raise PlantChoiceError(f"wheel_momentum_coupling must be true or false, got {self.wheel_momentum_coupling!r}")
+        if self.fdi_sampling not in FDI_SAMPLINGS:
+            raise PlantChoiceError(f"fdi_sampling must be one of {', '.join(FDI_SAMPLINGS)}, got {self.fdi_sampling!r}")
+        for key in ("control_period", "fdi_period"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 1e-3 <= value <= 10.0:
+                raise PlantChoiceError(f"{key} must be a number of seconds in [0.001, 10], got {value!r}")
+
+    @classmethod
+    def for_scenario(cls, scenario_plant: dict | None = None, **overrides) -> "PlantChoices":
+        """A new run's choices: the scenario's ``plant:`` mapping, then overrides that are not None."""
+        given = {k: v for k, v in (scenario_plant or {}).items() if k in SCENARIO_KEYS}
+        given.update({k: v for k, v in overrides.items() if v is not None and v != ""})
+        return cls(**given)
+
+    @classmethod
+    def from_recorded(cls, recorded: dict | None) -> "PlantChoices":
+        """What a bag, model card or threshold file was made under; missing keys take LEGACY values."""
+        known = {f.name for f in fields(cls)}
+        values = {**LEGACY, **{k: v for k, v in (recorded or {}).items() if k in known}}
+        return cls(**values)
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    def scenario_dict(self) -> dict:
+        """The part a bag's /scenario records (the graph fixes the FDI sampling)."""
+        return {k: getattr(self, k) for k in SCENARIO_KEYS}
+
+    def with_(self, **changes) -> "PlantChoices":
+        return replace(self, **changes)
+
+    def differences(self, made_under: "PlantChoices", keys=None):
+        """[(key, made_under value, our value)] where they differ (periods to 1e-12 s)."""
+        out = []
+        for key in keys or [f.name for f in fields(self)]:
+            ours, theirs = getattr(self, key), getattr(made_under, key)
+            same = abs(ours - theirs) <= 1e-12 if isinstance(ours, float) else ours == theirs
+            if not same:
+                out.append((key, theirs, ours))
+        return out
+
+
+DEFAULT = PlantChoices()

@@ -1,0 +1,117 @@
+"""The speed-aware FDI's pieces against closed-form answers (telemetry.py, detection.py, isolation.py)."""
+import numpy as np
+import pytest
+
+from rw_fdi_ros.core import wheel as wm
+from rw_fdi_ros.core.detection import (SignedResidual, ThresholdCurves, fit_band, gumbel_fit, gumbel_quantile,
+                                       run_statistic)
+from rw_fdi_ros.core.isolation import ObserverChannel
+from rw_fdi_ros.core.plant import Plant
+from rw_fdi_ros.core.scenario import Fault, Scenario, parse_scenario
+from rw_fdi_ros.core.telemetry import TelemetrySampler, model_reaction_torque
+from rw_fdi_ros.tools.detection_bench import wilson
+
+
+def drive(plant, steps, tcv_of_k):
+    """Control-rate samples (stamp_ns, tcv, reaction torque, speed) of a plant under a command law."""
+    rows = []
+    s = plant.sample()
+    for k in range(steps + 1):
+        rows.append((int(round(s.time * 1e9)), s.tcv[0].copy(), s.reaction_torque[0].copy(), s.wheel_speed[0].copy()))
+        if k < steps:
+            s = plant.step(tcv_of_k(k)[None])
+    return rows
+
+
+def test_model_torque_is_the_healthy_wheel_without_ripple_and_noise():
+    wheel = wm.WheelParams(ripple_amplitude_share=0.0, noise_angle=0.0)
+    plant = Plant(Scenario("s", duration=60.0, seed=3), wheel=wheel, disturbance=False)
+    rng = np.random.default_rng(0)
+    for stamp, u, r, w in drive(plant, 300, lambda k: rng.uniform(-4, 4, 3)):
+        np.testing.assert_allclose(model_reaction_torque(u, w, wheel)[0], r, rtol=0, atol=1e-15)
+
+
+def test_ripple_bound_of_a_steady_wheel_is_the_dirichlet_kernel():
+    """Constant u and Omega: |mean(tau_m e^{i N theta_j})| = tau_m |sin(n phi / 2) / (n sin(phi / 2))|."""
+    omega, u, dt, n_fdi, per = 25.3, 2.0, 0.1, 40, 10
+    sampler, residual = TelemetrySampler(1.0), SignedResidual(n_fdi, share=1.0, ripple_gain_max=1.0)
+    for k in range(n_fdi * per + 1):
+        sample = sampler.add(int(round(k * dt * 1e9)), np.full(3, u), np.zeros(3), np.full(3, omega))
+        if sample is not None:
+            _, bound = residual.update(0.0, 0.0, sample.ripple_phasor[0])
+    tau_m = wm.WheelParams().torque_constant * wm.WheelParams().driver_gain * u
+    phi, n = wm.WheelParams().poles * omega * dt, n_fdi * per
+    # the window holds samples 1..400 of the 401 (the first FDI sample, at t = 0, left it)
+    assert bound == pytest.approx(tau_m * abs(np.sin(n * phi / 2) / (n * np.sin(phi / 2))), rel=1e-9)
+
+
+@pytest.mark.parametrize("speed", [27.925, 26.3])   # 16 x 2 pi / (36 x 0.1 s), and between aliases
+def test_ripple_in_the_residual_never_exceeds_its_bound(speed):
+    """A healthy wheel with ripple +60 % holding at an alias speed: |signed residual| <= bound all along."""
+    scenario = parse_scenario(f"duration: 200\ninitial: {{attitude_deg: [0, 0, 0], body_rate: [0, 0, 0], "
+                              f"wheel_speed: [{speed}, {speed}, {speed}]}}\nsetpoints: []\n"
+                              f"faults: [{{kind: ripple_gain, wheel: x, onset: 0, value: 1.6}}]\n")
+    plant = Plant(scenario, disturbance=False)
+    hold = plant.tcv[0].copy()
+    sampler, filters = TelemetrySampler(1.0), [SignedResidual() for _ in range(3)]
+    worst = 0.0
+    for stamp, u, r, w in drive(plant, 2000, lambda k: hold):
+        sample = sampler.add(stamp, u, r, w)
+        if sample is not None:
+            for f, ri, mi, pi in zip(filters, sample.reaction_torque, sample.model_torque, sample.ripple_phasor):
+                res, bound = f.update(ri, mi, pi)
+                worst = max(worst, abs(res) - bound)
+    assert worst < 2e-5     # torque noise (eq. 2.16, 1.5e-5 N m) is all that is left
+
+
+def test_a_current_loss_rises_far_above_the_bound():
+    scenario = Scenario("c", duration=120.0, seed=8, setpoints=(),
+                        faults=(Fault("current_limiter", 1, 20.0, 0.9),))
+    plant = Plant(scenario, disturbance=False)
+    hold = plant.tcv[0].copy()
+    sampler, f = TelemetrySampler(1.0), SignedResidual()
+    last = None
+    for stamp, u, r, w in drive(plant, 1200, lambda k: hold):
+        sample = sampler.add(stamp, u, r, w)
+        if sample is not None:
+            last = f.update(sample.reaction_torque[1], sample.model_torque[1], sample.ripple_phasor[1])
+    tau_m = wm.WheelParams().torque_constant * wm.WheelParams().driver_gain * abs(hold[1])
+    # 10 % of the motor torque, give or take what ripple (the bound at g_max = 2) and noise may add
+    assert abs(abs(last[0]) - 0.1 * tau_m) <= last[1] / 2 + 2e-5
+    assert abs(last[0]) > 2 * last[1]
+
+
+def test_run_statistic_is_the_level_the_persistence_rule_crosses():
+    excess = np.array([[0.1], [0.5], [0.4], [0.9], [0.2], [0.6], [0.7], [0.65]])
+    assert run_statistic(excess, 1)[0] == 0.9
+    assert run_statistic(excess, 3)[0] == 0.6     # samples 6-8: min(0.6, 0.7, 0.65)
+    assert run_statistic(excess[:2], 3)[0] == -np.inf
+
+
+def test_gumbel_band_gives_the_designed_rate_on_new_runs():
+    rng = np.random.default_rng(11)
+    mu, beta = 2e-4, 3e-5
+    fit = rng.gumbel(mu, beta, size=(300, 3))
+    bands = fit_band(fit, false_alarm_rate=0.003)
+    m, b = gumbel_fit(fit[:, 0])
+    assert m == pytest.approx(mu, rel=0.05) and b == pytest.approx(beta, rel=0.15)
+    new = rng.gumbel(mu, beta, size=(400_000, 3))
+    any_axis = np.any(new > np.array([bands[a]["band"] for a in "xyz"]), axis=1).mean()
+    assert 0.0015 < any_axis < 0.006   # designed 0.003 (the band never sits below a fitting run's maximum)
+    assert gumbel_quantile(0.0, 1.0, np.exp(-1.0)) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_wilson_interval_known_values():
+    lo, hi = wilson(0, 1000)
+    assert lo == 0.0 and hi == pytest.approx(0.00383, abs=2e-5)
+    lo, hi = wilson(50, 100)
+    assert lo == pytest.approx(0.4038, abs=1e-3) and hi == pytest.approx(0.5962, abs=1e-3)
+
+
+def test_channel_compares_magnitude_with_band_plus_bound():
+    curves = ThresholdCurves("linear", {a: np.array([1.0]) for a in "xyz"}, method="speed_aware", persistence=2)
+    ch = ObserverChannel("linear", curves)
+    rows = ch.update(10**9, [-1.5, 0.5, 1.5], [0.0, 0.0, 1.0])
+    assert rows["x"][:3] == (-1.5, 1.0, False) and rows["z"][1] == 2.0
+    rows = ch.update(2 * 10**9, [-1.5, 0.5, 1.5], [0.0, 0.0, 1.0])
+    assert rows["x"][2] and rows["x"][3] == 2.0 and not rows["y"][2] and not rows["z"][2]
