@@ -61,32 +61,37 @@ def _step_times(fn, n=20000):
 def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     """Compute time of one FDI step per observer, callback times in the live nodes, node memory."""
     import numpy as np
-    from ..core.detection import ResidualFilter
+    from ..core.detection import SignedResidual
     from ..core.elman import ElmanObserver
-    from ..core.linear_observer import LinearObserver
+    from ..core.telemetry import TelemetrySampler
     from ..paths import config_dir
     from .fdi import run_with_fdi
     from .offline import load_models
     rng = np.random.default_rng(0)
     u, r = rng.uniform(-5, 5, (20000, 3)), rng.uniform(-0.01, 0.01, (20000, 3))
+    w = rng.uniform(20, 30, (20000, 3))
     weights = load_models(models or config_dir() / "fdi")
-    elman, resid = ElmanObserver(weights["x"]), ResidualFilter()
-    lin, lin_res = LinearObserver(1.0), [ResidualFilter() for _ in range(3)]
+    elman, resid = ElmanObserver(weights["x"]), SignedResidual(uncertainty_gain=weights["x"].uncertainty_gain)
+    lin_res = [SignedResidual() for _ in range(3)]
+    telemetry = TelemetrySampler(0.1)   # every control sample is an FDI sample here: the per-sample cost
+
+    def telemetry_step(i):
+        telemetry.add(i * 100_000_000, u[i], r[i], w[i])
 
     def elman_step(i):
-        resid.update(r[i, 0], elman.update(u[i, 0]))
+        resid.update(r[i, 0], elman.update(u[i, 0], None, w[i, 0]), 1e-3j)
 
     def linear_step(i):
-        est = lin.update(u[i], r[i])
         for j in range(3):
-            lin_res[j].update(r[i, j], est[j])
-    compute = {"elman (one axis)": _step_times(elman_step), "linear (three axes)": _step_times(linear_step)}
+            lin_res[j].update(r[i, j], 0.0, 1e-3j)
+    compute = {"telemetry (per control sample)": _step_times(telemetry_step),
+               "elman (one axis)": _step_times(elman_step), "linear (three axes)": _step_times(linear_step)}
 
     os.environ["RW_FDI_TIMING"] = "1"
     out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_"))
     scenario = out / "bench_fdi.yaml"
     scenario.write_text(f"name: bench_fdi\nduration: {duration}\nseed: {seed}\n"
-                        "faults: [{kind: current_limiter, wheel: x, onset: 200, value: 0.6}]\n")
+                        f"faults: [{{kind: current_limiter, wheel: x, onset: {duration / 2:g}, value: 0.6}}]\n")
     outcome = run_with_fdi(str(scenario), out_dir=out, models=models, keep_logs=True)
     nodes = _timing_reports(outcome.log_dir) if outcome.log_dir else {}
     lines = [f"FDI bench: one FDI step, core code only ({len(u)} samples)"]
