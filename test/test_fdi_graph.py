@@ -239,20 +239,15 @@ def test_nan_in_a_replayed_reaction_torque_stops_the_replay_with_a_reason(runs, 
     assert "non-finite input at t=150 s" in outcome.reason and "nan" in outcome.reason
 
 
-def test_scenario_plant_choice_reaches_the_compatibility_check(tmp_path):
-    scenario = tmp_path / "pwm.yaml"
-    scenario.write_text("name: pwm\nplant: {emf_limit: pwm_saturation}\nfaults: []\n")
+@pytest.mark.parametrize("plant, running, fitted", [
+    ("{emf_limit: pwm_saturation}", "emf_limit='pwm_saturation'", "emf_limit='kf_scaled'"),
+    ("{wheel_momentum_coupling: false}", "wheel_momentum_coupling=False", "wheel_momentum_coupling=True")])
+def test_scenario_plant_choice_reaches_the_compatibility_check(tmp_path, plant, running, fitted):
+    """Thresholds fitted under other plant choices are refused before any node starts."""
+    scenario = tmp_path / "other.yaml"
+    scenario.write_text(f"name: other\nplant: {plant}\nfaults: []\n")
     one_line_error(cli("run", "--scenario", str(scenario), "--out", str(tmp_path)),
-                   "fitted with emf_limit='kf_scaled' but the graph runs emf_limit='pwm_saturation'",
-                   "rw-fdi fit-thresholds")
-
-
-def test_thresholds_of_the_other_plant_are_refused_before_any_node_starts(tmp_path):
-    scenario = tmp_path / "eq227.yaml"
-    scenario.write_text("name: eq227\nplant: {wheel_momentum_coupling: false}\nfaults: []\n")
-    one_line_error(cli("run", "--scenario", str(scenario), "--out", str(tmp_path)),
-                   "fitted with wheel_momentum_coupling=True but the graph runs wheel_momentum_coupling=False",
-                   "rw-fdi fit-thresholds")
+                   f"fitted with {fitted} but the graph runs {running}", "rw-fdi fit-thresholds")
 
 
 def test_files_of_the_other_method_are_refused(tmp_path):
