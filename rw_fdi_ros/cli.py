@@ -80,12 +80,14 @@ def _cmd_reproduce(args) -> int:
 def _cmd_train(args) -> int:
     from .tools.offline import plant_conditions
     from .tools.samples import load_samples
-    from .tools.train import train_models
+    from .tools.train import EPOCHS, THESIS_EPOCHS, train_models
     samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
     if args.runs:
         samples = samples[:args.runs]
-    card = train_models(samples, args.out, mode=args.mode, epochs=args.epochs, plant=plant_conditions(samples),
-                        speed_aware=args.fdi_method == "speed_aware")
+    speed_aware = args.fdi_method == "speed_aware"
+    epochs = args.epochs or (EPOCHS if speed_aware else THESIS_EPOCHS)
+    card = train_models(samples, args.out, mode=args.mode, epochs=epochs, plant=plant_conditions(samples),
+                        speed_aware=speed_aware)
     print(f"trained 3 Elman networks ({args.mode} mode) on {len(samples)} runs in {card['train_seconds']:.0f} s "
           f"-> {args.out}")
     for a, c in card["axes"].items():
@@ -121,7 +123,8 @@ def _cmd_defaults(args) -> int:
     from .tools.defaults import format_report, regenerate_defaults
     from .paths import config_dir
     report = regenerate_defaults(work=args.work, out=args.out or config_dir() / "fdi", fit_runs=args.fit_runs,
-                                 heldout_runs=args.heldout_runs, train_runs=args.train_runs, epochs=args.epochs,
+                                 heldout_runs=args.heldout_runs, train_runs=args.train_runs,
+                                 **({"epochs": args.epochs} if args.epochs else {}),
                                  executor=_executor(args), false_alarm_rate=args.false_alarm_rate)
     print(format_report(report))
     return 0
@@ -163,8 +166,13 @@ def _cmd_bench(args) -> int:
         report = bench_study(runs=args.runs, duration=args.duration, seed=args.seed, jobs=args.jobs)
     elif args.what == "detection":
         from .tools.detection_bench import bench_detection
-        report = bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell,
-                                 out=args.out)
+        report = bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
+                                 out=args.out or "reports/detection")
+    elif args.what == "identification":
+        from .tools.identification_bench import bench_identification
+        report = bench_identification(runs_per_cell=args.runs_per_cell or 100, out=args.out or "reports/identification",
+                                      **({"thesis_runs": args.thesis_runs, "bus_thesis_runs": args.thesis_runs * 17 // 10}
+                                         if args.thesis_runs else {}))
     else:
         report = (bench_graph if args.what == "graph" else bench_fdi)(duration=args.duration, seed=args.seed)
     print(json.dumps({k: v for k, v in report.items() if k != "text"}, indent=2) if args.json else report["text"])
@@ -226,7 +234,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--mode", default="recall", choices=["recall", "teacher"],
                    help="recall: trained on its own feedback (ours); teacher: delayed measured torque (thesis)")
     t.add_argument("--runs", type=int, default=None, help="use only the first N bags (thesis: 1)")
-    t.add_argument("--epochs", type=int, default=300)
+    t.add_argument("--epochs", type=int, default=None,
+                   help="default: 1000 speed_aware, 300 thesis (tools/train.EPOCHS)")
     t.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
                    help="speed_aware: 3 inputs with the wheel speed (ours); thesis: 2 inputs")
     t.set_defaults(func=_cmd_train)
@@ -249,7 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--fit-runs", type=int, default=100)
     d.add_argument("--heldout-runs", type=int, default=20)
     d.add_argument("--train-runs", type=int, default=40)
-    d.add_argument("--epochs", type=int, default=300)
+    d.add_argument("--epochs", type=int, default=None, help="speed-aware set (default 1000; the thesis set: 300)")
     d.add_argument("--jobs", type=int, default=None)
     d.add_argument("--false-alarm-rate", type=float, default=FALSE_ALARM_RATE,
                    help="designed per-run false-alarm probability of the speed-aware set (default %(default)g)")
@@ -287,14 +296,20 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_scenarios)
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
-    b.add_argument("what", choices=["graph", "fdi", "study", "detection"],
+    b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
                         "node callback times and memory; study: record and replay throughput and the "
                         "thesis-scale reproduce time they give; detection: false-alarm and detection rates "
-                        "with 95 %% intervals on >= 1000 held-out runs, both FDI methods (core loop)")
+                        "with 95 %% intervals on >= 1000 held-out runs, both FDI methods (core loop); "
+                        "identification: fault kind and size per kind and size, confusion matrix (core loop)")
     b.add_argument("--fault-free-runs", type=int, default=1000, help="detection: fault-free runs")
-    b.add_argument("--runs-per-cell", type=int, default=200, help="detection: runs per fault or ripple case")
-    b.add_argument("--out", default="reports/detection", help="detection: report directory")
+    b.add_argument("--runs-per-cell", type=int, default=None,
+                   help="detection: runs per fault or ripple case (default 200); identification: per grid size "
+                        "(default 100)")
+    b.add_argument("--thesis-runs", type=int, default=None,
+                   help="identification: runs per thesis size (default 200; the bus 340, as 6 in 10 are observable)")
+    b.add_argument("--out", default=None, help="detection / identification: report directory "
+                                                "(default reports/detection, reports/identification)")
     b.add_argument("--runs", type=int, default=8, help="study: runs to record and replay")
     b.add_argument("--jobs", type=int, default=None, help="study: runs at a time (default: 2)")
     b.add_argument("--duration", type=float, default=400.0)
@@ -313,13 +328,20 @@ def main(argv=None) -> int:
     from .core.scenario import ScenarioError
     from .storage.bag import BagError
     try:
-        return args.func(args)
+        code = args.func(args)
+        sys.stdout.flush()   # a closed pipe shows here, not at interpreter exit
+        return code
     except (ScenarioError, BagError, FileNotFoundError, ValueError, RuntimeError) as exc:
         print(f"rw-fdi: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("rw-fdi: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader went away (`rw-fdi bag DIR | head`): stop quietly, as other Unix tools do
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":

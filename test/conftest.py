@@ -10,3 +10,62 @@ sys.path.insert(0, str(ROOT))
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="rw_fdi_test_roslog_"))
 os.environ.pop("ROS_LOCALHOST_ONLY", None)
+
+
+# --- the FDI graph runs several test modules judge -------------------------------------------
+import json  # noqa: E402
+from concurrent.futures import ThreadPoolExecutor  # noqa: E402
+
+import pytest  # noqa: E402
+
+from rw_fdi_ros.core.scenario import load_scenario  # noqa: E402
+from rw_fdi_ros.core.wheel import bus_fault_visible_above  # noqa: E402
+from rw_fdi_ros.tools.fdi import run_with_fdi  # noqa: E402
+
+
+def bus_seed():
+    """A seed whose X wheel spins fast enough for a 5.5 V bus to matter (physics.md)."""
+    fast = bus_fault_visible_above(5.5) + 2.0
+    s = load_scenario("bus_5v5_x")
+    return next(seed for seed in range(1, 200) if s.with_seed(seed).draws()[0].wheel_speed[0] > fast)
+
+
+def case_seed(name: str) -> int:
+    return CASES[name][1] if CASES[name][1] is not None else bus_seed()
+
+
+# The live FDI graph runs shared by test_fdi_graph and test_screen_matches_graph (each run costs
+# about a minute of CI): name -> (scenario, seed (None: bus_seed()), fdi method)
+CASES = {"fault_free": ("fault_free", 12, "speed_aware"), "bus_5v5_x": ("bus_5v5_x", None, "speed_aware"),
+         "current_0p6_x": ("current_0p6_x", 12, "speed_aware"),
+         "temperature_150_x": ("temperature_150_x", 13, "speed_aware"),
+         "bus_x_current_z": ("bus_x_current_z", None, "speed_aware"),
+         "bus_x_current_z_again": ("bus_x_current_z", None, "speed_aware"),
+         "current_0p6_x_thesis": ("current_0p6_x", 12, "thesis")}
+
+
+CASE_DURATION = 300.0   # the thesis scenarios shortened from 400 s: every fault starts by 250 s
+
+
+@pytest.fixture(scope="session")
+def fdi_runs(tmp_path_factory):
+    """name -> RunOutcome of CASES through the live graph (two at a time); each outcome carries
+    the Scenario it ran (``.scenario``: the shipped one, CASE_DURATION long, at its seed)."""
+    root = tmp_path_factory.mktemp("fdi")
+    seeds = {k: case_seed(k) for k in CASES}
+    files = {}
+    for k, (name, _, _) in CASES.items():
+        text = (ROOT / "config" / "scenarios" / f"{name}.yaml").read_text()
+        assert "duration: 400.0" in text, name
+        files[k] = root / f"{k}.yaml"
+        files[k].write_text(text.replace("duration: 400.0", f"duration: {CASE_DURATION}"))
+    with ThreadPoolExecutor(2) as pool:
+        futures = {k: pool.submit(run_with_fdi, str(files[k]), seed=s, out_dir=root / k, figure=True,
+                                  method=CASES[k][2]) for k, s in seeds.items()}
+        results = {k: f.result() for k, f in futures.items()}
+    for k, outcome in results.items():
+        outcome.scenario = load_scenario(str(files[k])).with_seed(seeds[k])
+    report = {k: {"seed": seeds[k], "ok": o.ok, "reason": o.reason, "fdi": o.summary and o.summary.get("fdi")}
+              for k, o in results.items()}
+    print(json.dumps(report, indent=1, default=str))
+    return results

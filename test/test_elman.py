@@ -103,3 +103,13 @@ def test_speed_aware_network_numpy_recall_equals_torch_and_roundtrips(tmp_path):
     assert back.speed_aware and back.speed_scale == 33.0
     with pytest.raises(ValueError, match="needs the wheel speed"):
         ElmanObserver(back).update(1.0)
+
+
+def test_speed_aware_network_starts_in_its_steady_state():
+    """Constant inputs from t = 0 (the wheel held before the run): the first output already is the
+    network's steady state, so the residual window does not carry a start-up transient."""
+    from rw_fdi_ros.core.elman import ElmanWeights, recall_series
+    w = ElmanWeights.random(np.random.default_rng(5), scale=0.3, speed_scale=33.0, torque_scale=0.03)
+    out = recall_series(w, np.full(30, 1.2), 0.0, np.full(30, 25.0))
+    assert abs(out[0]) > 1e-4                      # not the zero-state start the thesis network has
+    np.testing.assert_allclose(out, out[-1], rtol=1e-5)   # a zero-state start is off by O(1)

@@ -1,6 +1,6 @@
 """FDI through the live graph with the shipped models and thresholds, both FDI methods.
 
-Runs (two at a time, each in its own domain), speed-aware (ours): fault-free,
+Runs (conftest.fdi_runs: 300 s, two at a time, each in its own domain), speed-aware (ours): fault-free,
 and the thesis cases bus 5.5 V on X, current limiter 0.6 on X, +150 C on X,
 bus on X with current loss on Z (twice: the same seed must give the same
 messages). Both observers must flag the faulty wheels after onset, hold the
@@ -12,19 +12,17 @@ import os
 import shutil
 import subprocess
 import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from conftest import CASE_DURATION
 from rw_fdi_ros.core.scenario import AXES, load_scenario
-from rw_fdi_ros.core.wheel import bus_fault_visible_above
 from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.nodes import topics as T
 from rw_fdi_ros.paths import config_dir, fdi_dir
 from rw_fdi_ros.storage.bag import read_bag
-from rw_fdi_ros.tools.fdi import run_with_fdi
 from rw_fdi_ros.tools.offline import load_models, observe
 from rw_fdi_ros.tools.samples import fdi_samples
 
@@ -32,34 +30,9 @@ BIN = Path(sys.executable).parent
 SHIPPED = config_dir() / "fdi"
 
 
-def bus_seed():
-    """A seed whose X wheel spins fast enough for a 5.5 V bus to matter (physics.md)."""
-    fast = bus_fault_visible_above(5.5) + 2.0
-    s = load_scenario("bus_5v5_x")
-    return next(seed for seed in range(1, 200) if s.with_seed(seed).draws()[0].wheel_speed[0] > fast)
-
-
-# name -> (scenario, seed (None: bus_seed()), fdi method)
-CASES = {"fault_free": ("fault_free", 12, "speed_aware"), "bus_5v5_x": ("bus_5v5_x", None, "speed_aware"),
-         "current_0p6_x": ("current_0p6_x", 12, "speed_aware"),
-         "temperature_150_x": ("temperature_150_x", 13, "speed_aware"),
-         "bus_x_current_z": ("bus_x_current_z", None, "speed_aware"),
-         "bus_x_current_z_again": ("bus_x_current_z", None, "speed_aware"),
-         "current_0p6_x_thesis": ("current_0p6_x", 12, "thesis")}
-
-
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    root = tmp_path_factory.mktemp("fdi")
-    seeds = {k: (v[1] if v[1] is not None else bus_seed()) for k, v in CASES.items()}
-    with ThreadPoolExecutor(2) as pool:
-        futures = {k: pool.submit(run_with_fdi, CASES[k][0], seed=s, out_dir=root / k, figure=True,
-                                  method=CASES[k][2]) for k, s in seeds.items()}
-        results = {k: f.result() for k, f in futures.items()}
-    report = {k: {"seed": seeds[k], "ok": o.ok, "reason": o.reason, "fdi": o.summary and o.summary.get("fdi")}
-              for k, o in results.items()}
-    print(json.dumps(report, indent=1, default=str))
-    return results
+def runs(fdi_runs):
+    return fdi_runs
 
 
 def verdict(outcome):
@@ -88,6 +61,27 @@ def test_speed_aware_observers_isolate_the_faulty_wheels(runs, case, observer):
             assert len(alarms) == 1 and alarms[0][1] is None, f"{observer} alarm on {a} lost: {alarms}"
         else:
             assert alarms == [], (a, alarms)
+
+
+@pytest.mark.parametrize("case, expected", [
+    ("current_0p6_x", {"x": ("current_loss", 0.6, 0.06)}), ("temperature_150_x", {"x": ("temperature", 173.0, 10.0)}),
+    ("bus_5v5_x", {"x": ("bus_voltage", 5.5, 0.55)}),
+    ("bus_x_current_z", {"x": ("bus_voltage", 5.5, 0.55), "z": ("current_loss", 0.6, 0.06)})])
+def test_the_isolation_node_identifies_each_fault_kind_and_size(runs, case, expected):
+    """The wheel's /diagnostics status and /fdi/identification carry kind, size and interval."""
+    data = read_bag(runs[case].bag, topics=[T.DIAGNOSTICS, T.IDENTIFICATION])
+    found = verdict(runs[case])["identification"]
+    assert set(found) == set(expected), found
+    last = {s.hardware_id[-1]: s for s in data.topic(T.DIAGNOSTICS)[-1][1].status}
+    for a, (kind, value, tolerance) in expected.items():
+        assert found[a]["fault_kind"] == kind, found[a]
+        assert abs(float(found[a]["fault_size"]) - value) <= tolerance, found[a]
+        assert float(found[a]["fault_size_low"]) <= value <= float(found[a]["fault_size_high"]), found[a]
+        values = {kv.key: kv.value for kv in last[a].values}
+        assert values["fault_kind"] == kind and values["fault_size"] == found[a]["fault_size"]
+        assert last[a].message.endswith(found[a]["message"]), (last[a].message, found[a]["message"])
+    stamps = [m.header.stamp.sec for _, m in data.topic(T.IDENTIFICATION)]
+    assert stamps == list(range(0, int(CASE_DURATION) + 1)), "one identification per FDI sample, in sim time"
 
 
 def test_thesis_linear_observer_loses_its_alarm_on_current_loss(runs):
@@ -131,9 +125,10 @@ def test_same_seed_twice_gives_identical_messages_on_every_topic(runs):
 def test_diagnostics_one_status_per_wheel_stamped_in_sim_time(runs):
     data = read_bag(runs["current_0p6_x"].bag)
     rows = data.topic(T.DIAGNOSTICS)
-    assert len(rows) == 401
+    end = int(CASE_DURATION)
+    assert len(rows) == end + 1
     log_time, last = rows[-1]
-    assert last.header.stamp.sec == 400 and log_time == 400 * 10**9
+    assert last.header.stamp.sec == end and log_time == end * 10**9
     assert [s.hardware_id for s in last.status] == [f"reaction_wheel_{a}" for a in AXES]
     assert [s.level for s in last.status] == [2, 0, 0]
     values = {kv.key: kv.value for kv in last.status[0].values}

@@ -64,3 +64,15 @@ def test_malformed_scenarios_give_one_line_errors(text, words):
 def test_unknown_scenario_name_lists_known_ones():
     with pytest.raises(ScenarioError, match="unknown scenario 'nope'.*fault_free"):
         load_scenario("nope")
+
+
+def test_cli_output_into_a_closed_pipe_ends_quietly():
+    """`rw-fdi scenarios | head -0`: no BrokenPipeError traceback, the shell's SIGPIPE status."""
+    import subprocess
+    import sys
+    proc = subprocess.Popen([sys.executable, "-m", "rw_fdi_ros.cli", "scenarios"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()   # the reader is gone before the first line is written
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 141, err
+    assert "Traceback" not in err and "BrokenPipe" not in err, err

@@ -26,6 +26,11 @@ import numpy as np
 
 HIDDEN = 25
 INPUTS = 2
+# A speed-aware network starts from its steady state for its first input (the wheel was held
+# before t = 0): this many steps at that input, from a zero state, feeding back its own output.
+# From a zero state its first outputs were off by up to 2.4e-3 N m on a wheel that barely moved,
+# which the window mean carried for 40 s (a false alarm at t = 3 s). Training does the same.
+SETTLE_STEPS = 50
 
 
 class ModelError(ValueError):
@@ -115,10 +120,12 @@ class ElmanObserver:
         self.w = weights
         self.hidden = np.zeros(weights.w_hh.shape[0])
         self.previous = None  # last output, normalised
+        self.settled = not weights.speed_aware   # see SETTLE_STEPS
 
     def reset(self, reaction_torque: float = 0.0):
         self.hidden[:] = 0.0
         self.previous = reaction_torque / self.w.torque_scale
+        self.settled = not self.w.speed_aware
 
     def update(self, tcv: float, reaction_torque: float | None = None, wheel_speed: float | None = None) -> float:
         """One FDI sample. ``reaction_torque`` (measured, previous sample) is used only in
@@ -127,17 +134,23 @@ class ElmanObserver:
         w = self.w
         if self.previous is None:
             self.previous = 0.0
+        if w.speed_aware and wheel_speed is None:
+            raise ValueError("a speed-aware Elman network needs the wheel speed")
+        if not self.settled:
+            for _ in range(SETTLE_STEPS):
+                self._step(tcv, None, wheel_speed)
+            self.settled = True
+        return self._step(tcv, reaction_torque, wheel_speed) * w.torque_scale
+
+    def _step(self, tcv, reaction_torque, wheel_speed) -> float:
+        w = self.w
         fed = self.previous if reaction_torque is None else reaction_torque / w.torque_scale
-        x0, x1 = tcv / w.tcv_scale, fed
-        drive = w.w_ih[:, 0] * x0 + w.w_ih[:, 1] * x1
+        drive = w.w_ih[:, 0] * (tcv / w.tcv_scale) + w.w_ih[:, 1] * fed
         if w.speed_aware:
-            if wheel_speed is None:
-                raise ValueError("a speed-aware Elman network needs the wheel speed")
             drive = drive + w.w_ih[:, 2] * (wheel_speed / w.speed_scale)
         self.hidden = np.tanh(drive + w.w_hh @ self.hidden + w.b_h)
-        out = float(np.tanh(w.w_ho[0] @ self.hidden + w.b_o[0]))
-        self.previous = out
-        return out * w.torque_scale
+        self.previous = float(np.tanh(w.w_ho[0] @ self.hidden + w.b_o[0]))
+        return self.previous
 
 
 def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel_speed=None):

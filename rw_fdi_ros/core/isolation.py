@@ -9,6 +9,8 @@ from __future__ import annotations
 from .detection import AlarmRule, ThresholdCurves
 
 AXES = ("x", "y", "z")
+# The observer whose alarms make the wheel's /diagnostics status and start fault identification.
+DECISION_OBSERVER = "elman"
 
 
 def stamp_seconds(stamp_ns: int) -> float:

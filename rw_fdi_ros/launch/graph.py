@@ -11,6 +11,7 @@ from pathlib import Path
 from ..core.plant import hold_command
 from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.scenario import AXES, Scenario
+from ..nodes import topics as T
 
 CONTROL_PERIOD = DEFAULT.control_period
 
@@ -41,12 +42,13 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     times, values = scenario.setpoint_schedule()
     hold = hold_command(ic.wheel_speed)
     recording = bag is not None
+    readers = T.telemetry_readers(None if fdi is None else fdi_method(fdi))
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
         "command_timeout": command_timeout,
-        "wait_for_subscribers": 1 if recording else 0, "observers": 4 if fdi is not None else 0,
-        "speed_observers": 4 if fdi is not None and fdi_method(fdi) == "speed_aware" else 0})]
+        "wait_for_subscribers": 1 if recording else 0, "observers": readers[T.TCV],
+        "speed_observers": readers[T.WHEEL_SPEED]})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "axis": axis, "control_period": period, "initial_tcv": float(hold[i]),

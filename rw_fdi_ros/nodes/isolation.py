@@ -9,6 +9,15 @@ with residual, threshold, margin and first alarm per wheel, and /diagnostics
 with one status per wheel, decided by the ``decision_observer`` (Elman by
 default) and stamped with the sim clock. Every output of stamp k is made from
 the inputs of stamp k alone, so the same run gives the same messages.
+
+It also identifies the fault of every alarmed wheel (core/identification.py):
+it reads the wheel telemetry at the control rate, makes the FDI samples with
+the identification terms, and from a wheel's first alarm on estimates the
+fault's kind and size on every sample. The result goes into the wheel's
+/diagnostics status (fault_kind, fault_size, fault_size_low/high and the
+message) and onto /fdi/identification. Identification lives here, not in a
+node of its own, because it refines this node's verdict: one status per wheel,
+made of one stamp's alarm and telemetry.
 """
 from __future__ import annotations
 
@@ -17,8 +26,12 @@ import time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 
+import numpy as np
+
 from ..core.detection import METHODS, ThresholdCurves, ThresholdError
-from ..core.isolation import ObserverChannel
+from ..core.identification import FaultIdentifier
+from ..core.isolation import DECISION_OBSERVER, ObserverChannel
+from ..core.telemetry import TelemetrySampler
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.scenario import AXES
 from ..paths import fdi_dir
@@ -33,10 +46,13 @@ def default_thresholds(observer: str, method: str = "speed_aware") -> str:
     return str(fdi_dir(method) / f"thresholds_{observer}.json")
 
 
-def _status(name, axis, residual, threshold, alarm, first, extra=()):
+def _status(name, axis, residual, threshold, alarm, first, extra=(), identification=None):
     s = DiagnosticStatus(name=name, hardware_id=f"reaction_wheel_{axis}")
     s.level = DiagnosticStatus.ERROR if alarm else DiagnosticStatus.OK
     s.message = f"faulty since {first:g} s" if alarm else ("recovered" if first is not None else "nominal")
+    if identification is not None:
+        s.message += f": {identification.message()}"
+        extra = [*extra, *(KeyValue(key=k, value=v) for k, v in identification.values().items())]
     s.values = [KeyValue(key="residual", value=f"{residual:.6g}"), KeyValue(key="threshold", value=f"{threshold:.6g}"),
                 KeyValue(key="margin", value=f"{threshold - abs(residual):.6g}"),
                 KeyValue(key="first_alarm", value="none" if first is None else f"{first:g}"), *extra]
@@ -52,7 +68,7 @@ class IsolationNode(GraphNode):
         self.declare_parameter("thresholds_linear", "")
         self.declare_parameter("fdi_method", "speed_aware")  # speed_aware (ours) or thesis
         self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
-        self.declare_parameter("decision_observer", "elman")
+        self.declare_parameter("decision_observer", DECISION_OBSERVER)
         self.declare_parameter("min_subscribers", 0)        # readers (the recorder) before output goes
         # the running graph's plant choices: curves fitted under others are refused
         for key, value in DEFAULT_CHOICES.as_dict().items():
@@ -86,8 +102,14 @@ class IsolationNode(GraphNode):
         self.pubs = {obs: {k: gate(DiagnosticArray if k == "status" else Vector3Stamped, name)
                            for k, name in T.fdi_output_topics(obs).items()} for obs in T.OBSERVERS}
         self.pub_diag = gate(DiagnosticArray, T.DIAGNOSTICS)
-        self.gates = [self.pub_diag] + [p for pubs in self.pubs.values() for p in pubs.values()]
-        self.done_samples = {}   # stamp -> observer -> rows of that stamp
+        self.pub_ident = gate(DiagnosticArray, T.IDENTIFICATION)
+        self.gates = [self.pub_diag, self.pub_ident] + [p for pubs in self.pubs.values() for p in pubs.values()]
+        self.done_samples = {}   # stamp -> observer (or 'telemetry') -> what arrived for that stamp
+        self.identifier = FaultIdentifier(AXES)
+        self.telemetry = TelemetrySampler(plant.fdi_period, "mean", identification=True)
+        wheel = StampSync(("tcv", "torque", "speed"), self._on_telemetry)
+        for name, topic in (("tcv", T.TCV), ("torque", T.REACTION_TORQUE), ("speed", T.WHEEL_SPEED)):
+            wheel.subscribe(self, name, topic, T.RELIABLE)
         bound = lambda a: f"bound_{a}"
         elman = StampSync(AXES + tuple(bound(a) for a in AXES), lambda stamp, v: self._on_residual(
             "elman", stamp, [v[a][i] for i, a in enumerate(AXES)], [v[bound(a)][i] for i, a in enumerate(AXES)]))
@@ -109,21 +131,53 @@ class IsolationNode(GraphNode):
         status.header.stamp = time_msg(stamp)
         status.status = [_status(f"{observer} observer: wheel {a}", a, *rows[a]) for a in AXES]
         pubs["status"].publish(status)
-        handled = self.done_samples.setdefault(stamp, {})
-        handled[observer] = rows
-        if len(handled) == len(self.channels):
-            del self.done_samples[stamp]
-            self._publish_diagnostics(stamp, handled)
-            self.last_handled = stamp
+        self._arrived(stamp, observer, rows)
         self.compute.append(time.perf_counter() - t0)   # the whole callback, publishing included
         self.compute_cpu.append(time.thread_time() - c0)
 
-    def _publish_diagnostics(self, stamp, rows_of):
-        """/diagnostics of one stamp from both observers' rows of that same stamp."""
+    def _on_telemetry(self, stamp, values):
+        t0, c0 = time.perf_counter(), time.thread_time()
+        sample = self.telemetry.add(stamp, values["tcv"], values["torque"], values["speed"])
+        if sample is not None:
+            self._arrived(sample.stamp_ns, "telemetry", sample)
+        self.compute.append(time.perf_counter() - t0)
+        self.compute_cpu.append(time.thread_time() - c0)
+
+    def _arrived(self, stamp, part, value):
+        """Collect one stamp's parts; once both observers' rows and the telemetry are in, decide it."""
+        handled = self.done_samples.setdefault(stamp, {})
+        handled[part] = value
+        if len(handled) < len(self.channels) + 1:
+            return
+        del self.done_samples[stamp]
+        sample = handled.pop("telemetry")
+        alarmed = {a: handled[self.decision][a][2] for a in AXES}
+        finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed))
+        # a non-finite sample stops the observers with a reason; it must not poison the estimate
+        identified = self.identifier.update(sample, alarmed) if finite else dict(self.identifier.latest)
+        self._publish_diagnostics(stamp, handled, identified)
+        self.last_handled = stamp
+
+    def _publish_diagnostics(self, stamp, rows_of, identified):
+        """/diagnostics and /fdi/identification of one stamp from both observers' rows and the
+        identification of that same stamp."""
         msg = DiagnosticArray()
         msg.header.stamp = time_msg(stamp)
+        ident = DiagnosticArray()
+        ident.header.stamp = time_msg(stamp)
         main = rows_of[self.decision]
         for a in AXES:
+            found = identified.get(a)
+            status = DiagnosticStatus(name=f"rw_fdi: identification wheel {a}", hardware_id=f"reaction_wheel_{a}")
+            if found is None:
+                status.level, status.message = DiagnosticStatus.OK, "no alarm"
+                status.values = [KeyValue(key="fault_kind", value="none")]
+            else:
+                status.level = DiagnosticStatus.WARN if found.kind == "unknown" else DiagnosticStatus.ERROR
+                status.message = found.message()
+                status.values = [KeyValue(key=k, value=v) for k, v in found.values().items()]
+                status.values.append(KeyValue(key="samples", value=str(found.samples)))
+            ident.status.append(status)
             extra = []
             for obs in self.channels:
                 if obs != self.decision:
@@ -132,8 +186,9 @@ class IsolationNode(GraphNode):
                               KeyValue(key=f"{obs}_threshold", value=f"{c:.6g}"),
                               KeyValue(key=f"{obs}_alarm", value=str(bool(alarm)).lower())]
             msg.status.append(_status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
-                                      extra=extra))
+                                      extra=extra, identification=found))
         self.pub_diag.publish(msg)
+        self.pub_ident.publish(ident)
 
     def poll(self):
         flushed = all([g.flush() for g in self.gates])

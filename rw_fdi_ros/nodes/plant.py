@@ -40,8 +40,8 @@ class PlantNode(GraphNode):
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
         self.declare_parameter("wait_for_subscribers", 0)  # extra subscribers per topic (1 = recorder)
-        self.declare_parameter("observers", 0)           # FDI nodes reading /wheel/tcv and reaction torque
-        self.declare_parameter("speed_observers", 0)     # FDI nodes reading /wheel_speed too (speed_aware)
+        self.declare_parameter("observers", 0)           # FDI nodes reading /wheel/tcv and reaction torque (topics.telemetry_readers)
+        self.declare_parameter("speed_observers", 0)     # FDI nodes reading /wheel_speed
         self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
         for axis in AXES:  # live fault injection: setting one injects from the current sim time
             for kind in FAULT_KINDS:

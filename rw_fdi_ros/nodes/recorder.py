@@ -69,7 +69,7 @@ class RecorderNode(GraphNode):
         final = [t for t in final if t in self.bag.connections]
         if self.fdi_period_ns > 0:   # the FDI outputs of the last FDI sample
             last_fdi = self.done_stamp - self.done_stamp % self.fdi_period_ns
-            final_fdi = [T.DIAGNOSTICS, T.residual_topic("linear"), T.bound_topic("linear"),
+            final_fdi = [T.DIAGNOSTICS, T.IDENTIFICATION, T.residual_topic("linear"), T.bound_topic("linear"),
                          *(T.residual_topic("elman", a) for a in T.AXES), *(T.bound_topic("elman", a) for a in T.AXES)]
             lagging_fdi = [t for t in final_fdi if self.last_stamp.get(t, -1) < last_fdi]
         else:

@@ -47,6 +47,20 @@ def graph_topics():
 
 OBSERVERS = ("elman", "linear")
 DIAGNOSTICS = "/diagnostics"
+IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel (DiagnosticArray)
+
+
+def telemetry_readers(fdi_method: str | None) -> dict:
+    """How many FDI nodes read each wheel-telemetry topic (what the plant or player waits for).
+
+    Elman x, y, z and the linear observer read tcv and reaction torque, and the wheel speed
+    when speed-aware; the isolation node reads all three (fault identification). No FDI: 0.
+    """
+    if fdi_method is None:
+        return {TCV: 0, REACTION_TORQUE: 0, WHEEL_SPEED: 0}
+    observers = len(AXES) + 1
+    return {TCV: observers + 1, REACTION_TORQUE: observers + 1,
+            WHEEL_SPEED: (observers if fdi_method == "speed_aware" else 0) + 1}
 
 
 def estimate_topic(observer: str, axis: str | None = None) -> str:
@@ -83,6 +97,7 @@ def fdi_topics():
         out = fdi_output_topics(obs)
         rows += [(out["threshold"], vec, RELIABLE), (out["alarm"], vec, RELIABLE), (out["status"], diag, RELIABLE)]
     rows.append((DIAGNOSTICS, diag, RELIABLE))
+    rows.append((IDENTIFICATION, diag, RELIABLE))
     return rows
 
 

@@ -54,16 +54,38 @@ CELLS = (
 )
 
 
-def cell_scenarios(cell: Cell, runs: int, index: int) -> list:
+def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE) -> list:
+    """``runs`` scenarios of one cell: seeds seed_base + 100,000 index + n, fault on wheel seed mod 3
+    with an onset drawn from the seed."""
     out = []
     for n in range(runs):
-        seed = SEED_BASE + 100_000 * index + n
+        seed = seed_base + 100_000 * index + n
         faults = ()
         if cell.kind is not None:
             onset = float(np.round(np.random.default_rng(seed).uniform(*ONSET_RANGE), 1))
             faults = (Fault(cell.kind, seed % 3, onset, cell.value, cell.ramp),)
         out.append(Scenario(cell.name, duration=400.0, seed=seed, faults=faults))
     return out
+
+
+def screen_cells(sizes, chunk_job, desc: str, jobs: int = 2, chunk: int = 50) -> dict:
+    """cell index -> results of ``chunk_job(cell_index, range)`` merged over chunks of ``chunk`` runs,
+    ``jobs`` processes (CPU-bound numpy and Python: one per core). chunk_job returns name -> [RunEval]."""
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from tqdm import tqdm
+    bar = tqdm(total=sum(sizes), desc=desc, unit="run", file=sys.stderr, mininterval=2.0)
+    judged = {i: {} for i in range(len(sizes))}
+    with ProcessPoolExecutor(jobs) as pool:
+        futures = {pool.submit(chunk_job, i, range(start, min(start + chunk, n))): (i, min(chunk, n - start))
+                   for i, n in enumerate(sizes) for start in range(0, n, chunk)}
+        for f in as_completed(futures):
+            i, n = futures[f]
+            for name, runs in f.result().items():
+                judged[i].setdefault(name, []).extend(runs)
+            bar.update(n)
+    bar.close()
+    return {i: {name: sorted(runs, key=lambda r: r.seed) for name, runs in by_name.items()}
+            for i, by_name in judged.items()}
 
 
 def wilson(k: int, n: int, z: float = 1.96):
@@ -113,35 +135,21 @@ def _judge_chunk(cell_index: int, seeds_range):
 
 def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/detection",
                     jobs: int = 2) -> dict:
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-    from tqdm import tqdm
     sets = _fdi_sets()
     levels = {name: {obs: {a: float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a]))
                            for a in "xyz"} for obs, c in curves.items()} for name, (_, curves) in sets.items()}
     t0 = time.monotonic()
     sizes = [fault_free_runs if c.kind is None else runs_per_cell for c in CELLS]
-    bar = tqdm(total=sum(sizes), desc="detection bench (core loop + node code)", unit="run", file=sys.stderr,
-               mininterval=2.0)
-    chunk = 50
-    judged = {i: {name: [] for name in sets} for i in range(len(CELLS))}
-    with ProcessPoolExecutor(jobs) as pool:   # CPU-bound numpy and Python: one process per core
-        futures = {pool.submit(_judge_chunk, i, range(start, min(start + chunk, n))): (i, min(chunk, n - start))
-                   for i, n in enumerate(sizes) for start in range(0, n, chunk)}
-        for f in as_completed(futures):
-            i, n = futures[f]
-            for name, runs in f.result().items():
-                judged[i][name] += runs
-            bar.update(n)
-    bar.close()
+    judged = screen_cells(sizes, _judge_chunk, "detection bench (core loop + node code)", jobs)
     results = {}
     for i, cell in enumerate(CELLS):
         first = SEED_BASE + 100_000 * i
         results[cell.name] = {"cell": cell.__dict__, "seeds": [first, first + sizes[i] - 1],
-                              "methods": {name: {obs: cell_figures(sorted(runs, key=lambda r: r.seed), obs,
-                                                                   levels[name][obs])
+                              "methods": {name: {obs: cell_figures(runs, obs, levels[name][obs])
                                                  for obs in ("elman", "linear")}
                                           for name, runs in judged[i].items()}}
     report = {"schema": "rw_fdi_ros/detection_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
+              "date": time.strftime("%Y-%m-%d"),
               "fault_free_runs": fault_free_runs, "runs_per_cell": runs_per_cell, "seed_base": SEED_BASE,
               "onset_range_s": ONSET_RANGE,
               "design": {name: {obs: {"method": c.method, "persistence": c.persistence,
@@ -158,7 +166,8 @@ def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: 
     return report
 
 
-def _pct(r: dict) -> str:
+def format_rate(r: dict) -> str:
+    """'12.5 % [8.6, 17.8] (n=200)': a rate with its 95 % interval and sample size."""
     if not r or r["n"] == 0:
         return "-"
     lo, hi = r["ci95"]
@@ -167,6 +176,8 @@ def _pct(r: dict) -> str:
 
 def format_detection(report: dict) -> str:
     lines = ["# Detection on held-out runs (`rw-fdi bench detection`)", "",
+             f"Measured {report.get('date', '?')} on the shipped `config/fdi` (speed-aware) and `config/fdi/thesis` "
+             "with the command's defaults.", "",
              f"Seeds from {report['seed_base']:,} (disjoint from training, fitting and the thesis study); faults "
              f"on wheel seed mod 3 with onsets uniform in {report['onset_range_s'][0]:g}-{report['onset_range_s'][1]:g} s; "
              f"{report['fault_free_runs']} fault-free runs, {report['runs_per_cell']} per cell. Rates with 95 % Wilson "
@@ -176,9 +187,9 @@ def format_detection(report: dict) -> str:
     for name, c in report["cells"].items():
         if c["cell"]["kind"] is None or c["cell"]["disturbance"]:
             m = c["methods"]
-            lines.append(f"| {name} | {_pct(m['speed_aware']['elman']['false_alarm'])} | "
-                         f"{_pct(m['speed_aware']['linear']['false_alarm'])} | {_pct(m['thesis']['elman']['false_alarm'])} | "
-                         f"{_pct(m['thesis']['linear']['false_alarm'])} |")
+            lines.append(f"| {name} | {format_rate(m['speed_aware']['elman']['false_alarm'])} | "
+                         f"{format_rate(m['speed_aware']['linear']['false_alarm'])} | {format_rate(m['thesis']['elman']['false_alarm'])} | "
+                         f"{format_rate(m['thesis']['linear']['false_alarm'])} |")
     for method in ("speed_aware", "thesis"):
         lines += ["", f"## Faults, {'ours (speed-aware)' if method == 'speed_aware' else 'the thesis method'}", "",
                   "| case | observer | correct | correct, observable | detected | delay median / p90 [s] | "
@@ -190,7 +201,7 @@ def format_detection(report: dict) -> str:
                 f = c["methods"][method][obs]
                 d = f["delay_s"]
                 delay = f"{d['median']:.0f} / {d['p90']:.0f}" if d["median"] is not None else "-"
-                lines.append(f"| {name} | {obs} | {_pct(f['correct'])} | {_pct(f['correct_observable'])} | "
-                             f"{_pct(f['detected'])} | {delay} | {_pct(f['held_to_end'])} | "
-                             f"{_pct(f['alarm_before_onset'])} |")
+                lines.append(f"| {name} | {obs} | {format_rate(f['correct'])} | {format_rate(f['correct_observable'])} | "
+                             f"{format_rate(f['detected'])} | {delay} | {format_rate(f['held_to_end'])} | "
+                             f"{format_rate(f['alarm_before_onset'])} |")
     return "\n".join(lines) + "\n"

@@ -21,7 +21,8 @@ from ..nodes import topics as T
 from ..paths import config_dir
 from ..storage.bag import BagError, bag_is_complete, read_bag
 from .campaign import LocalExecutor, _progress
-from .metrics import OBSERVERS, RunEval, aggregate, fdi_output_topics, scenario_of, series_from_bag
+from .metrics import (OBSERVERS, RunEval, aggregate, fdi_output_topics, identification_figures,
+                      identification_from_bag, scenario_of, series_from_bag)
 from ..core.plant_choices import PlantChoices
 from ..launch.graph import FDI_SAMPLING
 from .offline import fdi_method_of, load_models, model_card
@@ -58,12 +59,13 @@ def evaluate_bag(bag: Path, replays: Path, curves: dict, models, thresholds, per
         outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence, method=method)
         if not outcome.ok:
             raise BagError(f"{bag.name}: replay failed: {outcome.reason}")
-    series = series_from_bag(read_bag(out, topics=fdi_output_topics()))
+    replay = read_bag(out, topics=fdi_output_topics())
+    series = series_from_bag(replay)
     t, effect = data.vectors(T.FAULT_EFFECT)
     onset = min((f.onset for f in scenario.faults), default=None)
     peak = np.abs(effect[t >= onset]).max(axis=0) if onset is not None and len(t) else np.zeros(3)
     return RunEval(bag=str(bag), scenario=scenario.name, seed=scenario.seed, faults=list(scenario.faults),
-                   series=series, fault_effect_peak=peak)
+                   series=series, fault_effect_peak=peak, identification=identification_from_bag(replay))
 
 
 def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: int | None = None, executor=None,
@@ -111,7 +113,8 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
     report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence, "models": models,
               "thresholds": thresholds, "observable_level_Nm": level, "runs": len(runs),
               "skipped": [{"bag": b, "reason": r} for b, r in skipped],
-              "observers": figures, "evaluate_seconds": time.monotonic() - t0}
+              "observers": figures, "identification": identification_figures(runs),
+              "evaluate_seconds": time.monotonic() - t0}
     (report_dir / "report.json").write_text(json.dumps(report, indent=1))
     from .report import write_markdown, write_plots
     if plots:

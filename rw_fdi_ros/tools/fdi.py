@@ -10,6 +10,7 @@ import numpy as np
 from ..core.scenario import AXES, parse_scenario
 from ..nodes import topics as T
 from ..storage.bag import BagData, read_bag
+from . import metrics
 from .run import RunOutcome, run_scenario
 
 
@@ -73,6 +74,7 @@ def fdi_verdict(data: BagData) -> dict:
     for obs in T.OBSERVERS:
         t, alarm = data.vectors(T.fdi_output_topics(obs)["alarm"])
         out[obs] = {a: alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(AXES)}
+    out["identification"] = metrics.identification_from_bag(data)
     return out
 
 
@@ -89,6 +91,8 @@ def format_verdict(v: dict) -> str:
     for a in AXES:
         truth = "; ".join(f"{f['kind']}={f['value']:g} from {f['onset']:g} s" for f in v["truth"][a]) or "healthy"
         lines.append(f"  {a:6s}{truth:34s}{fmt(v['elman'][a]):34s}{fmt(v['linear'][a])}")
+    for a, found in v.get("identification", {}).items():
+        lines.append(f"  identified on wheel {a}: {found['message']}")
     return "\n".join(lines)
 
 

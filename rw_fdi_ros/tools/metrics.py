@@ -42,6 +42,8 @@ class RunEval:
     faults: list                      # Fault objects
     series: dict                      # observer -> Series
     fault_effect_peak: np.ndarray = field(default_factory=lambda: np.zeros(3))  # after onset [N m]
+    # axis -> the last fault identification of an alarmed wheel (its /diagnostics values, strings)
+    identification: dict = field(default_factory=dict)
 
     @property
     def faulty_axes(self):
@@ -64,7 +66,8 @@ class RunEval:
 def fdi_output_topics() -> list:
     """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more)."""
     rows = [T.residual_topic("elman", a) for a in AXES] + [T.residual_topic("linear")]
-    return rows + [t for obs in OBSERVERS for k, t in T.fdi_output_topics(obs).items() if k != "status"]
+    return rows + [t for obs in OBSERVERS for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
+        T.IDENTIFICATION]
 
 
 def series_from_bag(data) -> dict:
@@ -85,6 +88,20 @@ def series_from_bag(data) -> dict:
             raise ValueError(f"{data.path}: no {obs} FDI outputs")
         # the alarm compares the residual's magnitude (the speed-aware residual is signed)
         out[obs] = Series(t[:n], np.abs(res[:n]), thr[:n], alarm[:n] > 0.5)
+    return out
+
+
+def identification_from_bag(data) -> dict:
+    """axis -> the last /fdi/identification status of that wheel as a dict (message + values);
+    wheels never alarmed (or a bag without the topic) are left out."""
+    msgs = data.topic(T.IDENTIFICATION)
+    if not msgs:
+        return {}
+    out = {}
+    for status in msgs[-1][1].status:
+        values = {kv.key: kv.value for kv in status.values}
+        if values.get("fault_kind", "none") != "none":
+            out[status.hardware_id.rsplit("_", 1)[-1]] = {"message": status.message, **values}
     return out
 
 
@@ -119,6 +136,41 @@ def judge(run: RunEval, observer: str) -> dict:
         out["axes"] = figures
         out["wrong_axes"] = others
         out["correct"] = all(f["detected"] for f in figures.values()) and not others
+    return out
+
+
+# scenario fault kind -> identified kind; the tolerance a size estimate must meet (issue 11)
+IDENTIFIED_KIND = {"current_limiter": "current_loss", "temperature": "temperature", "bus_voltage": "bus_voltage"}
+
+
+def size_tolerance(kind: str, value: float) -> float:
+    """Temperature within 10 C, limiter share and bus voltage within 10 % of the true value."""
+    return 10.0 if kind == "temperature" else 0.1 * abs(value)
+
+
+def judge_identification(run: RunEval) -> dict:
+    """Per faulty wheel with one fault: the last identification against the truth.
+
+    kind_right, size_error (estimate - truth, in the kind's unit), size_right (within
+    :func:`size_tolerance`), covered (truth inside [low, high]); identified False when the
+    wheel was never alarmed or the kind stayed 'unknown'.
+    """
+    out = {}
+    for f in run.faults:
+        a = AXES[f.wheel]
+        if f.kind in DISTURBANCE_KINDS or sum(g.wheel == f.wheel for g in run.faults) > 1:
+            continue
+        found = run.identification.get(a) or {}
+        kind = found.get("fault_kind", "none")
+        truth = IDENTIFIED_KIND[f.kind]
+        row = {"true_kind": truth, "kind": kind, "identified": kind not in ("none", "unknown"),
+               "kind_right": kind == truth}
+        if row["kind_right"]:
+            size, low, high = (float(found[k]) for k in ("fault_size", "fault_size_low", "fault_size_high"))
+            row.update(size=size, size_error=size - f.value,
+                       size_right=abs(size - f.value) <= size_tolerance(f.kind, f.value),
+                       covered=low <= f.value <= high)
+        out[a] = row
     return out
 
 
@@ -217,6 +269,25 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
         rep["faults"] = cells
         report[obs] = rep
     return report
+
+
+def identification_figures(runs) -> list:
+    """Per (kind, size) of the single-fault runs: how often the identified kind was right and how
+    close the size was (:func:`judge_identification` on each faulty wheel)."""
+    groups = {}
+    for r in runs:
+        if r.category == "single":
+            groups.setdefault(fault_label(r), []).extend(judge_identification(r).values())
+    cells = []
+    for (kind, size), rows in sorted(groups.items()):
+        right = [v for v in rows if v["kind_right"]]
+        cells.append({"kind": kind, "size": size, "wheels": len(rows),
+                      "identified": _rate(v["identified"] for v in rows),
+                      "kind_right": _rate(v["kind_right"] for v in rows),
+                      "size_right": _rate(v["size_right"] for v in right),
+                      "abs_size_error": _stats([abs(v["size_error"]) for v in right]),
+                      "identified_as": {k: sum(v["kind"] == k for v in rows) for k in sorted({v["kind"] for v in rows})}})
+    return cells
 
 
 def _stats(values):

@@ -8,6 +8,7 @@ from pathlib import Path
 from ..core.plant_choices import PlantChoices
 from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_method, fdi_nodes
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
+from ..nodes import topics as T
 from ..nodes.player import FDI_INPUTS
 from .offline import plant_conditions
 from .run import RunOutcome
@@ -16,9 +17,10 @@ from .run import RunOutcome
 def replay_nodes(bag: Path, out_bag: Path, fdi: dict, plant: dict, rate: float = 0.0):
     """Player + Elman x3 + linear + isolation + a recorder of the FDI outputs."""
     nodes = fdi_nodes(fdi, PlantChoices(**plant), True)
-    speed = 4 if fdi_method(fdi) == "speed_aware" else 0
-    nodes.append(NodeSpec("player", "player", {"bag": str(bag), "rate": float(rate), "min_subscribers": 4,
-                                               "speed_subscribers": speed,
+    readers = T.telemetry_readers(fdi_method(fdi))
+    nodes.append(NodeSpec("player", "player", {"bag": str(bag), "rate": float(rate),
+                                               "min_subscribers": readers[T.TCV],
+                                               "speed_subscribers": readers[T.WHEEL_SPEED],
                                                "pace_period": FDI_PERIOD, "topics": FDI_INPUTS}))
     nodes.append(NodeSpec("recorder", "recorder", {"output": str(out_bag), "fdi_period": FDI_PERIOD,
                                                    "record_plant": False}))

@@ -19,6 +19,7 @@ import yaml
 
 from ..core.scenario import AXES
 from .campaign import run_campaign
+from .train import EPOCHS
 
 
 @dataclass(frozen=True)
@@ -41,7 +42,7 @@ SCALES = {
     "small": Scale(duration=120.0, onset=60.0, fit_runs=6, heldout_runs=2, table42_runs=1, grid_runs=1,
                    ripple_runs=1, multiple_runs=1, train_runs=2, epochs=40),
     "thesis": Scale(duration=400.0, onset=200.0, fit_runs=140, heldout_runs=20, table42_runs=100, grid_runs=10,
-                    ripple_runs=20, multiple_runs=20, train_runs=40, epochs=300),
+                    ripple_runs=20, multiple_runs=20, train_runs=40, epochs=EPOCHS),
 }
 
 # (kind, value, label) of thesis Table 4.2 and the Tables 5.1/5.2 grid

@@ -24,12 +24,27 @@ class FdiSamples:
     wheel_speed: np.ndarray | None = None
     model_torque: np.ndarray | None = None
     ripple_phasor: np.ndarray | None = None
+    # what fault identification fits (core/identification.py), when asked for
+    motor_torque: np.ndarray | None = None
+    friction_torque: np.ndarray | None = None
+    bus_motor_torque: np.ndarray | None = None    # (n, 3, bus grid)
+
+    def rows(self):
+        """The samples one by one as telemetry.FdiSample (what the nodes see)."""
+        from ..core.telemetry import FdiSample
+        names = ("wheel_speed", "model_torque", "ripple_phasor", "motor_torque", "friction_torque",
+                 "bus_motor_torque")
+        for k, t in enumerate(self.time):
+            extra = {n: None if getattr(self, n) is None else getattr(self, n)[k] for n in names}
+            yield FdiSample(int(round(t * 1e9)), self.tcv[k], self.reaction_torque[k], **extra)
 
 
 def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0,
-                        sampling: str = "mean", bag=None, seed=None) -> FdiSamples:
-    """Control-rate series (time first) -> FdiSamples through the nodes' TelemetrySampler."""
-    rows = sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed, period, sampling)
+                        sampling: str = "mean", bag=None, seed=None, identification: bool = False) -> FdiSamples:
+    """Control-rate series (time first) -> FdiSamples through the nodes' TelemetrySampler
+    (``identification``: with the terms fault identification fits)."""
+    rows = sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed, period, sampling,
+                            identification=identification)
     stamps = np.array([row.stamp_ns for row in rows], np.int64)
     stack = lambda name: None if not rows or getattr(rows[0], name) is None else np.array([getattr(x, name)
                                                                                          for x in rows])
@@ -37,7 +52,8 @@ def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, perio
     return FdiSamples(bag=bag, seed=seed, time=stamps // 10**9 + (stamps % 10**9) * 1e-9,
                       tcv=stack("tcv") if rows else empty, reaction_torque=stack("reaction_torque") if rows else empty,
                       wheel_speed=stack("wheel_speed"), model_torque=stack("model_torque"),
-                      ripple_phasor=stack("ripple_phasor"))
+                      ripple_phasor=stack("ripple_phasor"), motor_torque=stack("motor_torque"),
+                      friction_torque=stack("friction_torque"), bus_motor_torque=stack("bus_motor_torque"))
 
 
 def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: bool = True) -> FdiSamples:

@@ -13,10 +13,11 @@ import numpy as np
 
 from ..core.closed_loop import simulate
 from ..core.detection import ThresholdCurves
+from ..core.isolation import DECISION_OBSERVER
 from ..core.wheel import WheelParams
 from ..paths import fdi_dir
 from .metrics import RunEval, judge
-from .offline import fdi_series, load_models, observe
+from .offline import fdi_series, identification_series, load_models, observe
 from .samples import samples_from_series
 
 BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
@@ -30,13 +31,18 @@ def load_fdi(models=None, thresholds=None, method: str = "speed_aware"):
     return weights, curves
 
 
-def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None) -> list:
+def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None,
+                identification: bool = False) -> list:
     """RunEval of every scenario (one seed each; equal durations within a batch)."""
-    return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress)["fdi"]
+    return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress, identification)["fdi"]
 
 
-def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None) -> dict:
-    """name -> [RunEval] for several FDI sets {name: (weights, curves)} judged on the same simulated runs."""
+def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None,
+                identification: bool = False) -> dict:
+    """name -> [RunEval] for several FDI sets {name: (weights, curves)} judged on the same simulated runs.
+
+    ``identification``: also identify the faults of the wheels the decision observer alarms
+    (the isolation node's FaultIdentifier), into RunEval.identification."""
     out = {name: [] for name in fdi_sets}
     for start in range(0, len(scenarios), BATCH):
         batch = scenarios[start:start + BATCH]
@@ -49,15 +55,19 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
         stamps = np.round(traj.time * 1e9).astype(np.int64)
         for b, scenario in enumerate(batch):
             samples = samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
-                                          seed=scenario.seed)
+                                          seed=scenario.seed, identification=identification)
             onset = min((f.onset for f in scenario.faults), default=None)
             after = traj.time >= onset if onset is not None else np.zeros(len(traj.time), bool)
             peak = np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any() else np.zeros(3)
             for name, (weights, curves) in fdi_sets.items():
+                series = fdi_series(observe(samples, weights), curves, persistence)
+                found = {}
+                if identification:
+                    last = identification_series(samples, series[DECISION_OBSERVER].alarm)[-1]
+                    found = {a: v.values() for a, v in last.items() if v is not None}
                 out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,
-                                         seed=scenario.seed, faults=list(scenario.faults),
-                                         series=fdi_series(observe(samples, weights), curves, persistence),
-                                         fault_effect_peak=peak))
+                                         seed=scenario.seed, faults=list(scenario.faults), series=series,
+                                         fault_effect_peak=peak, identification=found))
         if progress:
             progress(len(batch))
     return out

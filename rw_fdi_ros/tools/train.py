@@ -22,10 +22,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.elman import HIDDEN, ElmanWeights
+from ..core.detection import FALSE_ALARM_RATE
+from ..core.elman import HIDDEN, SETTLE_STEPS, ElmanWeights
 from ..core.scenario import AXES
 
 MODES = ("teacher", "recall")
+# Epochs of the speed-aware networks. On the 100 fitting runs (x axis) the largest fault-free run
+# statistic fell from 4.6e-4 N m at 300 epochs to 0.9e-4 at 1000 (lr 0.03: 1.2e-4), and the band c
+# with it: the held-out detection delay follows c. The thesis set keeps 300 (its limit is its inputs).
+EPOCHS = 1000
+THESIS_EPOCHS = 300
 
 
 def _torch():
@@ -45,6 +51,13 @@ def torch_forward(params, u, r, mode: str, speed=None):
     w_ih, w_hh, b_h, w_ho, b_o = params
     h = torch.zeros(u.shape[0], w_hh.shape[0], dtype=u.dtype)
     fed = r[:, 0]
+    if speed is not None:   # start from the steady state for the first input (elman.SETTLE_STEPS)
+        for _ in range(SETTLE_STEPS):
+            drive = u[:, 0:1] * w_ih[:, 0] + fed[:, None] * w_ih[:, 1] + speed[:, 0:1] * w_ih[:, 2]
+            h = torch.tanh(drive + h @ w_hh.T + b_h)
+            fed = torch.tanh(h @ w_ho.T + b_o)[:, 0]   # its own output, as in use
+        if mode == "teacher":
+            fed = r[:, 0]
     outs = []
     for k in range(u.shape[1]):
         drive = u[:, k:k + 1] * w_ih[:, 0] + fed[:, None] * w_ih[:, 1]
@@ -57,7 +70,7 @@ def torch_forward(params, u, r, mode: str, speed=None):
     return torch.stack(outs, dim=1)
 
 
-def train_axis(tcv, torque, mode: str = "recall", epochs: int = 400, lr: float = 0.01, seed: int = 0,
+def train_axis(tcv, torque, mode: str = "recall", epochs: int = EPOCHS, lr: float = 0.01, seed: int = 0,
                torque_scale: float | None = None, progress=None, wheel_speed=None):
     """Fit one wheel's network on (runs, samples) arrays; returns (weights, loss history).
 
@@ -90,17 +103,21 @@ def train_axis(tcv, torque, mode: str = "recall", epochs: int = 400, lr: float =
                         speed_scale=speed_scale).validate(), losses
 
 
-def uncertainty_gain(weights, samples, axis: int, margin: float = 2.0, active: float = 1e-3) -> float:
-    """kappa: how much the network errs per unit of the torque it is asked for, on its training runs.
+def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE,
+                     active: float = 1e-3) -> float:
+    """kappa: how much the network errs per unit of the torque it is asked for, fault-free.
 
-    The largest (|residual| - ripple bound) / mean(|r|) over samples where mean(|r|) > ``active``
-    N m (a manoeuvre), times ``margin`` for runs it was not trained on. The network's error grows
-    with the torque demand (it models slews less well than holding), so its residual bound does
-    too (detection.SignedResidual); the band c then covers what is left.
+    Per run, the largest (|residual| - ripple bound) / mean(|r|) over the samples where
+    mean(|r|) > ``active`` N m (a manoeuvre); kappa is the (1 - alpha / 6) quantile of a Gumbel
+    law fitted to those run maxima (detection.gumbel_fit), never below the largest: the network's
+    error grows with the torque demand (it models slews less well than holding, and its first
+    seconds start from a zero state), so its residual bound does too (detection.SignedResidual).
+    alpha / 6: half the designed per-run false-alarm rate over three axes; the band c
+    (detection.fit_band) gets the other half.
     """
-    from ..core.detection import signed_residual_series, window_mean
+    from ..core.detection import gumbel_fit, gumbel_quantile, signed_residual_series, window_mean
     from ..core.elman import recall_series
-    worst = 0.0
+    maxima = []
     for s in samples:
         r = s.reaction_torque[:, axis:axis + 1]
         est = recall_series(weights, s.tcv[:, axis], r[0, 0], s.wheel_speed[:, axis])[:, None]
@@ -108,15 +125,20 @@ def uncertainty_gain(weights, samples, axis: int, margin: float = 2.0, active: f
         demand = window_mean(np.abs(r))
         busy = demand > active
         if busy.any():
-            worst = max(worst, float(((np.abs(res) - bound)[busy] / demand[busy]).max()))
-    return margin * worst
+            maxima.append(float(((np.abs(res) - bound)[busy] / demand[busy]).max()))
+    if len(maxima) < 3:
+        return 2.0 * max(maxima, default=0.0)   # too few runs for a tail: twice the worst seen
+    return max(gumbel_quantile(*gumbel_fit(maxima), 1.0 - false_alarm_rate / 6.0), max(maxima))
 
 
-def train_models(samples, out_dir, mode: str = "recall", epochs: int = 400, plant: dict | None = None,
-                 seed: int = 0, quiet: bool = False, speed_aware: bool = True) -> dict:
+def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, plant: dict | None = None,
+                 seed: int = 0, quiet: bool = False, speed_aware: bool = True, calibration=None) -> dict:
     """Train x, y, z networks on a list of FdiSamples and save them with cards; returns the set card.
 
-    ``speed_aware``: three inputs with the wheel speed (ours); False: the thesis' two."""
+    ``speed_aware``: three inputs with the wheel speed (ours); False: the thesis' two.
+    ``calibration``: fault-free runs kappa is measured on (default: the training runs). More
+    runs than the network was fitted to see more manoeuvres, so kappa covers more of the envelope.
+    """
     from tqdm import tqdm
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}")
@@ -129,6 +151,9 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = 400, plan
     card = {"mode": mode, "speed_aware": speed_aware, "epochs": epochs, "hidden": HIDDEN, "samples_per_run": n,
             "bags": [str(s.bag) for s in samples], "seeds": [s.seed for s in samples],
             "plant": plant or {}, "axes": {}}
+    calibration = list(calibration) if calibration else list(samples)
+    if speed_aware:
+        card["uncertainty_gain_seeds"] = [s.seed for s in calibration]
     bar = tqdm(total=3 * epochs, desc=f"train elman ({mode}, {len(samples)} runs)", unit="epoch",
                file=sys.stderr, disable=quiet or None, mininterval=1.0)
     for i, axis in enumerate(AXES):
@@ -141,7 +166,7 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = 400, plan
         speed = np.stack([s.wheel_speed[:n, i] for s in samples]) if speed_aware else None
         weights, losses = train_axis(tcv, torque, mode, epochs, seed=seed + i, progress=tick, wheel_speed=speed)
         if speed_aware:
-            weights.uncertainty_gain = uncertainty_gain(weights, samples, i)
+            weights.uncertainty_gain = uncertainty_gain(weights, calibration, i)
         axis_card = {**{k: v for k, v in card.items() if k != "axes"}, "axis": axis,
                      "final_loss": losses[-1], "first_loss": losses[0], "tcv_scale": weights.tcv_scale,
                      "torque_scale": weights.torque_scale, "speed_scale": weights.speed_scale,
