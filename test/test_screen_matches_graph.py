@@ -1,9 +1,9 @@
 """`rw-fdi screen` (node code on the core loop) gives the graph's verdicts, run for run.
 
-20 runs through the full live graph and through the screen: 14 of 130 s
+20 runs through the full live graph and through the screen: 15 of 130 s
 (small faults on every wheel with onsets spread over the run, a ripple
-increase, fault-free runs; two at a time) and the 6 speed-aware thesis runs
-(300 s) that test_fdi_graph judges too (conftest.fdi_runs). Same alarmed
+increase, fault-free runs; two at a time) and the 5 distinct speed-aware
+runs (300 s) that test_fdi_graph judges too (conftest.fdi_runs). Same alarmed
 wheels, same first-alarm times, same verdict from tools.metrics.judge, for
 both observers, and the same fault identification.
 """
@@ -17,8 +17,8 @@ from rw_fdi_ros.tools.fdi import run_with_fdi
 from rw_fdi_ros.tools.metrics import judge
 from rw_fdi_ros.tools.screen import load_fdi, screen_runs
 
-# (kind, value) per run; wheel = index mod 3, onset spread over 30..69 s
-KINDS = [("current_limiter", 0.9)] * 4 + [("temperature", 53.0)] * 4 + [("ripple_gain", 1.6)] * 3 + [None] * 3
+# (kind, value) per run; wheel = index mod 3, onset spread over 30..72 s
+KINDS = [("current_limiter", 0.9)] * 5 + [("temperature", 53.0)] * 4 + [("ripple_gain", 1.6)] * 3 + [None] * 3
 SEED0 = 20_000_000   # disjoint from every other seed range (README "Seeds")
 
 

@@ -134,6 +134,9 @@ def gumbel_fit(maxima, upper: float = 0.5):
     """
     x = np.sort(np.asarray(maxima, float))
     n = len(x)
+    if n * upper < 3:   # no tail to fit a line to: moments (beta = s sqrt(6) / pi)
+        beta = max(float(x.std(ddof=1)) * np.sqrt(6.0) / np.pi if n > 1 else 0.0, 1e-12)
+        return float(x.mean()) - 0.5772156649 * beta, beta
     y = -np.log(-np.log((np.arange(1, n + 1) - 0.44) / (n + 0.12)))
     top = slice(int(np.floor(n * (1.0 - upper))), n)
     beta, mu = np.polyfit(y[top], x[top], 1)

@@ -116,7 +116,7 @@ class ProfileSums:
         self.n += 1
 
     def rss(self) -> np.ndarray:
-        if self.n <= 2 or np.linalg.cond(self.gram) > 1e12:
+        if self.n <= 2 or not np.all(np.isfinite(self.gram)) or np.linalg.cond(self.gram) > 1e12:
             return np.maximum(self.sq, 0.0)
         solved = np.linalg.solve(self.gram, self.cross.T)          # (2, size)
         return np.maximum(self.sq - np.einsum("ij,ji->i", self.cross, solved), 0.0)
@@ -179,6 +179,8 @@ def decide(sums: ProfileSums) -> Identification:
     if n < MIN_SAMPLES:
         return Identification(UNKNOWN, samples=n)
     rss_all = sums.rss()
+    if not np.all(np.isfinite(rss_all)):
+        return Identification(UNKNOWN, samples=n)
     fits = {k: rss_all[_SLICES[k]] for k in KINDS}
     nominal = fits["current_loss"][0]                       # grid[0] of every family is the healthy wheel
     best = min(KINDS, key=lambda k: fits[k].min())

@@ -152,7 +152,8 @@ class IsolationNode(GraphNode):
         del self.done_samples[stamp]
         sample = handled.pop("telemetry")
         alarmed = {a: handled[self.decision][a][2] for a in AXES}
-        finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed))
+        finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
+                                                        sample.ripple_phasor, sample.bus_motor_torque))
         # a non-finite sample stops the observers with a reason; it must not poison the estimate
         identified = self.identifier.update(sample, alarmed) if finite else dict(self.identifier.latest)
         self._publish_diagnostics(stamp, handled, identified)

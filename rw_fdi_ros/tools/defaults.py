@@ -100,7 +100,7 @@ def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, he
          f"per-run false-alarm rate of {false_alarm_rate:g}")
     t = time.monotonic()
     ours_card = train_models(train, out, mode="recall", epochs=epochs, plant=plant, speed_aware=True,
-                             calibration=train + fit)
+                             calibration=train + fit, false_alarm_rate=false_alarm_rate)
     bands = fit_thresholds(fit, load_models(out), out, model_ref="model_set.json", false_alarm_rate=false_alarm_rate,
                            persistence=PERSISTENCE_SPEED_AWARE)
     ours_nominal = {obs: nominal_residuals(heldout, load_models(out), observer=obs) for obs in ("elman", "linear")}

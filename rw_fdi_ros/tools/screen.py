@@ -62,7 +62,7 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
             for name, (weights, curves) in fdi_sets.items():
                 series = fdi_series(observe(samples, weights), curves, persistence)
                 found = {}
-                if identification:
+                if identification and len(samples.time):
                     last = identification_series(samples, series[DECISION_OBSERVER].alarm)[-1]
                     found = {a: v.values() for a, v in last.items() if v is not None}
                 out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,

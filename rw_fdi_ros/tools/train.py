@@ -126,18 +126,25 @@ def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALS
         busy = demand > active
         if busy.any():
             maxima.append(float(((np.abs(res) - bound)[busy] / demand[busy]).max()))
-    if len(maxima) < 3:
-        return 2.0 * max(maxima, default=0.0)   # too few runs for a tail: twice the worst seen
-    return max(gumbel_quantile(*gumbel_fit(maxima), 1.0 - false_alarm_rate / 6.0), max(maxima))
+    if len(maxima) < 4:
+        kappa = 2.0 * max(maxima, default=0.0)   # too few runs for a tail: twice the worst seen
+    else:
+        kappa = max(gumbel_quantile(*gumbel_fit(maxima), 1.0 - false_alarm_rate / 6.0), max(maxima))
+    if not kappa < 10.0:   # ElmanWeights refuses such a model: say so now, not when a node loads it
+        raise ValueError(f"wheel {'xyz'[axis]}: the network errs by {kappa:.3g} x the torque demand on fault-free "
+                         "runs (> 10); train longer or on more runs")
+    return max(kappa, 0.0)
 
 
 def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, plant: dict | None = None,
-                 seed: int = 0, quiet: bool = False, speed_aware: bool = True, calibration=None) -> dict:
+                 seed: int = 0, quiet: bool = False, speed_aware: bool = True, calibration=None,
+                 false_alarm_rate: float = FALSE_ALARM_RATE) -> dict:
     """Train x, y, z networks on a list of FdiSamples and save them with cards; returns the set card.
 
     ``speed_aware``: three inputs with the wheel speed (ours); False: the thesis' two.
     ``calibration``: fault-free runs kappa is measured on (default: the training runs). More
     runs than the network was fitted to see more manoeuvres, so kappa covers more of the envelope.
+    ``false_alarm_rate``: the designed per-run rate kappa takes half of (:func:`uncertainty_gain`).
     """
     from tqdm import tqdm
     if mode not in MODES:
@@ -166,7 +173,7 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
         speed = np.stack([s.wheel_speed[:n, i] for s in samples]) if speed_aware else None
         weights, losses = train_axis(tcv, torque, mode, epochs, seed=seed + i, progress=tick, wheel_speed=speed)
         if speed_aware:
-            weights.uncertainty_gain = uncertainty_gain(weights, calibration, i)
+            weights.uncertainty_gain = uncertainty_gain(weights, calibration, i, false_alarm_rate)
         axis_card = {**{k: v for k, v in card.items() if k != "axes"}, "axis": axis,
                      "final_loss": losses[-1], "first_loss": losses[0], "tcv_scale": weights.tcv_scale,
                      "torque_scale": weights.torque_scale, "speed_scale": weights.speed_scale,
