@@ -70,7 +70,7 @@ def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams()
     return params.torque_constant * wm.motor_current(u, w, grid, 1.0, params)
 
 
-def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, params: wm.WheelParams = wm.WheelParams()):
+def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque):
     """Predicted reaction torque of every grid point of every family, (sum of grid sizes, n), families
     in KINDS order, for n FDI samples of one wheel.
 
@@ -78,13 +78,15 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, p
     wheel's tau_m and tau_f and of Omega; ``bus_torque``: (n, len(BUS_VOLTAGE_GRID)).
     """
     tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
-    tv = wm.viscous_coefficient(TEMPERATURE_GRID, params)
-    coulomb = tf - wm.viscous_coefficient(wm.NOMINAL.temperature, params) * w
+    tv = _VISCOUS_GRID   # eq. 2.15 is the same law for every wheel of the type: once, not per sample
+    coulomb = tf - _VISCOUS_NOMINAL * w
     return np.concatenate([-CURRENT_LIMITER_GRID[:, None] * tm[None] + tf[None],
                            -tm[None] + tv[:, None] * w[None] + coulomb[None],
                            -np.atleast_2d(np.asarray(bus_torque, float)).T + tf[None]])
 
 
+_VISCOUS_GRID = wm.viscous_coefficient(TEMPERATURE_GRID)
+_VISCOUS_NOMINAL = float(wm.viscous_coefficient(wm.NOMINAL.temperature))
 GRIDS = {"current_loss": CURRENT_LIMITER_GRID, "temperature": TEMPERATURE_GRID, "bus_voltage": BUS_VOLTAGE_GRID}
 _SLICES = dict(zip(KINDS, np.split(np.arange(sum(map(len, GRIDS.values()))),
                                    np.cumsum([len(GRIDS[k]) for k in KINDS])[:-1])))
