@@ -223,9 +223,10 @@ def test_nan_in_a_replayed_reaction_torque_stops_the_replay_with_a_reason(runs, 
     rows = sorted((t, topic, raw) for topic, msgs in data.messages.items() for t, raw in msgs)
     store = typestore()
     for t, topic, raw in rows:
-        if topic == T.REACTION_TORQUE and t == 150 * 10**9:
+        if topic == T.FDI_TELEMETRY and t == 150 * 10**9:
             msg = store.deserialize_cdr(raw, data.types[topic])
-            msg.vector.y = float("nan")
+            wheel_y = next(s for s in msg.status if s.hardware_id == "reaction_wheel_y")
+            next(kv for kv in wheel_y.values if kv.key == "reaction_torque").value = "nan"
             raw = store.serialize_cdr(msg, data.types[topic])
         w.write(topic, t, raw)
     w.close()

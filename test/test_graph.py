@@ -59,6 +59,8 @@ def decoded(bag_path):
     for topic, rows in data.messages.items():
         if data.types[topic] == "geometry_msgs/msg/Vector3Stamped":
             out[topic] = data.vectors(topic)
+        elif data.types[topic] == T.JOINT_STATE:
+            out[topic] = data.joint_states(topic)
         else:
             out[topic] = [repr(m) for _, m in rows]
     return out
@@ -78,6 +80,7 @@ def test_fault_run_records_every_topic_readable_by_rosbags_and_mcap(runs):
     for topic, _, _ in T.graph_topics():
         assert counts.get(topic, 0) > 0, topic
     assert counts[T.ATTITUDE] == 401 and counts[T.CLOCK] == 401 and counts[T.tcv_command("y")] == 401
+    assert counts[T.WHEELS] == 401 and counts[T.FDI_TELEMETRY] == 41     # one report per FDI period, t = 0..40 s
 
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
@@ -95,6 +98,9 @@ def test_fault_run_records_every_topic_readable_by_rosbags_and_mcap(runs):
             stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m in rows]
             assert stamps == log_times, topic            # log time is the sim-time stamp
             assert all(b > a for a, b in zip(stamps, stamps[1:])) or topic == T.PLANT_DONE, topic
+    wheels = data.topic(T.WHEELS)[-1][1]
+    assert list(wheels.name) == ["reaction_wheel_x", "reaction_wheel_y", "reaction_wheel_z"]
+    assert len(wheels.position) == len(wheels.velocity) == len(wheels.effort) == 3
     truth = data.topic(T.FAULT_TRUTH)
     before = [m for t, m in truth if t < 20e9][-1]
     late = truth[-1][1]
@@ -114,8 +120,8 @@ def test_same_seed_gives_identical_messages_and_parallel_runs_do_not_meet(runs):
     assert a.keys() == b.keys()
     for topic in a:
         if isinstance(a[topic], tuple):
-            np.testing.assert_array_equal(a[topic][0], b[topic][0], err_msg=topic)
-            np.testing.assert_array_equal(a[topic][1], b[topic][1], err_msg=topic)
+            for x, y in zip(a[topic], b[topic]):
+                np.testing.assert_array_equal(x, y, err_msg=topic)
         else:
             assert a[topic] == b[topic], topic
     assert not np.array_equal(a[T.ATTITUDE][1], c[T.ATTITUDE][1])   # seed 6 is its own run
@@ -212,7 +218,8 @@ def test_recorder_killed_mid_run_leaves_readable_bag(scenario_file, tmp_path):
         assert result.reason.startswith("recorder stopped (killed by signal 9)")
         data = read_bag(bag)
         assert not data.complete
-        t, _ = data.vectors(T.ATTITUDE)
+        t, attitude, body_rate, _ = data.joint_states(T.ATTITUDE)
+        assert attitude.shape == body_rate.shape == (len(t), 3)
         assert len(t) > 5 and np.all(np.diff(t) > 0)
     finally:
         procs.stop_all()

@@ -221,6 +221,10 @@ class FaultIdentifier:
 
     def __init__(self, axes=("x", "y", "z")):
         self.axes = tuple(axes)
+        self.reset()
+
+    def reset(self):
+        """Forget every wheel's samples: a new run starts."""
         self.sums = {a: None for a in self.axes}     # axis -> ProfileSums once alarmed
         self.latest = {a: None for a in self.axes}
 

@@ -28,6 +28,10 @@ class ObserverChannel:
         self.observer = observer
         self.curves = curves
         self.persistence = persistence or curves.persistence
+        self.reset()
+
+    def reset(self):
+        """Forget every alarm: a new run starts."""
         self.rules = {a: AlarmRule(self.persistence) for a in AXES}
 
     def update(self, stamp_ns: int, residual, bound=(0.0, 0.0, 0.0)):

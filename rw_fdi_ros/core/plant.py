@@ -144,7 +144,8 @@ class Plant:
         t = self.time
         op = self.operating_point(t)
         rt = self.reaction_torque(op, t)
-        healthy = self.reaction_torque(_HEALTHY, t)
+        nominal = all(np.all(op[k] == _HEALTHY[k]) for k in FAULT_KINDS)
+        healthy = rt if nominal else self.reaction_torque(_HEALTHY, t)   # no fault: the same torque, exactly
         return PlantSample(time=t, attitude=self.attitude.copy(), body_rate=self.body_rate.copy(),
                            wheel_speed=self.wheel_speed.copy(), tcv=self.tcv.copy(), reaction_torque=rt,
                            fault_effect=rt - healthy, operating_point=op)

@@ -21,7 +21,9 @@ The observer nodes and the offline tools both use it.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import base64
+import binascii
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -50,6 +52,67 @@ class FdiSample:
     motor_torque: np.ndarray | None = None     # nominal tau_m(u, Omega; 8 V) [N m]
     friction_torque: np.ndarray | None = None  # nominal tau_f(Omega; 23 C) [N m]
     bus_motor_torque: np.ndarray | None = None  # (3, bus grid) tau_m(u, Omega; V) [N m]
+    # the control sample at the FDI stamp itself (the thesis' instantaneous sampling)
+    tcv_instant: np.ndarray | None = None              # [V]
+    reaction_torque_instant: np.ndarray | None = None  # [N m]
+
+    def sampled(self, mode: str) -> "FdiSample":
+        """This sample as the observers of FDI sampling ``mode`` see it: ``instant`` puts the values at
+        the stamp in place of the period means of tcv and reaction torque (core/sampling.py)."""
+        if mode == "mean" or self.tcv_instant is None:
+            return self
+        return replace(self, tcv=self.tcv_instant, reaction_torque=self.reaction_torque_instant)
+
+
+# What one wheel's FDI telemetry report carries (key -> FdiSample field); the ripple phasor goes as
+# its real and imaginary parts. Numbers are written with repr, which reads back to the same double:
+# the report is the sample, not a rounding of it. The identification's bus-voltage grid (651 values
+# per wheel, identification.BUS_VOLTAGE_GRID) goes as base64 of its little-endian float64 bytes:
+# exact too, and 30x cheaper to write than 651 reprs every second.
+REPORT_FIELDS = (("tcv", "tcv"), ("reaction_torque", "reaction_torque"), ("wheel_speed", "wheel_speed"),
+                 ("model_reaction_torque", "model_torque"), ("motor_torque", "motor_torque"),
+                 ("friction_torque", "friction_torque"), ("tcv_instant", "tcv_instant"),
+                 ("reaction_torque_instant", "reaction_torque_instant"))
+
+
+IDENTIFICATION_FIELDS = ("motor_torque", "friction_torque", "bus_motor_torque")
+BUS_GRID_KEY = "bus_motor_torque_f64le_base64"
+
+
+def report_values(sample: FdiSample, wheel: int) -> dict:
+    """key -> text of wheel ``wheel``'s part of ``sample`` (what the FDI telemetry message carries)."""
+    out = {key: repr(float(getattr(sample, name)[wheel])) for key, name in REPORT_FIELDS
+           if getattr(sample, name) is not None}
+    if sample.ripple_phasor is not None:
+        out["ripple_phasor_re"] = repr(float(sample.ripple_phasor[wheel].real))
+        out["ripple_phasor_im"] = repr(float(sample.ripple_phasor[wheel].imag))
+    if sample.bus_motor_torque is not None:
+        out[BUS_GRID_KEY] = base64.b64encode(np.asarray(sample.bus_motor_torque[wheel], "<f8").tobytes()).decode()
+    return out
+
+
+def sample_from_report(stamp_ns: int, wheels: list, identification: bool = True) -> FdiSample:
+    """The :class:`FdiSample` of one report: ``wheels`` holds one key -> text mapping per wheel, in
+    axis order (the inverse of :func:`report_values`); without ``identification`` the terms only
+    fault identification needs are left out. Raises ValueError on a malformed report."""
+    def column(key):
+        if not all(key in w for w in wheels):
+            return None
+        return np.array([float(w[key]) for w in wheels])
+    skip = () if identification else IDENTIFICATION_FIELDS
+    fields = {name: column(key) for key, name in REPORT_FIELDS if name not in skip}
+    if fields["tcv"] is None or fields["reaction_torque"] is None:
+        raise ValueError("FDI telemetry without tcv or reaction_torque")
+    re, im = column("ripple_phasor_re"), column("ripple_phasor_im")
+    if re is not None and im is not None:
+        fields["ripple_phasor"] = re + 1j * im
+    if identification and all(BUS_GRID_KEY in w for w in wheels):
+        try:
+            fields["bus_motor_torque"] = np.array([np.frombuffer(base64.b64decode(w[BUS_GRID_KEY], validate=True), "<f8")
+                                                   for w in wheels], float)
+        except (ValueError, binascii.Error) as exc:
+            raise ValueError(f"{BUS_GRID_KEY}: {exc}") from None
+    return FdiSample(int(stamp_ns), **fields)
 
 
 class TelemetrySampler:
@@ -65,6 +128,7 @@ class TelemetrySampler:
         self.sampler = FdiSampler(period, mode)
         self.mode = mode
         self.theta = None        # wheel angle since the first sample [rad]
+        self.pending = []        # control samples of the FDI period so far
         self.last = None         # (stamp_ns, wheel speed) of the previous sample
 
     def add(self, stamp_ns: int, tcv, reaction_torque, wheel_speed=None) -> FdiSample | None:
@@ -72,7 +136,17 @@ class TelemetrySampler:
             row = self.sampler.add(stamp_ns, tcv, reaction_torque)
             return None if row is None else FdiSample(row[0], row[1][0], row[1][1])
         speed = np.asarray(wheel_speed, float)
-        return self._sample(stamp_ns, self._signals(tcv, reaction_torque, speed, self._advance(stamp_ns, speed)))
+        # the wheel angle advances sample by sample; the model terms wait for the FDI stamp and are
+        # computed for the whole period at once (elementwise, so the numbers are the same)
+        self.pending.append((stamp_ns, np.asarray(tcv, float), np.asarray(reaction_torque, float), speed,
+                             self._advance(stamp_ns, speed)))
+        if stamp_ns % self.sampler.period_ns:
+            return None
+        stamps, u, r, w, theta = zip(*self.pending)
+        self.pending = []
+        signals = self._signals(np.array(u), np.array(r), np.array(w), np.array(theta))
+        rows = [self._sample(s, [x[k] for x in signals]) for k, s in enumerate(stamps)]
+        return rows[-1]
 
     def add_series(self, stamps_ns, tcv, reaction_torque, wheel_speed=None) -> list:
         """:meth:`add` over a whole series (time first), the same numbers: the wheel angle and the
@@ -110,7 +184,9 @@ class TelemetrySampler:
 
     def _sample(self, stamp_ns: int, signals) -> FdiSample | None:
         row = self.sampler.add(stamp_ns, *signals)
-        return None if row is None else FdiSample(row[0], *row[1])
+        if row is None:
+            return None
+        return FdiSample(row[0], *row[1], tcv_instant=np.array(signals[0]), reaction_torque_instant=np.array(signals[1]))
 
 
 def sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0, mode: str = "mean",

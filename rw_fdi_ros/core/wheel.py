@@ -111,13 +111,16 @@ def motor_current(tcv, speed, bus_voltage, current_limiter, params: WheelParams 
     """
     p = params
     w = np.asarray(speed, float)
-    v = np.clip(np.asarray(tcv, float), -p.command_limit, p.command_limit)
+    # minimum/maximum, not np.clip: the same numbers at a fifth of the cost on 3-vectors (the plant
+    # evaluates this seven times a step)
+    v = np.minimum(np.maximum(np.asarray(tcv, float), -p.command_limit), p.command_limit)
     over = np.abs(w) >= p.overspeed_threshold
-    v = v - np.where(over, p.overspeed_gain * (np.abs(w) - p.overspeed_threshold) * np.sign(w), 0.0)
+    if over.any():
+        v = v - np.where(over, p.overspeed_gain * (np.abs(w) - p.overspeed_threshold) * np.sign(w), 0.0)
     current = p.driver_gain * v
     motoring = current * w > 0.0
     i_max = emf_current_limit(bus_voltage, w, p)
-    current = np.where(motoring, np.clip(current, -i_max, i_max), current)
+    current = np.where(motoring, np.minimum(np.maximum(current, -i_max), i_max), current)
     return current * current_limiter
 
 

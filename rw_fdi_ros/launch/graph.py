@@ -42,13 +42,11 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     times, values = scenario.setpoint_schedule()
     hold = hold_command(ic.wheel_speed)
     recording = bag is not None
-    readers = T.telemetry_readers(None if fdi is None else fdi_method(fdi))
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
         "command_timeout": command_timeout,
-        "wait_for_subscribers": 1 if recording else 0, "observers": readers[T.TCV],
-        "speed_observers": readers[T.WHEEL_SPEED]})]
+        "wait_for_subscribers": 1 if recording else 0, "fdi_readers": T.telemetry_readers(fdi is not None)})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "axis": axis, "control_period": period, "initial_tcv": float(hold[i]),

@@ -37,12 +37,16 @@ class ElmanObserverNode(ObserverNode):
         except ModelError as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         self.index = AXES.index(axis)
-        self.observer = ElmanObserver(weights)
+        self.weights = weights
+        self.reset()
+        self.start(T.estimate_topic("elman", axis), T.residual_topic("elman", axis), T.bound_topic("elman", axis))
+
+    def reset(self):
+        self.observer = ElmanObserver(self.weights)
         window = self.param("window")
-        self.residual = (SignedResidual(window, uncertainty_gain=weights.uncertainty_gain) if self.speed_aware
+        self.residual = (SignedResidual(window, uncertainty_gain=self.weights.uncertainty_gain) if self.speed_aware
                          else ResidualFilter(window))
         self.started = False
-        self.start(T.estimate_topic("elman", axis), T.residual_topic("elman", axis), T.bound_topic("elman", axis))
 
     def observe(self, sample):
         i = self.index

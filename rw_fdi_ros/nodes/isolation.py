@@ -11,13 +11,16 @@ default) and stamped with the sim clock. Every output of stamp k is made from
 the inputs of stamp k alone, so the same run gives the same messages.
 
 It also identifies the fault of every alarmed wheel (core/identification.py):
-it reads the wheel telemetry at the control rate, makes the FDI samples with
-the identification terms, and from a wheel's first alarm on estimates the
-fault's kind and size on every sample. The result goes into the wheel's
+it reads the FDI telemetry (with the identification terms) and from a
+wheel's first alarm on estimates the fault's kind and size on every sample. The result goes into the wheel's
 /diagnostics status (fault_kind, fault_size, fault_size_low/high and the
 message) and onto /fdi/identification. Identification lives here, not in a
 node of its own, because it refines this node's verdict: one status per wheel,
 made of one stamp's alarm and telemetry.
+
+An input stamped no later than the one before from the same source starts a
+new run (bag replay feeds many runs through one graph): that source's alarms
+or identification are forgotten.
 """
 from __future__ import annotations
 
@@ -31,12 +34,11 @@ import numpy as np
 from ..core.detection import METHODS, ThresholdCurves, ThresholdError
 from ..core.identification import FaultIdentifier
 from ..core.isolation import DECISION_OBSERVER, ObserverChannel
-from ..core.telemetry import TelemetrySampler
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.scenario import AXES
 from ..paths import fdi_dir
 from . import topics as T
-from .convert import time_msg, vector_msg
+from .convert import fdi_sample_of, time_msg, vector_msg
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 from .gate import GatedPublisher
 from .sync import StampSync
@@ -106,10 +108,8 @@ class IsolationNode(GraphNode):
         self.gates = [self.pub_diag, self.pub_ident] + [p for pubs in self.pubs.values() for p in pubs.values()]
         self.done_samples = {}   # stamp -> observer (or 'telemetry') -> what arrived for that stamp
         self.identifier = FaultIdentifier(AXES)
-        self.telemetry = TelemetrySampler(plant.fdi_period, "mean", identification=True)
-        wheel = StampSync(("tcv", "torque", "speed"), self._on_telemetry)
-        for name, topic in (("tcv", T.TCV), ("torque", T.REACTION_TORQUE), ("speed", T.WHEEL_SPEED)):
-            wheel.subscribe(self, name, topic, T.RELIABLE)
+        self.last_stamp = {}     # source -> its last stamp (a stamp that goes back starts a new run)
+        self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         bound = lambda a: f"bound_{a}"
         elman = StampSync(AXES + tuple(bound(a) for a in AXES), lambda stamp, v: self._on_residual(
             "elman", stamp, [v[a][i] for i, a in enumerate(AXES)], [v[bound(a)][i] for i, a in enumerate(AXES)]))
@@ -121,8 +121,15 @@ class IsolationNode(GraphNode):
         linear.subscribe(self, "bound", T.bound_topic("linear"), T.RELIABLE)
         self.follow_run_end(period=plant.fdi_period)
 
+    def _new_run(self, source, stamp) -> bool:
+        last = self.last_stamp.get(source)
+        self.last_stamp[source] = stamp
+        return last is not None and stamp <= last
+
     def _on_residual(self, observer, stamp, residual, bound):
         t0, c0 = time.perf_counter(), time.thread_time()
+        if self._new_run(observer, stamp):
+            self.channels[observer].reset()
         rows = self.channels[observer].update(stamp, residual, bound)
         pubs = self.pubs[observer]
         pubs["threshold"].publish(vector_msg(stamp, [rows[a][1] for a in AXES]))
@@ -135,11 +142,16 @@ class IsolationNode(GraphNode):
         self.compute.append(time.perf_counter() - t0)   # the whole callback, publishing included
         self.compute_cpu.append(time.thread_time() - c0)
 
-    def _on_telemetry(self, stamp, values):
+    def _on_telemetry(self, msg):
         t0, c0 = time.perf_counter(), time.thread_time()
-        sample = self.telemetry.add(stamp, values["tcv"], values["torque"], values["speed"])
-        if sample is not None:
-            self._arrived(sample.stamp_ns, "telemetry", sample)
+        try:
+            sample = fdi_sample_of(msg, AXES)
+        except ValueError as exc:
+            self.fail(f"malformed {T.FDI_TELEMETRY}: {exc}", EXIT_BAD_INPUT)
+            return
+        if self._new_run("telemetry", sample.stamp_ns):
+            self.identifier.reset()
+        self._arrived(sample.stamp_ns, "telemetry", sample)
         self.compute.append(time.perf_counter() - t0)
         self.compute_cpu.append(time.thread_time() - c0)
 

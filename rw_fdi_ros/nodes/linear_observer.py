@@ -24,10 +24,13 @@ class LinearObserverNode(ObserverNode):
     def __init__(self):
         super().__init__(self.node_name)
         self.declare_parameter("speed_up", 4.0)      # observer pole / wheel pole (thesis method)
+        self.reset()
+        self.start(T.estimate_topic("linear"), T.residual_topic("linear"), T.bound_topic("linear"))
+
+    def reset(self):
         self.observer = LinearObserver(self.param("fdi_period"), speed_up=self.param("speed_up"))
         window = self.param("window")
         self.filters = [(SignedResidual if self.speed_aware else ResidualFilter)(window) for _ in range(3)]
-        self.start(T.estimate_topic("linear"), T.residual_topic("linear"), T.bound_topic("linear"))
 
     def observe(self, sample):
         torque = sample.reaction_torque

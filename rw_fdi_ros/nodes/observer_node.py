@@ -1,25 +1,27 @@
 """What both observer kinds share: wheel telemetry in, estimate, residual and ripple bound out.
 
-:class:`ObserverNode` takes the plant's tcv and reaction torque (and, for the
-speed-aware method, the wheel speed) at the control rate, makes FDI samples
-with :class:`TelemetrySampler`, calls the subclass' ``observe`` once per
-sample and publishes the estimate, the residual and the ripple bound (gated
-until their readers are matched, so no sample is lost).
+:class:`ObserverNode` reads the FDI telemetry the wheel electronics report
+once per FDI period (/wheels/fdi_telemetry, core/telemetry.py), calls the
+subclass' ``observe`` once per sample and publishes the estimate, the
+residual and the ripple bound (gated until their readers are matched, so no
+sample is lost). A sample stamped no later than the one before starts a new
+run (bag replay feeds many runs through one graph): the subclass' ``reset``.
 """
 from __future__ import annotations
 
 import time
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 
 from ..core.detection import METHODS, WINDOW
-from ..core.telemetry import TelemetrySampler
+from ..core.sampling import SAMPLINGS
+from ..core.scenario import AXES
 from . import topics as T
-from .convert import vector_msg
+from .convert import fdi_sample_of, vector_msg
 from .gate import GatedPublisher
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError
-from .sync import StampSync
 
 
 class ObserverNode(GraphNode):
@@ -41,10 +43,11 @@ class ObserverNode(GraphNode):
         if self.speed_aware and self.param("fdi_sampling") != "mean":
             raise NodeError("fdi_method speed_aware needs fdi_sampling 'mean' (its ripple bound is a mean)",
                             EXIT_BAD_INPUT)
-        try:
-            self.sampler = TelemetrySampler(self.param("fdi_period"), self.param("fdi_sampling"))
-        except ValueError as exc:
-            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+        self.sampling = self.param("fdi_sampling")
+        if self.sampling not in SAMPLINGS:
+            raise NodeError(f"parameter fdi_sampling must be one of {', '.join(SAMPLINGS)}, got {self.sampling!r}",
+                            EXIT_BAD_INPUT)
+        self.last_stamp = None
 
     def start(self, estimate_topic: str, residual_topic: str, bound_topic: str):
         """Publishers and subscriptions, once the subclass knows its topics."""
@@ -53,23 +56,27 @@ class ObserverNode(GraphNode):
         self.pub_estimate = pub(estimate_topic, need - 1)
         self.pub_residual = pub(residual_topic, need)
         self.pub_bound = pub(bound_topic, need)
-        inputs = {"tcv": T.TCV, "torque": T.REACTION_TORQUE}
-        if self.speed_aware:
-            inputs["speed"] = T.WHEEL_SPEED
-        sync = StampSync(tuple(inputs), self._on_inputs)
-        for name, topic in inputs.items():
-            sync.subscribe(self, name, topic, T.RELIABLE)
+        self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         self.follow_run_end(period=self.param("fdi_period"))
 
     def observe(self, sample):
         """(estimate, residual, bound) as 3-vectors for one FdiSample."""
         raise NotImplementedError
 
-    def _on_inputs(self, stamp, values):
+    def reset(self):
+        """Forget the run so far: the next sample starts a new one."""
+        raise NotImplementedError
+
+    def _on_telemetry(self, msg):
         t0, c0 = time.perf_counter(), time.thread_time()
-        sample = self.sampler.add(stamp, values["tcv"], values["torque"], values.get("speed"))
-        if sample is None:
+        try:
+            sample = fdi_sample_of(msg, AXES, identification=False).sampled(self.sampling)
+        except ValueError as exc:
+            self.fail(f"malformed {T.FDI_TELEMETRY}: {exc}", EXIT_BAD_INPUT)
             return
+        if self.last_stamp is not None and sample.stamp_ns <= self.last_stamp:
+            self.reset()
+        self.last_stamp = sample.stamp_ns
         inputs = [sample.tcv, sample.reaction_torque] + ([sample.wheel_speed] if self.speed_aware else [])
         if not all(np.all(np.isfinite(x)) for x in inputs):
             # a NaN would silently disable the alarm (NaN > threshold is False): stop instead

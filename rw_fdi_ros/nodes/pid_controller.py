@@ -1,21 +1,21 @@
 """pid_controller: one axis' PID (eq. 2.36); started once per axis with the ``axis`` parameter.
 
-For each plant step it takes the attitude and body rate stamped k and
-answers with the torque command voltage stamped k on /<axis>/tcv_command.
+For each plant step it takes the attitude state stamped k (/attitude, a
+JointState: its axis' angle and body rate) and answers with the torque command voltage stamped k on /<axis>/tcv_command.
 """
 from __future__ import annotations
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
 
 from ..core.pid import PidController, design_gains
 from ..core.scenario import AXES, setpoint_at
 from ..core.spacecraft import INERTIA
 from . import topics as T
-from .convert import vector_cdr
+from .convert import read_joint_state_cdr, vector_cdr
 from .gate import GatedPublisher
-from .sync import StampSync
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 
 
@@ -48,16 +48,15 @@ class PidControllerNode(GraphNode):
                              setpoint_weight=self.param("setpoint_weight"))
         self.pid = PidController(gains, self.param("control_period"), initial_tcv=self.param("initial_tcv"))
         self.axis, self.index = axis, i
-        self.sync = StampSync(("attitude", "rate"), self._on_state)
         self.pub = GatedPublisher(self.create_publisher(Vector3Stamped, T.tcv_command(axis), T.RELIABLE),
                                   self.param("min_subscribers"))
-        self.sync.subscribe(self, "attitude", T.ATTITUDE, T.RELIABLE)
-        self.sync.subscribe(self, "rate", T.BODY_RATE, T.RELIABLE)
+        self.create_subscription(JointState, T.ATTITUDE, self._on_state, T.RELIABLE, raw=True)
         # the run is over when the plant says so; the answer to its last sample goes out first
         self.follow_run_end()
 
-    def _on_state(self, stamp, entry):
-        attitude, rate = entry["attitude"][self.index], entry["rate"][self.index]
+    def _on_state(self, raw):
+        stamp, attitude, rate, _ = read_joint_state_cdr(raw)
+        attitude, rate = attitude[self.index], rate[self.index]
         t = stamp * 1e-9
         setpoint = setpoint_at(*self.schedule, t) if self.schedule else None
         if setpoint is None:

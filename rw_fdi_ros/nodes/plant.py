@@ -4,6 +4,11 @@ It publishes the sample of step k (stamped k * control_period), waits until
 every axis' command stamped k has arrived, advances one control period and
 publishes step k+1. A command missing for ``command_timeout`` wall seconds
 stops the run with an error naming the axis.
+
+It also plays the wheel electronics' part for the FDI: from the applied
+command, reaction torque and speed of every control step it makes the FDI
+telemetry (core/telemetry.py) and reports it once per FDI period, so the
+five FDI nodes read one message a second instead of three a step each.
 """
 from __future__ import annotations
 
@@ -16,13 +21,15 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Header, String
 
 from ..core.plant import Plant
+from ..core.telemetry import TelemetrySampler
 from ..core.scenario import AXES, FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
 from ..core.wheel import WheelParams
 from . import topics as T
-from .convert import read_vector_cdr, step_stamp_ns, time_msg, vector_cdr
+from .convert import clock_cdr, fdi_telemetry_msg, joint_state_cdr, read_vector_cdr, step_stamp_ns, time_msg, vector_cdr
 from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, main_for, wall_time
 
 
@@ -31,6 +38,8 @@ class PlantNode(GraphNode):
 
     def __init__(self):
         super().__init__(self.node_name)
+        self.t_created = wall_time()
+        self.t_first = self.t_last = None   # wall time of the first and the last step published
         self.declare_parameter("scenario", "fault_free")
         self.declare_parameter("seed", -1)               # -1: the scenario file's seed
         self.declare_parameter("duration", 0.0)          # 0: the scenario's duration [s]
@@ -40,8 +49,7 @@ class PlantNode(GraphNode):
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
         self.declare_parameter("wait_for_subscribers", 0)  # extra subscribers per topic (1 = recorder)
-        self.declare_parameter("observers", 0)           # FDI nodes reading /wheel/tcv and reaction torque (topics.telemetry_readers)
-        self.declare_parameter("speed_observers", 0)     # FDI nodes reading /wheel_speed
+        self.declare_parameter("fdi_readers", 0)         # FDI nodes reading the FDI telemetry (topics.telemetry_readers)
         self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
         for axis in AXES:  # live fault injection: setting one injects from the current sim time
             for kind in FAULT_KINDS:
@@ -65,10 +73,15 @@ class PlantNode(GraphNode):
         self.plant = Plant(scenario, wheel=wheel, control_period=self.period,
                            wheel_momentum_coupling=self.choices.wheel_momentum_coupling)
 
+        # the FDI's nominal wheel model is the datasheet's, whatever the plant's emf-limit choice
+        self.telemetry = TelemetrySampler(self.choices.fdi_period, "mean", identification=True)
+
         pub = lambda msg_type, topic, qos=T.RELIABLE: self.create_publisher(msg_type, topic, qos)
         self.pub_clock = pub(Clock, T.CLOCK)
-        self.pub_vectors = {name: pub(Vector3Stamped, name) for name in
-                            (T.ATTITUDE, T.BODY_RATE, T.WHEEL_SPEED, T.TCV, T.REACTION_TORQUE, T.FAULT_EFFECT)}
+        self.pub_attitude = pub(JointState, T.ATTITUDE)
+        self.pub_wheels = pub(JointState, T.WHEELS)
+        self.pub_effect = pub(Vector3Stamped, T.FAULT_EFFECT)
+        self.pub_fdi = pub(DiagnosticArray, T.FDI_TELEMETRY)
         self.pub_truth = pub(DiagnosticArray, T.FAULT_TRUTH)
         self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
         self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
@@ -103,19 +116,17 @@ class PlantNode(GraphNode):
         extra = self.param("wait_for_subscribers")
         if any(s.get_publisher_count() < 1 for s in self.subs):
             return False
-        need = {name: extra for name in self.pub_vectors}
-        need[T.ATTITUDE] = need[T.BODY_RATE] = 3 + extra
-        need[T.TCV] = need[T.REACTION_TORQUE] = self.param("observers") + extra
-        need[T.WHEEL_SPEED] = self.param("speed_observers") + extra
-        if any(self.pub_vectors[n].get_subscription_count() < k for n, k in need.items()):
-            return False
-        return all(p.get_subscription_count() >= extra for p in (self.pub_clock, self.pub_truth, self.pub_scenario))
+        need = [(self.pub_attitude, len(AXES) + extra), (self.pub_fdi, self.param("fdi_readers") + extra)]
+        need += [(p, extra) for p in (self.pub_wheels, self.pub_effect, self.pub_clock, self.pub_truth,
+                                      self.pub_scenario)]
+        return all(p.get_subscription_count() >= k for p, k in need)
 
     def poll(self):
         now = wall_time()
         if not self.started:
             if self._graph_ready():
                 self.started = True
+                self.t_first = wall_time()
                 self.pub_scenario.publish(String(data=self.scenario.effective_text(self.choices.scenario_dict())))
                 self._publish(self.plant.sample())
             elif now - self.t_wait > self.param("startup_timeout"):
@@ -153,18 +164,23 @@ class PlantNode(GraphNode):
         self.t_wait = wall_time()
         k = self.plant.step_index
         stamp = step_stamp_ns(k, self.period)
-        # the controllers' inputs first: they compute while the rest goes out
-        for name, values in ((T.ATTITUDE, sample.attitude), (T.BODY_RATE, sample.body_rate)):
-            self.pub_vectors[name].publish(vector_cdr(stamp, values[0]))
-        self.pub_clock.publish(Clock(clock=time_msg(stamp)))
-        for name, values in ((T.WHEEL_SPEED, sample.wheel_speed), (T.TCV, sample.tcv),
-                             (T.REACTION_TORQUE, sample.reaction_torque), (T.FAULT_EFFECT, sample.fault_effect)):
-            self.pub_vectors[name].publish(vector_cdr(stamp, values[0]))
+        # the controllers' input first: they compute while the rest goes out
+        self.pub_attitude.publish(joint_state_cdr(stamp, T.ATTITUDE_JOINTS, sample.attitude[0], sample.body_rate[0]))
+        self.pub_clock.publish(clock_cdr(stamp))
+        self.pub_wheels.publish(joint_state_cdr(stamp, T.WHEEL_JOINTS, self.plant.wheel_angle[0],
+                                                sample.wheel_speed[0], sample.reaction_torque[0]))
+        if any(f.onset <= sample.time for f in self.plant.faults()):   # zero by definition before
+            self.pub_effect.publish(vector_cdr(stamp, sample.fault_effect[0]))
+        report = self.telemetry.add(stamp, sample.tcv[0], sample.reaction_torque[0], sample.wheel_speed[0])
+        if report is not None:
+            self.pub_fdi.publish(fdi_telemetry_msg(report, AXES))
         self._publish_truth(stamp, sample)
         if k >= self.last_step:
             # done only once every reader has the last sample: a recorder that sees done has it all
-            for pub in (self.pub_clock, self.pub_truth, *self.pub_vectors.values()):
+            for pub in (self.pub_clock, self.pub_truth, self.pub_attitude, self.pub_wheels, self.pub_fdi,
+                        self.pub_effect):
                 pub.wait_for_all_acked(Duration(seconds=5.0))
+            self.t_last = wall_time()
             self.pub_done.publish(Header(stamp=time_msg(stamp), frame_id="completed"))
             self.finish()
 
@@ -191,7 +207,12 @@ class PlantNode(GraphNode):
 
     def timing(self):
         from .timing import summary
-        return {"steps": len(self.step_wall), **summary(step=self.step_wall, compute=self.compute_wall)}
+        phases = {}
+        if self.t_first is not None:
+            phases["discovery_s"] = self.t_first - self.t_created   # node up -> every reader matched
+            if self.t_last is not None:
+                phases["stepping_s"] = self.t_last - self.t_first
+        return {"steps": len(self.step_wall), **phases, **summary(step=self.step_wall, compute=self.compute_wall)}
 
 main = main_for(PlantNode)
 

@@ -5,10 +5,16 @@ message's own sim-time header stamp as log time, so a bag does not depend
 on machine load. It finalises the bag when the plant reports the run done
 (and every topic has caught up) or on SIGINT/SIGTERM; see storage/bag.py for
 what a SIGKILL leaves behind.
+
+Bag replay of many runs through one graph gives it ``outputs``: one bag per
+run, in order. When a run is done it closes that bag, says so on
+/recorder/closed (the player waits for it before the next run) and opens the
+next.
 """
 from __future__ import annotations
 
 from rclpy.parameter import Parameter
+from std_msgs.msg import String
 
 from ..storage.bag import BagError, BagWriter, header_stamp_ns
 from . import topics as T
@@ -21,15 +27,14 @@ class RecorderNode(GraphNode):
     def __init__(self):
         super().__init__(self.node_name)
         self.declare_parameter("output", "bags/run")          # bag directory to create
+        self.declare_parameter("outputs", Parameter.Type.STRING_ARRAY)  # one bag per run, in order (bag replay)
         self.declare_parameter("flush_period", 10.0)          # sim seconds between chunk flushes
         self.declare_parameter("extra_topics", Parameter.Type.STRING_ARRAY)   # 'name:pkg/msg/Type' beyond the graph's
         self.declare_parameter("drain_timeout", 5.0)          # after done: wall s without any message -> close
         self.declare_parameter("fdi_period", 0.0)             # > 0: the FDI nodes run; record their topics
         self.declare_parameter("record_plant", True)          # False: FDI outputs only (bag replay)
-        try:
-            self.bag = BagWriter(self.param("output"), int(self.param("flush_period") * 1e9))
-        except BagError as exc:
-            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+        self.outputs = list(self.param("outputs") or []) or [self.param("output")]
+        self.output_index = 0
         rows = list(T.graph_topics())
         if not self.param("record_plant"):
             rows = [r for r in rows if r[0] in (T.CLOCK, T.SCENARIO, T.PLANT_DONE, T.FAULT_TRUTH)]
@@ -39,20 +44,34 @@ class RecorderNode(GraphNode):
         for spec in self.param("extra_topics") or []:
             name, _, type_name = spec.partition(":")
             rows.append((name, type_name, T.RELIABLE))
-        self.last_stamp = {}
-        self.done_stamp = None
-        self.done_wall = 0.0
-        self.last_clock = 0
-        self.last_message_wall = wall_time()
+        self.rows = rows
+        self._open()
+        # the plant's per-step topics that must have reached the done stamp (none when replaying)
+        self.final = [T.CLOCK, T.ATTITUDE, T.WHEELS, *map(T.tcv_command, T.AXES)] if self.param("record_plant") else []
+        self.pub_closed = self.create_publisher(String, T.RECORDER_CLOSED, T.LATCHED)
         self.subs = []
         for name, type_name, qos in rows:
-            self.bag.add_topic(name, type_name)
             cls = T.message_class(type_name)
             self.subs.append(self.create_subscription(cls, name, lambda raw, n=name: self._on_message(n, raw),
                                                       qos, raw=True))
         self.stamped = {name for name, type_name, _ in rows if type_name != "std_msgs/msg/String"}
 
+    def _open(self):
+        try:
+            self.bag = BagWriter(self.outputs[self.output_index], int(self.param("flush_period") * 1e9))
+        except BagError as exc:
+            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+        for name, type_name, _ in self.rows:
+            self.bag.add_topic(name, type_name)
+        self.last_stamp = {}
+        self.done_stamp = None
+        self.done_wall = 0.0
+        self.last_clock = 0
+        self.last_message_wall = wall_time()
+
     def _on_message(self, topic, raw):
+        if self.bag is None:
+            return   # every bag is closed
         stamp = header_stamp_ns(raw, self.last_clock) if topic in self.stamped else self.last_clock
         if topic == T.CLOCK:
             self.last_clock = stamp
@@ -65,23 +84,34 @@ class RecorderNode(GraphNode):
     def poll(self):
         if self.done_stamp is None:
             return
-        final = [T.CLOCK, T.ATTITUDE, T.REACTION_TORQUE, *map(T.tcv_command, T.AXES)]
-        final = [t for t in final if t in self.bag.connections]
+        final = self.final
         if self.fdi_period_ns > 0:   # the FDI outputs of the last FDI sample
             last_fdi = self.done_stamp - self.done_stamp % self.fdi_period_ns
-            final_fdi = [T.DIAGNOSTICS, T.IDENTIFICATION, T.residual_topic("linear"), T.bound_topic("linear"),
-                         *(T.residual_topic("elman", a) for a in T.AXES), *(T.bound_topic("elman", a) for a in T.AXES)]
-            lagging_fdi = [t for t in final_fdi if self.last_stamp.get(t, -1) < last_fdi]
+            # every FDI topic: they come from several writers, and a bag closed on the first of them
+            # would lose the others' last sample, or give it to the next run's bag (bag replay)
+            lagging_fdi = [t for t, _, _ in T.fdi_topics() if self.last_stamp.get(t, -1) < last_fdi]
         else:
             lagging_fdi = []
         lagging = [t for t in final if self.last_stamp.get(t, -1) < self.done_stamp] + lagging_fdi
         # a loaded recorder may still be working through its queue: only silence ends the wait
         if not lagging or wall_time() - max(self.done_wall, self.last_message_wall) > self.param("drain_timeout"):
-            self.finish()
+            self._close_bag()
+            self.pub_closed.publish(String(data=str(self.output_index)))
+            self.output_index += 1
+            if self.output_index < len(self.outputs):
+                self._open()
+            else:
+                self.finish()
+
+    def _close_bag(self):
+        if self.bag is not None:
+            self.bag.close()
+            self.get_logger().info(f"bag {self.outputs[self.output_index]}: {self.bag.count} messages")
+            self.bag = None
 
     def close(self):
-        self.bag.close()   # the bag first: nothing else this node does matters as much
-        self.get_logger().info(f"bag {self.param('output')}: {self.bag.count} messages")
+        self._close_bag()   # the bag first: nothing else this node does matters as much
+        super().close()
 
 
 main = main_for(RecorderNode)

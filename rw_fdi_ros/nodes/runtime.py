@@ -41,12 +41,17 @@ class GraphNode(Node):
     def follow_run_end(self, grace: float = 10.0, period: float = 0.0):
         """End this node once the plant has published /plant/done and this node has handled its
         last stamp (``self.last_handled``): the done stamp itself, or with ``period`` the last
-        multiple of it. ``grace`` wall seconds after done is only a safety net."""
+        multiple of it. ``grace`` wall seconds after done is only a safety net. Parameter
+        ``end_with_run`` false keeps the node for the next run (bag replay of many runs through one
+        graph); whoever started it stops it."""
         from std_msgs.msg import Header
         from . import topics as T
         from .convert import stamp_ns
         self.last_handled = -1
         self._run_end = None
+        self.declare_parameter("end_with_run", True)
+        if not self.param("end_with_run"):
+            return
 
         period_ns = int(round(period * 1e9))
 

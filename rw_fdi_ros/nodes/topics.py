@@ -1,25 +1,38 @@
 """Topic names, message types and QoS of the graph: one table every node and tool reads.
 
-Vectors are geometry_msgs/Vector3Stamped with x, y, z the spacecraft axes
-(one wheel per axis). Every message that analysis depends on carries a
-header stamp in sim time.
+Per control step the plant sends three messages the graph acts on: the clock,
+the attitude state (controllers) and the wheel state, both
+sensor_msgs/JointState, the standard way ROS reports rotational degrees of
+freedom (PlotJuggler and Foxglove plot them by joint name). Once per FDI
+period it sends the FDI telemetry every FDI node reads. Vectors are
+geometry_msgs/Vector3Stamped with x, y, z the spacecraft axes (one wheel per
+axis). Every message that analysis depends on carries a header stamp in sim
+time.
 """
 from __future__ import annotations
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 AXES = ("x", "y", "z")
+JOINT_STATE = "sensor_msgs/msg/JointState"
 
 CLOCK = "/clock"
-ATTITUDE = "/attitude"                # [rad], small-angle per-axis attitude
-BODY_RATE = "/body_rate"              # [rad/s]
-WHEEL_SPEED = "/wheel_speed"          # [rad/s]
-TCV = "/wheel/tcv"                    # applied torque command voltage per wheel [V]
-REACTION_TORQUE = "/wheel/reaction_torque"  # reaction torque per wheel on the body [N m]
-FAULT_EFFECT = "/fault/effect"        # reaction torque minus a healthy wheel's in the same state [N m]
+# JointState attitude_<axis>: position = small-angle attitude [rad], velocity = body rate [rad/s]. The
+# thesis' per-axis angles, not a quaternion: a tumbling axis would wrap, and the controllers need them.
+ATTITUDE = "/attitude"
+ATTITUDE_JOINTS = tuple(f"attitude_{a}" for a in AXES)
+# JointState reaction_wheel_<axis>: position = rotor angle [rad], velocity = wheel speed Omega [rad/s]
+# (relative to the body, what the tachometer reads), effort = reaction torque on the body [N m]
+WHEELS = "/wheels"
+WHEEL_JOINTS = tuple(f"reaction_wheel_{a}" for a in AXES)
+# the wheel electronics' report once per FDI period (DiagnosticArray, one status per wheel): period
+# means of tcv, reaction torque, speed and the nominal model's terms (core/telemetry.py)
+FDI_TELEMETRY = "/wheels/fdi_telemetry"
+FAULT_EFFECT = "/fault/effect"        # reaction torque minus a healthy wheel's [N m], while a fault is injected
 FAULT_TRUTH = "/fault/ground_truth"   # what is injected where since when (DiagnosticArray)
 SCENARIO = "/scenario"                # the scenario YAML (latched)
 PLANT_DONE = "/plant/done"            # std_msgs/Header: stamp = last step, frame_id = why it ended
+RECORDER_CLOSED = "/recorder/closed"  # std_msgs/String (latched): index of the bag the recorder closed
 
 
 def tcv_command(axis: str) -> str:
@@ -35,11 +48,10 @@ LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=Relia
 
 def graph_topics():
     """(topic, ROS type name, qos) of everything a run records."""
-    vec = "geometry_msgs/msg/Vector3Stamped"
+    vec, joints, diag = "geometry_msgs/msg/Vector3Stamped", JOINT_STATE, "diagnostic_msgs/msg/DiagnosticArray"
     rows = [(CLOCK, "rosgraph_msgs/msg/Clock", RELIABLE),
-            (ATTITUDE, vec, RELIABLE), (BODY_RATE, vec, RELIABLE), (WHEEL_SPEED, vec, RELIABLE),
-            (TCV, vec, RELIABLE), (REACTION_TORQUE, vec, RELIABLE), (FAULT_EFFECT, vec, RELIABLE),
-            (FAULT_TRUTH, "diagnostic_msgs/msg/DiagnosticArray", RELIABLE),
+            (ATTITUDE, joints, RELIABLE), (WHEELS, joints, RELIABLE),
+            (FAULT_EFFECT, vec, RELIABLE), (FDI_TELEMETRY, diag, RELIABLE), (FAULT_TRUTH, diag, RELIABLE),
             (SCENARIO, "std_msgs/msg/String", LATCHED), (PLANT_DONE, "std_msgs/msg/Header", LATCHED)]
     rows += [(tcv_command(a), vec, RELIABLE) for a in AXES]
     return rows
@@ -50,17 +62,10 @@ DIAGNOSTICS = "/diagnostics"
 IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel (DiagnosticArray)
 
 
-def telemetry_readers(fdi_method: str | None) -> dict:
-    """How many FDI nodes read each wheel-telemetry topic (what the plant or player waits for).
-
-    Elman x, y, z and the linear observer read tcv and reaction torque, and the wheel speed
-    when speed-aware; the isolation node reads all three (fault identification). No FDI: 0.
-    """
-    if fdi_method is None:
-        return {TCV: 0, REACTION_TORQUE: 0, WHEEL_SPEED: 0}
-    observers = len(AXES) + 1
-    return {TCV: observers + 1, REACTION_TORQUE: observers + 1,
-            WHEEL_SPEED: (observers if fdi_method == "speed_aware" else 0) + 1}
+def telemetry_readers(fdi: bool) -> int:
+    """How many FDI nodes read the FDI telemetry (what the plant or player waits for): Elman x, y, z,
+    the linear observer and the isolation node (fault identification); none without FDI."""
+    return len(AXES) + 2 if fdi else 0
 
 
 def estimate_topic(observer: str, axis: str | None = None) -> str:

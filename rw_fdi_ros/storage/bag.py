@@ -110,6 +110,14 @@ class BagData:
         v = np.array([[r[1].x, r[1].y, r[1].z] for r in rows]).reshape(-1, 3)
         return t, v
 
+    def joint_states(self, name):
+        """(time [s], position, velocity, effort) of a sensor_msgs/JointState topic by header stamp;
+        each (n, joints), (n, 0) where the messages leave a field out."""
+        rows = sorted(((m.header.stamp.sec, m.header.stamp.nanosec), m) for _, m in self.topic(name))
+        t = np.array([sec + nsec * 1e-9 for (sec, nsec), _ in rows])
+        field = lambda f: np.array([np.asarray(getattr(m, f), float) for _, m in rows]).reshape(len(rows), -1)
+        return t, field("position"), field("velocity"), field("effort")
+
     @property
     def scenario_text(self):
         msgs = self.topic("/scenario")

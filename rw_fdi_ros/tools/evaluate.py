@@ -1,8 +1,10 @@
 """`rw-fdi evaluate`: replay bags through the observer and isolation nodes and report every figure.
 
-Each bag is replayed (player + Elman x3 + linear + isolation + recorder of
-the FDI outputs) into ``<report>/replays/<bag>``; a bag already replayed is
-not replayed again, so an interrupted evaluation resumes. A bad bag
+Bags are replayed (player + Elman x3 + linear + isolation + recorder of
+the FDI outputs) into ``<report>/replays/<bag>``, many bags through one
+graph (tools/replay.py): one graph per worker and per ``REPLAY_CHUNK`` bags.
+A bag already replayed is not replayed again, so an interrupted evaluation
+resumes. A bad bag
 (truncated, no ground truth, recorded under other plant choices than the
 curves) is reported with its reason and skipped; the rest goes on.
 """
@@ -26,7 +28,17 @@ from .metrics import (OBSERVERS, RunEval, aggregate, fdi_output_topics, identifi
 from ..core.plant_choices import PlantChoices
 from ..launch.graph import FDI_SAMPLING
 from .offline import fdi_method_of, load_models, model_card
-from .replay import replay_bag
+from .replay import replay_bags
+
+
+def shown_path(path, base) -> str:
+    """``path`` relative to ``base`` when it lies inside it: a report names no path of the machine that
+    made it, so it reads the same wherever the study directory goes."""
+    path, base = Path(path).resolve(), Path(base).resolve()
+    try:
+        return str(path.relative_to(base))
+    except ValueError:
+        return str(path)
 
 
 def find_bags(root) -> list:
@@ -39,7 +51,8 @@ def find_bags(root) -> list:
 
 
 def _check_bag(bag: Path, curves: dict):
-    """Ground truth and plant choices of a bag, or a one-line reason to skip it."""
+    """(scenario, peak |fault effect| per wheel after the first onset) of a bag whose plant choices
+    the curves were fitted under, or a one-line reason to skip it."""
     if not bag_is_complete(bag):
         data = read_bag(bag, topics=["/scenario"])
         raise BagError(f"{bag.name}: incomplete bag ({data.note or 'no metadata.yaml'})")
@@ -48,22 +61,26 @@ def _check_bag(bag: Path, curves: dict):
     plant = PlantChoices.from_recorded(scenario.plant).with_(fdi_sampling=FDI_SAMPLING)
     for c in curves.values():
         c.check_compatible(plant, origin=f"{bag.name}: curves")
-    return scenario, data
-
-
-def evaluate_bag(bag: Path, replays: Path, curves: dict, models, thresholds, persistence: int | None,
-                 method: str = "speed_aware") -> RunEval:
-    scenario, data = _check_bag(bag, curves)
-    out = replays / bag.name
-    if not bag_is_complete(out):
-        outcome = replay_bag(bag, out, models=models, thresholds=thresholds, persistence=persistence, method=method)
-        if not outcome.ok:
-            raise BagError(f"{bag.name}: replay failed: {outcome.reason}")
-    replay = read_bag(out, topics=fdi_output_topics())
-    series = series_from_bag(replay)
     t, effect = data.vectors(T.FAULT_EFFECT)
     onset = min((f.onset for f in scenario.faults), default=None)
-    peak = np.abs(effect[t >= onset]).max(axis=0) if onset is not None and len(t) else np.zeros(3)
+    peak = np.abs(effect[t >= onset]).max(axis=0) if onset is not None and np.any(t >= onset) else np.zeros(3)
+    return scenario, peak
+
+
+# bags per replay graph: start-up is paid once per chunk; a chunk is also the unit of progress
+REPLAY_CHUNK = 25
+
+
+def replay_chunks(bags: list, jobs: int) -> list:
+    """``bags`` dealt into chunks of at most REPLAY_CHUNK, at least one per job while there are bags."""
+    n = max(min(len(bags), jobs), -(-len(bags) // REPLAY_CHUNK))
+    return [bags[i::n] for i in range(n) if bags[i::n]]
+
+
+def evaluate_replayed(bag: Path, out: Path, scenario, peak) -> RunEval:
+    """The figures of one bag from its replay ``out`` and its ground truth."""
+    replay = read_bag(out, topics=fdi_output_topics())
+    series = series_from_bag(replay)
     return RunEval(bag=str(bag), scenario=scenario.name, seed=scenario.seed, faults=list(scenario.faults),
                    series=series, fault_effect_peak=peak, identification=identification_from_bag(replay))
 
@@ -87,20 +104,43 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
     runs, skipped = [], []
     executor = executor or LocalExecutor()
 
-    def one(bag):
-        try:
-            return evaluate_bag(bag, report_dir / "replays", curves, models, thresholds, persistence, method), None
-        except (BagError, ValueError, ThresholdError, ModelError) as exc:
-            return None, (str(bag), str(exc))
-
+    replays = report_dir / "replays"
     bar = _progress(len(bags), "evaluate (replay)")
-    for run, skip in executor.map_unordered(one, bags):
-        if run is not None:
-            runs.append(run)
-        else:
-            skipped.append(skip)
-            bar.write(f"skipped {skip[0]}: {skip[1]}")
+
+    def skip(bag, reason):
+        skipped.append((str(bag), reason))
+        bar.write(f"skipped {bag}: {reason}")
         bar.update(1)
+
+    checked = {}
+    for bag in bags:
+        try:
+            checked[bag] = _check_bag(bag, curves)
+        except (BagError, ValueError, ThresholdError) as exc:
+            skip(bag, str(exc))
+    todo = [b for b in checked if not bag_is_complete(replays / b.name)]
+    done = [b for b in checked if b not in todo]
+
+    def replay_chunk(chunk):
+        outcomes = replay_bags(chunk, [replays / b.name for b in chunk], models=models, thresholds=thresholds,
+                               persistence=persistence, method=method)
+        return list(zip(chunk, outcomes))
+
+    def collect(bag):
+        try:
+            runs.append(evaluate_replayed(bag, replays / bag.name, *checked[bag]))
+            bar.update(1)
+        except (BagError, ValueError) as exc:
+            skip(bag, str(exc))
+
+    for bag in done:
+        collect(bag)
+    for pairs in executor.map_unordered(replay_chunk, replay_chunks(todo, getattr(executor, "jobs", 2))):
+        for bag, outcome in pairs:
+            if outcome.ok:
+                collect(bag)
+            else:
+                skip(bag, f"{bag.name}: replay failed: {outcome.reason}")
     bar.close()
     runs.sort(key=lambda r: (r.scenario, r.seed))
     level = {obs: {a: float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a]))
@@ -110,15 +150,15 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
     except ModelError:   # a model set without its card: nothing known to exclude
         training = []
     figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level, training)
-    report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence, "models": models,
-              "thresholds": thresholds, "observable_level_Nm": level, "runs": len(runs),
-              "skipped": [{"bag": b, "reason": r} for b, r in skipped],
+    report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence,
+              "models": shown_path(models, report_dir.parent), "thresholds": shown_path(thresholds, report_dir.parent), "observable_level_Nm": level, "runs": len(runs),
+              "skipped": [{"bag": shown_path(b, bags_root), "reason": r} for b, r in skipped],
               "observers": figures, "identification": identification_figures(runs),
               "evaluate_seconds": time.monotonic() - t0}
     (report_dir / "report.json").write_text(json.dumps(report, indent=1))
     from .report import write_markdown, write_plots
     if plots:
-        report["plots"] = write_plots(runs, figures, report_dir)
+        report["plots"] = [shown_path(p, report_dir) for p in write_plots(runs, figures, report_dir)]
     write_markdown(report, report_dir / "report.md")
     (report_dir / "report.json").write_text(json.dumps(report, indent=1))
     return report

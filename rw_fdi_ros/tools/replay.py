@@ -1,4 +1,12 @@
-"""Replay a recorded bag through the observer and isolation nodes (rosbag replay for evaluation)."""
+"""Replay recorded bags through the observer and isolation nodes (rosbag replay for evaluation).
+
+Many bags go through one graph (player + Elman x3 + linear + isolation +
+a recorder of the FDI outputs): the FDI nodes start a new run when the
+stamps go back to the start, and the recorder writes one bag per run. Only
+the FDI telemetry (one message per FDI period), the ground truth and the
+scenario are played, so a replay costs a few hundred messages per bag and
+the seven processes start once per graph, not once per bag.
+"""
 from __future__ import annotations
 
 import shutil
@@ -6,45 +14,80 @@ import tempfile
 from pathlib import Path
 
 from ..core.plant_choices import PlantChoices
-from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_method, fdi_nodes
+from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_nodes
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
 from ..nodes import topics as T
 from ..nodes.player import FDI_INPUTS
+from ..storage.bag import BagError, bag_is_complete, read_bag
 from .offline import plant_conditions
 from .run import RunOutcome
 
 
-def replay_nodes(bag: Path, out_bag: Path, fdi: dict, plant: dict, rate: float = 0.0):
-    """Player + Elman x3 + linear + isolation + a recorder of the FDI outputs."""
+def replay_nodes(bags: list, out_bags: list, fdi: dict, plant: dict, rate: float = 0.0):
+    """Player + Elman x3 + linear + isolation + a recorder of the FDI outputs, for ``bags`` in order."""
     nodes = fdi_nodes(fdi, PlantChoices(**plant), True)
-    readers = T.telemetry_readers(fdi_method(fdi))
-    nodes.append(NodeSpec("player", "player", {"bag": str(bag), "rate": float(rate),
-                                               "min_subscribers": readers[T.TCV],
-                                               "speed_subscribers": readers[T.WHEEL_SPEED],
-                                               "pace_period": FDI_PERIOD, "topics": FDI_INPUTS}))
-    nodes.append(NodeSpec("recorder", "recorder", {"output": str(out_bag), "fdi_period": FDI_PERIOD,
+    for node in nodes:
+        node.parameters["end_with_run"] = False   # they stay for the next bag; the launcher stops them
+    nodes.append(NodeSpec("player", "player", {"bags": [str(b) for b in bags], "rate": float(rate),
+                                               "min_subscribers": T.telemetry_readers(True),
+                                               "pace_period": FDI_PERIOD, "topics": FDI_INPUTS,
+                                               "await_recorder": True}))
+    nodes.append(NodeSpec("recorder", "recorder", {"outputs": [str(b) for b in out_bags], "fdi_period": FDI_PERIOD,
                                                    "record_plant": False}))
     return nodes
 
 
+def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int | None = None, rate: float = 0.0,
+                keep_logs: bool = False, watchdog: float | None = None, method: str | None = None) -> list:
+    """Replay ``bags`` (recorded under the same plant choices) through one graph; the FDI outputs of
+    bag i go to ``out_bags[i]``. Returns one RunOutcome per bag, in order. A graph that fails part
+    way keeps the bags it finished; the rest get a graph each, so a bad bag fails alone."""
+    bags, out_bags = [Path(b) for b in bags], [Path(b) for b in out_bags]
+    if not bags:
+        return []
+    plant = plant_conditions(bags)
+    fdi = {"models": models, "thresholds": thresholds, "persistence": persistence, "method": method}
+    outcomes = [None] * len(bags)
+    groups = [list(range(len(bags)))]
+    retried = False
+    while groups:
+        todo = groups.pop(0)
+        for i in todo:
+            if out_bags[i].exists():
+                shutil.rmtree(out_bags[i])
+        nodes = replay_nodes([bags[i] for i in todo], [out_bags[i] for i in todo], fdi, plant, rate)
+        with DomainLease() as lease:
+            work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_replay_{bags[todo[0]].name}_"))
+            limit = watchdog if watchdog is not None else 120.0 + 60.0 * len(todo)
+            result = GraphProcesses(nodes, lease.domain_id, work).start().run(main="player", watchdog=limit)
+        for i in todo:
+            ok = result.ok or _finished(out_bags[i])
+            outcomes[i] = RunOutcome(ok, "completed" if ok else result.reason, out_bags[i],
+                                     result.wall_time / len(todo), log_dir=work)
+        cleanup(result, keep=keep_logs or not result.ok)
+        failed = [i for i in todo if not outcomes[i].ok]
+        if len(failed) > 1:
+            groups += [[i] for i in failed]   # one bad bag must not take the others with it: one graph each
+        elif failed and not retried and "stalled" in result.reason:
+            # a consumer's DDS reader that matched the player's writer only after the first burst stalls
+            # the graph at start-up (seen under full load); a fresh graph starts the bag over
+            retried = True
+            groups.append(failed)
+    return outcomes
+
+
+def _finished(out_bag: Path) -> bool:
+    """A replay bag the recorder closed at its run's end (the player sends /plant/done only once the
+    consumers have finished the run's last FDI sample), not one closed on the way out of a failure."""
+    if not bag_is_complete(out_bag):
+        return False
+    try:
+        return bool(read_bag(out_bag, topics=[T.PLANT_DONE]).topic(T.PLANT_DONE))
+    except BagError:
+        return False
+
+
 def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int | None = None, rate: float = 0.0,
                keep_logs: bool = False, watchdog: float = 300.0, method: str | None = None) -> RunOutcome:
-    """Replay ``bag``; the FDI outputs of the replay are recorded to ``out_bag``."""
-    bag, out_bag = Path(bag), Path(out_bag)
-    plant = plant_conditions([bag])
-    if out_bag.exists():
-        shutil.rmtree(out_bag)
-    nodes = replay_nodes(bag, out_bag, {"models": models, "thresholds": thresholds, "persistence": persistence,
-                                        "method": method}, plant, rate)
-    for attempt in range(2):
-        with DomainLease() as lease:
-            work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_replay_{bag.name}_"))
-            result = GraphProcesses(nodes, lease.domain_id, work).start().run(main="player", watchdog=watchdog)
-        outcome = RunOutcome(result.ok, result.reason, out_bag, result.wall_time, log_dir=work)
-        cleanup(result, keep=keep_logs or not outcome.ok)
-        # 3 replays in 580 under full load stalled at start-up, most likely because a consumer's DDS reader
-        # matched the player's writer only after the first burst; a fresh graph starts the bag over
-        # (the FDI nodes keep no state between graphs)
-        if outcome.ok or "stalled" not in outcome.reason:
-            break
-    return outcome
+    """Replay one bag; its FDI outputs are recorded to ``out_bag``."""
+    return replay_bags([bag], [out_bag], models, thresholds, persistence, rate, keep_logs, watchdog, method)[0]

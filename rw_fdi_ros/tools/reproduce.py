@@ -149,7 +149,7 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int | 
     out = Path(out)
     s = SCALES[scale_name]
     jobs = plan(out, scale_name)
-    command = f"rw-fdi reproduce --out {out} --scale {scale_name}"
+    command = f"rw-fdi reproduce --out {out.name} --scale {scale_name}"   # the directory's name: no machine path
     clock = StageClock(out, command)
     print(f"reproduce ({scale_name}): {sum(j[2] for j in jobs)} runs in {len(jobs)} campaigns -> {out}",
           file=sys.stderr, flush=True)

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from ..core.telemetry import sample_telemetry
-from ..nodes.topics import REACTION_TORQUE, TCV, WHEEL_SPEED
+from ..nodes.convert import fdi_sample_of
+from ..nodes.topics import AXES, FDI_TELEMETRY
 from ..storage.bag import BagError, bag_is_complete, read_bag
 
 
@@ -41,10 +42,15 @@ class FdiSamples:
 
 def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0,
                         sampling: str = "mean", bag=None, seed=None, identification: bool = False) -> FdiSamples:
-    """Control-rate series (time first) -> FdiSamples through the nodes' TelemetrySampler
+    """Control-rate series (time first) -> FdiSamples through the plant's TelemetrySampler
     (``identification``: with the terms fault identification fits)."""
     rows = sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed, period, sampling,
                             identification=identification)
+    return samples_from_rows(rows, bag, seed)
+
+
+def samples_from_rows(rows, bag=None, seed=None) -> FdiSamples:
+    """A list of telemetry.FdiSample -> FdiSamples (arrays over time)."""
     stamps = np.array([row.stamp_ns for row in rows], np.int64)
     stack = lambda name: None if not rows or getattr(rows[0], name) is None else np.array([getattr(x, name)
                                                                                          for x in rows])
@@ -57,22 +63,27 @@ def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, perio
 
 
 def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: bool = True) -> FdiSamples:
-    """Pair /wheel/tcv, /wheel/reaction_torque (and /wheel_speed) by stamp; make the nodes' FDI samples."""
-    topics = [TCV, REACTION_TORQUE] + ([WHEEL_SPEED] if speed_aware else [])
-    series = [data.vectors(t) for t in topics]
-    if any(len(t) == 0 for t, _ in series):
-        raise BagError(f"{data.path}: no {' / '.join(topics)} messages")
-    stamps = [np.round(t * 1e9).astype(np.int64) for t, _ in series]
-    common = stamps[0]
-    for s in stamps[1:]:
-        common = np.intersect1d(common, s)
-    values = [v[np.searchsorted(s, common)] for s, (_, v) in zip(stamps, series)]
+    """The FDI samples the observers of a run saw: the bag's FDI telemetry (what the plant reported
+    once per FDI period), as the observers of FDI sampling ``sampling`` read it."""
+    msgs = data.topic(FDI_TELEMETRY)
+    if not msgs:
+        raise BagError(f"{data.path}: no {FDI_TELEMETRY} messages")
+    try:
+        rows = [fdi_sample_of(m, AXES, identification=False).sampled(sampling) for _, m in msgs]
+    except ValueError as exc:
+        raise BagError(f"{data.path}: {FDI_TELEMETRY}: {exc}") from None
+    rows.sort(key=lambda r: r.stamp_ns)
+    steps = np.diff([r.stamp_ns for r in rows])
+    period_ns = int(round(period * 1e9))
+    if len(steps) and not np.all(steps == period_ns):
+        raise BagError(f"{data.path}: FDI telemetry every {np.median(steps) * 1e-9:g} s, not every {period:g} s")
+    if not speed_aware:   # the thesis' observers see tcv and reaction torque only
+        rows = [type(r)(r.stamp_ns, r.tcv, r.reaction_torque) for r in rows]
     seed = None
     if data.scenario_text:
         import yaml
         seed = (yaml.safe_load(data.scenario_text) or {}).get("seed")
-    return samples_from_series(common, values[0], values[1], values[2] if speed_aware else None, period, sampling,
-                               bag=data.path, seed=seed)
+    return samples_from_rows(rows, bag=data.path, seed=seed)
 
 
 def bag_dirs(root) -> list:
@@ -95,7 +106,7 @@ def load_samples(root, period: float = 1.0, complete_only: bool = True, on_skip=
         try:
             if complete_only and not bag_is_complete(bag):
                 raise BagError(f"{bag}: incomplete bag (no metadata.yaml or MCAP footer)")
-            data = read_bag(bag, topics=[TCV, REACTION_TORQUE, WHEEL_SPEED, "/scenario"])
+            data = read_bag(bag, topics=[FDI_TELEMETRY, "/scenario"])
             out.append(fdi_samples(data, period, sampling, speed_aware=sampling == "mean"))
         except BagError as exc:
             if on_skip is None:

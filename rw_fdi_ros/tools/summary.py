@@ -14,7 +14,7 @@ def run_summary(bag: BagData) -> dict:
     if text is None:
         raise ValueError(f"{bag.path}: no /scenario message, cannot tell the set-points")
     scenario = parse_scenario(text, origin=f"{bag.path}:/scenario")
-    t, att = bag.vectors(ATTITUDE)
+    t, att, _, _ = bag.joint_states(ATTITUDE)
     if len(t) == 0:
         raise ValueError(f"{bag.path}: no {ATTITUDE} messages")
     times, values = scenario.setpoint_schedule()
