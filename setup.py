@@ -1,10 +1,23 @@
 """ament_python package: `ros2 run rw_fdi_ros <exe>` finds the console scripts in lib/rw_fdi_ros."""
+import os
 from glob import glob
 
 from setuptools import find_packages, setup
 
 PACKAGE = "rw_fdi_ros"
 NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "isolation", "player"]
+
+
+
+def config_files():
+    """Everything under config/ (scenarios, the DDS profile, the shipped FDI models and thresholds of
+    both methods) into share/rw_fdi_ros/config, folder by folder: the nodes read them there on an install."""
+    out = []
+    for folder, _, files in sorted(os.walk("config")):
+        if files:
+            out.append((f"share/{PACKAGE}/{folder}", sorted(os.path.join(folder, f) for f in files)))
+    return out
+
 
 setup(
     name=PACKAGE,
@@ -15,10 +28,9 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/launch", glob("launch/*.py")),
-        (f"share/{PACKAGE}/config", glob("config/*.yaml") + glob("config/*.xml")),
-        (f"share/{PACKAGE}/config/scenarios", glob("config/scenarios/*.yaml")),
-    ],
+    ] + config_files(),
     install_requires=["setuptools", "numpy", "scipy", "pyyaml", "rosbags", "mcap"],
+    extras_require={"test": ["pytest"]},   # `colcon test` runs pytest when the package asks for it
     zip_safe=True,
     maintainer="rw_fdi_ros developers",
     maintainer_email="dev@rw-fdi.local",

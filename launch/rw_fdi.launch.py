@@ -1,8 +1,12 @@
 """ROS 2 launch file for users with a full ROS 2 install (`ros2 launch rw_fdi_ros rw_fdi.launch.py`).
 
 It builds the same graph as `rw-fdi run` from rw_fdi_ros.launch.graph.graph_nodes,
-so both launchers start identical nodes with identical parameters. Not
-testable on machines without launch_ros; our own launcher is what CI uses.
+so both launchers start identical nodes with identical parameters: plant,
+three controllers, the FDI nodes (``fdi:=false`` leaves them out) and, with
+``bag``, the recorder. launch_ros hands parameters to a node in a YAML file,
+where a bare ``y`` would be read as a boolean: every string goes as
+``ParameterValue(..., value_type=str)``. test/test_launch_file.py loads this
+file with a stub of the launch API (launch_ros is not installable here).
 
     ros2 launch rw_fdi_ros rw_fdi.launch.py scenario:=bus_5v5_x seed:=3 bag:=bags/demo
 """
@@ -13,6 +17,7 @@ from launch.actions import OpaqueFunction, SetEnvironmentVariable
 from launch.substitutions import LaunchConfiguration
 from launch.actions import DeclareLaunchArgument
 from launch_ros.actions import Node
+from launch_ros.parameter_descriptions import ParameterValue
 from rw_fdi_ros.paths import fastdds_profiles
 
 
@@ -22,8 +27,16 @@ def _nodes(context):
     seed = int(LaunchConfiguration("seed").perform(context))
     scenario, path = resolve_scenario(LaunchConfiguration("scenario").perform(context), seed if seed >= 0 else None)
     bag = LaunchConfiguration("bag").perform(context) or None
-    return [Node(package="rw_fdi_ros", executable=n.executable, name=n.name, parameters=[n.parameters],
-                 output="screen") for n in graph_nodes(scenario, path, bag)]
+    fdi = LaunchConfiguration("fdi").perform(context).lower() in ("true", "1", "yes")
+    method = LaunchConfiguration("fdi_method").perform(context)
+    nodes = graph_nodes(scenario, path, bag, fdi={"method": method} if fdi else None)
+    return [Node(package="rw_fdi_ros", executable=n.executable, name=n.name, parameters=[_typed(n.parameters)],
+                 output="screen") for n in nodes]
+
+
+def _typed(parameters: dict) -> dict:
+    """Strings stay strings through launch_ros' YAML parameter file (``axis: y`` is not a boolean)."""
+    return {k: ParameterValue(v, value_type=str) if isinstance(v, str) else v for k, v in parameters.items()}
 
 
 def generate_launch_description():
@@ -35,5 +48,7 @@ def generate_launch_description():
         DeclareLaunchArgument("scenario", default_value="fault_free", description="scenario name or YAML file"),
         DeclareLaunchArgument("seed", default_value="-1", description="seed (-1: the scenario's)"),
         DeclareLaunchArgument("bag", default_value="", description="bag directory to record (empty: no recorder)"),
+        DeclareLaunchArgument("fdi", default_value="true", description="start the observers and the isolation node"),
+        DeclareLaunchArgument("fdi_method", default_value="speed_aware", description="speed_aware or thesis"),
         OpaqueFunction(function=_nodes),
     ])

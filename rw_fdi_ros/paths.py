@@ -8,6 +8,25 @@ PACKAGE = "rw_fdi_ros"
 _SOURCE_ROOT = Path(__file__).resolve().parents[1]
 
 
+def install_prefix() -> Path | None:
+    """The install prefix when this package runs from a colcon/ament install
+    (<prefix>/lib/pythonX.Y/site-packages/rw_fdi_ros), else None (a source tree or an editable
+    install)."""
+    site = _SOURCE_ROOT
+    if site.name in ("site-packages", "dist-packages") and site.parent.parent.name == "lib":
+        prefix = site.parents[2]
+        if (prefix / "share" / PACKAGE).is_dir():
+            return prefix
+    return None
+
+
+def installed_executable(name: str) -> Path | None:
+    """<prefix>/lib/rw_fdi_ros/<name> of an install: the file `ros2 run rw_fdi_ros <name>` starts."""
+    prefix = install_prefix()
+    exe = prefix / "lib" / PACKAGE / name if prefix else None
+    return exe if exe is not None and exe.is_file() else None
+
+
 def config_dir() -> Path:
     """config/ of the source tree, else <share>/rw_fdi_ros/config of an ament install."""
     env = os.environ.get("RW_FDI_CONFIG")
@@ -16,6 +35,9 @@ def config_dir() -> Path:
     local = _SOURCE_ROOT / "config"
     if local.is_dir():
         return local
+    prefix = install_prefix()
+    if prefix is not None:
+        return prefix / "share" / PACKAGE / "config"
     try:
         from ament_index_python.packages import get_package_share_directory
         return Path(get_package_share_directory(PACKAGE)) / "config"

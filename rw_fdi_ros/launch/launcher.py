@@ -21,7 +21,7 @@ from pathlib import Path
 
 import yaml
 
-from ..paths import fastdds_profiles
+from ..paths import fastdds_profiles, installed_executable
 
 DOMAIN_RANGE = range(101, 233)   # 0..232 is valid; low ids stay free for people's own graphs
 _LOCK_DIR = Path(tempfile.gettempdir()) / "rw_fdi_ros_domains"
@@ -131,8 +131,10 @@ class GraphProcesses:
         params_file = self.work_dir / "params.yaml"
         params_file.write_text(yaml.dump(params, Dumper=_QuotingDumper, sort_keys=False))
         for n in self.nodes:
-            cmd = [self.python, "-m", n.module, "--ros-args", "-r", f"__node:={n.name}",
-                   "--params-file", str(params_file), "--log-level", "warn"]
+            # on an install the files `ros2 run` starts; in a source tree the modules
+            exe = installed_executable(n.executable)
+            cmd = ([str(exe)] if exe else [self.python, "-m", n.module]) + [
+                "--ros-args", "-r", f"__node:={n.name}", "--params-file", str(params_file), "--log-level", "warn"]
             log = open(self.work_dir / f"{n.name}.log", "w")
             self.procs[n.name] = subprocess.Popen(cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT,
                                                   stdin=subprocess.DEVNULL, start_new_session=True)
