@@ -42,7 +42,8 @@ def _typed(parameters: dict) -> dict:
 def generate_launch_description():
     return LaunchDescription([
         # discovery stays on this machine (ROS_LOCALHOST_ONLY is ignored from kilted on)
-        SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE", os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
+        SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE",
+                               os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
         # 50 ms reliable-writer heartbeat (config/fastdds.xml): the run's end and bag replay wait on acks
         SetEnvironmentVariable("FASTDDS_DEFAULT_PROFILES_FILE", fastdds_profiles() or ""),
         DeclareLaunchArgument("scenario", default_value="fault_free", description="scenario name or YAML file"),

@@ -171,7 +171,8 @@ def _cmd_bench(args) -> int:
     elif args.what == "identification":
         from .tools.identification_bench import bench_identification
         report = bench_identification(runs_per_cell=args.runs_per_cell or 100, out=args.out or "reports/identification",
-                                      **({"thesis_runs": args.thesis_runs, "bus_thesis_runs": args.thesis_runs * 17 // 10}
+                                      **({"thesis_runs": args.thesis_runs,
+                                          "bus_thesis_runs": args.thesis_runs * 17 // 10}
                                          if args.thesis_runs else {}))
     else:
         report = (bench_graph if args.what == "graph" else bench_fdi)(duration=args.duration, seed=args.seed)

@@ -133,7 +133,8 @@ def test_severity_in_the_thesis_units():
 
 
 def _cell(kind, sev, detected, correct=None, delays=()):
-    rate = lambda r, n=10: {"rate": r, "n": n}
+    def rate(r, n=10):
+        return {"rate": r, "n": n}
     stats = {"median": float(np.median(delays)), "min": min(delays), "max": max(delays), "n": len(delays),
              "values": list(delays)} if delays else None
     return {"kind": kind, "severity": sev, "detected": rate(detected), "correctness": rate(correct),

@@ -16,9 +16,10 @@ def test_scenario_sets_wheel_momentum_coupling_and_overrides_win():
     assert "wheel_momentum_coupling: false" in text and "emf_limit: kf_scaled" in text
 
 
-@pytest.mark.parametrize("plant, words", [("{wheel_momentum_coupling: maybe}", "wheel_momentum_coupling must be true or false"),
-                                          ("{emf_limit: magic}", "emf_limit must be one of"),
-                                          ("{gravity: 1}", "plant may set only")])
+@pytest.mark.parametrize("plant, words", [
+    ("{wheel_momentum_coupling: maybe}", "wheel_momentum_coupling must be true or false"),
+    ("{emf_limit: magic}", "emf_limit must be one of"),
+    ("{gravity: 1}", "plant may set only")])
 def test_bad_plant_choices_are_one_line_scenario_errors(plant, words):
     with pytest.raises(ScenarioError, match=words):
         parse_scenario(f"plant: {plant}\nfaults: []\n", origin="my.yaml")

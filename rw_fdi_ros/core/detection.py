@@ -153,7 +153,8 @@ def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", 
 
     ``statistics``: (runs, axes) run statistics of fault-free fitting runs (run_statistic). Each
     axis gets share x alpha / n_axes (Bonferroni; an Elman network spends the other half of
-    alpha on its uncertainty gain kappa, tools/train.uncertainty_gain); the upper half of its run maxima is fitted with a
+    alpha on its uncertainty gain kappa, tools/train.uncertainty_gain); the upper half of its run maxima is fitted
+    with a
     Gumbel law (the limit law of maxima of light-tailed sequences; :func:`gumbel_fit`), whose
     (1 - alpha/n) quantile is c: an empirical quantile of a few hundred runs cannot reach 1e-3.
     Never below the largest fitting-run statistic.
@@ -273,7 +274,8 @@ class ThresholdCurves:
                       method=str(raw.get("method", "thesis")), persistence=int(raw.get("persistence", PERSISTENCE)),
                       false_alarm_rate=raw.get("false_alarm_rate"), calibration=dict(raw.get("calibration") or {}))
         except (ValueError, KeyError, TypeError) as exc:
-            raise ThresholdError(f"{path}: not a readable threshold file ({type(exc).__name__}: {exc}); {REFIT}") from None
+            raise ThresholdError(f"{path}: not a readable threshold file ({type(exc).__name__}: {exc}); "
+                                 f"{REFIT}") from None
         if set(out.curves) != {"x", "y", "z"} or any(len(c) == 0 or not np.all(np.isfinite(c))
                                                      for c in out.curves.values()):
             raise ThresholdError(f"{path}: needs finite curves for axes x, y, z; {REFIT}")

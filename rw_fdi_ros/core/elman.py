@@ -108,7 +108,8 @@ class ElmanWeights:
     @classmethod
     def random(cls, rng: np.random.Generator, hidden=HIDDEN, scale=0.1, **kw) -> "ElmanWeights":
         """Thesis 4.3.3 initialisation range [-0.1, 0.1]."""
-        u = lambda *s: rng.uniform(-scale, scale, s)
+        def u(*s):
+            return rng.uniform(-scale, scale, s)
         inputs = INPUTS + (kw.get("speed_scale", 0.0) > 0)
         return cls(u(hidden, inputs), u(hidden, hidden), u(hidden), u(1, hidden), u(1), **kw)
 

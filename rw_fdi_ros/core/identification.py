@@ -161,7 +161,8 @@ class Identification:
         head, digits = {"current_loss": ("current loss, limiter", 2), "temperature": ("temperature", 0),
                         "bus_voltage": ("bus voltage", 2)}[self.kind]
         unit = f" {UNITS[self.kind]}" if UNITS[self.kind] else ""
-        fmt = lambda v: f"{v:.{digits}f}"
+        def fmt(v):
+            return f"{v:.{digits}f}"
         if self.bound_only == "upper":
             return f"{head} <= {fmt(self.high)}{unit}"
         if self.bound_only == "lower":
@@ -170,7 +171,8 @@ class Identification:
 
     def values(self) -> dict:
         """The /diagnostics key-values (strings)."""
-        num = lambda v: "nan" if not np.isfinite(v) else f"{v:.6g}"
+        def num(v):
+            return "nan" if not np.isfinite(v) else f"{v:.6g}"
         return {"fault_kind": self.kind, "fault_size": num(self.size), "fault_size_low": num(self.low),
                 "fault_size_high": num(self.high)}
 

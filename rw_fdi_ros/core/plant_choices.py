@@ -43,7 +43,8 @@ class PlantChoices:
         if self.emf_limit not in EMF_LIMITS:
             raise PlantChoiceError(f"emf_limit must be one of {', '.join(EMF_LIMITS)}, got {self.emf_limit!r}")
         if not isinstance(self.wheel_momentum_coupling, bool):
-            raise PlantChoiceError(f"wheel_momentum_coupling must be true or false, got {self.wheel_momentum_coupling!r}")
+            raise PlantChoiceError("wheel_momentum_coupling must be true or false, "
+                                   f"got {self.wheel_momentum_coupling!r}")
         if self.fdi_sampling not in FDI_SAMPLINGS:
             raise PlantChoiceError(f"fdi_sampling must be one of {', '.join(FDI_SAMPLINGS)}, got {self.fdi_sampling!r}")
         for key in ("control_period", "fdi_period"):

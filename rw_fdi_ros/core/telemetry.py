@@ -108,8 +108,8 @@ def sample_from_report(stamp_ns: int, wheels: list, identification: bool = True)
         fields["ripple_phasor"] = re + 1j * im
     if identification and all(BUS_GRID_KEY in w for w in wheels):
         try:
-            fields["bus_motor_torque"] = np.array([np.frombuffer(base64.b64decode(w[BUS_GRID_KEY], validate=True), "<f8")
-                                                   for w in wheels], float)
+            grids = [base64.b64decode(w[BUS_GRID_KEY], validate=True) for w in wheels]
+            fields["bus_motor_torque"] = np.array([np.frombuffer(g, "<f8") for g in grids], float)
         except (ValueError, binascii.Error) as exc:
             raise ValueError(f"{BUS_GRID_KEY}: {exc}") from None
     return FdiSample(int(stamp_ns), **fields)
@@ -186,7 +186,8 @@ class TelemetrySampler:
         row = self.sampler.add(stamp_ns, *signals)
         if row is None:
             return None
-        return FdiSample(row[0], *row[1], tcv_instant=np.array(signals[0]), reaction_torque_instant=np.array(signals[1]))
+        return FdiSample(row[0], *row[1], tcv_instant=np.array(signals[0]),
+                         reaction_torque_instant=np.array(signals[1]))
 
 
 def sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0, mode: str = "mean",

@@ -99,8 +99,9 @@ class IsolationNode(GraphNode):
         self.decision = self.param("decision_observer")
         if self.decision not in self.channels:
             raise NodeError(f"decision_observer must be one of {', '.join(T.OBSERVERS)}", EXIT_BAD_INPUT)
-        gate = lambda msg_type, name: GatedPublisher(self.create_publisher(msg_type, name, T.RELIABLE),
-                                                     self.param("min_subscribers"))
+        def gate(msg_type, name):
+            return GatedPublisher(self.create_publisher(msg_type, name, T.RELIABLE),
+                                                             self.param("min_subscribers"))
         self.pubs = {obs: {k: gate(DiagnosticArray if k == "status" else Vector3Stamped, name)
                            for k, name in T.fdi_output_topics(obs).items()} for obs in T.OBSERVERS}
         self.pub_diag = gate(DiagnosticArray, T.DIAGNOSTICS)
@@ -110,7 +111,8 @@ class IsolationNode(GraphNode):
         self.identifier = FaultIdentifier(AXES)
         self.last_stamp = {}     # source -> its last stamp (a stamp that goes back starts a new run)
         self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
-        bound = lambda a: f"bound_{a}"
+        def bound(a):
+            return f"bound_{a}"
         elman = StampSync(AXES + tuple(bound(a) for a in AXES), lambda stamp, v: self._on_residual(
             "elman", stamp, [v[a][i] for i, a in enumerate(AXES)], [v[bound(a)][i] for i, a in enumerate(AXES)]))
         for a in AXES:

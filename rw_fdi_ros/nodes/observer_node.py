@@ -52,7 +52,8 @@ class ObserverNode(GraphNode):
     def start(self, estimate_topic: str, residual_topic: str, bound_topic: str):
         """Publishers and subscriptions, once the subclass knows its topics."""
         need = self.param("min_subscribers")
-        pub = lambda topic, readers: GatedPublisher(self.create_publisher(Vector3Stamped, topic, T.RELIABLE), readers)
+        def pub(topic, readers):
+            return GatedPublisher(self.create_publisher(Vector3Stamped, topic, T.RELIABLE), readers)
         self.pub_estimate = pub(estimate_topic, need - 1)
         self.pub_residual = pub(residual_topic, need)
         self.pub_bound = pub(bound_topic, need)

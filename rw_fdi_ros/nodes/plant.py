@@ -49,7 +49,7 @@ class PlantNode(GraphNode):
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
         self.declare_parameter("wait_for_subscribers", 0)  # extra subscribers per topic (1 = recorder)
-        self.declare_parameter("fdi_readers", 0)         # FDI nodes reading the FDI telemetry (topics.telemetry_readers)
+        self.declare_parameter("fdi_readers", 0)         # FDI nodes reading the FDI telemetry (topics)
         self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
         for axis in AXES:  # live fault injection: setting one injects from the current sim time
             for kind in FAULT_KINDS:
@@ -76,7 +76,8 @@ class PlantNode(GraphNode):
         # the FDI's nominal wheel model is the datasheet's, whatever the plant's emf-limit choice
         self.telemetry = TelemetrySampler(self.choices.fdi_period, "mean", identification=True)
 
-        pub = lambda msg_type, topic, qos=T.RELIABLE: self.create_publisher(msg_type, topic, qos)
+        def pub(msg_type, topic, qos=T.RELIABLE):
+            return self.create_publisher(msg_type, topic, qos)
         self.pub_clock = pub(Clock, T.CLOCK)
         self.pub_attitude = pub(JointState, T.ATTITUDE)
         self.pub_wheels = pub(JointState, T.WHEELS)

@@ -115,7 +115,8 @@ class BagData:
         each (n, joints), (n, 0) where the messages leave a field out."""
         rows = sorted(((m.header.stamp.sec, m.header.stamp.nanosec), m) for _, m in self.topic(name))
         t = np.array([sec + nsec * 1e-9 for (sec, nsec), _ in rows])
-        field = lambda f: np.array([np.asarray(getattr(m, f), float) for _, m in rows]).reshape(len(rows), -1)
+        def field(f):
+            return np.array([np.asarray(getattr(m, f), float) for _, m in rows]).reshape(len(rows), -1)
         return t, field("position"), field("velocity"), field("effort")
 
     @property

@@ -32,7 +32,8 @@ def bench_graph(duration: float = 400.0, seed: int = 1) -> dict:
               "wall_seconds": outcome.wall_time, "real_time_factor": duration / outcome.wall_time,
               "steps": steps, "nodes": reports}
     lines = [f"graph bench: {duration:g} s fault-free run, plant + 3 PID controllers + recorder",
-             f"  wall {outcome.wall_time:.2f} s (process start-up included) -> {duration / outcome.wall_time:.1f}x real time"]
+             f"  wall {outcome.wall_time:.2f} s (process start-up included) -> "
+             f"{duration / outcome.wall_time:.1f}x real time"]
     if plant:
         lines.append(f"  lockstep step: median {plant['step_median_ms']:.3f} ms, p99 {plant['step_p99_ms']:.3f} ms "
                      f"(publish k -> all commands k in); plant physics median {plant['compute_median_ms']:.3f} ms")
@@ -100,11 +101,14 @@ def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     lines = [f"FDI bench: one FDI step, core code only ({len(u)} samples)"]
     for name, (med, p99) in compute.items():
         lines.append(f"  {name:22s} median {med:7.1f} us   p99 {p99:7.1f} us")
-    lines.append(f"live graph ({duration:g} s, {outcome.wall_time:.1f} s wall, {'ok' if outcome.ok else outcome.reason}): "
+    lines.append(f"live graph ({duration:g} s, {outcome.wall_time:.1f} s wall, "
+                 f"{'ok' if outcome.ok else outcome.reason}): "
                  "callback time per FDI sample, memory")
     for name, rep in sorted(nodes.items()):
-        cb = (f"callback wall median {rep['callback_median_ms'] * 1e3:6.0f} us p99 {rep['callback_p99_ms'] * 1e3:6.0f} us,"
-              f" CPU median {rep['callback_cpu_median_ms'] * 1e3:5.0f} us p99 {rep['callback_cpu_p99_ms'] * 1e3:5.0f} us"
+        cb = (f"callback wall median {rep['callback_median_ms'] * 1e3:6.0f} us "
+              f"p99 {rep['callback_p99_ms'] * 1e3:6.0f} us,"
+              f" CPU median {rep['callback_cpu_median_ms'] * 1e3:5.0f} us "
+              f"p99 {rep['callback_cpu_p99_ms'] * 1e3:5.0f} us"
               if "callback_median_ms" in rep else " " * 86)
         lines.append(f"  {name:18s} {cb}  max RSS {rep['max_rss_mb']:6.1f} MB  cpu {rep['cpu_s']:5.2f} s")
     return {"ok": outcome.ok, "compute_us": compute, "nodes": nodes, "text": "\n".join(lines)}

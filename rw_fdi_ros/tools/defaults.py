@@ -68,7 +68,8 @@ def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, he
     for name, seed, n in (("fit", FIT_SEED, train_runs + fit_runs), ("heldout", HELDOUT_SEED, heldout_runs)):
         res = run_campaign("fault_free", n, seed, work / name, executor=executor, desc=f"fault_free {name}")
         if res.failed:
-            raise RuntimeError(f"{len(res.failed)} {name} runs failed, e.g. seed {res.failed[0][0]}: {res.failed[0][1]}")
+            raise RuntimeError(f"{len(res.failed)} {name} runs failed, "
+                               f"e.g. seed {res.failed[0][0]}: {res.failed[0][1]}")
     stages["campaigns_s"] = time.monotonic() - t0
 
     skipped = []
@@ -161,7 +162,8 @@ def format_report(r: dict) -> str:
     for name, c in th["comparison"].items():
         losses = "/".join(f"{th['train_cards'][name]['axes'][a]['final_loss']:.1e}" for a in AXES)
         mark = " (shipped)" if name == th["chosen_model"] else ""
-        lines.append(f"| {name}{mark} | {c['mean'] * 1e3:.3f} | {c['p99'] * 1e3:.3f} | {c['max'] * 1e3:.3f} | {losses} |")
+        lines.append(f"| {name}{mark} | {c['mean'] * 1e3:.3f} | {c['p99'] * 1e3:.3f} | {c['max'] * 1e3:.3f} "
+                     f"| {losses} |")
     lines += ["", f"### Threshold reliability on the {len(r['fit_seeds'])} fitting runs (share under the curve "
               "everywhere)", "", "| observer | x | y | z |", "|---|---|---|---|"]
     for obs, rel in th["reliability"].items():

@@ -179,7 +179,8 @@ def format_detection(report: dict) -> str:
              f"Measured {report.get('date', '?')} on the shipped `config/fdi` (speed-aware) and `config/fdi/thesis` "
              "with the command's defaults.", "",
              f"Seeds from {report['seed_base']:,} (disjoint from training, fitting and the thesis study); faults "
-             f"on wheel seed mod 3 with onsets uniform in {report['onset_range_s'][0]:g}-{report['onset_range_s'][1]:g} s; "
+             f"on wheel seed mod 3 with onsets uniform in "
+             f"{report['onset_range_s'][0]:g}-{report['onset_range_s'][1]:g} s; "
              f"{report['fault_free_runs']} fault-free runs, {report['runs_per_cell']} per cell. Rates with 95 % Wilson "
              f"intervals. {report['seconds'] / 60:.0f} min on this machine.", "",
              "## False alarms (any alarm in a run that must not alarm)", "",
@@ -188,7 +189,8 @@ def format_detection(report: dict) -> str:
         if c["cell"]["kind"] is None or c["cell"]["disturbance"]:
             m = c["methods"]
             lines.append(f"| {name} | {format_rate(m['speed_aware']['elman']['false_alarm'])} | "
-                         f"{format_rate(m['speed_aware']['linear']['false_alarm'])} | {format_rate(m['thesis']['elman']['false_alarm'])} | "
+                         f"{format_rate(m['speed_aware']['linear']['false_alarm'])} | "
+                         f"{format_rate(m['thesis']['elman']['false_alarm'])} | "
                          f"{format_rate(m['thesis']['linear']['false_alarm'])} |")
     for method in ("speed_aware", "thesis"):
         lines += ["", f"## Faults, {'ours (speed-aware)' if method == 'speed_aware' else 'the thesis method'}", "",
@@ -201,7 +203,8 @@ def format_detection(report: dict) -> str:
                 f = c["methods"][method][obs]
                 d = f["delay_s"]
                 delay = f"{d['median']:.0f} / {d['p90']:.0f}" if d["median"] is not None else "-"
-                lines.append(f"| {name} | {obs} | {format_rate(f['correct'])} | {format_rate(f['correct_observable'])} | "
+                lines.append(f"| {name} | {obs} | {format_rate(f['correct'])} | "
+                             f"{format_rate(f['correct_observable'])} | "
                              f"{format_rate(f['detected'])} | {delay} | {format_rate(f['held_to_end'])} | "
                              f"{format_rate(f['alarm_before_onset'])} |")
     return "\n".join(lines) + "\n"

@@ -151,7 +151,8 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
         training = []
     figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level, training)
     report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence,
-              "models": shown_path(models, report_dir.parent), "thresholds": shown_path(thresholds, report_dir.parent), "observable_level_Nm": level, "runs": len(runs),
+              "models": shown_path(models, report_dir.parent),
+              "thresholds": shown_path(thresholds, report_dir.parent), "observable_level_Nm": level, "runs": len(runs),
               "skipped": [{"bag": shown_path(b, bags_root), "reason": r} for b, r in skipped],
               "observers": figures, "identification": identification_figures(runs),
               "evaluate_seconds": time.monotonic() - t0}

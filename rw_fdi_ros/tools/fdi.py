@@ -46,7 +46,8 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=No
             data = read_bag(outcome.bag)
             outcome.summary = {**(outcome.summary or {}), "fdi": fdi_verdict(data)}
             if figure:
-                outcome.summary["figure"] = str(plot_residuals(data, outcome.bag.parent / f"{outcome.bag.name}_fdi.png"))
+                figure = outcome.bag.parent / f"{outcome.bag.name}_fdi.png"
+                outcome.summary["figure"] = str(plot_residuals(data, figure))
         except Exception as exc:  # the run's own failure reason matters more
             if outcome.ok:
                 outcome.ok, outcome.reason = False, f"reading FDI results: {exc}"

@@ -236,7 +236,8 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
         # the fault-free first part of every faulty run: at thesis scale 11x the held-out runs' fault-free time
         faulty = [r for r in runs if r.category in ("single", "multiple")]
         early = [bool(r.series[obs].alarm[r.series[obs].time < r.onset].any()) for r in faulty]
-        rep["false_alarm_before_onset"] = {**_rate(early), "alarmed_seeds": [r.seed for r, e in zip(faulty, early) if e]}
+        rep["false_alarm_before_onset"] = {**_rate(early),
+                                           "alarmed_seeds": [r.seed for r, e in zip(faulty, early) if e]}
         groups = {}
         for r in runs:
             if r.category in ("single", "multiple"):
@@ -286,7 +287,8 @@ def identification_figures(runs) -> list:
                       "kind_right": _rate(v["kind_right"] for v in rows),
                       "size_right": _rate(v["size_right"] for v in right),
                       "abs_size_error": _stats([abs(v["size_error"]) for v in right]),
-                      "identified_as": {k: sum(v["kind"] == k for v in rows) for k in sorted({v["kind"] for v in rows})}})
+                      "identified_as": {k: sum(v["kind"] == k for v in rows)
+                                        for k in sorted({v["kind"] for v in rows})}})
     return cells
 
 

@@ -143,7 +143,8 @@ def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -
         c.check_method(run.method, origin=f"thresholds_{obs}")
         channel = ObserverChannel(obs, c, persistence)
         rows = [channel.update(int(s), r, b) for s, r, b in zip(stamps, run.residual[obs], run.bound[obs])]
-        col = lambda j: np.array([[row[a][j] for a in AXES] for row in rows]).reshape(len(rows), 3)
+        def col(j):
+            return np.array([[row[a][j] for a in AXES] for row in rows]).reshape(len(rows), 3)
         out[obs] = Series(run.time, np.abs(col(0)), col(1), col(2).astype(bool))
     return out
 

@@ -52,8 +52,9 @@ def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, perio
 def samples_from_rows(rows, bag=None, seed=None) -> FdiSamples:
     """A list of telemetry.FdiSample -> FdiSamples (arrays over time)."""
     stamps = np.array([row.stamp_ns for row in rows], np.int64)
-    stack = lambda name: None if not rows or getattr(rows[0], name) is None else np.array([getattr(x, name)
-                                                                                         for x in rows])
+    def stack(name):
+        return None if not rows or getattr(rows[0], name) is None else np.array([getattr(x, name)
+                                                                                             for x in rows])
     empty = np.zeros((0, 3))
     return FdiSamples(bag=bag, seed=seed, time=stamps // 10**9 + (stamps % 10**9) * 1e-9,
                       tcv=stack("tcv") if rows else empty, reaction_torque=stack("reaction_torque") if rows else empty,

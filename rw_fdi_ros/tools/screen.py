@@ -106,7 +106,8 @@ def format_screen(name, out) -> str:
     for obs, o in out.items():
         d = np.asarray(o["delays"])
         delay = f"delay median {np.median(d):.0f} s [{d.min():.0f}, {d.max():.0f}]" if d.size else "no detection"
-        lines.append(f"{name:20s} {obs:7s} runs {o['runs']:3d}  any alarm {o['any_alarm']:3d}  correct {o['correct']:3d}"
+        lines.append(f"{name:20s} {obs:7s} runs {o['runs']:3d}  any alarm {o['any_alarm']:3d}  "
+                     f"correct {o['correct']:3d}"
                      f"  wrong axis {o['wrong_axis']:3d}  held {o['held']:3d}  lost {o['lost']:3d}  {delay}")
     return "\n".join(lines)
 

@@ -1,0 +1,71 @@
+"""README's node parameter table and the nodes' declarations cannot drift apart.
+
+The declarations are read from the node modules' source (every `self.declare_parameter(...)` with a
+literal name, in the node's own module and the base classes it uses); the two kinds declared in a
+loop are named in the table by their pattern (`fault.<axis>.<kind>`) or one row each (isolation's
+plant choices). Where a default is a literal, the table's type and default must be it.
+"""
+import ast
+from pathlib import Path
+
+import pytest
+
+from rw_fdi_ros.core.plant_choices import DEFAULT
+
+ROOT = Path(__file__).resolve().parents[1]
+NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime"],
+         "elman_observer": ["elman_observer", "observer_node", "runtime"],
+         "linear_observer": ["linear_observer", "observer_node", "runtime"], "isolation": ["isolation", "runtime"],
+         "recorder": ["recorder"], "player": ["player"]}
+LOOPED = {"plant": {"fault.<axis>.<kind>"}, "isolation": set(DEFAULT.as_dict())}
+TYPES = {bool: "bool", int: "int", float: "double", str: "string"}
+ARRAYS = {"DOUBLE_ARRAY": "double[]", "STRING_ARRAY": "string[]", "BOOL": "bool"}
+
+
+def declared(modules) -> dict:
+    """name -> (type, default text or None) of the literal-named declare_parameter calls."""
+    out = {}
+    for mod in modules:
+        for call in ast.walk(ast.parse((ROOT / "rw_fdi_ros" / "nodes" / f"{mod}.py").read_text())):
+            if not (isinstance(call, ast.Call) and getattr(call.func, "attr", "") == "declare_parameter"
+                    and isinstance(call.args[0], ast.Constant)):
+                continue
+            default = call.args[1]
+            if isinstance(default, ast.Attribute) and default.attr in ARRAYS:   # Parameter.Type.X: no default
+                out[call.args[0].value] = (ARRAYS[default.attr], "unset")
+                continue
+            try:
+                value = ast.literal_eval(default)
+            except ValueError:            # computed (a design, a constant of the code): the name alone
+                out[call.args[0].value] = (None, None)
+                continue
+            out[call.args[0].value] = (TYPES[type(value)], f"`{value}`")
+    return out
+
+
+def readme_table() -> dict:
+    """node -> parameter -> (type, default) of README's "Node parameters" table."""
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Node parameters", 1)[1].split("\n## ", 1)[0]
+    rows = {}
+    for line in section.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 6 and cells[1].startswith("`"):
+            rows.setdefault(cells[0], {})[cells[1].strip("`")] = (cells[2], cells[3])
+    return rows
+
+
+@pytest.mark.parametrize("node", sorted(NODES))
+def test_readme_lists_every_parameter_the_node_declares(node):
+    table = readme_table().get(node, {})
+    code = declared(NODES[node])
+    assert set(table) == set(code) | LOOPED.get(node, set())
+    for name, (kind, default) in code.items():
+        if kind is not None:
+            assert table[name] == (kind, default), name
+
+
+def test_the_table_check_would_see_a_missing_row():
+    table = readme_table()
+    assert "stall_timeout" in table["player"] and "stall_timeout" in declared(NODES["player"])
+    assert set(table) == set(NODES)
