@@ -5,15 +5,19 @@ so both launchers start identical nodes with identical parameters: plant,
 three controllers, the FDI nodes (``fdi:=false`` leaves them out) and, with
 ``bag``, the recorder. launch_ros hands parameters to a node in a YAML file,
 where a bare ``y`` would be read as a boolean: every string goes as
-``ParameterValue(..., value_type=str)``. test/test_launch_file.py loads this
-file with a stub of the launch API (launch_ros is not installable here).
+``ParameterValue(..., value_type=str)``. The launch ends by itself: every
+node ends with the run, and a node that exits non-zero shuts the whole launch
+down with its name as the reason (OnProcessExit -> Shutdown), so a dead
+controller does not leave the others waiting. test/test_launch_file.py loads
+this file with a stub of the launch API (launch_ros is not installable here).
 
     ros2 launch rw_fdi_ros rw_fdi.launch.py scenario:=bus_5v5_x seed:=3 bag:=bags/demo
 """
 import os
 
 from launch import LaunchDescription
-from launch.actions import OpaqueFunction, SetEnvironmentVariable
+from launch.actions import LogInfo, OpaqueFunction, RegisterEventHandler, SetEnvironmentVariable, Shutdown
+from launch.event_handlers import OnProcessExit
 from launch.substitutions import LaunchConfiguration
 from launch.actions import DeclareLaunchArgument
 from launch_ros.actions import Node
@@ -30,8 +34,20 @@ def _nodes(context):
     fdi = LaunchConfiguration("fdi").perform(context).lower() in ("true", "1", "yes")
     method = LaunchConfiguration("fdi_method").perform(context)
     nodes = graph_nodes(scenario, path, bag, fdi={"method": method} if fdi else None)
-    return [Node(package="rw_fdi_ros", executable=n.executable, name=n.name, parameters=[_typed(n.parameters)],
-                 output="screen") for n in nodes]
+    actions = [Node(package="rw_fdi_ros", executable=n.executable, name=n.name, parameters=[_typed(n.parameters)],
+                    output="screen") for n in nodes]
+    return actions + [RegisterEventHandler(OnProcessExit(target_action=a, on_exit=_on_exit(n.name)))
+                      for a, n in zip(actions, nodes)]
+
+
+def _on_exit(name: str):
+    """A node that fails ends the launch, naming itself; a clean exit is a node that saw the run end."""
+    def on_exit(event, context):
+        if event.returncode != 0:
+            reason = f"{name} exited with code {event.returncode}"
+            return [LogInfo(msg=f"{reason}: ending the run"), Shutdown(reason=reason)]
+        return None
+    return on_exit
 
 
 def _typed(parameters: dict) -> dict:

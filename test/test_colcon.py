@@ -67,9 +67,11 @@ def test_the_install_holds_every_executable_and_every_file_the_nodes_read(worksp
     lib = prefix / "lib" / "rw_fdi_ros"
     assert sorted(p.name for p in lib.iterdir()) == sorted(NODES + ["rw-fdi"])
     share = prefix / "share" / "rw_fdi_ros"
-    for source in (ROOT / "config").rglob("*"):   # models, thresholds of both methods, scenarios, DDS profile
-        if source.is_file():
-            assert (share / source.relative_to(ROOT)).is_file(), source
+    copy = workspace / "src" / "rw_fdi_ros"
+    shipped = [p for p in (copy / "config").rglob("*") if p.is_file()]
+    assert {"elman_x.npz", "thresholds_elman.json", "fastdds.xml", "rw_fdi.json"} <= {p.name for p in shipped}
+    for source in shipped:   # models, thresholds of both methods, scenarios, DDS profile, viewer layout
+        assert (share / source.relative_to(copy)).is_file(), source
     assert (share / "launch" / "rw_fdi.launch.py").is_file() and (share / "package.xml").is_file()
     # from outside the tree the installed package finds its data in share/ and starts lib/'s files
     where = sourced(workspace, f"{sys.executable} -c 'import rw_fdi_ros.paths as p; "

@@ -172,3 +172,12 @@ def test_fdi_sampler_mean_and_instant():
     assert ui.tolist() == [0.0, 10.0, 20.0, 30.0]
     with pytest.raises(ValueError, match="sampling must be one of"):
         FdiSampler(1.0, "median")
+
+
+def test_the_verdict_code_needs_no_ros():
+    """tools/metrics.py says "no ROS": importing it (and the topic table it reads) loads no rclpy."""
+    import subprocess
+    import sys
+    probe = "import sys, rw_fdi_ros.tools.metrics, rw_fdi_ros.nodes.topics; print('rclpy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0 and out.stdout.strip() == "False", out.stderr

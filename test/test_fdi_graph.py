@@ -252,3 +252,38 @@ def test_files_of_the_other_method_are_refused(tmp_path):
     one_line_error(cli("run", "--scenario", "fault_free", "--models", str(fdi_dir("speed_aware")),
                        "--thresholds", str(fdi_dir("thesis")), "--out", str(tmp_path)),
                    "fitted for fdi_method='thesis' but the graph runs fdi_method='speed_aware'")
+
+
+def _resolve(msg, path: str):
+    """Values at a Foxglove message path below the topic ('.field', '[i]', '[:]{key=="value"}'; math
+    modifiers such as '.@negative' apply to a number and are skipped)."""
+    import re
+    values = [msg]
+    for token in re.findall(r'\.@?\w+|\[:\]\{\w+=="[^"]*"\}|\[\d+\]', path):
+        if token.startswith(".@"):
+            continue
+        if token.startswith("."):
+            values = [getattr(v, token[1:]) for v in values]
+        elif token.startswith("[:]"):
+            key, want = re.match(r'\[:\]\{(\w+)=="([^"]*)"\}', token).groups()
+            values = [item for v in values for item in v if getattr(item, key) == want]
+        else:
+            values = [v[int(token[1:-1])] for v in values]
+    return values
+
+
+def test_foxglove_layout_plots_only_what_a_recorded_bag_holds(runs):
+    """config/foxglove/rw_fdi.json (installed under share/): per wheel residual against threshold,
+    the alarms, the injected fault and the verdict; every topic and field it names is in a bag."""
+    import json
+    from rw_fdi_ros.paths import config_dir
+    layout = json.loads((config_dir() / "foxglove" / "rw_fdi.json").read_text())
+    paths = [p["value"] for panel in layout["configById"].values() for p in panel["paths"]]
+    assert len(paths) == 24
+    data = read_bag(runs["current_0p6_x"].bag)
+    for path in paths:
+        topic = next(t for t in sorted(data.messages, key=len, reverse=True) if path.startswith(t + "."))
+        values = _resolve(data.messages[topic][-1][1], path[len(topic):])
+        assert len(values) == 1 and isinstance(values[0], (int, float)), path
+    placed = json.dumps(layout["layout"])
+    assert all(f'"{panel}"' in placed for panel in layout["configById"])   # every panel is on screen

@@ -43,7 +43,9 @@ def launch_module(monkeypatch):
     stubs = {
         "launch": {"LaunchDescription": lambda actions: list(actions)},
         "launch.actions": {"OpaqueFunction": _Recorded, "SetEnvironmentVariable": _Recorded,
-                           "DeclareLaunchArgument": _Recorded},
+                           "DeclareLaunchArgument": _Recorded, "RegisterEventHandler": _Recorded,
+                           "LogInfo": _Recorded, "Shutdown": _Recorded},
+        "launch.event_handlers": {"OnProcessExit": _Recorded},
         "launch.substitutions": {"LaunchConfiguration": LaunchConfiguration},
         "launch_ros": {}, "launch_ros.actions": {"Node": _Recorded},
         "launch_ros.parameter_descriptions": {"ParameterValue": ParameterValue},
@@ -63,7 +65,16 @@ def launched(module, **overrides):
     actions = module.generate_launch_description()
     args = {a.args[0]: a.kwargs.get("default_value", "") for a in actions if "description" in a.kwargs}
     opaque = next(a for a in actions if "function" in a.kwargs)
-    return opaque.kwargs["function"]({**args, **overrides})
+    made = opaque.kwargs["function"]({**args, **overrides})
+    return [a for a in made if "executable" in a.kwargs]
+
+
+def exit_handlers(module, **overrides):
+    actions = module.generate_launch_description()
+    args = {a.args[0]: a.kwargs.get("default_value", "") for a in actions if "description" in a.kwargs}
+    made = next(a for a in actions if "function" in a.kwargs).kwargs["function"]({**args, **overrides})
+    nodes = [a for a in made if "executable" in a.kwargs]
+    return nodes, [a.args[0] for a in made if a.args and "target_action" in getattr(a.args[0], "kwargs", {})]
 
 
 # unquoted scalars rcl's parameter parser takes for booleans (the issue that found this: `axis: y`
@@ -109,3 +120,38 @@ def test_a_bare_axis_letter_would_reach_the_node_as_a_boolean():
     """Why the launch file types its strings, and that this test's model of rcl would see it."""
     assert as_rcl_reads_it("y") is True and as_rcl_reads_it("x") == "x"
     assert as_rcl_reads_it(ParameterValue("y", value_type=str)) == "y"
+
+
+RETYPED = ["y", "n", "Y", "yes", "no", "on", "off", "true", "False", "1.5", "7", "0x10", "~", "null", "", "x: 1"]
+
+
+def test_strings_yaml_would_retype_reach_a_node_intact_through_our_params_file(tmp_path):
+    """Our launcher hands parameters over as launch_ros does, a --params-file that rcl parses; a
+    node started with it gets back every string, typed as a string (and numbers as numbers)."""
+    import json
+    import subprocess
+    import sys
+    from rw_fdi_ros.launch.graph import NodeSpec
+    from rw_fdi_ros.launch.launcher import write_params_file
+    values = {f"p{i}": v for i, v in enumerate(RETYPED)} | {"number": 2.5, "count": 3, "flag": True}
+    path = write_params_file([NodeSpec("probe", "plant", values)], tmp_path / "params.yaml")
+    script = ("import json, rclpy\nfrom rclpy.node import Node\nrclpy.init(args=['--ros-args', '--params-file', "
+              f"{str(path)!r}])\nn = Node('probe', automatically_declare_parameters_from_overrides=True)\n"
+              "print(json.dumps({p.name: [p.type_.name, p.value] for p in n._parameters.values()}))")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    for name, value in values.items():
+        kind = {str: "STRING", float: "DOUBLE", int: "INTEGER", bool: "BOOL"}[type(value)]
+        assert got[name] == [kind, value], (name, value, got.get(name))
+
+
+def test_a_failing_node_ends_the_launch_and_a_clean_exit_does_not(launch_module):
+    """Every node has an exit handler; a non-zero exit shuts the launch down naming the node."""
+    nodes, handlers = exit_handlers(launch_module, scenario="bus_5v5_x", bag="bags/demo")
+    assert [h.kwargs["target_action"] for h in handlers] == nodes
+    by_name = {h.kwargs["target_action"].kwargs["name"]: h.kwargs["on_exit"] for h in handlers}
+    failed = by_name["pid_controller_y"](types.SimpleNamespace(returncode=3), None)
+    shutdown = [a for a in failed if "reason" in a.kwargs]
+    assert len(shutdown) == 1 and "pid_controller_y exited with code 3" in shutdown[0].kwargs["reason"]
+    assert by_name["plant"](types.SimpleNamespace(returncode=0), None) is None

@@ -96,6 +96,14 @@ class _QuotingDumper(yaml.SafeDumper):
 _QuotingDumper.add_representer(str, lambda d, v: d.represent_scalar("tag:yaml.org,2002:str", v, style="'"))
 
 
+def write_params_file(nodes, path: Path) -> Path:
+    """The ``--params-file`` every node reads (rcl parses it as YAML, as it does launch_ros' files):
+    every string quoted, so `y`, `on` or `1.5` given as strings stay strings."""
+    params = {n.name: {"ros__parameters": n.parameters} for n in nodes}
+    Path(path).write_text(yaml.dump(params, Dumper=_QuotingDumper, sort_keys=False))
+    return Path(path)
+
+
 @dataclass
 class GraphResult:
     ok: bool
@@ -127,9 +135,7 @@ class GraphProcesses:
         self.procs = {}
 
     def start(self):
-        params = {n.name: {"ros__parameters": n.parameters} for n in self.nodes}
-        params_file = self.work_dir / "params.yaml"
-        params_file.write_text(yaml.dump(params, Dumper=_QuotingDumper, sort_keys=False))
+        params_file = write_params_file(self.nodes, self.work_dir / "params.yaml")
         for n in self.nodes:
             # on an install the files `ros2 run` starts; in a source tree the modules
             exe = installed_executable(n.executable)

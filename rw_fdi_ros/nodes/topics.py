@@ -11,7 +11,6 @@ time.
 """
 from __future__ import annotations
 
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 AXES = ("x", "y", "z")
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -40,14 +39,28 @@ def tcv_command(axis: str) -> str:
     return f"/{axis}/tcv_command"
 
 
-# Deep reliable queues: the recorder is not part of the lockstep and must not lose samples.
-RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+def _profiles() -> dict:
+    """The graph's QoS profiles. Deep reliable queues: the recorder is not part of the lockstep and
+    must not lose samples; latched: a late joiner still gets the scenario and the run's end."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    return {"RELIABLE": QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                                   reliability=ReliabilityPolicy.RELIABLE),
+            "LATCHED": QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                                  durability=DurabilityPolicy.TRANSIENT_LOCAL)}
+
+
+def __getattr__(name):
+    """``topics.RELIABLE`` and ``topics.LATCHED``, made on first use (PEP 562): tools that only need
+    topic names import this module without rclpy."""
+    if name in ("RELIABLE", "LATCHED"):
+        globals().update(_profiles())
+        return globals()[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def graph_topics():
     """(topic, ROS type name, qos) of everything a run records."""
+    RELIABLE, LATCHED = __getattr__("RELIABLE"), __getattr__("LATCHED")
     vec, joints, diag = "geometry_msgs/msg/Vector3Stamped", JOINT_STATE, "diagnostic_msgs/msg/DiagnosticArray"
     rows = [(CLOCK, "rosgraph_msgs/msg/Clock", RELIABLE),
             (ATTITUDE, joints, RELIABLE), (WHEELS, joints, RELIABLE),
@@ -91,6 +104,7 @@ def fdi_output_topics(observer: str):
 
 def fdi_topics():
     """(topic, type, qos) of the FDI half of the graph."""
+    RELIABLE = __getattr__("RELIABLE")
     vec, diag = "geometry_msgs/msg/Vector3Stamped", "diagnostic_msgs/msg/DiagnosticArray"
     rows = []
     for a in AXES:
