@@ -199,8 +199,23 @@ def build_parser() -> argparse.ArgumentParser:
     from .core.detection import FALSE_ALARM_RATE, METHODS
     p = argparse.ArgumentParser(prog="rw-fdi", description="Reaction-wheel FDI on a ROS 2 node graph.")
     sub = p.add_subparsers(dest="command", required=True)
+    # options several commands share, each defined once (argparse parents)
+    fdi_files = argparse.ArgumentParser(add_help=False)
+    fdi_files.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
+    fdi_files.add_argument("--thresholds", default=None, help="threshold directory (default: config/fdi)")
+    fdi_files.add_argument("--persistence", type=int, default=None,
+                           help="samples above the threshold before an alarm (P; default: the threshold file's)")
+    method = argparse.ArgumentParser(add_help=False)
+    method.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
+                        help="speed_aware (ours: wheel speed, signed residual, designed false-alarm rate) or "
+                             "thesis (2-input Elman, |r - r^|, mean + 3 sigma curves); without --models it "
+                             "picks config/fdi or config/fdi/thesis")
+    cluster = argparse.ArgumentParser(add_help=False)
+    cluster.add_argument("--jobs", type=int, default=None, help="graphs at once (default: 2 on 2 cores)")
+    cluster.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
 
-    r = sub.add_parser("run", help="run one scenario through the whole graph and record a bag")
+    r = sub.add_parser("run", help="run one scenario through the whole graph and record a bag",
+                       parents=[fdi_files, method])
     r.add_argument("--scenario", required=True, help="scenario name (see `rw-fdi scenarios`) or YAML file")
     r.add_argument("--seed", type=int, default=None, help="seed for initial conditions and disturbance")
     r.add_argument("--out", default="bags", help="directory for the bag (default: bags/)")
@@ -210,26 +225,19 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--keep-logs", action="store_true", help="keep node logs also after a successful run")
     r.add_argument("--no-fdi", dest="fdi", action="store_false",
                    help="without the observers and isolation (plant, controllers, recorder only)")
-    r.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
-    r.add_argument("--thresholds", default=None, help="threshold curve directory (default: config/fdi)")
-    r.add_argument("--persistence", type=int, default=None,
-                   help="samples above the threshold before an alarm (P; default: the threshold file's)")
-    r.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
-                   help="speed_aware (ours: wheel speed, signed residual, designed false-alarm rate) or thesis "
-                        "(2-input Elman, |r - r^|, mean + 3 sigma curves); picks config/fdi or config/fdi/thesis")
     r.set_defaults(func=_cmd_run)
 
-    c = sub.add_parser("campaign", help="record N runs of a scenario (seeds S..S+N-1), resumable")
+    c = sub.add_parser("campaign", help="record N runs of a scenario (seeds S..S+N-1), resumable",
+                       parents=[cluster])
     c.add_argument("--scenario", required=True, help="scenario name or YAML file")
     c.add_argument("--runs", type=int, required=True)
     c.add_argument("--seed-start", type=int, default=1)
     c.add_argument("--out", required=True, help="directory for the bags")
-    c.add_argument("--jobs", type=int, default=None, help="runs at once (default: 2 on 2 cores)")
     c.add_argument("--fdi", action="store_true", help="run the observers and isolation live too")
-    c.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
     c.set_defaults(func=_cmd_campaign)
 
-    t = sub.add_parser("train", help="train the three Elman observers from fault-free bags (torch)")
+    t = sub.add_parser("train", help="train the three Elman observers from fault-free bags (torch)",
+                       parents=[method])
     t.add_argument("--bags", required=True, help="directory of fault-free bags")
     t.add_argument("--out", required=True, help="model directory to write (elman_<axis>.npz + cards)")
     t.add_argument("--mode", default="recall", choices=["recall", "teacher"],
@@ -237,8 +245,6 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--runs", type=int, default=None, help="use only the first N bags (thesis: 1)")
     t.add_argument("--epochs", type=int, default=None,
                    help="default: 1000 speed_aware, 300 thesis (tools/train.EPOCHS)")
-    t.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
-                   help="speed_aware: 3 inputs with the wheel speed (ours); thesis: 2 inputs")
     t.set_defaults(func=_cmd_train)
 
     f = sub.add_parser("fit-thresholds", help="fit the thresholds of both observers from fault-free bags "
@@ -265,32 +271,22 @@ def build_parser() -> argparse.ArgumentParser:
                    help="designed per-run false-alarm probability of the speed-aware set (default %(default)g)")
     d.set_defaults(func=_cmd_defaults)
 
-    e = sub.add_parser("evaluate", help="replay bags through the observers and isolation; write the report")
+    e = sub.add_parser("evaluate", help="replay bags through the observers and isolation; write the report",
+                       parents=[fdi_files, cluster])
     e.add_argument("--bags", required=True, help="directory of bags (searched recursively)")
     e.add_argument("--report", required=True, help="directory for report.md, report.json, plots, replays")
-    e.add_argument("--models", default=None, help="default: config/fdi")
-    e.add_argument("--thresholds", default=None, help="default: config/fdi")
-    e.add_argument("--persistence", type=int, default=None, help="P (default: the threshold file's)")
-    e.add_argument("--jobs", type=int, default=None)
-    e.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
     e.set_defaults(func=_cmd_evaluate)
 
-    p2 = sub.add_parser("reproduce", help="the whole thesis study from nothing (resumable)")
+    p2 = sub.add_parser("reproduce", help="the whole thesis study from nothing (resumable)", parents=[cluster])
     p2.add_argument("--out", required=True)
     p2.add_argument("--scale", default="small", choices=["small", "thesis"])
     p2.add_argument("--persistence", type=int, default=None, help="P (default: the threshold file's)")
-    p2.add_argument("--jobs", type=int, default=None)
-    p2.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
     p2.set_defaults(func=_cmd_reproduce)
 
-    q = sub.add_parser("screen", help="FDI figures for many seeds in seconds (core loop + node code, no ROS)")
+    q = sub.add_parser("screen", help="FDI figures for many seeds in seconds (core loop + node code, no ROS)",
+                       parents=[fdi_files, method])
     q.add_argument("--scenario", nargs="+", required=True)
     q.add_argument("--seeds", default="100..129", help="A..B inclusive")
-    q.add_argument("--models", default=None)
-    q.add_argument("--thresholds", default=None)
-    q.add_argument("--persistence", type=int, default=None, help="P (default: the threshold file's)")
-    q.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
-                   help="which shipped set when --models is not given (config/fdi or config/fdi/thesis)")
     q.set_defaults(func=_cmd_screen)
 
     s = sub.add_parser("scenarios", help="list the shipped scenarios")

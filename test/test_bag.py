@@ -41,7 +41,6 @@ def test_header_stamp_from_raw_cdr():
 
 def test_killed_writer_leaves_a_readable_prefix(tmp_path):
     w = write(tmp_path / "k", 100, flush_period_ns=10**9, close=False)  # as if SIGKILLed: no close
-    w.writer.storage.bio.flush()
     assert not bag_is_complete(tmp_path / "k")
     data = read_bag(tmp_path / "k")
     assert not data.complete
@@ -75,3 +74,21 @@ def test_writer_refuses_to_overwrite(tmp_path):
     with pytest.raises(BagError, match="already exists"):
         BagWriter(tmp_path / "b")
     shutil.rmtree(tmp_path / "b")
+
+
+def test_flush_puts_what_was_written_on_disk(tmp_path):
+    """BagWriter.flush closes the pending chunk and writes it out: a reader sees every message so far
+    without the writer closing (what keeps a SIGKILLed recorder's bag)."""
+    w = write(tmp_path / "f", 30, flush_period_ns=10**12, close=False)   # no flush on its own
+    before = read_bag(tmp_path / "f").topic("/a") if next((tmp_path / "f").glob("*.mcap")).stat().st_size else []
+    w.flush()
+    after = read_bag(tmp_path / "f")
+    assert len(before) < 30 and len(after.topic("/a")) == 30 and not after.complete
+    w.close()
+
+
+def test_a_rosbags_without_the_chunk_internals_is_refused_loudly(tmp_path, monkeypatch):
+    from rosbags.rosbag2.storage_mcap import McapWriter
+    monkeypatch.delattr(McapWriter, "close_chunk")
+    with pytest.raises(BagError, match="no longer has the chunk internals"):
+        BagWriter(tmp_path / "x")

@@ -181,3 +181,10 @@ def test_the_verdict_code_needs_no_ros():
     probe = "import sys, rw_fdi_ros.tools.metrics, rw_fdi_ros.nodes.topics; print('rclpy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0 and out.stdout.strip() == "False", out.stderr
+
+
+def test_alarm_intervals_are_the_runs_of_the_flag():
+    from rw_fdi_ros.tools.metrics import alarm_intervals
+    t = np.arange(8.0)
+    assert alarm_intervals(t, [0, 1, 1, 0, 0, 1, 1, 1]) == [(1.0, 3.0), (5.0, None)]
+    assert alarm_intervals(t, [0] * 8) == [] and alarm_intervals(t, [1] * 8) == [(0.0, None)]

@@ -46,6 +46,11 @@ def header_stamp_ns(raw: bytes, default: int) -> int:
     return sec * 1_000_000_000 + nsec
 
 
+def _rosbags_version() -> str:
+    from importlib.metadata import version
+    return version("rosbags")
+
+
 class BagWriter:
     """A rosbag2 (MCAP) writer that flushes a chunk every ``flush_period_ns`` of log time."""
 
@@ -57,6 +62,14 @@ class BagWriter:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
+        # rosbags keeps MCAP chunks in memory and has no public call to close one early; the flush
+        # reaches into its MCAP storage. Should an upgrade move that, say so at once: a silent
+        # no-op would let a SIGKILLed recorder lose its whole bag (rosbags is pinned in requirements).
+        storage = getattr(self.writer, "storage", None)
+        if not all(hasattr(storage, name) for name in ("chunk", "close_chunk", "bio")):
+            self.writer.close()
+            raise BagError(f"rosbags {_rosbags_version()}: its MCAP writer no longer has the chunk internals "
+                           "storage/bag.py flushes through; pin rosbags==0.11.9 or update BagWriter.flush")
         self.connections = {}
         self.flush_period_ns = flush_period_ns
         self.next_flush = flush_period_ns
@@ -78,10 +91,10 @@ class BagWriter:
 
     def flush(self):
         """Close the pending MCAP chunk and push it to disk (rosbags keeps chunks in memory)."""
-        storage = getattr(self.writer, "storage", None)
-        if storage is not None and getattr(storage, "chunk", None) is not None and storage.chunk.bio.tell():
+        storage = self.writer.storage
+        if storage.chunk is not None and storage.chunk.bio.tell():
             storage.close_chunk()
-            storage.bio.flush()
+        storage.bio.flush()
 
     def set_custom_data(self, key: str, value: str):
         self.writer.set_custom_data(key, value)

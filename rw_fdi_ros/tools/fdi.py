@@ -54,27 +54,13 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=No
     return outcome
 
 
-def alarm_intervals(times, flags):
-    """[(start, end or None)] of the alarm flag series."""
-    out, start = [], None
-    for t, f in zip(times, flags):
-        if f and start is None:
-            start = t
-        elif not f and start is not None:
-            out.append((start, t))
-            start = None
-    if start is not None:
-        out.append((start, None))
-    return out
-
-
 def fdi_verdict(data: BagData) -> dict:
     """Per observer and wheel: alarm intervals from the recorded /fdi/<observer>/alarm; plus the truth."""
     scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
     out = {"truth": {a: [f.as_dict() for f in scenario.faults if AXES[f.wheel] == a] for a in AXES}}
     for obs in T.OBSERVERS:
         t, alarm = data.vectors(T.fdi_output_topics(obs)["alarm"])
-        out[obs] = {a: alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(AXES)}
+        out[obs] = {a: metrics.alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(AXES)}
     out["identification"] = metrics.identification_from_bag(data)
     return out
 

@@ -113,13 +113,26 @@ def axis_figures(s: Series, i: int, onset: float) -> dict:
     if not alarm.any():
         return {"detected": False, "delay": None, "time_above": None,
                 "gap": float(-gap.max()) if gap.size else None}
-    k = int(np.argmax(alarm))
-    end = k
-    while end < len(alarm) and alarm[end]:
-        end += 1
-    t_end = s.time[end] if end < len(alarm) else s.time[-1]
-    return {"detected": True, "delay": float(s.time[k] - onset), "time_above": float(t_end - s.time[k]),
-            "held_to_end": end == len(alarm), "gap": float(gap.max())}
+    start, end = alarm_intervals(s.time, alarm)[0]
+    t_end = s.time[-1] if end is None else end
+    return {"detected": True, "delay": float(start - onset), "time_above": float(t_end - start),
+            "held_to_end": end is None, "gap": float(gap.max())}
+
+
+def alarm_intervals(times, flags) -> list:
+    """[(start, end)] of the alarm flag series, end None for an alarm still up at the last sample:
+    the one definition of an alarm interval (detection, time above threshold, held to end, and
+    `rw-fdi run`'s verdict)."""
+    out, start = [], None
+    for t, f in zip(times, flags):
+        if f and start is None:
+            start = float(t)
+        elif not f and start is not None:
+            out.append((start, float(t)))
+            start = None
+    if start is not None:
+        out.append((start, None))
+    return out
 
 
 def judge(run: RunEval, observer: str) -> dict:
