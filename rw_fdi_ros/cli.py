@@ -47,7 +47,10 @@ def _cmd_campaign(args) -> int:
     res = run_campaign(args.scenario, args.runs, args.seed_start, args.out, fdi=args.fdi,
                        executor=_executor(args))
     print(f"campaign {args.scenario}: {len(res.done)} recorded, {len(res.skipped)} already complete, "
-          f"{len(res.failed)} failed -> {args.out}")
+          f"{len(res.failed)} failed" + (f", {len(res.retried)} started over" if res.retried else "")
+          + f" -> {args.out}")
+    for seed, reason in res.retried:
+        print(f"  seed {seed} started over after: {reason}", file=sys.stderr)
     for seed, reason in res.failed:
         print(f"  seed {seed}: {reason}", file=sys.stderr)
     return 1 if res.failed else 0

@@ -40,7 +40,7 @@ def test_header_stamp_from_raw_cdr():
 
 
 def test_killed_writer_leaves_a_readable_prefix(tmp_path):
-    w = write(tmp_path / "k", 100, flush_period_ns=10**9, close=False)  # as if SIGKILLed: no close
+    _writer = write(tmp_path / "k", 100, flush_period_ns=10**9, close=False)  # as if SIGKILLed: no close
     assert not bag_is_complete(tmp_path / "k")
     data = read_bag(tmp_path / "k")
     assert not data.complete

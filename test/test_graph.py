@@ -244,3 +244,23 @@ def test_plant_alone_from_its_console_script():
 def test_controller_alone_rejects_bad_axis():
     r = node_alone("pid_controller", "-p", "axis:=w")
     assert r.returncode == 2 and "axis must be one of x, y, z" in r.stderr
+
+
+def test_a_campaign_starts_a_hung_graph_over_once(monkeypatch, tmp_path):
+    """A watchdog failure (every process alive, none finishing) gets one more graph; others do not."""
+    from rw_fdi_ros.tools import campaign
+    from rw_fdi_ros.tools.run import RunOutcome
+    calls = []
+
+    def fake_run(ref, seed, out_dir, **kwargs):
+        calls.append(seed)
+        if seed == 1 and calls.count(1) == 1:
+            return RunOutcome(False, "graph did not finish within 120 s (watchdog; still running: plant)", None, 120)
+        if seed == 2:
+            return RunOutcome(False, "plant stopped (exit code 3): no torque command from axis x", None, 5)
+        return RunOutcome(True, "completed", tmp_path / f"bag{seed}", 5)
+    monkeypatch.setattr(campaign, "run_scenario", fake_run)
+    res = campaign.run_campaign("fault_free", 3, 0, tmp_path, executor=campaign.LocalExecutor(1))
+    assert sorted(calls) == [0, 1, 1, 2]
+    assert [s for s, _ in res.retried] == [1] and "watchdog" in res.retried[0][1]
+    assert [s for s, _ in res.failed] == [2] and len(res.done) == 2

@@ -49,6 +49,17 @@ def hold_command(wheel_speed, params: wm.WheelParams = wm.WheelParams()):
     return wm.holding_tcv(wheel_speed, 23.0, params)
 
 
+def units_of(scenarios, base: wm.WheelParams) -> wm.WheelParams:
+    """The wheels of a batch of scenarios: ``base`` (the datasheet) unless some scenario draws its
+    units (Scenario.unit_scales); then each parameter of wm.UNIT_PARAMETERS as a (B, 3) array."""
+    scales = [s.unit_scales() for s in scenarios]
+    if all(sc is None for sc in scales):
+        return base
+    ones = {name: np.ones(3) for name in wm.UNIT_PARAMETERS}
+    return wm.unit_wheel(base, {name: np.array([(sc or ones)[name] for sc in scales])
+                                for name in wm.UNIT_PARAMETERS})
+
+
 class Plant:
     """Spacecraft with three reaction wheels for a batch of scenarios."""
 
@@ -57,7 +68,7 @@ class Plant:
         if isinstance(scenarios, Scenario):
             scenarios = [scenarios]
         self.scenarios = list(scenarios)
-        self.wheel = wheel
+        self.wheel = units_of(self.scenarios, wheel)
         self.dt = float(control_period)
         self.substeps = int(substeps)
         self.inertia = np.asarray(inertia, float)
@@ -71,7 +82,7 @@ class Plant:
         self.rngs = [s.disturbance_rng() for s in self.scenarios]
         self.extra_faults = [[] for _ in self.scenarios]  # injected live
         self.step_index = 0
-        self.tcv = np.clip(hold_command(self.wheel_speed, wheel), -wheel.command_limit, wheel.command_limit)
+        self.tcv = np.clip(hold_command(self.wheel_speed, self.wheel), -wheel.command_limit, wheel.command_limit)
 
     @property
     def batch(self) -> int:

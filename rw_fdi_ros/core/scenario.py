@@ -13,7 +13,7 @@ import numpy as np
 import yaml
 
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
-from .wheel import NOMINAL
+from .wheel import DEFAULT_UNIT_SPREAD, NOMINAL, UNIT_PARAMETERS, WheelParams, unit_wheel
 
 AXES = ("x", "y", "z")
 FAULT_KINDS = ("bus_voltage", "current_limiter", "temperature", "ripple_gain")
@@ -83,6 +83,7 @@ class Scenario:
     initial: dict = field(default_factory=dict)  # fixed initial conditions (deg / rad/s)
     description: str = ""
     plant: dict = field(default_factory=dict)   # plant choices the run was made under (emf_limit, ...)
+    wheels: dict = field(default_factory=dict)  # unit-to-unit variation (variation, spread, scale); {}: datasheet
     source_text: str = ""     # the YAML it came from, recorded in every bag
 
     def with_seed(self, seed: int) -> "Scenario":
@@ -116,6 +117,28 @@ class Scenario:
             steps.append((sp.time, np.deg2rad(drawn if sp.change_deg is None else np.asarray(sp.change_deg, float))))
         return ic, steps
 
+    def unit_scales(self) -> dict | None:
+        """Each wheel's parameters over the datasheet's (UNIT_PARAMETERS -> (3,) shares), or None for
+        datasheet wheels. Drawn N(1, spread) cut at 3 sigma from a stream of their own (the initial
+        conditions and the disturbance do not move); ``scale`` entries are taken as given."""
+        if not self.wheels:
+            return None
+        spread = dict(DEFAULT_UNIT_SPREAD) if self.wheels.get("variation") else {}
+        spread.update(self.wheels.get("spread", {}))
+        rng = np.random.default_rng([int(self.seed), 2])
+        out = {}
+        for name in UNIT_PARAMETERS:   # every draw made, used or not: one parameter's spread moves no other
+            z = np.clip(rng.standard_normal(3), -3.0, 3.0)
+            out[name] = 1.0 + spread.get(name, 0.0) * z
+        for name, values in self.wheels.get("scale", {}).items():
+            out[name] = np.asarray(values, float)
+        return out
+
+    def wheel_params(self, base: WheelParams = WheelParams()) -> WheelParams:
+        """The plant's wheels for this scenario: ``base`` (the datasheet) or its units (unit_scales)."""
+        scales = self.unit_scales()
+        return base if scales is None else unit_wheel(base, scales)
+
     def setpoint_schedule(self):
         """(times, attitude set-points [rad] of shape (n, 3)): piecewise constant from each time on."""
         ic, steps = self.draws()
@@ -135,6 +158,10 @@ class Scenario:
         raw = yaml.safe_load(self.source_text) if self.source_text else {"name": self.name}
         raw = dict(raw or {})
         raw["seed"] = int(self.seed)
+        scales = self.unit_scales()
+        if scales is not None:   # the units' values, so the bag alone redoes the run
+            raw["wheels"] = {**raw.get("wheels", {}),
+                             "scale": {k: [float(x) for x in v] for k, v in scales.items()}}
         if plant:
             raw["plant"] = {**raw.get("plant", {}), **plant}
         raw.setdefault("name", self.name)
@@ -217,7 +244,8 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
         raise ScenarioError(f"{origin}:{where} is not valid YAML ({getattr(exc, 'problem', exc)})") from None
     if not isinstance(raw, dict):
         raise ScenarioError(f"{origin}: a scenario is a YAML mapping (name, duration, faults, ...)")
-    unknown = set(raw) - {"name", "description", "duration", "seed", "faults", "setpoints", "initial", "plant"}
+    unknown = set(raw) - {"name", "description", "duration", "seed", "faults", "setpoints", "initial", "plant",
+                          "wheels"}
     if unknown:
         raise ScenarioError(f"{origin}: unknown field(s) {sorted(unknown)}")
     duration = _num(f"{origin}: duration", raw.get("duration", 400.0), 1.0, 1e6)
@@ -258,7 +286,30 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     name = str(raw.get("name") or Path(origin).stem)
     return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
                     initial=initial, description=str(raw.get("description", "")), plant=dict(plant),
-                    source_text=text)
+                    wheels=_wheels(f"{origin}: wheels", raw.get("wheels")), source_text=text)
+
+
+def _wheels(where, raw) -> dict:
+    """The ``wheels:`` mapping: variation (true: every unit parameter drawn with its default spread),
+    spread (name -> 1-sigma share), scale (name -> 3 shares of the datasheet, x y z)."""
+    if not raw:
+        return {}
+    if not isinstance(raw, dict) or set(raw) - {"variation", "spread", "scale"}:
+        raise ScenarioError(f"{where}: a mapping of variation, spread and scale")
+    out = {}
+    if "variation" in raw:
+        if not isinstance(raw["variation"], bool):
+            raise ScenarioError(f"{where}.variation: true or false, got {raw['variation']!r}")
+        out["variation"] = raw["variation"]
+    for key, check in (("spread", lambda w, v: _num(w, v, 0.0, 0.3)),
+                       ("scale", lambda w, v: tuple(_num(f"{w}[{i}]", x, 0.5, 2.0) for i, x in enumerate(
+                           _vector(w, v))))):
+        table = raw.get(key) or {}
+        if not isinstance(table, dict) or set(table) - set(UNIT_PARAMETERS):
+            raise ScenarioError(f"{where}.{key}: may set only {', '.join(UNIT_PARAMETERS)}")
+        if table:
+            out[key] = {name: check(f"{where}.{key}.{name}", v) for name, v in table.items()}
+    return out
 
 
 def scenario_dir() -> Path:

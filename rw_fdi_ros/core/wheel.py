@@ -48,6 +48,8 @@ class WheelParams:
     # [choice] coulomb friction tau_c*tanh(w/w_c): smooth through zero speed so
     # the integrator does not chatter; 0.05 rad/s is far below the 20-30 rad/s regime.
     coulomb_smoothing_speed: float = 0.05
+    # unit-to-unit variation (unit_wheel): this unit's viscous friction over eq. 2.15's
+    viscous_scale: float = 1.0
 
     def __post_init__(self):
         if self.emf_limit not in EMF_LIMITS:
@@ -75,8 +77,9 @@ def viscous_coefficient(temperature, params: WheelParams = WheelParams()):
 
     tau_v = (0.049 - 0.0002 (T + 30)) 1e-2; 3.84e-4 at 23 C, 0 from 215 C on.
     """
-    del params  # same law for every wheel of the type; kept for a uniform signature
-    return np.maximum((0.049 - 0.0002 * (np.asarray(temperature, float) + 30.0)) * 1e-2, 0.0)
+    tau_v = np.maximum((0.049 - 0.0002 * (np.asarray(temperature, float) + 30.0)) * 1e-2, 0.0)
+    scale = params.viscous_scale   # a unit's own bearing drag (unit_wheel); the datasheet's law is 1
+    return tau_v if isinstance(scale, float) and scale == 1.0 else tau_v * scale
 
 
 def emf_current_limit(bus_voltage, speed, params: WheelParams = WheelParams()):
@@ -160,6 +163,28 @@ def torque_ripple(motor_torque, wheel_angle, ripple_gain, params: WheelParams = 
 def holding_tcv(speed, temperature=23.0, params: WheelParams = WheelParams()):
     """Command voltage whose motor torque cancels friction at ``speed`` (wheel in equilibrium)."""
     return friction_torque(speed, temperature, params) / (params.driver_gain * params.torque_constant)
+
+
+# Unit-to-unit variation: the parameters that differ between wheels of one type and drift over life,
+# with the default 1-sigma spread of each unit's value over the datasheet's (a share). Bearing drag
+# depends on lubricant quantity, state and temperature and differs by tens of per cent between
+# units and over life (Bialke, "High fidelity mathematical modeling of reaction wheel performance",
+# 1998, on drag torque; the ITHACO datasheet gives typical, not guaranteed, friction); the torque
+# constant and the driver's transconductance are set by magnets, windings and a sense resistor,
+# matched to a few per cent. Each scale is drawn N(1, spread), cut at 3 sigma.
+UNIT_PARAMETERS = ("torque_constant", "driver_gain", "viscous_friction", "coulomb_friction")
+DEFAULT_UNIT_SPREAD = {"torque_constant": 0.02, "driver_gain": 0.02, "viscous_friction": 0.20,
+                       "coulomb_friction": 0.20}
+
+
+def unit_wheel(base: WheelParams, scales: dict) -> WheelParams:
+    """``base`` with each unit's parameters scaled: ``scales`` maps UNIT_PARAMETERS names to arrays of
+    shape (3,) (one wheel per axis) or (B, 3) (a batch); the physics broadcasts them per wheel."""
+    from dataclasses import replace
+    return replace(base, torque_constant=base.torque_constant * np.asarray(scales["torque_constant"], float),
+                   driver_gain=base.driver_gain * np.asarray(scales["driver_gain"], float),
+                   coulomb_friction=base.coulomb_friction * np.asarray(scales["coulomb_friction"], float),
+                   viscous_scale=np.asarray(scales["viscous_friction"], float))
 
 
 @dataclass(frozen=True)

@@ -40,7 +40,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     period = choices.control_period
     ic, _ = scenario.draws()
     times, values = scenario.setpoint_schedule()
-    hold = hold_command(ic.wheel_speed)
+    hold = hold_command(ic.wheel_speed, scenario.wheel_params())   # the plant's own units' hold
     recording = bag is not None
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,

@@ -177,7 +177,9 @@ class GraphProcesses:
                         return self._fail(self.reason_of(main), t0)
                     break
                 if time.monotonic() - t0 > watchdog:
-                    return self._fail(f"graph did not finish within {watchdog:g} s (watchdog)", t0)
+                    alive = [n for n, proc in self.procs.items() if proc.poll() is None]
+                    return self._fail(f"graph did not finish within {watchdog:g} s (watchdog; still running: "
+                                      f"{', '.join(alive) or 'none'})", t0)
             if finisher and finisher in self.procs:
                 try:
                     self.procs[finisher].wait(timeout=finish_timeout)

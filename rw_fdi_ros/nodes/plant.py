@@ -72,6 +72,10 @@ class PlantNode(GraphNode):
         self.scenario = scenario
         self.plant = Plant(scenario, wheel=wheel, control_period=self.period,
                            wheel_momentum_coupling=self.choices.wheel_momentum_coupling)
+        w = self.plant.wheel   # this run's units (ground truth): datasheet values unless the scenario draws them
+        self.units = {name: np.broadcast_to(np.asarray(value, float), (1, 3))[0] for name, value in (
+            ("torque_constant", w.torque_constant), ("driver_gain", w.driver_gain),
+            ("viscous_friction_scale", w.viscous_scale), ("coulomb_friction", w.coulomb_friction))}
 
         # the FDI's nominal wheel model is the datasheet's, whatever the plant's emf-limit choice
         self.telemetry = TelemetrySampler(self.choices.fdi_period, "mean", identification=True)
@@ -203,6 +207,7 @@ class PlantNode(GraphNode):
             status.values = [KeyValue(key=k, value=f"{op[k][i]:.9g}") for k in FAULT_KINDS]
             status.values.append(KeyValue(key="onset", value=f"{min((f.onset for f in active), default=-1.0):g}"))
             status.values.append(KeyValue(key="fault_effect", value=f"{sample.fault_effect[0][i]:.9g}"))
+            status.values += [KeyValue(key=k, value=repr(float(v[i]))) for k, v in self.units.items()]
             msg.status.append(status)
         self.pub_truth.publish(msg)
 

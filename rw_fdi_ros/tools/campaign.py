@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import sys
 from concurrent.futures import ThreadPoolExecutor, as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..core.scenario import load_scenario
@@ -23,6 +23,7 @@ class CampaignResult:
     done: list      # bag paths recorded now
     skipped: list   # complete bags already there
     failed: list    # (seed, reason)
+    retried: list = field(default_factory=list)   # (seed, why the first attempt was started over)
 
 
 class LocalExecutor:
@@ -80,16 +81,27 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
     executor = executor or LocalExecutor()
     result = CampaignResult(done=[], skipped=skipped, failed=[])
 
-    def one(seed):
+    def attempt(seed):
         if fdi:
             from .fdi import run_with_fdi
-            return seed, run_with_fdi(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
-        return seed, run_scenario(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
+            return run_with_fdi(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
+        return run_scenario(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
+
+    def one(seed):
+        outcome = attempt(seed)
+        if outcome.ok or "(watchdog" not in outcome.reason:
+            return seed, outcome, None
+        # a graph whose processes all live but never finish (seen once, in a CI run's two-run campaign,
+        # with nothing in any node's log) is started over: the run is deterministic, the bag the same
+        return seed, attempt(seed), outcome.reason
 
     bar = _progress(len(seeds), desc or scenario.name)
     bar.update(len(skipped))
     try:
-        for seed, outcome in executor.map_unordered(one, todo):
+        for seed, outcome, first in executor.map_unordered(one, todo):
+            if first is not None:
+                result.retried.append((seed, first))
+                bar.write(f"seed {seed}: started over after: {first}")
             if outcome.ok:
                 result.done.append(outcome.bag)
             else:
