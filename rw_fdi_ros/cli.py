@@ -4,6 +4,21 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
+
+
+def writable_dir(path: str, option: str) -> Path:
+    """``path`` made (with its parents) and writable, or a one-line ValueError naming the option: an
+    output that cannot be written fails before any node starts, not inside the recorder."""
+    import os
+    folder = Path(path)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: cannot create it ({exc.strerror or exc})") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"{option} {path}: not writable")
+    return folder
 
 
 def _cmd_run(args) -> int:
@@ -11,6 +26,7 @@ def _cmd_run(args) -> int:
     from .tools.summary import format_summary
     from .tools.run import resolve_scenario
     scenario, _ = resolve_scenario(args.scenario, args.seed)   # a bad scenario is the first thing to say
+    writable_dir(args.out, "--out")
     nodes = "plant, 3 PID controllers, recorder"
     if args.fdi:
         from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
@@ -44,6 +60,7 @@ def _cmd_run(args) -> int:
 
 def _cmd_campaign(args) -> int:
     from .tools.campaign import run_campaign
+    writable_dir(args.out, "--out")
     res = run_campaign(args.scenario, args.runs, args.seed_start, args.out, fdi=args.fdi,
                        executor=_executor(args))
     print(f"campaign {args.scenario}: {len(res.done)} recorded, {len(res.skipped)} already complete, "

@@ -76,3 +76,33 @@ def test_cli_output_into_a_closed_pipe_ends_quietly():
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=60) == 141, err
     assert "Traceback" not in err and "BrokenPipe" not in err, err
+
+
+def test_yaml_surprises_are_named_not_swallowed(tmp_path):
+    """A key given twice, 1e12 (text to YAML 1.1) and a file that is not text each get a one-line answer."""
+    with pytest.raises(ScenarioError, match=r"line 2 is not valid YAML \(duplicate key 'duration'\)"):
+        parse_scenario("duration: 10\nduration: 20\nfaults: []\n", origin="dup.yaml")
+    with pytest.raises(ScenarioError, match=r"duration: 1000000000000.0 is outside \[1.0, 1000000.0\]"):
+        parse_scenario("duration: 1e12\nfaults: []\n")
+    assert parse_scenario("duration: 2e2\nfaults: []\n").duration == 200.0
+    junk = tmp_path / "junk.yaml"
+    junk.write_bytes(bytes(range(128, 256)) * 1000)
+    with pytest.raises(ScenarioError, match=f"{junk}: not a readable scenario file"):
+        load_scenario(str(junk))
+
+
+@pytest.mark.parametrize("command", [["run", "--scenario", "fault_free", "--no-fdi"],
+                                     ["campaign", "--scenario", "fault_free", "--runs", "1"]])
+def test_an_output_that_cannot_be_made_fails_before_anything_starts(tmp_path, command):
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    t0 = time.monotonic()
+    out = subprocess.run([str(Path(sys.executable).parent / "rw-fdi"), *command, "--out", str(blocker / "bags")],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and time.monotonic() - t0 < 10
+    assert out.stderr.strip() == f"rw-fdi: error: --out {blocker / 'bags'}: cannot create it (Not a directory)"
+    assert "running scenario" not in out.stdout

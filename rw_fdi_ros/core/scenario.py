@@ -191,6 +191,11 @@ def operating_point_at(faults, t):
 
 # -- parsing -----------------------------------------------------------------
 def _num(where, value, lo=None, hi=None):
+    if isinstance(value, str):   # YAML 1.1 reads 1e12 (no dot) as text: take what the user meant
+        try:
+            value = float(value)
+        except ValueError:
+            pass
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
         raise ScenarioError(f"{where}: expected a finite number, got {value!r}")
     if (lo is not None and value < lo) or (hi is not None and value > hi):
@@ -234,10 +239,23 @@ def _vector(where, raw):
     return tuple(_num(f"{where}[{i}]", v) for i, v in enumerate(raw))
 
 
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a mapping with the same key twice (YAML would keep the last silently)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
+
+
 def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     """Parse and validate scenario YAML; every problem is a one-line ScenarioError."""
     try:
-        raw = yaml.safe_load(text)
+        raw = yaml.load(text, Loader=_UniqueKeyLoader)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" line {mark.line + 1}" if mark else ""
@@ -330,4 +348,8 @@ def load_scenario(name_or_path: str) -> Scenario:
             raise ScenarioError(f"unknown scenario '{name_or_path}' (known: {', '.join(available_scenarios())})")
     if not path.is_file():
         raise ScenarioError(f"scenario file not found: {name_or_path}")
-    return parse_scenario(path.read_text(), origin=str(path))
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{path}: not a readable scenario file ({type(exc).__name__}: {exc})") from None
+    return parse_scenario(text, origin=str(path))
