@@ -307,6 +307,12 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
                     wheels=_wheels(f"{origin}: wheels", raw.get("wheels")), source_text=text)
 
 
+# a spread's draws are cut at 3 sigma, so every drawn scale lies inside the range a `scale` may give:
+# the bag's recorded scenario always parses again
+UNIT_SPREAD_MAX = 0.3
+UNIT_SCALE_RANGE = (0.05, 5.0)
+
+
 def _wheels(where, raw) -> dict:
     """The ``wheels:`` mapping: variation (true: every unit parameter drawn with its default spread),
     spread (name -> 1-sigma share), scale (name -> 3 shares of the datasheet, x y z)."""
@@ -319,8 +325,8 @@ def _wheels(where, raw) -> dict:
         if not isinstance(raw["variation"], bool):
             raise ScenarioError(f"{where}.variation: true or false, got {raw['variation']!r}")
         out["variation"] = raw["variation"]
-    for key, check in (("spread", lambda w, v: _num(w, v, 0.0, 0.3)),
-                       ("scale", lambda w, v: tuple(_num(f"{w}[{i}]", x, 0.5, 2.0) for i, x in enumerate(
+    for key, check in (("spread", lambda w, v: _num(w, v, 0.0, UNIT_SPREAD_MAX)),
+                       ("scale", lambda w, v: tuple(_num(f"{w}[{i}]", x, *UNIT_SCALE_RANGE) for i, x in enumerate(
                            _vector(w, v))))):
         table = raw.get(key) or {}
         if not isinstance(table, dict) or set(table) - set(UNIT_PARAMETERS):
