@@ -158,3 +158,27 @@ def test_a_resumed_study_keeps_its_stage_times(study):
     assert again["stages"]["total"]["seconds"] > first["stages"]["total"]["seconds"]
     assert "Sessions (a resumed study" in (out / "report" / "report.md").read_text()
     validate_report(json.loads((out / "report" / "report.json").read_text()))
+
+
+def test_a_bad_bag_in_a_replay_graph_fails_alone(study, tmp_path):
+    """One graph for [good, a bag without FDI telemetry, good]: the recorder refuses to close the bad run
+    as finished, the graph is split, and both good bags are still replayed; a bag that cannot be read
+    at all is answered before any graph starts."""
+    from rw_fdi_ros.tools.replay import replay_bags, replay_finished
+    out, _ = study
+    good = sorted((out / "bags" / "table42").iterdir())[:2]
+    data = read_bag(good[0], topics=[T.SCENARIO, T.PLANT_DONE], raw=True)
+    bad = tmp_path / "no_telemetry"
+    w = BagWriter(bad)
+    for topic in (T.SCENARIO, T.PLANT_DONE):
+        w.add_topic(topic, data.types[topic])
+        for t, raw in data.topic(topic):
+            w.write(topic, t, raw)
+    w.close()
+    outs = [tmp_path / f"replayed_{i}" for i in range(4)]
+    models = out / "models"
+    outcomes = replay_bags([good[0], bad, good[1], tmp_path / "nothing_here"], outs, models=models,
+                           thresholds=models)
+    assert [o.ok for o in outcomes] == [True, False, True, False], [o.reason for o in outcomes]
+    assert "did not reach the run's end" in outcomes[1].reason and "no .mcap file" in outcomes[3].reason
+    assert replay_finished(outs[0]) and replay_finished(outs[2]) and not outs[1].exists()

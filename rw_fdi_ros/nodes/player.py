@@ -118,6 +118,9 @@ class PlayerNode(GraphNode):
         while self.run_index < len(self.runs):
             if not self._play(now):
                 return
+            if not self.done_sent:   # the recorder's wait is timed from the run's end, not its start
+                self.done_sent = True
+                self.last_progress = now
             if self.param("await_recorder") and str(self.run_index) not in self.closed:
                 if now - self.last_progress > self.param("stall_timeout"):
                     self.fail(f"recorder did not close the replay of {self.bags[self.run_index]} within "

@@ -95,6 +95,15 @@ class RecorderNode(GraphNode):
         lagging = [t for t in final if self.last_stamp.get(t, -1) < self.done_stamp] + lagging_fdi
         # a loaded recorder may still be working through its queue: only silence ends the wait
         if not lagging or wall_time() - max(self.done_wall, self.last_message_wall) > self.param("drain_timeout"):
+            if lagging and not self.param("record_plant"):
+                # a replayed run whose outputs stopped short must not pass for a finished one, nor may
+                # its late messages land in the next run's bag: drop it and stop (the tool says which)
+                import shutil
+                self._close_bag()
+                shutil.rmtree(self.outputs[self.output_index], ignore_errors=True)
+                self.fail(f"run {self.output_index}: {len(lagging)} topics did not reach the run's end within "
+                          f"{self.param('drain_timeout'):g} s ({', '.join(lagging[:3])}, ...)")
+                return
             self._close_bag()
             self.pub_closed.publish(String(data=str(self.output_index)))
             self.output_index += 1

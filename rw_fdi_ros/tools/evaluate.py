@@ -28,7 +28,7 @@ from .metrics import (OBSERVERS, RunEval, aggregate, fdi_output_topics, identifi
 from ..core.plant_choices import PlantChoices
 from ..launch.graph import FDI_SAMPLING
 from .offline import fdi_method_of, load_models, model_card
-from .replay import replay_bags
+from .replay import replay_bags, replay_finished
 
 
 def shown_path(path, base) -> str:
@@ -118,7 +118,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
             checked[bag] = _check_bag(bag, curves)
         except (BagError, ValueError, ThresholdError) as exc:
             skip(bag, str(exc))
-    todo = [b for b in checked if not bag_is_complete(replays / b.name)]
+    todo = [b for b in checked if not replay_finished(replays / b.name)]   # interrupted replays are redone
     done = [b for b in checked if b not in todo]
 
     def replay_chunk(chunk):

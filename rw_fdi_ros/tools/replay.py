@@ -41,14 +41,22 @@ def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int |
                 keep_logs: bool = False, watchdog: float | None = None, method: str | None = None) -> list:
     """Replay ``bags`` (recorded under the same plant choices) through one graph; the FDI outputs of
     bag i go to ``out_bags[i]``. Returns one RunOutcome per bag, in order. A graph that fails part
-    way keeps the bags it finished; the rest get a graph each, so a bad bag fails alone."""
+    way keeps the bags it finished; the first unfinished bag gets a graph alone and the rest another,
+    so a bad bag fails alone."""
     bags, out_bags = [Path(b) for b in bags], [Path(b) for b in out_bags]
-    if not bags:
-        return []
-    plant = plant_conditions(bags)
-    fdi = {"models": models, "thresholds": thresholds, "persistence": persistence, "method": method}
     outcomes = [None] * len(bags)
-    groups = [list(range(len(bags)))]
+    readable = []
+    for i, bag in enumerate(bags):   # a bag that cannot even be read is answered before any graph starts
+        try:
+            read_bag(bag, topics=[T.SCENARIO])
+            readable.append(i)
+        except (BagError, OSError) as exc:
+            outcomes[i] = RunOutcome(False, str(exc), out_bags[i], 0.0)
+    if not readable:
+        return outcomes
+    plant = plant_conditions([bags[i] for i in readable])
+    fdi = {"models": models, "thresholds": thresholds, "persistence": persistence, "method": method}
+    groups = [readable]
     retried = False
     while groups:
         todo = groups.pop(0)
@@ -61,13 +69,17 @@ def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int |
             limit = watchdog if watchdog is not None else 120.0 + 60.0 * len(todo)
             result = GraphProcesses(nodes, lease.domain_id, work).start().run(main="player", watchdog=limit)
         for i in todo:
-            ok = result.ok or _finished(out_bags[i])
+            ok = result.ok or replay_finished(out_bags[i])
             outcomes[i] = RunOutcome(ok, "completed" if ok else result.reason, out_bags[i],
                                      result.wall_time / len(todo), log_dir=work)
+            if not ok and out_bags[i].exists():   # a half replay must not be taken for a result later
+                shutil.rmtree(out_bags[i])
         cleanup(result, keep=keep_logs or not result.ok)
         failed = [i for i in todo if not outcomes[i].ok]
         if len(failed) > 1:
-            groups += [[i] for i in failed]   # one bad bag must not take the others with it: one graph each
+            # one bad bag must not take the others with it: the first alone, the rest again together
+            # (a group that fails again splits again)
+            groups += [failed[:1], failed[1:]]
         elif failed and not retried and "stalled" in result.reason:
             # a consumer's DDS reader that matched the player's writer only after the first burst stalls
             # the graph at start-up (seen under full load); a fresh graph starts the bag over
@@ -76,7 +88,7 @@ def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int |
     return outcomes
 
 
-def _finished(out_bag: Path) -> bool:
+def replay_finished(out_bag: Path) -> bool:
     """A replay bag the recorder closed at its run's end (the player sends /plant/done only once the
     consumers have finished the run's last FDI sample), not one closed on the way out of a failure."""
     if not bag_is_complete(out_bag):
