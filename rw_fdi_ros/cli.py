@@ -31,7 +31,7 @@ def _cmd_run(args) -> int:
     if args.fdi:
         from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
         check_fdi_files(args.models, args.thresholds, scenario.plant_choices(emf_limit=args.emf_limit),
-                        args.fdi_method)
+                        args.fdi_method, args.unit_calibration)
         nodes = "plant, 3 PID controllers, 3 Elman observers, linear observer, isolation, recorder"
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
           f" ({nodes}; private DDS domain)", flush=True)
@@ -39,14 +39,17 @@ def _cmd_run(args) -> int:
                   command_timeout=args.command_timeout)
     if args.fdi:
         outcome = run_with_fdi(args.scenario, models=args.models, thresholds=args.thresholds,
-                               persistence=args.persistence, figure=True, method=args.fdi_method, **common)
+                               persistence=args.persistence, figure=True, method=args.fdi_method,
+                               unit_calibration=args.unit_calibration, **common)
     else:
         outcome = run_scenario(args.scenario, **common)
     if outcome.summary:
         print(format_summary(outcome.summary))
         if "fdi" in outcome.summary:
             print(f"fault detection and isolation ({args.fdi_method}"
-                  + (f", persistence P = {args.persistence}" if args.persistence else "") + "):")
+                  + (f", persistence P = {args.persistence}" if args.persistence else "")
+                  + (f", wheels learnt over the first {args.unit_calibration:g} s" if args.unit_calibration else "")
+                  + "):")
             print(format_verdict(outcome.summary["fdi"]))
             print(f"  figure: {outcome.summary.get('figure')}")
     if not outcome.ok:
@@ -81,7 +84,7 @@ def _executor(args):
 def _cmd_evaluate(args) -> int:
     from .tools.evaluate import evaluate, main_summary
     report = evaluate(args.bags, args.report, models=args.models, thresholds=args.thresholds,
-                      persistence=args.persistence, executor=_executor(args))
+                      persistence=args.persistence, executor=_executor(args), unit_calibration=args.unit_calibration)
     print(main_summary(report))
     print(f"report: {args.report}/report.md, {args.report}/report.json")
     return 0 if report["runs"] else 1
@@ -123,11 +126,18 @@ def _cmd_fit(args) -> int:
     models_dir = args.models or str(config_dir() / "fdi")
     models = load_models(models_dir)
     t0 = time.monotonic()
-    samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
     if not 0.0 < args.false_alarm_rate < 1.0:
         raise ValueError(f"--false-alarm-rate must lie in (0, 1), got {args.false_alarm_rate}")
+    if (args.bags is None) == (args.simulate is None):
+        raise ValueError("give either --bags DIR or --simulate SCENARIO --seeds A..B")
+    plant = None
+    if args.simulate:
+        samples, plant = _simulated_fitting_runs(args.simulate, parse_seeds(args.seeds, "--seeds"))
+    else:
+        samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
     result = fit_thresholds(samples, models, args.out, model_ref=str(models_dir),
-                            false_alarm_rate=args.false_alarm_rate, persistence=args.persistence)
+                            false_alarm_rate=args.false_alarm_rate, persistence=args.persistence,
+                            unit_calibration=args.unit_calibration, plant=plant)
     print(f"thresholds from {len(samples)} fault-free runs in {time.monotonic() - t0:.0f} s -> {args.out}")
     speed_aware = fdi_method_of(models) == "speed_aware"
     for obs, row in result.items():
@@ -137,6 +147,22 @@ def _cmd_fit(args) -> int:
         else:
             print(f"  {obs:7s} reliability " + "  ".join(f"{a}={v * 100:.0f}%" for a, v in row.items()))
     return 0
+
+
+def _simulated_fitting_runs(ref: str, seeds) -> tuple:
+    """FDI samples of fault-free runs of scenario ``ref`` over ``seeds`` by the core loop (screen), and
+    the plant choices they were made under."""
+    from tqdm import tqdm
+    from .core.scenario import load_scenario
+    from .launch.graph import FDI_PERIOD
+    from .tools.screen import simulated_runs
+    scenario = load_scenario(ref)
+    if scenario.faults:
+        raise ValueError(f"--simulate {ref}: thresholds are fitted on fault-free runs, this scenario has faults")
+    with tqdm(total=len(seeds), desc="fitting runs (core loop)", unit="run", file=sys.stderr) as bar:
+        samples = [s for _, s, _ in simulated_runs([scenario.with_seed(k) for k in seeds], progress=bar.update)]
+    plant = scenario.plant_choices().with_(fdi_period=FDI_PERIOD, fdi_sampling="mean").as_dict()
+    return samples, plant
 
 
 def _cmd_defaults(args) -> int:
@@ -168,7 +194,7 @@ def _cmd_screen(args) -> int:
     seeds = parse_seeds(args.seeds, "--seeds")
     for name in args.scenario:
         print(format_screen(name, screen(load_scenario(name), seeds, args.models, args.thresholds,
-                                         args.persistence, args.fdi_method)))
+                                         args.persistence, args.fdi_method, args.unit_calibration)))
     return 0
 
 
@@ -188,6 +214,10 @@ def _cmd_bench(args) -> int:
         from .tools.detection_bench import bench_detection
         report = bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
                                  out=args.out or "reports/detection")
+    elif args.what == "units":
+        from .tools.units_bench import bench_units
+        report = bench_units(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
+                             out=args.out or "reports/units")
     elif args.what == "identification":
         from .tools.identification_bench import bench_identification
         report = bench_identification(runs_per_cell=args.runs_per_cell or 100, out=args.out or "reports/identification",
@@ -225,6 +255,11 @@ def build_parser() -> argparse.ArgumentParser:
     fdi_files.add_argument("--thresholds", default=None, help="threshold directory (default: config/fdi)")
     fdi_files.add_argument("--persistence", type=int, default=None,
                            help="samples above the threshold before an alarm (P; default: the threshold file's)")
+    unit = argparse.ArgumentParser(add_help=False)
+    unit.add_argument("--unit-calibration", type=float, default=0.0, metavar="SECONDS",
+                      help="the observers learn each wheel's own unit from the first SECONDS of a run, assumed "
+                           "healthy (core/calibration.py; speed_aware only; default 0: the datasheet wheel; "
+                           "shipped thresholds for 150)")
     method = argparse.ArgumentParser(add_help=False)
     method.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
                         help="speed_aware (ours: wheel speed, signed residual, designed false-alarm rate) or "
@@ -235,7 +270,7 @@ def build_parser() -> argparse.ArgumentParser:
     cluster.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
 
     r = sub.add_parser("run", help="run one scenario through the whole graph and record a bag",
-                       parents=[fdi_files, method])
+                       parents=[fdi_files, method, unit])
     r.add_argument("--scenario", required=True, help="scenario name (see `rw-fdi scenarios`) or YAML file")
     r.add_argument("--seed", type=int, default=None, help="seed for initial conditions and disturbance")
     r.add_argument("--out", default="bags", help="directory for the bag (default: bags/)")
@@ -269,8 +304,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     f = sub.add_parser("fit-thresholds", help="fit the thresholds of both observers from fault-free bags "
                                               "(speed_aware models: bands for a designed false-alarm rate; "
-                                              "thesis models: mean + 3 sigma curves)")
-    f.add_argument("--bags", required=True)
+                                              "thesis models: mean + 3 sigma curves)", parents=[unit])
+    f.add_argument("--bags", default=None, help="directory of fault-free bags")
+    f.add_argument("--simulate", default=None, metavar="SCENARIO",
+                   help="instead of bags: fault-free runs of SCENARIO by the core loop (rw-fdi screen's, the "
+                        "graph's numbers) over --seeds")
+    f.add_argument("--seeds", default="60000000..60000299", help="with --simulate: A..B inclusive "
+                                                                 "(default %(default)s, disjoint from every bench)")
     f.add_argument("--out", required=True)
     f.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
     f.add_argument("--false-alarm-rate", type=float, default=FALSE_ALARM_RATE,
@@ -292,7 +332,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=_cmd_defaults)
 
     e = sub.add_parser("evaluate", help="replay bags through the observers and isolation; write the report",
-                       parents=[fdi_files, cluster])
+                       parents=[fdi_files, cluster, unit])
     e.add_argument("--bags", required=True, help="directory of bags (searched recursively)")
     e.add_argument("--report", required=True, help="directory for report.md, report.json, plots, replays")
     e.set_defaults(func=_cmd_evaluate)
@@ -304,7 +344,7 @@ def build_parser() -> argparse.ArgumentParser:
     p2.set_defaults(func=_cmd_reproduce)
 
     q = sub.add_parser("screen", help="FDI figures for many seeds in seconds (core loop + node code, no ROS)",
-                       parents=[fdi_files, method])
+                       parents=[fdi_files, method, unit])
     q.add_argument("--scenario", nargs="+", required=True)
     q.add_argument("--seeds", default="100..129", help="A..B inclusive")
     q.set_defaults(func=_cmd_screen)
@@ -313,19 +353,21 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_scenarios)
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
-    b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification"],
+    b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification", "units"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
                         "node callback times and memory; study: record and replay throughput and the "
                         "thesis-scale reproduce time they give; detection: false-alarm and detection rates "
                         "with 95 %% intervals on >= 1000 held-out runs, both FDI methods (core loop); "
-                        "identification: fault kind and size per kind and size, confusion matrix (core loop)")
-    b.add_argument("--fault-free-runs", type=int, default=1000, help="detection: fault-free runs")
+                        "identification: fault kind and size per kind and size, confusion matrix (core loop); "
+                        "units: the same cells on wheels drawn around the datasheet and on the datasheet wheel, "
+                        "with and without unit calibration (core loop)")
+    b.add_argument("--fault-free-runs", type=int, default=1000, help="detection, units: fault-free runs")
     b.add_argument("--runs-per-cell", type=int, default=None,
                    help="detection: runs per fault or ripple case (default 200); identification: per grid size "
                         "(default 100)")
     b.add_argument("--thesis-runs", type=int, default=None,
                    help="identification: runs per thesis size (default 200; the bus 340, as 6 in 10 are observable)")
-    b.add_argument("--out", default=None, help="detection / identification: report directory "
+    b.add_argument("--out", default=None, help="detection / identification / units: report directory "
                                                 "(default reports/detection, reports/identification)")
     b.add_argument("--runs", type=int, default=8, help="study: runs to record and replay")
     b.add_argument("--jobs", type=int, default=None, help="study: runs at a time (default: 2)")

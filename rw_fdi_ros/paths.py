@@ -50,6 +50,12 @@ def fdi_dir(method: str = "speed_aware") -> Path:
     return config_dir() / "fdi" / ("thesis" if method == "thesis" else "")
 
 
+def thresholds_dir(method: str = "speed_aware", unit_calibration_time: float = 0.0) -> Path:
+    """The shipped thresholds of ``method``: those of calibrated observers (unit_calibrated/,
+    config/fdi/unit_calibrated/README) when they learn their wheel, else the method's own."""
+    return fdi_dir(method) / "unit_calibrated" if unit_calibration_time > 0 else fdi_dir(method)
+
+
 def fastdds_profiles() -> str | None:
     """FASTDDS_DEFAULT_PROFILES_FILE for the graph: the user's own, else config/fastdds.xml (50 ms
     reliable-writer heartbeat: a run's end and paced bag replay wait on acknowledgements)."""

@@ -30,6 +30,7 @@ METHODS = ("speed_aware", "thesis")
 RIPPLE_GAIN_MAX = 2.0
 FALSE_ALARM_RATE = 1e-3       # designed per-run false-alarm probability of the speed-aware FDI
 PERSISTENCE_SPEED_AWARE = 3
+CALIBRATION_SIGMAS = 3.0      # z: a calibrated correction's own uncertainty u_k enters the bound as z u_k
 # P: the smallest persistence whose Elman false-alarm rate on the 20 held-out fault-free runs is
 # <= 5 % (config/fdi/defaults_report.md: 15 / 10 / 10 / 5 / 5 % for P = 1 / 2 / 3 / 5 / 8); it costs
 # P - 1 seconds of detection delay.
@@ -62,30 +63,44 @@ class ResidualFilter:
 class SignedResidual:
     """Speed-aware residual of one wheel: signed moving mean of r - r^ and what it may hold unfaulted.
 
-    ``update(actual, estimate, ripple_phasor)`` -> (residual, bound) with
-    bound = (B/2) g_max reach(p) / n + kappa mean(|r|): the aliased ripple's largest contribution for
-    any gain up to g_max that is constant or monotone over the window (:func:`ripple_reach`;
-    ripple_phasor: the FDI sample's mean of tau_m e^{i N theta}, telemetry.py) plus the
-    observer's own model error, which grows with the torque the wheel is asked for
+    ``update(actual, estimate, ripple_phasor[, regressors])`` -> (residual, bound) with
+    bound = (B/2) g_max reach(p) / n + kappa mean(|r|) + z mean(u): the aliased ripple's largest
+    contribution for any gain up to g_max that is constant or monotone over the window
+    (:func:`ripple_reach`; ripple_phasor: the FDI sample's mean of tau_m e^{i N theta}, telemetry.py)
+    plus the observer's own model error, which grows with the torque the wheel is asked for
     (``uncertainty_gain`` kappa: 0 for the nominal wheel model, measured on the training runs
-    for an Elman network, tools/train.py).
+    for an Elman network, tools/train.py), plus, with a ``calibration`` to the wheel's own unit
+    (core/calibration.py), the uncertainty u of its correction to the estimate.
     """
 
     def __init__(self, window: int = WINDOW, share: float | None = None, ripple_gain_max: float = RIPPLE_GAIN_MAX,
-                 uncertainty_gain: float = 0.0):
+                 uncertainty_gain: float = 0.0, calibration=None):
         self.errors = deque(maxlen=window)
         self.phasors = deque(maxlen=window)
         self.torques = deque(maxlen=window)
+        self.spreads = deque(maxlen=window)
         self.scale = (ripple_share() if share is None else share) * ripple_gain_max
         self.kappa = float(uncertainty_gain)
+        self.calibration = calibration   # core.calibration.UnitCalibration, or None (the datasheet wheel)
+        self.estimate = None             # the last estimate, calibrated: what the node publishes
 
-    def update(self, actual, estimate, ripple_phasor):
-        self.errors.append(float(actual) - float(estimate))
+    def update(self, actual, estimate, ripple_phasor, regressors=None):
+        """(residual, bound) after this sample; ``regressors``: calibration.regressors of the sample,
+        needed with a calibration (which corrects the estimate and widens the bound by z u_k)."""
+        actual, estimate, spread = float(actual), float(estimate), 0.0
+        if self.calibration is not None:
+            correction, uncertainty = self.calibration.update(actual - estimate, regressors)
+            estimate += correction
+            spread = CALIBRATION_SIGMAS * uncertainty
+        self.estimate = estimate
+        self.errors.append(actual - estimate)
         self.phasors.append(complex(ripple_phasor))
-        self.torques.append(abs(float(actual)))
+        self.torques.append(abs(actual))
+        self.spreads.append(spread)
         n = len(self.errors)
         # sums over a deque of <= 40 values: exact, and no drift from running totals
-        bound = self.scale * ripple_reach(self.phasors) / n + self.kappa * sum(self.torques) / n
+        bound = (self.scale * ripple_reach(self.phasors) / n + self.kappa * sum(self.torques) / n
+                 + sum(self.spreads) / n)
         return sum(self.errors) / n, bound
 
 
@@ -211,13 +226,19 @@ def window_mean(values, window: int = WINDOW):
     return (c - lagged[:len(v)]) / n
 
 
-def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW, uncertainty_gains=(0.0, 0.0, 0.0)):
-    """(residuals, bounds) of whole series (time first, one column per axis) through :class:`SignedResidual`."""
+def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW, uncertainty_gains=(0.0, 0.0, 0.0),
+                           regressors=None, calibration_samples: int = 0):
+    """(residuals, bounds) of whole series (time first, one column per axis) through :class:`SignedResidual`;
+    with ``calibration_samples`` > 0 each wheel learns its unit from its first samples (``regressors``:
+    (n, axes, 5), calibration.regressors)."""
+    from .calibration import UnitCalibration
     actual, estimate, phasor = (np.asarray(x) for x in (actual, estimate, ripple_phasor))
     res, bound = np.empty(actual.shape), np.empty(actual.shape)
     for j in range(actual.shape[1]):
-        f = SignedResidual(window, uncertainty_gain=uncertainty_gains[j])
-        rows = [f.update(a, e, p) for a, e, p in zip(actual[:, j], estimate[:, j], phasor[:, j])]
+        f = SignedResidual(window, uncertainty_gain=uncertainty_gains[j],
+                           calibration=UnitCalibration(calibration_samples) if calibration_samples else None)
+        x = regressors[:, j] if calibration_samples else [None] * len(actual)
+        rows = [f.update(a, e, p, r) for a, e, p, r in zip(actual[:, j], estimate[:, j], phasor[:, j], x)]
         res[:, j], bound[:, j] = [r[0] for r in rows], [r[1] for r in rows]
     return res, bound
 
@@ -245,6 +266,7 @@ class ThresholdCurves:
     persistence: int = PERSISTENCE   # P the curves are meant for (the band's false-alarm rate needs it)
     false_alarm_rate: float | None = None   # designed per-run rate (speed_aware)
     calibration: dict = field(default_factory=dict)  # how the bands were fitted (speed_aware)
+    unit_calibration_time: float = 0.0   # [s] of each run the observers learnt their wheel from (calibration.py)
 
     def at(self, axis: str, k: int) -> float:
         c = self.curves[axis]
@@ -258,6 +280,7 @@ class ThresholdCurves:
             "sigmas": self.sigmas, "runs": len(self.seeds), "seeds": self.seeds, "plant": self.plant,
             "model": self.model, "method": self.method, "persistence": self.persistence,
             "false_alarm_rate": self.false_alarm_rate, "calibration": self.calibration,
+            "unit_calibration_time": self.unit_calibration_time,
             "curves": {a: [float(v) for v in c] for a, c in self.curves.items()}}, indent=1))
 
     @classmethod
@@ -272,7 +295,8 @@ class ThresholdCurves:
                       window=int(raw["window"]), sigmas=float(raw["sigmas"]), seeds=list(raw["seeds"]),
                       plant=dict(raw["plant"]), model=str(raw.get("model", "")),
                       method=str(raw.get("method", "thesis")), persistence=int(raw.get("persistence", PERSISTENCE)),
-                      false_alarm_rate=raw.get("false_alarm_rate"), calibration=dict(raw.get("calibration") or {}))
+                      false_alarm_rate=raw.get("false_alarm_rate"), calibration=dict(raw.get("calibration") or {}),
+                      unit_calibration_time=float(raw.get("unit_calibration_time", 0.0)))
         except (ValueError, KeyError, TypeError) as exc:
             raise ThresholdError(f"{path}: not a readable threshold file ({type(exc).__name__}: {exc}); "
                                  f"{REFIT}") from None
@@ -290,6 +314,14 @@ class ThresholdCurves:
         if self.method != method:
             raise ThresholdError(f"{origin}: fitted for fdi_method={self.method!r} but the graph runs "
                                  f"fdi_method={method!r}; {REFIT}")
+
+    def check_unit_calibration(self, seconds: float, origin: str = "thresholds"):
+        """Refuse bands fitted with another unit calibration than the running observers': a calibrated
+        observer's bound holds its correction's uncertainty, so the bands of one do not fit the other."""
+        if abs(float(seconds) - self.unit_calibration_time) > 1e-9:
+            raise ThresholdError(f"{origin}: fitted with unit_calibration_time={self.unit_calibration_time:g} s but "
+                                 f"the observers run unit_calibration_time={float(seconds):g} s; {REFIT} "
+                                 f"--unit-calibration {float(seconds):g}")
 
     def check_compatible(self, plant, origin: str = "thresholds"):
         """Refuse curves fitted under other plant choices than the running graph's.

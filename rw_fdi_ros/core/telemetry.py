@@ -48,9 +48,10 @@ class FdiSample:
     wheel_speed: np.ndarray | None = None     # [rad/s]
     model_torque: np.ndarray | None = None    # nominal wheel model's reaction torque [N m]
     ripple_phasor: np.ndarray | None = None   # mean of tau_m e^{i N theta} (complex) [N m]
-    # fault identification (identification.py), when the sampler is asked for it:
+    # the nominal model's terms: calibration (calibration.py) and fault identification (identification.py)
     motor_torque: np.ndarray | None = None     # nominal tau_m(u, Omega; 8 V) [N m]
     friction_torque: np.ndarray | None = None  # nominal tau_f(Omega; 23 C) [N m]
+    # fault identification only, when the sampler is asked for it:
     bus_motor_torque: np.ndarray | None = None  # (3, bus grid) tau_m(u, Omega; V) [N m]
     # the control sample at the FDI stamp itself (the thesis' instantaneous sampling)
     tcv_instant: np.ndarray | None = None              # [V]
@@ -75,7 +76,7 @@ REPORT_FIELDS = (("tcv", "tcv"), ("reaction_torque", "reaction_torque"), ("wheel
                  ("reaction_torque_instant", "reaction_torque_instant"))
 
 
-IDENTIFICATION_FIELDS = ("motor_torque", "friction_torque", "bus_motor_torque")
+IDENTIFICATION_FIELDS = ("bus_motor_torque",)   # what only fault identification reads (costly: 651 per wheel)
 BUS_GRID_KEY = "bus_motor_torque_f64le_base64"
 
 
@@ -176,10 +177,10 @@ class TelemetrySampler:
             raise ValueError("speed-aware FDI needs fdi_sampling 'mean' (the ripple bound is a mean)")
         model, tau_m = model_reaction_torque(tcv, speed, self.params)
         phasor = tau_m * np.exp(1j * self.params.poles * theta)
-        out = [tcv, reaction_torque, speed, model, phasor]
+        out = [tcv, reaction_torque, speed, model, phasor, tau_m, model + tau_m]
         if self.identification:
             from .identification import bus_motor_torque
-            out += [tau_m, model + tau_m, bus_motor_torque(tcv, speed, self.params)]
+            out.append(bus_motor_torque(tcv, speed, self.params))
         return out
 
     def _sample(self, stamp_ns: int, signals) -> FdiSample | None:

@@ -69,20 +69,24 @@ def fdi_nodes(fdi: dict, choices: PlantChoices, recording: bool):
     """Three Elman observers, the linear observer and the isolation node (told the run's choices).
 
     ``fdi``: models / thresholds directories (None: the shipped set of the method), persistence
-    (None: the threshold file's), method ('speed_aware' or 'thesis')."""
+    (None: the threshold file's), method ('speed_aware' or 'thesis'), unit_calibration (seconds the
+    observers learn each wheel from, core/calibration.py; 0 or None: the datasheet wheel)."""
     models, thresholds, method = fdi.get("models"), fdi.get("thresholds"), fdi_method(fdi)
+    calibration = float(fdi.get("unit_calibration") or 0.0)
     nodes = []
     for axis in AXES:
         params = {"axis": axis, "fdi_method": method, "fdi_period": choices.fdi_period,
-                  "fdi_sampling": choices.fdi_sampling,
+                  "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration,
                   "min_subscribers": 1 + recording}
         if models:
             params["model"] = str(Path(models) / f"elman_{axis}.npz")
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
     nodes.append(NodeSpec("linear_observer", "linear_observer",
                           {"fdi_method": method, "fdi_period": choices.fdi_period,
-                           "fdi_sampling": choices.fdi_sampling, "min_subscribers": 1 + recording}))
+                           "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration,
+                           "min_subscribers": 1 + recording}))
     iso = {**choices.as_dict(), "fdi_method": method, "persistence": int(fdi.get("persistence") or 0),
+           "unit_calibration_time": calibration,
            "min_subscribers": int(recording)}
     if thresholds:
         iso.update(thresholds_elman=str(Path(thresholds) / "thresholds_elman.json"),

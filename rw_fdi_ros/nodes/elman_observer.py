@@ -8,7 +8,7 @@ and publishes the estimate, the residual and the ripple bound: the signed
 """
 from __future__ import annotations
 
-from ..core.detection import ResidualFilter, SignedResidual
+from ..core.detection import ResidualFilter
 from ..core.elman import REGENERATE, ElmanObserver, ElmanWeights, ModelError
 from ..core.scenario import AXES
 from ..paths import fdi_dir
@@ -44,7 +44,7 @@ class ElmanObserverNode(ObserverNode):
     def reset(self):
         self.observer = ElmanObserver(self.weights)
         window = self.param("window")
-        self.residual = (SignedResidual(window, uncertainty_gain=self.weights.uncertainty_gain) if self.speed_aware
+        self.residual = (self.signed_residual(self.weights.uncertainty_gain) if self.speed_aware
                          else ResidualFilter(window))
         self.started = False
 
@@ -56,8 +56,9 @@ class ElmanObserverNode(ObserverNode):
             self.started = True
         own = [[0.0, 0.0, 0.0] for _ in range(3)]
         if self.speed_aware:
-            estimate = self.observer.update(u, None, float(sample.wheel_speed[i]))
-            residual, bound = self.residual.update(r, estimate, sample.ripple_phasor[i])
+            network = self.observer.update(u, None, float(sample.wheel_speed[i]))   # recalls its own, uncorrected
+            residual, bound = self.residual.update(r, network, sample.ripple_phasor[i], self.regressors(sample, i))
+            estimate = self.residual.estimate   # calibrated to the unit when the node calibrates
         else:
             estimate = self.observer.update(u)
             residual, bound = self.residual.update(r, estimate), 0.0

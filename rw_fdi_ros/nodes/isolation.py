@@ -36,7 +36,7 @@ from ..core.identification import FaultIdentifier
 from ..core.isolation import DECISION_OBSERVER, ObserverChannel
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.scenario import AXES
-from ..paths import fdi_dir
+from ..paths import thresholds_dir
 from . import topics as T
 from .convert import fdi_sample_of, time_msg, vector_msg
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
@@ -44,8 +44,8 @@ from .gate import GatedPublisher
 from .sync import StampSync
 
 
-def default_thresholds(observer: str, method: str = "speed_aware") -> str:
-    return str(fdi_dir(method) / f"thresholds_{observer}.json")
+def default_thresholds(observer: str, method: str = "speed_aware", unit_calibration_time: float = 0.0) -> str:
+    return str(thresholds_dir(method, unit_calibration_time) / f"thresholds_{observer}.json")
 
 
 def _status(name, axis, residual, threshold, alarm, first, extra=(), identification=None):
@@ -70,6 +70,7 @@ class IsolationNode(GraphNode):
         self.declare_parameter("thresholds_linear", "")
         self.declare_parameter("fdi_method", "speed_aware")  # speed_aware (ours) or thesis
         self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
+        self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
         self.declare_parameter("decision_observer", DECISION_OBSERVER)
         self.declare_parameter("min_subscribers", 0)        # readers (the recorder) before output goes
         # the running graph's plant choices: curves fitted under others are refused
@@ -82,13 +83,15 @@ class IsolationNode(GraphNode):
         method = self.param("fdi_method")
         if method not in METHODS:
             raise NodeError(f"parameter fdi_method must be one of {', '.join(METHODS)}, got {method!r}", EXIT_BAD_INPUT)
+        calibration = self.calibration_time = self.param("unit_calibration_time")
         self.channels = {}
         self.compute, self.compute_cpu = [], []
         for obs in T.OBSERVERS:
-            path = self.param(f"thresholds_{obs}") or default_thresholds(obs, method)
+            path = self.param(f"thresholds_{obs}") or default_thresholds(obs, method, calibration)
             try:
                 curves = ThresholdCurves.load(path)
                 curves.check_method(method, origin=path)
+                curves.check_unit_calibration(calibration, origin=path)
                 curves.check_compatible(plant, origin=path)
                 if abs(curves.sample_period - plant.fdi_period) > 1e-12:
                     raise ThresholdError(f"{path}: sample period {curves.sample_period} s differs from the "
@@ -200,8 +203,15 @@ class IsolationNode(GraphNode):
                     extra += [KeyValue(key=f"{obs}_residual", value=f"{r:.6g}"),
                               KeyValue(key=f"{obs}_threshold", value=f"{c:.6g}"),
                               KeyValue(key=f"{obs}_alarm", value=str(bool(alarm)).lower())]
-            msg.status.append(_status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
-                                      extra=extra, identification=found))
+            if self.calibration_time:
+                learning = stamp <= self.calibration_time * 1e9
+                extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
+            status = _status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
+                             extra=extra, identification=found)
+            if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
+                # judged against the wheel type's spread until then: only gross faults show (calibration.py)
+                status.message += f"; learning its unit until {self.calibration_time:g} s"
+            msg.status.append(status)
         self.pub_diag.publish(msg)
         self.pub_ident.publish(ident)
 

@@ -15,7 +15,8 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 
-from ..core.detection import METHODS, WINDOW
+from ..core.calibration import UnitCalibration, calibration_samples, regressors
+from ..core.detection import METHODS, WINDOW, SignedResidual
 from ..core.sampling import SAMPLINGS
 from ..core.scenario import AXES
 from . import topics as T
@@ -34,6 +35,8 @@ class ObserverNode(GraphNode):
         self.declare_parameter("fdi_sampling", "mean")  # mean over the FDI period, or 'instant' (thesis)
         self.declare_parameter("window", WINDOW)        # residual moving-average length [samples]
         self.declare_parameter("min_subscribers", 0)    # readers of the residual before the first sample goes
+        # [s] from each run's start the observer learns its own wheel (core/calibration.py); 0: the datasheet's
+        self.declare_parameter("unit_calibration_time", 0.0)
         self.compute, self.callback, self.callback_cpu = [], [], []   # s: observe() / callback wall / CPU
         self.method = self.param("fdi_method")
         if self.method not in METHODS:
@@ -47,6 +50,14 @@ class ObserverNode(GraphNode):
         if self.sampling not in SAMPLINGS:
             raise NodeError(f"parameter fdi_sampling must be one of {', '.join(SAMPLINGS)}, got {self.sampling!r}",
                             EXIT_BAD_INPUT)
+        seconds = self.param("unit_calibration_time")
+        if not (np.isfinite(seconds) and seconds >= 0.0):
+            raise NodeError(f"parameter unit_calibration_time must be a finite number >= 0, got {seconds!r}",
+                            EXIT_BAD_INPUT)
+        if seconds and not self.speed_aware:
+            raise NodeError("unit_calibration_time needs fdi_method speed_aware (the thesis' residual is unsigned)",
+                            EXIT_BAD_INPUT)
+        self.calibration_samples = calibration_samples(seconds, self.param("fdi_period"))
         self.last_stamp = None
 
     def start(self, estimate_topic: str, residual_topic: str, bound_topic: str):
@@ -68,6 +79,19 @@ class ObserverNode(GraphNode):
         """Forget the run so far: the next sample starts a new one."""
         raise NotImplementedError
 
+    def signed_residual(self, uncertainty_gain: float = 0.0) -> SignedResidual:
+        """A wheel's speed-aware residual, learning its unit when the node calibrates."""
+        return SignedResidual(self.param("window"), uncertainty_gain=uncertainty_gain,
+                              calibration=UnitCalibration(self.calibration_samples) if self.calibration_samples
+                              else None)
+
+    def regressors(self, sample, i: int):
+        """Wheel ``i``'s calibration regressors of ``sample`` (None when the node does not calibrate)."""
+        if not self.calibration_samples:
+            return None
+        return regressors(sample.motor_torque[i], sample.friction_torque[i], sample.wheel_speed[i],
+                          sample.ripple_phasor[i])
+
     def _on_telemetry(self, msg):
         t0, c0 = time.perf_counter(), time.thread_time()
         try:
@@ -79,6 +103,12 @@ class ObserverNode(GraphNode):
             self.reset()
         self.last_stamp = sample.stamp_ns
         inputs = [sample.tcv, sample.reaction_torque] + ([sample.wheel_speed] if self.speed_aware else [])
+        if self.calibration_samples:
+            if sample.motor_torque is None or sample.friction_torque is None:
+                self.fail(f"{T.FDI_TELEMETRY} without motor_torque and friction_torque: unit calibration "
+                          "cannot learn the wheel", EXIT_BAD_INPUT)
+                return
+            inputs += [sample.motor_torque, sample.friction_torque]
         if not all(np.all(np.isfinite(x)) for x in inputs):
             # a NaN would silently disable the alarm (NaN > threshold is False): stop instead
             self.fail(f"non-finite input at t={sample.stamp_ns * 1e-9:g} s: tcv={sample.tcv.tolist()}, "

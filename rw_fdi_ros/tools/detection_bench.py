@@ -54,17 +54,18 @@ CELLS = (
 )
 
 
-def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE) -> list:
+def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE, onset_range=ONSET_RANGE,
+                   wheels: dict | None = None) -> list:
     """``runs`` scenarios of one cell: seeds seed_base + 100,000 index + n, fault on wheel seed mod 3
-    with an onset drawn from the seed."""
+    with an onset drawn from the seed in ``onset_range``; ``wheels``: the scenario's unit variation."""
     out = []
     for n in range(runs):
         seed = seed_base + 100_000 * index + n
         faults = ()
         if cell.kind is not None:
-            onset = float(np.round(np.random.default_rng(seed).uniform(*ONSET_RANGE), 1))
+            onset = float(np.round(np.random.default_rng(seed).uniform(*onset_range), 1))
             faults = (Fault(cell.kind, seed % 3, onset, cell.value, cell.ramp),)
-        out.append(Scenario(cell.name, duration=400.0, seed=seed, faults=faults))
+        out.append(Scenario(cell.name, duration=400.0, seed=seed, faults=faults, wheels=dict(wheels or {})))
     return out
 
 
@@ -133,11 +134,17 @@ def _judge_chunk(cell_index: int, seeds_range):
     return screen_sets(scenarios, _fdi_sets())
 
 
+def observable_levels(sets: dict) -> dict:
+    """set -> observer -> axis -> the fault-free residual level a fault effect must rise above to count as
+    observable (the median threshold after the manoeuvre)."""
+    return {name: {obs: {a: float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a]))
+                         for a in "xyz"} for obs, c in entry[1].items()} for name, entry in sets.items()}
+
+
 def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/detection",
                     jobs: int = 2) -> dict:
     sets = _fdi_sets()
-    levels = {name: {obs: {a: float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a]))
-                           for a in "xyz"} for obs, c in curves.items()} for name, (_, curves) in sets.items()}
+    levels = observable_levels(sets)
     t0 = time.monotonic()
     sizes = [fault_free_runs if c.kind is None else runs_per_cell for c in CELLS]
     judged = screen_cells(sizes, _judge_chunk, "detection bench (core loop + node code)", jobs)

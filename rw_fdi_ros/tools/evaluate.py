@@ -20,7 +20,7 @@ from ..core.detection import ThresholdCurves, ThresholdError
 from ..core.elman import ModelError
 from ..core.scenario import AXES
 from ..nodes import topics as T
-from ..paths import config_dir
+from ..paths import config_dir, thresholds_dir
 from ..storage.bag import BagError, bag_is_complete, read_bag
 from .campaign import LocalExecutor, _progress
 from .metrics import (OBSERVERS, RunEval, aggregate, fdi_output_topics, identification_figures,
@@ -86,16 +86,19 @@ def evaluate_replayed(bag: Path, out: Path, scenario, peak) -> RunEval:
 
 
 def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: int | None = None, executor=None,
-             plots: bool = True) -> dict:
-    """Replay every bag under ``bags_root`` through the FDI nodes; the method follows the models."""
+             plots: bool = True, unit_calibration: float = 0.0) -> dict:
+    """Replay every bag under ``bags_root`` through the FDI nodes; the method follows the models
+    (``unit_calibration`` [s]: the observers learn each run's wheels first, core/calibration.py)."""
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
+    shipped = models is None
     models = str(models or config_dir() / "fdi")
-    thresholds = str(thresholds or models)
     method = fdi_method_of(load_models(models))   # a missing/corrupt model stops here, before any replay
+    thresholds = str(thresholds or (thresholds_dir(method, unit_calibration) if shipped else models))
     curves = {obs: ThresholdCurves.load(Path(thresholds) / f"thresholds_{obs}.json") for obs in OBSERVERS}
     for obs, c in curves.items():
         c.check_method(method, origin=f"{thresholds}/thresholds_{obs}.json")
+        c.check_unit_calibration(unit_calibration, origin=f"{thresholds}/thresholds_{obs}.json")
     persistence = persistence or curves["elman"].persistence
     bags = find_bags(bags_root)
     if not bags:
@@ -123,7 +126,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
 
     def replay_chunk(chunk):
         outcomes = replay_bags(chunk, [replays / b.name for b in chunk], models=models, thresholds=thresholds,
-                               persistence=persistence, method=method)
+                               persistence=persistence, method=method, unit_calibration=unit_calibration)
         return list(zip(chunk, outcomes))
 
     def collect(bag):
@@ -151,6 +154,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
         training = []
     figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level, training)
     report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence,
+              "unit_calibration_time": unit_calibration,
               "models": shown_path(models, report_dir.parent),
               "thresholds": shown_path(thresholds, report_dir.parent), "observable_level_Nm": level, "runs": len(runs),
               "skipped": [{"bag": shown_path(b, bags_root), "reason": r} for b, r in skipped],

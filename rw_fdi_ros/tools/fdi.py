@@ -14,16 +14,21 @@ from . import metrics
 from .run import RunOutcome, run_scenario
 
 
-def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "speed_aware"):
+def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "speed_aware",
+                    unit_calibration: float = 0.0):
     """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError.
 
     ``plant``: the run's PlantChoices (default: the defaults); ``method``: the FDI method."""
-    from ..core.detection import ThresholdCurves
+    from ..core.detection import ThresholdCurves, ThresholdError
     from ..core.elman import REGENERATE, ElmanWeights, ModelError
     from ..core.plant_choices import DEFAULT
-    from ..paths import fdi_dir
+    from ..paths import fdi_dir, thresholds_dir
+    if not (np.isfinite(unit_calibration) and unit_calibration >= 0):
+        raise ThresholdError(f"--unit-calibration must be a finite number of seconds >= 0, got {unit_calibration}")
+    if unit_calibration and method != "speed_aware":
+        raise ThresholdError("--unit-calibration needs --fdi-method speed_aware (the thesis' residual is unsigned)")
     models = Path(models or fdi_dir(method))
-    thresholds = Path(thresholds or fdi_dir(method))
+    thresholds = Path(thresholds or thresholds_dir(method, unit_calibration))
     for a in AXES:
         path = models / f"elman_{a}.npz"
         if ElmanWeights.load(path).speed_aware != (method == "speed_aware"):
@@ -34,13 +39,16 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
         curves = ThresholdCurves.load(path)
         curves.check_method(method, origin=str(path))
         curves.check_compatible(plant, origin=str(path))
+        curves.check_unit_calibration(unit_calibration, origin=str(path))
 
 
 def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int | None = None,
-                 figure: bool = False, method: str = "speed_aware", **kw) -> RunOutcome:
+                 figure: bool = False, method: str = "speed_aware", unit_calibration: float = 0.0,
+                 **kw) -> RunOutcome:
     """Run the full graph (plant, PIDs, observers, isolation, recorder); attach the FDI verdict."""
     outcome = run_scenario(ref, seed=seed, out_dir=out_dir, fdi={"models": models, "thresholds": thresholds,
-                                                                 "persistence": persistence, "method": method}, **kw)
+                                                                 "persistence": persistence, "method": method,
+                                                                 "unit_calibration": unit_calibration}, **kw)
     if outcome.bag.exists():
         try:
             data = read_bag(outcome.bag)

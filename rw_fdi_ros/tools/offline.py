@@ -15,6 +15,7 @@ import numpy as np
 from ..core.detection import (FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, WINDOW, ThresholdCurves,
                               ThresholdError, fit_band, residual_series, run_statistic,
                               signed_residual_series)
+from ..core.calibration import calibration_samples, regressors
 from ..core.elman import ElmanWeights, ModelError, recall_series
 from ..core.linear_observer import estimate_series
 from ..core.scenario import AXES
@@ -52,8 +53,11 @@ def fdi_method_of(models: dict) -> str:
     return "speed_aware" if all(w.speed_aware for w in models.values()) else "thesis"
 
 
-def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PERIOD) -> ObserverRun:
-    """Both observers over one run; the method follows the Elman models (thesis: 2 inputs)."""
+def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PERIOD,
+            calibration_samples: int = 0) -> ObserverRun:
+    """Both observers over one run; the method follows the Elman models (thesis: 2 inputs).
+    ``calibration_samples`` > 0: each speed-aware observer learns each wheel's unit from that many
+    first samples (core/calibration.py)."""
     r = samples.reaction_torque
     method = fdi_method_of(models)
     if method == "thesis":
@@ -69,8 +73,14 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     est = {"elman": elman, "linear": samples.model_torque}
     residual, bound = {}, {}
     gains = {"elman": [models[a].uncertainty_gain for a in AXES], "linear": [0.0, 0.0, 0.0]}
+    x = None
+    if calibration_samples:
+        if samples.motor_torque is None:
+            raise ValueError("calibration needs FDI samples with the nominal motor and friction torque")
+        x = regressors(samples.motor_torque, samples.friction_torque, samples.wheel_speed, samples.ripple_phasor)
     for k, v in est.items():
-        residual[k], bound[k] = signed_residual_series(r, v, samples.ripple_phasor, window, gains[k])
+        residual[k], bound[k] = signed_residual_series(r, v, samples.ripple_phasor, window, gains[k], x,
+                                                       calibration_samples)
     return ObserverRun(samples.time, r, est, residual, bound, method)
 
 
@@ -91,14 +101,20 @@ def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
 
 
 def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", window: int = WINDOW,
-                   false_alarm_rate: float = FALSE_ALARM_RATE, persistence: int | None = None) -> dict:
+                   false_alarm_rate: float = FALSE_ALARM_RATE, persistence: int | None = None,
+                   unit_calibration: float = 0.0, plant: dict | None = None) -> dict:
     """Fit both observers' thresholds from fault-free runs (the method follows the models):
     thesis: mean + 3 sigma curves, returns reliability per axis; speed_aware: bands c for the
-    designed per-run ``false_alarm_rate`` at persistence P, returns the bands."""
+    designed per-run ``false_alarm_rate`` at persistence P, returns the bands.
+    ``unit_calibration`` [s]: bands for observers that learn their wheel first; ``plant``: the plant
+    choices of runs that are not bags (default: read from the bags)."""
     from ..core.detection import fit_threshold_curve
     n = min(len(s.time) for s in samples_list)
-    runs = [observe(s, models, window) for s in samples_list]
-    plant = plant_conditions(samples_list)
+    runs = [observe(s, models, window, calibration_samples=calibration_samples(unit_calibration, FDI_PERIOD))
+            for s in samples_list]
+    if unit_calibration and runs[0].method != "speed_aware":
+        raise ThresholdError("--unit-calibration needs speed_aware models (the thesis' residual is unsigned)")
+    plant = plant or plant_conditions(samples_list)
     seeds = [s.seed for s in samples_list]
     out_dir = Path(out_dir)
     report = {}
@@ -114,7 +130,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
             ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in AXES},
                             sample_period=FDI_PERIOD, window=window, sigmas=float("nan"), seeds=seeds, plant=plant,
                             model=describe[obs], method="speed_aware", persistence=p,
-                            false_alarm_rate=false_alarm_rate,
+                            false_alarm_rate=false_alarm_rate, unit_calibration_time=float(unit_calibration),
                             calibration={"law": "Gumbel fitted to the upper half of the run statistics "
                                                    "(probability plot)",
                                             "alpha_per_axis": share * false_alarm_rate / 3, "axes": bands,

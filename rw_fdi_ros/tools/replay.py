@@ -38,7 +38,8 @@ def replay_nodes(bags: list, out_bags: list, fdi: dict, plant: dict, rate: float
 
 
 def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int | None = None, rate: float = 0.0,
-                keep_logs: bool = False, watchdog: float | None = None, method: str | None = None) -> list:
+                keep_logs: bool = False, watchdog: float | None = None, method: str | None = None,
+                unit_calibration: float = 0.0) -> list:
     """Replay ``bags`` (recorded under the same plant choices) through one graph; the FDI outputs of
     bag i go to ``out_bags[i]``. Returns one RunOutcome per bag, in order. A graph that fails part
     way keeps the bags it finished; the first unfinished bag gets a graph alone and the rest another,
@@ -55,7 +56,8 @@ def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int |
     if not readable:
         return outcomes
     plant = plant_conditions([bags[i] for i in readable])
-    fdi = {"models": models, "thresholds": thresholds, "persistence": persistence, "method": method}
+    fdi = {"models": models, "thresholds": thresholds, "persistence": persistence, "method": method,
+           "unit_calibration": unit_calibration}
     groups = [readable]
     retried = False
     while groups:

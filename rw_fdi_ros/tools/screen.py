@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.calibration import calibration_samples
 from ..core.closed_loop import simulate
 from ..core.detection import ThresholdCurves
 from ..core.isolation import DECISION_OBSERVER
 from ..core.wheel import WheelParams
-from ..paths import fdi_dir
+from ..paths import fdi_dir, thresholds_dir
 from .metrics import RunEval, judge
 from .offline import fdi_series, identification_series, load_models, observe
 from .samples import samples_from_series
@@ -23,33 +24,33 @@ from .samples import samples_from_series
 BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
 
 
-def load_fdi(models=None, thresholds=None, method: str = "speed_aware"):
-    """(Elman weights, {observer: ThresholdCurves}) from directories (None: the shipped set of ``method``)."""
-    models = models or fdi_dir(method)
-    weights = load_models(models)
-    curves = {o: ThresholdCurves.load(f"{thresholds or models}/thresholds_{o}.json") for o in ("elman", "linear")}
+def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_calibration: float = 0.0):
+    """(Elman weights, {observer: ThresholdCurves}) from directories (None: the shipped set of ``method``
+    and ``unit_calibration``), checked against the calibration."""
+    weights = load_models(models or fdi_dir(method))
+    thresholds = thresholds or (models if models else thresholds_dir(method, unit_calibration))
+    curves = {o: ThresholdCurves.load(f"{thresholds}/thresholds_{o}.json") for o in ("elman", "linear")}
+    for o, c in curves.items():
+        c.check_unit_calibration(unit_calibration, origin=f"{thresholds}/thresholds_{o}.json")
     return weights, curves
 
 
 def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None,
-                identification: bool = False) -> list:
+                identification: bool = False, calibration_samples: int = 0) -> list:
     """RunEval of every scenario (one seed each; equal durations within a batch)."""
-    return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress, identification)["fdi"]
+    return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress, identification,
+                       calibration_samples)["fdi"]
 
 
-def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None,
-                identification: bool = False) -> dict:
-    """name -> [RunEval] for several FDI sets {name: (weights, curves)} judged on the same simulated runs.
-
-    ``identification``: also identify the faults of the wheels the decision observer alarms
-    (the isolation node's FaultIdentifier), into RunEval.identification."""
-    out = {name: [] for name in fdi_sets}
+def simulated_runs(scenarios, identification: bool = False, check=None, progress=None):
+    """(scenario, FdiSamples, fault effect peak per wheel) of every scenario, by the core closed loop in
+    batches of BATCH (equal durations and plant choices within a batch): the FDI samples the plant
+    node would report. ``check(plant_choices)`` runs before each batch is simulated."""
     for start in range(0, len(scenarios), BATCH):
         batch = scenarios[start:start + BATCH]
         choices = batch[0].plant_choices()
-        for _, curves in fdi_sets.values():
-            for c in curves.values():
-                c.check_compatible(choices, origin=f"thresholds_{c.observer}.json")
+        if check:
+            check(choices)
         traj = simulate(batch, wheel=WheelParams(emf_limit=choices.emf_limit), control_period=choices.control_period,
                         wheel_momentum_coupling=choices.wheel_momentum_coupling)
         stamps = np.round(traj.time * 1e9).astype(np.int64)
@@ -58,18 +59,35 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
                                           seed=scenario.seed, identification=identification)
             onset = min((f.onset for f in scenario.faults), default=None)
             after = traj.time >= onset if onset is not None else np.zeros(len(traj.time), bool)
-            peak = np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any() else np.zeros(3)
-            for name, (weights, curves) in fdi_sets.items():
-                series = fdi_series(observe(samples, weights), curves, persistence)
-                found = {}
-                if identification and len(samples.time):
-                    last = identification_series(samples, series[DECISION_OBSERVER].alarm)[-1]
-                    found = {a: v.values() for a, v in last.items() if v is not None}
-                out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,
-                                         seed=scenario.seed, faults=list(scenario.faults), series=series,
-                                         fault_effect_peak=peak, identification=found))
+            yield scenario, samples, np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any() else np.zeros(3)
         if progress:
             progress(len(batch))
+
+
+def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None,
+                identification: bool = False, calibration_samples: int = 0) -> dict:
+    """name -> [RunEval] for several FDI sets {name: (weights, curves[, calibration samples])} judged on the
+    same simulated runs (a set's own calibration samples, else ``calibration_samples``).
+
+    ``identification``: also identify the faults of the wheels the decision observer alarms
+    (the isolation node's FaultIdentifier), into RunEval.identification."""
+    out = {name: [] for name in fdi_sets}
+
+    def check(choices):
+        for entry in fdi_sets.values():
+            for c in entry[1].values():
+                c.check_compatible(choices, origin=f"thresholds_{c.observer}.json")
+    for scenario, samples, peak in simulated_runs(scenarios, identification, check, progress):
+        for name, (weights, curves, *own) in fdi_sets.items():
+            k = own[0] if own else calibration_samples
+            series = fdi_series(observe(samples, weights, calibration_samples=k), curves, persistence)
+            found = {}
+            if identification and len(samples.time):
+                last = identification_series(samples, series[DECISION_OBSERVER].alarm)[-1]
+                found = {a: v.values() for a, v in last.items() if v is not None}
+            out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,
+                                     seed=scenario.seed, faults=list(scenario.faults), series=series,
+                                     fault_effect_peak=peak, identification=found))
     return out
 
 
@@ -95,10 +113,11 @@ def summarize(runs) -> dict:
 
 
 def screen(scenario, seeds, models=None, thresholds=None, persistence: int | None = None,
-           method: str = "speed_aware") -> dict:
+           method: str = "speed_aware", unit_calibration: float = 0.0) -> dict:
     """Counts per observer over ``seeds`` of one scenario (see :func:`summarize`)."""
-    weights, curves = load_fdi(models, thresholds, method)
-    return summarize(screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, persistence))
+    weights, curves = load_fdi(models, thresholds, method, unit_calibration)
+    return summarize(screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, persistence,
+                                 calibration_samples=calibration_samples(unit_calibration)))
 
 
 def format_screen(name, out) -> str:

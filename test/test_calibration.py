@@ -1,0 +1,96 @@
+"""Unit calibration (core/calibration.py): the Bayesian least squares against its closed form, the
+learning window, and on the core loop a varied wheel judged against its own unit."""
+import numpy as np
+import pytest
+
+from rw_fdi_ros.core.calibration import UnitCalibration, calibration_samples, prior_variances, regressors
+from rw_fdi_ros.core.detection import ThresholdCurves, ThresholdError
+
+
+def synthetic(n, b, noise, seed=0):
+    rng = np.random.default_rng(seed)
+    x = np.column_stack([rng.uniform(-0.03, 0.03, n), rng.uniform(0.005, 0.02, n), np.full(n, 0.002),
+                         rng.normal(0, 1e-3, n), rng.normal(0, 1e-3, n)])
+    return x, x @ b + rng.normal(0, noise, n)
+
+
+def test_posterior_is_the_closed_form_ridge_solution():
+    b = np.array([0.03, -0.2, 0.15, 0.05, -0.1])
+    x, e = synthetic(120, b, 2e-4)
+    cal = UnitCalibration(samples=120)
+    for xi, ei in zip(x, e):
+        cal.update(ei, xi)
+    est = cal.estimate
+    s2 = 10.0 * est.noise ** 2   # CORRELATION x s^2
+    information = np.diag(1 / prior_variances()) + x.T @ x / s2
+    assert est.covariance == pytest.approx(np.linalg.inv(information), rel=1e-9)
+    assert est.mean == pytest.approx(np.linalg.solve(information, x.T @ e / s2), rel=1e-9, abs=1e-12)
+    # and it finds the unit: each physical share within 3 posterior sigma of the truth
+    sd = np.sqrt(np.diag(est.covariance))
+    assert np.all(np.abs(est.mean[:3] - b[:3]) < 3 * sd[:3])
+    assert est.noise == pytest.approx(2e-4, rel=0.2)
+    assert est.scales()["viscous_friction"][0] == pytest.approx(1 + est.mean[1])
+
+
+def test_learning_window_judges_against_the_prior_then_freezes():
+    b = np.array([0.05, 0.3, -0.2, 0.0, 0.0])
+    x, e = synthetic(80, b, 1e-5)
+    cal = UnitCalibration(samples=50)
+    p0 = prior_variances()
+    for k in range(50):
+        correction, u = cal.update(e[k], x[k])
+        assert correction == 0.0   # no correction while learning, the type's spread as uncertainty
+        assert u == pytest.approx(np.sqrt(x[k, :3] ** 2 @ p0[:3]))
+    frozen = cal.estimate
+    assert cal.frozen and frozen.samples == 50
+    for k in range(50, 80):
+        correction, u = cal.update(1.0, x[k])   # a fault after the window is not learnt
+        assert correction == pytest.approx(x[k, :3] @ frozen.mean[:3])
+        assert u < np.sqrt(x[k, :3] ** 2 @ p0[:3]) / 5   # the data narrowed the excited directions
+    assert cal.estimate is frozen
+    # 50 clean samples: the prediction error is what the noise allows, far below the unit's offsets
+    assert np.max(np.abs(x[50:, :3] @ (frozen.mean[:3] - b[:3]))) < 1e-4
+
+
+def test_what_the_data_cannot_separate_stays_at_the_prior():
+    # coulomb friction is constant at positive speed: with the viscous regressor constant too the
+    # two are one column, and their difference keeps the prior's spread
+    x = np.tile([0.0, 0.0096, 0.002, 0.0, 0.0], (100, 1))
+    cal = UnitCalibration(samples=100)
+    for xi in x:
+        cal.update(0.3 * 0.0096, xi)
+    cov = cal.estimate.covariance
+    sum_sd = np.sqrt(np.array([0, 0.0096, 0.002, 0, 0]) @ cov @ np.array([0, 0.0096, 0.002, 0, 0]))
+    assert sum_sd < 2e-4                                  # the torque they give together is learnt
+    # each alone is not: the coulomb share (the smaller column) keeps most of its prior spread
+    assert np.sqrt(cov[2, 2]) > 0.9 * np.sqrt(prior_variances()[2])
+
+
+def test_bad_priors_and_mismatched_bands_are_refused(tmp_path):
+    with pytest.raises(ValueError, match="prior"):
+        UnitCalibration(prior=[1, 1, 0, 1, 1])
+    assert calibration_samples(150.0, 1.0) == 150 and calibration_samples(150.0, 0.5) == 300
+    c = ThresholdCurves("linear", {a: np.array([1e-4]) for a in "xyz"}, method="speed_aware",
+                        unit_calibration_time=150.0)
+    c.save(tmp_path / "t.json")
+    loaded = ThresholdCurves.load(tmp_path / "t.json")
+    loaded.check_unit_calibration(150.0)
+    with pytest.raises(ThresholdError, match="unit_calibration_time=150 s but the observers run unit_calibration"):
+        loaded.check_unit_calibration(0.0)
+
+
+def test_a_varied_wheel_is_judged_against_its_own_unit():
+    """Core loop: on wheels drawn around the datasheet, the calibrated nominal model leaves a residual
+    several times smaller than the datasheet's after the window."""
+    from rw_fdi_ros.core.scenario import parse_scenario
+    from rw_fdi_ros.tools.offline import observe
+    from rw_fdi_ros.tools.screen import load_fdi, simulated_runs
+    weights, _ = load_fdi()
+    scenario = parse_scenario("duration: 300\nseed: 7\nwheels: {variation: true, spread: {viscous_friction: 0.3}}\n"
+                              "faults: []\n")
+    (_, samples, _), = simulated_runs([scenario])
+    raw = observe(samples, weights).residual["linear"][190:]
+    calibrated = observe(samples, weights, calibration_samples=150).residual["linear"][190:]
+    assert np.abs(calibrated).max() < np.abs(raw).max() / 3
+    x = regressors(samples.motor_torque, samples.friction_torque, samples.wheel_speed, samples.ripple_phasor)
+    assert x.shape == (len(samples.time), 3, 5)
