@@ -31,7 +31,7 @@ def _cmd_run(args) -> int:
     if args.fdi:
         from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
         check_fdi_files(args.models, args.thresholds, scenario.plant_choices(emf_limit=args.emf_limit),
-                        args.fdi_method, args.unit_calibration)
+                        args.fdi_method, args.unit_calibration, scenario.duration)
         nodes = "plant, 3 PID controllers, 3 Elman observers, linear observer, isolation, recorder"
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
           f" ({nodes}; private DDS domain)", flush=True)
@@ -50,7 +50,7 @@ def _cmd_run(args) -> int:
                   + (f", persistence P = {args.persistence}" if args.persistence else "")
                   + (f", wheels learnt over the first {args.unit_calibration:g} s" if args.unit_calibration else "")
                   + "):")
-            print(format_verdict(outcome.summary["fdi"]))
+            print(format_verdict(outcome.summary["fdi"], args.fdi_method))
             print(f"  figure: {outcome.summary.get('figure')}")
     if not outcome.ok:
         where = f" (node logs: {outcome.log_dir})" if outcome.log_dir and outcome.log_dir.exists() else ""
@@ -382,8 +382,16 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _terminate(signum, frame):
+    # SIGTERM (a CI job cancelled, `kill`) ends a run as Ctrl-C does: nodes stopped, the bag closed
+    # complete, a non-zero exit; Python's default would die at once and orphan the nodes
+    raise KeyboardInterrupt
+
+
 def main(argv=None) -> int:
+    import signal
     args = build_parser().parse_args(argv)
+    signal.signal(signal.SIGTERM, _terminate)
     from .core.scenario import ScenarioError
     from .storage.bag import BagError
     try:

@@ -3,7 +3,8 @@ learning window, and on the core loop a varied wheel judged against its own unit
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.calibration import UnitCalibration, calibration_samples, prior_variances, regressors
+from rw_fdi_ros.core.calibration import (UnitCalibration, calibration_samples, prior_variances, regressors,
+                                         tolerances)
 from rw_fdi_ros.core.detection import ThresholdCurves, ThresholdError
 
 
@@ -37,10 +38,13 @@ def test_learning_window_judges_against_the_prior_then_freezes():
     x, e = synthetic(80, b, 1e-5)
     cal = UnitCalibration(samples=50)
     p0 = prior_variances()
+    assert tolerances() == pytest.approx([0.04, 0.2, 0.2])
     for k in range(50):
         correction, u = cal.update(e[k], x[k])
-        assert correction == 0.0   # no correction while learning, the type's spread as uncertainty
-        assert u == pytest.approx(np.sqrt(x[k, :3] ** 2 @ p0[:3]))
+        assert correction == 0.0   # no correction while learning, the type's tolerance box as uncertainty
+        assert u == pytest.approx(np.abs(x[k, :3]) @ [0.04, 0.2, 0.2])
+        # 3 u covers every unit whose parameters each lie within 3 sigma, at any corner of the box
+        assert 3 * u >= np.abs(x[k, :3] @ (3 * np.array([0.04, 0.2, 0.2]) * np.sign(x[k, :3]))) - 1e-15
     frozen = cal.estimate
     assert cal.frozen and frozen.samples == 50
     for k in range(50, 80):

@@ -63,3 +63,40 @@ def test_threshold_file_roundtrip_and_errors(tmp_path):
     (tmp_path / "nan.json").write_text(json.dumps(raw))
     with pytest.raises(ThresholdError, match="finite curves"):
         ThresholdCurves.load(tmp_path / "nan.json")
+
+
+def test_curves_that_cannot_judge_the_run_are_refused(tmp_path):
+    """Issue 15: a 3-sample thesis curve held its start-up value for ever and hid a 40 % current loss; a
+    negative one alarms at once. Both are refused, naming the file; a speed-aware band holds at any time."""
+    from rw_fdi_ros.core.isolation import ObserverChannel
+    short = ThresholdCurves("elman", {a: np.array([3e-3, 2e-3, 1e-3]) for a in "xyz"})
+    short.save(tmp_path / "short.json")
+    loaded = ThresholdCurves.load(tmp_path / "short.json")
+    assert loaded.horizon == 2.0
+    loaded.check_horizon(2.0)
+    with pytest.raises(ThresholdError, match=r"short.json: the curves cover 0-2 s but the run lasts 400 s"):
+        loaded.check_horizon(400.0, origin=str(tmp_path / "short.json"))
+    channel = ObserverChannel("elman", loaded)
+    channel.update(2_000_000_000, [0.0] * 3)
+    assert not channel.beyond_horizon
+    channel.update(3_000_000_000, [0.0] * 3)
+    assert channel.beyond_horizon   # the isolation node reports STALE from here, never OK
+    negative = ThresholdCurves("linear", {"x": np.array([1e-3, -1e-4]), "y": np.ones(2), "z": np.ones(2)})
+    negative.save(tmp_path / "negative.json")
+    with pytest.raises(ThresholdError, match=r"negative.json: curve x has negative values.*sample 1"):
+        ThresholdCurves.load(tmp_path / "negative.json")
+    band = ThresholdCurves("linear", {a: np.array([-2e-5]) for a in "xyz"}, method="speed_aware")
+    band.save(tmp_path / "band.json")
+    assert ThresholdCurves.load(tmp_path / "band.json").horizon == float("inf")   # c < 0 is a valid band
+
+
+def test_fitting_runs_of_different_lengths_are_refused(tmp_path):
+    from rw_fdi_ros.tools.offline import fit_thresholds
+    from rw_fdi_ros.tools.samples import FdiSamples
+    def run(n, seed):
+        z = np.zeros((n, 3))
+        return FdiSamples(bag=None, seed=seed, time=np.arange(n, dtype=float), tcv=z, reaction_torque=z)
+    from rw_fdi_ros.tools.screen import load_fdi
+    weights, _ = load_fdi(method="thesis")
+    with pytest.raises(ThresholdError, match="different lengths \\(3 to 401 FDI samples; shortest: 2\\)"):
+        fit_thresholds([run(401, 1), run(3, 2)], weights, tmp_path, plant={"emf_limit": "kf_scaled"})

@@ -287,3 +287,24 @@ def test_foxglove_layout_plots_only_what_a_recorded_bag_holds(runs):
         assert len(values) == 1 and isinstance(values[0], (int, float)), path
     placed = json.dumps(layout["layout"])
     assert all(f'"{panel}"' in placed for panel in layout["configById"])   # every panel is on screen
+
+
+def test_fdi_configurations_that_cannot_judge_the_run_are_refused_before_any_node(fdi_copy, tmp_path):
+    """Calibration times the bands were not fitted for, calibration with the thesis method, and thesis
+    curves that end before the run: one line naming the file and the fix, exit 2, no node started."""
+    one_line_error(cli("run", "--scenario", "fault_free", "--unit-calibration", "60", "--out", str(tmp_path)),
+                   "unit_calibrated/thresholds_elman.json: fitted with unit_calibration_time=150 s but the "
+                   "observers run unit_calibration_time=60 s", "--unit-calibration 60")
+    one_line_error(cli("run", "--scenario", "fault_free", "--unit-calibration", "150", "--fdi-method", "thesis",
+                       "--out", str(tmp_path)), "--unit-calibration needs --fdi-method speed_aware")
+    one_line_error(cli("screen", "--scenario", "fault_free", "--seeds", "1..2", "--unit-calibration", "30"),
+                   "fitted with unit_calibration_time=150 s")
+    thesis = tmp_path / "thesis"
+    shutil.copytree(SHIPPED / "thesis", thesis, ignore=shutil.ignore_patterns("variants"))
+    raw = json.loads((thesis / "thresholds_elman.json").read_text())
+    raw["curves"] = {a: c[:3] for a, c in raw["curves"].items()}
+    (thesis / "thresholds_elman.json").write_text(json.dumps(raw))
+    one_line_error(cli("run", "--scenario", "current_0p6_x", "--fdi-method", "thesis", "--models", str(thesis),
+                       "--thresholds", str(thesis), "--out", str(tmp_path)),
+                   "thresholds_elman.json: the curves cover 0-2 s but the run lasts 400 s")
+    assert not list(tmp_path.glob("current_0p6_x*"))   # refused before the graph: no bag begun

@@ -264,3 +264,39 @@ def test_a_campaign_starts_a_hung_graph_over_once(monkeypatch, tmp_path):
     assert sorted(calls) == [0, 1, 1, 2]
     assert [s for s, _ in res.retried] == [1] and "watchdog" in res.retried[0][1]
     assert [s for s, _ in res.failed] == [2] and len(res.done) == 2
+
+
+def test_sigterm_ends_a_run_like_ctrl_c_with_a_complete_bag(tmp_path):
+    """`kill` (SIGTERM) on `rw-fdi run`: the nodes are stopped, the bag is closed complete and readable,
+    the exit is non-zero with a one-line reason; no node is left running."""
+    scenario = tmp_path / "long.yaml"
+    scenario.write_text("name: long\nduration: 5000.0\nseed: 3\nfaults: []\n")
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    proc = subprocess.Popen([str(BIN / "rw-fdi"), "run", "--scenario", str(scenario), "--no-fdi", "--out",
+                             str(tmp_path / "bags")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:   # recording: some chunks written
+            files = list((tmp_path / "bags").glob("*/*.mcap"))
+            if files and files[0].stat().st_size > 60000:
+                break
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode not in (0, None), out
+    assert "Traceback" not in err and "interrupted" in err and err.strip().count("\n") == 0, err
+    bag, = (tmp_path / "bags").iterdir()
+    data = read_bag(bag)
+    assert data.complete, data.note
+    t, attitude, _, _ = data.joint_states(T.ATTITUDE)
+    assert len(t) > 5 and t[-1] < 5000.0   # stopped part way, every message up to there kept
+    import re
+    logs = re.search(r"node logs: (\S+)\)", err)
+    assert logs, err   # the nodes read their parameters from that directory: none may still run
+    leftover = subprocess.run(["pgrep", "-f", logs.group(1)], capture_output=True, text=True).stdout.split()
+    assert not leftover, leftover

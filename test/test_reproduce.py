@@ -105,12 +105,15 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
     w.add_topic(T.ATTITUDE, T.JOINT_STATE)
     w.write("/attitude", 0, bytes(read_bag(good, topics=[T.ATTITUDE], raw=True).topic(T.ATTITUDE)[0][1]))
     w.close()
+    (bags / "metadata_only").mkdir()   # its data file gone: answered, not passed over in silence
+    shutil.copy(good / "metadata.yaml", bags / "metadata_only")
     models = out / "models"
     report = evaluate(bags, tmp_path / "report", models=models, thresholds=models, plots=False)
     assert report["runs"] == 1
     reasons = {Path(s["bag"]).name: s["reason"] for s in report["skipped"]}
     assert "incomplete bag" in reasons["truncated"]
     assert "no /scenario message (no ground truth)" in reasons["no_truth"]
+    assert "no .mcap data file (only metadata.yaml)" in reasons["metadata_only"]
 
     with pytest.raises(BagError, match="no bags to evaluate"):
         (tmp_path / "empty").mkdir()
@@ -123,8 +126,11 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
         raw = json.loads(p.read_text())
         raw["plant"]["emf_limit"] = "pwm_saturation"
         p.write_text(json.dumps(raw))
-    report = evaluate(bags, tmp_path / "r3", models=models, thresholds=mismatched, plots=False)
-    assert report["runs"] == 0
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)   # nothing evaluated: no plots of nothing (matplotlib warned)
+        report = evaluate(bags, tmp_path / "r3", models=models, thresholds=mismatched)
+    assert report["runs"] == 0 and not list((tmp_path / "r3").glob("*.png"))
     assert "fitted with emf_limit='pwm_saturation' but the graph runs emf_limit='kf_scaled'" in \
         {Path(s["bag"]).name: s["reason"] for s in report["skipped"]}["good"]
 

@@ -29,11 +29,13 @@ uncertainty at the present operating point,
 widens the bound: the observer never judges a wheel more sharply than it knows it.
 
 The first ``samples`` FDI periods of a run are learnt from (assumed healthy: a fault inside them
-would be taken as the unit's own); meanwhile the wheel is judged against its type, the datasheet
-model with the prior's uncertainty u_k = sqrt(x_k' P0 x_k) (wide: a 1-sigma unit is 2e-3 N m off
-while holding, so only gross faults show), and from then on against its own unit, b^ frozen.
-Judging with a half-learnt b^ alarmed 4 of 300 fault-free varied wheels inside the window
-(one-step predictions of a b^ still moving along the motor/friction collinearity).
+would be taken as the unit's own); meanwhile the wheel is judged against its type: the datasheet
+model with the type's tolerance box, u_k = sum_i t_i |x_k,i| (t: :func:`tolerances`; z u_k is the
+largest error of any unit whose every parameter lies within z sigma, wide: a 1-sigma unit is
+2e-3 N m off while holding, so only gross faults show); from then on against its own unit, b^
+frozen. Judging with a half-learnt b^ alarmed 4 of 300 fault-free varied wheels inside the window
+(one-step predictions of a b^ still moving along the motor/friction collinearity); the quadrature
+sqrt(x_k' P0 x_k) alarmed on units near the 3-sigma cut in two parameters at once (6 of 1000).
 """
 from __future__ import annotations
 
@@ -62,6 +64,14 @@ def prior_variances(spread: dict | None = None, ripple_gain_max: float = 2.0,
     ripple = (params.ripple_amplitude_share * params.ripple_coefficient * ripple_gain_max) ** 2
     return np.array([s.get("torque_constant", 0.0) ** 2 + s.get("driver_gain", 0.0) ** 2,
                      s.get("viscous_friction", 0.0) ** 2, s.get("coulomb_friction", 0.0) ** 2, ripple, ripple])
+
+
+def tolerances(spread: dict | None = None) -> np.ndarray:
+    """The 1-sigma tolerance of each physical share (b_m, b_v, b_c) as a box: b_m = (1 + d_kt)(1 + d_Gd) - 1
+    reaches s_kt + s_Gd when both sit at the same end (the plant draws each within 3 sigma)."""
+    s = dict(wm.DEFAULT_UNIT_SPREAD if spread is None else spread)
+    return np.array([s.get("torque_constant", 0.0) + s.get("driver_gain", 0.0), s.get("viscous_friction", 0.0),
+                     s.get("coulomb_friction", 0.0)])
 
 
 def regressors(motor_torque, friction_torque, wheel_speed, ripple_phasor,
@@ -97,13 +107,13 @@ class UnitCalibration:
     """
 
     def __init__(self, samples: int = DEFAULT_SAMPLES, prior: np.ndarray | None = None,
-                 sigma_floor: float = SIGMA_FLOOR, correlation: float = CORRELATION):
+                 sigma_floor: float = SIGMA_FLOOR, correlation: float = CORRELATION, tolerance=None):
         self.samples = int(samples)
         p0 = prior_variances() if prior is None else np.asarray(prior, float)
         if p0.shape != (5,) or np.any(p0 <= 0) or not np.all(np.isfinite(p0)):
             raise ValueError(f"calibration prior variances must be 5 finite positive numbers, got {p0.tolist()}")
         self.prior_information = np.diag(1.0 / p0)
-        self.prior_covariance = np.diag(p0[:3])
+        self.tolerance = tolerances() if tolerance is None else np.asarray(tolerance, float)
         self.floor2 = float(sigma_floor) ** 2
         self.correlation = float(correlation)
         self.xtx = np.zeros((5, 5))
@@ -131,13 +141,13 @@ class UnitCalibration:
     def update(self, error: float, x) -> tuple:
         x = np.asarray(x, float)
         phys = x[:3]
-        if not self.frozen:   # learning: judge against the type's spread, the prior, and learn
+        if not self.frozen:   # learning: judge against the type's tolerances, and learn
             self.xtx += np.outer(x, x)
             self.xte += x * float(error)
             self.ete += float(error) ** 2
             self.n += 1
             if self.frozen:
                 self.estimate = self._posterior()
-            return 0.0, float(np.sqrt(phys @ self.prior_covariance @ phys))
+            return 0.0, float(np.abs(phys) @ self.tolerance)
         est = self.estimate
         return float(phys @ est.mean[:3]), float(np.sqrt(max(phys @ est.covariance[:3, :3] @ phys, 0.0)))

@@ -307,7 +307,28 @@ class ThresholdCurves:
             raise ThresholdError(f"{path}: unknown method {out.method!r} (known: {', '.join(METHODS)}); {REFIT}")
         if out.persistence < 1:
             raise ThresholdError(f"{path}: persistence must be >= 1, got {out.persistence}; {REFIT}")
+        if out.method == "thesis":
+            for a, c in out.curves.items():
+                if np.any(c < 0):   # a threshold on a mean of |r - r^| below 0 alarms at once, for ever
+                    raise ThresholdError(f"{path}: curve {a} has negative values (min {c.min():.3g} at sample "
+                                         f"{int(c.argmin())}); a threshold on |r - r^| is >= 0; {REFIT}")
         return out
+
+    @property
+    def horizon(self) -> float:
+        """[s] up to which the curves say what the fault-free residual is: time-indexed (thesis) curves
+        end at their last sample, a speed-aware band holds for any time."""
+        if self.method != "thesis":
+            return float("inf")
+        return (min(len(c) for c in self.curves.values()) - 1) * self.sample_period
+
+    def check_horizon(self, duration: float, origin: str = "thresholds"):
+        """Refuse curves that end before the run does: past its last sample a time-indexed curve
+        would hold a value fitted for another moment, and the observer could not judge (a 3-sample
+        curve held its start-up peak and hid a 40 % current loss)."""
+        if self.horizon < float(duration):
+            raise ThresholdError(f"{origin}: the curves cover 0-{self.horizon:g} s but the run lasts "
+                                 f"{float(duration):g} s; fit them on runs at least as long; {REFIT}")
 
     def check_method(self, method: str, origin: str = "thresholds"):
         """Refuse curves of another FDI method than the running graph's."""

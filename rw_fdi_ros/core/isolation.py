@@ -33,9 +33,11 @@ class ObserverChannel:
     def reset(self):
         """Forget every alarm: a new run starts."""
         self.rules = {a: AlarmRule(self.persistence) for a in AXES}
+        self.beyond_horizon = False
 
     def update(self, stamp_ns: int, residual, bound=(0.0, 0.0, 0.0)):
         t = stamp_seconds(stamp_ns)
+        self.beyond_horizon = t > self.curves.horizon   # the curves cannot judge this moment (health)
         k = int(round(t / self.curves.sample_period))
         rows = {}
         for i, axis in enumerate(AXES):

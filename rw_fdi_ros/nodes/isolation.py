@@ -211,6 +211,11 @@ class IsolationNode(GraphNode):
             if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
                 # judged against the wheel type's spread until then: only gross faults show (calibration.py)
                 status.message += f"; learning its unit until {self.calibration_time:g} s"
+            channel = self.channels[self.decision]
+            if channel.beyond_horizon and status.level == DiagnosticStatus.OK:   # never OK while it cannot judge
+                status.level = DiagnosticStatus.STALE
+                status.message = (f"cannot judge: the threshold curves end at {channel.curves.horizon:g} s "
+                                  f"({self.param(f'thresholds_{self.decision}') or 'shipped'})")
             msg.status.append(status)
         self.pub_diag.publish(msg)
         self.pub_ident.publish(ident)

@@ -42,17 +42,20 @@ def shown_path(path, base) -> str:
 
 
 def find_bags(root) -> list:
-    """Every bag directory below ``root`` (a directory with a .mcap file), replays excluded."""
+    """Every bag directory below ``root`` (a directory with a .mcap file or a rosbag2 metadata.yaml),
+    replays excluded: a bag whose data file is gone is answered (skipped, saying so), not passed over."""
     root = Path(root)
     if not root.is_dir():
         raise BagError(f"{root}: no such directory")
-    bags = sorted({p.parent for p in root.rglob("*.mcap") if "replays" not in p.parts})
-    return bags
+    found = [p.parent for pattern in ("*.mcap", "metadata.yaml") for p in root.rglob(pattern)]
+    return sorted({b for b in found if "replays" not in b.relative_to(root).parts})
 
 
 def _check_bag(bag: Path, curves: dict):
     """(scenario, peak |fault effect| per wheel after the first onset) of a bag whose plant choices
     the curves were fitted under, or a one-line reason to skip it."""
+    if not list(bag.glob("*.mcap")):
+        raise BagError(f"{bag.name}: no .mcap data file (only {', '.join(sorted(p.name for p in bag.iterdir()))})")
     if not bag_is_complete(bag):
         data = read_bag(bag, topics=["/scenario"])
         raise BagError(f"{bag.name}: incomplete bag ({data.note or 'no metadata.yaml'})")
@@ -61,6 +64,7 @@ def _check_bag(bag: Path, curves: dict):
     plant = PlantChoices.from_recorded(scenario.plant).with_(fdi_sampling=FDI_SAMPLING)
     for c in curves.values():
         c.check_compatible(plant, origin=f"{bag.name}: curves")
+        c.check_horizon(scenario.duration, origin=f"{bag.name}: thresholds_{c.observer}.json")
     t, effect = data.vectors(T.FAULT_EFFECT)
     onset = min((f.onset for f in scenario.faults), default=None)
     peak = np.abs(effect[t >= onset]).max(axis=0) if onset is not None and np.any(t >= onset) else np.zeros(3)
@@ -162,7 +166,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
               "evaluate_seconds": time.monotonic() - t0}
     (report_dir / "report.json").write_text(json.dumps(report, indent=1))
     from .report import write_markdown, write_plots
-    if plots:
+    if plots and runs:   # nothing evaluated, nothing to draw (and no empty axes to warn about)
         report["plots"] = [shown_path(p, report_dir) for p in write_plots(runs, figures, report_dir)]
     write_markdown(report, report_dir / "report.md")
     (report_dir / "report.json").write_text(json.dumps(report, indent=1))

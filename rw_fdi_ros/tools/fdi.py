@@ -15,7 +15,7 @@ from .run import RunOutcome, run_scenario
 
 
 def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "speed_aware",
-                    unit_calibration: float = 0.0):
+                    unit_calibration: float = 0.0, duration: float | None = None):
     """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError.
 
     ``plant``: the run's PlantChoices (default: the defaults); ``method``: the FDI method."""
@@ -40,6 +40,8 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
         curves.check_method(method, origin=str(path))
         curves.check_compatible(plant, origin=str(path))
         curves.check_unit_calibration(unit_calibration, origin=str(path))
+        if duration is not None:
+            curves.check_horizon(duration, origin=str(path))
 
 
 def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int | None = None,
@@ -73,7 +75,16 @@ def fdi_verdict(data: BagData) -> dict:
     return out
 
 
-def format_verdict(v: dict) -> str:
+def observer_label(observer: str, method: str = "speed_aware") -> str:
+    """What a person calls the observer in the ``observer`` slot: in the speed-aware method the `linear`
+    slot runs the nominal wheel model at the measured command and speed (the model-based observer);
+    in the thesis method the Luenberger observer of the linearised wheel (thesis 3.3)."""
+    if observer == "linear":
+        return "model observer" if method == "speed_aware" else "linear observer"
+    return f"{observer} observer"
+
+
+def format_verdict(v: dict, method: str = "speed_aware") -> str:
     def fmt(intervals):
         if not intervals:
             return "healthy"
@@ -82,7 +93,7 @@ def format_verdict(v: dict) -> str:
             parts.append(f"faulty from {s:g} s" + (f" to {e:g} s (alarm lost)" if e is not None else ""))
         return "; ".join(parts)
 
-    lines = [f"  {'wheel':6s}{'ground truth':34s}{'elman observer':34s}linear observer"]
+    lines = [f"  {'wheel':6s}{'ground truth':34s}{observer_label('elman'):34s}{observer_label('linear', method)}"]
     for a in AXES:
         truth = "; ".join(f"{f['kind']}={f['value']:g} from {f['onset']:g} s" for f in v["truth"][a]) or "healthy"
         lines.append(f"  {a:6s}{truth:34s}{fmt(v['elman'][a]):34s}{fmt(v['linear'][a])}")

@@ -109,7 +109,12 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     ``unit_calibration`` [s]: bands for observers that learn their wheel first; ``plant``: the plant
     choices of runs that are not bags (default: read from the bags)."""
     from ..core.detection import fit_threshold_curve
-    n = min(len(s.time) for s in samples_list)
+    lengths = sorted({len(s.time) for s in samples_list})
+    if len(lengths) > 1:   # the curves would end with the shortest run: a longer run could not be judged
+        short = min(samples_list, key=lambda s: len(s.time))
+        raise ThresholdError(f"fitting runs of different lengths ({lengths[0]} to {lengths[-1]} FDI samples; "
+                             f"shortest: {getattr(short, 'bag', None) or short.seed}): fit on runs of one length")
+    n = lengths[0]
     runs = [observe(s, models, window, calibration_samples=calibration_samples(unit_calibration, FDI_PERIOD))
             for s in samples_list]
     if unit_calibration and runs[0].method != "speed_aware":

@@ -77,6 +77,7 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
         for entry in fdi_sets.values():
             for c in entry[1].values():
                 c.check_compatible(choices, origin=f"thresholds_{c.observer}.json")
+                c.check_horizon(max(s.duration for s in scenarios), origin=f"thresholds_{c.observer}.json")
     for scenario, samples, peak in simulated_runs(scenarios, identification, check, progress):
         for name, (weights, curves, *own) in fdi_sets.items():
             k = own[0] if own else calibration_samples

@@ -98,10 +98,11 @@ def format_units(report: dict) -> str:
             if c["cell"]["kind"] is None or c["cell"]["disturbance"]:
                 lines.append(f"| {name} | " + " | ".join(format_rate(c["sets"][s][o]["false_alarm"])
                                                          for s in sets for o in ("elman", "linear")) + " |")
-        lines += ["", "Faults (detected: the faulty wheel alarmed; correct: alarmed wheels = faulty wheels; delay "
+        lines += ["", "Faults (detected: the faulty wheel alarmed; correct: alarmed wheels = faulty wheels; "
+                  "observable: runs whose fault effect rose above the fault-free residual level, physics.md; delay "
                   "median / p90 in s):", "",
-                  "| case | set | observer | correct | detected | delay | held to end |",
-                  "|---|---|---|---|---|---|---|"]
+                  "| case | set | observer | correct | correct, observable | detected | delay | held to end |",
+                  "|---|---|---|---|---|---|---|---|"]
         for name, c in p["cells"].items():
             if c["cell"]["kind"] is None or c["cell"]["disturbance"]:
                 continue
@@ -111,6 +112,7 @@ def format_units(report: dict) -> str:
                     d = f["delay_s"]
                     delay = f"{d['median']:.0f} / {d['p90']:.0f}" if d["median"] is not None else "-"
                     lines.append(f"| {name} | {s} | {shown} | {format_rate(f['correct'])} | "
+                                 f"{format_rate(f['correct_observable'])} | "
                                  f"{format_rate(f['detected'])} | {delay} | {format_rate(f['held_to_end'])} |")
         lines.append("")
     return "\n".join(lines)
