@@ -169,12 +169,17 @@ def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: 
                                       "false_alarm_rate": c.false_alarm_rate} for obs, c in curves.items()}
                          for name, (_, curves) in sets.items()},
               "cells": results}
+    return write_report(report, out, "detection", format_detection)
+
+
+def write_report(report: dict, out, name: str, formatter) -> dict:
+    """``report`` as <out>/<name>.json and its text (``formatter``) as <out>/<name>.md; the report with
+    its text, ok, as the bench commands return it."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "detection.json").write_text(json.dumps(report, indent=1))
-    text = format_detection(report)
-    (out / "detection.md").write_text(text)
-    report["text"] = text
+    (out / f"{name}.json").write_text(json.dumps(report, indent=1))
+    report["text"] = formatter(report)
+    (out / f"{name}.md").write_text(report["text"])
     report["ok"] = True
     return report
 

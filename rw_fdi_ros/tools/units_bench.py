@@ -18,14 +18,14 @@ best method at least matches the model-based baseline.
 """
 from __future__ import annotations
 
-import json
 import time
 from functools import partial
 from pathlib import Path
 
 from ..core.calibration import calibration_samples
 from ..launch.graph import FDI_PERIOD
-from .detection_bench import CELLS, cell_figures, cell_scenarios, format_rate, observable_levels, screen_cells
+from .detection_bench import (CELLS, cell_figures, cell_scenarios, format_rate, observable_levels, screen_cells,
+                              write_report)
 from .screen import load_fdi, screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands
@@ -69,14 +69,7 @@ def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str 
                                      "unit_calibration_time": c.unit_calibration_time}
                                for obs, c in entry[1].items()} for name, entry in sets.items()},
               "populations": populations}
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "units.json").write_text(json.dumps(report, indent=1))
-    text = format_units(report)
-    (out / "units.md").write_text(text)
-    report["text"] = text
-    report["ok"] = True
-    return report
+    return write_report(report, out, "units", format_units)
 
 
 def format_units(report: dict) -> str:
