@@ -153,15 +153,16 @@ def _simulated_fitting_runs(ref: str, seeds) -> tuple:
     """FDI samples of fault-free runs of scenario ``ref`` over ``seeds`` by the core loop (screen), and
     the plant choices they were made under."""
     from tqdm import tqdm
+    from .core.plant_choices import PlantChoices
     from .core.scenario import load_scenario
-    from .launch.graph import FDI_PERIOD
     from .tools.screen import simulated_runs
     scenario = load_scenario(ref)
     if scenario.faults:
         raise ValueError(f"--simulate {ref}: thresholds are fitted on fault-free runs, this scenario has faults")
     with tqdm(total=len(seeds), desc="fitting runs (core loop)", unit="run", file=sys.stderr) as bar:
         samples = [s for _, s, _ in simulated_runs([scenario.with_seed(k) for k in seeds], progress=bar.update)]
-    plant = scenario.plant_choices().with_(fdi_period=FDI_PERIOD, fdi_sampling="mean").as_dict()
+    # what a bag of such a run would record: the same choices the recorded runs' fitting gets
+    plant = PlantChoices.of_recording(scenario.plant_choices().scenario_dict()).as_dict()
     return samples, plant
 
 
@@ -214,6 +215,15 @@ def _cmd_bench(args) -> int:
         from .tools.detection_bench import bench_detection
         report = bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
                                  out=args.out or "reports/detection")
+    elif args.what == "memory":
+        from .tools.memory_bench import bench_memory
+        try:
+            hours = tuple(float(h) for h in args.hours.split(","))
+        except ValueError:
+            raise ValueError(f"--hours: expected numbers like 1,6, got {args.hours!r}") from None
+        if not all(0 < h <= 48 for h in hours):
+            raise ValueError(f"--hours: each length must be in (0, 48] hours, got {args.hours!r}")
+        report = bench_memory(hours, seed=args.seed, out=args.out)
     elif args.what == "units":
         from .tools.units_bench import bench_units
         report = bench_units(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
@@ -231,18 +241,38 @@ def _cmd_bench(args) -> int:
 
 
 def _cmd_bag(args) -> int:
-    from .storage.bag import read_bag
-    from .tools.summary import format_summary, run_summary
-    data = read_bag(args.bag)
-    state = "complete" if data.complete else f"incomplete: {data.note}"
-    print(f"{data.path}: {state}")
-    for topic in sorted(data.messages):
-        rows = data.messages[topic]
-        print(f"  {topic:28s} {data.types[topic]:38s} {len(rows):7d} msgs  "
-              f"{rows[0][0] * 1e-9:8.1f} .. {rows[-1][0] * 1e-9:8.1f} s")
-    if data.scenario_text:
-        print(format_summary(run_summary(data)))
+    """Topics, counts and spans of a bag, its run summary and, where it holds FDI outputs, the FDI
+    verdict: each a stream over the file, so memory does not grow with the run's length."""
+    from .nodes import topics as T
+    from .storage.bag import bag_info, read_series
+    from .tools.summary import SUMMARY_TOPICS, format_summary, run_summary
+    info = bag_info(args.bag)
+    state = "complete" if info.complete else f"incomplete: {info.note}"
+    print(f"{info.path}: {state}")
+    for topic in sorted(info.counts):
+        first, last = info.span[topic]
+        print(f"  {topic:28s} {info.types[topic]:38s} {info.counts[topic]:7d} msgs  "
+              f"{first * 1e-9:8.1f} .. {last * 1e-9:8.1f} s")
+    if T.SCENARIO not in info.counts:
+        return 0
+    if T.ATTITUDE in info.counts:
+        print(format_summary(run_summary(read_series(args.bag, SUMMARY_TOPICS))))
+    if T.fdi_output_topics("elman")["alarm"] in info.counts:
+        from .tools.fdi import fdi_verdict, format_verdict, plot_residuals, verdict_topics
+        from .tools.metrics import health_from_bag
+        data = read_series(args.bag, verdict_topics())
+        verdict = {**fdi_verdict(data), "health": health_from_bag(args.bag)}
+        print(f"fault detection and isolation:\n{format_verdict(verdict, _bag_method(data))}")
+        if args.figure:
+            print(f"  figure: {plot_residuals(data, Path(args.figure))}")
     return 0
+
+
+def _bag_method(data) -> str:
+    """The FDI method of a recorded run: the speed-aware observers publish a non-zero ripple bound."""
+    from .nodes import topics as T
+    _, bound = data.vectors(T.bound_topic("linear"))
+    return "speed_aware" if bound.size and (bound != 0).any() else "thesis"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -250,11 +280,17 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="rw-fdi", description="Reaction-wheel FDI on a ROS 2 node graph.")
     sub = p.add_subparsers(dest="command", required=True)
     # options several commands share, each defined once (argparse parents)
-    fdi_files = argparse.ArgumentParser(add_help=False)
-    fdi_files.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
+    models = argparse.ArgumentParser(add_help=False)
+    models.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
+    persistence = argparse.ArgumentParser(add_help=False)
+    persistence.add_argument("--persistence", type=int, default=None,
+                             help="samples above the threshold before an alarm (P; default: the threshold file's; "
+                                  "fit-thresholds fits for 3 speed_aware, 5 thesis and writes it in the file)")
+    fdi_files = argparse.ArgumentParser(add_help=False, parents=[models, persistence])
     fdi_files.add_argument("--thresholds", default=None, help="threshold directory (default: config/fdi)")
-    fdi_files.add_argument("--persistence", type=int, default=None,
-                           help="samples above the threshold before an alarm (P; default: the threshold file's)")
+    false_alarms = argparse.ArgumentParser(add_help=False)
+    false_alarms.add_argument("--false-alarm-rate", type=float, default=FALSE_ALARM_RATE,
+                              help="designed per-run false-alarm probability (speed_aware; default %(default)g)")
     unit = argparse.ArgumentParser(add_help=False)
     unit.add_argument("--unit-calibration", type=float, default=0.0, metavar="SECONDS",
                       help="the observers learn each wheel's own unit from the first SECONDS of a run, assumed "
@@ -265,8 +301,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="speed_aware (ours: wheel speed, signed residual, designed false-alarm rate) or "
                              "thesis (2-input Elman, |r - r^|, mean + 3 sigma curves); without --models it "
                              "picks config/fdi or config/fdi/thesis")
-    cluster = argparse.ArgumentParser(add_help=False)
-    cluster.add_argument("--jobs", type=int, default=None, help="graphs at once (default: 2 on 2 cores)")
+    jobs = argparse.ArgumentParser(add_help=False)
+    jobs.add_argument("--jobs", type=int, default=None, help="graphs at once (default: 2 on 2 cores)")
+    cluster = argparse.ArgumentParser(add_help=False, parents=[jobs])
     cluster.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
 
     r = sub.add_parser("run", help="run one scenario through the whole graph and record a bag",
@@ -304,7 +341,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     f = sub.add_parser("fit-thresholds", help="fit the thresholds of both observers from fault-free bags "
                                               "(speed_aware models: bands for a designed false-alarm rate; "
-                                              "thesis models: mean + 3 sigma curves)", parents=[unit])
+                                              "thesis models: mean + 3 sigma curves)",
+                       parents=[models, false_alarms, persistence, unit])
     f.add_argument("--bags", default=None, help="directory of fault-free bags")
     f.add_argument("--simulate", default=None, metavar="SCENARIO",
                    help="instead of bags: fault-free runs of SCENARIO by the core loop (rw-fdi screen's, the "
@@ -312,23 +350,16 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--seeds", default="60000000..60000299", help="with --simulate: A..B inclusive "
                                                                  "(default %(default)s, disjoint from every bench)")
     f.add_argument("--out", required=True)
-    f.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
-    f.add_argument("--false-alarm-rate", type=float, default=FALSE_ALARM_RATE,
-                   help="designed per-run false-alarm probability (speed_aware; default %(default)g)")
-    f.add_argument("--persistence", type=int, default=None,
-                   help="P the thresholds are fitted for (default: 3 speed_aware, 5 thesis)")
     f.set_defaults(func=_cmd_fit)
 
-    d = sub.add_parser("defaults", help="regenerate the shipped models and threshold curves from nothing")
+    d = sub.add_parser("defaults", help="regenerate the shipped models and threshold curves from nothing",
+                       parents=[jobs, false_alarms])
     d.add_argument("--work", default="bags/defaults", help="where the campaigns' bags go (resumable)")
     d.add_argument("--out", default=None, help="default: config/fdi")
     d.add_argument("--fit-runs", type=int, default=100)
     d.add_argument("--heldout-runs", type=int, default=20)
     d.add_argument("--train-runs", type=int, default=40)
     d.add_argument("--epochs", type=int, default=None, help="speed-aware set (default 1000; the thesis set: 300)")
-    d.add_argument("--jobs", type=int, default=None)
-    d.add_argument("--false-alarm-rate", type=float, default=FALSE_ALARM_RATE,
-                   help="designed per-run false-alarm probability of the speed-aware set (default %(default)g)")
     d.set_defaults(func=_cmd_defaults)
 
     e = sub.add_parser("evaluate", help="replay bags through the observers and isolation; write the report",
@@ -337,10 +368,10 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--report", required=True, help="directory for report.md, report.json, plots, replays")
     e.set_defaults(func=_cmd_evaluate)
 
-    p2 = sub.add_parser("reproduce", help="the whole thesis study from nothing (resumable)", parents=[cluster])
+    p2 = sub.add_parser("reproduce", help="the whole thesis study from nothing (resumable)",
+                        parents=[cluster, persistence])
     p2.add_argument("--out", required=True)
     p2.add_argument("--scale", default="small", choices=["small", "thesis"])
-    p2.add_argument("--persistence", type=int, default=None, help="P (default: the threshold file's)")
     p2.set_defaults(func=_cmd_reproduce)
 
     q = sub.add_parser("screen", help="FDI figures for many seeds in seconds (core loop + node code, no ROS)",
@@ -353,14 +384,16 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_scenarios)
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
-    b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification", "units"],
+    b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification", "units", "memory"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
                         "node callback times and memory; study: record and replay throughput and the "
                         "thesis-scale reproduce time they give; detection: false-alarm and detection rates "
                         "with 95 %% intervals on >= 1000 held-out runs, both FDI methods (core loop); "
                         "identification: fault kind and size per kind and size, confusion matrix (core loop); "
                         "units: the same cells on wheels drawn around the datasheet and on the datasheet wheel, "
-                        "with and without unit calibration (core loop)")
+                        "with and without unit calibration (core loop); memory: peak memory of the run summary, "
+                        "`rw-fdi bag` and evaluation for fault-free runs of --hours (recorded, minutes)")
+    b.add_argument("--hours", default="1,6", help="memory: run lengths in hours, comma-separated (default 1,6)")
     b.add_argument("--fault-free-runs", type=int, default=1000, help="detection, units: fault-free runs")
     b.add_argument("--runs-per-cell", type=int, default=None,
                    help="detection: runs per fault or ripple case (default 200); identification: per grid size "
@@ -376,8 +409,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--json", action="store_true")
     b.set_defaults(func=_cmd_bench)
 
-    g = sub.add_parser("bag", help="what a bag holds (also a truncated one) and its run summary")
+    g = sub.add_parser("bag", help="what a bag holds (also a truncated one), its run summary and FDI verdict; "
+                       "read as a stream (memory does not grow with the run)")
     g.add_argument("bag")
+    g.add_argument("--figure", default=None, metavar="PNG", help="also draw the residuals against the thresholds")
     g.set_defaults(func=_cmd_bag)
     return p
 

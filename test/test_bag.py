@@ -7,7 +7,8 @@ from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Vector3 as Ve
 from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Vector3Stamped as V3S
 from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as Header
 
-from rw_fdi_ros.storage.bag import BagError, BagWriter, bag_is_complete, header_stamp_ns, read_bag, typestore
+from rw_fdi_ros.storage.bag import BagError, BagWriter, bag_is_complete, read_bag, typestore
+from rw_fdi_ros.storage.cdr import header_stamp_ns
 
 
 def vec(t_ns, x):
@@ -92,3 +93,64 @@ def test_a_rosbags_without_the_chunk_internals_is_refused_loudly(tmp_path, monke
     monkeypatch.delattr(McapWriter, "close_chunk")
     with pytest.raises(BagError, match="no longer has the chunk internals"):
         BagWriter(tmp_path / "x")
+
+
+def _mixed_bag(path, close=True):
+    """Vector3Stamped and JointState rows written out of stamp order, ties across topics, a latched
+    String and a DiagnosticArray: what the streaming readers must give back as the decoded reader does."""
+    from rosbags.typesys.stores.ros2_kilted import diagnostic_msgs__msg__DiagnosticArray as DiagArray
+    from rosbags.typesys.stores.ros2_kilted import sensor_msgs__msg__JointState as JointState
+    from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
+    import numpy as np
+    w = BagWriter(path, 10**9)
+    for topic, kind in (("/a", "geometry_msgs/msg/Vector3Stamped"), ("/j", "sensor_msgs/msg/JointState"),
+                        ("/scenario", "std_msgs/msg/String"), ("/d", "diagnostic_msgs/msg/DiagnosticArray")):
+        w.add_topic(topic, kind)
+    w.write_message("/scenario", 0, String(data="name: x"))
+    for k in (0, 2, 1, 3, 5, 4, 6, 7, 9, 8) * 3:   # each stamp three times: ties within a topic too
+        t = k * 10**9 + 10**8 + 7   # not whole seconds: the float of a stamp must match the decoded reader's
+        stamp = Time(sec=t // 10**9, nanosec=t % 10**9)
+        w.write_message("/j", t, JointState(header=Header(stamp=stamp, frame_id=""), name=["a", "b"],
+                                            position=np.array([k, -k], float), velocity=np.array([0.5 * k, 1.0]),
+                                            effort=np.array([], float)))
+        w.write_message("/a", t, vec(t, k / 3))
+        w.write_message("/d", t, DiagArray(header=Header(stamp=stamp, frame_id=""), status=[]))
+    if close:
+        w.close()
+
+
+def test_series_gives_the_numbers_of_the_decoded_reader(tmp_path):
+    import numpy as np
+    from rw_fdi_ros.storage.bag import bag_info, read_series
+    _mixed_bag(tmp_path / "m")
+    full, series = read_bag(tmp_path / "m"), read_series(tmp_path / "m", ["/a", "/j", "/scenario", "/d"])
+    for got, want in zip(series.vectors("/a"), full.vectors("/a")):
+        np.testing.assert_array_equal(got, want)
+    for got, want in zip(series.joint_states("/j"), full.joint_states("/j")):
+        assert got.shape == want.shape
+        np.testing.assert_array_equal(got, want)
+    assert series.scenario_text == full.scenario_text == "name: x"
+    assert series.last("/d").header.stamp.sec == full.last("/d").header.stamp.sec == 9
+    assert series.last("/d").header.stamp.nanosec == 100_000_007
+    assert series.vectors("/missing")[0].size == 0 and series.complete
+    info = bag_info(tmp_path / "m")
+    assert info.counts == {t: len(full.topic(t)) for t in full.messages} == {"/scenario": 1, "/j": 30, "/a": 30,
+                                                                            "/d": 30}
+    assert info.span["/a"] == [100_000_007, 9_100_000_007]
+
+
+@pytest.mark.parametrize("complete", [True, False])
+def test_time_order_is_the_sorted_bag(tmp_path, complete):
+    """The player's stream equals sorting the whole bag by (log time, topic rank), stable in file order;
+    through the chunk index for a finished bag, whole for one a killed recorder left."""
+    from rw_fdi_ros.storage.bag import iter_time_order
+    _mixed_bag(tmp_path / "o", close=complete)
+    rank = {"/d": 0, "/a": 1, "/j": 2}.get
+    data = read_bag(tmp_path / "o", raw=True)
+    assert data.complete == complete
+    rows = [(t, topic, raw) for topic, msgs in data.messages.items() for t, raw in msgs]
+    want = sorted(rows, key=lambda r: (r[0], rank(r[1], 99)))
+    got = list(iter_time_order(tmp_path / "o", None, lambda t: rank(t, 99)))
+    assert [(t, topic) for t, topic, _ in got] == [(t, topic) for t, topic, _ in want]
+    assert [bytes(r) for _, _, r in got] == [bytes(r) for _, _, r in want]
+    assert len(got) == (91 if complete else len(rows))

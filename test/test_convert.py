@@ -4,8 +4,8 @@ import pytest
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.serialization import deserialize_message, serialize_message
 
-from rw_fdi_ros.nodes.convert import read_vector_cdr, vector_cdr, vector_msg
-from rw_fdi_ros.storage.bag import header_stamp_ns
+from rw_fdi_ros.nodes.convert import vector_msg
+from rw_fdi_ros.storage.cdr import header_stamp_ns, read_vector_cdr, vector_cdr
 
 
 @pytest.mark.parametrize("frame_id", ["body", "", "a", "abc", "abcdefgh", "wheel_frame_x"])
@@ -37,7 +37,7 @@ def test_read_vector_cdr_big_endian():
                                                         ((0.1, 0.2, 0.3), (1.0, 2.0, 3.0), ())])
 def test_joint_state_cdr_decodes_as_rclpy_would_and_reads_back(position, velocity, effort):
     from sensor_msgs.msg import JointState
-    from rw_fdi_ros.nodes.convert import joint_state_cdr, read_joint_state_cdr
+    from rw_fdi_ros.storage.cdr import joint_state_cdr, read_joint_state_cdr
     names = ("reaction_wheel_x", "reaction_wheel_y", "reaction_wheel_z")
     raw = joint_state_cdr(12_300_000_001, names, position, velocity, effort, frame_id="body")
     msg = deserialize_message(raw, JointState)
@@ -79,6 +79,6 @@ def test_fdi_telemetry_report_gives_back_the_very_sample():
 
 def test_clock_cdr_decodes_as_rclpy_would():
     from rosgraph_msgs.msg import Clock
-    from rw_fdi_ros.nodes.convert import clock_cdr
+    from rw_fdi_ros.storage.cdr import clock_cdr
     msg = deserialize_message(clock_cdr(399_900_000_001), Clock)
     assert (msg.clock.sec, msg.clock.nanosec) == (399, 900_000_001)

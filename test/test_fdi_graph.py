@@ -210,29 +210,80 @@ def test_screen_without_ros_agrees_with_the_thesis_pattern():
     assert all(d > 0 for d in out["elman"]["delays"])
 
 
-def test_nan_in_a_replayed_reaction_torque_stops_the_replay_with_a_reason(runs, tmp_path):
-    """A corrupted sample must not silently disable the alarm (NaN > threshold is False)."""
+def _tampered_bag(src, out, tamper):
+    """A copy of bag ``src`` whose FDI telemetry rows go through ``tamper(log_time, msg)``, which
+    returns the [(log_time, msg)] to write instead (none: dropped, two: duplicated, a later log
+    time: delayed past the next sample)."""
     from rw_fdi_ros.storage.bag import BagWriter, typestore
-    from rw_fdi_ros.tools.replay import replay_bag
-    src = runs["current_0p6_x"].bag
-    data = read_bag(src, raw=True)
-    bad = tmp_path / "nan_bag"
-    w = BagWriter(bad)
+    data, store = read_bag(src, raw=True), typestore()
+    w = BagWriter(out)
     for topic in data.messages:
         w.add_topic(topic, data.types[topic])
-    rows = sorted((t, topic, raw) for topic, msgs in data.messages.items() for t, raw in msgs)
-    store = typestore()
+    rows = sorted(((t, topic, raw) for topic, msgs in data.messages.items() for t, raw in msgs), key=lambda r: r[0])
     for t, topic, raw in rows:
-        if topic == T.FDI_TELEMETRY and t == 150 * 10**9:
-            msg = store.deserialize_cdr(raw, data.types[topic])
-            wheel_y = next(s for s in msg.status if s.hardware_id == "reaction_wheel_y")
-            next(kv for kv in wheel_y.values if kv.key == "reaction_torque").value = "nan"
-            raw = store.serialize_cdr(msg, data.types[topic])
-        w.write(topic, t, raw)
+        if topic != T.FDI_TELEMETRY:
+            w.write(topic, t, raw)
+            continue
+        for t2, msg in tamper(t, store.deserialize_cdr(raw, data.types[topic])):
+            w.write(topic, t2, store.serialize_cdr(msg, data.types[topic]))
     w.close()
-    outcome = replay_bag(bad, tmp_path / "replayed", watchdog=120)
-    assert not outcome.ok
-    assert "non-finite input at t=150 s" in outcome.reason and "nan" in outcome.reason
+    return out
+
+
+def _set_value(msg, wheel, key, value):
+    status = next(s for s in msg.status if s.hardware_id == f"reaction_wheel_{wheel}")
+    next(kv for kv in status.values if kv.key == key).value = value
+
+
+def test_the_fdi_reports_its_own_health_under_bad_inputs(runs, tmp_path):
+    """Dropped, delayed, duplicated and NaN observer inputs: the statuses say so (never OK while a
+    wheel could not be judged), a healthy wheel gets no fault verdict, an alarm is held, not lost."""
+    from rw_fdi_ros.tools.fdi import fdi_verdict, format_verdict, verdict_topics
+    from rw_fdi_ros.tools.metrics import health_from_bag
+    from rw_fdi_ros.tools.replay import replay_bag
+    from rw_fdi_ros.storage.bag import read_series
+    s = 10**9
+    first_alarm = runs["current_0p6_x"].summary["fdi"]["elman"]["x"][0][0]   # the live run's, on wheel x
+
+    def tamper(t, msg):
+        if t in (60 * s, 61 * s, 62 * s):
+            return []                                   # dropped
+        if t == 80 * s:
+            return [(t + 3 * s // 2, msg)]              # delayed: arrives after the sample of 81 s
+        if t == 100 * s:
+            return [(t, msg), (t, msg)]                 # duplicated
+        if t == 150 * s:
+            _set_value(msg, "y", "reaction_torque", "nan")            # corrupt while every wheel is healthy
+        if t == (first_alarm + 20) * s:
+            _set_value(msg, "x", "reaction_torque", "nan")            # corrupt while wheel x is alarmed
+        return [(t, msg)]
+    bag = _tampered_bag(runs["current_0p6_x"].bag, tmp_path / "tampered", tamper)
+    outcome = replay_bag(bag, tmp_path / "replayed", watchdog=180)
+    assert outcome.ok, outcome.reason
+    data = read_bag(tmp_path / "replayed", topics=[T.DIAGNOSTICS, T.fdi_output_topics("linear")["status"]])
+    diag = {m.header.stamp.sec: {st.hardware_id[-1]: st for st in m.status} for _, m in data.topic(T.DIAGNOSTICS)}
+    assert not {60, 61, 62, 80} & set(diag) and 100 in diag
+    for t in (150, first_alarm + 20):   # never OK while it could not judge
+        assert all(st.level != 0 and "cannot judge" in st.message for st in diag[t].values()), diag[t]
+    assert diag[150]["y"].level == 3 and "non-finite elman residual at 150 s" in diag[150]["y"].message
+    held = diag[first_alarm + 20]["x"]
+    assert held.level == 2 and "alarm held: faulty since" in held.message
+    assert diag[63]["x"].level == 1 and "3 samples missing before 63 s" in diag[63]["x"].message
+    said = " | ".join(st.message for t in (81, 82) for st in diag[t].values())
+    assert "dropped a late sample stamped 80 s" in said
+    said = " | ".join(st.message for t in (100, 101) for st in diag[t].values())
+    assert "dropped a duplicate sample stamped 100 s" in said
+    linear = {m.header.stamp.sec: m for _, m in data.topic(T.fdi_output_topics("linear")["status"])}
+    assert all(st.level == 3 for st in linear[150].status if st.hardware_id != "reaction_wheel_x")
+
+    verdict = fdi_verdict(read_series(tmp_path / "replayed", verdict_topics()))
+    assert verdict["elman"]["y"] == verdict["elman"]["z"] == []   # no fault verdict from a corrupt input
+    assert verdict["elman"]["x"] == [(first_alarm, None)]         # held through the NaN, never lost
+    health = health_from_bag(tmp_path / "replayed")
+    assert health[T.DIAGNOSTICS]["y"]["cannot_judge"]["samples"] == 2
+    assert health[T.DIAGNOSTICS]["x"]["input_trouble"]["first_s"] == 63
+    text = format_verdict({**verdict, "health": health})
+    assert "could not judge 2 samples, first at 150 s" in text, text
 
 
 @pytest.mark.parametrize("plant, running, fitted", [

@@ -34,3 +34,46 @@ def test_files_without_the_coupling_key_were_made_without_it():
                                              "wheel_momentum_coupling=True"):
         legacy.check_compatible(DEFAULT)
     legacy.check_compatible(DEFAULT.with_(wheel_momentum_coupling=False))
+
+
+def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_assembled(tmp_path):
+    """Fitting on simulated runs (cli), fitting and replay on recorded bags (offline.plant_conditions),
+    evaluating a bag (evaluate) and the running graph's isolation node: one PlantChoices, non-default
+    plant choices and all."""
+    from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
+
+    from rw_fdi_ros.cli import _simulated_fitting_runs
+    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.launch.graph import graph_nodes
+    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.storage.bag import BagWriter
+    from rw_fdi_ros.tools.evaluate import _check_bag
+    from rw_fdi_ros.tools.offline import plant_conditions
+
+    ref = tmp_path / "quiet.yaml"
+    ref.write_text("name: quiet\nduration: 10.0\nseed: 4\n"
+                   "plant: {wheel_momentum_coupling: false, emf_limit: pwm_saturation}\nfaults: []\n")
+    scenario = load_scenario(str(ref))
+    bag = tmp_path / "bag"   # what the plant node records of the run: its /scenario
+    writer = BagWriter(bag)
+    writer.add_topic(T.SCENARIO, "std_msgs/msg/String")
+    writer.add_topic(T.FAULT_EFFECT, "geometry_msgs/msg/Vector3Stamped")
+    writer.write_message(T.SCENARIO, 0, String(data=scenario.effective_text(scenario.plant_choices().scenario_dict())))
+    writer.close()
+
+    class Curves:   # what evaluate checks the bag's choices against: records them
+        observer = "elman"
+
+        def check_compatible(self, plant, origin=""):
+            self.plant = plant
+
+        def check_horizon(self, duration, origin=""):
+            pass
+
+    curves = Curves()
+    _check_bag(bag, {"elman": curves})
+    _, simulated = _simulated_fitting_runs(str(ref), range(0))
+    isolation = next(n for n in graph_nodes(scenario, str(ref), None, fdi={}) if n.name == "isolation")
+    running = PlantChoices(**{k: isolation.parameters[k] for k in DEFAULT.as_dict()})
+    assert running.emf_limit == "pwm_saturation" and running.wheel_momentum_coupling is False
+    assert curves.plant == PlantChoices(**plant_conditions([bag])) == PlantChoices(**simulated) == running

@@ -6,6 +6,8 @@ the node's verdict.
 """
 from __future__ import annotations
 
+import math
+
 from .detection import AlarmRule, ThresholdCurves
 
 AXES = ("x", "y", "z")
@@ -22,6 +24,8 @@ class ObserverChannel:
     """One observer's alarms: |residual_k| against threshold(k) + bound_k for P consecutive samples.
 
     ``update`` returns axis -> (residual, threshold + bound, alarm, first alarm time or None).
+    A non-finite residual or bound is not judged: the axis' alarm state is held (NaN > threshold
+    is False, it would clear an alarm) and the axis is in ``unjudged`` until its next finite sample.
     """
 
     def __init__(self, observer: str, curves: ThresholdCurves, persistence: int | None = None):
@@ -34,6 +38,7 @@ class ObserverChannel:
         """Forget every alarm: a new run starts."""
         self.rules = {a: AlarmRule(self.persistence) for a in AXES}
         self.beyond_horizon = False
+        self.unjudged = set()   # axes whose last sample could not be judged (non-finite input)
 
     def update(self, stamp_ns: int, residual, bound=(0.0, 0.0, 0.0)):
         t = stamp_seconds(stamp_ns)
@@ -41,7 +46,12 @@ class ObserverChannel:
         k = int(round(t / self.curves.sample_period))
         rows = {}
         for i, axis in enumerate(AXES):
-            threshold = self.curves.at(axis, k) + float(bound[i])
-            alarm = self.rules[axis].update(abs(float(residual[i])), threshold, t)
-            rows[axis] = (float(residual[i]), threshold, alarm, self.rules[axis].first_alarm)
+            rule, r, b = self.rules[axis], float(residual[i]), float(bound[i])
+            threshold = self.curves.at(axis, k) + b
+            if math.isfinite(r) and math.isfinite(b):
+                self.unjudged.discard(axis)
+                rule.update(abs(r), threshold, t)
+            else:
+                self.unjudged.add(axis)
+            rows[axis] = (r, threshold, rule.active, rule.first_alarm)
         return rows

@@ -20,6 +20,10 @@ from .wheel import EMF_LIMITS
 SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period")
 # the value a recorded mapping without the key was made under
 LEGACY = {"wheel_momentum_coupling": False}
+# what the graph's FDI runs at, whatever the scenario: sample period [s] (the plant's telemetry report,
+# core/telemetry.py) and how control-rate data becomes one FDI sample (core/sampling.py [choice])
+FDI_PERIOD = 1.0
+FDI_SAMPLING = "mean"
 
 
 class PlantChoiceError(ValueError):
@@ -36,8 +40,8 @@ class PlantChoices:
     emf_limit: str = "kf_scaled"
     wheel_momentum_coupling: bool = True
     control_period: float = 0.1
-    fdi_period: float = 1.0
-    fdi_sampling: str = "mean"
+    fdi_period: float = FDI_PERIOD
+    fdi_sampling: str = FDI_SAMPLING
 
     def __post_init__(self):
         if self.emf_limit not in EMF_LIMITS:
@@ -65,6 +69,13 @@ class PlantChoices:
         known = {f.name for f in fields(cls)}
         values = {**LEGACY, **{k: v for k, v in (recorded or {}).items() if k in known}}
         return cls(**values)
+
+    @classmethod
+    def of_recording(cls, recorded: dict | None, fdi_sampling: str = FDI_SAMPLING) -> "PlantChoices":
+        """What the FDI of a recorded run works under: the plant's choices as the bag's /scenario
+        recorded them (from_recorded), the graph's FDI period and ``fdi_sampling``. A run simulated
+        for the FDI without a bag gives its would-be record, ``scenario.plant_choices().scenario_dict()``."""
+        return cls.from_recorded(recorded).with_(fdi_period=FDI_PERIOD, fdi_sampling=fdi_sampling)
 
     def as_dict(self) -> dict:
         return asdict(self)

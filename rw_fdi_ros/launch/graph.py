@@ -28,10 +28,6 @@ class NodeSpec:
         return f"rw_fdi_ros.nodes.{self.executable}"
 
 
-FDI_PERIOD = DEFAULT.fdi_period
-FDI_SAMPLING = DEFAULT.fdi_sampling   # core/sampling.py [choice]
-
-
 def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command_timeout: float = 5.0,
                 emf_limit: str | None = None, fdi: dict | None = None):
     """Plant, three PID controllers, (when ``fdi``) the observers and isolation, and (when ``bag``)
@@ -41,22 +37,27 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     ic, _ = scenario.draws()
     times, values = scenario.setpoint_schedule()
     hold = hold_command(ic.wheel_speed, scenario.wheel_params())   # the plant's own units' hold
-    recording = bag is not None
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
-        "command_timeout": command_timeout,
-        "wait_for_subscribers": 1 if recording else 0, "fdi_readers": T.telemetry_readers(fdi is not None)})]
+        "command_timeout": command_timeout})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "axis": axis, "control_period": period, "initial_tcv": float(hold[i]),
-            "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]],
-            "min_subscribers": 2 if recording else 1}))
+            "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]]}))
     if fdi is not None:
-        nodes += fdi_nodes(fdi, choices, recording)
-    if recording:
+        nodes += fdi_nodes(fdi, choices)
+    if bag is not None:
         nodes.append(NodeSpec("recorder", "recorder", {"output": str(bag),
-                                                       "fdi_period": FDI_PERIOD if fdi is not None else 0.0}))
+                                                       "fdi_period": choices.fdi_period if fdi is not None else 0.0}))
+    return with_reader_counts(nodes)
+
+
+def with_reader_counts(nodes):
+    """``nodes``, each told how many readers of its topics to wait for: what the others read
+    (nodes/topics.py READS), so a node added to the graph is waited for. Call it on the finished list."""
+    for node in nodes:
+        node.parameters.update(T.reader_counts(node, nodes))
     return nodes
 
 
@@ -65,7 +66,7 @@ def fdi_method(fdi: dict) -> str:
     return fdi.get("method") or "speed_aware"
 
 
-def fdi_nodes(fdi: dict, choices: PlantChoices, recording: bool):
+def fdi_nodes(fdi: dict, choices: PlantChoices):
     """Three Elman observers, the linear observer and the isolation node (told the run's choices).
 
     ``fdi``: models / thresholds directories (None: the shipped set of the method), persistence
@@ -76,18 +77,15 @@ def fdi_nodes(fdi: dict, choices: PlantChoices, recording: bool):
     nodes = []
     for axis in AXES:
         params = {"axis": axis, "fdi_method": method, "fdi_period": choices.fdi_period,
-                  "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration,
-                  "min_subscribers": 1 + recording}
+                  "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration}
         if models:
             params["model"] = str(Path(models) / f"elman_{axis}.npz")
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
     nodes.append(NodeSpec("linear_observer", "linear_observer",
                           {"fdi_method": method, "fdi_period": choices.fdi_period,
-                           "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration,
-                           "min_subscribers": 1 + recording}))
+                           "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration}))
     iso = {**choices.as_dict(), "fdi_method": method, "persistence": int(fdi.get("persistence") or 0),
-           "unit_calibration_time": calibration,
-           "min_subscribers": int(recording)}
+           "unit_calibration_time": calibration}
     if thresholds:
         iso.update(thresholds_elman=str(Path(thresholds) / "thresholds_elman.json"),
                    thresholds_linear=str(Path(thresholds) / "thresholds_linear.json"))

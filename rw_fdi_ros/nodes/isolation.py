@@ -18,9 +18,15 @@ message) and onto /fdi/identification. Identification lives here, not in a
 node of its own, because it refines this node's verdict: one status per wheel,
 made of one stamp's alarm and telemetry.
 
-An input stamped no later than the one before from the same source starts a
-new run (bag replay feeds many runs through one graph): that source's alarms
-or identification are forgotten.
+It monitors its inputs (core/input_health.py) and never reports OK while it
+could not raise an alarm: an input stamped back at a run's first sample starts
+a new run (bag replay feeds many runs through one graph: that source's alarms
+or identification are forgotten); a duplicate or late one is dropped and said
+(WARN); a gap in the stamps is said (WARN); a non-finite residual is not
+judged: the wheel reads STALE "cannot judge" with its alarm held; an observer
+silent for ``input_timeout`` wall seconds while the telemetry goes on has its
+samples decided without it, STALE; telemetry that stops for that long makes
+/diagnostics say so, STALE.
 """
 from __future__ import annotations
 
@@ -33,6 +39,7 @@ import numpy as np
 
 from ..core.detection import METHODS, ThresholdCurves, ThresholdError
 from ..core.identification import FaultIdentifier
+from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
 from ..core.isolation import DECISION_OBSERVER, ObserverChannel
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.scenario import AXES
@@ -48,10 +55,19 @@ def default_thresholds(observer: str, method: str = "speed_aware", unit_calibrat
     return str(thresholds_dir(method, unit_calibration_time) / f"thresholds_{observer}.json")
 
 
-def _status(name, axis, residual, threshold, alarm, first, extra=(), identification=None):
+def _status(name, axis, residual, threshold, alarm, first, extra=(), identification=None, unjudged=None, note=None):
+    """One wheel's status. ``unjudged``: why this sample could not be judged (STALE unless alarmed,
+    the alarm held); ``note``: what the input stream did (WARN unless worse)."""
     s = DiagnosticStatus(name=name, hardware_id=f"reaction_wheel_{axis}")
-    s.level = DiagnosticStatus.ERROR if alarm else DiagnosticStatus.OK
+    level = ERROR if alarm else OK
     s.message = f"faulty since {first:g} s" if alarm else ("recovered" if first is not None else "nominal")
+    if unjudged:
+        s.message = f"cannot judge: {unjudged}" + (f" (alarm held: {s.message})" if alarm else "")
+        level = level if alarm else STALE
+    if note is not None:
+        s.message += f"; {note.message}"
+        level = level if level == ERROR else max(level, note.level)
+    s.level = bytes([level])   # rclpy's DiagnosticStatus.level is a byte
     if identification is not None:
         s.message += f": {identification.message()}"
         extra = [*extra, *(KeyValue(key=k, value=v) for k, v in identification.values().items())]
@@ -72,7 +88,9 @@ class IsolationNode(GraphNode):
         self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
         self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
         self.declare_parameter("decision_observer", DECISION_OBSERVER)
-        self.declare_parameter("min_subscribers", 0)        # readers (the recorder) before output goes
+        self.declare_parameter("input_timeout", 5.0)        # wall s an input may be silent before it is said
+        self.declare_parameter("min_subscribers", 0)        # readers of each output (the recorder) before it goes
+        self.declare_parameter("diagnostics_readers", 0)    # of /diagnostics: the recorder (+ a replay's player)
         # the running graph's plant choices: curves fitted under others are refused
         for key, value in DEFAULT_CHOICES.as_dict().items():
             self.declare_parameter(key, value)
@@ -102,17 +120,19 @@ class IsolationNode(GraphNode):
         self.decision = self.param("decision_observer")
         if self.decision not in self.channels:
             raise NodeError(f"decision_observer must be one of {', '.join(T.OBSERVERS)}", EXIT_BAD_INPUT)
-        def gate(msg_type, name):
-            return GatedPublisher(self.create_publisher(msg_type, name, T.RELIABLE),
-                                                             self.param("min_subscribers"))
+        def gate(msg_type, name, readers="min_subscribers"):
+            return GatedPublisher(self.create_publisher(msg_type, name, T.RELIABLE), self.param(readers))
         self.pubs = {obs: {k: gate(DiagnosticArray if k == "status" else Vector3Stamped, name)
                            for k, name in T.fdi_output_topics(obs).items()} for obs in T.OBSERVERS}
-        self.pub_diag = gate(DiagnosticArray, T.DIAGNOSTICS)
+        self.pub_diag = gate(DiagnosticArray, T.DIAGNOSTICS, "diagnostics_readers")
         self.pub_ident = gate(DiagnosticArray, T.IDENTIFICATION)
         self.gates = [self.pub_diag, self.pub_ident] + [p for pubs in self.pubs.values() for p in pubs.values()]
         self.done_samples = {}   # stamp -> observer (or 'telemetry') -> what arrived for that stamp
         self.identifier = FaultIdentifier(AXES)
-        self.last_stamp = {}     # source -> its last stamp (a stamp that goes back starts a new run)
+        self.inputs = {part: InputMonitor(f"{part} residuals" if part in self.channels else "FDI telemetry",
+                                          plant.fdi_period) for part in (*self.channels, "telemetry")}
+        self.last_input = time.monotonic()
+        self.silent_said = False
         self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         def bound(a):
             return f"bound_{a}"
@@ -126,23 +146,26 @@ class IsolationNode(GraphNode):
         linear.subscribe(self, "bound", T.bound_topic("linear"), T.RELIABLE)
         self.follow_run_end(period=plant.fdi_period)
 
-    def _new_run(self, source, stamp) -> bool:
-        last = self.last_stamp.get(source)
-        self.last_stamp[source] = stamp
-        return last is not None and stamp <= last
+    def _accept(self, source, stamp) -> bool:
+        """Whether to use a source's input stamped ``stamp``; a new run resets what the source feeds."""
+        self.last_input, self.silent_said = time.monotonic(), False
+        order = self.inputs[source].accept(stamp)
+        if order == OUT_OF_ORDER:
+            self.get_logger().warn(self.inputs[source].last_note.message)
+            return False
+        if order == NEW_RUN:
+            if source == "telemetry":
+                self.identifier.reset()
+            else:
+                self.channels[source].reset()
+        return True
 
     def _on_residual(self, observer, stamp, residual, bound):
         t0, c0 = time.perf_counter(), time.thread_time()
-        if self._new_run(observer, stamp):
-            self.channels[observer].reset()
+        if not self._accept(observer, stamp):
+            return
         rows = self.channels[observer].update(stamp, residual, bound)
-        pubs = self.pubs[observer]
-        pubs["threshold"].publish(vector_msg(stamp, [rows[a][1] for a in AXES]))
-        pubs["alarm"].publish(vector_msg(stamp, [float(rows[a][2]) for a in AXES]))
-        status = DiagnosticArray()
-        status.header.stamp = time_msg(stamp)
-        status.status = [_status(f"{observer} observer: wheel {a}", a, *rows[a]) for a in AXES]
-        pubs["status"].publish(status)
+        self._publish_observer(observer, stamp, rows, note=self.inputs[observer].take_note(stamp))
         self._arrived(stamp, observer, rows)
         self.compute.append(time.perf_counter() - t0)   # the whole callback, publishing included
         self.compute_cpu.append(time.thread_time() - c0)
@@ -154,29 +177,41 @@ class IsolationNode(GraphNode):
         except ValueError as exc:
             self.fail(f"malformed {T.FDI_TELEMETRY}: {exc}", EXIT_BAD_INPUT)
             return
-        if self._new_run("telemetry", sample.stamp_ns):
-            self.identifier.reset()
+        if not self._accept("telemetry", sample.stamp_ns):
+            return
         self._arrived(sample.stamp_ns, "telemetry", sample)
         self.compute.append(time.perf_counter() - t0)
         self.compute_cpu.append(time.thread_time() - c0)
 
     def _arrived(self, stamp, part, value):
         """Collect one stamp's parts; once both observers' rows and the telemetry are in, decide it."""
-        handled = self.done_samples.setdefault(stamp, {})
+        handled = self.done_samples.setdefault(stamp, {"since": time.monotonic()})
         handled[part] = value
-        if len(handled) < len(self.channels) + 1:
+        if len(handled) < len(self.channels) + 2:
             return
-        del self.done_samples[stamp]
+        self._decide(stamp)
+
+    def _decide(self, stamp, silent=()):
+        """/diagnostics of one stamp; ``silent``: observers whose rows never came (judged without them)."""
+        handled = self.done_samples.pop(stamp)
+        del handled["since"]
         sample = handled.pop("telemetry")
+        for obs in silent:   # the alarm state held, every wheel unable to judge
+            channel = self.channels[obs]
+            k = int(round(stamp * 1e-9 / channel.curves.sample_period))
+            rows = {a: (float("nan"), channel.curves.at(a, k), r.active, r.first_alarm)
+                    for a, r in channel.rules.items()}
+            self._publish_observer(obs, stamp, rows, silent=True)
+            handled[obs] = rows
         alarmed = {a: handled[self.decision][a][2] for a in AXES}
         finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
                                                         sample.ripple_phasor, sample.bus_motor_torque))
-        # a non-finite sample stops the observers with a reason; it must not poison the estimate
+        # a non-finite sample is not judged by the observers; it must not poison the estimate either
         identified = self.identifier.update(sample, alarmed) if finite else dict(self.identifier.latest)
-        self._publish_diagnostics(stamp, handled, identified)
+        self._publish_diagnostics(stamp, handled, identified, self.decision in silent)
         self.last_handled = stamp
 
-    def _publish_diagnostics(self, stamp, rows_of, identified):
+    def _publish_diagnostics(self, stamp, rows_of, identified, silent=False):
         """/diagnostics and /fdi/identification of one stamp from both observers' rows and the
         identification of that same stamp."""
         msg = DiagnosticArray()
@@ -184,6 +219,7 @@ class IsolationNode(GraphNode):
         ident = DiagnosticArray()
         ident.header.stamp = time_msg(stamp)
         main = rows_of[self.decision]
+        note = self.inputs["telemetry"].take_note(stamp)
         for a in AXES:
             found = identified.get(a)
             status = DiagnosticStatus(name=f"rw_fdi: identification wheel {a}", hardware_id=f"reaction_wheel_{a}")
@@ -207,7 +243,8 @@ class IsolationNode(GraphNode):
                 learning = stamp <= self.calibration_time * 1e9
                 extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
             status = _status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
-                             extra=extra, identification=found)
+                             extra=extra, identification=found, note=note,
+                             unjudged=self._why_unjudged(self.decision, stamp, a, silent))
             if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
                 # judged against the wheel type's spread until then: only gross faults show (calibration.py)
                 status.message += f"; learning its unit until {self.calibration_time:g} s"
@@ -220,7 +257,47 @@ class IsolationNode(GraphNode):
         self.pub_diag.publish(msg)
         self.pub_ident.publish(ident)
 
+    def _publish_observer(self, observer, stamp, rows, note=None, silent=False):
+        """Thresholds, alarms and the per-wheel status of one observer's sample."""
+        pubs = self.pubs[observer]
+        pubs["threshold"].publish(vector_msg(stamp, [rows[a][1] for a in AXES]))
+        pubs["alarm"].publish(vector_msg(stamp, [float(rows[a][2]) for a in AXES]))
+        status = DiagnosticArray()
+        status.header.stamp = time_msg(stamp)
+        status.status = [_status(f"{observer} observer: wheel {a}", a, *rows[a], note=note,
+                                 unjudged=self._why_unjudged(observer, stamp, a, silent)) for a in AXES]
+        pubs["status"].publish(status)
+
+    def _why_unjudged(self, observer, stamp, axis, silent=False):
+        """Why an observer's sample of a wheel was not judged (STALE), or None."""
+        if silent:
+            return (f"no {observer} residual for {stamp * 1e-9:g} s within "
+                    f"{self.param('input_timeout'):g} s (observer silent)")
+        if axis in self.channels[observer].unjudged:
+            return f"non-finite {observer} residual at {stamp * 1e-9:g} s"
+        return None
+
+    def _watch_inputs(self):
+        """Samples an observer never completed are decided without it; silence of every input is said."""
+        now, timeout = time.monotonic(), self.param("input_timeout")
+        for stamp in sorted(self.done_samples):
+            handled = self.done_samples[stamp]
+            if "telemetry" in handled and now - handled["since"] > timeout:
+                self._decide(stamp, silent=[o for o in self.channels if o not in handled])
+        last = self.inputs["telemetry"].last_ns
+        if last is not None and not self.silent_said and now - self.last_input > timeout and not self.run_ended():
+            self.silent_said = True
+            msg = DiagnosticArray()
+            msg.header.stamp = time_msg(last)
+            for a in AXES:
+                msg.status.append(DiagnosticStatus(
+                    level=bytes([STALE]), name=f"rw_fdi: reaction wheel {a} ({self.decision} observer)",
+                    hardware_id=f"reaction_wheel_{a}",
+                    message=f"cannot judge: no input for {timeout:g} s after {last * 1e-9:g} s"))
+            self.pub_diag.publish(msg)
+
     def poll(self):
+        self._watch_inputs()
         flushed = all([g.flush() for g in self.gates])
         if flushed and self.run_ended():
             self.finish()

@@ -4,8 +4,12 @@
 once per FDI period (/wheels/fdi_telemetry, core/telemetry.py), calls the
 subclass' ``observe`` once per sample and publishes the estimate, the
 residual and the ripple bound (gated until their readers are matched, so no
-sample is lost). A sample stamped no later than the one before starts a new
-run (bag replay feeds many runs through one graph): the subclass' ``reset``.
+sample is lost). Its input stream is checked (core/input_health.py): a sample
+stamped back at a run's first sample starts a new run (bag replay feeds many
+runs through one graph: the subclass' ``reset``); a duplicate or late one is
+dropped; a sample with a non-finite input is not observed (it would poison
+the observer's state) and goes out as NaN, which the isolation node reports
+as "cannot judge" with the wheel's alarm held.
 """
 from __future__ import annotations
 
@@ -17,6 +21,7 @@ from geometry_msgs.msg import Vector3Stamped
 
 from ..core.calibration import UnitCalibration, calibration_samples, regressors
 from ..core.detection import METHODS, WINDOW, SignedResidual
+from ..core.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
 from ..core.sampling import SAMPLINGS
 from ..core.scenario import AXES
 from . import topics as T
@@ -34,7 +39,8 @@ class ObserverNode(GraphNode):
         self.declare_parameter("fdi_period", 1.0)       # [s] FDI sample period (and discretisation period)
         self.declare_parameter("fdi_sampling", "mean")  # mean over the FDI period, or 'instant' (thesis)
         self.declare_parameter("window", WINDOW)        # residual moving-average length [samples]
-        self.declare_parameter("min_subscribers", 0)    # readers of the residual before the first sample goes
+        self.declare_parameter("min_subscribers", 0)    # readers of residual and bound before the first sample goes
+        self.declare_parameter("estimate_readers", 0)   # readers of the estimate (the recorder) before it goes
         # [s] from each run's start the observer learns its own wheel (core/calibration.py); 0: the datasheet's
         self.declare_parameter("unit_calibration_time", 0.0)
         self.compute, self.callback, self.callback_cpu = [], [], []   # s: observe() / callback wall / CPU
@@ -58,16 +64,15 @@ class ObserverNode(GraphNode):
             raise NodeError("unit_calibration_time needs fdi_method speed_aware (the thesis' residual is unsigned)",
                             EXIT_BAD_INPUT)
         self.calibration_samples = calibration_samples(seconds, self.param("fdi_period"))
-        self.last_stamp = None
+        self.input = InputMonitor("FDI telemetry", self.param("fdi_period"))
 
     def start(self, estimate_topic: str, residual_topic: str, bound_topic: str):
         """Publishers and subscriptions, once the subclass knows its topics."""
-        need = self.param("min_subscribers")
         def pub(topic, readers):
-            return GatedPublisher(self.create_publisher(Vector3Stamped, topic, T.RELIABLE), readers)
-        self.pub_estimate = pub(estimate_topic, need - 1)
-        self.pub_residual = pub(residual_topic, need)
-        self.pub_bound = pub(bound_topic, need)
+            return GatedPublisher(self.create_publisher(Vector3Stamped, topic, T.RELIABLE), self.param(readers))
+        self.pub_estimate = pub(estimate_topic, "estimate_readers")
+        self.pub_residual = pub(residual_topic, "min_subscribers")
+        self.pub_bound = pub(bound_topic, "min_subscribers")
         self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         self.follow_run_end(period=self.param("fdi_period"))
 
@@ -99,9 +104,15 @@ class ObserverNode(GraphNode):
         except ValueError as exc:
             self.fail(f"malformed {T.FDI_TELEMETRY}: {exc}", EXIT_BAD_INPUT)
             return
-        if self.last_stamp is not None and sample.stamp_ns <= self.last_stamp:
+        order = self.input.accept(sample.stamp_ns)
+        if order == OUT_OF_ORDER:
+            self.get_logger().warn(self.input.last_note.message)
+            return
+        if order == NEW_RUN:
             self.reset()
-        self.last_stamp = sample.stamp_ns
+        note = self.input.take_note(sample.stamp_ns)
+        if note is not None:   # a gap: the isolation node says it on the wheels' statuses
+            self.get_logger().warn(note.message)
         inputs = [sample.tcv, sample.reaction_torque] + ([sample.wheel_speed] if self.speed_aware else [])
         if self.calibration_samples:
             if sample.motor_torque is None or sample.friction_torque is None:
@@ -109,13 +120,13 @@ class ObserverNode(GraphNode):
                           "cannot learn the wheel", EXIT_BAD_INPUT)
                 return
             inputs += [sample.motor_torque, sample.friction_torque]
-        if not all(np.all(np.isfinite(x)) for x in inputs):
-            # a NaN would silently disable the alarm (NaN > threshold is False): stop instead
-            self.fail(f"non-finite input at t={sample.stamp_ns * 1e-9:g} s: tcv={sample.tcv.tolist()}, "
-                      f"reaction torque={sample.reaction_torque.tolist()}"
-                      + (f", wheel speed={sample.wheel_speed.tolist()}" if self.speed_aware else ""), EXIT_BAD_INPUT)
-            return
-        estimate, residual, bound = self.observe(sample)
+        if all_finite(*inputs):
+            estimate, residual, bound = self.observe(sample)
+        else:   # not observed: NaN out, which the isolation node reports as "cannot judge"
+            self.get_logger().warn(f"non-finite input at t={sample.stamp_ns * 1e-9:g} s: tcv={sample.tcv.tolist()}, "
+                                   f"reaction torque={sample.reaction_torque.tolist()}" +
+                                   (f", wheel speed={sample.wheel_speed.tolist()}" if self.speed_aware else ""))
+            estimate = residual = bound = np.full(3, np.nan)
         self.compute.append(time.perf_counter() - t0)
         self.pub_estimate.publish(vector_msg(sample.stamp_ns, estimate))
         self.pub_residual.publish(vector_msg(sample.stamp_ns, residual))

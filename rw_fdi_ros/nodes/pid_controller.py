@@ -14,7 +14,7 @@ from ..core.pid import PidController, design_gains
 from ..core.scenario import AXES, setpoint_at
 from ..core.spacecraft import INERTIA
 from . import topics as T
-from .convert import read_joint_state_cdr, vector_cdr
+from ..storage.cdr import read_joint_state_cdr, vector_cdr
 from .gate import GatedPublisher
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 

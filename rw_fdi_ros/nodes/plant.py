@@ -29,7 +29,8 @@ from ..core.telemetry import TelemetrySampler
 from ..core.scenario import AXES, FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
 from ..core.wheel import WheelParams
 from . import topics as T
-from .convert import clock_cdr, fdi_telemetry_msg, joint_state_cdr, read_vector_cdr, step_stamp_ns, time_msg, vector_cdr
+from ..storage.cdr import clock_cdr, joint_state_cdr, read_vector_cdr, vector_cdr
+from .convert import fdi_telemetry_msg, step_stamp_ns, time_msg
 from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, main_for, wall_time
 
 
@@ -48,8 +49,10 @@ class PlantNode(GraphNode):
         self.declare_parameter("wheel_momentum_coupling", Parameter.Type.BOOL)  # unset: the scenario's, else true
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
-        self.declare_parameter("wait_for_subscribers", 0)  # extra subscribers per topic (1 = recorder)
-        self.declare_parameter("fdi_readers", 0)         # FDI nodes reading the FDI telemetry (topics)
+        # readers to wait for before the first step, per topic (launch/graph.py derives them from topics.READS)
+        self.declare_parameter("attitude_readers", 3)    # the controllers (+ recorder)
+        self.declare_parameter("fdi_readers", 0)         # of the FDI telemetry: the FDI nodes (+ recorder)
+        self.declare_parameter("wait_for_subscribers", 0)  # of each other topic it sends per step (the recorder)
         self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
         for axis in AXES:  # live fault injection: setting one injects from the current sim time
             for kind in FAULT_KINDS:
@@ -118,12 +121,11 @@ class PlantNode(GraphNode):
 
     # -- lockstep ------------------------------------------------------------------
     def _graph_ready(self) -> bool:
-        extra = self.param("wait_for_subscribers")
         if any(s.get_publisher_count() < 1 for s in self.subs):
             return False
-        need = [(self.pub_attitude, len(AXES) + extra), (self.pub_fdi, self.param("fdi_readers") + extra)]
-        need += [(p, extra) for p in (self.pub_wheels, self.pub_effect, self.pub_clock, self.pub_truth,
-                                      self.pub_scenario)]
+        need = [(self.pub_attitude, self.param("attitude_readers")), (self.pub_fdi, self.param("fdi_readers"))]
+        need += [(p, self.param("wait_for_subscribers")) for p in (self.pub_wheels, self.pub_effect, self.pub_clock,
+                                                                   self.pub_truth, self.pub_scenario)]
         return all(p.get_subscription_count() >= k for p, k in need)
 
     def poll(self):

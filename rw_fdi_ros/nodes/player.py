@@ -22,16 +22,13 @@ import time
 from rclpy.parameter import Parameter
 from std_msgs.msg import String
 
-from ..storage.bag import BagError, read_bag
+from ..storage.bag import BagError, BagInfo, iter_messages, iter_time_order
 from . import topics as T
 from .convert import stamp_ns
 from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, main_for
 
 PLANT_OUTPUTS = [T.CLOCK, T.ATTITUDE, T.WHEELS, T.FAULT_EFFECT, T.FDI_TELEMETRY, T.FAULT_TRUTH,
                  T.SCENARIO, T.PLANT_DONE]
-# what the observer and isolation nodes (and the recorder of their outputs) read: one message per
-# FDI period, not a dozen per control step
-FDI_INPUTS = [T.FDI_TELEMETRY, T.FAULT_TRUTH, T.SCENARIO, T.PLANT_DONE]
 
 
 class PlayerNode(GraphNode):
@@ -52,24 +49,25 @@ class PlayerNode(GraphNode):
         self.declare_parameter("stall_timeout", 10.0)     # wall s without consumer progress -> error
         self.bags = list(self.param("bags") or []) or [self.param("bag")]
         self.topics = self.param("topics") or PLANT_OUTPUTS
-        qos = {name: q for name, _, q in T.graph_topics() + T.fdi_topics()}
-        self.runs = []
-        self.pubs = {}
-        for path in self.bags:   # all read up front: a bad bag fails before anything is replayed
-            try:
-                data = read_bag(path, topics=self.topics, raw=True)
-            except (BagError, OSError) as exc:
-                raise NodeError(str(exc), EXIT_BAD_INPUT) from None
-            if not data.complete:
-                self.get_logger().warn(f"{data.path}: {data.note}; replaying what is there")
-            for t in data.messages:
-                if t not in self.pubs:
-                    self.pubs[t] = self.create_publisher(T.message_class(data.types[t]), t, qos.get(t, T.RELIABLE))
-            rows = [(log_time, topic, raw) for topic, msgs in data.messages.items() for log_time, raw in msgs]
-            order = {t: i for i, t in enumerate(PLANT_OUTPUTS)}
-            self.runs.append(sorted(rows, key=lambda r: (r[0], order.get(r[1], 99))))
         self.rate = self.param("rate")
         self.period_ns = int(round(self.param("pace_period") * 1e9))
+        qos = {name: q for name, _, q in T.graph_topics() + T.fdi_topics()}
+        self.runs = []   # per bag: (path, stamp of its last FDI sample)
+        self.pubs = {}
+        for path in self.bags:   # all scanned up front: a bad bag fails before anything is replayed
+            info, last_fdi_ns = BagInfo(path=path), -1
+            try:   # a stream: the rows themselves are read again, in time order, when the bag's turn comes
+                for topic, log_time, _ in iter_messages(path, self.topics, info):
+                    if self._is_fdi_sample(topic, log_time):
+                        last_fdi_ns = max(last_fdi_ns, log_time)
+            except (BagError, OSError) as exc:
+                raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+            if not info.complete:
+                self.get_logger().warn(f"{path}: {info.note}; replaying what is there")
+            for t in info.counts:
+                if t not in self.pubs:
+                    self.pubs[t] = self.create_publisher(T.message_class(info.types[t]), t, qos.get(t, T.RELIABLE))
+            self.runs.append((path, last_fdi_ns))
         self.window_ns = max(int(self.param("pace_window")) - 1, 0) * self.period_ns
         self.pace_sub = None
         if self.rate <= 0:
@@ -87,9 +85,10 @@ class PlayerNode(GraphNode):
     def _next_run(self):
         """Start the next bag: rows, pacing state, the stamp of its last FDI sample."""
         self.run_index += 1
-        self.rows = self.runs[self.run_index] if self.run_index < len(self.runs) else []
-        self.next = 0
-        self.last_fdi_ns = max((t for t, topic, _ in self.rows if self._is_fdi_sample(topic, t)), default=-1)
+        path, self.last_fdi_ns = self.runs[self.run_index] if self.run_index < len(self.runs) else ("", -1)
+        order = {t: i for i, t in enumerate(PLANT_OUTPUTS)}
+        self.rows = iter_time_order(path, self.topics, lambda t: order.get(t, 99)) if path else iter(())
+        self.row = next(self.rows, None)   # the next row to publish
         self.paced_until = -1          # consumers have finished every FDI sample up to this stamp
         self.waiting_for = None        # FDI stamp published, not yet reported done
         self.done_sent = False
@@ -133,8 +132,8 @@ class PlayerNode(GraphNode):
 
     def _play(self, now) -> bool:
         """Publish what is due of the current bag; True once all of it is out and consumed."""
-        while self.next < len(self.rows):
-            log_time, topic, raw = self.rows[self.next]
+        while self.row is not None:
+            log_time, topic, raw = self.row
             if self.rate > 0:
                 if now < self.started + log_time * 1e-9 / self.rate:
                     return False
@@ -148,7 +147,7 @@ class PlayerNode(GraphNode):
             if self.rate <= 0 and self._is_fdi_sample(topic, log_time):
                 self.waiting_for = log_time   # an FDI sample went out: let the consumers finish it
                 self.last_progress = now
-            self.next += 1
+            self.row = next(self.rows, None)
         if self.rate <= 0 and self.paced_until < self.last_fdi_ns:
             return self._stalled(now, "at the end of the bag")
         return True

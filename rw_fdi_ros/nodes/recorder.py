@@ -16,7 +16,8 @@ from __future__ import annotations
 from rclpy.parameter import Parameter
 from std_msgs.msg import String
 
-from ..storage.bag import BagError, BagWriter, header_stamp_ns
+from ..storage.bag import BagError, BagWriter
+from ..storage.cdr import header_stamp_ns
 from . import topics as T
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
 
@@ -35,16 +36,10 @@ class RecorderNode(GraphNode):
         self.declare_parameter("record_plant", True)          # False: FDI outputs only (bag replay)
         self.outputs = list(self.param("outputs") or []) or [self.param("output")]
         self.output_index = 0
-        rows = list(T.graph_topics())
-        if not self.param("record_plant"):
-            rows = [r for r in rows if r[0] in (T.CLOCK, T.SCENARIO, T.PLANT_DONE, T.FAULT_TRUTH)]
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
-        if self.fdi_period_ns > 0:
-            rows += T.fdi_topics()
-        for spec in self.param("extra_topics") or []:
-            name, _, type_name = spec.partition(":")
-            rows.append((name, type_name, T.RELIABLE))
-        self.rows = rows
+        # what it subscribes to is the graph's table (topics.READS counts the recorder's reads from it)
+        rows = T.recorded_rows(self.param("record_plant"), self.fdi_period_ns > 0, self.param("extra_topics"))
+        self.rows = rows = [(name, type_name, getattr(T, qos)) for name, type_name, qos in rows]
         self._open()
         # the plant's per-step topics that must have reached the done stamp (none when replaying)
         self.final = [T.CLOCK, T.ATTITUDE, T.WHEELS, *map(T.tcv_command, T.AXES)] if self.param("record_plant") else []

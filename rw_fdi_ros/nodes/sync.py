@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from geometry_msgs.msg import Vector3Stamped
 
-from .convert import read_vector_cdr
+from ..storage.cdr import read_vector_cdr
 
 
 class StampSync:

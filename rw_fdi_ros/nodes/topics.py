@@ -8,6 +8,11 @@ period it sends the FDI telemetry every FDI node reads. Vectors are
 geometry_msgs/Vector3Stamped with x, y, z the spacecraft axes (one wheel per
 axis). Every message that analysis depends on carries a header stamp in sim
 time.
+
+Who reads what is a table here too (READS), and how many readers each
+publisher waits for before its first message is derived from it for a
+given graph (WAITS, reader_counts; launch/graph.py sets the parameters).
+rclpy is imported only for the QoS profiles, on first use.
 """
 from __future__ import annotations
 
@@ -58,27 +63,27 @@ def __getattr__(name):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+VECTOR, DIAGNOSTICS_TYPE = "geometry_msgs/msg/Vector3Stamped", "diagnostic_msgs/msg/DiagnosticArray"
+# (topic, ROS type name, QoS name) of everything the plant side of a run sends (resolved by graph_topics)
+PLANT_ROWS = ((CLOCK, "rosgraph_msgs/msg/Clock", "RELIABLE"), (ATTITUDE, JOINT_STATE, "RELIABLE"),
+              (WHEELS, JOINT_STATE, "RELIABLE"), (FAULT_EFFECT, VECTOR, "RELIABLE"),
+              (FDI_TELEMETRY, DIAGNOSTICS_TYPE, "RELIABLE"), (FAULT_TRUTH, DIAGNOSTICS_TYPE, "RELIABLE"),
+              (SCENARIO, "std_msgs/msg/String", "LATCHED"), (PLANT_DONE, "std_msgs/msg/Header", "LATCHED"),
+              *((tcv_command(a), VECTOR, "RELIABLE") for a in AXES))
+
+
+def _with_qos(rows):
+    return [(topic, type_name, __getattr__(qos)) for topic, type_name, qos in rows]
+
+
 def graph_topics():
     """(topic, ROS type name, qos) of everything a run records."""
-    RELIABLE, LATCHED = __getattr__("RELIABLE"), __getattr__("LATCHED")
-    vec, joints, diag = "geometry_msgs/msg/Vector3Stamped", JOINT_STATE, "diagnostic_msgs/msg/DiagnosticArray"
-    rows = [(CLOCK, "rosgraph_msgs/msg/Clock", RELIABLE),
-            (ATTITUDE, joints, RELIABLE), (WHEELS, joints, RELIABLE),
-            (FAULT_EFFECT, vec, RELIABLE), (FDI_TELEMETRY, diag, RELIABLE), (FAULT_TRUTH, diag, RELIABLE),
-            (SCENARIO, "std_msgs/msg/String", LATCHED), (PLANT_DONE, "std_msgs/msg/Header", LATCHED)]
-    rows += [(tcv_command(a), vec, RELIABLE) for a in AXES]
-    return rows
+    return _with_qos(PLANT_ROWS)
 
 
 OBSERVERS = ("elman", "linear")
 DIAGNOSTICS = "/diagnostics"
 IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel (DiagnosticArray)
-
-
-def telemetry_readers(fdi: bool) -> int:
-    """How many FDI nodes read the FDI telemetry (what the plant or player waits for): Elman x, y, z,
-    the linear observer and the isolation node (fault identification); none without FDI."""
-    return len(AXES) + 2 if fdi else 0
 
 
 def estimate_topic(observer: str, axis: str | None = None) -> str:
@@ -102,22 +107,126 @@ def fdi_output_topics(observer: str):
             "status": f"/fdi/{observer}/status"}
 
 
-def fdi_topics():
-    """(topic, type, qos) of the FDI half of the graph."""
-    RELIABLE = __getattr__("RELIABLE")
-    vec, diag = "geometry_msgs/msg/Vector3Stamped", "diagnostic_msgs/msg/DiagnosticArray"
+def _fdi_rows():
+    """(topic, type, QoS name) of the FDI half of the graph."""
     rows = []
     for a in AXES:
-        rows += [(estimate_topic("elman", a), vec, RELIABLE), (residual_topic("elman", a), vec, RELIABLE),
-                 (bound_topic("elman", a), vec, RELIABLE)]
-    rows += [(estimate_topic("linear"), vec, RELIABLE), (residual_topic("linear"), vec, RELIABLE),
-             (bound_topic("linear"), vec, RELIABLE)]
+        rows += [(estimate_topic("elman", a), VECTOR, "RELIABLE"), (residual_topic("elman", a), VECTOR, "RELIABLE"),
+                 (bound_topic("elman", a), VECTOR, "RELIABLE")]
+    rows += [(estimate_topic("linear"), VECTOR, "RELIABLE"), (residual_topic("linear"), VECTOR, "RELIABLE"),
+             (bound_topic("linear"), VECTOR, "RELIABLE")]
     for obs in OBSERVERS:
         out = fdi_output_topics(obs)
-        rows += [(out["threshold"], vec, RELIABLE), (out["alarm"], vec, RELIABLE), (out["status"], diag, RELIABLE)]
-    rows.append((DIAGNOSTICS, diag, RELIABLE))
-    rows.append((IDENTIFICATION, diag, RELIABLE))
+        rows += [(out["threshold"], VECTOR, "RELIABLE"), (out["alarm"], VECTOR, "RELIABLE"),
+                 (out["status"], DIAGNOSTICS_TYPE, "RELIABLE")]
+    return rows + [(DIAGNOSTICS, DIAGNOSTICS_TYPE, "RELIABLE"), (IDENTIFICATION, DIAGNOSTICS_TYPE, "RELIABLE")]
+
+
+def fdi_topics():
+    """(topic, type, qos) of the FDI half of the graph."""
+    return _with_qos(_fdi_rows())
+
+
+# what bag replay plays: what the observer and isolation nodes (and the recorder of their outputs) read, one
+# message per FDI period rather than a dozen per control step
+FDI_INPUTS = [FDI_TELEMETRY, FAULT_TRUTH, SCENARIO, PLANT_DONE]
+# what a recorder of a replay (record_plant false) keeps of the plant's topics besides the FDI's
+REPLAY_RECORDED = (CLOCK, SCENARIO, PLANT_DONE, FAULT_TRUTH)
+
+
+def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=()):
+    """(topic, type, QoS name) the recorder subscribes to: the plant's topics (with ``record_plant``
+    false only REPLAY_RECORDED), the FDI's with ``fdi``, and ``extra`` 'name:pkg/msg/Type'."""
+    rows = [r for r in PLANT_ROWS if record_plant or r[0] in REPLAY_RECORDED]
+    rows += _fdi_rows() if fdi else []
+    for spec in extra or ():
+        name, _, type_name = spec.partition(":")
+        rows.append((name, type_name, "RELIABLE"))
     return rows
+
+
+# -- who reads what ----------------------------------------------------------------------------------
+# A node holds its first messages until its topic's readers are matched (DDS drops what goes out before;
+# nodes/gate.py), so how many readers each topic has in a graph is derived here, from what each node
+# subscribes to, and handed to the publishers as parameters (launch/graph.py): a node added to READS is
+# waited for, and a node missing from it is an error, not a silent stall. Parameters (NodeSpec.parameters)
+# are read with the nodes' own defaults.
+
+def _run_end(p) -> list:
+    """GraphNode.follow_run_end: /plant/done unless the node stays for the next run."""
+    return [PLANT_DONE] if p.get("end_with_run", True) else []
+
+
+def residual_inputs() -> list:
+    """What the isolation node reads of the observers: residual and ripple bound of each."""
+    topics = [f("elman", a) for a in AXES for f in (residual_topic, bound_topic)]
+    return topics + [residual_topic("linear"), bound_topic("linear")]
+
+
+# executable -> its parameters -> the topics it subscribes to
+READS = {
+    "plant": lambda p: [tcv_command(a) for a in AXES],
+    "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
+    "elman_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
+    "linear_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
+    "isolation": lambda p: [FDI_TELEMETRY, *residual_inputs()] + _run_end(p),
+    "recorder": lambda p: [r[0] for r in recorded_rows(p.get("record_plant", True), p.get("fdi_period", 0.0) > 0,
+                                                       p.get("extra_topics"))],
+    # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
+    "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
+                        + ([RECORDER_CLOSED] if p.get("await_recorder", False) else []),
+}
+
+
+def _observer_waits(observer: str, axis: str | None) -> dict:
+    return {"estimate_readers": [estimate_topic(observer, axis)],
+            "min_subscribers": [residual_topic(observer, axis), bound_topic(observer, axis)]}
+
+
+# executable -> its parameters -> {parameter: the topics of its own whose readers that parameter counts}
+WAITS = {
+    "plant": lambda p: {"attitude_readers": [ATTITUDE], "fdi_readers": [FDI_TELEMETRY],
+                        "wait_for_subscribers": [CLOCK, WHEELS, FAULT_EFFECT, FAULT_TRUTH, SCENARIO]},
+    "pid_controller": lambda p: {"min_subscribers": [tcv_command(p["axis"])]},
+    "elman_observer": lambda p: _observer_waits("elman", p["axis"]),
+    "linear_observer": lambda p: _observer_waits("linear", None),
+    "isolation": lambda p: {"diagnostics_readers": [DIAGNOSTICS],
+                            "min_subscribers": [IDENTIFICATION, *(t for obs in OBSERVERS
+                                                                  for t in fdi_output_topics(obs).values())]},
+    "player": lambda p: {"min_subscribers": [FDI_TELEMETRY]},
+    "recorder": lambda p: {},   # what it sends (/recorder/closed) is latched
+}
+
+
+def reads(node) -> list:
+    """The topics ``node`` (anything with ``executable`` and ``parameters``: launch.graph.NodeSpec) reads."""
+    if node.executable not in READS:
+        raise ValueError(f"node {node.name}: what {node.executable} reads is not in nodes/topics.py READS, "
+                         "so nothing would wait for it")
+    return READS[node.executable](node.parameters)
+
+
+def readers(topic: str, nodes) -> int:
+    """How many of ``nodes`` read ``topic``."""
+    return sum(topic in reads(n) for n in nodes)
+
+
+def waits(node) -> dict:
+    """{parameter: the topics whose readers it counts} of ``node`` (none: it waits for no reader)."""
+    return WAITS[node.executable](node.parameters) if node.executable in WAITS else {}
+
+
+def reader_counts(node, nodes) -> dict:
+    """{parameter: readers} of ``node``'s wait parameters in the graph ``nodes``. One parameter counts
+    for all its topics, so they must have the same readers (else the node needs a parameter more)."""
+    counts = {}
+    for param, topics in waits(node).items():
+        found = {t: readers(t, nodes) for t in topics}
+        if len(set(found.values())) > 1:
+            raise ValueError(f"node {node.name}: parameter {param} counts the readers of {', '.join(topics)}, "
+                             f"which differ in this graph ({found}): give {node.executable} one per topic")
+        counts[param] = found[topics[0]]
+    return counts
 
 
 def message_class(type_name: str):

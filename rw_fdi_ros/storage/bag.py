@@ -1,18 +1,22 @@
-"""rosbag2 bags in MCAP storage: the writer behind the recorder and the reader behind every tool.
+"""rosbag2 bags in MCAP storage: the writer behind the recorder and the readers behind every tool.
 
 Writing goes through ``rosbags.rosbag2.Writer`` (metadata.yaml + one .mcap).
 The writer closes its MCAP chunk every ``flush_period`` of sim time and
 flushes it to disk, so a recorder killed with SIGKILL loses at most that
 much: the file then has no summary, footer or metadata.yaml.
 
-Reading never needs the summary: :func:`read_bag` streams the .mcap
-records front to back (mcap's StreamReader), decodes CDR with rosbags'
-typestore and stops cleanly at a truncated tail, reporting what it read.
-So a bag of a killed recorder is readable up to its last flushed chunk.
+Reading never needs the summary: :func:`iter_messages` streams the .mcap
+records front to back (mcap's StreamReader) and stops cleanly at a truncated
+tail, reporting what it read. So a bag of a killed recorder is readable up
+to its last flushed chunk. Memory stays bounded by design: the tools that
+summarise a run read it as a stream into numbers (:func:`read_series`: a
+Vector3Stamped row costs 32 bytes, not a message object) or counts
+(:func:`bag_info`); :func:`read_bag` keeps decoded messages, for short reads.
 """
 from __future__ import annotations
 
 import struct
+from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,19 +35,6 @@ def typestore():
 
 class BagError(RuntimeError):
     """A bag that cannot be read at all; one line naming the bag."""
-
-
-def header_stamp_ns(raw: bytes, default: int) -> int:
-    """Sim-time stamp of a CDR message whose first field is a builtin_interfaces/Time.
-
-    Header-stamped messages and rosgraph_msgs/Clock all start with it, right
-    after the 4-byte encapsulation header (byte 1 = 1: little endian).
-    """
-    if len(raw) < 12:
-        return default
-    fmt = "<iI" if raw[1] == 1 else ">iI"
-    sec, nsec = struct.unpack_from(fmt, raw, 4)
-    return sec * 1_000_000_000 + nsec
 
 
 def _rosbags_version() -> str:
@@ -116,9 +107,15 @@ class BagData:
     def topic(self, name):
         return self.messages.get(name, [])
 
+    def last(self, name):
+        """The last message of a topic in log-time order, or None."""
+        rows = self.topic(name)
+        return rows[-1][1] if rows else None
+
     def vectors(self, name):
         """(time [s], values (n, 3)) of a Vector3Stamped topic, by header stamp."""
-        rows = sorted(((m.header.stamp.sec, m.header.stamp.nanosec), m.vector) for _, m in self.topic(name))
+        rows = sorted((((m.header.stamp.sec, m.header.stamp.nanosec), m.vector) for _, m in self.topic(name)),
+                      key=lambda r: r[0])
         t = np.array([sec + nsec * 1e-9 for (sec, nsec), _ in rows])   # exact for whole seconds
         v = np.array([[r[1].x, r[1].y, r[1].z] for r in rows]).reshape(-1, 3)
         return t, v
@@ -126,7 +123,8 @@ class BagData:
     def joint_states(self, name):
         """(time [s], position, velocity, effort) of a sensor_msgs/JointState topic by header stamp;
         each (n, joints), (n, 0) where the messages leave a field out."""
-        rows = sorted(((m.header.stamp.sec, m.header.stamp.nanosec), m) for _, m in self.topic(name))
+        rows = sorted((((m.header.stamp.sec, m.header.stamp.nanosec), m) for _, m in self.topic(name)),
+                      key=lambda r: r[0])
         t = np.array([sec + nsec * 1e-9 for (sec, nsec), _ in rows])
         def field(f):
             return np.array([np.asarray(getattr(m, f), float) for _, m in rows]).reshape(len(rows), -1)
@@ -148,45 +146,222 @@ def mcap_file(path) -> Path:
     return files[0]
 
 
-def read_bag(path, topics=None, raw: bool = False) -> BagData:
-    """Every message of a bag (or of the given topics), tolerant of a truncated or summary-less file.
+@dataclass
+class BagInfo:
+    """What one pass over a bag saw: types, message counts and log-time span per topic, completeness."""
 
-    ``raw=True`` keeps the CDR bytes instead of decoding (what a player republishes)."""
+    path: Path
+    types: dict = field(default_factory=dict)      # topic -> message type
+    counts: dict = field(default_factory=dict)     # topic -> messages read
+    span: dict = field(default_factory=dict)       # topic -> [first, last] log time [ns]
+    complete: bool = False
+    note: str = ""
+
+
+def iter_messages(path, topics=None, info: BagInfo | None = None):
+    """(topic, log_time_ns, CDR bytes) of every message of a bag (or of ``topics``), in file order.
+
+    One record at a time: memory does not grow with the bag. ``info`` is filled as the records
+    pass (counts and spans of the wanted topics only); a truncated tail ends the stream with
+    ``info.note`` saying so. A file without a single channel raises BagError, at the end."""
     from mcap.exceptions import McapError
     from mcap.records import Channel, Footer, Message, Schema
     from mcap.stream_reader import StreamReader
 
     path = Path(path)
-    data = BagData(path=path)
-    store = typestore()
+    info = info if info is not None else BagInfo(path=path)
     channels, schemas = {}, {}
     wanted = set(topics) if topics else None
     with open(mcap_file(path), "rb") as fh:
         try:
             for rec in StreamReader(fh).records:
-                if isinstance(rec, Schema):
-                    schemas[rec.id] = rec.name
-                elif isinstance(rec, Channel):
-                    channels[rec.id] = rec.topic
-                    data.types[rec.topic] = schemas.get(rec.schema_id, "")
-                elif isinstance(rec, Message):
+                if isinstance(rec, Message):
                     topic = channels.get(rec.channel_id)
                     if topic is None or (wanted and topic not in wanted):
                         continue
-                    msg = bytes(rec.data) if raw else store.deserialize_cdr(rec.data, data.types[topic])
-                    data.messages.setdefault(topic, []).append((rec.log_time, msg))
+                    info.counts[topic] = info.counts.get(topic, 0) + 1
+                    span = info.span.setdefault(topic, [rec.log_time, rec.log_time])
+                    span[0], span[1] = min(span[0], rec.log_time), max(span[1], rec.log_time)
+                    yield topic, rec.log_time, rec.data
+                elif isinstance(rec, Schema):
+                    schemas[rec.id] = rec.name
+                elif isinstance(rec, Channel):
+                    channels[rec.id] = rec.topic
+                    info.types[rec.topic] = schemas.get(rec.schema_id, "")
                 elif isinstance(rec, Footer):
-                    data.complete = True
+                    info.complete = True
         except (McapError, EOFError, struct.error, ValueError) as exc:
-            data.note = f"truncated ({type(exc).__name__}); read up to the last complete chunk"
+            info.note = f"truncated ({type(exc).__name__}); read up to the last complete chunk"
     if not channels:
-        raise BagError(f"{path}: no readable messages ({data.note or 'empty file'})")
-    if data.complete and path.is_dir() and not (path / "metadata.yaml").exists():
-        data.complete = False
-        data.note = "metadata.yaml missing"
+        raise BagError(f"{path}: no readable messages ({info.note or 'empty file'})")
+    if info.complete and path.is_dir() and not (path / "metadata.yaml").exists():
+        info.complete = False
+        info.note = "metadata.yaml missing"
+
+
+def bag_info(path, topics=None) -> BagInfo:
+    """Types, counts and spans per topic of a bag, read as a stream without decoding a message."""
+    info = BagInfo(path=Path(path))
+    for _ in iter_messages(path, topics, info):
+        pass
+    return info
+
+
+def read_bag(path, topics=None, raw: bool = False) -> BagData:
+    """Every message of a bag (or of the given topics), decoded, tolerant of a truncated or summary-less file.
+
+    Memory grows with what is read: ask for the topics you need (or use :func:`read_series`).
+    ``raw=True`` keeps the CDR bytes instead of decoding (what a player republishes)."""
+    info = BagInfo(path=Path(path))
+    data = BagData(path=info.path, types=info.types)
+    store = typestore()
+    for topic, log_time, raw_msg in iter_messages(path, topics, info):
+        msg = bytes(raw_msg) if raw else store.deserialize_cdr(raw_msg, info.types[topic])
+        data.messages.setdefault(topic, []).append((log_time, msg))
+    data.complete, data.note = info.complete, info.note
     for rows in data.messages.values():
         rows.sort(key=lambda r: r[0])
     return data
+
+
+def iter_time_order(path, topics, rank=None):
+    """(log_time_ns, topic, CDR bytes) of a bag's ``topics`` in log-time order, ties by ``rank(topic)``
+    and then file order: what a player republishes.
+
+    A complete bag is merged through its MCAP chunk index (mcap's SeekingReader), holding only the
+    chunks that overlap in time; a bag without a summary (a killed recorder) is read whole and sorted."""
+    from mcap.exceptions import McapError
+    from mcap.reader import SeekingReader
+    rank = rank or (lambda topic: 0)
+    group, at = [], None
+    for row in _log_time_ordered(path, topics, McapError, SeekingReader):
+        if row[0] != at and group:
+            yield from sorted(group, key=lambda r: rank(r[1]))   # stable: file order within a rank
+            group = []
+        at = row[0]
+        group.append(row)
+    yield from sorted(group, key=lambda r: rank(r[1]))
+
+
+def _log_time_ordered(path, topics, McapError, SeekingReader):
+    with open(mcap_file(path), "rb") as fh:
+        try:
+            reader = SeekingReader(fh)
+            summary = reader.get_summary()
+        except (McapError, EOFError, struct.error, ValueError):
+            summary = None
+        if summary is None or not summary.chunk_indexes:
+            rows = [(t, topic, bytes(raw)) for topic, t, raw in iter_messages(path, topics)]
+            yield from sorted(rows, key=lambda r: r[0])
+            return
+        for _, channel, msg in reader.iter_messages(topics=topics, log_time_order=True):
+            yield msg.log_time, channel.topic, bytes(msg.data)
+
+
+def _seconds(stamps_ns: np.ndarray) -> np.ndarray:
+    """sec + nsec * 1e-9, the same float as a message's header stamp gives (exact for whole seconds)."""
+    return stamps_ns // 1_000_000_000 + (stamps_ns % 1_000_000_000) * 1e-9
+
+
+class _Rows:
+    """One topic's rows as flat numbers: int64 stamps and float64 fields of a fixed width each."""
+
+    def __init__(self, topic: str):
+        self.topic, self.stamps, self.values, self.widths = topic, array("q"), array("d"), None
+
+    def add(self, stamp_ns: int, fields):
+        widths = tuple(len(f) for f in fields)
+        if self.widths is None:
+            self.widths = widths
+        elif widths != self.widths:
+            raise BagError(f"{self.topic}: rows of different lengths {self.widths} and {widths}")
+        self.stamps.append(stamp_ns)
+        for f in fields:
+            self.values.extend(f)
+
+    def columns(self):
+        """(time [s], [field (n, width) ...]) sorted by stamp."""
+        stamps = np.frombuffer(self.stamps, dtype=np.int64) if len(self.stamps) else np.zeros(0, np.int64)
+        widths = self.widths or ()
+        flat = np.frombuffer(self.values, dtype=np.float64).reshape(len(stamps), sum(widths)) \
+            if len(stamps) else np.zeros((0, sum(widths)))
+        order = np.argsort(stamps, kind="stable")
+        edges = np.cumsum((0,) + widths)
+        return _seconds(stamps[order]), [flat[order, a:b] for a, b in zip(edges[:-1], edges[1:])]
+
+
+_VECTOR3_STAMPED = "geometry_msgs/msg/Vector3Stamped"
+_JOINT_STATE = "sensor_msgs/msg/JointState"
+
+
+@dataclass
+class BagSeries:
+    """A bag read as numbers: Vector3Stamped and JointState topics as arrays, every other topic as
+    its first and last message. The same accessors as :class:`BagData`, in bounded memory."""
+
+    path: Path
+    info: BagInfo
+    rows: dict = field(default_factory=dict)        # topic -> _Rows
+    first_last: dict = field(default_factory=dict)  # topic -> [first msg, last msg]
+
+    types = property(lambda self: self.info.types)
+    complete = property(lambda self: self.info.complete)
+    note = property(lambda self: self.info.note)
+
+    def vectors(self, name):
+        """(time [s], values (n, 3)) of a Vector3Stamped topic, by header stamp."""
+        t, fields = self._columns(name, 1)
+        return t, fields[0].reshape(-1, 3)
+
+    def joint_states(self, name):
+        """(time [s], position, velocity, effort) of a JointState topic by header stamp, each (n, joints)."""
+        t, fields = self._columns(name, 3)
+        return (t, *(f.reshape(len(t), -1) for f in fields))
+
+    def _columns(self, name, n_fields):
+        rows = self.rows.get(name)
+        if rows is None:
+            return np.zeros(0), [np.zeros((0, 0))] * n_fields
+        return rows.columns()
+
+    def first(self, name):
+        return self.first_last.get(name, (None, None))[0]
+
+    def last(self, name):
+        return self.first_last.get(name, (None, None))[1]
+
+    @property
+    def scenario_text(self):
+        msg = self.first("/scenario")
+        return msg.data if msg is not None else None
+
+
+def read_series(path, topics) -> BagSeries:
+    """The given topics of a bag as a stream into numbers (Vector3Stamped, JointState) or their first
+    and last messages (the rest): memory grows only with the numbers kept, 8 bytes each."""
+    from .cdr import read_joint_state_cdr, read_vector_cdr
+    info = BagInfo(path=Path(path))
+    out = BagSeries(path=info.path, info=info)
+    store = typestore()
+    for topic, _, raw in iter_messages(path, topics, info):
+        kind = info.types[topic]
+        if kind == _VECTOR3_STAMPED:
+            stamp, values = read_vector_cdr(raw)
+            out.rows.setdefault(topic, _Rows(topic)).add(stamp, (values,))
+        elif kind == _JOINT_STATE:
+            stamp, *fields = read_joint_state_cdr(raw)
+            out.rows.setdefault(topic, _Rows(topic)).add(stamp, fields)
+        else:
+            msg = store.deserialize_cdr(raw, kind)
+            pair = out.first_last.setdefault(topic, [msg, msg])
+            if _stamp_of(msg) >= _stamp_of(pair[1]):
+                pair[1] = msg
+    return out
+
+
+def _stamp_of(msg):
+    stamp = getattr(getattr(msg, "header", None), "stamp", None)
+    return (stamp.sec, stamp.nanosec) if stamp is not None else (0, 0)
 
 
 def bag_is_complete(path) -> bool:

@@ -21,12 +21,11 @@ from ..core.elman import ModelError
 from ..core.scenario import AXES
 from ..nodes import topics as T
 from ..paths import config_dir, thresholds_dir
-from ..storage.bag import BagError, bag_is_complete, read_bag
+from ..storage.bag import BagError, bag_is_complete, read_bag, read_series
 from .campaign import LocalExecutor, _progress
-from .metrics import (OBSERVERS, RunEval, aggregate, fdi_output_topics, identification_figures,
-                      identification_from_bag, scenario_of, series_from_bag)
+from .metrics import (OBSERVERS, RunEval, aggregate, fdi_output_topics, health_from_bag, health_rows,
+                      identification_figures, identification_from_bag, scenario_of, series_from_bag)
 from ..core.plant_choices import PlantChoices
-from ..launch.graph import FDI_SAMPLING
 from .offline import fdi_method_of, load_models, model_card
 from .replay import replay_bags, replay_finished
 
@@ -59,9 +58,9 @@ def _check_bag(bag: Path, curves: dict):
     if not bag_is_complete(bag):
         data = read_bag(bag, topics=["/scenario"])
         raise BagError(f"{bag.name}: incomplete bag ({data.note or 'no metadata.yaml'})")
-    data = read_bag(bag, topics=["/scenario", T.FAULT_EFFECT])
+    data = read_series(bag, topics=["/scenario", T.FAULT_EFFECT])
     scenario = scenario_of(data)
-    plant = PlantChoices.from_recorded(scenario.plant).with_(fdi_sampling=FDI_SAMPLING)
+    plant = PlantChoices.of_recording(scenario.plant)
     for c in curves.values():
         c.check_compatible(plant, origin=f"{bag.name}: curves")
         c.check_horizon(scenario.duration, origin=f"{bag.name}: thresholds_{c.observer}.json")
@@ -83,10 +82,11 @@ def replay_chunks(bags: list, jobs: int) -> list:
 
 def evaluate_replayed(bag: Path, out: Path, scenario, peak) -> RunEval:
     """The figures of one bag from its replay ``out`` and its ground truth."""
-    replay = read_bag(out, topics=fdi_output_topics())
+    replay = read_series(out, topics=fdi_output_topics())
     series = series_from_bag(replay)
     return RunEval(bag=str(bag), scenario=scenario.name, seed=scenario.seed, faults=list(scenario.faults),
-                   series=series, fault_effect_peak=peak, identification=identification_from_bag(replay))
+                   series=series, fault_effect_peak=peak, identification=identification_from_bag(replay),
+                   health=health_from_bag(out))
 
 
 def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: int | None = None, executor=None,
@@ -162,7 +162,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
               "models": shown_path(models, report_dir.parent),
               "thresholds": shown_path(thresholds, report_dir.parent), "observable_level_Nm": level, "runs": len(runs),
               "skipped": [{"bag": shown_path(b, bags_root), "reason": r} for b, r in skipped],
-              "observers": figures, "identification": identification_figures(runs),
+              "observers": figures, "identification": identification_figures(runs), "health": health_rows(runs),
               "evaluate_seconds": time.monotonic() - t0}
     (report_dir / "report.json").write_text(json.dumps(report, indent=1))
     from .report import write_markdown, write_plots

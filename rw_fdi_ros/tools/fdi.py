@@ -9,7 +9,7 @@ import numpy as np
 
 from ..core.scenario import AXES, parse_scenario
 from ..nodes import topics as T
-from ..storage.bag import BagData, read_bag
+from ..storage.bag import read_series
 from . import metrics
 from .run import RunOutcome, run_scenario
 
@@ -53,8 +53,9 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=No
                                                                  "unit_calibration": unit_calibration}, **kw)
     if outcome.bag.exists():
         try:
-            data = read_bag(outcome.bag)
-            outcome.summary = {**(outcome.summary or {}), "fdi": fdi_verdict(data)}
+            data = read_series(outcome.bag, verdict_topics())
+            outcome.summary = {**(outcome.summary or {}), "fdi": {**fdi_verdict(data),
+                                                                  "health": metrics.health_from_bag(outcome.bag)}}
             if figure:
                 figure = outcome.bag.parent / f"{outcome.bag.name}_fdi.png"
                 outcome.summary["figure"] = str(plot_residuals(data, figure))
@@ -64,15 +65,59 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=No
     return outcome
 
 
-def fdi_verdict(data: BagData) -> dict:
-    """Per observer and wheel: alarm intervals from the recorded /fdi/<observer>/alarm; plus the truth."""
+def verdict_topics() -> list:
+    """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag."""
+    bounds = [T.bound_topic("elman", a) for a in AXES] + [T.bound_topic("linear")]
+    return [T.SCENARIO, *metrics.fdi_output_topics(), *bounds]
+
+
+def fdi_verdict(data) -> dict:
+    """Per observer: alarm intervals per wheel from the recorded /fdi/<observer>/alarm and the shared
+    verdict of the run (metrics.judge: correct, false alarm, delays); plus the truth.
+
+    ``data``: a storage.bag BagSeries (or BagData) holding :func:`verdict_topics`."""
     scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
     out = {"truth": {a: [f.as_dict() for f in scenario.faults if AXES[f.wheel] == a] for a in AXES}}
     for obs in T.OBSERVERS:
         t, alarm = data.vectors(T.fdi_output_topics(obs)["alarm"])
         out[obs] = {a: metrics.alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(AXES)}
     out["identification"] = metrics.identification_from_bag(data)
+    try:
+        run = metrics.RunEval(bag=str(data.path), scenario=scenario.name, seed=scenario.seed,
+                              faults=list(scenario.faults), series=metrics.series_from_bag(data))
+    except ValueError:   # no FDI outputs (a run stopped before the first sample): intervals only
+        return out
+    out["judged"] = {obs: metrics.judge(run, obs) for obs in T.OBSERVERS}
     return out
+
+
+def health_lines(health: dict, method: str = "speed_aware") -> list:
+    """The FDI's own health in words, one line per status topic that had any."""
+    lines = []
+    for topic, wheels in health.items():
+        who = "isolation (/diagnostics)" if topic == T.DIAGNOSTICS else \
+            observer_label(topic.split("/")[2], method)
+        for axis, levels in sorted(wheels.items()):
+            for level, seen in levels.items():
+                what = "could not judge" if level == "cannot_judge" else "had input trouble in"
+                lines.append(f"  health of the {who}, wheel {axis}: {what} {seen['samples']} sample"
+                             f"{'s' if seen['samples'] > 1 else ''}, first at {seen['first_s']:g} s: "
+                             f"{seen['message']}")
+    return lines
+
+
+def judged_line(v: dict) -> str:
+    """One observer's shared verdict in words: what `rw-fdi evaluate` and `rw-fdi screen` count."""
+    if v.get("false_alarm"):
+        return f"false alarm on {', '.join(v['alarmed_axes'])}"
+    if "correct" not in v:
+        return "no alarm"
+    if v["correct"]:
+        return "correct, " + ", ".join(f"{a} after {f['delay']:.0f} s" for a, f in v["axes"].items())
+    missed = [a for a, f in v["axes"].items() if not f["detected"]]
+    parts = ([f"missed {', '.join(missed)}"] if missed else []) + \
+        ([f"alarmed healthy {', '.join(v['wrong_axes'])}"] if v["wrong_axes"] else [])
+    return "wrong: " + "; ".join(parts)
 
 
 def observer_label(observer: str, method: str = "speed_aware") -> str:
@@ -99,13 +144,18 @@ def format_verdict(v: dict, method: str = "speed_aware") -> str:
         lines.append(f"  {a:6s}{truth:34s}{fmt(v['elman'][a]):34s}{fmt(v['linear'][a])}")
     for a, found in v.get("identification", {}).items():
         lines.append(f"  identified on wheel {a}: {found['message']}")
+    for obs, judged in v.get("judged", {}).items():
+        lines.append(f"  verdict of the {observer_label(obs, method)}: {judged_line(judged)}")
+    health = v.get("health")
+    if health is not None:
+        lines += health_lines(health, method) or ["  health: every sample judged, no input trouble"]
     return "\n".join(lines)
 
 
 _PLOT_LOCK = threading.Lock()   # matplotlib (its mathtext parser above all) is not thread-safe
 
 
-def plot_residuals(data: BagData, path: Path) -> Path:
+def plot_residuals(data, path: Path) -> Path:
     """|Residual| against threshold per observer and wheel (like thesis Figs. 4.19-4.23, 5.2/5.3).
 
     Speed-aware runs (a non-zero ripple bound) are drawn on a log scale: their thresholds sit
@@ -114,7 +164,7 @@ def plot_residuals(data: BagData, path: Path) -> Path:
         return _plot_residuals(data, path)
 
 
-def _plot_residuals(data: BagData, path: Path) -> Path:
+def _plot_residuals(data, path: Path) -> Path:
     from matplotlib.figure import Figure   # no pyplot: its global figure stack is not thread-safe
     verdict = fdi_verdict(data)
     fig = Figure(figsize=(14, 6.5))

@@ -16,6 +16,7 @@ truth). Definitions (evaluation.md, our choices where it is open):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -44,6 +45,8 @@ class RunEval:
     fault_effect_peak: np.ndarray = field(default_factory=lambda: np.zeros(3))  # after onset [N m]
     # axis -> the last fault identification of an alarmed wheel (its /diagnostics values, strings)
     identification: dict = field(default_factory=dict)
+    # what the FDI said about itself (health_from_bag): status topic -> wheel -> cannot_judge / input_trouble
+    health: dict = field(default_factory=dict)
 
     @property
     def faulty_axes(self):
@@ -94,15 +97,49 @@ def series_from_bag(data) -> dict:
 def identification_from_bag(data) -> dict:
     """axis -> the last /fdi/identification status of that wheel as a dict (message + values);
     wheels never alarmed (or a bag without the topic) are left out."""
-    msgs = data.topic(T.IDENTIFICATION)
-    if not msgs:
+    last = data.last(T.IDENTIFICATION)
+    if last is None:
         return {}
     out = {}
-    for status in msgs[-1][1].status:
+    for status in last.status:
         values = {kv.key: kv.value for kv in status.values}
         if values.get("fault_kind", "none") != "none":
             out[status.hardware_id.rsplit("_", 1)[-1]] = {"message": status.message, **values}
     return out
+
+
+def health_topics() -> list:
+    """The statuses :func:`fdi_health` reads: /diagnostics and each observer's status."""
+    return [T.DIAGNOSTICS] + [T.fdi_output_topics(obs)["status"] for obs in T.OBSERVERS]
+
+
+def health_from_bag(path) -> dict:
+    """What the FDI said about itself over a run, streamed from its statuses (memory does not grow):
+    per status topic and wheel, the samples it could not judge (STALE) and those whose input stream
+    had trouble (WARN: gaps, dropped duplicates or late samples), each with the first time and message.
+    A wheel with neither is left out."""
+    from ..storage.bag import iter_messages, typestore
+    store, out = typestore(), {}
+    for topic, _, raw in iter_messages(path, health_topics()):
+        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
+        t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        for s in msg.status:
+            level = {1: "input_trouble", 3: "cannot_judge"}.get(int(s.level))
+            if "cannot judge" in s.message and level is None:   # alarmed: ERROR held, still not judged
+                level = "cannot_judge"
+            if level is None:
+                continue
+            row = out.setdefault(topic, {}).setdefault(s.hardware_id.rsplit("_", 1)[-1], {})
+            seen = row.setdefault(level, {"samples": 0, "first_s": t, "message": s.message})
+            seen["samples"] += 1
+    return out
+
+
+def health_rows(runs) -> list:
+    """One row per run, status topic, wheel and kind where the FDI could not judge or had input trouble."""
+    return [{"bag": Path(r.bag).name, "topic": topic, "wheel": axis, "kind": kind, **seen}
+            for r in runs for topic, wheels in r.health.items() for axis, kinds in sorted(wheels.items())
+            for kind, seen in kinds.items()]
 
 
 def axis_figures(s: Series, i: int, onset: float) -> dict:

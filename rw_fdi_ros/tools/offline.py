@@ -18,8 +18,8 @@ from ..core.detection import (FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_A
 from ..core.calibration import calibration_samples, regressors
 from ..core.elman import ElmanWeights, ModelError, recall_series
 from ..core.linear_observer import estimate_series
+from ..core.plant_choices import FDI_PERIOD, FDI_SAMPLING
 from ..core.scenario import AXES
-from ..launch.graph import FDI_PERIOD, FDI_SAMPLING
 
 
 
@@ -93,8 +93,7 @@ def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
     seen = set()
     for s in samples_list:
         text = read_bag(getattr(s, "bag", s), topics=["/scenario"]).scenario_text or ""
-        recorded = PlantChoices.from_recorded((yaml.safe_load(text) or {}).get("plant"))
-        seen.add(recorded.with_(fdi_period=FDI_PERIOD, fdi_sampling=sampling))
+        seen.add(PlantChoices.of_recording((yaml.safe_load(text) or {}).get("plant"), sampling))
     if len(seen) != 1:
         raise ThresholdError(f"bags recorded under different plant choices: {sorted(map(str, seen))}")
     return seen.pop().as_dict()

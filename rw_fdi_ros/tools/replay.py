@@ -14,10 +14,9 @@ import tempfile
 from pathlib import Path
 
 from ..core.plant_choices import PlantChoices
-from ..launch.graph import FDI_PERIOD, NodeSpec, fdi_nodes
+from ..launch.graph import NodeSpec, fdi_nodes, with_reader_counts
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
 from ..nodes import topics as T
-from ..nodes.player import FDI_INPUTS
 from ..storage.bag import BagError, bag_is_complete, read_bag
 from .offline import plant_conditions
 from .run import RunOutcome
@@ -25,16 +24,16 @@ from .run import RunOutcome
 
 def replay_nodes(bags: list, out_bags: list, fdi: dict, plant: dict, rate: float = 0.0):
     """Player + Elman x3 + linear + isolation + a recorder of the FDI outputs, for ``bags`` in order."""
-    nodes = fdi_nodes(fdi, PlantChoices(**plant), True)
+    choices = PlantChoices(**plant)
+    nodes = fdi_nodes(fdi, choices)
     for node in nodes:
         node.parameters["end_with_run"] = False   # they stay for the next bag; the launcher stops them
     nodes.append(NodeSpec("player", "player", {"bags": [str(b) for b in bags], "rate": float(rate),
-                                               "min_subscribers": T.telemetry_readers(True),
-                                               "pace_period": FDI_PERIOD, "topics": FDI_INPUTS,
+                                               "pace_period": choices.fdi_period, "topics": T.FDI_INPUTS,
                                                "await_recorder": True}))
-    nodes.append(NodeSpec("recorder", "recorder", {"outputs": [str(b) for b in out_bags], "fdi_period": FDI_PERIOD,
-                                                   "record_plant": False}))
-    return nodes
+    nodes.append(NodeSpec("recorder", "recorder", {"outputs": [str(b) for b in out_bags],
+                                                   "fdi_period": choices.fdi_period, "record_plant": False}))
+    return with_reader_counts(nodes)
 
 
 def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int | None = None, rate: float = 0.0,

@@ -155,6 +155,18 @@ def write_markdown(report: dict, path: Path):
             lines.append(f"| {c['kind']} | {c['size']} | {c['wheels']} | {_pct(c['identified'])} | "
                          f"{_pct(c['kind_right'])} | {_pct(c['size_right'])} | {_med(c['abs_size_error'])} | {seen} |")
         lines.append("")
+    health = report.get("health", [])
+    def runs_with(kind):
+        return len({h["bag"] for h in health if h["kind"] == kind})
+    lines += ["## The FDI's own health", "",
+              f"Runs with samples the FDI could not judge (STALE): {runs_with('cannot_judge')}; with input trouble "
+              f"(WARN: gaps, dropped duplicates or late samples): {runs_with('input_trouble')}"
+              f"; of {report['runs']}.", ""]
+    if health:
+        lines += ["| bag | status | wheel | what | samples | first [s] | message |", "|---|---|---|---|---|---|---|"]
+        lines += [f"| {h['bag']} | {h['topic']} | {h['wheel']} | {h['kind'].replace('_', ' ')} | {h['samples']} | "
+                  f"{h['first_s']:g} | {h['message']} |" for h in health[:50]]
+        lines += (["", f"({len(health) - 50} more rows in report.json)"] if len(health) > 50 else []) + [""]
     if report.get("skipped"):
         lines += ["## Skipped bags", ""] + [f"- `{s['bag']}`: {s['reason']}" for s in report["skipped"]] + [""]
     if report.get("plots"):

@@ -96,10 +96,12 @@ def summarize(runs) -> dict:
     """observer -> counts of the shared verdict (metrics.judge) over ``runs``."""
     out = {}
     for obs in ("elman", "linear"):
-        o = {"runs": len(runs), "any_alarm": 0, "correct": 0, "wrong_axis": 0, "held": 0, "lost": 0, "delays": []}
+        o = {"runs": len(runs), "any_alarm": 0, "false_alarm": 0, "correct": 0, "wrong_axis": 0, "held": 0,
+             "lost": 0, "delays": []}
         for r in runs:
             v = judge(r, obs)
             o["any_alarm"] += bool(v["alarmed_axes"])
+            o["false_alarm"] += v["false_alarm"]
             if "axes" in v:
                 o["correct"] += v["correct"]
                 o["wrong_axis"] += bool(v["wrong_axes"])
@@ -107,8 +109,6 @@ def summarize(runs) -> dict:
                     if f["detected"]:
                         o["delays"].append(f["delay"])
                         o["held" if f["held_to_end"] else "lost"] += 1
-            else:
-                o["wrong_axis"] += bool(v["alarmed_axes"])
         out[obs] = o
     return out
 
@@ -127,7 +127,7 @@ def format_screen(name, out) -> str:
         d = np.asarray(o["delays"])
         delay = f"delay median {np.median(d):.0f} s [{d.min():.0f}, {d.max():.0f}]" if d.size else "no detection"
         lines.append(f"{name:20s} {obs:7s} runs {o['runs']:3d}  any alarm {o['any_alarm']:3d}  "
-                     f"correct {o['correct']:3d}"
+                     f"false alarm {o['false_alarm']:3d}  correct {o['correct']:3d}"
                      f"  wrong axis {o['wrong_axis']:3d}  held {o['held']:3d}  lost {o['lost']:3d}  {delay}")
     return "\n".join(lines)
 

@@ -4,12 +4,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.scenario import AXES, parse_scenario, setpoint_at
-from ..nodes.topics import ATTITUDE, FAULT_EFFECT
-from ..storage.bag import BagData
+from ..nodes.topics import ATTITUDE, FAULT_EFFECT, SCENARIO
+
+SUMMARY_TOPICS = [SCENARIO, ATTITUDE, FAULT_EFFECT]   # what run_summary reads of a bag
 
 
-def run_summary(bag: BagData) -> dict:
-    """Pointing error per axis at the end, peak error after the first fault, faults, bag state."""
+def run_summary(bag) -> dict:
+    """Pointing error per axis at the end, peak error after the first fault, faults, bag state.
+
+    ``bag``: a storage.bag BagSeries (or BagData) holding at least SUMMARY_TOPICS."""
     text = bag.scenario_text
     if text is None:
         raise ValueError(f"{bag.path}: no /scenario message, cannot tell the set-points")

@@ -23,7 +23,7 @@ from functools import partial
 from pathlib import Path
 
 from ..core.calibration import calibration_samples
-from ..launch.graph import FDI_PERIOD
+from ..core.plant_choices import FDI_PERIOD
 from .detection_bench import (CELLS, cell_figures, cell_scenarios, format_rate, observable_levels, screen_cells,
                               write_report)
 from .screen import load_fdi, screen_sets

@@ -1,0 +1,138 @@
+"""The CDR byte layout of the messages the lockstep sends every step, in one place (no ROS imports).
+
+Plain CDR after a 4-byte encapsulation header (byte 1: 1 little endian, 0 big
+endian); offsets of aligned fields count from after that header. The nodes
+pack and unpack their hot topics here with ``struct`` (building rclpy message
+objects costs more than the rest of a node's step), the recorder stamps
+messages by :func:`header_stamp_ns`, and the bag readers decode recorded
+Vector3Stamped and JointState rows without a message object per row.
+"""
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+
+_CDR_LE = b"\x00\x01\x00\x00"   # encapsulation header: plain CDR, little endian
+_VECTOR = struct.Struct("<3d")
+
+
+def clock_cdr(stamp_ns_: int) -> bytes:
+    """rosgraph_msgs/Clock serialised (plain CDR, little endian): the plant's clock every step."""
+    sec, nsec = divmod(int(stamp_ns_), 1_000_000_000)
+    return _CDR_LE + struct.pack("<iI", sec, nsec)
+
+
+def _frame_field(frame_id: str) -> bytes:
+    """CDR string (uint32 length with the NUL, bytes, NUL) padded so the float64s that follow sit on
+    an 8-byte boundary (offsets count from after the encapsulation header; the stamp takes 8 bytes)."""
+    text = frame_id.encode() + b"\x00"
+    field = struct.pack("<I", len(text)) + text
+    return field + b"\x00" * (-(8 + len(field)) % 8)
+
+
+_FRAMES = {}
+
+
+def vector_cdr(stamp_ns_: int, values, frame_id: str = "body") -> bytes:
+    """geometry_msgs/Vector3Stamped serialised as rclpy would (decoded equal), without a message object."""
+    frame = _FRAMES.get(frame_id)
+    if frame is None:
+        frame = _FRAMES[frame_id] = _frame_field(frame_id)
+    sec, nsec = divmod(int(stamp_ns_), 1_000_000_000)
+    x, y, z = values
+    return b"".join((_CDR_LE, struct.pack("<iI", sec, nsec), frame, _VECTOR.pack(x, y, z)))
+
+
+def read_vector_cdr(raw: bytes):
+    """(stamp_ns, np.ndarray(3)) of a serialised geometry_msgs/Vector3Stamped, either byte order."""
+    end = "<" if raw[1] == 1 else ">"
+    sec, nsec, length = struct.unpack_from(end + "iII", raw, 4)
+    offset = 4 + 12 + length
+    offset += -(offset - 4) % 8
+    return sec * 1_000_000_000 + nsec, np.array(struct.unpack_from(end + "3d", raw, offset))
+
+
+def _cdr_string(text: str, offset: int) -> tuple:
+    """(bytes, new offset) of a CDR string at ``offset`` (4-aligned uint32 length with the NUL)."""
+    data = text.encode() + b"\x00"
+    pad = -offset % 4
+    out = b"\x00" * pad + struct.pack("<I", len(data)) + data
+    return out, offset + len(out)
+
+
+def _joint_state_prefix(frame_id: str, names: tuple) -> bytes:
+    """The constant part of a JointState after the stamp: frame_id and the joint names."""
+    out, offset = _cdr_string(frame_id, 8)
+    parts = [out]
+    pad = -offset % 4
+    parts.append(b"\x00" * pad + struct.pack("<I", len(names)))
+    offset += pad + 4
+    for name in names:
+        out, offset = _cdr_string(name, offset)
+        parts.append(out)
+    return b"".join(parts)
+
+
+_JOINT_PREFIXES = {}
+
+
+def joint_state_cdr(stamp_ns_: int, names: tuple, position=(), velocity=(), effort=(), frame_id: str = "") -> bytes:
+    """sensor_msgs/JointState serialised (plain CDR, little endian) without a message object: the
+    lockstep's per-step messages; decoded equal to what rclpy would send."""
+    key = (frame_id, names)
+    prefix = _JOINT_PREFIXES.get(key)
+    if prefix is None:
+        prefix = _JOINT_PREFIXES[key] = _joint_state_prefix(frame_id, names)
+    sec, nsec = divmod(int(stamp_ns_), 1_000_000_000)
+    parts = [_CDR_LE, struct.pack("<iI", sec, nsec), prefix]
+    offset = 8 + len(prefix)
+    for values in (position, velocity, effort):
+        n = len(values)
+        pad = -offset % 4
+        parts.append(b"\x00" * pad + struct.pack("<I", n))
+        offset += pad + 4
+        if n:
+            pad = -offset % 8
+            parts.append(b"\x00" * pad + struct.pack(f"<{n}d", *values))
+            offset += pad + 8 * n
+    return b"".join(parts)
+
+
+def read_joint_state_cdr(raw: bytes):
+    """(stamp_ns, position, velocity, effort) of a serialised sensor_msgs/JointState, either byte
+    order; the arrays are np.ndarray (empty where the message leaves them out)."""
+    end = "<" if raw[1] == 1 else ">"
+    body = memoryview(raw)[4:]
+    sec, nsec, length = struct.unpack_from(end + "iII", body, 0)
+    offset = 12 + length
+    offset += -offset % 4
+    (count,) = struct.unpack_from(end + "I", body, offset)
+    offset += 4
+    for _ in range(count):
+        offset += -offset % 4
+        (length,) = struct.unpack_from(end + "I", body, offset)
+        offset += 4 + length
+    arrays = []
+    for _ in range(3):
+        offset += -offset % 4
+        (n,) = struct.unpack_from(end + "I", body, offset)
+        offset += 4
+        if n:
+            offset += -offset % 8
+        arrays.append(np.array(struct.unpack_from(f"{end}{n}d", body, offset)))
+        offset += 8 * n
+    return sec * 1_000_000_000 + nsec, arrays[0], arrays[1], arrays[2]
+
+
+def header_stamp_ns(raw: bytes, default: int) -> int:
+    """Sim-time stamp of a CDR message whose first field is a builtin_interfaces/Time.
+
+    Header-stamped messages and rosgraph_msgs/Clock all start with it, right
+    after the 4-byte encapsulation header (byte 1 = 1: little endian).
+    """
+    if len(raw) < 12:
+        return default
+    fmt = "<iI" if raw[1] == 1 else ">iI"
+    sec, nsec = struct.unpack_from(fmt, raw, 4)
+    return sec * 1_000_000_000 + nsec

@@ -1,0 +1,91 @@
+"""Who reads what is one table (nodes/topics.py), and every node's reader counts come from it.
+
+A publisher holds its first messages until its topic's readers are matched (DDS drops what goes out
+before), so a count too high stalls a run and one too low loses its start. No ROS graph runs here:
+test_graph.py and test_fdi_graph.py run them.
+"""
+import subprocess
+import sys
+
+import pytest
+
+from rw_fdi_ros.core.plant_choices import DEFAULT
+from rw_fdi_ros.launch.graph import NodeSpec, graph_nodes, with_reader_counts
+from rw_fdi_ros.nodes import topics as T
+from rw_fdi_ros.tools.replay import replay_nodes
+from rw_fdi_ros.tools.run import resolve_scenario
+
+
+def run_graph(fdi: bool, recording: bool):
+    scenario, path = resolve_scenario("bus_5v5_x", 3)
+    return graph_nodes(scenario, path, "bags/demo" if recording else None, fdi={} if fdi else None)
+
+
+def replay_graph(rate: float = 0.0):
+    return replay_nodes(["a", "b"], ["a_out", "b_out"], {}, DEFAULT.as_dict(), rate)
+
+
+GRAPHS = {"fdi, recorded": lambda: run_graph(True, True), "fdi": lambda: run_graph(True, False),
+          "no fdi, recorded": lambda: run_graph(False, True), "no fdi": lambda: run_graph(False, False),
+          "replay": replay_graph, "replay at a rate": lambda: replay_graph(2.0)}
+
+
+def counts(nodes) -> dict:
+    """node name -> {parameter: value} of its reader-count parameters."""
+    return {n.name: {k: n.parameters[k] for k in T.waits(n)} for n in nodes}
+
+
+@pytest.mark.parametrize("graph", sorted(GRAPHS))
+def test_every_count_is_the_readers_the_table_gives_the_graph(graph):
+    nodes = GRAPHS[graph]()
+    for node in nodes:
+        for param, topics in T.waits(node).items():
+            for topic in topics:
+                assert node.parameters[param] == T.readers(topic, nodes), (node.name, param, topic)
+
+
+def test_the_counts_are_the_graph_we_know():
+    """The derivation spelt out for the graphs we ship: controllers, FDI nodes, recorder, player."""
+    full = counts(run_graph(True, True))
+    assert full["plant"] == {"attitude_readers": 4, "fdi_readers": 6, "wait_for_subscribers": 1}
+    assert full["pid_controller_y"] == {"min_subscribers": 2}
+    assert full["elman_observer_z"] == full["linear_observer"] == {"estimate_readers": 1, "min_subscribers": 2}
+    assert full["isolation"] == {"diagnostics_readers": 1, "min_subscribers": 1}
+    bare = counts(run_graph(False, False))
+    assert bare["plant"] == {"attitude_readers": 3, "fdi_readers": 0, "wait_for_subscribers": 0}
+    assert bare["pid_controller_x"] == {"min_subscribers": 1}
+    assert counts(run_graph(False, True))["plant"]["fdi_readers"] == 1   # the recorder records the telemetry
+    replay = counts(replay_graph())
+    assert replay["player"] == {"min_subscribers": 5}      # the FDI nodes; the replay's recorder does not read it
+    assert replay["isolation"] == {"diagnostics_readers": 2, "min_subscribers": 1}   # + the pacing player
+    assert counts(replay_graph(2.0))["isolation"]["diagnostics_readers"] == 1   # paced by the clock
+
+
+def test_a_node_added_to_the_table_is_waited_for(monkeypatch):
+    before = counts(run_graph(True, True))
+    monitor = [T.ATTITUDE, T.residual_topic("linear"), T.bound_topic("linear")]
+    monkeypatch.setitem(T.READS, "monitor", lambda p: monitor)
+    after = counts(with_reader_counts(run_graph(True, True) + [NodeSpec("monitor", "monitor")]))
+    assert after["plant"]["attitude_readers"] == before["plant"]["attitude_readers"] + 1
+    assert after["linear_observer"]["min_subscribers"] == before["linear_observer"]["min_subscribers"] + 1
+    assert after["elman_observer_x"] == before["elman_observer_x"] and after["isolation"] == before["isolation"]
+
+
+def test_a_node_the_table_does_not_know_is_an_error_not_a_stall():
+    with pytest.raises(ValueError, match="monitor reads is not in nodes/topics.py READS"):
+        with_reader_counts(run_graph(True, False) + [NodeSpec("monitor", "monitor")])
+
+
+def test_one_count_for_topics_with_different_readers_is_refused(monkeypatch):
+    """The linear observer's min_subscribers counts residual and bound: a reader of one alone needs a
+    parameter of its own, not a silently wrong wait on the other."""
+    monkeypatch.setitem(T.READS, "monitor", lambda p: [T.residual_topic("linear")])
+    with pytest.raises(ValueError, match="linear_observer: parameter min_subscribers counts"):
+        with_reader_counts(run_graph(True, False) + [NodeSpec("monitor", "monitor")])
+
+
+def test_graph_building_tools_import_no_rclpy():
+    code = ("import sys, rw_fdi_ros.nodes.topics, rw_fdi_ros.launch.graph, rw_fdi_ros.tools.replay\n"
+            "assert 'rclpy' not in sys.modules, 'rclpy imported'")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
