@@ -119,23 +119,25 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_fit(args) -> int:
-    from .tools.offline import fdi_method_of, fit_thresholds, load_models
-    from .tools.samples import load_samples
-    from .paths import config_dir
-    import time
-    models_dir = args.models or str(config_dir() / "fdi")
-    models = load_models(models_dir)
-    t0 = time.monotonic()
+    # the options first: a bad one answers at once, before torch loads
     if not 0.0 < args.false_alarm_rate < 1.0:
         raise ValueError(f"--false-alarm-rate must lie in (0, 1), got {args.false_alarm_rate}")
     if (args.bags is None) == (args.simulate is None):
         raise ValueError("give either --bags DIR or --simulate SCENARIO --seeds A..B")
+    seeds = parse_seeds(args.seeds, "--seeds") if args.simulate else None
+    from .tools.offline import fdi_method_of, fit_thresholds, load_models
+    from .tools.samples import load_samples
+    from .paths import config_dir, shown_path
+    import time
+    models_dir = args.models or str(config_dir() / "fdi")
+    models = load_models(models_dir)
+    t0 = time.monotonic()
     plant = None
     if args.simulate:
-        samples, plant = _simulated_fitting_runs(args.simulate, parse_seeds(args.seeds, "--seeds"))
+        samples, plant = _simulated_fitting_runs(args.simulate, seeds)
     else:
         samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
-    result = fit_thresholds(samples, models, args.out, model_ref=str(models_dir),
+    result = fit_thresholds(samples, models, args.out, model_ref=shown_path(models_dir, args.out),
                             false_alarm_rate=args.false_alarm_rate, persistence=args.persistence,
                             unit_calibration=args.unit_calibration, plant=plant)
     print(f"thresholds from {len(samples)} fault-free runs in {time.monotonic() - t0:.0f} s -> {args.out}")
@@ -190,9 +192,9 @@ def parse_seeds(text: str, option: str) -> range:
 
 
 def _cmd_screen(args) -> int:
+    seeds = parse_seeds(args.seeds, "--seeds")   # before the imports: a bad option answers at once
     from .core.scenario import load_scenario
     from .tools.screen import format_screen, screen
-    seeds = parse_seeds(args.seeds, "--seeds")
     for name in args.scenario:
         print(format_screen(name, screen(load_scenario(name), seeds, args.models, args.thresholds,
                                          args.persistence, args.fdi_method, args.unit_calibration)))

@@ -65,3 +65,17 @@ def fastdds_profiles() -> str | None:
 
 def bags_dir() -> Path:
     return Path(os.environ.get("RW_FDI_BAGS", Path.cwd() / "bags"))
+
+
+def shown_path(path, base) -> str:
+    """``path`` relative to ``base`` when it lies inside it: a report names no path of the machine that
+    made it, so it reads the same wherever the study directory goes."""
+    import os
+    path, base = Path(path).resolve(), Path(base).resolve()
+    for root, shown in ((base, None), (config_dir().resolve(), "config")):   # the study's, the shipped files
+        try:
+            rel = path.relative_to(root)
+            return str(Path(shown, rel) if shown else rel)
+        except ValueError:
+            pass
+    return os.path.relpath(path, base)

@@ -13,6 +13,7 @@ import pytest
 import yaml
 
 from rw_fdi_ros.launch.graph import graph_nodes
+from rw_fdi_ros.launch.launcher import node_command
 from rw_fdi_ros.tools.run import resolve_scenario
 
 LAUNCH_FILE = Path(__file__).resolve().parents[1] / "launch" / "rw_fdi.launch.py"
@@ -109,6 +110,11 @@ def test_launch_file_starts_the_graph_of_our_launcher(launch_module, overrides, 
     assert [(n.kwargs["executable"], n.kwargs["name"]) for n in nodes] == [(n.executable, n.name) for n in ours]
     assert all(n.kwargs["package"] == "rw_fdi_ros" for n in nodes)
     for node, spec in zip(nodes, ours):
+        # no remapping on either side: the topics are the nodes' own names (nodes/topics.py)
+        assert not node.kwargs.get("remappings") and not node.kwargs.get("ros_arguments"), spec.name
+        cmd = node_command(spec, "params.yaml")
+        remaps = [cmd[i + 1] for i, a in enumerate(cmd) if a in ("-r", "--remap")]
+        assert remaps == [f"__node:={spec.name}"], cmd
         (params,) = node.kwargs["parameters"]
         assert {k: as_rcl_reads_it(v) for k, v in params.items()} == spec.parameters, spec.name
     if fdi is not None:

@@ -53,6 +53,10 @@ def test_small_reproduce_writes_a_report_that_passes_its_schema(study):
     assert "Threshold reliability" in text and "thesis" in text and "runs per minute" in text
     assert (out / "report" / "detection_grid.png").stat().st_size > 5000
     assert {"record fit", "train", "evaluate (replay)", "total"} <= set(raw["stages"])
+    # the report names no path of the machine that made it, and says what the FDI said of itself
+    for made_here in (str(out.resolve()), str(out.parent.resolve())):
+        assert made_here not in text and made_here not in json.dumps(raw)
+    assert "## The FDI's own health" in text and raw["health"] == []
 
 
 def _same_fdi_result(live_bag, replayed_bag):

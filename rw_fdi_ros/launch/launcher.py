@@ -122,6 +122,14 @@ def _last_line(path: Path) -> str:
     return (errors or lines or [""])[-1][:300]
 
 
+def node_command(n, params_file, python: str = sys.executable) -> list:
+    """The command line of one node: what launch_ros' Node(name=..., parameters=[file]) gives, no remapping
+    but the node's name. On an install the files `ros2 run` starts; in a source tree the modules."""
+    exe = installed_executable(n.executable)
+    return ([str(exe)] if exe else [python, "-m", n.module]) + [
+        "--ros-args", "-r", f"__node:={n.name}", "--params-file", str(params_file), "--log-level", "warn"]
+
+
 class GraphProcesses:
     """Start a list of :class:`NodeSpec` as processes and supervise them."""
 
@@ -137,10 +145,7 @@ class GraphProcesses:
     def start(self):
         params_file = write_params_file(self.nodes, self.work_dir / "params.yaml")
         for n in self.nodes:
-            # on an install the files `ros2 run` starts; in a source tree the modules
-            exe = installed_executable(n.executable)
-            cmd = ([str(exe)] if exe else [self.python, "-m", n.module]) + [
-                "--ros-args", "-r", f"__node:={n.name}", "--params-file", str(params_file), "--log-level", "warn"]
+            cmd = node_command(n, params_file, self.python)
             log = open(self.work_dir / f"{n.name}.log", "w")
             self.procs[n.name] = subprocess.Popen(cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT,
                                                   stdin=subprocess.DEVNULL, start_new_session=True)

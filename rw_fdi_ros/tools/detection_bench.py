@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.scenario import Fault, Scenario
-from .metrics import judge
+from .metrics import alarm_before_onset, judge, observable
 from .screen import load_fdi, screen_sets
 
 SEED_BASE = 10_000_000
@@ -112,11 +112,10 @@ def cell_figures(runs, observer: str, observable_level: dict) -> dict:
         return {"false_alarm": rate(v["false_alarm"] for v in verdicts)}
     figs = [f for v in verdicts for f in v["axes"].values()]
     det = [f for f in figs if f["detected"]]
-    observable = [v["correct"] for r, v in zip(runs, verdicts)
-                  if all(r.fault_effect_peak["xyz".index(a)] > observable_level[a] for a in r.faulty_axes)]
+    seen = [v["correct"] for r, v in zip(runs, verdicts) if observable(r, observable_level)]
     delays = np.array([f["delay"] for f in det]) if det else np.zeros(0)
-    early = [bool(r.series[observer].alarm[r.series[observer].time < r.onset].any()) for r in runs]
-    return {"correct": rate(v["correct"] for v in verdicts), "correct_observable": rate(observable),
+    early = [alarm_before_onset(r, observer) for r in runs]
+    return {"correct": rate(v["correct"] for v in verdicts), "correct_observable": rate(seen),
             "detected": rate(f["detected"] for f in figs), "held_to_end": rate(f["held_to_end"] for f in det),
             "alarm_before_onset": rate(early),
             "delay_s": {"median": float(np.median(delays)) if delays.size else None,
@@ -147,20 +146,29 @@ def observable_levels(sets: dict) -> dict:
     return out
 
 
+def cell_sizes(fault_free_runs: int, runs_per_cell: int) -> list:
+    """Runs per cell of CELLS: the fault-free cell's, every other cell's."""
+    return [fault_free_runs if c.kind is None else runs_per_cell for c in CELLS]
+
+
+def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: str) -> dict:
+    """cell name -> the cell, its seeds (cell i from seed_base + 100,000 i) and under ``key`` per FDI set
+    and observer its :func:`cell_figures`; ``judged[i]``: set name -> the judged runs of cell i."""
+    return {cell.name: {"cell": cell.__dict__,
+                        "seeds": [seed_base + 100_000 * i, seed_base + 100_000 * i + sizes[i] - 1],
+                        key: {name: {obs: cell_figures(runs, obs, levels[name][obs]) for obs in ("elman", "linear")}
+                              for name, runs in judged[i].items()}}
+            for i, cell in enumerate(CELLS)}
+
+
 def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/detection",
                     jobs: int = 2) -> dict:
     sets = _fdi_sets()
     levels = observable_levels(sets)
     t0 = time.monotonic()
-    sizes = [fault_free_runs if c.kind is None else runs_per_cell for c in CELLS]
+    sizes = cell_sizes(fault_free_runs, runs_per_cell)
     judged = screen_cells(sizes, _judge_chunk, "detection bench (core loop + node code)", jobs)
-    results = {}
-    for i, cell in enumerate(CELLS):
-        first = SEED_BASE + 100_000 * i
-        results[cell.name] = {"cell": cell.__dict__, "seeds": [first, first + sizes[i] - 1],
-                              "methods": {name: {obs: cell_figures(runs, obs, levels[name][obs])
-                                                 for obs in ("elman", "linear")}
-                                          for name, runs in judged[i].items()}}
+    results = cell_results(judged, sizes, SEED_BASE, levels, "methods")
     report = {"schema": "rw_fdi_ros/detection_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
               "date": time.strftime("%Y-%m-%d"),
               "fault_free_runs": fault_free_runs, "runs_per_cell": runs_per_cell, "seed_base": SEED_BASE,

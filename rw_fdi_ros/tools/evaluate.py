@@ -23,21 +23,12 @@ from ..nodes import topics as T
 from ..paths import config_dir, thresholds_dir
 from ..storage.bag import BagError, bag_is_complete, read_bag, read_series
 from .campaign import LocalExecutor, _progress
+from ..paths import shown_path
 from .metrics import (OBSERVERS, RunEval, aggregate, fdi_output_topics, health_from_bag, health_rows,
                       identification_figures, identification_from_bag, scenario_of, series_from_bag)
 from ..core.plant_choices import PlantChoices
 from .offline import fdi_method_of, load_models, model_card
 from .replay import replay_bags, replay_finished
-
-
-def shown_path(path, base) -> str:
-    """``path`` relative to ``base`` when it lies inside it: a report names no path of the machine that
-    made it, so it reads the same wherever the study directory goes."""
-    path, base = Path(path).resolve(), Path(base).resolve()
-    try:
-        return str(path.relative_to(base))
-    except ValueError:
-        return str(path)
 
 
 def find_bags(root) -> list:

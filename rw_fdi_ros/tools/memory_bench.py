@@ -63,6 +63,11 @@ def bench_memory(hours=(1.0, 6.0), seed: int = 7, out: str | None = None) -> dic
         evaluation = peak_memory(["evaluate", "--bags", str(bags), "--report", str(work / f"report_{h:g}h")])
         rows.append({"hours": h, "bag_mb": size, "run": run, "bag": read, "evaluate": evaluation})
     ok = all(r[k]["code"] == 0 for r in rows for k in ("run", "bag", "evaluate"))
+    return {"ok": ok, "seed": seed, "rows": rows, "text": format_memory(rows, seed)}
+
+
+def format_memory(rows: list, seed: int) -> str:
+    """The bench's table: peak memory per step and run length, and what grew between the extremes."""
     lines = [f"memory bench: fault-free runs with the FDI live, seed {seed}; peak resident memory [MB] "
              "of each step in a fresh process", f"  {'run':>6s} {'bag':>7s}  {'rw-fdi run':>11s}  "
              f"{'rw-fdi bag':>11s}  {'evaluate':>9s}  {'its nodes':>9s}  wall run/bag/evaluate [s]"]
@@ -80,7 +85,7 @@ def bench_memory(hours=(1.0, 6.0), seed: int = 7, out: str | None = None) -> dic
         for k in ("run", "bag", "evaluate"):
             if r[k]["code"] != 0:
                 lines.append(f"  FAILED {k} ({r['hours']:g}h): exit {r[k]['code']}: {r[k]['output'][-300:]}")
-    return {"ok": ok, "rows": rows, "text": "\n".join(lines)}
+    return "\n".join(lines)
 
 
 def _series_mb(hours: float) -> float:

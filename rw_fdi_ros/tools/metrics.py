@@ -268,6 +268,18 @@ def _rate(flags):
     return {"rate": float(np.mean(flags)) if flags else None, "n": len(flags)}
 
 
+def alarm_before_onset(run: RunEval, observer: str) -> bool:
+    """Any alarm in the fault-free first part of a faulty run: a false alarm there."""
+    s = run.series[observer]
+    return bool(s.alarm[s.time < run.onset].any())
+
+
+def observable(run: RunEval, level: dict) -> bool:
+    """Every faulty wheel's recorded fault effect peaks above ``level[axis]``, the fault-free residual
+    level [N m]: a fault below it is physically invisible, not missed by the observer."""
+    return all(run.fault_effect_peak[AXES.index(a)] > level[a] for a in run.faulty_axes)
+
+
 def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=()) -> dict:
     """All figures per observer; ``observable_level[obs][axis]``: the fault-free residual level [N m].
 
@@ -285,7 +297,7 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
                                           "seeds": [r.seed for r in dist]}
         # the fault-free first part of every faulty run: at thesis scale 11x the held-out runs' fault-free time
         faulty = [r for r in runs if r.category in ("single", "multiple")]
-        early = [bool(r.series[obs].alarm[r.series[obs].time < r.onset].any()) for r in faulty]
+        early = [alarm_before_onset(r, obs) for r in faulty]
         rep["false_alarm_before_onset"] = {**_rate(early),
                                            "alarmed_seeds": [r.seed for r, e in zip(faulty, early) if e]}
         groups = {}
@@ -298,8 +310,7 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
             return kind, max(severity(f.kind, f.value) for f in members[0].faults)
         for (kind, size), members in sorted(groups.items(), key=order):
             v = [verdicts[r.bag] for r in members]
-            observable = [r for r in members if all(
-                r.fault_effect_peak[AXES.index(a)] > observable_level[obs][a] for a in r.faulty_axes)]
+            seen = [r for r in members if observable(r, observable_level[obs])]
             figs = [f for x in v for f in x["axes"].values()]
             det = [f for f in figs if f["detected"]]
             cells.append({
@@ -308,7 +319,7 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
                                                                      members[0].faults[0].value),
                 "axes": sorted({a for r in members for a in r.faulty_axes}),
                 "correctness": _rate(x["correct"] for x in v),
-                "correctness_observable": _rate(verdicts[r.bag]["correct"] for r in observable),
+                "correctness_observable": _rate(verdicts[r.bag]["correct"] for r in seen),
                 "detected": _rate(f["detected"] for f in figs),
                 "delay_s": _stats([f["delay"] for f in det]),
                 "time_above_s": _stats([f["time_above"] for f in det]),

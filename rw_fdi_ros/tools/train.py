@@ -25,6 +25,7 @@ import numpy as np
 from ..core.detection import FALSE_ALARM_RATE
 from ..core.elman import HIDDEN, SETTLE_STEPS, ElmanWeights
 from ..core.scenario import AXES
+from ..paths import shown_path
 
 MODES = ("teacher", "recall")
 # Epochs of the speed-aware networks. On the 100 fitting runs (x axis) the largest fault-free run
@@ -156,7 +157,7 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
     out_dir.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
     card = {"mode": mode, "speed_aware": speed_aware, "epochs": epochs, "hidden": HIDDEN, "samples_per_run": n,
-            "bags": [str(s.bag) for s in samples], "seeds": [s.seed for s in samples],
+            "bags": [shown_path(s.bag, out_dir) for s in samples], "seeds": [s.seed for s in samples],
             "plant": plant or {}, "axes": {}}
     calibration = list(calibration) if calibration else list(samples)
     if speed_aware:

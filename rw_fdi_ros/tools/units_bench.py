@@ -24,8 +24,8 @@ from pathlib import Path
 
 from ..core.calibration import calibration_samples
 from ..core.plant_choices import FDI_PERIOD
-from .detection_bench import (CELLS, cell_figures, cell_scenarios, format_rate, observable_levels, screen_cells,
-                              write_report)
+from .detection_bench import (CELLS, cell_results, cell_scenarios, cell_sizes, format_rate, observable_levels,
+                              screen_cells, write_report)
 from .screen import load_fdi, screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands
@@ -47,21 +47,14 @@ def _judge_chunk(population: str, cell_index: int, seeds_range):
 
 def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/units",
                 jobs: int = 2) -> dict:
+    t0 = time.monotonic()   # loading both calibrations' bands included
     sets = _fdi_sets()
-    levels = observable_levels(sets)
-    t0 = time.monotonic()
-    sizes = [fault_free_runs if c.kind is None else runs_per_cell for c in CELLS]
+    levels, sizes = observable_levels(sets), cell_sizes(fault_free_runs, runs_per_cell)
     populations = {}
     for population, (seed_base, wheels) in POPULATIONS.items():
         judged = screen_cells(sizes, partial(_judge_chunk, population), f"units bench, {population} wheels", jobs)
-        populations[population] = {
-            "seed_base": seed_base, "wheels": wheels,
-            "cells": {cell.name: {"cell": cell.__dict__,
-                                  "seeds": [seed_base + 100_000 * i, seed_base + 100_000 * i + sizes[i] - 1],
-                                  "sets": {name: {obs: cell_figures(runs, obs, levels[name][obs])
-                                                  for obs in ("elman", "linear")}
-                                           for name, runs in judged[i].items()}}
-                      for i, cell in enumerate(CELLS)}}
+        populations[population] = {"seed_base": seed_base, "wheels": wheels,
+                                   "cells": cell_results(judged, sizes, seed_base, levels, "sets")}
     report = {"schema": "rw_fdi_ros/units_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
               "date": time.strftime("%Y-%m-%d"), "fault_free_runs": fault_free_runs, "runs_per_cell": runs_per_cell,
               "onset_range_s": ONSET_RANGE, "unit_calibration_time_s": CALIBRATION_TIME,
