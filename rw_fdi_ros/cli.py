@@ -247,7 +247,7 @@ def _cmd_bag(args) -> int:
     verdict: each a stream over the file, so memory does not grow with the run's length."""
     from .nodes import topics as T
     from .storage.bag import bag_info, read_series
-    from .tools.summary import SUMMARY_TOPICS, format_summary, run_summary
+    from .tools.summary import format_summary, run_summary
     info = bag_info(args.bag)
     state = "complete" if info.complete else f"incomplete: {info.note}"
     print(f"{info.path}: {state}")
@@ -258,7 +258,7 @@ def _cmd_bag(args) -> int:
     if T.SCENARIO not in info.counts:
         return 0
     if T.ATTITUDE in info.counts:
-        print(format_summary(run_summary(read_series(args.bag, SUMMARY_TOPICS))))
+        print(format_summary(run_summary(args.bag)))
     if T.fdi_output_topics("elman")["alarm"] in info.counts:
         from .tools.fdi import fdi_verdict, format_verdict, plot_residuals, verdict_topics
         from .tools.metrics import health_from_bag

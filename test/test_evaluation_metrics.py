@@ -188,3 +188,15 @@ def test_alarm_intervals_are_the_runs_of_the_flag():
     t = np.arange(8.0)
     assert alarm_intervals(t, [0, 1, 1, 0, 0, 1, 1, 1]) == [(1.0, 3.0), (5.0, None)]
     assert alarm_intervals(t, [0] * 8) == [] and alarm_intervals(t, [1] * 8) == [(0.0, None)]
+
+
+def test_a_figure_line_keeps_every_bucket_extreme_in_bounded_points():
+    from rw_fdi_ros.tools.fdi import envelope
+    t = np.arange(100_000) * 1.0
+    y = np.sin(t / 500.0)
+    y[12_345], y[77_777] = 5.0, -4.0                    # spikes a plain stride would drop
+    tk, yk = envelope(t, y, buckets=1000)
+    assert len(tk) <= 2000 and np.all(np.diff(tk) > 0)
+    assert 12_345.0 in tk and yk.max() == 5.0 and yk.min() == -4.0
+    short_t, short_y = envelope(t[:50], y[:50], buckets=1000)
+    assert np.array_equal(short_t, t[:50]) and np.array_equal(short_y, y[:50])

@@ -109,6 +109,14 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
     w.add_topic(T.ATTITUDE, T.JOINT_STATE)
     w.write("/attitude", 0, bytes(read_bag(good, topics=[T.ATTITUDE], raw=True).topic(T.ATTITUDE)[0][1]))
     w.close()
+    whole = read_bag(good, raw=True)   # a run stopped at 30 s (interrupted): complete file, no /plant/done
+    w = BagWriter(bags / "interrupted")
+    for topic in whole.messages:
+        w.add_topic(topic, whole.types[topic])
+    for t, topic, raw in sorted(((t, topic, raw) for topic, msgs in whole.messages.items() for t, raw in msgs
+                                 if topic != T.PLANT_DONE and t <= 30 * 10**9), key=lambda r: r[0]):
+        w.write(topic, t, raw)
+    w.close()
     (bags / "metadata_only").mkdir()   # its data file gone: answered, not passed over in silence
     shutil.copy(good / "metadata.yaml", bags / "metadata_only")
     models = out / "models"
@@ -118,6 +126,7 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
     assert "incomplete bag" in reasons["truncated"]
     assert "no /scenario message (no ground truth)" in reasons["no_truth"]
     assert "no .mcap data file (only metadata.yaml)" in reasons["metadata_only"]
+    assert "short: the run stopped at 30 s of" in reasons["interrupted"] and "interrupted" in reasons["interrupted"]
 
     with pytest.raises(BagError, match="no bags to evaluate"):
         (tmp_path / "empty").mkdir()

@@ -236,6 +236,10 @@ def write_plots(runs, figures: dict, out: Path) -> list:
     for ax, (obs, f) in zip(axes, figures.items()):
         cells = [c for c in f["faults"] if c["kind"] != "multiple"]
         kinds = sorted({c["kind"] for c in cells})
+        if not kinds:   # fault-free runs only: nothing to grid (an empty image would warn)
+            ax.text(0.5, 0.5, "no single-fault runs", ha="center", va="center", transform=ax.transAxes)
+            ax.set_axis_off()
+            continue
         sizes = {k: [c for c in cells if c["kind"] == k] for k in kinds}
         width = max((len(v) for v in sizes.values()), default=1)
         grid = np.full((len(kinds), width), np.nan)

@@ -9,8 +9,8 @@ from pathlib import Path
 from ..core.scenario import Scenario, load_scenario
 from ..launch.graph import graph_nodes
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
-from ..storage.bag import BagError, read_series
-from .summary import SUMMARY_TOPICS, run_summary
+from ..storage.bag import BagError
+from .summary import run_summary
 
 
 @dataclass
@@ -55,7 +55,7 @@ def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | 
     outcome = RunOutcome(result.ok, result.reason, bag, result.wall_time, log_dir=work)
     if bag.exists():
         try:
-            outcome.summary = run_summary(read_series(bag, SUMMARY_TOPICS))
+            outcome.summary = run_summary(bag)
         except (BagError, ValueError) as exc:
             if outcome.ok:
                 outcome.ok, outcome.reason = False, str(exc)
