@@ -40,6 +40,8 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
     """Fitting on simulated runs (cli), fitting and replay on recorded bags (offline.plant_conditions),
     evaluating a bag (evaluate) and the running graph's isolation node: one PlantChoices, non-default
     plant choices and all."""
+    from rosbags.typesys.stores.ros2_kilted import builtin_interfaces__msg__Time as Time
+    from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as Header
     from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
     from rw_fdi_ros.cli import _simulated_fitting_runs
@@ -59,6 +61,8 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
     writer.add_topic(T.SCENARIO, "std_msgs/msg/String")
     writer.add_topic(T.FAULT_EFFECT, "geometry_msgs/msg/Vector3Stamped")
     writer.write_message(T.SCENARIO, 0, String(data=scenario.effective_text(scenario.plant_choices().scenario_dict())))
+    writer.add_topic(T.PLANT_DONE, "std_msgs/msg/Header")   # a whole run: evaluation refuses an interrupted one
+    writer.write_message(T.PLANT_DONE, 10 * 10**9, Header(stamp=Time(sec=10, nanosec=0), frame_id=""))
     writer.close()
 
     class Curves:   # what evaluate checks the bag's choices against: records them
