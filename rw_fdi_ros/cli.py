@@ -225,7 +225,7 @@ def _cmd_bench(args) -> int:
             raise ValueError(f"--hours: expected numbers like 1,6, got {args.hours!r}") from None
         if not all(0 < h <= 48 for h in hours):
             raise ValueError(f"--hours: each length must be in (0, 48] hours, got {args.hours!r}")
-        report = bench_memory(hours, seed=args.seed, out=args.out)
+        report = bench_memory(hours, seed=args.seed, out=args.out or "reports/memory")
     elif args.what == "units":
         from .tools.units_bench import bench_units
         report = bench_units(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
@@ -402,8 +402,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default 100)")
     b.add_argument("--thesis-runs", type=int, default=None,
                    help="identification: runs per thesis size (default 200; the bus 340, as 6 in 10 are observable)")
-    b.add_argument("--out", default=None, help="detection / identification / units: report directory "
-                                                "(default reports/detection, reports/identification)")
+    b.add_argument("--out", default=None, help="detection / identification / units / memory: report directory "
+                                                "(default reports/<what>)")
     b.add_argument("--runs", type=int, default=8, help="study: runs to record and replay")
     b.add_argument("--jobs", type=int, default=None, help="study: runs at a time (default: 2)")
     b.add_argument("--duration", type=float, default=400.0)

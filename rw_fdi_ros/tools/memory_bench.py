@@ -8,7 +8,7 @@ process, the peak resident memory of what reads the bag afterwards:
   process, and the largest of the node processes it started (the player streams the bag).
 
 What may grow with the run is the figures themselves: the residual, threshold and alarm
-series drawn and judged (about 0.4 kB per second of run), not the messages.
+series judged and drawn (about 1 kB per second of run), not the messages.
 """
 from __future__ import annotations
 
@@ -45,9 +45,11 @@ def peak_memory(argv: list, env=None) -> dict:
             "children_mb": probe["children_kb"] / 1024, "output": proc.stdout[-2000:]}
 
 
-def bench_memory(hours=(1.0, 6.0), seed: int = 7, out: str | None = None) -> dict:
-    """Peak memory of the run summary, `rw-fdi bag` and evaluation for fault-free runs of ``hours``."""
-    work = Path(out or tempfile.mkdtemp(prefix="rw_fdi_memory_"))
+def bench_memory(hours=(1.0, 6.0), seed: int = 7, out: str | Path = "reports/memory", work=None) -> dict:
+    """Peak memory of the run summary, `rw-fdi bag` and evaluation for fault-free runs of ``hours``;
+    the figures to ``out``/memory.md and .json, the bags (about 125 MB per hour) in ``work``."""
+    from .detection_bench import write_report
+    work = Path(work or tempfile.mkdtemp(prefix="rw_fdi_memory_"))
     work.mkdir(parents=True, exist_ok=True)
     rows = []
     for h in hours:
@@ -63,7 +65,15 @@ def bench_memory(hours=(1.0, 6.0), seed: int = 7, out: str | None = None) -> dic
         evaluation = peak_memory(["evaluate", "--bags", str(bags), "--report", str(work / f"report_{h:g}h")])
         rows.append({"hours": h, "bag_mb": size, "run": run, "bag": read, "evaluate": evaluation})
     ok = all(r[k]["code"] == 0 for r in rows for k in ("run", "bag", "evaluate"))
-    return {"ok": ok, "seed": seed, "rows": rows, "text": format_memory(rows, seed)}
+    # a step's output only where it failed: the rest names the work directory of this machine
+    kept = [{k: ({**v, "output": v["output"] if v["code"] else ""} if isinstance(v, dict) else v)
+             for k, v in r.items()} for r in rows]
+    report = {"schema": "rw_fdi_ros/memory_bench/1", "date": time.strftime("%Y-%m-%d"), "seed": seed,
+              "rows": kept, "command": f"rw-fdi bench memory --hours {','.join(f'{h:g}' for h in hours)} "
+                                      f"--seed {seed}"}
+    report = write_report(report, out, "memory", lambda r: format_memory(r["rows"], r["seed"]))
+    report["ok"] = ok
+    return report
 
 
 def format_memory(rows: list, seed: int) -> str:
@@ -89,8 +99,9 @@ def format_memory(rows: list, seed: int) -> str:
 
 
 def _series_mb(hours: float) -> float:
-    """What the figures keep: per FDI sample and observer, stamp + residual, bound, threshold and alarm
-    (3 axes each) as float64, twice (read, then the arrays drawn and judged)."""
+    """What the verdict and the figure keep: per FDI sample one row of each Vector3Stamped topic they
+    read (a stamp and 3 float64: 32 bytes), twice (as read, then sorted by stamp)."""
     from ..core.plant_choices import FDI_PERIOD
-    samples = hours * 3600.0 / FDI_PERIOD
-    return 2 * samples * 2 * (1 + 4 * 3) * 8 / 2**20
+    from .fdi import verdict_topics
+    vector_topics = len(verdict_topics()) - 2   # all but /scenario and /fdi/identification
+    return 2 * hours * 3600.0 / FDI_PERIOD * vector_topics * 32 / 2**20
