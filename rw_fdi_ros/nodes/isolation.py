@@ -30,7 +30,6 @@ samples decided without it, STALE; telemetry that stops for that long makes
 """
 from __future__ import annotations
 
-import math
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -41,7 +40,7 @@ import numpy as np
 from ..core.detection import METHODS, ThresholdCurves, ThresholdError
 from ..core.identification import FaultIdentifier
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
-from ..core.isolation import DECISION_OBSERVER, ObserverChannel, stamp_seconds
+from ..core.isolation import DECISION_OBSERVER, ObserverChannel
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.scenario import AXES
 from ..paths import thresholds_dir
@@ -89,7 +88,7 @@ class IsolationNode(GraphNode):
         self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
         self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
         self.declare_parameter("decision_observer", DECISION_OBSERVER)
-        self.declare_parameter("input_timeout", 10.0)       # wall s an input may be silent before it is said
+        self.declare_parameter("input_timeout", 5.0)        # wall s an input may be silent before it is said
         self.declare_parameter("min_subscribers", 0)        # readers of each output (the recorder) before it goes
         self.declare_parameter("diagnostics_readers", 0)    # of /diagnostics: the recorder (+ a replay's player)
         # the running graph's plant choices: curves fitted under others are refused
@@ -133,7 +132,6 @@ class IsolationNode(GraphNode):
         self.inputs = {part: InputMonitor(f"{part} residuals" if part in self.channels else "FDI telemetry",
                                           plant.fdi_period) for part in (*self.channels, "telemetry")}
         self.last_input = time.monotonic()
-        self.last_row = {}   # observer -> wall time of its last row (or of the run's first telemetry)
         self.silent_said = False
         self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         def bound(a):
@@ -151,11 +149,6 @@ class IsolationNode(GraphNode):
     def _accept(self, source, stamp) -> bool:
         """Whether to use a source's input stamped ``stamp``; a new run resets what the source feeds."""
         self.last_input, self.silent_said = time.monotonic(), False
-        if source in self.channels:
-            self.last_row[source] = self.last_input
-        else:   # an observer's silence counts from the run's first telemetry at the earliest
-            for obs in self.channels:
-                self.last_row.setdefault(obs, self.last_input)
         order = self.inputs[source].accept(stamp)
         if order == OUT_OF_ORDER:
             self.get_logger().warn(self.inputs[source].last_note.message)
@@ -204,8 +197,6 @@ class IsolationNode(GraphNode):
         del handled["since"]
         sample = handled.pop("telemetry")
         for obs in silent:   # the alarm state held, every wheel unable to judge
-            monitor = self.inputs[obs]   # its rows of this stamp, should they still come, are dropped as late
-            monitor.last_ns = stamp if monitor.last_ns is None else max(monitor.last_ns, stamp)
             channel = self.channels[obs]
             k = int(round(stamp * 1e-9 / channel.curves.sample_period))
             rows = {a: (float("nan"), channel.curves.at(a, k), r.active, r.first_alarm)
@@ -253,13 +244,12 @@ class IsolationNode(GraphNode):
                 extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
             status = _status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
                              extra=extra, identification=found, note=note,
-                             unjudged=self._why_unjudged(self.decision, stamp, main[a], silent))
+                             unjudged=self._why_unjudged(self.decision, stamp, a, silent))
             if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
                 # judged against the wheel type's spread until then: only gross faults show (calibration.py)
                 status.message += f"; learning its unit until {self.calibration_time:g} s"
             channel = self.channels[self.decision]
-            beyond = stamp_seconds(stamp) > channel.curves.horizon   # this stamp's, not the channel's latest
-            if beyond and status.level == DiagnosticStatus.OK:   # never OK while it cannot judge
+            if channel.beyond_horizon and status.level == DiagnosticStatus.OK:   # never OK while it cannot judge
                 status.level = DiagnosticStatus.STALE
                 status.message = (f"cannot judge: the threshold curves end at {channel.curves.horizon:g} s "
                                   f"({self.param(f'thresholds_{self.decision}') or 'shipped'})")
@@ -275,33 +265,27 @@ class IsolationNode(GraphNode):
         status = DiagnosticArray()
         status.header.stamp = time_msg(stamp)
         status.status = [_status(f"{observer} observer: wheel {a}", a, *rows[a], note=note,
-                                 unjudged=self._why_unjudged(observer, stamp, rows[a], silent)) for a in AXES]
+                                 unjudged=self._why_unjudged(observer, stamp, a, silent)) for a in AXES]
         pubs["status"].publish(status)
 
-    def _why_unjudged(self, observer, stamp, row, silent=False):
-        """Why an observer's sample of a wheel (its ``row`` of that stamp: the channel has moved on by the
-        time a stamp is decided) was not judged (STALE), or None."""
+    def _why_unjudged(self, observer, stamp, axis, silent=False):
+        """Why an observer's sample of a wheel was not judged (STALE), or None."""
         if silent:
             return (f"no {observer} residual for {stamp * 1e-9:g} s within "
                     f"{self.param('input_timeout'):g} s (observer silent)")
-        if not (math.isfinite(row[0]) and math.isfinite(row[1])):
+        if axis in self.channels[observer].unjudged:
             return f"non-finite {observer} residual at {stamp * 1e-9:g} s"
         return None
 
     def _watch_inputs(self):
         """Samples an observer never completed are decided without it; silence of every input is said."""
         now, timeout = time.monotonic(), self.param("input_timeout")
-        # an observer is silent when it sent no row at all for input_timeout, not when it merely lags
-        silent = {o for o in self.channels if now - self.last_row.get(o, now) > timeout}
         for stamp in sorted(self.done_samples):
             handled = self.done_samples[stamp]
-            missing = [o for o in self.channels if o not in handled]
-            if "telemetry" in handled and missing and set(missing) <= silent:
-                self._decide(stamp, silent=missing)
+            if "telemetry" in handled and now - handled["since"] > timeout:
+                self._decide(stamp, silent=[o for o in self.channels if o not in handled])
         last = self.inputs["telemetry"].last_ns
-        # live runs only: in a replay the player paces on /diagnostics and watches for stalls itself
-        if (last is not None and self.param("end_with_run") and not self.silent_said
-                and now - self.last_input > timeout and not self.run_ended()):
+        if last is not None and not self.silent_said and now - self.last_input > timeout and not self.run_ended():
             self.silent_said = True
             msg = DiagnosticArray()
             msg.header.stamp = time_msg(last)

@@ -88,15 +88,7 @@ class PlayerNode(GraphNode):
         path, self.last_fdi_ns = self.runs[self.run_index] if self.run_index < len(self.runs) else ("", -1)
         order = {t: i for i, t in enumerate(PLANT_OUTPUTS)}
         self.rows = iter_time_order(path, self.topics, lambda t: order.get(t, 99)) if path else iter(())
-        self._advance()
-
-    def _advance(self):
-        """The next row of the current bag (None at its end); a bag that breaks mid-replay fails naming it."""
-        try:
-            self.row = next(self.rows, None)
-        except (BagError, OSError, ValueError) as exc:
-            self.row = None
-            self.fail(f"{self.bags[self.run_index]}: unreadable during the replay ({exc})", EXIT_BAD_INPUT)
+        self.row = next(self.rows, None)   # the next row to publish
         self.paced_until = -1          # consumers have finished every FDI sample up to this stamp
         self.waiting_for = None        # FDI stamp published, not yet reported done
         self.done_sent = False
@@ -155,7 +147,7 @@ class PlayerNode(GraphNode):
             if self.rate <= 0 and self._is_fdi_sample(topic, log_time):
                 self.waiting_for = log_time   # an FDI sample went out: let the consumers finish it
                 self.last_progress = now
-            self._advance()
+            self.row = next(self.rows, None)
         if self.rate <= 0 and self.paced_until < self.last_fdi_ns:
             return self._stalled(now, "at the end of the bag")
         return True

@@ -125,10 +125,8 @@ def health_from_bag(path) -> dict:
         t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         for s in msg.status:
             level = {1: "input_trouble", 3: "cannot_judge"}.get(int(s.level))
-            if level is None and "cannot judge" in s.message:   # alarmed: ERROR held, still not judged
+            if "cannot judge" in s.message and level is None:   # alarmed: ERROR held, still not judged
                 level = "cannot_judge"
-            if level is None and ("(input gap)" in s.message or "dropped a " in s.message):   # said on an alarm
-                level = "input_trouble"
             if level is None:
                 continue
             row = out.setdefault(topic, {}).setdefault(s.hardware_id.rsplit("_", 1)[-1], {})
