@@ -5,7 +5,8 @@ sample stamp t_k = k T_FDI arrives once, in order. What can go wrong with a
 stream, and what the FDI nodes do about it:
 
 - a stamp back at a run's first sample (t <= T_FDI): a new run starts (a
-  replay feeds many bags through one graph);
+  replay feeds many bags through one graph; a late copy of a run's first
+  sample would read so too: the stamps carry no run number);
 - any other stamp not later than the last (a duplicate, or a message that
   arrives late): dropped, and said; it must not reset the run, which would
   forget an alarm;
@@ -32,7 +33,7 @@ def stamp_order(last_ns: int | None, stamp_ns: int, period_ns: int) -> str:
     """How a sample stamped ``stamp_ns`` follows the last one accepted (``last_ns``, None at start)."""
     if last_ns is None or stamp_ns > last_ns:
         return NEXT
-    return NEW_RUN if stamp_ns <= period_ns else OUT_OF_ORDER
+    return NEW_RUN if stamp_ns <= period_ns and stamp_ns != last_ns else OUT_OF_ORDER
 
 
 def all_finite(*values) -> bool:

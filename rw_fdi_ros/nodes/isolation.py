@@ -30,6 +30,7 @@ samples decided without it, STALE; telemetry that stops for that long makes
 """
 from __future__ import annotations
 
+import math
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -40,7 +41,7 @@ import numpy as np
 from ..core.detection import METHODS, ThresholdCurves, ThresholdError
 from ..core.identification import FaultIdentifier
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
-from ..core.isolation import DECISION_OBSERVER, ObserverChannel
+from ..core.isolation import DECISION_OBSERVER, ObserverChannel, stamp_seconds
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.scenario import AXES
 from ..paths import thresholds_dir
@@ -68,6 +69,9 @@ def _status(name, axis, residual, threshold, alarm, first, extra=(), identificat
         s.message += f"; {note.message}"
         level = level if level == ERROR else max(level, note.level)
     s.level = bytes([level])   # rclpy's DiagnosticStatus.level is a byte
+    # what the FDI says of itself, as values a tool reads (metrics.health_from_bag), not only as words
+    extra = [*extra, *([KeyValue(key="judged", value="false")] if unjudged else []),
+             *([KeyValue(key="input", value=note.message)] if note is not None else [])]
     if identification is not None:
         s.message += f": {identification.message()}"
         extra = [*extra, *(KeyValue(key=k, value=v) for k, v in identification.values().items())]
@@ -88,7 +92,7 @@ class IsolationNode(GraphNode):
         self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
         self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
         self.declare_parameter("decision_observer", DECISION_OBSERVER)
-        self.declare_parameter("input_timeout", 5.0)        # wall s an input may be silent before it is said
+        self.declare_parameter("input_timeout", 10.0)       # wall s an input may be silent before it is said
         self.declare_parameter("min_subscribers", 0)        # readers of each output (the recorder) before it goes
         self.declare_parameter("diagnostics_readers", 0)    # of /diagnostics: the recorder (+ a replay's player)
         # the running graph's plant choices: curves fitted under others are refused
@@ -132,6 +136,8 @@ class IsolationNode(GraphNode):
         self.inputs = {part: InputMonitor(f"{part} residuals" if part in self.channels else "FDI telemetry",
                                           plant.fdi_period) for part in (*self.channels, "telemetry")}
         self.last_input = time.monotonic()
+        self.last_row = {}   # observer -> wall time of its last row
+        self.live = None     # a live run, where the input watchdog runs (end_with_run, declared last)
         self.silent_said = False
         self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         def bound(a):
@@ -149,6 +155,8 @@ class IsolationNode(GraphNode):
     def _accept(self, source, stamp) -> bool:
         """Whether to use a source's input stamped ``stamp``; a new run resets what the source feeds."""
         self.last_input, self.silent_said = time.monotonic(), False
+        if source in self.channels:
+            self.last_row[source] = self.last_input
         order = self.inputs[source].accept(stamp)
         if order == OUT_OF_ORDER:
             self.get_logger().warn(self.inputs[source].last_note.message)
@@ -185,18 +193,19 @@ class IsolationNode(GraphNode):
 
     def _arrived(self, stamp, part, value):
         """Collect one stamp's parts; once both observers' rows and the telemetry are in, decide it."""
-        handled = self.done_samples.setdefault(stamp, {"since": time.monotonic()})
+        handled = self.done_samples.setdefault(stamp, {})
         handled[part] = value
-        if len(handled) < len(self.channels) + 2:
+        if len(handled) < len(self.channels) + 1:
             return
         self._decide(stamp)
 
     def _decide(self, stamp, silent=()):
         """/diagnostics of one stamp; ``silent``: observers whose rows never came (judged without them)."""
         handled = self.done_samples.pop(stamp)
-        del handled["since"]
         sample = handled.pop("telemetry")
         for obs in silent:   # the alarm state held, every wheel unable to judge
+            monitor = self.inputs[obs]   # its rows of this stamp, should they still come, are dropped as late
+            monitor.last_ns = stamp if monitor.last_ns is None else max(monitor.last_ns, stamp)
             channel = self.channels[obs]
             k = int(round(stamp * 1e-9 / channel.curves.sample_period))
             rows = {a: (float("nan"), channel.curves.at(a, k), r.active, r.first_alarm)
@@ -244,13 +253,15 @@ class IsolationNode(GraphNode):
                 extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
             status = _status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
                              extra=extra, identification=found, note=note,
-                             unjudged=self._why_unjudged(self.decision, stamp, a, silent))
+                             unjudged=self._why_unjudged(self.decision, stamp, main[a], silent))
             if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
                 # judged against the wheel type's spread until then: only gross faults show (calibration.py)
                 status.message += f"; learning its unit until {self.calibration_time:g} s"
             channel = self.channels[self.decision]
-            if channel.beyond_horizon and status.level == DiagnosticStatus.OK:   # never OK while it cannot judge
+            beyond = stamp_seconds(stamp) > channel.curves.horizon   # this stamp's, not the channel's latest
+            if beyond and status.level == DiagnosticStatus.OK:   # never OK while it cannot judge
                 status.level = DiagnosticStatus.STALE
+                status.values.append(KeyValue(key="judged", value="false"))
                 status.message = (f"cannot judge: the threshold curves end at {channel.curves.horizon:g} s "
                                   f"({self.param(f'thresholds_{self.decision}') or 'shipped'})")
             msg.status.append(status)
@@ -265,25 +276,33 @@ class IsolationNode(GraphNode):
         status = DiagnosticArray()
         status.header.stamp = time_msg(stamp)
         status.status = [_status(f"{observer} observer: wheel {a}", a, *rows[a], note=note,
-                                 unjudged=self._why_unjudged(observer, stamp, a, silent)) for a in AXES]
+                                 unjudged=self._why_unjudged(observer, stamp, rows[a], silent)) for a in AXES]
         pubs["status"].publish(status)
 
-    def _why_unjudged(self, observer, stamp, axis, silent=False):
-        """Why an observer's sample of a wheel was not judged (STALE), or None."""
+    def _why_unjudged(self, observer, stamp, row, silent=False):
+        """Why an observer's sample of a wheel (its ``row`` of that stamp: the channel has moved on by the
+        time a stamp is decided) was not judged (STALE), or None."""
         if silent:
             return (f"no {observer} residual for {stamp * 1e-9:g} s within "
                     f"{self.param('input_timeout'):g} s (observer silent)")
-        if axis in self.channels[observer].unjudged:
+        if not (math.isfinite(row[0]) and math.isfinite(row[1])):
             return f"non-finite {observer} residual at {stamp * 1e-9:g} s"
         return None
 
     def _watch_inputs(self):
         """Samples an observer never completed are decided without it; silence of every input is said."""
+        if self.live is None:
+            self.live = bool(self.param("end_with_run"))
+        if not self.live:   # a replay's player paces on /diagnostics and fails a stalled replay itself
+            return
         now, timeout = time.monotonic(), self.param("input_timeout")
+        # silent: having spoken, it sent no row for input_timeout (not one that lags, nor the graph starting)
+        silent = {o for o in self.channels if now - self.last_row.get(o, now) > timeout}
         for stamp in sorted(self.done_samples):
             handled = self.done_samples[stamp]
-            if "telemetry" in handled and now - handled["since"] > timeout:
-                self._decide(stamp, silent=[o for o in self.channels if o not in handled])
+            missing = [o for o in self.channels if o not in handled]
+            if "telemetry" in handled and missing and set(missing) <= silent:
+                self._decide(stamp, silent=missing)
         last = self.inputs["telemetry"].last_ns
         if last is not None and not self.silent_said and now - self.last_input > timeout and not self.run_ended():
             self.silent_said = True

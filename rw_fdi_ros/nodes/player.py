@@ -88,10 +88,18 @@ class PlayerNode(GraphNode):
         path, self.last_fdi_ns = self.runs[self.run_index] if self.run_index < len(self.runs) else ("", -1)
         order = {t: i for i, t in enumerate(PLANT_OUTPUTS)}
         self.rows = iter_time_order(path, self.topics, lambda t: order.get(t, 99)) if path else iter(())
-        self.row = next(self.rows, None)   # the next row to publish
         self.paced_until = -1          # consumers have finished every FDI sample up to this stamp
         self.waiting_for = None        # FDI stamp published, not yet reported done
         self.done_sent = False
+        self._advance()                # the first row to publish
+
+    def _advance(self):
+        """The next row of the current bag (None at its end); a bag that breaks mid-replay fails naming it."""
+        try:
+            self.row = next(self.rows, None)
+        except (BagError, OSError, ValueError) as exc:
+            self.row = None
+            self.fail(f"{self.bags[self.run_index]}: unreadable during the replay ({exc})", EXIT_BAD_INPUT)
 
     def _is_fdi_sample(self, topic, log_time) -> bool:
         return topic == T.FDI_TELEMETRY and log_time % self.period_ns == 0
@@ -147,7 +155,7 @@ class PlayerNode(GraphNode):
             if self.rate <= 0 and self._is_fdi_sample(topic, log_time):
                 self.waiting_for = log_time   # an FDI sample went out: let the consumers finish it
                 self.last_progress = now
-            self.row = next(self.rows, None)
+            self._advance()
         if self.rate <= 0 and self.paced_until < self.last_fdi_ns:
             return self._stalled(now, "at the end of the bag")
         return True

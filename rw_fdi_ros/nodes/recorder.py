@@ -67,7 +67,10 @@ class RecorderNode(GraphNode):
     def _on_message(self, topic, raw):
         if self.bag is None:
             return   # every bag is closed
-        stamp = header_stamp_ns(raw, self.last_clock) if topic in self.stamped else self.last_clock
+        if topic in self.stamped:
+            stamp = header_stamp_ns(raw, self.last_clock)
+        else:   # the scenario (latched) describes the run from its start; other header-less data: the clock
+            stamp = 0 if topic == T.SCENARIO else self.last_clock
         if topic == T.CLOCK:
             self.last_clock = stamp
         self.last_stamp[topic] = max(stamp, self.last_stamp.get(topic, 0))

@@ -124,14 +124,13 @@ def health_from_bag(path) -> dict:
         msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
         t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         for s in msg.status:
-            level = {1: "input_trouble", 3: "cannot_judge"}.get(int(s.level))
-            if "cannot judge" in s.message and level is None:   # alarmed: ERROR held, still not judged
-                level = "cannot_judge"
-            if level is None:
-                continue
-            row = out.setdefault(topic, {}).setdefault(s.hardware_id.rsplit("_", 1)[-1], {})
-            seen = row.setdefault(level, {"samples": 0, "first_s": t, "message": s.message})
-            seen["samples"] += 1
+            values = {kv.key: kv.value for kv in s.values}   # the isolation node's judged / input values
+            kinds = (["cannot_judge"] if values.get("judged") == "false" else []) + \
+                (["input_trouble"] if "input" in values else [])
+            for kind in kinds:
+                row = out.setdefault(topic, {}).setdefault(s.hardware_id.rsplit("_", 1)[-1], {})
+                seen = row.setdefault(kind, {"samples": 0, "first_s": t, "message": s.message})
+                seen["samples"] += 1
     return out
 
 
