@@ -5,7 +5,8 @@ from glob import glob
 from setuptools import find_packages, setup
 
 PACKAGE = "rw_fdi_ros"
-NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "isolation", "player"]
+NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "model_observer", "isolation",
+         "player"]
 
 
 

@@ -32,7 +32,8 @@ def _cmd_run(args) -> int:
         from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
         check_fdi_files(args.models, args.thresholds, scenario.plant_choices(emf_limit=args.emf_limit),
                         args.fdi_method, args.unit_calibration, scenario.duration)
-        nodes = "plant, 3 PID controllers, 3 Elman observers, linear observer, isolation, recorder"
+        nodes = ("plant, 3 PID controllers, 3 Elman observers, linear observer, "
+                 + ("model observer, " if args.fdi_method == "speed_aware" else "") + "isolation, recorder")
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
           f" ({nodes}; private DDS domain)", flush=True)
     common = dict(seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs, emf_limit=args.emf_limit,
@@ -50,7 +51,7 @@ def _cmd_run(args) -> int:
                   + (f", persistence P = {args.persistence}" if args.persistence else "")
                   + (f", wheels learnt over the first {args.unit_calibration:g} s" if args.unit_calibration else "")
                   + "):")
-            print(format_verdict(outcome.summary["fdi"], args.fdi_method))
+            print(format_verdict(outcome.summary["fdi"]))
             print(f"  figure: {outcome.summary.get('figure')}")
     if not outcome.ok:
         where = f" (node logs: {outcome.log_dir})" if outcome.log_dir and outcome.log_dir.exists() else ""
@@ -264,17 +265,10 @@ def _cmd_bag(args) -> int:
         from .tools.metrics import health_from_bag
         data = read_series(args.bag, verdict_topics())
         verdict = {**fdi_verdict(data), "health": health_from_bag(args.bag)}
-        print(f"fault detection and isolation:\n{format_verdict(verdict, _bag_method(data))}")
+        print(f"fault detection and isolation:\n{format_verdict(verdict)}")
         if args.figure:
             print(f"  figure: {plot_residuals(data, Path(args.figure))}")
     return 0
-
-
-def _bag_method(data) -> str:
-    """The FDI method of a recorded run: the speed-aware observers publish a non-zero ripple bound."""
-    from .nodes import topics as T
-    _, bound = data.vectors(T.bound_topic("linear"))
-    return "speed_aware" if bound.size and (bound != 0).any() else "thesis"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -341,7 +335,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="default: 1000 speed_aware, 300 thesis (tools/train.EPOCHS)")
     t.set_defaults(func=_cmd_train)
 
-    f = sub.add_parser("fit-thresholds", help="fit the thresholds of both observers from fault-free bags "
+    f = sub.add_parser("fit-thresholds", help="fit the thresholds of the observers from fault-free bags "
                                               "(speed_aware models: bands for a designed false-alarm rate; "
                                               "thesis models: mean + 3 sigma curves)",
                        parents=[models, false_alarms, persistence, unit])

@@ -93,8 +93,8 @@ def test_a_varied_wheel_is_judged_against_its_own_unit():
     scenario = parse_scenario("duration: 300\nseed: 7\nwheels: {variation: true, spread: {viscous_friction: 0.3}}\n"
                               "faults: []\n")
     (_, samples, _), = simulated_runs([scenario])
-    raw = observe(samples, weights).residual["linear"][190:]
-    calibrated = observe(samples, weights, calibration_samples=150).residual["linear"][190:]
+    raw = observe(samples, weights).residual["model"][190:]
+    calibrated = observe(samples, weights, calibration_samples=150).residual["model"][190:]
     assert np.abs(calibrated).max() < np.abs(raw).max() / 3
     x = regressors(samples.motor_torque, samples.friction_torque, samples.wheel_speed, samples.ripple_phasor)
     assert x.shape == (len(samples.time), 3, 5)

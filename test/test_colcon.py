@@ -13,7 +13,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
-NODES = ["elman_observer", "isolation", "linear_observer", "pid_controller", "plant", "player", "recorder"]
+NODES = ["elman_observer", "isolation", "linear_observer", "model_observer", "pid_controller", "plant", "player",
+         "recorder"]
 # the fast subset `colcon test` runs here (README: the whole suite is plain `colcon test`)
 FAST_TESTS = ["test/test_convert.py", "test/test_wheel.py", "test/test_plant_choices.py", "test/test_detection.py"]
 SHORT_FAULT = """name: short_loss

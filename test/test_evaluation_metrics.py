@@ -11,7 +11,7 @@ from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 from rw_fdi_ros.core.sampling import FdiSampler, sample_series
 from rw_fdi_ros.nodes import topics as T
 from rw_fdi_ros.storage.bag import BagWriter, read_bag
-from rw_fdi_ros.tools.metrics import RunEval, aggregate, judge, scenario_of, series_from_bag
+from rw_fdi_ros.tools.metrics import RunEval, aggregate, judge, observers_of_runs, scenario_of, series_from_bag
 
 N = 101   # samples 0..100 s
 AXES = "xyz"
@@ -22,14 +22,15 @@ def vec(t, v):
                vector=Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2])))
 
 
-def make_bag(path, faults, alarms, seed=1, residual_above=None):
-    """alarms: axis -> list of (start, end) seconds (end exclusive) for both observers."""
+def make_bag(path, faults, alarms, seed=1, residual_above=None, observers=T.OBSERVERS):
+    """alarms: axis -> list of (start, end) seconds (end exclusive) for every observer of ``observers``."""
     w = BagWriter(path)
     vec_t = "geometry_msgs/msg/Vector3Stamped"
     w.add_topic(T.SCENARIO, "std_msgs/msg/String")
-    for topic in [T.FAULT_EFFECT, T.residual_topic("linear")] + [T.residual_topic("elman", a) for a in AXES]:
+    wheels = [obs for obs in observers if obs != "elman"]   # one topic for the three wheels
+    for topic in [T.FAULT_EFFECT, *map(T.residual_topic, wheels)] + [T.residual_topic("elman", a) for a in AXES]:
         w.add_topic(topic, vec_t)
-    for obs in T.OBSERVERS:
+    for obs in observers:
         for k in ("threshold", "alarm"):
             w.add_topic(T.fdi_output_topics(obs)[k], vec_t)
     w.write_message(T.SCENARIO, 0, String(data=yaml.safe_dump({"name": "hand", "seed": seed, "duration": 100,
@@ -43,10 +44,11 @@ def make_bag(path, faults, alarms, seed=1, residual_above=None):
         ns = t * 10**9
         w.write_message(T.FAULT_EFFECT, ns, vec(t, [5e-3 if any(f["wheel"] == a for f in faults) and t >= 50 else 0.0
                                                     for a in AXES]))
-        for obs in T.OBSERVERS:
+        for obs in observers:
             w.write_message(T.fdi_output_topics(obs)["threshold"], ns, vec(t, threshold))
             w.write_message(T.fdi_output_topics(obs)["alarm"], ns, vec(t, alarm))
-        w.write_message(T.residual_topic("linear"), ns, vec(t, residual))
+        for obs in wheels:
+            w.write_message(T.residual_topic(obs), ns, vec(t, residual))
         for i, a in enumerate(AXES):
             own = [0.0, 0.0, 0.0]
             own[i] = residual[i]
@@ -64,6 +66,16 @@ def run_eval(path):
 
 
 FAULT_X = [{"kind": "current_limiter", "wheel": "x", "onset": 50.0, "value": 0.6}]
+
+
+def test_a_bag_is_judged_by_the_observers_it_holds(tmp_path):
+    """A thesis-method run has no model observer: its verdicts are the Elman's and the Luenberger's."""
+    r = run_eval(make_bag(tmp_path / "a", FAULT_X, {"x": [(62, 1000)]}, observers=("elman", "linear")))
+    assert list(r.series) == ["elman", "linear"]
+    full = run_eval(make_bag(tmp_path / "b", FAULT_X, {"x": [(62, 1000)]}))
+    assert list(full.series) == ["elman", "linear", "model"]
+    assert observers_of_runs([r, full]) == ["elman", "linear"]   # what every run was judged by
+    assert judge(full, "model")["correct"] and judge(r, "linear")["correct"]
 
 
 def test_detection_at_a_known_delay_held_to_the_end(tmp_path):

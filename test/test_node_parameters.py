@@ -15,7 +15,8 @@ from rw_fdi_ros.core.plant_choices import DEFAULT
 ROOT = Path(__file__).resolve().parents[1]
 NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime"],
          "elman_observer": ["elman_observer", "observer_node", "runtime"],
-         "linear_observer": ["linear_observer", "observer_node", "runtime"], "isolation": ["isolation", "runtime"],
+         "linear_observer": ["linear_observer", "observer_node", "runtime"],
+         "model_observer": ["model_observer", "observer_node", "runtime"], "isolation": ["isolation", "runtime"],
          "recorder": ["recorder"], "player": ["player"]}
 LOOPED = {"plant": {"fault.<axis>.<kind>"}, "isolation": set(DEFAULT.as_dict())}
 TYPES = {bool: "bool", int: "int", float: "double", str: "string"}

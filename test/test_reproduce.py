@@ -43,7 +43,8 @@ def test_small_reproduce_writes_a_report_that_passes_its_schema(study):
     raw = json.loads((out / "report" / "report.json").read_text())
     validate_report(raw)
     assert raw["runs"] == 16 and raw["skipped"] == []
-    for obs in ("elman", "linear"):
+    assert list(raw["observers"]) == ["elman", "linear", "model"]   # the speed-aware method's three
+    for obs in raw["observers"]:
         figs = raw["observers"][obs]
         assert figs["reliability"]["runs"] == 4      # 6 fit-group runs: 2 train, 4 fit thresholds
         assert figs["false_alarm_heldout"]["n"] == 2

@@ -47,16 +47,18 @@ def test_every_count_is_the_readers_the_table_gives_the_graph(graph):
 def test_the_counts_are_the_graph_we_know():
     """The derivation spelt out for the graphs we ship: controllers, FDI nodes, recorder, player."""
     full = counts(run_graph(True, True))
-    assert full["plant"] == {"attitude_readers": 4, "fdi_readers": 6, "wait_for_subscribers": 1}
+    # the telemetry: 3 Elman, the linear and model observers, the isolation node, the recorder
+    assert full["plant"] == {"attitude_readers": 4, "fdi_readers": 7, "wait_for_subscribers": 1}
     assert full["pid_controller_y"] == {"min_subscribers": 2}
-    assert full["elman_observer_z"] == full["linear_observer"] == {"estimate_readers": 1, "min_subscribers": 2}
+    assert full["elman_observer_z"] == full["linear_observer"] == full["model_observer"] == {
+        "estimate_readers": 1, "min_subscribers": 2}
     assert full["isolation"] == {"diagnostics_readers": 1, "min_subscribers": 1}
     bare = counts(run_graph(False, False))
     assert bare["plant"] == {"attitude_readers": 3, "fdi_readers": 0, "wait_for_subscribers": 0}
     assert bare["pid_controller_x"] == {"min_subscribers": 1}
     assert counts(run_graph(False, True))["plant"]["fdi_readers"] == 1   # the recorder records the telemetry
     replay = counts(replay_graph())
-    assert replay["player"] == {"min_subscribers": 5}      # the FDI nodes; the replay's recorder does not read it
+    assert replay["player"] == {"min_subscribers": 6}      # the FDI nodes; the replay's recorder does not read it
     assert replay["isolation"] == {"diagnostics_readers": 2, "min_subscribers": 1}   # + the pacing player
     assert counts(replay_graph(2.0))["isolation"]["diagnostics_readers"] == 1   # paced by the clock
 
@@ -69,6 +71,16 @@ def test_a_node_added_to_the_table_is_waited_for(monkeypatch):
     assert after["plant"]["attitude_readers"] == before["plant"]["attitude_readers"] + 1
     assert after["linear_observer"]["min_subscribers"] == before["linear_observer"]["min_subscribers"] + 1
     assert after["elman_observer_x"] == before["elman_observer_x"] and after["isolation"] == before["isolation"]
+
+
+def test_the_thesis_method_runs_its_two_observers():
+    """The thesis' FDI has no model observer (it sees no wheel speed): no node, and nothing waits for one."""
+    scenario, path = resolve_scenario("bus_5v5_x", 3)
+    nodes = graph_nodes(scenario, path, "bags/demo", fdi={"method": "thesis"})
+    assert "model_observer" not in {n.name for n in nodes}
+    assert counts(nodes)["plant"]["fdi_readers"] == 6
+    iso = next(n for n in nodes if n.name == "isolation")
+    assert T.residual_topic("model") not in T.reads(iso) and T.residual_topic("linear") in T.reads(iso)
 
 
 def test_a_node_the_table_does_not_know_is_an_error_not_a_stall():

@@ -26,6 +26,15 @@ import numpy as np
 WINDOW = 40
 SIGMAS = 3.0
 METHODS = ("speed_aware", "thesis")
+# The observers, by slot: 'elman' the Elman network (thesis 4), 'linear' the Luenberger observer of the
+# linearised wheel (thesis 3.3), 'model' the nominal wheel model at the measured command and speed (needs
+# the tachometer: speed-aware only). Their topics, threshold files and report columns go by slot.
+OBSERVERS = ("elman", "linear", "model")
+
+
+def observers_of(method: str) -> tuple:
+    """The observers an FDI of ``method`` runs: all three speed-aware, the thesis' two (Elman, Luenberger)."""
+    return OBSERVERS if method == "speed_aware" else OBSERVERS[:2]
 # Ripple gains up to g_max are a disturbance the bound covers (a +60 % ripple must not alarm; thesis 5.3).
 RIPPLE_GAIN_MAX = 2.0
 FALSE_ALARM_RATE = 1e-3       # designed per-run false-alarm probability of the speed-aware FDI

@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..core.detection import observers_of
 from ..core.plant import hold_command
 from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.scenario import AXES, Scenario
@@ -67,7 +68,8 @@ def fdi_method(fdi: dict) -> str:
 
 
 def fdi_nodes(fdi: dict, choices: PlantChoices):
-    """Three Elman observers, the linear observer and the isolation node (told the run's choices).
+    """Three Elman observers, the linear observer, the model observer (speed_aware) and the isolation node
+    (told the run's choices).
 
     ``fdi``: models / thresholds directories (None: the shipped set of the method), persistence
     (None: the threshold file's), method ('speed_aware' or 'thesis'), unit_calibration (seconds the
@@ -81,13 +83,14 @@ def fdi_nodes(fdi: dict, choices: PlantChoices):
         if models:
             params["model"] = str(Path(models) / f"elman_{axis}.npz")
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
-    nodes.append(NodeSpec("linear_observer", "linear_observer",
-                          {"fdi_method": method, "fdi_period": choices.fdi_period,
-                           "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration}))
+    for obs in observers_of(method)[1:]:   # linear_observer, model_observer: three wheels each
+        nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer",
+                              {"fdi_method": method, "fdi_period": choices.fdi_period,
+                               "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration}))
     iso = {**choices.as_dict(), "fdi_method": method, "persistence": int(fdi.get("persistence") or 0),
            "unit_calibration_time": calibration}
     if thresholds:
-        iso.update(thresholds_elman=str(Path(thresholds) / "thresholds_elman.json"),
-                   thresholds_linear=str(Path(thresholds) / "thresholds_linear.json"))
+        iso.update({f"thresholds_{obs}": str(Path(thresholds) / f"thresholds_{obs}.json")
+                    for obs in observers_of(method)})
     nodes.append(NodeSpec("isolation", "isolation", iso))
     return nodes

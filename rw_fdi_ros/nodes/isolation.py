@@ -1,7 +1,7 @@
 """isolation: residuals against thresholds, persistence, which wheel is faulty and since when.
 
-For each observer (elman, linear) and axis it compares |residual| of FDI
-sample k with the threshold at k plus the observer's ripple bound and raises
+For each observer of the method (elman, linear, model; core/detection.observers_of)
+and axis it compares |residual| of FDI sample k with the threshold at k plus the observer's ripple bound and raises
 the axis' alarm after ``persistence`` consecutive samples above
 (core/isolation.py, evaluation.md). Alarmed axes are the faulty wheels. It
 publishes per observer the thresholds, the alarm flags and a DiagnosticArray
@@ -38,7 +38,7 @@ from geometry_msgs.msg import Vector3Stamped
 
 import numpy as np
 
-from ..core.detection import METHODS, ThresholdCurves, ThresholdError
+from ..core.detection import METHODS, ThresholdCurves, ThresholdError, observers_of
 from ..core.identification import FaultIdentifier
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
 from ..core.isolation import DECISION_OBSERVER, ObserverChannel, stamp_seconds
@@ -86,8 +86,9 @@ class IsolationNode(GraphNode):
 
     def __init__(self):
         super().__init__(self.node_name)
-        self.declare_parameter("thresholds_elman", "")     # empty: config/fdi/thresholds_elman.json
-        self.declare_parameter("thresholds_linear", "")
+        self.declare_parameter("thresholds_elman", "")     # empty: the shipped thresholds_<observer>.json
+        self.declare_parameter("thresholds_linear", "")    # of the method
+        self.declare_parameter("thresholds_model", "")     # (speed_aware only)
         self.declare_parameter("fdi_method", "speed_aware")  # speed_aware (ours) or thesis
         self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
         self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
@@ -108,7 +109,7 @@ class IsolationNode(GraphNode):
         calibration = self.calibration_time = self.param("unit_calibration_time")
         self.channels = {}
         self.compute, self.compute_cpu = [], []
-        for obs in T.OBSERVERS:
+        for obs in observers_of(method):
             path = self.param(f"thresholds_{obs}") or default_thresholds(obs, method, calibration)
             try:
                 curves = ThresholdCurves.load(path)
@@ -123,11 +124,11 @@ class IsolationNode(GraphNode):
             self.channels[obs] = ObserverChannel(obs, curves, self.param("persistence") or None)
         self.decision = self.param("decision_observer")
         if self.decision not in self.channels:
-            raise NodeError(f"decision_observer must be one of {', '.join(T.OBSERVERS)}", EXIT_BAD_INPUT)
+            raise NodeError(f"decision_observer must be one of {', '.join(self.channels)}", EXIT_BAD_INPUT)
         def gate(msg_type, name, readers="min_subscribers"):
             return GatedPublisher(self.create_publisher(msg_type, name, T.RELIABLE), self.param(readers))
         self.pubs = {obs: {k: gate(DiagnosticArray if k == "status" else Vector3Stamped, name)
-                           for k, name in T.fdi_output_topics(obs).items()} for obs in T.OBSERVERS}
+                           for k, name in T.fdi_output_topics(obs).items()} for obs in self.channels}
         self.pub_diag = gate(DiagnosticArray, T.DIAGNOSTICS, "diagnostics_readers")
         self.pub_ident = gate(DiagnosticArray, T.IDENTIFICATION)
         self.gates = [self.pub_diag, self.pub_ident] + [p for pubs in self.pubs.values() for p in pubs.values()]
@@ -140,17 +141,24 @@ class IsolationNode(GraphNode):
         self.live = None     # a live run, where the input watchdog runs (end_with_run, declared last)
         self.silent_said = False
         self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
-        def bound(a):
-            return f"bound_{a}"
-        elman = StampSync(AXES + tuple(bound(a) for a in AXES), lambda stamp, v: self._on_residual(
-            "elman", stamp, [v[a][i] for i, a in enumerate(AXES)], [v[bound(a)][i] for i, a in enumerate(AXES)]))
-        for a in AXES:
-            elman.subscribe(self, a, T.residual_topic("elman", a), T.RELIABLE)
-            elman.subscribe(self, bound(a), T.bound_topic("elman", a), T.RELIABLE)
-        linear = StampSync(("all", "bound"), lambda stamp, v: self._on_residual("linear", stamp, v["all"], v["bound"]))
-        linear.subscribe(self, "all", T.residual_topic("linear"), T.RELIABLE)
-        linear.subscribe(self, "bound", T.bound_topic("linear"), T.RELIABLE)
+        for obs in self.channels:   # one row per stamp: residual and bound of each of the observer's topics
+            self._follow_observer(obs)
         self.follow_run_end(period=plant.fdi_period)
+
+    def _follow_observer(self, observer):
+        """Subscribe to an observer's residual and bound topics (one per wheel for the Elman nodes, one for
+        all three otherwise) and decide its rows stamp by stamp once every topic of the stamp is in."""
+        axes = T.observer_axes(observer)
+        parts = [(f"{kind}_{a}", topic(observer, a)) for a in axes
+                 for kind, topic in (("residual", T.residual_topic), ("bound", T.bound_topic))]
+
+        def row(stamp, v):
+            def column(kind):   # a per-wheel node sets its own wheel's component only
+                return [v[f"{kind}_{a}"][i] for i, a in enumerate(AXES)] if axes != (None,) else v[f"{kind}_None"]
+            self._on_residual(observer, stamp, column("residual"), column("bound"))
+        sync = StampSync(tuple(key for key, _ in parts), row)
+        for key, topic in parts:
+            sync.subscribe(self, key, topic, T.RELIABLE)
 
     def _accept(self, source, stamp) -> bool:
         """Whether to use a source's input stamped ``stamp``; a new run resets what the source feeds."""

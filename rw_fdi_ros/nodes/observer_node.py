@@ -20,7 +20,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 
 from ..core.calibration import UnitCalibration, calibration_samples, regressors
-from ..core.detection import METHODS, WINDOW, SignedResidual
+from ..core.detection import METHODS, WINDOW, ResidualFilter, SignedResidual
 from ..core.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
 from ..core.sampling import SAMPLINGS
 from ..core.scenario import AXES
@@ -31,7 +31,7 @@ from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError
 
 
 class ObserverNode(GraphNode):
-    """Base of elman_observer and linear_observer; subclasses implement ``observe``."""
+    """Base of the observer nodes; subclasses implement ``observe`` and ``reset``."""
 
     def __init__(self, name: str):
         super().__init__(name)
@@ -145,3 +145,36 @@ class ObserverNode(GraphNode):
     def timing(self):
         from .timing import summary
         return summary(compute=self.compute, callback=self.callback, callback_cpu=self.callback_cpu)
+
+
+class WheelsObserverNode(ObserverNode):
+    """An observer of the three wheels at once in one slot (linear_observer, model_observer): the
+    subclass gives ``estimate(sample)`` r^ (3,), this class the residuals of the method."""
+
+    slot = ""
+
+    def __init__(self, name: str):
+        super().__init__(name)
+        self.declare_own_parameters()
+        self.reset()
+        self.start(T.estimate_topic(self.slot), T.residual_topic(self.slot), T.bound_topic(self.slot))
+
+    def reset(self):
+        self.filters = [self.signed_residual() if self.speed_aware else ResidualFilter(self.param("window"))
+                        for _ in range(3)]
+
+    def declare_own_parameters(self):
+        """The subclass' own parameters, declared before its first reset."""
+
+    def estimate(self, sample):
+        """r^ of the three wheels for one FdiSample."""
+        raise NotImplementedError
+
+    def observe(self, sample):
+        estimate, torque = self.estimate(sample), sample.reaction_torque
+        if not self.speed_aware:
+            return estimate, np.array([f.update(r, e) for f, r, e in zip(self.filters, torque, estimate)]), np.zeros(3)
+        rows = [f.update(torque[i], estimate[i], sample.ripple_phasor[i], self.regressors(sample, i))
+                for i, f in enumerate(self.filters)]
+        calibrated = np.array([f.estimate for f in self.filters])   # corrected when the node calibrates
+        return calibrated, np.array([x[0] for x in rows]), np.array([x[1] for x in rows])

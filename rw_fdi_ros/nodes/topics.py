@@ -16,6 +16,8 @@ rclpy is imported only for the QoS profiles, on first use.
 """
 from __future__ import annotations
 
+from ..core.detection import OBSERVERS, observers_of
+
 
 AXES = ("x", "y", "z")
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -81,7 +83,6 @@ def graph_topics():
     return _with_qos(PLANT_ROWS)
 
 
-OBSERVERS = ("elman", "linear")
 DIAGNOSTICS = "/diagnostics"
 IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel (DiagnosticArray)
 
@@ -110,11 +111,9 @@ def fdi_output_topics(observer: str):
 def _fdi_rows():
     """(topic, type, QoS name) of the FDI half of the graph."""
     rows = []
-    for a in AXES:
-        rows += [(estimate_topic("elman", a), VECTOR, "RELIABLE"), (residual_topic("elman", a), VECTOR, "RELIABLE"),
-                 (bound_topic("elman", a), VECTOR, "RELIABLE")]
-    rows += [(estimate_topic("linear"), VECTOR, "RELIABLE"), (residual_topic("linear"), VECTOR, "RELIABLE"),
-             (bound_topic("linear"), VECTOR, "RELIABLE")]
+    for obs in OBSERVERS:
+        rows += [(f(obs, axis), VECTOR, "RELIABLE") for axis in observer_axes(obs)
+                 for f in (estimate_topic, residual_topic, bound_topic)]
     for obs in OBSERVERS:
         out = fdi_output_topics(obs)
         rows += [(out["threshold"], VECTOR, "RELIABLE"), (out["alarm"], VECTOR, "RELIABLE"),
@@ -157,10 +156,15 @@ def _run_end(p) -> list:
     return [PLANT_DONE] if p.get("end_with_run", True) else []
 
 
-def residual_inputs() -> list:
-    """What the isolation node reads of the observers: residual and ripple bound of each."""
-    topics = [f("elman", a) for a in AXES for f in (residual_topic, bound_topic)]
-    return topics + [residual_topic("linear"), bound_topic("linear")]
+def observer_axes(observer: str) -> tuple:
+    """The axes of an observer's own topics: one Elman node per wheel, the others one for all three (None)."""
+    return AXES if observer == "elman" else (None,)
+
+
+def residual_inputs(method: str = "speed_aware") -> list:
+    """What the isolation node of FDI ``method`` reads of its observers: residual and ripple bound of each."""
+    return [f(obs, a) for obs in observers_of(method) for a in observer_axes(obs)
+            for f in (residual_topic, bound_topic)]
 
 
 # executable -> its parameters -> the topics it subscribes to
@@ -169,7 +173,8 @@ READS = {
     "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
     "elman_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "linear_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
-    "isolation": lambda p: [FDI_TELEMETRY, *residual_inputs()] + _run_end(p),
+    "model_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
+    "isolation": lambda p: [FDI_TELEMETRY, *residual_inputs(p.get("fdi_method", "speed_aware"))] + _run_end(p),
     "recorder": lambda p: [r[0] for r in recorded_rows(p.get("record_plant", True), p.get("fdi_period", 0.0) > 0,
                                                        p.get("extra_topics"))],
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
@@ -190,8 +195,10 @@ WAITS = {
     "pid_controller": lambda p: {"min_subscribers": [tcv_command(p["axis"])]},
     "elman_observer": lambda p: _observer_waits("elman", p["axis"]),
     "linear_observer": lambda p: _observer_waits("linear", None),
+    "model_observer": lambda p: _observer_waits("model", None),
     "isolation": lambda p: {"diagnostics_readers": [DIAGNOSTICS],
-                            "min_subscribers": [IDENTIFICATION, *(t for obs in OBSERVERS
+                            "min_subscribers": [IDENTIFICATION, *(t for obs in observers_of(p.get("fdi_method",
+                                                                                                   "speed_aware"))
                                                                   for t in fdi_output_topics(obs).values())]},
     "player": lambda p: {"min_subscribers": [FDI_TELEMETRY]},
     "recorder": lambda p: {},   # what it sends (/recorder/closed) is latched

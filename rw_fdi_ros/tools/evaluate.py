@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.detection import ThresholdCurves, ThresholdError
+from ..core.detection import ThresholdCurves, ThresholdError, observers_of
 from ..core.elman import ModelError
 from ..core.scenario import AXES
 from ..nodes import topics as T
@@ -24,7 +24,7 @@ from ..paths import config_dir, thresholds_dir
 from ..storage.bag import BagError, bag_is_complete, read_bag, read_series
 from .campaign import LocalExecutor, _progress
 from ..paths import shown_path
-from .metrics import (OBSERVERS, RunEval, aggregate, fdi_output_topics, health_from_bag, health_rows,
+from .metrics import (RunEval, aggregate, fdi_output_topics, health_from_bag, health_rows,
                       identification_figures, identification_from_bag, scenario_of, series_from_bag)
 from ..core.plant_choices import PlantChoices
 from .offline import fdi_method_of, load_models, model_card
@@ -94,7 +94,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
     models = str(models or config_dir() / "fdi")
     method = fdi_method_of(load_models(models))   # a missing/corrupt model stops here, before any replay
     thresholds = str(thresholds or (thresholds_dir(method, unit_calibration) if shipped else models))
-    curves = {obs: ThresholdCurves.load(Path(thresholds) / f"thresholds_{obs}.json") for obs in OBSERVERS}
+    curves = {obs: ThresholdCurves.load(Path(thresholds) / f"thresholds_{obs}.json") for obs in observers_of(method)}
     for obs, c in curves.items():
         c.check_method(method, origin=f"{thresholds}/thresholds_{obs}.json")
         c.check_unit_calibration(unit_calibration, origin=f"{thresholds}/thresholds_{obs}.json")

@@ -19,7 +19,7 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
     """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError.
 
     ``plant``: the run's PlantChoices (default: the defaults); ``method``: the FDI method."""
-    from ..core.detection import ThresholdCurves, ThresholdError
+    from ..core.detection import ThresholdCurves, ThresholdError, observers_of
     from ..core.elman import REGENERATE, ElmanWeights, ModelError
     from ..core.plant_choices import DEFAULT
     from ..paths import fdi_dir, thresholds_dir
@@ -34,7 +34,7 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
         if ElmanWeights.load(path).speed_aware != (method == "speed_aware"):
             raise ModelError(f"{path}: not a network for fdi_method={method!r}; {REGENERATE}")
     plant = plant or DEFAULT
-    for obs in T.OBSERVERS:
+    for obs in observers_of(method):
         path = thresholds / f"thresholds_{obs}.json"
         curves = ThresholdCurves.load(path)
         curves.check_method(method, origin=str(path))
@@ -67,7 +67,7 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=No
 
 def verdict_topics() -> list:
     """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag."""
-    bounds = [T.bound_topic("elman", a) for a in AXES] + [T.bound_topic("linear")]
+    bounds = [T.bound_topic(obs, a) for obs in T.OBSERVERS for a in T.observer_axes(obs)]
     return [T.SCENARIO, *metrics.fdi_output_topics(), *bounds]
 
 
@@ -77,8 +77,9 @@ def fdi_verdict(data) -> dict:
 
     ``data``: a storage.bag BagSeries (or BagData) holding :func:`verdict_topics`."""
     scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
-    out = {"truth": {a: [f.as_dict() for f in scenario.faults if AXES[f.wheel] == a] for a in AXES}}
-    for obs in T.OBSERVERS:
+    out = {"truth": {a: [f.as_dict() for f in scenario.faults if AXES[f.wheel] == a] for a in AXES},
+           "observers": metrics.observers_in_bag(data)}
+    for obs in out["observers"]:
         t, alarm = data.vectors(T.fdi_output_topics(obs)["alarm"])
         out[obs] = {a: metrics.alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(AXES)}
     out["identification"] = metrics.identification_from_bag(data)
@@ -86,21 +87,20 @@ def fdi_verdict(data) -> dict:
         series = metrics.series_from_bag(data)
     except ValueError:   # no FDI outputs (a run stopped before the first sample): intervals only
         return out
-    end = float(series[T.OBSERVERS[0]].time[-1])
+    end = float(series[next(iter(series))].time[-1])
     # a run that stopped early (interrupted) is judged over the time it covers: a later fault is not missed
     out["not_reached"] = {"end_s": end, "faults": [f.as_dict() for f in scenario.faults if f.onset > end]}
     run = metrics.RunEval(bag=str(data.path), scenario=scenario.name, seed=scenario.seed,
                           faults=[f for f in scenario.faults if f.onset <= end], series=series)
-    out["judged"] = {obs: metrics.judge(run, obs) for obs in T.OBSERVERS}
+    out["judged"] = {obs: metrics.judge(run, obs) for obs in series}
     return out
 
 
-def health_lines(health: dict, method: str = "speed_aware") -> list:
+def health_lines(health: dict) -> list:
     """The FDI's own health in words, one line per status topic that had any."""
     lines = []
     for topic, wheels in health.items():
-        who = "isolation (/diagnostics)" if topic == T.DIAGNOSTICS else \
-            observer_label(topic.split("/")[2], method)
+        who = "isolation (/diagnostics)" if topic == T.DIAGNOSTICS else observer_label(topic.split("/")[2])
         for axis, levels in sorted(wheels.items()):
             for level, seen in levels.items():
                 what = "could not judge" if level == "cannot_judge" else "had input trouble in"
@@ -124,16 +124,14 @@ def judged_line(v: dict) -> str:
     return "wrong: " + "; ".join(parts)
 
 
-def observer_label(observer: str, method: str = "speed_aware") -> str:
-    """What a person calls the observer in the ``observer`` slot: in the speed-aware method the `linear`
-    slot runs the nominal wheel model at the measured command and speed (the model-based observer);
-    in the thesis method the Luenberger observer of the linearised wheel (thesis 3.3)."""
-    if observer == "linear":
-        return "model observer" if method == "speed_aware" else "linear observer"
+def observer_label(observer: str) -> str:
+    """What a person calls the observer in the ``observer`` slot (core/detection.OBSERVERS): the Elman
+    network, the Luenberger observer of the linearised wheel (thesis 3.3), the nominal wheel model at
+    the measured command and speed."""
     return f"{observer} observer"
 
 
-def format_verdict(v: dict, method: str = "speed_aware") -> str:
+def format_verdict(v: dict) -> str:
     def fmt(intervals):
         if not intervals:
             return "healthy"
@@ -142,14 +140,15 @@ def format_verdict(v: dict, method: str = "speed_aware") -> str:
             parts.append(f"faulty from {s:g} s" + (f" to {e:g} s (alarm lost)" if e is not None else ""))
         return "; ".join(parts)
 
-    lines = [f"  {'wheel':6s}{'ground truth':34s}{observer_label('elman'):34s}{observer_label('linear', method)}"]
+    observers = v.get("observers", [o for o in T.OBSERVERS if o in v])
+    lines = [f"  {'wheel':6s}{'ground truth':34s}" + "".join(f"{observer_label(o):34s}" for o in observers).rstrip()]
     for a in AXES:
         truth = "; ".join(f"{f['kind']}={f['value']:g} from {f['onset']:g} s" for f in v["truth"][a]) or "healthy"
-        lines.append(f"  {a:6s}{truth:34s}{fmt(v['elman'][a]):34s}{fmt(v['linear'][a])}")
+        lines.append((f"  {a:6s}{truth:34s}" + "".join(f"{fmt(v[o][a]):34s}" for o in observers)).rstrip())
     for a, found in v.get("identification", {}).items():
         lines.append(f"  identified on wheel {a}: {found['message']}")
     for obs, judged in v.get("judged", {}).items():
-        lines.append(f"  verdict of the {observer_label(obs, method)}: {judged_line(judged)}")
+        lines.append(f"  verdict of the {observer_label(obs)}: {judged_line(judged)}")
     later = v.get("not_reached", {}).get("faults")
     if later:
         lines.append(f"  the run ended at {v['not_reached']['end_s']:g} s, before "
@@ -157,7 +156,7 @@ def format_verdict(v: dict, method: str = "speed_aware") -> str:
                      + ": not judged")
     health = v.get("health")
     if health is not None:
-        lines += health_lines(health, method) or ["  health: every sample judged, no input trouble"]
+        lines += health_lines(health) or ["  health: every sample judged, no input trouble"]
     return "\n".join(lines)
 
 
@@ -192,15 +191,15 @@ def plot_residuals(data, path: Path) -> Path:
 def _plot_residuals(data, path: Path) -> Path:
     from matplotlib.figure import Figure   # no pyplot: its global figure stack is not thread-safe
     verdict = fdi_verdict(data)
-    fig = Figure(figsize=(14, 6.5))
-    axes = fig.subplots(2, 3, sharex=True)
-    for row, obs in enumerate(T.OBSERVERS):
+    observers = verdict["observers"] or ["elman"]
+    fig = Figure(figsize=(14, 3.25 * len(observers)))
+    axes = fig.subplots(len(observers), 3, sharex=True, squeeze=False)
+    for row, obs in enumerate(observers):
         t_c, thr = data.vectors(T.fdi_output_topics(obs)["threshold"])
+        t_r, res = metrics.observer_vectors(data, obs)
+        _, bound = metrics.observer_vectors(data, obs, T.bound_topic)
         for i, a in enumerate(AXES):
             ax = axes[row, i]
-            topic = T.residual_topic(obs, a) if obs == "elman" else T.residual_topic(obs)
-            t_r, res = data.vectors(topic)
-            _, bound = data.vectors(T.bound_topic(obs, a) if obs == "elman" else T.bound_topic(obs))
             speed_aware = bound.size and np.any(bound[:, i] != 0.0)
             ax.plot(*envelope(t_r, np.abs(res[:, i]) * 1e3), label="|residual|", lw=1.2)
             ax.plot(*envelope(t_c, thr[:, i] * 1e3), "--", label="threshold (c + bound)" if speed_aware else
@@ -210,12 +209,12 @@ def _plot_residuals(data, path: Path) -> Path:
             for f in verdict["truth"][a]:
                 ax.axvline(f["onset"], color="k", lw=0.8, alpha=0.6)
                 ax.text(f["onset"], ax.get_ylim()[1] * 0.9, f" {f['kind']}={f['value']:g}", fontsize=7)
-            for s, e in verdict[obs][a]:
+            for s, e in verdict.get(obs, {}).get(a, []):
                 ax.axvspan(s, e if e is not None else t_r[-1], color="tab:orange", alpha=0.15)
-            ax.set_title(f"{observer_label(obs, 'speed_aware' if speed_aware else 'thesis')}, wheel {a}", fontsize=10)
+            ax.set_title(f"{observer_label(obs)}, wheel {a}", fontsize=10)
             ax.set_ylabel("10⁻³ N m")
             ax.grid(alpha=0.3)
-    axes[1, 0].set_xlabel("sim time [s]")
+    axes[-1, 0].set_xlabel("sim time [s]")
     axes[0, 0].legend(fontsize=8, loc="upper right")
     fig.suptitle(f"{data.path.name}: residuals vs threshold curves (shaded: alarm)")
     fig.tight_layout()

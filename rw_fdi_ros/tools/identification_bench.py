@@ -78,7 +78,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
     """Identification figures per cell; the thesis sizes get ``thesis_runs`` (the bus ``bus_thesis_runs``:
     about 6 in 10 bus drops of 2.5 V are physically visible)."""
     _, curves = load_fdi(method="speed_aware")
-    level = {a: float(curves["linear"].curves[a][-1]) for a in "xyz"}
+    level = {a: float(curves["model"].curves[a][-1]) for a in "xyz"}   # the model observer's band
     sizes = [(bus_thesis_runs if c.kind == "bus_voltage" else thesis_runs) if c.thesis_size else runs_per_cell
              for c in CELLS]
     t0 = time.monotonic()

@@ -68,30 +68,50 @@ class RunEval:
 
 def fdi_output_topics() -> list:
     """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more)."""
-    rows = [T.residual_topic("elman", a) for a in AXES] + [T.residual_topic("linear")]
+    rows = [T.residual_topic(obs, a) for obs in OBSERVERS for a in T.observer_axes(obs)]
     return rows + [t for obs in OBSERVERS for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
         T.IDENTIFICATION]
 
 
+def observer_vectors(data, observer: str, topic=T.residual_topic):
+    """(time [s], values (n, 3)) of one observer's ``topic`` (residual_topic, bound_topic, estimate_topic):
+    the Elman nodes' three topics, each carrying its own wheel's component, joined into one."""
+    axes = T.observer_axes(observer)
+    if axes == (None,):
+        return data.vectors(topic(observer))
+    cols = [data.vectors(topic(observer, a)) for a in axes]
+    n = min(len(t) for t, _ in cols)
+    values = np.stack([v[:n, i] for i, (_, v) in enumerate(cols)], axis=1) if n else np.zeros((0, 3))
+    return cols[0][0][:n], values
+
+
+def observers_in_bag(data) -> list:
+    """The observer slots whose decisions a bag holds (the method's: core/detection.observers_of)."""
+    return [obs for obs in OBSERVERS if len(data.vectors(T.fdi_output_topics(obs)["alarm"])[0])]
+
+
 def series_from_bag(data) -> dict:
-    """observer -> Series from a bag holding the isolation node's outputs and the residuals."""
+    """observer -> Series from a bag holding the isolation node's outputs and the residuals (the
+    observers the run had)."""
     out = {}
-    for obs in OBSERVERS:
+    for obs in observers_in_bag(data):
         topics = T.fdi_output_topics(obs)
         t, alarm = data.vectors(topics["alarm"])
         t_c, thr = data.vectors(topics["threshold"])
-        if obs == "elman":
-            cols = [data.vectors(T.residual_topic(obs, a)) for a in AXES]
-            t_r = cols[0][0]
-            res = np.stack([c[1][:, i] for i, c in enumerate(cols)], axis=1) if len(t_r) else np.zeros((0, 3))
-        else:
-            t_r, res = data.vectors(T.residual_topic(obs))
+        t_r, res = observer_vectors(data, obs)
         n = min(len(t), len(t_c), len(t_r))
         if n == 0:
             raise ValueError(f"{data.path}: no {obs} FDI outputs")
         # the alarm compares the residual's magnitude (the speed-aware residual is signed)
         out[obs] = Series(t[:n], np.abs(res[:n]), thr[:n], alarm[:n] > 0.5)
+    if not out:
+        raise ValueError(f"{data.path}: no FDI outputs")
     return out
+
+
+def observers_of_runs(runs) -> list:
+    """The observer slots every one of ``runs`` was judged by, in slot order."""
+    return [obs for obs in OBSERVERS if runs and all(obs in r.series for r in runs)]
 
 
 def identification_from_bag(data) -> dict:
@@ -284,7 +304,7 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
 
     Held-out runs are fault-free runs the thresholds were not fitted on and the models not trained on."""
     report = {}
-    for obs in OBSERVERS:
+    for obs in observers_of_runs(runs):
         verdicts = {r.bag: judge(r, obs) for r in runs}
         rep = {"reliability": reliability(runs, curves_seeds.get(obs, []), obs)}
         used = set(curves_seeds.get(obs, [])) | set(training_seeds)

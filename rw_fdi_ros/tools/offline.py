@@ -2,7 +2,8 @@
 
 ElmanObserver.update, LinearObserver.update, ResidualFilter.update,
 SignedResidual.update and AlarmRule.update are stepped sample by sample here
-exactly as in the elman_observer, linear_observer and isolation nodes.
+exactly as in the elman_observer, linear_observer, model_observer and
+isolation nodes.
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.detection import (FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, WINDOW, ThresholdCurves,
-                              ThresholdError, fit_band, residual_series, run_statistic,
+                              ThresholdError, fit_band, observers_of, residual_series, run_statistic,
                               signed_residual_series)
 from ..core.calibration import calibration_samples, regressors
 from ..core.elman import ElmanWeights, ModelError, recall_series
@@ -38,7 +39,7 @@ def model_card(models_dir) -> dict:
 
 @dataclass
 class ObserverRun:
-    """Estimates, residuals and ripple bounds (n, 3) of both observers on one run's FDI samples."""
+    """Estimates, residuals and ripple bounds (n, 3) of the method's observers on one run's FDI samples."""
 
     time: np.ndarray
     reaction_torque: np.ndarray
@@ -55,7 +56,8 @@ def fdi_method_of(models: dict) -> str:
 
 def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PERIOD,
             calibration_samples: int = 0) -> ObserverRun:
-    """Both observers over one run; the method follows the Elman models (thesis: 2 inputs).
+    """The method's observers (core/detection.observers_of) over one run; the method follows the Elman
+    models (thesis: 2 inputs).
     ``calibration_samples`` > 0: each speed-aware observer learns each wheel's unit from that many
     first samples (core/calibration.py)."""
     r = samples.reaction_torque
@@ -70,9 +72,9 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
         raise ValueError("speed-aware observers need FDI samples with wheel speed (fdi_sampling 'mean')")
     elman = np.stack([recall_series(models[a], samples.tcv[:, i], r[0, i], samples.wheel_speed[:, i])
                       for i, a in enumerate(AXES)], axis=1)
-    est = {"elman": elman, "linear": samples.model_torque}
+    est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period), "model": samples.model_torque}
     residual, bound = {}, {}
-    gains = {"elman": [models[a].uncertainty_gain for a in AXES], "linear": [0.0, 0.0, 0.0]}
+    gains = {"elman": [models[a].uncertainty_gain for a in AXES], "linear": [0.0] * 3, "model": [0.0] * 3}
     x = None
     if calibration_samples:
         if samples.motor_torque is None:
@@ -102,7 +104,7 @@ def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
 def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", window: int = WINDOW,
                    false_alarm_rate: float = FALSE_ALARM_RATE, persistence: int | None = None,
                    unit_calibration: float = 0.0, plant: dict | None = None) -> dict:
-    """Fit both observers' thresholds from fault-free runs (the method follows the models):
+    """Fit the method's observers' thresholds from fault-free runs (the method follows the models):
     thesis: mean + 3 sigma curves, returns reliability per axis; speed_aware: bands c for the
     designed per-run ``false_alarm_rate`` at persistence P, returns the bands.
     ``unit_calibration`` [s]: bands for observers that learn their wheel first; ``plant``: the plant
@@ -122,11 +124,11 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     seeds = [s.seed for s in samples_list]
     out_dir = Path(out_dir)
     report = {}
-    describe = {"elman": model_ref, "linear": "linearised wheel, poles 4x"}
+    describe = {"elman": model_ref, "linear": "linearised wheel, poles 4x",
+                "model": "nominal wheel model at the measured speed"}
     if runs and runs[0].method == "speed_aware":
         p = persistence or PERSISTENCE_SPEED_AWARE
-        describe["linear"] = "nominal wheel model at the measured speed"
-        for obs in ("elman", "linear"):
+        for obs in observers_of("speed_aware"):
             stats = np.array([run_statistic(np.abs(run.residual[obs]) - run.bound[obs], p) for run in runs])
             # the Elman bound spent half of alpha on kappa (tools/train.uncertainty_gain)
             share = 0.5 if obs == "elman" else 1.0
@@ -142,7 +144,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
                             ).save(out_dir / f"thresholds_{obs}.json")
             report[obs] = {a: bands[a]["band"] for a in AXES}
         return report
-    for obs in ("elman", "linear"):
+    for obs in observers_of("thesis"):
         stack = np.stack([run.residual[obs][:n] for run in runs])          # (runs, n, 3)
         curves = {a: fit_threshold_curve(stack[:, :, i]) for i, a in enumerate(AXES)}
         ThresholdCurves(observer=obs, curves=curves, sample_period=FDI_PERIOD, window=window, seeds=seeds,

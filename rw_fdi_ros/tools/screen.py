@@ -13,11 +13,11 @@ import numpy as np
 
 from ..core.calibration import calibration_samples
 from ..core.closed_loop import simulate
-from ..core.detection import ThresholdCurves
+from ..core.detection import ThresholdCurves, observers_of
 from ..core.isolation import DECISION_OBSERVER
 from ..core.wheel import WheelParams
 from ..paths import fdi_dir, thresholds_dir
-from .metrics import RunEval, judge
+from .metrics import RunEval, judge, observers_of_runs
 from .offline import fdi_series, identification_series, load_models, observe
 from .samples import samples_from_series
 
@@ -29,7 +29,7 @@ def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_cal
     and ``unit_calibration``), checked against the calibration."""
     weights = load_models(models or fdi_dir(method))
     thresholds = thresholds or (models if models else thresholds_dir(method, unit_calibration))
-    curves = {o: ThresholdCurves.load(f"{thresholds}/thresholds_{o}.json") for o in ("elman", "linear")}
+    curves = {o: ThresholdCurves.load(f"{thresholds}/thresholds_{o}.json") for o in observers_of(method)}
     for o, c in curves.items():
         c.check_unit_calibration(unit_calibration, origin=f"{thresholds}/thresholds_{o}.json")
     return weights, curves
@@ -95,7 +95,7 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
 def summarize(runs) -> dict:
     """observer -> counts of the shared verdict (metrics.judge) over ``runs``."""
     out = {}
-    for obs in ("elman", "linear"):
+    for obs in observers_of_runs(runs):
         o = {"runs": len(runs), "any_alarm": 0, "false_alarm": 0, "correct": 0, "wrong_axis": 0, "held": 0,
              "lost": 0, "delays": []}
         for r in runs:

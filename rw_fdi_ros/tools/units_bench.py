@@ -76,14 +76,16 @@ def format_units(report: dict) -> str:
              f"population; rates with 95 % Wilson intervals; {report['seconds'] / 60:.0f} min on this machine.", ""]
     sets = list(SETS)
     for population, p in report["populations"].items():
+        first = next(iter(p["cells"].values()))["sets"]
+        columns = [(s, o) for s in sets for o in first[s]]
         lines += [f"## {population} wheels (seeds from {p['seed_base']:,}; wheels: {p['wheels'] or 'Table 2.2'})", "",
                   "False alarms (any alarm in a run that must not alarm):", "",
-                  "| case | " + " | ".join(f"{s}: {o}" for s in sets for o in ("elman", "model")) + " |",
-                  "|---|" + "---|" * (2 * len(sets))]
+                  "| case | " + " | ".join(f"{s}: {o}" for s, o in columns) + " |",
+                  "|---|" + "---|" * len(columns)]
         for name, c in p["cells"].items():
             if c["cell"]["kind"] is None or c["cell"]["disturbance"]:
                 lines.append(f"| {name} | " + " | ".join(format_rate(c["sets"][s][o]["false_alarm"])
-                                                         for s in sets for o in ("elman", "linear")) + " |")
+                                                         for s, o in columns) + " |")
         lines += ["", "Faults (detected: the faulty wheel alarmed; correct: alarmed wheels = faulty wheels; "
                   "observable: runs whose fault effect rose above the fault-free residual level, physics.md; delay "
                   "median / p90 in s):", "",
@@ -92,13 +94,12 @@ def format_units(report: dict) -> str:
         for name, c in p["cells"].items():
             if c["cell"]["kind"] is None or c["cell"]["disturbance"]:
                 continue
-            for s in sets:
-                for o, shown in (("elman", "elman"), ("linear", "model")):
-                    f = c["sets"][s][o]
-                    d = f["delay_s"]
-                    delay = f"{d['median']:.0f} / {d['p90']:.0f}" if d["median"] is not None else "-"
-                    lines.append(f"| {name} | {s} | {shown} | {format_rate(f['correct'])} | "
-                                 f"{format_rate(f['correct_observable'])} | "
-                                 f"{format_rate(f['detected'])} | {delay} | {format_rate(f['held_to_end'])} |")
+            for s, o in columns:
+                f = c["sets"][s][o]
+                d = f["delay_s"]
+                delay = f"{d['median']:.0f} / {d['p90']:.0f}" if d["median"] is not None else "-"
+                lines.append(f"| {name} | {s} | {o} | {format_rate(f['correct'])} | "
+                             f"{format_rate(f['correct_observable'])} | "
+                             f"{format_rate(f['detected'])} | {delay} | {format_rate(f['held_to_end'])} |")
         lines.append("")
     return "\n".join(lines)

@@ -1,0 +1,38 @@
+"""model_observer: the nominal wheel model of the three wheels, driven by what the wheel reports.
+
+With the tachometer measuring the wheel's state the observer needs no state
+estimate: r^ is the nominal Bialke model's reaction torque at the measured
+command voltage and wheel speed (core/telemetry.model_reaction_torque; the
+wheel electronics report it as model_reaction_torque), the residual the
+signed 40-sample mean of r - r^ with its ripple bound; with
+unit_calibration_time the model learns the wheel's own unit first
+(core/calibration.py). Speed-aware method only: the thesis' observers see no
+wheel speed.
+"""
+from __future__ import annotations
+
+from .observer_node import WheelsObserverNode
+from .runtime import EXIT_BAD_INPUT, NodeError, main_for
+
+
+class ModelObserverNode(WheelsObserverNode):
+    node_name = "model_observer"
+    slot = "model"
+
+    def __init__(self):
+        super().__init__(self.node_name)
+
+    def reset(self):
+        if not self.speed_aware:
+            raise NodeError("the model observer needs fdi_method speed_aware (it reads the wheel speed)",
+                            EXIT_BAD_INPUT)
+        super().reset()
+
+    def estimate(self, sample):
+        return sample.model_torque
+
+
+main = main_for(ModelObserverNode)
+
+if __name__ == "__main__":
+    main()
