@@ -90,6 +90,22 @@ def test_curves_that_cannot_judge_the_run_are_refused(tmp_path):
     assert ThresholdCurves.load(tmp_path / "band.json").horizon == float("inf")   # c < 0 is a valid band
 
 
+def test_curves_are_refused_in_another_observer_slot():
+    """The shipped model observer's band (~4e-6 N m) on the Luenberger observer's residual (band ~2e-3)
+    would alarm on every run: a file is used only for the observer it was fitted for."""
+    from rw_fdi_ros.core.detection import OBSERVERS, observers_of
+    from rw_fdi_ros.paths import config_dir
+    shipped = config_dir() / "fdi"
+    for obs in observers_of("speed_aware"):
+        assert ThresholdCurves.load(shipped / f"thresholds_{obs}.json", obs).observer == obs
+    with pytest.raises(ThresholdError, match=r"thresholds_model.json: curves of the model observer, not of the "
+                                             r"linear observer; regenerate"):
+        ThresholdCurves.load(shipped / "thresholds_model.json", "linear")
+    assert OBSERVERS == ("elman", "linear", "model") and observers_of("thesis") == ("elman", "linear")
+    with pytest.raises(ValueError, match="fdi_method must be one of"):
+        observers_of("kalman")
+
+
 def test_fitting_runs_of_different_lengths_are_refused(tmp_path):
     from rw_fdi_ros.tools.offline import fit_thresholds
     from rw_fdi_ros.tools.samples import FdiSamples

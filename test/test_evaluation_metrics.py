@@ -76,6 +76,13 @@ def test_a_bag_is_judged_by_the_observers_it_holds(tmp_path):
     assert list(full.series) == ["elman", "linear", "model"]
     assert observers_of_runs([r, full]) == ["elman", "linear"]   # what every run was judged by
     assert judge(full, "model")["correct"] and judge(r, "linear")["correct"]
+    # evaluation asks a replay for every observer of its method: one short of it is refused, not judged
+    from rw_fdi_ros.tools.evaluate import evaluate_replayed
+    scenario = scenario_of(read_bag(tmp_path / "a"))
+    with pytest.raises(ValueError, match="a: the replay holds no outputs of the model observer"):
+        evaluate_replayed(tmp_path / "a", tmp_path / "a", scenario, np.zeros(3), observers=["elman", "linear", "model"])
+    assert list(evaluate_replayed(tmp_path / "b", tmp_path / "b", scenario, np.zeros(3),
+                                  observers=["elman", "linear", "model"]).series) == ["elman", "linear", "model"]
 
 
 def test_detection_at_a_known_delay_held_to_the_end(tmp_path):

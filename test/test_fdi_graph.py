@@ -52,8 +52,8 @@ def test_fault_free_run_raises_no_alarm(runs):
 
 @pytest.mark.parametrize("case", ["bus_5v5_x", "current_0p6_x", "temperature_150_x", "bus_x_current_z"])
 def test_the_luenberger_observer_runs_beside_them_and_blames_no_healthy_wheel(runs, case):
-    """The thesis' linear observer in the speed-aware graph: judged beside the others (its band is its
-    linearised model's error in the manoeuvre, far above these faults' effect: reports/units)."""
+    """The thesis' linear observer in the speed-aware graph: judged beside the others on every case, never
+    blaming a healthy wheel (its figures: reports/detection)."""
     v = verdict(runs[case])
     assert "linear" in v["judged"] and not v["judged"]["linear"]["wrong_axes"], v["judged"]["linear"]
     assert all(v["linear"][a] == [] for a in AXES if not v["truth"][a])

@@ -135,7 +135,7 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
 
     mismatched = tmp_path / "mismatched"
     shutil.copytree(models, mismatched)
-    for obs in ("elman", "linear"):
+    for obs in ("elman", "linear", "model"):
         p = mismatched / f"thresholds_{obs}.json"
         raw = json.loads(p.read_text())
         raw["plant"]["emf_limit"] = "pwm_saturation"

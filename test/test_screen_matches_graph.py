@@ -5,7 +5,7 @@
 increase, fault-free runs; two at a time) and the 5 distinct speed-aware
 runs (300 s) that test_fdi_graph judges too (conftest.fdi_runs). Same alarmed
 wheels, same first-alarm times, same verdict from tools.metrics.judge, for
-both observers, and the same fault identification. Two more, of varied
+every observer, and the same fault identification. Two more, of varied
 wheels, with the observers calibrated to their units (core/calibration.py).
 """
 from concurrent.futures import ThreadPoolExecutor

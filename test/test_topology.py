@@ -81,6 +81,14 @@ def test_the_thesis_method_runs_its_two_observers():
     assert counts(nodes)["plant"]["fdi_readers"] == 6
     iso = next(n for n in nodes if n.name == "isolation")
     assert T.residual_topic("model") not in T.reads(iso) and T.residual_topic("linear") in T.reads(iso)
+    # the recorders record (and wait at the run's end for) the observers that run, live and in replay
+    replay = replay_nodes(["a"], ["a_out"], {"method": "thesis"}, DEFAULT.as_dict())
+    for graph in (nodes, replay):
+        recorded = T.reads(next(n for n in graph if n.name == "recorder"))
+        assert not any(t.startswith("/fdi/model/") for t in recorded), recorded
+        assert T.fdi_output_topics("linear")["alarm"] in recorded
+    live = T.reads(next(n for n in run_graph(True, True) if n.name == "recorder"))
+    assert T.fdi_output_topics("model")["alarm"] in live and T.residual_topic("model") in live
 
 
 def test_a_node_the_table_does_not_know_is_an_error_not_a_stall():

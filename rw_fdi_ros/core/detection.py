@@ -34,7 +34,10 @@ OBSERVERS = ("elman", "linear", "model")
 
 def observers_of(method: str) -> tuple:
     """The observers an FDI of ``method`` runs: all three speed-aware, the thesis' two (Elman, Luenberger)."""
+    if method not in METHODS:
+        raise ValueError(f"fdi_method must be one of {', '.join(METHODS)}, got {method!r}")
     return OBSERVERS if method == "speed_aware" else OBSERVERS[:2]
+
 # Ripple gains up to g_max are a disturbance the bound covers (a +60 % ripple must not alarm; thesis 5.3).
 RIPPLE_GAIN_MAX = 2.0
 FALSE_ALARM_RATE = 1e-3       # designed per-run false-alarm probability of the speed-aware FDI
@@ -293,7 +296,9 @@ class ThresholdCurves:
             "curves": {a: [float(v) for v in c] for a, c in self.curves.items()}}, indent=1))
 
     @classmethod
-    def load(cls, path) -> "ThresholdCurves":
+    def load(cls, path, observer: str | None = None) -> "ThresholdCurves":
+        """The curves of ``path``; with ``observer``, refused unless fitted for that observer slot (a
+        model observer's band on the Luenberger observer's residual would alarm on every run)."""
         path = Path(path)
         if not path.is_file():
             raise ThresholdError(f"threshold file not found: {path}; {REFIT}")
@@ -312,6 +317,9 @@ class ThresholdCurves:
         if set(out.curves) != {"x", "y", "z"} or any(len(c) == 0 or not np.all(np.isfinite(c))
                                                      for c in out.curves.values()):
             raise ThresholdError(f"{path}: needs finite curves for axes x, y, z; {REFIT}")
+        if observer is not None and out.observer != observer:
+            raise ThresholdError(f"{path}: curves of the {out.observer} observer, not of the {observer} "
+                                 f"observer; {REFIT}")
         if out.method not in METHODS:
             raise ThresholdError(f"{path}: unknown method {out.method!r} (known: {', '.join(METHODS)}); {REFIT}")
         if out.persistence < 1:

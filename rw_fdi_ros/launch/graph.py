@@ -50,7 +50,8 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         nodes += fdi_nodes(fdi, choices)
     if bag is not None:
         nodes.append(NodeSpec("recorder", "recorder", {"output": str(bag),
-                                                       "fdi_period": choices.fdi_period if fdi is not None else 0.0}))
+                                                       "fdi_period": choices.fdi_period if fdi is not None else 0.0,
+                                                       "fdi_method": fdi_method(fdi or {})}))
     return with_reader_counts(nodes)
 
 

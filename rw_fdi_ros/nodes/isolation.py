@@ -112,7 +112,7 @@ class IsolationNode(GraphNode):
         for obs in observers_of(method):
             path = self.param(f"thresholds_{obs}") or default_thresholds(obs, method, calibration)
             try:
-                curves = ThresholdCurves.load(path)
+                curves = ThresholdCurves.load(path, obs)
                 curves.check_method(method, origin=path)
                 curves.check_unit_calibration(calibration, origin=path)
                 curves.check_compatible(plant, origin=path)
@@ -200,7 +200,7 @@ class IsolationNode(GraphNode):
         self.compute_cpu.append(time.thread_time() - c0)
 
     def _arrived(self, stamp, part, value):
-        """Collect one stamp's parts; once both observers' rows and the telemetry are in, decide it."""
+        """Collect one stamp's parts; once every observer's rows and the telemetry are in, decide it."""
         handled = self.done_samples.setdefault(stamp, {})
         handled[part] = value
         if len(handled) < len(self.channels) + 1:
@@ -229,7 +229,7 @@ class IsolationNode(GraphNode):
         self.last_handled = stamp
 
     def _publish_diagnostics(self, stamp, rows_of, identified, silent=False):
-        """/diagnostics and /fdi/identification of one stamp from both observers' rows and the
+        """/diagnostics and /fdi/identification of one stamp from every observer's rows and the
         identification of that same stamp."""
         msg = DiagnosticArray()
         msg.header.stamp = time_msg(stamp)

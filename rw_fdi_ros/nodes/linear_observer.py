@@ -4,14 +4,16 @@ The full-order observer of the linearised wheel, poles 4x the wheel pole,
 discretised (ZOH) at the node's FDI period (core/linear_observer.py), estimates
 the reaction torque r^ from the command voltage and the measured torque. The
 residual is the 40-sample mean of |r - r^| (thesis method) or the signed
-40-sample mean of r - r^ with its ripple bound (speed_aware method; with
+40-sample mean of r - r^ with its ripple bound and a model-error term that grows
+with the torque demand, as the Elman network's (speed_aware method; with
 unit_calibration_time the estimate learns the wheel's own unit first,
 core/calibration.py). The linearised model knows neither the wheel speed nor
 the back-EMF: it is the thesis' baseline beside the Elman and model observers.
 """
 from __future__ import annotations
 
-from ..core.linear_observer import LinearObserver
+from ..core.linear_observer import UNCERTAINTY_GAIN, LinearObserver
+from ..core.scenario import AXES
 from .observer_node import WheelsObserverNode
 from .runtime import main_for
 
@@ -19,6 +21,7 @@ from .runtime import main_for
 class LinearObserverNode(WheelsObserverNode):
     node_name = "linear_observer"
     slot = "linear"
+    uncertainty_gains = tuple(UNCERTAINTY_GAIN[a] for a in AXES)
 
     def __init__(self):
         super().__init__(self.node_name)

@@ -1,4 +1,4 @@
-"""What both observer kinds share: wheel telemetry in, estimate, residual and ripple bound out.
+"""What the observer nodes share: wheel telemetry in, estimate, residual and ripple bound out.
 
 :class:`ObserverNode` reads the FDI telemetry the wheel electronics report
 once per FDI period (/wheels/fdi_telemetry, core/telemetry.py), calls the
@@ -152,6 +152,7 @@ class WheelsObserverNode(ObserverNode):
     subclass gives ``estimate(sample)`` r^ (3,), this class the residuals of the method."""
 
     slot = ""
+    uncertainty_gains = (0.0, 0.0, 0.0)   # kappa per wheel (detection.SignedResidual): the model error term
 
     def __init__(self, name: str):
         super().__init__(name)
@@ -160,8 +161,8 @@ class WheelsObserverNode(ObserverNode):
         self.start(T.estimate_topic(self.slot), T.residual_topic(self.slot), T.bound_topic(self.slot))
 
     def reset(self):
-        self.filters = [self.signed_residual() if self.speed_aware else ResidualFilter(self.param("window"))
-                        for _ in range(3)]
+        self.filters = [self.signed_residual(kappa) if self.speed_aware else ResidualFilter(self.param("window"))
+                        for kappa in self.uncertainty_gains]
 
     def declare_own_parameters(self):
         """The subclass' own parameters, declared before its first reset."""

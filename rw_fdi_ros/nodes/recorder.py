@@ -16,6 +16,7 @@ from __future__ import annotations
 from rclpy.parameter import Parameter
 from std_msgs.msg import String
 
+from ..core.detection import METHODS
 from ..storage.bag import BagError, BagWriter
 from ..storage.cdr import header_stamp_ns
 from . import topics as T
@@ -33,12 +34,18 @@ class RecorderNode(GraphNode):
         self.declare_parameter("extra_topics", Parameter.Type.STRING_ARRAY)   # 'name:pkg/msg/Type' beyond the graph's
         self.declare_parameter("drain_timeout", 5.0)          # after done: wall s without any message -> close
         self.declare_parameter("fdi_period", 0.0)             # > 0: the FDI nodes run; record their topics
+        self.declare_parameter("fdi_method", "speed_aware")   # whose observers' topics (with fdi_period > 0)
         self.declare_parameter("record_plant", True)          # False: FDI outputs only (bag replay)
         self.outputs = list(self.param("outputs") or []) or [self.param("output")]
         self.output_index = 0
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
         # what it subscribes to is the graph's table (topics.READS counts the recorder's reads from it)
-        rows = T.recorded_rows(self.param("record_plant"), self.fdi_period_ns > 0, self.param("extra_topics"))
+        method = self.param("fdi_method")
+        if method not in METHODS:
+            raise NodeError(f"parameter fdi_method must be one of {', '.join(METHODS)}, got {method!r}",
+                            EXIT_BAD_INPUT)
+        rows = T.recorded_rows(self.param("record_plant"), self.fdi_period_ns > 0, self.param("extra_topics"), method)
+        self.fdi_names = [t for t, _, _ in T.fdi_topics(method)]
         self.rows = rows = [(name, type_name, getattr(T, qos)) for name, type_name, qos in rows]
         self._open()
         # the plant's per-step topics that must have reached the done stamp (none when replaying)
@@ -87,7 +94,7 @@ class RecorderNode(GraphNode):
             last_fdi = self.done_stamp - self.done_stamp % self.fdi_period_ns
             # every FDI topic: they come from several writers, and a bag closed on the first of them
             # would lose the others' last sample, or give it to the next run's bag (bag replay)
-            lagging_fdi = [t for t, _, _ in T.fdi_topics() if self.last_stamp.get(t, -1) < last_fdi]
+            lagging_fdi = [t for t in self.fdi_names if self.last_stamp.get(t, -1) < last_fdi]
         else:
             lagging_fdi = []
         lagging = [t for t in final if self.last_stamp.get(t, -1) < self.done_stamp] + lagging_fdi

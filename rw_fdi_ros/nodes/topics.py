@@ -108,22 +108,22 @@ def fdi_output_topics(observer: str):
             "status": f"/fdi/{observer}/status"}
 
 
-def _fdi_rows():
-    """(topic, type, QoS name) of the FDI half of the graph."""
-    rows = []
-    for obs in OBSERVERS:
+def _fdi_rows(method: str | None = None):
+    """(topic, type, QoS name) of the FDI half of a graph of FDI ``method`` (None: every slot's)."""
+    rows, observers = [], OBSERVERS if method is None else observers_of(method)
+    for obs in observers:
         rows += [(f(obs, axis), VECTOR, "RELIABLE") for axis in observer_axes(obs)
                  for f in (estimate_topic, residual_topic, bound_topic)]
-    for obs in OBSERVERS:
+    for obs in observers:
         out = fdi_output_topics(obs)
         rows += [(out["threshold"], VECTOR, "RELIABLE"), (out["alarm"], VECTOR, "RELIABLE"),
                  (out["status"], DIAGNOSTICS_TYPE, "RELIABLE")]
     return rows + [(DIAGNOSTICS, DIAGNOSTICS_TYPE, "RELIABLE"), (IDENTIFICATION, DIAGNOSTICS_TYPE, "RELIABLE")]
 
 
-def fdi_topics():
-    """(topic, type, qos) of the FDI half of the graph."""
-    return _with_qos(_fdi_rows())
+def fdi_topics(method: str | None = None):
+    """(topic, type, qos) of the FDI half of a graph of FDI ``method`` (None: every slot's)."""
+    return _with_qos(_fdi_rows(method))
 
 
 # what bag replay plays: what the observer and isolation nodes (and the recorder of their outputs) read, one
@@ -133,11 +133,12 @@ FDI_INPUTS = [FDI_TELEMETRY, FAULT_TRUTH, SCENARIO, PLANT_DONE]
 REPLAY_RECORDED = (CLOCK, SCENARIO, PLANT_DONE, FAULT_TRUTH)
 
 
-def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=()):
+def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method: str = "speed_aware"):
     """(topic, type, QoS name) the recorder subscribes to: the plant's topics (with ``record_plant``
-    false only REPLAY_RECORDED), the FDI's with ``fdi``, and ``extra`` 'name:pkg/msg/Type'."""
+    false only REPLAY_RECORDED), with ``fdi`` those of the FDI of ``method``, and ``extra``
+    'name:pkg/msg/Type'."""
     rows = [r for r in PLANT_ROWS if record_plant or r[0] in REPLAY_RECORDED]
-    rows += _fdi_rows() if fdi else []
+    rows += _fdi_rows(method) if fdi else []
     for spec in extra or ():
         name, _, type_name = spec.partition(":")
         rows.append((name, type_name, "RELIABLE"))
@@ -176,7 +177,7 @@ READS = {
     "model_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "isolation": lambda p: [FDI_TELEMETRY, *residual_inputs(p.get("fdi_method", "speed_aware"))] + _run_end(p),
     "recorder": lambda p: [r[0] for r in recorded_rows(p.get("record_plant", True), p.get("fdi_period", 0.0) > 0,
-                                                       p.get("extra_topics"))],
+                                                       p.get("extra_topics"), p.get("fdi_method", "speed_aware"))],
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
     "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
                         + ([RECORDER_CLOSED] if p.get("await_recorder", False) else []),

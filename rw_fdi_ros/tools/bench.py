@@ -67,6 +67,7 @@ def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     import numpy as np
     from ..core.detection import SignedResidual
     from ..core.elman import ElmanObserver
+    from ..core.linear_observer import LinearObserver
     from ..core.telemetry import TelemetrySampler
     from ..paths import config_dir
     from .fdi import run_with_fdi
@@ -77,6 +78,7 @@ def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     weights = load_models(models or config_dir() / "fdi")
     elman, resid = ElmanObserver(weights["x"]), SignedResidual(uncertainty_gain=weights["x"].uncertainty_gain)
     lin_res = [SignedResidual() for _ in range(3)]
+    luenberger, luen_res = LinearObserver(1.0), [SignedResidual() for _ in range(3)]
     telemetry = TelemetrySampler(0.1)   # every control sample is an FDI sample here: the per-sample cost
 
     def telemetry_step(i):
@@ -85,11 +87,17 @@ def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     def elman_step(i):
         resid.update(r[i, 0], elman.update(u[i, 0], None, w[i, 0]), 1e-3j)
 
-    def linear_step(i):
+    def model_step(i):   # the model observer's estimate comes with the telemetry: its residuals alone
         for j in range(3):
             lin_res[j].update(r[i, j], 0.0, 1e-3j)
+
+    def linear_step(i):
+        estimate = luenberger.update(u[i], r[i])
+        for j in range(3):
+            luen_res[j].update(r[i, j], estimate[j], 1e-3j)
     compute = {"telemetry (per control sample)": _step_times(telemetry_step),
-               "elman (one axis)": _step_times(elman_step), "linear (three axes)": _step_times(linear_step)}
+               "elman (one axis)": _step_times(elman_step), "linear (three axes)": _step_times(linear_step),
+               "model (three axes)": _step_times(model_step)}
 
     os.environ["RW_FDI_TIMING"] = "1"
     out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_"))

@@ -43,7 +43,7 @@ def nominal_residuals(samples, models, settle: float = 60.0, observer: str = "el
 
 def false_alarm_rates(samples, models, thresholds_dir, persistences=PERSISTENCES) -> dict:
     """P -> observer -> share of runs with any alarm."""
-    curves = {obs: ThresholdCurves.load(Path(thresholds_dir) / f"thresholds_{obs}.json")
+    curves = {obs: ThresholdCurves.load(Path(thresholds_dir) / f"thresholds_{obs}.json", obs)
               for obs in observers_of(fdi_method_of(models))}
     runs = [observe(s, models) for s in samples]
     out = {}
@@ -143,7 +143,8 @@ def format_report(r: dict) -> str:
              "", "## Ours: speed-aware (`config/fdi`)", "",
              f"Bands c for a designed per-run false-alarm rate of {ours['false_alarm_rate_design']:g} at "
              f"P = {ours['persistence']} (Gumbel fit of the upper half of the fitting runs' statistics; alpha/3 per "
-             "axis for the linear and model observers, alpha/6 for the Elman, whose kappa spends the other half):", "",
+             "axis for the model observer, alpha/6 for the Elman and Luenberger observers, whose kappa spends the "
+             "other half):", "",
              "| observer | c x [1e-3 N m] | c y | c z | held-out |residual| after 60 s: mean / p99 / max [1e-3 N m] |",
              "|---|---|---|---|---|"]
     for obs, row in ours["bands"].items():
@@ -156,7 +157,7 @@ def format_report(r: dict) -> str:
               "Gumbel quantile of the training and fitting runs' largest error per unit demand): "
               + ", ".join(f"{a} {kappa[a]['uncertainty_gain']:.3f}" for a in AXES) + ".",
               "", "Held-out runs with any alarm: " + ", ".join(f"{o} {v * 100:.0f} %" for o, v in far.items())
-              + f" (n = {len(r['heldout_seeds'])}).", "",
+              + f" (n = {len(r['heldout_seeds'])}).", "", *([ours["note"], ""] if ours.get("note") else []),
               "## The thesis' method (`config/fdi/thesis`)", "",
               "### Elman training variants, nominal residual on held-out fault-free runs (after 60 s)", "",
               "| variant | mean [1e-3 N m] | p99 [1e-3 N m] | max [1e-3 N m] | final training MSE x/y/z |",

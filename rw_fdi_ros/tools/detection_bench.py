@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.scenario import Fault, Scenario
-from .metrics import alarm_before_onset, judge, observable
+from .metrics import alarm_before_onset, judge, observable, observable_level
 from .screen import load_fdi, screen_sets
 
 SEED_BASE = 10_000_000
@@ -135,17 +135,8 @@ def _judge_chunk(cell_index: int, seeds_range):
 
 def observable_levels(sets: dict) -> dict:
     """set -> observer -> axis -> the fault-free residual level a fault effect must rise above to count as
-    observable: per set and wheel the largest of its observers' median thresholds after the manoeuvre,
-    one physical criterion for every observer of the set (a band may be negative: it is a level over
-    the ripple bound, not a residual level). With the model observer in the set the Luenberger
-    observer is left out: its band is its linearised model's own error, not what the wheel shows."""
-    out = {}
-    for name, entry in sets.items():
-        judges = [c for obs, c in entry[1].items() if obs != "linear" or "model" not in entry[1]]
-        level = {a: max(float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a]))
-                        for c in judges) for a in "xyz"}
-        out[name] = {obs: dict(level) for obs in entry[1]}
-    return out
+    observable: the set's metrics.observable_level, the same for each of its observers."""
+    return {name: {obs: observable_level(entry[1]) for obs in entry[1]} for name, entry in sets.items()}
 
 
 def cell_sizes(fault_free_runs: int, runs_per_cell: int) -> list:

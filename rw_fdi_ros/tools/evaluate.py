@@ -1,7 +1,7 @@
 """`rw-fdi evaluate`: replay bags through the observer and isolation nodes and report every figure.
 
-Bags are replayed (player + Elman x3 + linear + isolation + recorder of
-the FDI outputs) into ``<report>/replays/<bag>``, many bags through one
+Bags are replayed (player + the method's observers + isolation + recorder
+of the FDI outputs) into ``<report>/replays/<bag>``, many bags through one
 graph (tools/replay.py): one graph per worker and per ``REPLAY_CHUNK`` bags.
 A bag already replayed is not replayed again, so an interrupted evaluation
 resumes. A bad bag
@@ -18,13 +18,12 @@ import numpy as np
 
 from ..core.detection import ThresholdCurves, ThresholdError, observers_of
 from ..core.elman import ModelError
-from ..core.scenario import AXES
 from ..nodes import topics as T
 from ..paths import config_dir, thresholds_dir
 from ..storage.bag import BagError, bag_is_complete, read_bag, read_series
 from .campaign import LocalExecutor, _progress
 from ..paths import shown_path
-from .metrics import (RunEval, aggregate, fdi_output_topics, health_from_bag, health_rows,
+from .metrics import (RunEval, aggregate, observable_level, fdi_output_topics, health_from_bag, health_rows,
                       identification_figures, identification_from_bag, scenario_of, series_from_bag)
 from ..core.plant_choices import PlantChoices
 from .offline import fdi_method_of, load_models, model_card
@@ -75,10 +74,14 @@ def replay_chunks(bags: list, jobs: int) -> list:
     return [bags[i::n] for i in range(n) if bags[i::n]]
 
 
-def evaluate_replayed(bag: Path, out: Path, scenario, peak) -> RunEval:
-    """The figures of one bag from its replay ``out`` and its ground truth."""
+def evaluate_replayed(bag: Path, out: Path, scenario, peak, observers=None) -> RunEval:
+    """The figures of one bag from its replay ``out`` and its ground truth; ``observers``: those the
+    replay must hold (a replay without one of them is refused, not judged by the others alone)."""
     replay = read_series(out, topics=fdi_output_topics())
     series = series_from_bag(replay)
+    missing = [obs for obs in observers or () if obs not in series]
+    if missing:
+        raise ValueError(f"{out.name}: the replay holds no outputs of the {', '.join(missing)} observer")
     return RunEval(bag=str(bag), scenario=scenario.name, seed=scenario.seed, faults=list(scenario.faults),
                    series=series, fault_effect_peak=peak, identification=identification_from_bag(replay),
                    health=health_from_bag(out))
@@ -94,7 +97,8 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
     models = str(models or config_dir() / "fdi")
     method = fdi_method_of(load_models(models))   # a missing/corrupt model stops here, before any replay
     thresholds = str(thresholds or (thresholds_dir(method, unit_calibration) if shipped else models))
-    curves = {obs: ThresholdCurves.load(Path(thresholds) / f"thresholds_{obs}.json") for obs in observers_of(method)}
+    curves = {obs: ThresholdCurves.load(Path(thresholds) / f"thresholds_{obs}.json", obs)
+              for obs in observers_of(method)}
     for obs, c in curves.items():
         c.check_method(method, origin=f"{thresholds}/thresholds_{obs}.json")
         c.check_unit_calibration(unit_calibration, origin=f"{thresholds}/thresholds_{obs}.json")
@@ -130,7 +134,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
 
     def collect(bag):
         try:
-            runs.append(evaluate_replayed(bag, replays / bag.name, *checked[bag]))
+            runs.append(evaluate_replayed(bag, replays / bag.name, *checked[bag], observers=list(curves)))
             bar.update(1)
         except (BagError, ValueError) as exc:
             skip(bag, str(exc))
@@ -145,13 +149,12 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
                 skip(bag, f"{bag.name}: replay failed: {outcome.reason}")
     bar.close()
     runs.sort(key=lambda r: (r.scenario, r.seed))
-    level = {obs: {a: float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a]))
-                   for a in AXES} for obs, c in curves.items()}
+    level = {obs: observable_level(curves) for obs in curves}
     try:
         training = model_card(models).get("seeds", [])
     except ModelError:   # a model set without its card: nothing known to exclude
         training = []
-    figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level, training)
+    figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level, training, observers=list(curves))
     report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence,
               "unit_calibration_time": unit_calibration,
               "models": shown_path(models, report_dir.parent),

@@ -36,7 +36,7 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
     plant = plant or DEFAULT
     for obs in observers_of(method):
         path = thresholds / f"thresholds_{obs}.json"
-        curves = ThresholdCurves.load(path)
+        curves = ThresholdCurves.load(path, obs)
         curves.check_method(method, origin=str(path))
         curves.check_compatible(plant, origin=str(path))
         curves.check_unit_calibration(unit_calibration, origin=str(path))

@@ -299,12 +299,25 @@ def observable(run: RunEval, level: dict) -> bool:
     return all(run.fault_effect_peak[AXES.index(a)] > level[a] for a in run.faulty_axes)
 
 
-def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=()) -> dict:
-    """All figures per observer; ``observable_level[obs][axis]``: the fault-free residual level [N m].
+def observable_level(curves: dict) -> dict:
+    """axis -> the fault-free residual level [N m] a fault effect must rise above to count as observable
+    (:func:`observable`), one physical criterion for every observer of an FDI set (``curves``: observer ->
+    ThresholdCurves): the largest of the observers' median thresholds after the manoeuvre (a band may be
+    negative: it is a level over the ripple bound, not a residual level). With the model observer in the
+    set the Luenberger observer is left out: its band is its linearised model's own error, not what the
+    wheel shows."""
+    judges = [c for obs, c in curves.items() if obs != "linear" or "model" not in curves]
+    return {a: max(float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a])) for c in judges)
+            for a in AXES}
+
+
+def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(), observers=None) -> dict:
+    """All figures per observer (``observers``, default those every run was judged by);
+    ``observable_level[obs][axis]``: the fault-free residual level [N m].
 
     Held-out runs are fault-free runs the thresholds were not fitted on and the models not trained on."""
     report = {}
-    for obs in observers_of_runs(runs):
+    for obs in observers_of_runs(runs) if observers is None else observers:
         verdicts = {r.bag: judge(r, obs) for r in runs}
         rep = {"reliability": reliability(runs, curves_seeds.get(obs, []), obs)}
         used = set(curves_seeds.get(obs, [])) | set(training_seeds)

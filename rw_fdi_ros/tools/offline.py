@@ -18,7 +18,7 @@ from ..core.detection import (FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_A
                               signed_residual_series)
 from ..core.calibration import calibration_samples, regressors
 from ..core.elman import ElmanWeights, ModelError, recall_series
-from ..core.linear_observer import estimate_series
+from ..core.linear_observer import UNCERTAINTY_GAIN, estimate_series
 from ..core.plant_choices import FDI_PERIOD, FDI_SAMPLING
 from ..core.scenario import AXES
 
@@ -74,7 +74,8 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
                       for i, a in enumerate(AXES)], axis=1)
     est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period), "model": samples.model_torque}
     residual, bound = {}, {}
-    gains = {"elman": [models[a].uncertainty_gain for a in AXES], "linear": [0.0] * 3, "model": [0.0] * 3}
+    gains = {"elman": [models[a].uncertainty_gain for a in AXES], "linear": [UNCERTAINTY_GAIN[a] for a in AXES],
+             "model": [0.0] * 3}
     x = None
     if calibration_samples:
         if samples.motor_torque is None:
@@ -130,8 +131,8 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
         p = persistence or PERSISTENCE_SPEED_AWARE
         for obs in observers_of("speed_aware"):
             stats = np.array([run_statistic(np.abs(run.residual[obs]) - run.bound[obs], p) for run in runs])
-            # the Elman bound spent half of alpha on kappa (tools/train.uncertainty_gain)
-            share = 0.5 if obs == "elman" else 1.0
+            # the Elman and Luenberger bounds spent half of alpha on kappa (tools/train.demand_gain)
+            share = 1.0 if obs == "model" else 0.5
             bands = fit_band(stats, false_alarm_rate, share=share)
             ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in AXES},
                             sample_period=FDI_PERIOD, window=window, sigmas=float("nan"), seeds=seeds, plant=plant,

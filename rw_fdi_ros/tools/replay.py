@@ -1,11 +1,11 @@
 """Replay recorded bags through the observer and isolation nodes (rosbag replay for evaluation).
 
-Many bags go through one graph (player + Elman x3 + linear + isolation +
-a recorder of the FDI outputs): the FDI nodes start a new run when the
+Many bags go through one graph (player + the method's observers + isolation
++ a recorder of the FDI outputs): the FDI nodes start a new run when the
 stamps go back to the start, and the recorder writes one bag per run. Only
 the FDI telemetry (one message per FDI period), the ground truth and the
 scenario are played, so a replay costs a few hundred messages per bag and
-the seven processes start once per graph, not once per bag.
+the processes start once per graph, not once per bag.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import tempfile
 from pathlib import Path
 
 from ..core.plant_choices import PlantChoices
-from ..launch.graph import NodeSpec, fdi_nodes, with_reader_counts
+from ..launch.graph import NodeSpec, fdi_method, fdi_nodes, with_reader_counts
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
 from ..nodes import topics as T
 from ..storage.bag import BagError, bag_is_complete, read_bag
@@ -23,7 +23,8 @@ from .run import RunOutcome
 
 
 def replay_nodes(bags: list, out_bags: list, fdi: dict, plant: dict, rate: float = 0.0):
-    """Player + Elman x3 + linear + isolation + a recorder of the FDI outputs, for ``bags`` in order."""
+    """Player + the FDI nodes of the method (graph.fdi_nodes) + a recorder of their outputs, for ``bags``
+    in order."""
     choices = PlantChoices(**plant)
     nodes = fdi_nodes(fdi, choices)
     for node in nodes:
@@ -32,7 +33,8 @@ def replay_nodes(bags: list, out_bags: list, fdi: dict, plant: dict, rate: float
                                                "pace_period": choices.fdi_period, "topics": T.FDI_INPUTS,
                                                "await_recorder": True}))
     nodes.append(NodeSpec("recorder", "recorder", {"outputs": [str(b) for b in out_bags],
-                                                   "fdi_period": choices.fdi_period, "record_plant": False}))
+                                                   "fdi_period": choices.fdi_period, "fdi_method": fdi_method(fdi),
+                                                   "record_plant": False}))
     return with_reader_counts(nodes)
 
 

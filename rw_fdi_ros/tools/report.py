@@ -50,7 +50,8 @@ def headline(figures: dict) -> list:
     rows = []
 
     def row(name, fn, thesis):
-        rows.append((name, {obs: (thesis.get(obs, "not given"), fn(f)) for obs, f in figures.items()}))
+        rows.append((name, {obs: (thesis.get(obs, "not given" if obs in THESIS["reliability"] else NOT_IN_THESIS),
+                                  fn(f)) for obs, f in figures.items()}))
 
     row("threshold reliability x/y/z",
         lambda f: "/".join("-" if a not in f["reliability"] else f"{f['reliability'][a] * 100:.0f}" for a in AXES)

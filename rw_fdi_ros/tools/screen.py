@@ -29,7 +29,7 @@ def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_cal
     and ``unit_calibration``), checked against the calibration."""
     weights = load_models(models or fdi_dir(method))
     thresholds = thresholds or (models if models else thresholds_dir(method, unit_calibration))
-    curves = {o: ThresholdCurves.load(f"{thresholds}/thresholds_{o}.json") for o in observers_of(method)}
+    curves = {o: ThresholdCurves.load(f"{thresholds}/thresholds_{o}.json", o) for o in observers_of(method)}
     for o, c in curves.items():
         c.check_unit_calibration(unit_calibration, origin=f"{thresholds}/thresholds_{o}.json")
     return weights, curves

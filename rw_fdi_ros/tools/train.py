@@ -106,23 +106,34 @@ def train_axis(tcv, torque, mode: str = "recall", epochs: int = EPOCHS, lr: floa
 
 def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE,
                      active: float = 1e-3) -> float:
-    """kappa: how much the network errs per unit of the torque it is asked for, fault-free.
+    """kappa of an Elman network (:func:`demand_gain`): it models slews less well than holding."""
+    from ..core.elman import recall_series
+    def estimate(s):
+        return recall_series(weights, s.tcv[:, axis], s.reaction_torque[0, axis], s.wheel_speed[:, axis])
+    kappa = demand_gain(samples, axis, estimate, false_alarm_rate, active)
+    if not kappa < 10.0:   # ElmanWeights refuses such a model: say so now, not when a node loads it
+        raise ValueError(f"wheel {'xyz'[axis]}: the network errs by {kappa:.3g} x the torque demand on fault-free "
+                         "runs (> 10); train longer or on more runs")
+    return kappa
 
-    Per run, the largest (|residual| - ripple bound) / mean(|r|) over the samples where
-    mean(|r|) > ``active`` N m (a manoeuvre); kappa is the (1 - alpha / 6) quantile of a Gumbel
-    law fitted to those run maxima (detection.gumbel_fit), never below the largest: the network's
-    error grows with the torque demand (it models slews less well than holding, and its first
-    seconds start from a zero state), so its residual bound does too (detection.SignedResidual).
-    alpha / 6: half the designed per-run false-alarm rate over three axes; the band c
-    (detection.fit_band) gets the other half.
+
+def demand_gain(samples, axis: int, estimate, false_alarm_rate: float = FALSE_ALARM_RATE,
+                active: float = 1e-3) -> float:
+    """kappa: how much an observer errs per unit of the torque it is asked for, fault-free.
+
+    ``estimate(s)``: the observer's r^ of wheel ``axis`` over run ``s`` (n,). Per run, the largest
+    (|residual| - ripple bound) / mean(|r|) over the samples where mean(|r|) > ``active`` N m (a
+    manoeuvre); kappa is the (1 - alpha / 6) quantile of a Gumbel law fitted to those run maxima
+    (detection.gumbel_fit), never below the largest: an observer whose error grows with the torque
+    demand gets a residual bound that does too (detection.SignedResidual). alpha / 6: half the
+    designed per-run false-alarm rate over three axes; the band c (detection.fit_band) gets the
+    other half.
     """
     from ..core.detection import gumbel_fit, gumbel_quantile, signed_residual_series, window_mean
-    from ..core.elman import recall_series
     maxima = []
     for s in samples:
         r = s.reaction_torque[:, axis:axis + 1]
-        est = recall_series(weights, s.tcv[:, axis], r[0, 0], s.wheel_speed[:, axis])[:, None]
-        res, bound = signed_residual_series(r, est, s.ripple_phasor[:, axis:axis + 1])
+        res, bound = signed_residual_series(r, np.asarray(estimate(s))[:, None], s.ripple_phasor[:, axis:axis + 1])
         demand = window_mean(np.abs(r))
         busy = demand > active
         if busy.any():
@@ -131,9 +142,6 @@ def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALS
         kappa = 2.0 * max(maxima, default=0.0)   # too few runs for a tail: twice the worst seen
     else:
         kappa = max(gumbel_quantile(*gumbel_fit(maxima), 1.0 - false_alarm_rate / 6.0), max(maxima))
-    if not kappa < 10.0:   # ElmanWeights refuses such a model: say so now, not when a node loads it
-        raise ValueError(f"wheel {'xyz'[axis]}: the network errs by {kappa:.3g} x the torque demand on fault-free "
-                         "runs (> 10); train longer or on more runs")
     return max(kappa, 0.0)
 
 
