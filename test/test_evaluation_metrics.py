@@ -179,6 +179,14 @@ def test_headline_smallest_detected_and_table42_cells():
     assert rows["smallest fault detected in >= 50 % of its runs"]["elman"][1] == "VBus 20 % / current none / +150 C"
     assert rows["detection delay at those sizes"]["elman"][1].startswith("median 20 s")
     assert rows["alarm held after detection"]["elman"][1] == "held to end in 100 % of 50 detections"
+    # no temperature size detected: said by name (the format's placeholder once leaked: "+{:.0f} none")
+    figures["elman"]["faults"] = cells[:4] + [_cell("temperature", 60.0, 0.4)]
+    assert dict(headline(figures))["smallest fault detected in >= 50 % of its runs"]["elman"][1] == \
+        "VBus 20 % / current none / temperature none"
+    # the model observer is ours: its thesis column says so, the Luenberger's says what the thesis gave
+    rows = dict(headline({"linear": figures["elman"], "model": figures["elman"]}))
+    ripple = rows["ripple +40 %"]
+    assert ripple["model"][0] == "not in the thesis" and ripple["linear"][0] == "false alarm"
 
 
 def test_fdi_sampler_mean_and_instant():

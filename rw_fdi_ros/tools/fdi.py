@@ -141,10 +141,13 @@ def format_verdict(v: dict) -> str:
         return "; ".join(parts)
 
     observers = v.get("observers", [o for o in T.OBSERVERS if o in v])
-    lines = [f"  {'wheel':6s}{'ground truth':34s}" + "".join(f"{observer_label(o):34s}" for o in observers).rstrip()]
+    truths = {a: "; ".join(f"{f['kind']}={f['value']:g} from {f['onset']:g} s" for f in v["truth"][a]) or "healthy"
+              for a in AXES}
+    columns = [("ground truth", truths)] + [(observer_label(o), {a: fmt(v[o][a]) for a in AXES}) for o in observers]
+    widths = [max(34, *(len(c) + 2 for c in cells.values())) for _, cells in columns]
+    lines = [(f"  {'wheel':6s}" + "".join(f"{h:{w}s}" for (h, _), w in zip(columns, widths))).rstrip()]
     for a in AXES:
-        truth = "; ".join(f"{f['kind']}={f['value']:g} from {f['onset']:g} s" for f in v["truth"][a]) or "healthy"
-        lines.append((f"  {a:6s}{truth:34s}" + "".join(f"{fmt(v[o][a]):34s}" for o in observers)).rstrip())
+        lines.append((f"  {a:6s}" + "".join(f"{cells[a]:{w}s}" for (_, cells), w in zip(columns, widths))).rstrip())
     for a, found in v.get("identification", {}).items():
         lines.append(f"  identified on wheel {a}: {found['message']}")
     for obs, judged in v.get("judged", {}).items():
@@ -206,6 +209,9 @@ def _plot_residuals(data, path: Path) -> Path:
                     "threshold (mean + 3σ)", lw=1.2, color="tab:red")
             if speed_aware:
                 ax.set_yscale("log")
+                floor = thr[:, i][thr[:, i] > 0]
+                if floor.size:   # a residual of exactly 0 (an observer's first sample) would stretch the axis
+                    ax.set_ylim(bottom=max(ax.get_ylim()[0], float(floor.min()) * 1e3 * 1e-3))
             for f in verdict["truth"][a]:
                 ax.axvline(f["onset"], color="k", lw=0.8, alpha=0.6)
                 ax.text(f["onset"], ax.get_ylim()[1] * 0.9, f" {f['kind']}={f['value']:g}", fontsize=7)

@@ -31,6 +31,7 @@ def _med(stats, unit=""):
 TABLE42_CELLS = (("VBus 2.5 V off", "bus_voltage", 31.25), ("40 % current loss", "current_limiter", 40.0),
                  ("temperature 150 C off", "temperature", 150.0))
 GRID_KINDS = (("VBus {:.0f} %", "bus_voltage"), ("current {:.0f} %", "current_limiter"), ("+{:.0f} C", "temperature"))
+NONE_LABEL = {"bus_voltage": "VBus", "current_limiter": "current", "temperature": "temperature"}
 
 
 def _cell(cells, kind, sev):
@@ -66,7 +67,7 @@ def headline(figures: dict) -> list:
         parts = []
         for fmt, kind in GRID_KINDS:
             c = smallest_detected(f["faults"], kind)
-            parts.append(fmt.split(" ")[0] + " none" if c is None else fmt.format(c["severity"]))
+            parts.append(f"{NONE_LABEL[kind]} none" if c is None else fmt.format(c["severity"]))
         return " / ".join(parts)
     row("smallest fault detected in >= 50 % of its runs", smallest, THESIS["smallest"])
 
