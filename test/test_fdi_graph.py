@@ -123,6 +123,28 @@ def test_live_residuals_equal_offline_residuals_of_the_same_code(runs, case, met
         np.testing.assert_allclose(live, offline.bound[obs], rtol=0, atol=1e-15)
 
 
+def test_a_thesis_run_replays_to_its_live_result_without_a_model_observer(runs, tmp_path):
+    """The thesis' FDI has no model observer: its replay graph neither starts one nor waits for one (the
+    recorder once waited its drain timeout for /fdi/model and dropped the replay), and gives the live
+    alarms, thresholds and residuals to the bit."""
+    from rw_fdi_ros.tools.replay import replay_bag
+    live = runs["current_0p6_x_thesis"].bag
+    thesis = fdi_dir("thesis")
+    replayed = replay_bag(live, tmp_path / "replayed", models=thesis, thresholds=thesis, method="thesis")
+    assert replayed.ok, replayed.reason
+    a, b = read_bag(live), read_bag(replayed.bag)
+    assert not any(t.startswith("/fdi/model/") for t in [*a.messages, *b.messages])
+    for obs in observers_of("thesis"):
+        for key in ("alarm", "threshold"):
+            ta, va = a.vectors(T.fdi_output_topics(obs)[key])
+            tb, vb = b.vectors(T.fdi_output_topics(obs)[key])
+            assert len(ta) == CASE_DURATION + 1
+            np.testing.assert_array_equal(ta, tb)
+            np.testing.assert_array_equal(va, vb)
+    np.testing.assert_array_equal(a.vectors(T.residual_topic("linear"))[1], b.vectors(T.residual_topic("linear"))[1])
+    assert np.any(b.vectors(T.fdi_output_topics("linear")["alarm"])[1])   # the fault was seen
+
+
 def test_same_seed_twice_gives_identical_messages_on_every_topic(runs):
     """Every topic of the full graph (FDI nodes included), message by message, is a function of the seed.
 
