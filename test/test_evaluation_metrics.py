@@ -10,7 +10,7 @@ from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
 from rw_fdi_ros.core.sampling import FdiSampler, sample_series
 from rw_fdi_ros.nodes import topics as T
-from rw_fdi_ros.storage.bag import BagWriter, read_bag
+from rw_fdi_ros.storage.bag import BagWriter, read_bag, read_series
 from rw_fdi_ros.tools.metrics import RunEval, aggregate, judge, observers_of_runs, scenario_of, series_from_bag
 
 N = 101   # samples 0..100 s
@@ -22,13 +22,14 @@ def vec(t, v):
                vector=Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2])))
 
 
-def make_bag(path, faults, alarms, seed=1, residual_above=None, observers=T.OBSERVERS):
+def make_bag(path, faults, alarms, seed=1, residual_above=None, observers=T.OBSERVERS, linear_bound=0.0):
     """alarms: axis -> list of (start, end) seconds (end exclusive) for every observer of ``observers``."""
     w = BagWriter(path)
     vec_t = "geometry_msgs/msg/Vector3Stamped"
     w.add_topic(T.SCENARIO, "std_msgs/msg/String")
     wheels = [obs for obs in observers if obs != "elman"]   # one topic for the three wheels
-    for topic in [T.FAULT_EFFECT, *map(T.residual_topic, wheels)] + [T.residual_topic("elman", a) for a in AXES]:
+    for topic in [T.FAULT_EFFECT, *map(T.residual_topic, wheels), T.bound_topic("linear")] + \
+            [T.residual_topic("elman", a) for a in AXES]:
         w.add_topic(topic, vec_t)
     for obs in observers:
         for k in ("threshold", "alarm"):
@@ -49,6 +50,7 @@ def make_bag(path, faults, alarms, seed=1, residual_above=None, observers=T.OBSE
             w.write_message(T.fdi_output_topics(obs)["alarm"], ns, vec(t, alarm))
         for obs in wheels:
             w.write_message(T.residual_topic(obs), ns, vec(t, residual))
+        w.write_message(T.bound_topic("linear"), ns, vec(t, [linear_bound] * 3))
         for i, a in enumerate(AXES):
             own = [0.0, 0.0, 0.0]
             own[i] = residual[i]
@@ -76,6 +78,13 @@ def test_a_bag_is_judged_by_the_observers_it_holds(tmp_path):
     assert list(full.series) == ["elman", "linear", "model"]
     assert observers_of_runs([r, full]) == ["elman", "linear"]   # what every run was judged by
     assert judge(full, "model")["correct"] and judge(r, "linear")["correct"]
+    # a speed-aware bag (non-zero ripple bound) without a model slot predates the three slots: said so
+    from rw_fdi_ros.tools.fdi import fdi_verdict, format_verdict, verdict_topics
+    old = make_bag(tmp_path / "old", FAULT_X, {"x": [(62, 1000)]}, observers=("elman", "linear"), linear_bound=1e-5)
+    said = format_verdict(fdi_verdict(read_series(old, verdict_topics())))
+    assert "its linear observer is the model observer" in said
+    assert "note" not in fdi_verdict(read_series(tmp_path / "a", verdict_topics()))   # thesis: bound 0
+    assert "note" not in fdi_verdict(read_series(tmp_path / "b", verdict_topics()))   # three slots
     # evaluation asks a replay for every observer of its method: one short of it is refused, not judged
     from rw_fdi_ros.tools.evaluate import evaluate_replayed
     scenario = scenario_of(read_bag(tmp_path / "a"))

@@ -82,6 +82,11 @@ def fdi_verdict(data) -> dict:
     for obs in out["observers"]:
         t, alarm = data.vectors(T.fdi_output_topics(obs)["alarm"])
         out[obs] = {a: metrics.alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(AXES)}
+    if "linear" in out["observers"] and "model" not in out["observers"]:
+        _, bound = data.vectors(T.bound_topic("linear"))
+        if bound.size and np.any(bound != 0):   # speed-aware without a model slot: an older bag
+            out["note"] = ("recorded before the observers had three slots: its linear observer is the model "
+                           "observer (the nominal wheel model), not the Luenberger observer")
     out["identification"] = metrics.identification_from_bag(data)
     try:
         series = metrics.series_from_bag(data)
@@ -148,6 +153,8 @@ def format_verdict(v: dict) -> str:
     lines = [(f"  {'wheel':6s}" + "".join(f"{h:{w}s}" for (h, _), w in zip(columns, widths))).rstrip()]
     for a in AXES:
         lines.append((f"  {a:6s}" + "".join(f"{cells[a]:{w}s}" for (_, cells), w in zip(columns, widths))).rstrip())
+    if v.get("note"):
+        lines.append(f"  note: {v['note']}")
     for a, found in v.get("identification", {}).items():
         lines.append(f"  identified on wheel {a}: {found['message']}")
     for obs, judged in v.get("judged", {}).items():
