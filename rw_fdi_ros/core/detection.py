@@ -255,6 +255,32 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
     return res, bound
 
 
+def demand_ratio(actual, estimate, ripple_phasor, active: float = 1e-3) -> float | None:
+    """One fault-free run of one wheel: the largest (|residual| - ripple bound) / mean(|r|) over the
+    samples where mean(|r|) > ``active`` N m (a manoeuvre), i.e. how much the observer erred per unit of
+    the torque it was asked for (series (n,) of r, r^ and the ripple phasor); None: no manoeuvre."""
+    r = np.asarray(actual, float)[:, None]
+    res, bound = signed_residual_series(r, np.asarray(estimate, float)[:, None],
+                                        np.asarray(ripple_phasor)[:, None])
+    demand = window_mean(np.abs(r))
+    busy = demand > active
+    return float(((np.abs(res) - bound)[busy] / demand[busy]).max()) if busy.any() else None
+
+
+def demand_gain(ratios, false_alarm_rate: float = FALSE_ALARM_RATE) -> float:
+    """kappa of :class:`SignedResidual`'s bound from the runs' :func:`demand_ratio`: the (1 - alpha / 6)
+    quantile of a Gumbel law fitted to them (:func:`gumbel_fit`), never below the largest (twice the
+    largest for fewer than 4 runs: too few for a tail). An observer whose error grows with the torque
+    demand gets a bound that does too; alpha / 6: half the designed per-run false-alarm rate over three
+    axes, the band c (:func:`fit_band`) gets the other half."""
+    ratios = list(ratios)
+    if len(ratios) < 4:
+        kappa = 2.0 * max(ratios, default=0.0)
+    else:
+        kappa = max(gumbel_quantile(*gumbel_fit(ratios), 1.0 - false_alarm_rate / 6.0), max(ratios))
+    return max(kappa, 0.0)
+
+
 def alarm_series(residual, threshold, times, persistence: int = PERSISTENCE):
     """(alarm flags, first alarm time or None) of one axis through :class:`AlarmRule`."""
     rule = AlarmRule(persistence)

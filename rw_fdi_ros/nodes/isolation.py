@@ -138,26 +138,26 @@ class IsolationNode(GraphNode):
                                           plant.fdi_period) for part in (*self.channels, "telemetry")}
         self.last_input = time.monotonic()
         self.last_row = {}   # observer -> wall time of its last row
-        self.live = None     # a live run, where the input watchdog runs (end_with_run, declared last)
         self.silent_said = False
         self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         for obs in self.channels:   # one row per stamp: residual and bound of each of the observer's topics
             self._follow_observer(obs)
         self.follow_run_end(period=plant.fdi_period)
+        self.live = bool(self.param("end_with_run"))   # a live run, where the input watchdog runs
 
     def _follow_observer(self, observer):
         """Subscribe to an observer's residual and bound topics (one per wheel for the Elman nodes, one for
         all three otherwise) and decide its rows stamp by stamp once every topic of the stamp is in."""
         axes = T.observer_axes(observer)
-        parts = [(f"{kind}_{a}", topic(observer, a)) for a in axes
-                 for kind, topic in (("residual", T.residual_topic), ("bound", T.bound_topic))]
+        topics = {(kind, a): topic(observer, a) for a in axes
+                  for kind, topic in (("residual", T.residual_topic), ("bound", T.bound_topic))}
 
         def row(stamp, v):
             def column(kind):   # a per-wheel node sets its own wheel's component only
-                return [v[f"{kind}_{a}"][i] for i, a in enumerate(AXES)] if axes != (None,) else v[f"{kind}_None"]
+                return v[kind, None] if axes == (None,) else [v[kind, a][i] for i, a in enumerate(AXES)]
             self._on_residual(observer, stamp, column("residual"), column("bound"))
-        sync = StampSync(tuple(key for key, _ in parts), row)
-        for key, topic in parts:
+        sync = StampSync(tuple(topics), row)
+        for key, topic in topics.items():
             sync.subscribe(self, key, topic, T.RELIABLE)
 
     def _accept(self, source, stamp) -> bool:
@@ -299,8 +299,6 @@ class IsolationNode(GraphNode):
 
     def _watch_inputs(self):
         """Samples an observer never completed are decided without it; silence of every input is said."""
-        if self.live is None:
-            self.live = bool(self.param("end_with_run"))
         if not self.live:   # a replay's player paces on /diagnostics and fails a stalled replay itself
             return
         now, timeout = time.monotonic(), self.param("input_timeout")

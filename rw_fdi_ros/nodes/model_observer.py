@@ -12,21 +12,16 @@ wheel speed.
 from __future__ import annotations
 
 from .observer_node import WheelsObserverNode
-from .runtime import EXIT_BAD_INPUT, NodeError, main_for
+from .runtime import main_for
 
 
 class ModelObserverNode(WheelsObserverNode):
     node_name = "model_observer"
     slot = "model"
+    needs_speed = True
 
     def __init__(self):
         super().__init__(self.node_name)
-
-    def reset(self):
-        if not self.speed_aware:
-            raise NodeError("the model observer needs fdi_method speed_aware (it reads the wheel speed)",
-                            EXIT_BAD_INPUT)
-        super().reset()
 
     def estimate(self, sample):
         return sample.model_torque

@@ -153,9 +153,13 @@ class WheelsObserverNode(ObserverNode):
 
     slot = ""
     uncertainty_gains = (0.0, 0.0, 0.0)   # kappa per wheel (detection.SignedResidual): the model error term
+    needs_speed = False                   # it reads the wheel speed: speed_aware only
 
     def __init__(self, name: str):
         super().__init__(name)
+        if self.needs_speed and not self.speed_aware:
+            raise NodeError(f"the {self.slot} observer needs fdi_method speed_aware (it reads the wheel speed)",
+                            EXIT_BAD_INPUT)
         self.declare_own_parameters()
         self.reset()
         self.start(T.estimate_topic(self.slot), T.residual_topic(self.slot), T.bound_topic(self.slot))

@@ -16,7 +16,6 @@ from __future__ import annotations
 from rclpy.parameter import Parameter
 from std_msgs.msg import String
 
-from ..core.detection import METHODS
 from ..storage.bag import BagError, BagWriter
 from ..storage.cdr import header_stamp_ns
 from . import topics as T
@@ -41,10 +40,11 @@ class RecorderNode(GraphNode):
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
         # what it subscribes to is the graph's table (topics.READS counts the recorder's reads from it)
         method = self.param("fdi_method")
-        if method not in METHODS:
-            raise NodeError(f"parameter fdi_method must be one of {', '.join(METHODS)}, got {method!r}",
-                            EXIT_BAD_INPUT)
-        rows = T.recorded_rows(self.param("record_plant"), self.fdi_period_ns > 0, self.param("extra_topics"), method)
+        try:
+            rows = T.recorded_rows(self.param("record_plant"), self.fdi_period_ns > 0, self.param("extra_topics"),
+                                   method)
+        except ValueError as exc:   # an unknown fdi_method
+            raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
         self.fdi_names = [t for t, _, _ in T.fdi_topics(method)]
         self.rows = rows = [(name, type_name, getattr(T, qos)) for name, type_name, qos in rows]
         self._open()

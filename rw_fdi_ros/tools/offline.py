@@ -131,7 +131,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
         p = persistence or PERSISTENCE_SPEED_AWARE
         for obs in observers_of("speed_aware"):
             stats = np.array([run_statistic(np.abs(run.residual[obs]) - run.bound[obs], p) for run in runs])
-            # the Elman and Luenberger bounds spent half of alpha on kappa (tools/train.demand_gain)
+            # the Elman and Luenberger bounds spent half of alpha on kappa (detection.demand_gain)
             share = 1.0 if obs == "model" else 0.5
             bands = fit_band(stats, false_alarm_rate, share=share)
             ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in AXES},

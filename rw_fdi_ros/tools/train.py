@@ -104,45 +104,19 @@ def train_axis(tcv, torque, mode: str = "recall", epochs: int = EPOCHS, lr: floa
                         speed_scale=speed_scale).validate(), losses
 
 
-def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE,
-                     active: float = 1e-3) -> float:
-    """kappa of an Elman network (:func:`demand_gain`): it models slews less well than holding."""
+def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE) -> float:
+    """kappa of an Elman network (core/detection.demand_gain over ``samples``): it models slews less well
+    than holding, and its first seconds start from a zero state."""
+    from ..core.detection import demand_gain, demand_ratio
     from ..core.elman import recall_series
-    def estimate(s):
-        return recall_series(weights, s.tcv[:, axis], s.reaction_torque[0, axis], s.wheel_speed[:, axis])
-    kappa = demand_gain(samples, axis, estimate, false_alarm_rate, active)
+    ratios = [demand_ratio(s.reaction_torque[:, axis],
+                           recall_series(weights, s.tcv[:, axis], s.reaction_torque[0, axis], s.wheel_speed[:, axis]),
+                           s.ripple_phasor[:, axis]) for s in samples]
+    kappa = demand_gain([x for x in ratios if x is not None], false_alarm_rate)
     if not kappa < 10.0:   # ElmanWeights refuses such a model: say so now, not when a node loads it
         raise ValueError(f"wheel {'xyz'[axis]}: the network errs by {kappa:.3g} x the torque demand on fault-free "
                          "runs (> 10); train longer or on more runs")
     return kappa
-
-
-def demand_gain(samples, axis: int, estimate, false_alarm_rate: float = FALSE_ALARM_RATE,
-                active: float = 1e-3) -> float:
-    """kappa: how much an observer errs per unit of the torque it is asked for, fault-free.
-
-    ``estimate(s)``: the observer's r^ of wheel ``axis`` over run ``s`` (n,). Per run, the largest
-    (|residual| - ripple bound) / mean(|r|) over the samples where mean(|r|) > ``active`` N m (a
-    manoeuvre); kappa is the (1 - alpha / 6) quantile of a Gumbel law fitted to those run maxima
-    (detection.gumbel_fit), never below the largest: an observer whose error grows with the torque
-    demand gets a residual bound that does too (detection.SignedResidual). alpha / 6: half the
-    designed per-run false-alarm rate over three axes; the band c (detection.fit_band) gets the
-    other half.
-    """
-    from ..core.detection import gumbel_fit, gumbel_quantile, signed_residual_series, window_mean
-    maxima = []
-    for s in samples:
-        r = s.reaction_torque[:, axis:axis + 1]
-        res, bound = signed_residual_series(r, np.asarray(estimate(s))[:, None], s.ripple_phasor[:, axis:axis + 1])
-        demand = window_mean(np.abs(r))
-        busy = demand > active
-        if busy.any():
-            maxima.append(float(((np.abs(res) - bound)[busy] / demand[busy]).max()))
-    if len(maxima) < 4:
-        kappa = 2.0 * max(maxima, default=0.0)   # too few runs for a tail: twice the worst seen
-    else:
-        kappa = max(gumbel_quantile(*gumbel_fit(maxima), 1.0 - false_alarm_rate / 6.0), max(maxima))
-    return max(kappa, 0.0)
 
 
 def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, plant: dict | None = None,
