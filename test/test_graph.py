@@ -187,6 +187,22 @@ def test_nan_torque_command_stops_the_run_naming_the_axis(scenario_file, tmp_pat
         lease.release()
 
 
+def test_the_plant_starts_only_once_the_recorder_has_matched_every_writer(scenario_file, tmp_path):
+    """DDS matches each direction on its own: a recorder counted by the plant's writers may not yet hear
+    them (a CI run once recorded no /attitude at all). The plant waits for /recorder/ready as well."""
+    def no_recorder(nodes):
+        nodes.pop()   # the recorder; the plant still asks for its /recorder/ready, and for nothing else of it
+        nodes[0].parameters.update(attitude_readers=3, wait_for_subscribers=0, startup_timeout=3.0)
+    procs, lease, _ = graph(scenario_file, tmp_path, tweak=no_recorder)
+    try:
+        result = procs.run(watchdog=60)
+        assert not result.ok and "plant stopped (exit code 3)" in result.reason, result.reason
+        assert "recorder never reported every topic matched" in result.reason, result.reason
+    finally:
+        procs.stop_all()
+        lease.release()
+
+
 def test_controller_killed_mid_run(scenario_file, tmp_path):
     procs, lease, bag = graph(scenario_file, tmp_path)
     try:

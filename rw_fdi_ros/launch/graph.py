@@ -41,7 +41,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
-        "command_timeout": command_timeout})]
+        "command_timeout": command_timeout, "recorder_ready": bag is not None})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "axis": axis, "control_period": period, "initial_tcv": float(hold[i]),

@@ -51,11 +51,15 @@ class RecorderNode(GraphNode):
         # the plant's per-step topics that must have reached the done stamp (none when replaying)
         self.final = [T.CLOCK, T.ATTITUDE, T.WHEELS, *map(T.tcv_command, T.AXES)] if self.param("record_plant") else []
         self.pub_closed = self.create_publisher(String, T.RECORDER_CLOSED, T.LATCHED)
-        self.subs = []
+        self.pub_ready = self.create_publisher(String, T.RECORDER_READY, T.LATCHED)
+        extra = {spec.partition(":")[0] for spec in self.param("extra_topics") or ()}
+        self.subs, self.unmatched = [], []
         for name, type_name, qos in rows:
             cls = T.message_class(type_name)
-            self.subs.append(self.create_subscription(cls, name, lambda raw, n=name: self._on_message(n, raw),
-                                                      qos, raw=True))
+            sub = self.create_subscription(cls, name, lambda raw, n=name: self._on_message(n, raw), qos, raw=True)
+            self.subs.append(sub)
+            if name not in extra:   # the graph's own topics have their writers from the start
+                self.unmatched.append(sub)
         self.stamped = {name for name, type_name, _ in rows if type_name != "std_msgs/msg/String"}
 
     def _open(self):
@@ -87,6 +91,12 @@ class RecorderNode(GraphNode):
             self.done_stamp, self.done_wall = stamp, wall_time()
 
     def poll(self):
+        if self.unmatched:
+            # a writer counting this reader does not mean this reader has matched the writer: the plant
+            # starts on /recorder/ready, so no run goes out to a reader that drops it all
+            self.unmatched = [s for s in self.unmatched if s.get_publisher_count() < 1]
+            if not self.unmatched:
+                self.pub_ready.publish(String(data="ready"))
         if self.done_stamp is None:
             return
         final = self.final
@@ -111,6 +121,11 @@ class RecorderNode(GraphNode):
                 return
             self._close_bag()
             self.pub_closed.publish(String(data=str(self.output_index)))
+            if lagging:   # kept (it is what the run sent), but the run is not a whole one: say so, exit non-zero
+                self.fail(f"bag {self.outputs[self.output_index]} closed without the run's end on "
+                          f"{', '.join(lagging[:3])}{', ...' if len(lagging) > 3 else ''} (no message for "
+                          f"{self.param('drain_timeout'):g} s after /plant/done)")
+                return
             self.output_index += 1
             if self.output_index < len(self.outputs):
                 self._open()

@@ -39,6 +39,7 @@ FAULT_TRUTH = "/fault/ground_truth"   # what is injected where since when (Diagn
 SCENARIO = "/scenario"                # the scenario YAML (latched)
 PLANT_DONE = "/plant/done"            # std_msgs/Header: stamp = last step, frame_id = why it ended
 RECORDER_CLOSED = "/recorder/closed"  # std_msgs/String (latched): index of the bag the recorder closed
+RECORDER_READY = "/recorder/ready"    # std_msgs/String (latched): every topic it records has a matched writer
 
 
 def tcv_command(axis: str) -> str:
@@ -170,7 +171,7 @@ def residual_inputs(method: str = "speed_aware") -> list:
 
 # executable -> its parameters -> the topics it subscribes to
 READS = {
-    "plant": lambda p: [tcv_command(a) for a in AXES],
+    "plant": lambda p: [tcv_command(a) for a in AXES] + ([RECORDER_READY] if p.get("recorder_ready") else []),
     "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
     "elman_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "linear_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
