@@ -18,6 +18,7 @@ from rw_fdi_ros.tools.campaign import DaskExecutor, LocalExecutor, run_campaign
 from rw_fdi_ros.tools.evaluate import evaluate
 from rw_fdi_ros.tools.report import validate_report
 from rw_fdi_ros.tools.reproduce import plan, reproduce
+from rw_fdi_ros.tools.run import short_step_topics
 
 
 @pytest.fixture(scope="module")
@@ -118,6 +119,14 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
                                  if topic != T.PLANT_DONE and t <= 30 * 10**9), key=lambda r: r[0]):
         w.write(topic, t, raw)
     w.close()
+    w = BagWriter(bags / "lost_attitude")   # what a CI run once recorded: every step, not one /attitude
+    for topic in whole.messages:
+        w.add_topic(topic, whole.types[topic])
+    for t, topic, raw in sorted(((t, topic, raw) for topic, msgs in whole.messages.items() for t, raw in msgs
+                                 if topic != T.ATTITUDE), key=lambda r: r[0]):
+        w.write(topic, t, raw)
+    w.close()
+    assert short_step_topics(bags / "lost_attitude") == [T.ATTITUDE] and short_step_topics(good) == []
     (bags / "metadata_only").mkdir()   # its data file gone: answered, not passed over in silence
     shutil.copy(good / "metadata.yaml", bags / "metadata_only")
     models = out / "models"
@@ -128,6 +137,7 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
     assert "no /scenario message (no ground truth)" in reasons["no_truth"]
     assert "no .mcap data file (only metadata.yaml)" in reasons["metadata_only"]
     assert "short: the run stopped at 30 s of" in reasons["interrupted"] and "interrupted" in reasons["interrupted"]
+    assert "/attitude short of the run's end (its recorder lost messages" in reasons["lost_attitude"]
 
     with pytest.raises(BagError, match="no bags to evaluate"):
         (tmp_path / "empty").mkdir()

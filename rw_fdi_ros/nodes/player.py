@@ -11,8 +11,9 @@ Two modes:
 Many bags, one graph: with ``bags`` the player replays them in order through
 the same FDI nodes, which start a new run when the stamps go back to the
 start. A bag's /plant/done goes out once the consumers have finished its
-last FDI sample; with ``await_recorder`` the next bag starts only once the
-recorder has closed the bag of the one before (/recorder/closed), so no
+last FDI sample; with ``await_recorder`` the first bag starts once the
+recorder has matched the FDI nodes' writers (/recorder/ready), and the next
+only once it has closed the bag of the one before (/recorder/closed), so no
 message of one run can land in another's bag.
 """
 from __future__ import annotations
@@ -44,7 +45,7 @@ class PlayerNode(GraphNode):
         self.declare_parameter("pace_period", 1.0)        # FDI period [s]
         self.declare_parameter("pace_window", 20)         # FDI samples the player may run ahead
         self.declare_parameter("min_subscribers", 0)      # readers of the FDI telemetry before starting
-        self.declare_parameter("await_recorder", False)   # between bags: wait for /recorder/closed
+        self.declare_parameter("await_recorder", False)   # /recorder/ready first; between bags /recorder/closed
         self.declare_parameter("startup_timeout", 60.0)
         self.declare_parameter("stall_timeout", 10.0)     # wall s without consumer progress -> error
         self.bags = list(self.param("bags") or []) or [self.param("bag")]
@@ -75,8 +76,11 @@ class PlayerNode(GraphNode):
             self.pace_sub = self.create_subscription(DiagnosticArray, self.param("pace_topic"), self._on_pace,
                                                      T.RELIABLE)
         self.closed = set()
+        self.recorder_ready = not self.param("await_recorder")
         if self.param("await_recorder"):
             self.create_subscription(String, T.RECORDER_CLOSED, lambda m: self.closed.add(m.data), T.LATCHED)
+            # the recorder hears every FDI writer before the first bag goes out (nodes/recorder.py)
+            self.create_subscription(String, T.RECORDER_READY, self._on_recorder_ready, T.LATCHED)
         self.started = None
         self.last_progress = time.monotonic()
         self.run_index = -1
@@ -108,7 +112,12 @@ class PlayerNode(GraphNode):
         self.paced_until = max(self.paced_until, stamp_ns(msg.header.stamp))
         self.last_progress = time.monotonic()
 
+    def _on_recorder_ready(self, msg):
+        self.recorder_ready = True
+
     def _ready(self):
+        if not self.recorder_ready:
+            return False
         need = self.param("min_subscribers")
         inputs = T.FDI_TELEMETRY not in self.pubs or self.pubs[T.FDI_TELEMETRY].get_subscription_count() >= need
         return inputs and (self.pace_sub is None or self.pace_sub.get_publisher_count() >= 1)
@@ -118,7 +127,9 @@ class PlayerNode(GraphNode):
         if self.started is None:
             if not self._ready():
                 if now - self.last_progress > self.param("startup_timeout"):
-                    self.fail("no consumers for the replayed topics", EXIT_TIMEOUT)
+                    self.fail("no consumers for the replayed topics" if self.recorder_ready else
+                              f"the recorder never reported every FDI topic matched on {T.RECORDER_READY}",
+                              EXIT_TIMEOUT)
                 return
             self.started = now
             self.last_progress = now

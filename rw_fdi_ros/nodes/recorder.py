@@ -4,7 +4,13 @@ Raw CDR bytes go to the bag untouched (no deserialisation), with the
 message's own sim-time header stamp as log time, so a bag does not depend
 on machine load. It finalises the bag when the plant reports the run done
 (and every topic has caught up) or on SIGINT/SIGTERM; see storage/bag.py for
-what a SIGKILL leaves behind.
+what a SIGKILL leaves behind. A topic that never catches up still gets the
+bag closed, and the node exits non-zero naming it.
+
+DDS matches a writer to this reader and this reader to the writer
+separately: before the plant (in bag replay, the player) starts, the
+recorder says on /recorder/ready that it has matched the writers the graph
+has from its start (the plant's and the FDI nodes').
 
 Bag replay of many runs through one graph gives it ``outputs``: one bag per
 run, in order. When a run is done it closes that bag, says so on
@@ -49,16 +55,18 @@ class RecorderNode(GraphNode):
         self.rows = rows = [(name, type_name, getattr(T, qos)) for name, type_name, qos in rows]
         self._open()
         # the plant's per-step topics that must have reached the done stamp (none when replaying)
-        self.final = [T.CLOCK, T.ATTITUDE, T.WHEELS, *map(T.tcv_command, T.AXES)] if self.param("record_plant") else []
+        self.final = list(T.STEP_TOPICS) if self.param("record_plant") else []
         self.pub_closed = self.create_publisher(String, T.RECORDER_CLOSED, T.LATCHED)
         self.pub_ready = self.create_publisher(String, T.RECORDER_READY, T.LATCHED)
-        extra = {spec.partition(":")[0] for spec in self.param("extra_topics") or ()}
-        self.subs, self.unmatched = [], []
+        # what /recorder/ready waits for: the topics whose writers exist from the graph's start (the plant's
+        # and the FDI nodes'); a replay's player writes only what its bag holds, extra topics may have none
+        awaited = set(self.fdi_names) | ({n for n, _, _ in T.PLANT_ROWS} if self.param("record_plant") else set())
+        self.subs, self.unmatched, self.ready = [], [], False
         for name, type_name, qos in rows:
             cls = T.message_class(type_name)
             sub = self.create_subscription(cls, name, lambda raw, n=name: self._on_message(n, raw), qos, raw=True)
             self.subs.append(sub)
-            if name not in extra:   # the graph's own topics have their writers from the start
+            if name in awaited:
                 self.unmatched.append(sub)
         self.stamped = {name for name, type_name, _ in rows if type_name != "std_msgs/msg/String"}
 
@@ -91,11 +99,12 @@ class RecorderNode(GraphNode):
             self.done_stamp, self.done_wall = stamp, wall_time()
 
     def poll(self):
-        if self.unmatched:
+        if not self.ready:
             # a writer counting this reader does not mean this reader has matched the writer: the plant
-            # starts on /recorder/ready, so no run goes out to a reader that drops it all
+            # (the player) starts on /recorder/ready, so no run goes out to a reader that drops it all
             self.unmatched = [s for s in self.unmatched if s.get_publisher_count() < 1]
             if not self.unmatched:
+                self.ready = True
                 self.pub_ready.publish(String(data="ready"))
         if self.done_stamp is None:
             return

@@ -39,12 +39,16 @@ FAULT_TRUTH = "/fault/ground_truth"   # what is injected where since when (Diagn
 SCENARIO = "/scenario"                # the scenario YAML (latched)
 PLANT_DONE = "/plant/done"            # std_msgs/Header: stamp = last step, frame_id = why it ended
 RECORDER_CLOSED = "/recorder/closed"  # std_msgs/String (latched): index of the bag the recorder closed
-RECORDER_READY = "/recorder/ready"    # std_msgs/String (latched): every topic it records has a matched writer
+RECORDER_READY = "/recorder/ready"    # std_msgs/String (latched): the graph's writers of what it records are matched
 
 
 def tcv_command(axis: str) -> str:
     """Per-axis controller output: Vector3Stamped with only that axis' component set [V]."""
     return f"/{axis}/tcv_command"
+
+
+# one message each per control step: a whole recorded run has as many of each as it has steps
+STEP_TOPICS = (CLOCK, ATTITUDE, WHEELS, *(tcv_command(a) for a in AXES))
 
 
 def _profiles() -> dict:
@@ -181,7 +185,7 @@ READS = {
                                                        p.get("extra_topics"), p.get("fdi_method", "speed_aware"))],
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
     "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
-                        + ([RECORDER_CLOSED] if p.get("await_recorder", False) else []),
+                        + ([RECORDER_CLOSED, RECORDER_READY] if p.get("await_recorder", False) else []),
 }
 
 

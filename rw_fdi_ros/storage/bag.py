@@ -364,6 +364,20 @@ def _stamp_of(msg):
     return (stamp.sec, stamp.nanosec) if stamp is not None else (0, 0)
 
 
+def message_counts(path) -> dict:
+    """{topic: messages} of a finished bag, from its metadata.yaml (nothing of the data file is read);
+    empty without one."""
+    import yaml
+    meta = Path(path) / "metadata.yaml"
+    if not meta.is_file():
+        return {}
+    try:
+        info = yaml.safe_load(meta.read_text())["rosbag2_bagfile_information"]
+        return {t["topic_metadata"]["name"]: int(t["message_count"]) for t in info["topics_with_message_count"]}
+    except (yaml.YAMLError, KeyError, TypeError, ValueError) as exc:
+        raise BagError(f"{meta}: unreadable metadata ({exc})") from None
+
+
 def bag_is_complete(path) -> bool:
     """True for a finished bag: metadata.yaml written and the MCAP footer present."""
     path = Path(path)

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+from contextlib import closing
 from pathlib import Path
 
 
@@ -145,9 +146,10 @@ def bench_study(runs: int = 8, duration: float = 400.0, seed: int = 1, jobs: int
     fdi = config_dir() / "fdi"
     t0 = time.monotonic()
     todo = [(bag, out / "replays" / f"{bag.name}_{k}") for k in range(replay_repeat) for bag in sorted(rec.done)]
-    replays = [o for chunk in executor.map_unordered(
-        lambda pairs: replay_bags([b for b, _ in pairs], [o for _, o in pairs], models=fdi, thresholds=fdi),
-        replay_chunks(todo, executor.jobs)) for o in chunk]
+    with closing(executor.map_unordered(
+            lambda pairs: replay_bags([b for b, _ in pairs], [o for _, o in pairs], models=fdi, thresholds=fdi),
+            replay_chunks(todo, executor.jobs))) as chunks:
+        replays = [o for chunk in chunks for o in chunk]
     t_rep = time.monotonic() - t0
     ok = not rec.failed and len(rec.done) == runs and all(r.ok for r in replays)
     study = sum(n for _, _, n, _ in plan(out / "plan", "thesis"))

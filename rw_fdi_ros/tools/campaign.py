@@ -10,12 +10,13 @@ from __future__ import annotations
 import os
 import sys
 from concurrent.futures import ThreadPoolExecutor, as_completed
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..core.scenario import load_scenario
 from ..storage.bag import bag_is_complete
-from .run import bag_name, run_scenario
+from .run import bag_name, run_scenario, short_step_topics
 
 
 @dataclass
@@ -33,10 +34,15 @@ class LocalExecutor:
         self.jobs = jobs or max(1, min(2, os.cpu_count() or 1))
 
     def map_unordered(self, fn, items):
-        with ThreadPoolExecutor(self.jobs) as pool:
+        pool = ThreadPoolExecutor(self.jobs)
+        try:
             futures = [pool.submit(fn, item) for item in items]
             for fut in as_completed(futures):
                 yield fut.result()
+        finally:
+            # interrupted (Ctrl-C, SIGTERM) or abandoned: the queued calls are dropped and only the running
+            # ones finish; a plain `with` would run every queued run of the campaign before exiting
+            pool.shutdown(wait=True, cancel_futures=True)
 
 
 class DaskExecutor:
@@ -50,8 +56,16 @@ class DaskExecutor:
     def map_unordered(self, fn, items):
         from distributed import as_completed as dask_completed
         futures = self.client.map(fn, list(items), pure=False)
-        for fut in dask_completed(futures):
-            yield fut.result()
+        try:
+            for fut in dask_completed(futures):
+                yield fut.result()
+        finally:   # interrupted: nothing more starts (a lost connection must not hide why we stopped)
+            pending = [f for f in futures if not f.done()]
+            if pending:
+                try:
+                    self.client.cancel(pending)
+                except Exception:  # noqa: BLE001
+                    pass
 
 
 def make_executor(jobs: int | None = None, scheduler: str | None = None):
@@ -74,7 +88,7 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
     todo, skipped = [], []
     for seed in seeds:
         bag = out_dir / bag_name(scenario.with_seed(seed))
-        if bag_is_complete(bag):
+        if bag_is_complete(bag) and not short_step_topics(bag):   # a bag short of its run is recorded again
             skipped.append(bag)
         else:
             todo.append(seed)
@@ -97,17 +111,18 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
 
     bar = _progress(len(seeds), desc or scenario.name)
     bar.update(len(skipped))
-    try:
-        for seed, outcome, first in executor.map_unordered(one, todo):
-            if first is not None:
-                result.retried.append((seed, first))
-                bar.write(f"seed {seed}: started over after: {first}")
-            if outcome.ok:
-                result.done.append(outcome.bag)
-            else:
-                result.failed.append((seed, outcome.reason))
-                bar.write(f"seed {seed}: {outcome.reason}")
-            bar.update(1)
+    try:   # closing: an interruption stops the executor at once, not when its traceback is collected
+        with closing(executor.map_unordered(one, todo)) as outcomes:
+            for seed, outcome, first in outcomes:
+                if first is not None:
+                    result.retried.append((seed, first))
+                    bar.write(f"seed {seed}: started over after: {first}")
+                if outcome.ok:
+                    result.done.append(outcome.bag)
+                else:
+                    result.failed.append((seed, outcome.reason))
+                    bar.write(f"seed {seed}: {outcome.reason}")
+                bar.update(1)
     finally:
         bar.close()
     return result

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import time
+from contextlib import closing
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,7 @@ from ..nodes import topics as T
 from ..paths import config_dir, thresholds_dir
 from ..storage.bag import BagError, bag_is_complete, read_bag, read_series
 from .campaign import LocalExecutor, _progress
+from .run import short_step_topics
 from ..paths import shown_path
 from .metrics import (RunEval, aggregate, observable_level, fdi_output_topics, health_from_bag, health_rows,
                       identification_figures, identification_from_bag, scenario_of, series_from_bag)
@@ -48,6 +50,10 @@ def _check_bag(bag: Path, curves: dict):
     if not bag_is_complete(bag):
         data = read_bag(bag, topics=["/scenario"])
         raise BagError(f"{bag.name}: incomplete bag ({data.note or 'no metadata.yaml'})")
+    short = short_step_topics(bag)
+    if short:
+        raise BagError(f"{bag.name}: {', '.join(short)} short of the run's end (its recorder lost messages and "
+                       "said so): record the run again")
     data = read_series(bag, topics=["/scenario", T.FAULT_EFFECT, T.ATTITUDE, T.PLANT_DONE])
     scenario = scenario_of(data)
     if data.last(T.PLANT_DONE) is None:   # read from the file: no replay (and no timeout) spent on it
@@ -141,12 +147,13 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
 
     for bag in done:
         collect(bag)
-    for pairs in executor.map_unordered(replay_chunk, replay_chunks(todo, getattr(executor, "jobs", 2))):
-        for bag, outcome in pairs:
-            if outcome.ok:
-                collect(bag)
-            else:
-                skip(bag, f"{bag.name}: replay failed: {outcome.reason}")
+    with closing(executor.map_unordered(replay_chunk, replay_chunks(todo, getattr(executor, "jobs", 2)))) as chunks:
+        for pairs in chunks:   # closing: an interruption stops the executor at once
+            for bag, outcome in pairs:
+                if outcome.ok:
+                    collect(bag)
+                else:
+                    skip(bag, f"{bag.name}: replay failed: {outcome.reason}")
     bar.close()
     runs.sort(key=lambda r: (r.scenario, r.seed))
     level = {obs: observable_level(curves) for obs in curves}

@@ -9,7 +9,8 @@ from pathlib import Path
 from ..core.scenario import Scenario, load_scenario
 from ..launch.graph import graph_nodes
 from ..launch.launcher import DomainLease, GraphProcesses, cleanup
-from ..storage.bag import BagError
+from ..nodes import topics as T
+from ..storage.bag import BagError, message_counts
 from .summary import run_summary
 
 
@@ -37,6 +38,15 @@ def resolve_scenario(ref: str, seed: int | None = None):
     if seed is not None:
         scenario = scenario.with_seed(seed)
     return scenario, str(path.resolve())
+
+
+def short_step_topics(bag) -> list:
+    """The per-step topics (topics.STEP_TOPICS) of a finished bag with fewer messages than the others: its
+    recorder lost messages and exited non-zero (a whole run has one of each per control step). Empty for a
+    bag that records no step topic (a replay's)."""
+    counts = message_counts(bag)
+    most = max((counts.get(t, 0) for t in T.STEP_TOPICS), default=0)
+    return [t for t in T.STEP_TOPICS if counts.get(t, 0) < most]
 
 
 def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | None = None,
