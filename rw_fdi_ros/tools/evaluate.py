@@ -50,16 +50,16 @@ def _check_bag(bag: Path, curves: dict):
     if not bag_is_complete(bag):
         data = read_bag(bag, topics=["/scenario"])
         raise BagError(f"{bag.name}: incomplete bag ({data.note or 'no metadata.yaml'})")
-    short = short_step_topics(bag)
-    if short:
-        raise BagError(f"{bag.name}: {', '.join(short)} short of the run's end (its recorder lost messages and "
-                       "said so): record the run again")
     data = read_series(bag, topics=["/scenario", T.FAULT_EFFECT, T.ATTITUDE, T.PLANT_DONE])
     scenario = scenario_of(data)
     if data.last(T.PLANT_DONE) is None:   # read from the file: no replay (and no timeout) spent on it
         end = data.info.span.get(T.ATTITUDE, [0, 0])[1] * 1e-9
         raise BagError(f"{bag.name}: short: the run stopped at {end:g} s of {scenario.duration:g} s "
                        "(no /plant/done: interrupted); evaluation judges whole runs")
+    short = short_step_topics(bag)   # after the reasons above: a bag without ground truth says that first
+    if short:
+        raise BagError(f"{bag.name}: {', '.join(short)} short of the run's end (its recorder lost messages and "
+                       "said so): record the run again")
     plant = PlantChoices.of_recording(scenario.plant)
     for c in curves.values():
         c.check_compatible(plant, origin=f"{bag.name}: curves")
