@@ -31,7 +31,7 @@ from ..core.wheel import WheelParams
 from . import topics as T
 from ..storage.cdr import clock_cdr, joint_state_cdr, read_vector_cdr, vector_cdr
 from .convert import fdi_telemetry_msg, step_stamp_ns, time_msg
-from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, main_for, wall_time
+from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for, wall_time
 
 
 class PlantNode(GraphNode):
@@ -99,9 +99,7 @@ class PlantNode(GraphNode):
         self.subs = [self.create_subscription(Vector3Stamped, T.tcv_command(a),
                                               lambda m, i=i: self._on_command(i, m), T.RELIABLE, raw=True)
                      for i, a in enumerate(AXES)]
-        self.recorder_is_ready = not self.param("recorder_ready")
-        if not self.recorder_is_ready:
-            self.create_subscription(String, T.RECORDER_READY, self._on_recorder_ready, T.LATCHED)
+        self.recorder = RecorderReady(self, self.param("recorder_ready"))
         self.commands = [None, None, None]
         self.started = False
         self.t_wait = wall_time()
@@ -126,11 +124,8 @@ class PlantNode(GraphNode):
         return SetParametersResult(successful=True)
 
     # -- lockstep ------------------------------------------------------------------
-    def _on_recorder_ready(self, msg):
-        self.recorder_is_ready = True
-
     def _graph_ready(self) -> bool:
-        if any(s.get_publisher_count() < 1 for s in self.subs) or not self.recorder_is_ready:
+        if any(s.get_publisher_count() < 1 for s in self.subs) or not self.recorder.seen:
             return False
         need = [(self.pub_attitude, self.param("attitude_readers")), (self.pub_fdi, self.param("fdi_readers"))]
         need += [(p, self.param("wait_for_subscribers")) for p in (self.pub_wheels, self.pub_effect, self.pub_clock,
@@ -148,7 +143,7 @@ class PlantNode(GraphNode):
             elif now - self.t_wait > self.param("startup_timeout"):
                 missing = [a for a, s in zip(AXES, self.subs) if s.get_publisher_count() < 1]
                 what = (f"no controller for axis {', '.join(missing)}" if missing else
-                        "subscribers missing" if self.recorder_is_ready else
+                        "subscribers missing" if self.recorder.seen else
                         f"the recorder never reported every topic matched on {T.RECORDER_READY}")
                 self.fail(f"graph not ready after {self.param('startup_timeout'):g} s ({what})", EXIT_TIMEOUT)
             return

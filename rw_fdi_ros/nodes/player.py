@@ -26,7 +26,7 @@ from std_msgs.msg import String
 from ..storage.bag import BagError, BagInfo, iter_messages, iter_time_order
 from . import topics as T
 from .convert import stamp_ns
-from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, main_for
+from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for
 
 PLANT_OUTPUTS = [T.CLOCK, T.ATTITUDE, T.WHEELS, T.FAULT_EFFECT, T.FDI_TELEMETRY, T.FAULT_TRUTH,
                  T.SCENARIO, T.PLANT_DONE]
@@ -76,11 +76,10 @@ class PlayerNode(GraphNode):
             self.pace_sub = self.create_subscription(DiagnosticArray, self.param("pace_topic"), self._on_pace,
                                                      T.RELIABLE)
         self.closed = set()
-        self.recorder_ready = not self.param("await_recorder")
+        # the recorder hears every FDI writer before the first bag goes out (nodes/recorder.py)
+        self.recorder = RecorderReady(self, self.param("await_recorder"))
         if self.param("await_recorder"):
             self.create_subscription(String, T.RECORDER_CLOSED, lambda m: self.closed.add(m.data), T.LATCHED)
-            # the recorder hears every FDI writer before the first bag goes out (nodes/recorder.py)
-            self.create_subscription(String, T.RECORDER_READY, self._on_recorder_ready, T.LATCHED)
         self.started = None
         self.last_progress = time.monotonic()
         self.run_index = -1
@@ -112,11 +111,8 @@ class PlayerNode(GraphNode):
         self.paced_until = max(self.paced_until, stamp_ns(msg.header.stamp))
         self.last_progress = time.monotonic()
 
-    def _on_recorder_ready(self, msg):
-        self.recorder_ready = True
-
     def _ready(self):
-        if not self.recorder_ready:
+        if not self.recorder.seen:
             return False
         need = self.param("min_subscribers")
         inputs = T.FDI_TELEMETRY not in self.pubs or self.pubs[T.FDI_TELEMETRY].get_subscription_count() >= need
@@ -127,7 +123,7 @@ class PlayerNode(GraphNode):
         if self.started is None:
             if not self._ready():
                 if now - self.last_progress > self.param("startup_timeout"):
-                    self.fail("no consumers for the replayed topics" if self.recorder_ready else
+                    self.fail("no consumers for the replayed topics" if self.recorder.seen else
                               f"the recorder never reported every FDI topic matched on {T.RECORDER_READY}",
                               EXIT_TIMEOUT)
                 return

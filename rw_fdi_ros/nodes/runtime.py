@@ -101,6 +101,21 @@ class GraphNode(Node):
             return None
 
 
+class RecorderReady:
+    """Whether the recorder has said /recorder/ready (latched): it hears the graph's writers. True at once
+    when not ``wanted`` (no recorder to wait for); the plant and the player start on it."""
+
+    def __init__(self, node: Node, wanted: bool):
+        self.seen = not wanted
+        if wanted:
+            from std_msgs.msg import String
+            from . import topics as T
+            node.create_subscription(String, T.RECORDER_READY, self._on_ready, T.LATCHED)
+
+    def _on_ready(self, msg):
+        self.seen = True
+
+
 def spin_node(factory, args=None) -> int:
     """Create the node, spin it until it finishes or a signal arrives, and return the exit code."""
     rclpy.init(args=args)
