@@ -6,7 +6,7 @@ from setuptools import find_packages, setup
 
 PACKAGE = "rw_fdi_ros"
 NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "model_observer", "isolation",
-         "player"]
+         "player"]   # rw_fdi_ros/nodes/entry.py: the same list
 
 
 
@@ -38,7 +38,7 @@ setup(
     description="Reaction-wheel FDI as a ROS 2 node graph",
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [f"{n} = {PACKAGE}.nodes.{n}:main" for n in NODES]
+        "console_scripts": [f"{n} = {PACKAGE}.nodes.entry:{n}" for n in NODES]
         + ["rw-fdi = rw_fdi_ros.cli:main"],
     },
 )

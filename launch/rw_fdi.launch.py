@@ -3,26 +3,31 @@
 It builds the same graph as `rw-fdi run` from rw_fdi_ros.launch.graph.graph_nodes,
 so both launchers start identical nodes with identical parameters: plant,
 three controllers, the FDI nodes (``fdi:=false`` leaves them out) and, with
-``bag``, the recorder. launch_ros hands parameters to a node in a YAML file,
-where a bare ``y`` would be read as a boolean: every string goes as
-``ParameterValue(..., value_type=str)``. The launch ends by itself: every
-node ends with the run, and a node that exits non-zero shuts the whole launch
-down with its name as the reason (OnProcessExit -> Shutdown), so a dead
-controller does not leave the others waiting. test/test_launch_file.py loads
-this file with a stub of the launch API (launch_ros is not installable here).
+``bag``, the recorder. Parameters go as they are: graph_nodes names wheels and
+axes by joint (``reaction_wheel_y``, ``attitude_y``) and paths absolutely, and
+refuses any string a YAML layer would retype (a bare ``y`` is a boolean to rcl).
+
+The launch ends by itself: every node ends with the run, and then the launch
+exits 0. A node that exits non-zero ends the run: launch shuts every other node
+down (SIGINT, so the recorder closes a readable bag) and ``ros2 launch`` exits 1
+naming the node ("Caught exception in launch ...: <node> exited with code N").
+test/test_ros2_launch.py runs this file under the real launch and launch_ros.
 
     ros2 launch rw_fdi_ros rw_fdi.launch.py scenario:=bus_5v5_x seed:=3 bag:=bags/demo
 """
 import os
 
 from launch import LaunchDescription
-from launch.actions import LogInfo, OpaqueFunction, RegisterEventHandler, SetEnvironmentVariable, Shutdown
+from launch.actions import DeclareLaunchArgument, OpaqueFunction, RegisterEventHandler, SetEnvironmentVariable
 from launch.event_handlers import OnProcessExit
 from launch.substitutions import LaunchConfiguration
-from launch.actions import DeclareLaunchArgument
 from launch_ros.actions import Node
-from launch_ros.parameter_descriptions import ParameterValue
 from rw_fdi_ros.paths import fastdds_profiles
+
+
+class RunFailed(RuntimeError):
+    """A node of the run exited non-zero. Raised from its exit handler: an exception is how launch
+    ends a launch with a non-zero return code (a Shutdown action alone exits 0)."""
 
 
 def _nodes(context):
@@ -34,25 +39,20 @@ def _nodes(context):
     fdi = LaunchConfiguration("fdi").perform(context).lower() in ("true", "1", "yes")
     method = LaunchConfiguration("fdi_method").perform(context)
     nodes = graph_nodes(scenario, path, bag, fdi={"method": method} if fdi else None)
-    actions = [Node(package="rw_fdi_ros", executable=n.executable, name=n.name, parameters=[_typed(n.parameters)],
+    actions = [Node(package="rw_fdi_ros", executable=n.executable, name=n.name, parameters=[n.parameters],
                     output="screen") for n in nodes]
     return actions + [RegisterEventHandler(OnProcessExit(target_action=a, on_exit=_on_exit(n.name)))
                       for a, n in zip(actions, nodes)]
 
 
 def _on_exit(name: str):
-    """A node that fails ends the launch, naming itself; a clean exit is a node that saw the run end."""
+    """A node that fails ends the launch with code 1, naming itself; a clean exit is a node that saw
+    the run end. Exits while the launch is already shutting down are its SIGINT, not a new failure."""
     def on_exit(event, context):
-        if event.returncode != 0:
-            reason = f"{name} exited with code {event.returncode}"
-            return [LogInfo(msg=f"{reason}: ending the run"), Shutdown(reason=reason)]
+        if event.returncode != 0 and not context.is_shutdown:
+            raise RunFailed(f"{name} exited with code {event.returncode}")
         return None
     return on_exit
-
-
-def _typed(parameters: dict) -> dict:
-    """Strings stay strings through launch_ros' YAML parameter file (``axis: y`` is not a boolean)."""
-    return {k: ParameterValue(v, value_type=str) if isinstance(v, str) else v for k, v in parameters.items()}
 
 
 def generate_launch_description():

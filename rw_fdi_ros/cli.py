@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -260,6 +261,8 @@ def _cmd_bag(args) -> int:
         return 0
     if T.ATTITUDE in info.counts:
         print(format_summary(run_summary(args.bag)))
+        if T.PLANT_DONE not in info.counts:   # what a script checks after a launch that ended early
+            print(f"  run interrupted: no {T.PLANT_DONE} (the plant did not reach the run's end)")
     if T.fdi_output_topics("elman")["alarm"] in info.counts:
         from .tools.fdi import fdi_verdict, format_verdict, plot_residuals, verdict_topics
         from .tools.metrics import health_from_bag
@@ -271,6 +274,30 @@ def _cmd_bag(args) -> int:
     return 0
 
 
+def number(kind=float, low=None, high=None, low_open=False):
+    """An argparse type: ``kind`` (int or float), finite, within [low, high] (``low_open``: > low).
+    argparse turns its ValueError into one line naming the option, before anything starts."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {'an integer' if kind is int else 'a number'}")
+        if kind is float and not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+        below = low is not None and (value <= low if low_open else value < low)
+        if below or (high is not None and value > high):
+            bounds = ([f"{'>' if low_open else '>='} {low}"] if low is not None else []) + \
+                ([f"<= {high}"] if high is not None else [])
+            raise argparse.ArgumentTypeError(f"{text} is out of range: must be {' and '.join(bounds)}")
+        return value
+    parse.__name__ = kind.__name__   # argparse names the type in its message
+    return parse
+
+
+COUNT = number(int, 1)            # runs, jobs, epochs, persistence: at least one
+SEED = number(int, 0, 2**63 - 1)  # numpy's seeds: non-negative
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .core.detection import FALSE_ALARM_RATE, METHODS
     p = argparse.ArgumentParser(prog="rw-fdi", description="Reaction-wheel FDI on a ROS 2 node graph.")
@@ -279,16 +306,17 @@ def build_parser() -> argparse.ArgumentParser:
     models = argparse.ArgumentParser(add_help=False)
     models.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
     persistence = argparse.ArgumentParser(add_help=False)
-    persistence.add_argument("--persistence", type=int, default=None,
+    persistence.add_argument("--persistence", type=COUNT, default=None,
                              help="samples above the threshold before an alarm (P; default: the threshold file's; "
                                   "fit-thresholds fits for 3 speed_aware, 5 thesis and writes it in the file)")
     fdi_files = argparse.ArgumentParser(add_help=False, parents=[models, persistence])
     fdi_files.add_argument("--thresholds", default=None, help="threshold directory (default: config/fdi)")
     false_alarms = argparse.ArgumentParser(add_help=False)
-    false_alarms.add_argument("--false-alarm-rate", type=float, default=FALSE_ALARM_RATE,
+    false_alarms.add_argument("--false-alarm-rate", type=number(float, 0, 1, low_open=True),
+                              default=FALSE_ALARM_RATE,
                               help="designed per-run false-alarm probability (speed_aware; default %(default)g)")
     unit = argparse.ArgumentParser(add_help=False)
-    unit.add_argument("--unit-calibration", type=float, default=0.0, metavar="SECONDS",
+    unit.add_argument("--unit-calibration", type=number(float, 0), default=0.0, metavar="SECONDS",
                       help="the observers learn each wheel's own unit from the first SECONDS of a run, assumed "
                            "healthy (core/calibration.py; speed_aware only; default 0: the datasheet wheel; "
                            "shipped thresholds for 150)")
@@ -298,18 +326,19 @@ def build_parser() -> argparse.ArgumentParser:
                              "thesis (2-input Elman, |r - r^|, mean + 3 sigma curves); without --models it "
                              "picks config/fdi or config/fdi/thesis")
     jobs = argparse.ArgumentParser(add_help=False)
-    jobs.add_argument("--jobs", type=int, default=None, help="graphs at once (default: 2 on 2 cores)")
+    jobs.add_argument("--jobs", type=COUNT, default=None, help="graphs at once (default: 2 on 2 cores)")
     cluster = argparse.ArgumentParser(add_help=False, parents=[jobs])
     cluster.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
 
     r = sub.add_parser("run", help="run one scenario through the whole graph and record a bag",
                        parents=[fdi_files, method, unit])
     r.add_argument("--scenario", required=True, help="scenario name (see `rw-fdi scenarios`) or YAML file")
-    r.add_argument("--seed", type=int, default=None, help="seed for initial conditions and disturbance")
+    r.add_argument("--seed", type=SEED, default=None, help="seed for initial conditions and disturbance")
     r.add_argument("--out", default="bags", help="directory for the bag (default: bags/)")
     r.add_argument("--emf-limit", default=None, choices=["kf_scaled", "pwm_saturation"],
                    help="EMF torque-limiting model (physics.md [choice]; default: the scenario's, else kf_scaled)")
-    r.add_argument("--command-timeout", type=float, default=5.0, help="wall seconds the plant waits for a command")
+    r.add_argument("--command-timeout", type=number(float, 0, low_open=True), default=5.0,
+                   help="wall seconds the plant waits for a command")
     r.add_argument("--keep-logs", action="store_true", help="keep node logs also after a successful run")
     r.add_argument("--no-fdi", dest="fdi", action="store_false",
                    help="without the observers and isolation (plant, controllers, recorder only)")
@@ -318,8 +347,8 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("campaign", help="record N runs of a scenario (seeds S..S+N-1), resumable",
                        parents=[cluster])
     c.add_argument("--scenario", required=True, help="scenario name or YAML file")
-    c.add_argument("--runs", type=int, required=True)
-    c.add_argument("--seed-start", type=int, default=1)
+    c.add_argument("--runs", type=COUNT, required=True)
+    c.add_argument("--seed-start", type=SEED, default=1)
     c.add_argument("--out", required=True, help="directory for the bags")
     c.add_argument("--fdi", action="store_true", help="run the observers and isolation live too")
     c.set_defaults(func=_cmd_campaign)
@@ -330,8 +359,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--out", required=True, help="model directory to write (elman_<axis>.npz + cards)")
     t.add_argument("--mode", default="recall", choices=["recall", "teacher"],
                    help="recall: trained on its own feedback (ours); teacher: delayed measured torque (thesis)")
-    t.add_argument("--runs", type=int, default=None, help="use only the first N bags (thesis: 1)")
-    t.add_argument("--epochs", type=int, default=None,
+    t.add_argument("--runs", type=COUNT, default=None, help="use only the first N bags (thesis: 1)")
+    t.add_argument("--epochs", type=COUNT, default=None,
                    help="default: 1000 speed_aware, 300 thesis (tools/train.EPOCHS)")
     t.set_defaults(func=_cmd_train)
 
@@ -352,10 +381,10 @@ def build_parser() -> argparse.ArgumentParser:
                        parents=[jobs, false_alarms])
     d.add_argument("--work", default="bags/defaults", help="where the campaigns' bags go (resumable)")
     d.add_argument("--out", default=None, help="default: config/fdi")
-    d.add_argument("--fit-runs", type=int, default=100)
-    d.add_argument("--heldout-runs", type=int, default=20)
-    d.add_argument("--train-runs", type=int, default=40)
-    d.add_argument("--epochs", type=int, default=None, help="speed-aware set (default 1000; the thesis set: 300)")
+    d.add_argument("--fit-runs", type=COUNT, default=100)
+    d.add_argument("--heldout-runs", type=COUNT, default=20)
+    d.add_argument("--train-runs", type=COUNT, default=40)
+    d.add_argument("--epochs", type=COUNT, default=None, help="speed-aware set (default 1000; the thesis set: 300)")
     d.set_defaults(func=_cmd_defaults)
 
     e = sub.add_parser("evaluate", help="replay bags through the observers and isolation; write the report",
@@ -390,18 +419,18 @@ def build_parser() -> argparse.ArgumentParser:
                         "with and without unit calibration (core loop); memory: peak memory of the run summary, "
                         "`rw-fdi bag` and evaluation for fault-free runs of --hours (recorded, minutes)")
     b.add_argument("--hours", default="1,6", help="memory: run lengths in hours, comma-separated (default 1,6)")
-    b.add_argument("--fault-free-runs", type=int, default=1000, help="detection, units: fault-free runs")
-    b.add_argument("--runs-per-cell", type=int, default=None,
+    b.add_argument("--fault-free-runs", type=COUNT, default=1000, help="detection, units: fault-free runs")
+    b.add_argument("--runs-per-cell", type=COUNT, default=None,
                    help="detection: runs per fault or ripple case (default 200); identification: per grid size "
                         "(default 100)")
-    b.add_argument("--thesis-runs", type=int, default=None,
+    b.add_argument("--thesis-runs", type=COUNT, default=None,
                    help="identification: runs per thesis size (default 200; the bus 340, as 6 in 10 are observable)")
     b.add_argument("--out", default=None, help="detection / identification / units / memory: report directory "
                                                 "(default reports/<what>)")
-    b.add_argument("--runs", type=int, default=8, help="study: runs to record and replay")
-    b.add_argument("--jobs", type=int, default=None, help="study: runs at a time (default: 2)")
-    b.add_argument("--duration", type=float, default=400.0)
-    b.add_argument("--seed", type=int, default=1)
+    b.add_argument("--runs", type=COUNT, default=8, help="study: runs to record and replay")
+    b.add_argument("--jobs", type=COUNT, default=None, help="study: runs at a time (default: 2)")
+    b.add_argument("--duration", type=number(float, 0, low_open=True), default=400.0)
+    b.add_argument("--seed", type=SEED, default=1)
     b.add_argument("--json", action="store_true")
     b.set_defaults(func=_cmd_bench)
 

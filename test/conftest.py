@@ -23,6 +23,13 @@ from rw_fdi_ros.core.wheel import bus_fault_visible_above  # noqa: E402
 from rw_fdi_ros.tools.fdi import run_with_fdi  # noqa: E402
 
 
+@pytest.fixture(scope="session")
+def colcon_workspace(tmp_path_factory):
+    """A colcon workspace with a clean copy of the tree built (test/colcon_ws.py), shared by the session."""
+    from colcon_ws import build_workspace
+    return build_workspace(tmp_path_factory.mktemp("ws"))
+
+
 def bus_seed():
     """A seed whose X wheel spins fast enough for a 5.5 V bus to matter (physics.md)."""
     fast = bus_fault_visible_above(5.5) + 2.0

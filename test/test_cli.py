@@ -33,3 +33,35 @@ def test_the_shared_defaults_are_what_they_were():
     assert parse(["reproduce", "--out", "x", "--persistence", "4"]).persistence == 4
     assert parse(["fit-thresholds", "--out", "x"]).persistence is None
     assert parse(["bench", "study", "--jobs", "3"]).jobs == 3
+
+
+BAD = {"--persistence": ["-2", "0", "x"], "--jobs": ["0", "-1"], "--seed": ["-1", "1.5"],
+       "--unit-calibration": ["-1", "nan", "inf"], "--false-alarm-rate": ["0", "1.5", "nan"],
+       "--runs": ["0"], "--epochs": ["0"], "--command-timeout": ["0", "-3"], "--duration": ["0", "-inf"],
+       "--fault-free-runs": ["0"], "--seed-start": ["-5"]}
+
+
+def numeric_options():
+    """(command, option, action) of every option that takes a number (int or float type)."""
+    for name, parser in commands().items():
+        for action in parser._actions:
+            kind = getattr(action.type, "__name__", "")
+            if action.option_strings and kind in ("int", "float"):
+                yield name, action.option_strings[0], action
+
+
+def test_every_numeric_option_is_range_checked_before_anything_starts(capsys):
+    """`--persistence -2` made every wheel alarm from t = 0 with nothing said (issue 26): every numeric
+    option now goes through cli.number, and a value out of its range is one line and exit 2."""
+    options = list(numeric_options())
+    assert len(options) >= 20
+    plain = [(c, o) for c, o, a in options if a.type in (int, float)]
+    assert not plain, f"numeric options without a range: {plain}"
+    for command, option, _ in options:
+        for bad in BAD.get(option, []):
+            with pytest.raises(SystemExit) as exc:
+                build_parser().parse_args([command, option, bad])
+            assert exc.value.code == 2
+            err = capsys.readouterr().err.strip().splitlines()[-1]
+            assert err.startswith(f"rw-fdi {command}: error: argument {option}"), err
+    assert build_parser().parse_args(["run", "--scenario", "s", "--persistence", "3", "--seed", "0"]).persistence == 3

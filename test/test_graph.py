@@ -257,9 +257,12 @@ def test_plant_alone_from_its_console_script():
     assert r.returncode == 3 and "no controller for axis x, y, z" in r.stderr
 
 
-def test_controller_alone_rejects_bad_axis():
-    r = node_alone("pid_controller", "-p", "axis:=w")
-    assert r.returncode == 2 and "axis must be one of x, y, z" in r.stderr
+def test_nodes_alone_reject_a_joint_they_do_not_have():
+    r = node_alone("pid_controller", "-p", "joint:=attitude_w")
+    assert r.returncode == 2 and "joint must be one of attitude_x, attitude_y, attitude_z" in r.stderr
+    # a bare axis letter is what YAML retypes (`y` is a boolean to rcl): named joints never are
+    r = node_alone("elman_observer", "-p", "wheel:=y")
+    assert r.returncode != 0 and "Traceback" not in r.stderr and "wheel" in r.stderr
 
 
 def test_a_campaign_starts_a_hung_graph_over_once(monkeypatch, tmp_path):

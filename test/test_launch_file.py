@@ -1,163 +1,276 @@
-"""launch/rw_fdi.launch.py builds the graph our launcher builds.
+"""launch/rw_fdi.launch.py under the real `launch` and `launch_ros` (test/launch_api.py).
 
-`launch` and `launch_ros` are not installable here, so the file is loaded with a stub of the few
-names it uses; the stub records what the file asks for. What launch_ros would do with it (a YAML
-parameter file per node) is then checked by reading the parameters back as rcl does: YAML.
+- `ros2 launch` of the installed file (a colcon install of a clean copy), a faulty scenario with the FDI
+  nodes: every node starts and ends by itself, so does the launch (exit 0), and the bag is a whole run
+  with the right verdict.
+- A node killed mid-run: the launch ends promptly with a non-zero exit naming it, every other node is
+  stopped, and the bag is readable up to the failure and says the run was interrupted.
+- Without running: the parameter files launch_ros writes for each node, read back by rcl itself,
+  hold exactly our launcher's parameters (three argument sets), strings as strings.
 """
 import importlib.util
+import json
+import os
+import signal
+import subprocess
 import sys
-import types
+import time
 from pathlib import Path
 
 import pytest
-import yaml
 
-from rw_fdi_ros.launch.graph import graph_nodes
-from rw_fdi_ros.launch.launcher import node_command
+from colcon_ws import colcon_env
+from launch_api import launch_env, ros2_launch_command, use_launch
+from rw_fdi_ros.launch.graph import graph_nodes, misread_by_yaml
+from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.tools.run import resolve_scenario
 
-LAUNCH_FILE = Path(__file__).resolve().parents[1] / "launch" / "rw_fdi.launch.py"
+ROOT = Path(__file__).resolve().parents[1]
+SOURCE_LAUNCH_FILE = ROOT / "launch" / "rw_fdi.launch.py"
+FAULT = """name: {name}
+duration: {duration}
+seed: 3
+faults:
+  - {{kind: current_limiter, wheel: x, onset: 40, value: 0.6}}
+"""
 
 
-class _Recorded:
-    def __init__(self, *args, **kwargs):
-        self.args, self.kwargs = args, kwargs
+BURNT = []   # domain leases held to the end of the session
 
 
-class ParameterValue(_Recorded):
-    def __init__(self, value, value_type=None):
-        super().__init__(value, value_type=value_type)
-        self.value, self.value_type = value, value_type
+class Launch:
+    """`ros2 launch` of the installed launch file in its own session and private domain; torn down
+    (SIGINT to the group, SIGKILL after a grace period) whatever happens to the test."""
+
+    def __init__(self, ws: Path, work: Path, *arguments):
+        self.lease = DomainLease()
+        env = launch_env(colcon_env())
+        env.update(ROS_DOMAIN_ID=str(self.lease.domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+                   ROS_LOG_DIR=str(work / "ros_log"), PYTHONUNBUFFERED="1")
+        launch_file = ws / "install" / "rw_fdi_ros" / "share" / "rw_fdi_ros" / "launch" / "rw_fdi.launch.py"
+        command = " ".join(f"'{a}'" for a in ros2_launch_command(sys.executable, launch_file, *arguments))
+        self.log = work / "launch.log"
+        with open(self.log, "w") as out:
+            self.proc = subprocess.Popen(["bash", "-c", f"source {ws / 'install' / 'setup.bash'} && exec {command}"],
+                                         cwd=work, env=env, stdout=out, stderr=subprocess.STDOUT,
+                                         stdin=subprocess.DEVNULL, start_new_session=True)
+
+    def wait(self, timeout: float) -> int:
+        try:
+            return self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"ros2 launch did not end within {timeout:g} s:\n{self.output()[-3000:]}")
+
+    def output(self) -> str:
+        return self.log.read_text(errors="replace")
+
+    def close(self, reuse_domain: bool = True):
+        if self.proc.poll() is None:
+            os.killpg(self.proc.pid, signal.SIGINT)
+            try:
+                self.proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                pass
+        try:
+            os.killpg(self.proc.pid, signal.SIGKILL)   # the launch's children too, whatever state they are in
+        except ProcessLookupError:
+            pass
+        self.proc.wait(timeout=10)
+        if reuse_domain:
+            self.lease.release()
+        else:   # a SIGKILLed participant's shared-memory ports linger: no later test of this session gets it
+            BURNT.append(self.lease)
 
 
-class LaunchConfiguration:
-    def __init__(self, name):
-        self.name = name
+def node_pids(output: str) -> dict:
+    """launch's `[<exe>-<k>]: process started with pid [N]` lines, keyed by the process label."""
+    out = {}
+    for line in output.splitlines():
+        if "process started with pid [" in line:
+            label = line.split("]: process started")[0].rsplit("[", 1)[1]
+            out[label] = int(line.rsplit("[", 1)[1].rstrip("]"))
+    return out
 
-    def perform(self, context):
-        return context[self.name]
+
+def expected_nodes(scenario_file: Path, bag: Path):
+    scenario, path = resolve_scenario(str(scenario_file))
+    return graph_nodes(scenario, path, bag, fdi={"method": "speed_aware"})
 
 
-@pytest.fixture
-def launch_module(monkeypatch):
-    """The launch file imported against the stub API."""
-    stubs = {
-        "launch": {"LaunchDescription": lambda actions: list(actions)},
-        "launch.actions": {"OpaqueFunction": _Recorded, "SetEnvironmentVariable": _Recorded,
-                           "DeclareLaunchArgument": _Recorded, "RegisterEventHandler": _Recorded,
-                           "LogInfo": _Recorded, "Shutdown": _Recorded},
-        "launch.event_handlers": {"OnProcessExit": _Recorded},
-        "launch.substitutions": {"LaunchConfiguration": LaunchConfiguration},
-        "launch_ros": {}, "launch_ros.actions": {"Node": _Recorded},
-        "launch_ros.parameter_descriptions": {"ParameterValue": ParameterValue},
-    }
-    for name, attrs in stubs.items():
-        module = types.ModuleType(name)
-        module.__dict__.update(attrs)
-        monkeypatch.setitem(sys.modules, name, module)
-    spec = importlib.util.spec_from_file_location("rw_fdi_launch", LAUNCH_FILE)
+def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_verdict(colcon_workspace, tmp_path):
+    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.storage.bag import bag_info, read_series
+    from rw_fdi_ros.tools.fdi import fdi_verdict, verdict_topics
+    scenario = tmp_path / "short_loss.yaml"
+    scenario.write_text(FAULT.format(name="short_loss", duration=90))
+    bag = tmp_path / "bag"
+    launch = Launch(colcon_workspace, tmp_path, f"scenario:={scenario}", f"bag:={bag}")
+    try:
+        code = launch.wait(timeout=240)
+        output = launch.output()
+    finally:
+        launch.close()
+    assert code == 0, output[-3000:]
+    started = node_pids(output)
+    nodes = expected_nodes(scenario, bag)
+    assert len(started) == len(nodes) == 11, output[-3000:]
+    for label in started:   # each ended by itself: exit 0, and launch never had to signal it
+        assert f"[{label}]: process has finished cleanly" in output, label
+    assert "sending signal" not in output and "Caught exception" not in output, output[-3000:]
+    info = bag_info(bag)
+    assert info.complete and T.PLANT_DONE in info.counts, info.note
+    counts = {info.counts[t] for t in T.STEP_TOPICS}
+    assert counts == {901}, counts   # 0..90 s at 0.1 s on every per-step topic
+    verdict = fdi_verdict(read_series(bag, verdict_topics()))
+    elman = verdict["elman"]
+    assert elman["x"] and not elman["y"] and not elman["z"], verdict
+    assert elman["x"][0][0] >= 40.0, verdict   # alarm intervals: none before the onset
+    assert verdict["identification"], verdict
+
+
+def test_a_node_killed_mid_run_ends_the_launch_with_a_failure_and_a_readable_bag(colcon_workspace, tmp_path):
+    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.storage.bag import bag_info
+    scenario = tmp_path / "long_loss.yaml"
+    scenario.write_text(FAULT.format(name="long_loss", duration=2000))
+    bag = tmp_path / "bag"
+    launch = Launch(colcon_workspace, tmp_path, f"scenario:={scenario}", f"bag:={bag}")
+    try:
+        deadline = time.monotonic() + 120
+        mcap = bag / "bag.mcap"
+        # mid-run: the recorder has flushed chunks of the run (one per 10 s of sim time)
+        while not (mcap.is_file() and mcap.stat().st_size > 200_000):
+            assert launch.proc.poll() is None and time.monotonic() < deadline, launch.output()[-3000:]
+            time.sleep(0.2)
+        victim = next(pid for label, pid in node_pids(launch.output()).items() if label.startswith("pid_controller"))
+        command = Path(f"/proc/{victim}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+        name = command.split("__node:=")[1].split()[0]
+        os.kill(victim, signal.SIGKILL)
+        killed = time.monotonic()
+        code = launch.wait(timeout=60)
+        ended = time.monotonic() - killed
+        output = launch.output()
+    finally:
+        launch.close(reuse_domain=False)
+    assert code != 0, output[-3000:]
+    assert f"{name} exited with code -9" in output, output[-3000:]
+    assert ended < 20, ended   # launch's own SIGINT -> SIGTERM -> SIGKILL ladder is 10 s at most
+    assert "sending signal 'SIGINT'" in output   # launch stopped the others the ROS way
+    for label in node_pids(output):   # and every one of them ended
+        assert f"[{label}]: process has finished cleanly" in output or f"[{label}]: process has died" in output
+    info = bag_info(bag)   # readable up to the failure, closed by the recorder on launch's SIGINT
+    assert info.counts.get(T.ATTITUDE, 0) > 100 and T.PLANT_DONE not in info.counts, info.counts
+    shown = subprocess.run([sys.executable, "-m", "rw_fdi_ros.cli", "bag", str(bag)], capture_output=True,
+                           text=True, timeout=120, cwd=ROOT)
+    assert shown.returncode == 0 and "run interrupted: no /plant/done" in shown.stdout, shown.stdout + shown.stderr
+
+
+def _launch_file_module():
+    use_launch()
+    spec = importlib.util.spec_from_file_location("rw_fdi_launch", SOURCE_LAUNCH_FILE)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
-def launched(module, **overrides):
-    """The Node actions the launch file makes for its arguments (defaults, then ``overrides``)."""
-    actions = module.generate_launch_description()
-    args = {a.args[0]: a.kwargs.get("default_value", "") for a in actions if "description" in a.kwargs}
-    opaque = next(a for a in actions if "function" in a.kwargs)
-    made = opaque.kwargs["function"]({**args, **overrides})
-    return [a for a in made if "executable" in a.kwargs]
+def parameter_files(overrides: dict) -> list:
+    """(node name, executable, params file launch_ros writes) of the launch file's nodes for ``overrides``:
+    the real launch context, the file's OpaqueFunction, launch_ros' own substitution of parameters."""
+    use_launch()
+    from launch import LaunchContext
+    from launch.actions import DeclareLaunchArgument, OpaqueFunction
+    from launch_ros.actions import Node
+    description = _launch_file_module().generate_launch_description()
+    context = LaunchContext()
+    for entity in description.entities:
+        if isinstance(entity, DeclareLaunchArgument):
+            context.launch_configurations[entity.name] = "".join(s.perform(context) for s in entity.default_value)
+    context.launch_configurations.update(overrides)
+    opaque = next(e for e in description.entities if isinstance(e, OpaqueFunction))
+    out = []
+    for action in opaque.execute(context):
+        if isinstance(action, Node):
+            action._perform_substitutions(context)
+            files = action._Node__expanded_parameter_arguments
+            assert len(files) == 1 and files[0][1], files
+            out.append((action.node_name.rsplit("/", 1)[-1], action.node_executable, files[0][0]))
+    return out
 
 
-def exit_handlers(module, **overrides):
-    actions = module.generate_launch_description()
-    args = {a.args[0]: a.kwargs.get("default_value", "") for a in actions if "description" in a.kwargs}
-    made = next(a for a in actions if "function" in a.kwargs).kwargs["function"]({**args, **overrides})
-    nodes = [a for a in made if "executable" in a.kwargs]
-    return nodes, [a.args[0] for a in made if a.args and "target_action" in getattr(a.args[0], "kwargs", {})]
+READ_BACK = """
+import json, sys, rclpy
+from rclpy.node import Node
+out = {}
+for name, path in json.loads(sys.argv[1]):
+    rclpy.init(args=["--ros-args", "--params-file", path])
+    node = Node(name, automatically_declare_parameters_from_overrides=True)
+    out[name] = {p.name: [p.type_.name, p.value if not isinstance(p.value, (list, tuple)) else list(p.value)]
+                 for p in node._parameters.values() if p.name not in ("use_sim_time", "start_type_description_service")}
+    node.destroy_node()
+    rclpy.shutdown()
+print(json.dumps(out))
+"""
 
 
-# unquoted scalars rcl's parameter parser takes for booleans (the issue that found this: `axis: y`
-# reached pid_controller_y as BOOL True)
-RCL_BOOLEANS = {"y": True, "yes": True, "true": True, "on": True, "n": False, "no": False, "false": False,
-                "off": False}
+def rcl_reads(files: list) -> dict:
+    """name -> parameter -> [type, value] as rcl parses each params file for a node of that name."""
+    got = subprocess.run([sys.executable, "-c", READ_BACK, json.dumps(files)], capture_output=True, text=True,
+                         timeout=120, env=dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"))
+    assert got.returncode == 0, got.stderr[-2000:]
+    return json.loads(got.stdout.strip().splitlines()[-1])
 
 
-def as_rcl_reads_it(value):
-    """What rcl makes of a parameter that launch_ros writes to its YAML parameter file: a typed
-    string is written quoted and stays a string; a plain string goes unquoted and rcl guesses its
-    type; anything else round-trips."""
-    if isinstance(value, ParameterValue):
-        assert value.value_type is str
-        return value.value
-    if isinstance(value, str):
-        if value.lower() in RCL_BOOLEANS:
-            return RCL_BOOLEANS[value.lower()]
-        return yaml.safe_load(value)
-    return yaml.safe_load(yaml.safe_dump(value))
+def _rcl_type(value) -> str:
+    if isinstance(value, (list, tuple)):
+        return {float: "DOUBLE_ARRAY", str: "STRING_ARRAY", int: "INTEGER_ARRAY"}[type(value[0])]
+    return {bool: "BOOL", int: "INTEGER", float: "DOUBLE", str: "STRING"}[type(value)]
 
 
 @pytest.mark.parametrize("overrides, fdi, bag", [
     ({"scenario": "bus_5v5_x", "seed": "3", "bag": "bags/demo"}, {"method": "speed_aware"}, "bags/demo"),
     ({"scenario": "fault_free", "fdi": "false"}, None, None),
     ({"scenario": "current_0p6_x", "fdi_method": "thesis"}, {"method": "thesis"}, None)])
-def test_launch_file_starts_the_graph_of_our_launcher(launch_module, overrides, fdi, bag):
-    nodes = launched(launch_module, **overrides)
+def test_rcl_reads_our_launchers_parameters_from_the_files_launch_ros_writes(overrides, fdi, bag):
+    files = parameter_files(overrides)
     seed = int(overrides.get("seed", "-1"))
     scenario, path = resolve_scenario(overrides["scenario"], seed if seed >= 0 else None)
     ours = graph_nodes(scenario, path, Path(bag) if bag else None, fdi=fdi)
-    assert [(n.kwargs["executable"], n.kwargs["name"]) for n in nodes] == [(n.executable, n.name) for n in ours]
-    assert all(n.kwargs["package"] == "rw_fdi_ros" for n in nodes)
-    for node, spec in zip(nodes, ours):
-        # no remapping on either side: the topics are the nodes' own names (nodes/topics.py)
-        assert not node.kwargs.get("remappings") and not node.kwargs.get("ros_arguments"), spec.name
-        cmd = node_command(spec, "params.yaml")
-        remaps = [cmd[i + 1] for i, a in enumerate(cmd) if a in ("-r", "--remap")]
-        assert remaps == [f"__node:={spec.name}"], cmd
-        (params,) = node.kwargs["parameters"]
-        assert {k: as_rcl_reads_it(v) for k, v in params.items()} == spec.parameters, spec.name
+    assert [(name, exe) for name, exe, _ in files] == [(n.name, n.executable) for n in ours]
+    got = rcl_reads([(name, path) for name, _, path in files])
+    for spec in ours:
+        typed = {k: [_rcl_type(v), list(v) if isinstance(v, (list, tuple)) else v]
+                 for k, v in spec.parameters.items() if not (isinstance(v, (list, tuple)) and not v)}
+        assert got[spec.name] == typed, spec.name
     if fdi is not None:
-        names = {n.kwargs["name"] for n in nodes}
-        assert {"elman_observer_x", "elman_observer_y", "elman_observer_z", "linear_observer", "isolation"} <= names
+        assert {"elman_observer_x", "elman_observer_y", "elman_observer_z", "linear_observer",
+                "isolation"} <= {n.name for n in ours}
+    assert "recorder" in got if bag else "recorder" not in got
 
 
-def test_a_bare_axis_letter_would_reach_the_node_as_a_boolean():
-    """Why the launch file types its strings, and that this test's model of rcl would see it."""
-    assert as_rcl_reads_it("y") is True and as_rcl_reads_it("x") == "x"
-    assert as_rcl_reads_it(ParameterValue("y", value_type=str)) == "y"
+RETYPED = ["y", "n", "Y", "yes", "no", "on", "off", "true", "False", "1.5", "7", "0x10", "1e3", "~", "null", "",
+           "x: 1"]
 
 
-RETYPED = ["y", "n", "Y", "yes", "no", "on", "off", "true", "False", "1.5", "7", "0x10", "~", "null", "", "x: 1"]
+def test_a_string_a_yaml_layer_would_retype_is_refused_before_any_node_starts():
+    """graph_nodes names things so that no YAML layer can misread them; the guard behind that."""
+    assert all(misread_by_yaml(v) for v in RETYPED)
+    assert not any(misread_by_yaml(v) for v in ["attitude_y", "reaction_wheel_n", "speed_aware", "/tmp/1e3",
+                                                "kf_scaled", "mean"])
+    scenario, path = resolve_scenario("fault_free")
+    assert all(p["output"].startswith("/") for p in [n.parameters for n in graph_nodes(scenario, path, Path("1e3"))
+                                                     if n.name == "recorder"])
+    from rw_fdi_ros.launch.graph import NodeSpec, checked_strings
+    with pytest.raises(ValueError, match="probe: parameter axis='y'"):
+        checked_strings([NodeSpec("probe", "plant", {"axis": "y"})])
 
 
 def test_strings_yaml_would_retype_reach_a_node_intact_through_our_params_file(tmp_path):
-    """Our launcher hands parameters over as launch_ros does, a --params-file that rcl parses; a
-    node started with it gets back every string, typed as a string (and numbers as numbers)."""
-    import json
-    import subprocess
-    import sys
+    """Our own launcher hands parameters over as a --params-file too: every string quoted, so a node
+    started with it gets back every string as a string (and numbers as numbers)."""
     from rw_fdi_ros.launch.graph import NodeSpec
     from rw_fdi_ros.launch.launcher import write_params_file
     values = {f"p{i}": v for i, v in enumerate(RETYPED)} | {"number": 2.5, "count": 3, "flag": True}
     path = write_params_file([NodeSpec("probe", "plant", values)], tmp_path / "params.yaml")
-    script = ("import json, rclpy\nfrom rclpy.node import Node\nrclpy.init(args=['--ros-args', '--params-file', "
-              f"{str(path)!r}])\nn = Node('probe', automatically_declare_parameters_from_overrides=True)\n"
-              "print(json.dumps({p.name: [p.type_.name, p.value] for p in n._parameters.values()}))")
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
-    assert out.returncode == 0, out.stderr
-    got = json.loads(out.stdout.strip().splitlines()[-1])
+    got = rcl_reads([("probe", str(path))])["probe"]
     for name, value in values.items():
-        kind = {str: "STRING", float: "DOUBLE", int: "INTEGER", bool: "BOOL"}[type(value)]
-        assert got[name] == [kind, value], (name, value, got.get(name))
-
-
-def test_a_failing_node_ends_the_launch_and_a_clean_exit_does_not(launch_module):
-    """Every node has an exit handler; a non-zero exit shuts the launch down naming the node."""
-    nodes, handlers = exit_handlers(launch_module, scenario="bus_5v5_x", bag="bags/demo")
-    assert [h.kwargs["target_action"] for h in handlers] == nodes
-    by_name = {h.kwargs["target_action"].kwargs["name"]: h.kwargs["on_exit"] for h in handlers}
-    failed = by_name["pid_controller_y"](types.SimpleNamespace(returncode=3), None)
-    shutdown = [a for a in failed if "reason" in a.kwargs]
-    assert len(shutdown) == 1 and "pid_controller_y exited with code 3" in shutdown[0].kwargs["reason"]
-    assert by_name["plant"](types.SimpleNamespace(returncode=0), None) is None
+        assert got[name] == [_rcl_type(value), value], (name, value, got.get(name))

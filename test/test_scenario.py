@@ -106,3 +106,35 @@ def test_an_output_that_cannot_be_made_fails_before_anything_starts(tmp_path, co
     assert out.returncode == 2 and time.monotonic() - t0 < 10
     assert out.stderr.strip() == f"rw-fdi: error: --out {blocker / 'bags'}: cannot create it (Not a directory)"
     assert "running scenario" not in out.stdout
+
+
+def test_operations_draw_manoeuvres_at_random_times_without_moving_the_rest_of_the_seed():
+    ops = load_scenario("operations")
+    assert ops.manoeuvres is not None and ops.duration == 400.0
+    counts = []
+    for seed in range(200):
+        run = ops.with_seed(seed)
+        times, values = run.setpoint_schedule()
+        gaps = np.diff(times)
+        assert times[0] == 0.0 and np.all((gaps >= 100.0) & (gaps <= 300.0)) and times[-1] < 400.0
+        steps = np.rad2deg(np.diff(values, axis=0))
+        assert np.all(np.abs(steps) <= 5.0 + 1e-9)
+        counts.append(len(times))
+        # the manoeuvres' own stream: the initial conditions and the t = 0 change are fault_free's
+        ff = load_scenario("fault_free").with_seed(seed)
+        assert np.allclose(run.draws()[0].wheel_speed, ff.draws()[0].wheel_speed)
+        assert np.allclose(values[0], ff.setpoint_schedule()[1][0])
+    assert set(counts) == {2, 3, 4}   # up to three set-point changes after the first
+    hours = load_scenario("operations_hours")
+    assert hours.duration == 7200.0 and len(hours.setpoint_schedule()[0]) > 8
+
+
+@pytest.mark.parametrize("manoeuvres, message", [
+    ("{interval_s: [300, 100]}", "low 300 above high 100"),
+    ("{interval_s: [0, 10]}", "outside"),
+    ("{size_deg: 5}", r"expected \[low, high\]"),
+    ("{every: 3}", "a mapping of interval_s, size_deg and start_s"),
+    ("[1, 2]", "a mapping of interval_s, size_deg and start_s")])
+def test_bad_manoeuvres_are_one_line_errors(manoeuvres, message):
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario(f"name: m\nmanoeuvres: {manoeuvres}\n", origin="m.yaml")

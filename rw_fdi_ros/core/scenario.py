@@ -67,6 +67,28 @@ class SetpointChange:
 
 
 @dataclass(frozen=True)
+class Manoeuvres:
+    """A spacecraft in service: set-point changes at random times, each ``interval_s`` (uniform in the
+    range) after the one before, from ``start_s`` on, every axis moved by a size uniform in ``size_deg``
+    (Table 2.3's -5..5 deg by default). Drawn from a stream of their own: the initial conditions and the
+    disturbance of a seed do not move when manoeuvres are added."""
+
+    interval_s: tuple = (60.0, 300.0)
+    size_deg: tuple = SETPOINT_CHANGE_RANGE_DEG
+    start_s: float = 0.0
+
+    def draw(self, seed: int, duration: float) -> list:
+        """[(time, change [deg] per axis)] of the changes inside (start_s, duration)."""
+        rng = np.random.default_rng([int(seed), 3])
+        out, t = [], self.start_s
+        while True:
+            t += rng.uniform(*self.interval_s)
+            if t >= duration:
+                return out
+            out.append((t, rng.uniform(*self.size_deg, 3)))
+
+
+@dataclass(frozen=True)
 class InitialConditions:
     attitude: np.ndarray      # [rad], per axis
     body_rate: np.ndarray     # [rad/s]
@@ -84,6 +106,7 @@ class Scenario:
     description: str = ""
     plant: dict = field(default_factory=dict)   # plant choices the run was made under (emf_limit, ...)
     wheels: dict = field(default_factory=dict)  # unit-to-unit variation (variation, spread, scale); {}: datasheet
+    manoeuvres: Manoeuvres | None = None        # set-point changes at random times beside ``setpoints``
     source_text: str = ""     # the YAML it came from, recorded in every bag
 
     def with_seed(self, seed: int) -> "Scenario":
@@ -115,6 +138,8 @@ class Scenario:
         steps = []
         for sp, drawn in zip(self.setpoints, changes):
             steps.append((sp.time, np.deg2rad(drawn if sp.change_deg is None else np.asarray(sp.change_deg, float))))
+        if self.manoeuvres is not None:
+            steps += [(t, np.deg2rad(change)) for t, change in self.manoeuvres.draw(self.seed, self.duration)]
         return ic, steps
 
     def unit_scales(self) -> dict | None:
@@ -278,7 +303,7 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     if not isinstance(raw, dict):
         raise ScenarioError(f"{origin}: a scenario is a YAML mapping (name, duration, faults, ...)")
     unknown = set(raw) - {"name", "description", "duration", "seed", "faults", "setpoints", "initial", "plant",
-                          "wheels"}
+                          "wheels", "manoeuvres"}
     if unknown:
         raise ScenarioError(f"{origin}: unknown field(s) {sorted(unknown)}")
     duration = _num(f"{origin}: duration", raw.get("duration", 400.0), 1.0, 1e6)
@@ -319,7 +344,29 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     name = str(raw.get("name") or Path(origin).stem)
     return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
                     initial=initial, description=str(raw.get("description", "")), plant=dict(plant),
-                    wheels=_wheels(f"{origin}: wheels", raw.get("wheels")), source_text=text)
+                    wheels=_wheels(f"{origin}: wheels", raw.get("wheels")),
+                    manoeuvres=_manoeuvres(f"{origin}: manoeuvres", raw.get("manoeuvres"), duration), source_text=text)
+
+
+def _range(where, raw, lo, hi) -> tuple:
+    if not isinstance(raw, (list, tuple)) or len(raw) != 2:
+        raise ScenarioError(f"{where}: expected [low, high]")
+    low, high = (_num(f"{where}[{i}]", v, lo, hi) for i, v in enumerate(raw))
+    if low > high:
+        raise ScenarioError(f"{where}: low {low:g} above high {high:g}")
+    return low, high
+
+
+def _manoeuvres(where, raw, duration) -> Manoeuvres | None:
+    """The ``manoeuvres:`` mapping: interval_s [low, high] (>= 1 s), size_deg [low, high] per axis, start_s."""
+    if raw is None:
+        return None
+    if not isinstance(raw, dict) or set(raw) - {"interval_s", "size_deg", "start_s"}:
+        raise ScenarioError(f"{where}: a mapping of interval_s, size_deg and start_s")
+    default = Manoeuvres()
+    return Manoeuvres(interval_s=_range(f"{where}.interval_s", raw.get("interval_s", default.interval_s), 1.0, 1e6),
+                      size_deg=_range(f"{where}.size_deg", raw.get("size_deg", default.size_deg), -180.0, 180.0),
+                      start_s=_num(f"{where}.start_s", raw.get("start_s", 0.0), 0.0, duration))
 
 
 # a spread's draws are cut at 3 sigma, so every drawn scale lies inside the range a `scale` may give:

@@ -8,6 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
+
 from ..core.detection import observers_of
 from ..core.plant import hold_command
 from ..core.plant_choices import DEFAULT, PlantChoices
@@ -44,15 +46,52 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         "command_timeout": command_timeout, "recorder_ready": bag is not None})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
-            "axis": axis, "control_period": period, "initial_tcv": float(hold[i]),
+            "joint": T.ATTITUDE_JOINTS[i], "control_period": period, "initial_tcv": float(hold[i]),
             "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]]}))
     if fdi is not None:
         nodes += fdi_nodes(fdi, choices)
     if bag is not None:
-        nodes.append(NodeSpec("recorder", "recorder", {"output": str(bag),
+        # absolute: a bag named like a number or a YAML word ("1e3", "on") is a path, never retyped
+        nodes.append(NodeSpec("recorder", "recorder", {"output": str(Path(bag).resolve()),
                                                        "fdi_period": choices.fdi_period if fdi is not None else 0.0,
                                                        "fdi_method": fdi_method(fdi or {})}))
-    return with_reader_counts(nodes)
+    return checked_strings(with_reader_counts(nodes))
+
+
+# plain scalars rcl's parameter parser takes for booleans beyond PyYAML's (YAML 1.1) own: `y`, `n`
+RCL_BOOLEAN_WORDS = {"y", "yes", "true", "on", "n", "no", "false", "off"}
+
+
+def misread_by_yaml(value: str) -> bool:
+    """Whether a string parameter could come out of a YAML layer as something else: launch_ros
+    yaml-loads a plain string (PyYAML, YAML 1.1) and writes it back bare, and rcl parses its params
+    file with its own rules (``y``/``n`` booleans, ``1e3`` a double)."""
+    if value.strip().lower() in RCL_BOOLEAN_WORDS:
+        return True
+    try:
+        if yaml.safe_load(value) != value:
+            return True
+    except yaml.YAMLError:
+        return True
+    for number in (float, lambda v: int(v, 0)):
+        try:
+            number(value)
+            return True
+        except ValueError:
+            pass
+    return False
+
+
+def checked_strings(nodes):
+    """``nodes``, after checking that none of their string parameters is one a YAML layer between a
+    launch file and rcl would retype (our names are joint names, method names and absolute paths):
+    ValueError naming the node and parameter otherwise."""
+    for node in nodes:
+        for name, value in node.parameters.items():
+            if isinstance(value, str) and misread_by_yaml(value):
+                raise ValueError(f"{node.name}: parameter {name}={value!r} would be read as another type by "
+                                 "YAML on its way to the node")
+    return nodes
 
 
 def with_reader_counts(nodes):
@@ -78,8 +117,8 @@ def fdi_nodes(fdi: dict, choices: PlantChoices):
     models, thresholds, method = fdi.get("models"), fdi.get("thresholds"), fdi_method(fdi)
     calibration = float(fdi.get("unit_calibration") or 0.0)
     nodes = []
-    for axis in AXES:
-        params = {"axis": axis, "fdi_method": method, "fdi_period": choices.fdi_period,
+    for axis, wheel in zip(AXES, T.WHEEL_JOINTS):
+        params = {"wheel": wheel, "fdi_method": method, "fdi_period": choices.fdi_period,
                   "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration}
         if models:
             params["model"] = str(Path(models) / f"elman_{axis}.npz")

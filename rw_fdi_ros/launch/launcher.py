@@ -9,6 +9,7 @@ period. The recorder is always asked to finalise the bag before that.
 from __future__ import annotations
 
 import fcntl
+import itertools
 import os
 import shutil
 import signal
@@ -23,8 +24,12 @@ import yaml
 
 from ..paths import fastdds_profiles, installed_executable
 
+# a node that did its work and then hung tearing DDS down ends by SIGALRM (nodes/runtime.TEARDOWN_TIMEOUT):
+# that is a clean exit with a note, not a failed node
+TEARDOWN_HUNG = -signal.SIGALRM
 DOMAIN_RANGE = range(101, 233)   # 0..232 is valid; low ids stay free for people's own graphs
 _LOCK_DIR = Path(tempfile.gettempdir()) / "rw_fdi_ros_domains"
+_LEASES = itertools.count()
 
 
 class DomainLease:
@@ -33,7 +38,9 @@ class DomainLease:
     def __init__(self, preferred: int | None = None):
         _LOCK_DIR.mkdir(exist_ok=True)
         candidates = list(DOMAIN_RANGE)
-        start = (os.getpid() * 7) % len(candidates)
+        # each lease of a process starts elsewhere: a run does not reuse the domain the run before it just
+        # left, where a participant that was killed may still hold shared-memory ports for a while
+        start = (os.getpid() * 7 + next(_LEASES) * 31) % len(candidates)
         candidates = candidates[start:] + candidates[:start]
         if preferred is not None:
             candidates = [preferred] + [c for c in candidates if c != preferred]
@@ -173,12 +180,12 @@ class GraphProcesses:
                 time.sleep(0.02)
                 main_code = self.procs[main].poll()
                 # a clean exit (0) is a node that saw the run end; a missing peer makes the plant time out
-                dead = [n for n in essential if n != main and self.procs[n].poll() not in (None, 0)]
+                dead = [n for n in essential if n != main and self.procs[n].poll() not in (None, 0, TEARDOWN_HUNG)]
                 if dead and (main_code is None or main_code != 0):
                     # a helper died first: that is the reason, not the plant's timeout that follows
                     return self._fail(self.reason_of(dead[0]), t0)
                 if main_code is not None:
-                    if main_code != 0:
+                    if main_code not in (0, TEARDOWN_HUNG):
                         return self._fail(self.reason_of(main), t0)
                     break
                 if time.monotonic() - t0 > watchdog:
@@ -189,15 +196,32 @@ class GraphProcesses:
                 try:
                     self.procs[finisher].wait(timeout=finish_timeout)
                 except subprocess.TimeoutExpired:
-                    return self._fail(f"{finisher} did not finish within {finish_timeout:g} s after {main}", t0)
-                if self.procs[finisher].returncode != 0:
+                    self._dump_stack(finisher)
+                    return self._fail(f"{finisher} did not finish within {finish_timeout:g} s after {main} (where "
+                                      f"it was: {self.work_dir / (finisher + '.log')})", t0)
+                if self.procs[finisher].returncode not in (0, TEARDOWN_HUNG):
                     return self._fail(self.reason_of(finisher), t0)
             self.stop_all()
-            return GraphResult(True, "completed", time.monotonic() - t0, self.exit_codes(), self.work_dir)
+            hung = self.teardown_hung()
+            note = (f" ({', '.join(hung)}: teardown hung after the work was done, ended by its watchdog; stack in "
+                    f"{self.work_dir})") if hung else ""
+            return GraphResult(True, "completed" + note, time.monotonic() - t0, self.exit_codes(), self.work_dir)
         except KeyboardInterrupt:
             return self._fail("interrupted", t0)
         finally:
             self.stop_all()
+
+    def teardown_hung(self) -> list:
+        """The nodes that did their work and were ended by their teardown watchdog (a note, not a failure)."""
+        return [n for n, p in self.procs.items() if p.returncode == TEARDOWN_HUNG]
+
+    def _dump_stack(self, name: str):
+        """Ask a node that does not end where it is: its faulthandler writes every thread's stack to its log."""
+        try:
+            self.procs[name].send_signal(signal.SIGUSR1)
+            time.sleep(0.5)
+        except ProcessLookupError:
+            pass
 
     def _fail(self, reason, t0):
         self.stop_all()

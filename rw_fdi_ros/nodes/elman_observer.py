@@ -1,4 +1,5 @@
-"""elman_observer: one wheel's Elman network in recall mode (thesis Fig. 4.8), started once per axis.
+"""elman_observer: one wheel's Elman network in recall mode (thesis Fig. 4.8), started once per wheel
+with the ``wheel`` parameter (its joint, ``reaction_wheel_x`` / ``_y`` / ``_z``).
 
 Every FDI sample (1 s) it estimates the reaction torque from the command
 voltage, its own previous estimate and (speed-aware method) the wheel speed,
@@ -22,11 +23,12 @@ class ElmanObserverNode(ObserverNode):
 
     def __init__(self):
         super().__init__(self.node_name)
-        self.declare_parameter("axis", "x")
+        self.declare_parameter("wheel", T.WHEEL_JOINTS[0])   # the wheel joint this network watches
         self.declare_parameter("model", "")            # npz; empty: the shipped one of fdi_method
-        axis = self.param("axis")
-        if axis not in AXES:
-            raise NodeError(f"parameter axis must be one of x, y, z, got {axis!r}", EXIT_BAD_INPUT)
+        try:
+            axis = T.axis_of_joint(self.param("wheel"), T.WHEEL_JOINTS)
+        except ValueError as exc:
+            raise NodeError(f"parameter wheel {exc}", EXIT_BAD_INPUT) from None
         path = self.param("model") or str(fdi_dir(self.method) / f"elman_{axis}.npz")
         try:
             weights = ElmanWeights.load(path)

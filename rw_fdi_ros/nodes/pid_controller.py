@@ -1,4 +1,5 @@
-"""pid_controller: one axis' PID (eq. 2.36); started once per axis with the ``axis`` parameter.
+"""pid_controller: one axis' PID (eq. 2.36); started once per axis with the ``joint`` parameter
+(its attitude joint, ``attitude_x`` / ``attitude_y`` / ``attitude_z``).
 
 For each plant step it takes the attitude state stamped k (/attitude, a
 JointState: its axis' angle and body rate) and answers with the torque command voltage stamped k on /<axis>/tcv_command.
@@ -24,10 +25,11 @@ class PidControllerNode(GraphNode):
 
     def __init__(self):
         super().__init__(self.node_name)
-        self.declare_parameter("axis", "x")
-        axis = self.param("axis")
-        if axis not in AXES:
-            raise NodeError(f"parameter axis must be one of x, y, z, got {axis!r}", EXIT_BAD_INPUT)
+        self.declare_parameter("joint", T.ATTITUDE_JOINTS[0])   # the attitude joint this controller holds
+        try:
+            axis = T.axis_of_joint(self.param("joint"), T.ATTITUDE_JOINTS)
+        except ValueError as exc:
+            raise NodeError(f"parameter joint {exc}", EXIT_BAD_INPUT) from None
         i = AXES.index(axis)
         design = design_gains(INERTIA[i])
         self.declare_parameter("control_period", 0.1)

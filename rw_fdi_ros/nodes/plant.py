@@ -197,6 +197,9 @@ class PlantNode(GraphNode):
                                            "within 5 s; done anyway (the recorder says what it lacks)")
             self.t_last = wall_time()
             self.pub_done.publish(Header(stamp=time_msg(stamp), frame_id="completed"))
+            # every node ends on it, the recorder included: it must reach them before this writer goes
+            if not self.pub_done.wait_for_all_acked(Duration(seconds=5.0)):
+                self.get_logger().warn(f"{T.PLANT_DONE}: not every reader acknowledged it within 5 s")
             self.finish()
 
     def _publish_truth(self, stamp, sample):

@@ -54,6 +54,13 @@ class RecorderNode(GraphNode):
         self.fdi_names = [t for t, _, _ in T.fdi_topics(method)]
         self.rows = rows = [(name, type_name, getattr(T, qos)) for name, type_name, qos in rows]
         self._open()
+        try:
+            self._subscribe(rows)
+        except BaseException:   # a launch shutting down while we start (SIGINT): still a readable, closed bag
+            self._close_bag()
+            raise
+
+    def _subscribe(self, rows):
         # the plant's per-step topics that must have reached the done stamp (none when replaying)
         self.final = list(T.STEP_TOPICS) if self.param("record_plant") else []
         self.pub_closed = self.create_publisher(String, T.RECORDER_CLOSED, T.LATCHED)
@@ -61,13 +68,16 @@ class RecorderNode(GraphNode):
         # what /recorder/ready waits for: the topics whose writers exist from the graph's start (the plant's
         # and the FDI nodes'); a replay's player writes only what its bag holds, extra topics may have none
         awaited = set(self.fdi_names) | ({n for n, _, _ in T.PLANT_ROWS} if self.param("record_plant") else set())
-        self.subs, self.unmatched, self.ready = [], [], False
+        self.subs, self.unmatched, self.ready, self.done_sub = [], [], False, None
+        self.started, self.said_unmatched = wall_time(), False
         for name, type_name, qos in rows:
             cls = T.message_class(type_name)
             sub = self.create_subscription(cls, name, lambda raw, n=name: self._on_message(n, raw), qos, raw=True)
             self.subs.append(sub)
             if name in awaited:
                 self.unmatched.append(sub)
+            if name == T.PLANT_DONE and self.param("record_plant"):
+                self.done_sub = sub
         self.stamped = {name for name, type_name, _ in rows if type_name != "std_msgs/msg/String"}
 
     def _open(self):
@@ -106,7 +116,12 @@ class RecorderNode(GraphNode):
             if not self.unmatched:
                 self.ready = True
                 self.pub_ready.publish(String(data="ready"))
+            elif not self.said_unmatched and wall_time() - self.started > 20.0:
+                # the plant gives up after its startup_timeout: say which writers this reader never matched
+                self.said_unmatched = True
+                self.get_logger().warn(f"no writer matched yet on {', '.join(s.topic_name for s in self.unmatched)}")
         if self.done_stamp is None:
+            self._check_plant_left()
             return
         final = self.final
         if self.fdi_period_ns > 0:   # the FDI outputs of the last FDI sample
@@ -140,6 +155,17 @@ class RecorderNode(GraphNode):
                 self._open()
             else:
                 self.finish()
+
+    def _check_plant_left(self):
+        """The plant gone without /plant/done (killed, or its last message lost): nothing will end the
+        wait, so after ``drain_timeout`` of silence the bag is closed with what came and the node fails."""
+        if self.done_sub is None or not self.ready or self.done_sub.get_publisher_count() > 0:
+            return
+        silent = wall_time() - self.last_message_wall
+        if silent > self.param("drain_timeout"):
+            self._close_bag()
+            self.fail(f"the plant left without {T.PLANT_DONE}: bag {self.outputs[self.output_index]} closed "
+                      f"after {silent:.0f} s without a message (the run's end is not in it)")
 
     def _close_bag(self):
         if self.bag is not None:

@@ -20,6 +20,10 @@ EXIT_OK = 0
 EXIT_ERROR = 1
 EXIT_BAD_INPUT = 2
 EXIT_TIMEOUT = 3
+# after its work is done (bag closed, last message acknowledged) a node gets this long to tear its DDS
+# entities down; a teardown stuck past it dumps every thread's stack to the log and the process ends by
+# SIGALRM, which the launcher reads as "done, teardown hung" (launch/launcher.py TEARDOWN_HUNG)
+TEARDOWN_TIMEOUT = 10
 
 
 class NodeError(RuntimeError):
@@ -118,6 +122,10 @@ class RecorderReady:
 
 def spin_node(factory, args=None) -> int:
     """Create the node, spin it until it finishes or a signal arrives, and return the exit code."""
+    import faulthandler
+    import signal
+    # `kill -USR1 <pid>` (the launcher does, on a node that does not end) writes where it is to its log
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     rclpy.init(args=args)
     node = None
     name = getattr(factory, "node_name", "node")
@@ -154,14 +162,27 @@ def spin_node(factory, args=None) -> int:
                 node.close()
             except Exception as exc:
                 code, message = EXIT_ERROR, f"while closing: {type(exc).__name__}: {exc}"
-            node.destroy_node()
-        rclpy.try_shutdown()
+        _tear_down(node, name, code, message)
     if node is not None and os.environ.get("RW_FDI_TIMING") == "1":
         report = {"node": name, "cpu_s": time.process_time(), "max_rss_mb": _peak_rss_mb(), **node.timing()}
         print("RW_FDI_TIMING " + json.dumps(report), flush=True)
+    return code
+
+
+def _tear_down(node, name: str, code: int, message: str):
+    """Destroy the node and shut rclpy down, watched: the node's work is done, and a DDS teardown that
+    never returns must not hold the run. The message is said first, so the log has it either way."""
+    import faulthandler
+    import signal
     if message:
         print(f"{name}: {'error: ' if code else ''}{message}", file=sys.stderr, flush=True)
-    return code
+    faulthandler.dump_traceback_later(TEARDOWN_TIMEOUT - 1, exit=False)
+    signal.alarm(TEARDOWN_TIMEOUT)   # default action: the kernel ends the process, GIL or not
+    if node is not None:
+        node.destroy_node()
+    rclpy.try_shutdown()
+    signal.alarm(0)
+    faulthandler.cancel_dump_traceback_later()
 
 
 def _peak_rss_mb() -> float:
@@ -180,7 +201,10 @@ def _peak_rss_mb() -> float:
 def main_for(factory):
     """A console-script entry point for ``factory``."""
     def main(args=None):
-        sys.exit(spin_node(factory, args=args if args is not None else sys.argv))
+        code = spin_node(factory, args=args if args is not None else sys.argv)
+        import signal
+        signal.alarm(TEARDOWN_TIMEOUT)   # the interpreter's own exit (DDS threads, destructors) is watched too
+        sys.exit(code)
     return main
 
 

@@ -31,6 +31,15 @@ ATTITUDE_JOINTS = tuple(f"attitude_{a}" for a in AXES)
 # (relative to the body, what the tachometer reads), effort = reaction torque on the body [N m]
 WHEELS = "/wheels"
 WHEEL_JOINTS = tuple(f"reaction_wheel_{a}" for a in AXES)
+
+
+def axis_of_joint(joint: str, joints: tuple) -> str:
+    """The axis letter of ``joint`` (one of ``joints``, e.g. 'reaction_wheel_y' -> 'y'). Nodes are told
+    their joint by name, never by a bare axis letter: a YAML layer between a launch file and rcl reads
+    a bare ``y`` or ``n`` as a boolean. ValueError naming the valid joints otherwise."""
+    if joint not in joints:
+        raise ValueError(f"must be one of {', '.join(joints)}, got {joint!r}")
+    return AXES[joints.index(joint)]
 # the wheel electronics' report once per FDI period (DiagnosticArray, one status per wheel): period
 # means of tcv, reaction torque, speed and the nominal model's terms (core/telemetry.py)
 FDI_TELEMETRY = "/wheels/fdi_telemetry"
@@ -198,8 +207,8 @@ def _observer_waits(observer: str, axis: str | None) -> dict:
 WAITS = {
     "plant": lambda p: {"attitude_readers": [ATTITUDE], "fdi_readers": [FDI_TELEMETRY],
                         "wait_for_subscribers": [CLOCK, WHEELS, FAULT_EFFECT, FAULT_TRUTH, SCENARIO]},
-    "pid_controller": lambda p: {"min_subscribers": [tcv_command(p["axis"])]},
-    "elman_observer": lambda p: _observer_waits("elman", p["axis"]),
+    "pid_controller": lambda p: {"min_subscribers": [tcv_command(axis_of_joint(p["joint"], ATTITUDE_JOINTS))]},
+    "elman_observer": lambda p: _observer_waits("elman", axis_of_joint(p["wheel"], WHEEL_JOINTS)),
     "linear_observer": lambda p: _observer_waits("linear", None),
     "model_observer": lambda p: _observer_waits("model", None),
     "isolation": lambda p: {"diagnostics_readers": [DIAGNOSTICS],

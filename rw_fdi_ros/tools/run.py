@@ -69,5 +69,5 @@ def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | 
         except (BagError, ValueError) as exc:
             if outcome.ok:
                 outcome.ok, outcome.reason = False, str(exc)
-    cleanup(result, keep=keep_logs or not outcome.ok)
+    cleanup(result, keep=keep_logs or not outcome.ok or outcome.reason != "completed")
     return outcome
