@@ -197,7 +197,11 @@ def _cmd_screen(args) -> int:
     seeds = parse_seeds(args.seeds, "--seeds")   # before the imports: a bad option answers at once
     from .core.scenario import load_scenario
     from .tools.screen import format_screen, screen
+    from .tools.fdi import check_fdi_files
     for name in args.scenario:
+        if args.unit_calibration:
+            check_fdi_files(args.models, args.thresholds, None, args.fdi_method, args.unit_calibration,
+                            load_scenario(name).duration)
         print(format_screen(name, screen(load_scenario(name), seeds, args.models, args.thresholds,
                                          args.persistence, args.fdi_method, args.unit_calibration)))
     return 0
@@ -232,6 +236,10 @@ def _cmd_bench(args) -> int:
         from .tools.units_bench import bench_units
         report = bench_units(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
                              out=args.out or "reports/units")
+    elif args.what == "operations":
+        from .tools.operations_bench import bench_operations
+        report = bench_operations(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
+                                  hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations")
     elif args.what == "identification":
         from .tools.identification_bench import bench_identification
         report = bench_identification(runs_per_cell=args.runs_per_cell or 100, out=args.out or "reports/identification",
@@ -409,7 +417,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_scenarios)
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
-    b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification", "units", "memory"],
+    b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification", "units", "memory",
+                                    "operations"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
                         "node callback times and memory; study: record and replay throughput and the "
                         "thesis-scale reproduce time they give; detection: false-alarm and detection rates "
@@ -417,7 +426,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "identification: fault kind and size per kind and size, confusion matrix (core loop); "
                         "units: the same cells on wheels drawn around the datasheet and on the datasheet wheel, "
                         "with and without unit calibration (core loop); memory: peak memory of the run summary, "
-                        "`rw-fdi bag` and evaluation for fault-free runs of --hours (recorded, minutes)")
+                        "`rw-fdi bag` and evaluation for fault-free runs of --hours (recorded, minutes); operations: "
+                        "every observer and the /diagnostics verdict in operations (manoeuvres at random times, "
+                        "hours-long runs, faults a manoeuvre follows, bus drops that tumble an axis; core loop)")
     b.add_argument("--hours", default="1,6", help="memory: run lengths in hours, comma-separated (default 1,6)")
     b.add_argument("--fault-free-runs", type=COUNT, default=1000, help="detection, units: fault-free runs")
     b.add_argument("--runs-per-cell", type=COUNT, default=None,
@@ -427,6 +438,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="identification: runs per thesis size (default 200; the bus 340, as 6 in 10 are observable)")
     b.add_argument("--out", default=None, help="detection / identification / units / memory: report directory "
                                                 "(default reports/<what>)")
+    b.add_argument("--hours-runs", type=COUNT, default=50,
+                   help="operations: 2-hour runs of continuous operations (default 50: 100 simulated hours)")
+    b.add_argument("--seed-set", default="evaluation", choices=["evaluation", "tuning"],
+                   help="operations: the seeds of record (default) or the ones the decision rule was chosen on")
     b.add_argument("--runs", type=COUNT, default=8, help="study: runs to record and replay")
     b.add_argument("--jobs", type=COUNT, default=None, help="study: runs at a time (default: 2)")
     b.add_argument("--duration", type=number(float, 0, low_open=True), default=400.0)

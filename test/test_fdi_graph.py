@@ -310,7 +310,7 @@ def test_the_fdi_reports_its_own_health_under_bad_inputs(runs, tmp_path):
     assert not {60, 61, 62, 80} & set(diag) and 100 in diag
     for t in (150, first_alarm + 20):   # never OK while it could not judge
         assert all(st.level != 0 and "cannot judge" in st.message for st in diag[t].values()), diag[t]
-    assert diag[150]["y"].level == 3 and "non-finite elman residual at 150 s" in diag[150]["y"].message
+    assert diag[150]["y"].level == 3 and "non-finite model residual at 150 s" in diag[150]["y"].message   # the decider
     held = diag[first_alarm + 20]["x"]
     assert held.level == 2 and "alarm held: faulty since" in held.message
     assert diag[63]["x"].level == 1 and "3 samples missing before 63 s" in diag[63]["x"].message

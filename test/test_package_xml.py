@@ -26,7 +26,7 @@ def imported_modules() -> set:
 def test_every_imported_package_is_a_declared_run_dependency():
     declared = {e.text for e in ET.parse(ROOT / "package.xml").getroot() if e.tag in ("exec_depend", "depend")}
     for name in sorted(imported_modules()):
-        if name.endswith(("_msgs", "_interfaces")):
+        if name.endswith(("_msgs", "_srvs", "_interfaces")):
             assert name in declared, f"package.xml: add <exec_depend>{name}</exec_depend>"
         else:
             assert name in KEYS, f"{name}: imported but not mapped to a rosdep key in this test"

@@ -75,7 +75,9 @@ def test_screen_gives_the_graph_verdicts(both):
     for outcome, run in zip(graph, screened):
         assert outcome.ok, outcome.reason
         live = outcome.summary["fdi"]
-        assert live["observers"] == list(run.series) == ["elman", "linear", "model"]
+        # every observer, and the verdict /diagnostics gave (the decision observer's alarm, latched)
+        assert live["observers"] == ["elman", "linear", "model"] and list(run.series) == live["observers"] + [
+            "verdict"]
         for obs in run.series:
             series = run.series[obs]
             for i, a in enumerate(AXES):
@@ -106,7 +108,7 @@ def test_calibrated_observers_give_the_screen_verdicts_on_varied_wheels(both):
                 assert bool(intervals) == bool(flags.any()), (run.bag, obs, a, intervals)
                 if intervals:
                     assert intervals[0][0] == pytest.approx(float(run.series[obs].time[flags.argmax()]), abs=1e-9)
-                    alarms += obs != "linear"
+                    alarms += obs not in ("linear", "verdict")
     # the fault-free units stay quiet and the 10 % loss is seen by the calibrated Elman and model observers,
     # on wheel y only (the Luenberger observer's figures are reports/units')
     assert not any(graph[0].summary["fdi"][obs][a] for obs in run.series for a in AXES)

@@ -6,8 +6,11 @@ the axis' alarm after ``persistence`` consecutive samples above
 (core/isolation.py, evaluation.md). Alarmed axes are the faulty wheels. It
 publishes per observer the thresholds, the alarm flags and a DiagnosticArray
 with residual, threshold, margin and first alarm per wheel, and /diagnostics
-with one status per wheel, decided by the ``decision_observer`` (Elman by
-default) and stamped with the sim clock. Every output of stamp k is made from
+with one status per wheel, decided by the ``decision_observer`` (the method's:
+the model observer speed-aware, the Elman network for the thesis method;
+core/isolation.py says why) and stamped with the sim clock. A wheel the
+decision observer alarms is a confirmed failure: /diagnostics holds it
+(latched) until the ``~/reset`` service (std_srvs/Trigger) clears it. Every output of stamp k is made from
 the inputs of stamp k alone, so the same run gives the same messages.
 
 It also identifies the fault of every alarmed wheel (core/identification.py):
@@ -41,7 +44,7 @@ import numpy as np
 from ..core.detection import METHODS, ThresholdCurves, ThresholdError, observers_of
 from ..core.identification import FaultIdentifier
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
-from ..core.isolation import DECISION_OBSERVER, ObserverChannel, stamp_seconds
+from ..core.isolation import LatchedVerdict, ObserverChannel, decision_observer, stamp_seconds
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.scenario import AXES
 from ..paths import thresholds_dir
@@ -56,12 +59,15 @@ def default_thresholds(observer: str, method: str = "speed_aware", unit_calibrat
     return str(thresholds_dir(method, unit_calibration_time) / f"thresholds_{observer}.json")
 
 
-def _status(name, axis, residual, threshold, alarm, first, extra=(), identification=None, unjudged=None, note=None):
+def _status(name, axis, residual, threshold, alarm, first, extra=(), identification=None, unjudged=None, note=None,
+            latched=False):
     """One wheel's status. ``unjudged``: why this sample could not be judged (STALE unless alarmed,
     the alarm held); ``note``: what the input stream did (WARN unless worse)."""
     s = DiagnosticStatus(name=name, hardware_id=f"reaction_wheel_{axis}")
     level = ERROR if alarm else OK
     s.message = f"faulty since {first:g} s" if alarm else ("recovered" if first is not None else "nominal")
+    if latched:   # confirmed, held although the residual is back under its threshold
+        s.message += " (latched; residual under the threshold now; ~/reset clears it)"
     if unjudged:
         s.message = f"cannot judge: {unjudged}" + (f" (alarm held: {s.message})" if alarm else "")
         level = level if alarm else STALE
@@ -92,7 +98,8 @@ class IsolationNode(GraphNode):
         self.declare_parameter("fdi_method", "speed_aware")  # speed_aware (ours) or thesis
         self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
         self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
-        self.declare_parameter("decision_observer", DECISION_OBSERVER)
+        self.declare_parameter("decision_observer", "")    # empty: the method's (core/isolation.py)
+        self.declare_parameter("latch", True)               # a confirmed failure stays until ~/reset
         self.declare_parameter("input_timeout", 10.0)       # wall s an input may be silent before it is said
         self.declare_parameter("min_subscribers", 0)        # readers of each output (the recorder) before it goes
         self.declare_parameter("diagnostics_readers", 0)    # of /diagnostics: the recorder (+ a replay's player)
@@ -122,9 +129,13 @@ class IsolationNode(GraphNode):
             except ThresholdError as exc:
                 raise NodeError(str(exc), EXIT_BAD_INPUT) from None
             self.channels[obs] = ObserverChannel(obs, curves, self.param("persistence") or None)
-        self.decision = self.param("decision_observer")
+        self.decision = self.param("decision_observer") or decision_observer(method)
         if self.decision not in self.channels:
             raise NodeError(f"decision_observer must be one of {', '.join(self.channels)}", EXIT_BAD_INPUT)
+        self.verdict = LatchedVerdict(self.param("latch"))
+        # the operator's command that clears every confirmed failure (std_srvs/Trigger, as FDIR resets go)
+        from std_srvs.srv import Trigger
+        self.create_service(Trigger, "~/reset", self._on_reset)
         def gate(msg_type, name, readers="min_subscribers"):
             return GatedPublisher(self.create_publisher(msg_type, name, T.RELIABLE), self.param(readers))
         self.pubs = {obs: {k: gate(DiagnosticArray if k == "status" else Vector3Stamped, name)
@@ -174,6 +185,8 @@ class IsolationNode(GraphNode):
                 self.identifier.reset()
             else:
                 self.channels[source].reset()
+                if source == self.decision:   # a new run's verdict starts from no confirmed failure
+                    self.verdict.reset()
         return True
 
     def _on_residual(self, observer, stamp, residual, bound):
@@ -220,6 +233,7 @@ class IsolationNode(GraphNode):
                     for a, r in channel.rules.items()}
             self._publish_observer(obs, stamp, rows, silent=True)
             handled[obs] = rows
+        handled[self.decision] = self.verdict.update(handled[self.decision])   # /diagnostics: latched
         alarmed = {a: handled[self.decision][a][2] for a in AXES}
         finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
                                                         sample.ripple_phasor, sample.bus_motor_torque))
@@ -227,6 +241,20 @@ class IsolationNode(GraphNode):
         identified = self.identifier.update(sample, alarmed) if finite else dict(self.identifier.latest)
         self._publish_diagnostics(stamp, handled, identified, self.decision in silent)
         self.last_handled = stamp
+
+    def _on_reset(self, request, response):
+        """Forget every confirmed failure and identification: each wheel is judged afresh from the next
+        sample (a fault still there is confirmed again after the persistence)."""
+        confirmed = [a for a, t in self.verdict.confirmed.items() if t is not None]
+        for channel in self.channels.values():
+            channel.reset()
+        self.verdict.reset()
+        self.identifier.reset()
+        response.success = True
+        response.message = (f"cleared the confirmed failures of wheels {', '.join(confirmed)}" if confirmed
+                            else "no confirmed failure to clear")
+        self.get_logger().warn(f"reset by command: {response.message}")
+        return response
 
     def _publish_diagnostics(self, stamp, rows_of, identified, silent=False):
         """/diagnostics and /fdi/identification of one stamp from every observer's rows and the
@@ -259,12 +287,18 @@ class IsolationNode(GraphNode):
             if self.calibration_time:
                 learning = stamp <= self.calibration_time * 1e9
                 extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
+            if self.verdict.latched[a]:
+                extra.append(KeyValue(key="latched", value="true"))
             status = _status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
                              extra=extra, identification=found, note=note,
-                             unjudged=self._why_unjudged(self.decision, stamp, main[a], silent))
+                             unjudged=self._why_unjudged(self.decision, stamp, main[a], silent),
+                             latched=self.verdict.latched[a])
             if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
-                # judged against the wheel type's spread until then: only gross faults show (calibration.py)
-                status.message += f"; learning its unit until {self.calibration_time:g} s"
+                # judged against the wheel type's spread until then: only gross faults show (calibration.py),
+                # which is no judgement of the wheel: say so, and count it in the FDI's health
+                status.level = DiagnosticStatus.STALE
+                status.message = f"cannot judge yet: learning its unit until {self.calibration_time:g} s"
+                status.values.append(KeyValue(key="judged", value="false"))
             channel = self.channels[self.decision]
             beyond = stamp_seconds(stamp) > channel.curves.horizon   # this stamp's, not the channel's latest
             if beyond and status.level == DiagnosticStatus.OK:   # never OK while it cannot judge

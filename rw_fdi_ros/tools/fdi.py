@@ -27,6 +27,9 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
         raise ThresholdError(f"--unit-calibration must be a finite number of seconds >= 0, got {unit_calibration}")
     if unit_calibration and method != "speed_aware":
         raise ThresholdError("--unit-calibration needs --fdi-method speed_aware (the thesis' residual is unsigned)")
+    if unit_calibration and duration is not None and unit_calibration >= duration:
+        raise ThresholdError(f"--unit-calibration {unit_calibration:g} s is not shorter than the {duration:g} s run: "
+                             "the observers would spend all of it learning their wheels and judge none of it")
     models = Path(models or fdi_dir(method))
     thresholds = Path(thresholds or thresholds_dir(method, unit_calibration))
     for a in AXES:
@@ -87,11 +90,17 @@ def fdi_verdict(data) -> dict:
         if bound.size and np.any(bound != 0):   # speed-aware without a model slot: an older bag
             out["note"] = ("recorded before the observers had three slots: its linear observer is the model "
                            "observer (the nominal wheel model), not the Luenberger observer")
+    t_diag, faulty = metrics.diagnostics_alarms(data.path)
+    if len(t_diag):   # what /diagnostics said: the decision observer's alarm, latched
+        out["verdict"] = {a: metrics.alarm_intervals(t_diag, faulty[:, i]) for i, a in enumerate(AXES)}
     out["identification"] = metrics.identification_from_bag(data)
     try:
         series = metrics.series_from_bag(data)
     except ValueError:   # no FDI outputs (a run stopped before the first sample): intervals only
         return out
+    if len(t_diag):
+        zeros = np.zeros(faulty.shape)
+        series[metrics.VERDICT] = metrics.Series(t_diag, zeros, zeros, faulty)
     end = float(series[next(iter(series))].time[-1])
     # a run that stopped early (interrupted) is judged over the time it covers: a later fault is not missed
     out["not_reached"] = {"end_s": end, "faults": [f.as_dict() for f in scenario.faults if f.onset > end]}
@@ -133,7 +142,7 @@ def observer_label(observer: str) -> str:
     """What a person calls the observer in the ``observer`` slot (core/detection.OBSERVERS): the Elman
     network, the Luenberger observer of the linearised wheel (thesis 3.3), the nominal wheel model at
     the measured command and speed."""
-    return f"{observer} observer"
+    return "verdict (/diagnostics)" if observer == "verdict" else f"{observer} observer"
 
 
 def format_verdict(v: dict) -> str:
@@ -145,7 +154,7 @@ def format_verdict(v: dict) -> str:
             parts.append(f"faulty from {s:g} s" + (f" to {e:g} s (alarm lost)" if e is not None else ""))
         return "; ".join(parts)
 
-    observers = v.get("observers", [o for o in T.OBSERVERS if o in v])
+    observers = v.get("observers", [o for o in T.OBSERVERS if o in v]) + (["verdict"] if "verdict" in v else [])
     truths = {a: "; ".join(f"{f['kind']}={f['value']:g} from {f['onset']:g} s" for f in v["truth"][a]) or "healthy"
               for a in AXES}
     columns = [("ground truth", truths)] + [(observer_label(o), {a: fmt(v[o][a]) for a in AXES}) for o in observers]
@@ -158,7 +167,8 @@ def format_verdict(v: dict) -> str:
     for a, found in v.get("identification", {}).items():
         lines.append(f"  identified on wheel {a}: {found['message']}")
     for obs, judged in v.get("judged", {}).items():
-        lines.append(f"  verdict of the {observer_label(obs)}: {judged_line(judged)}")
+        who = "/diagnostics, the verdict users read" if obs == "verdict" else f"verdict of the {observer_label(obs)}"
+        lines.append(f"  {who}: {judged_line(judged)}")
     later = v.get("not_reached", {}).get("faults")
     if later:
         lines.append(f"  the run ended at {v['not_reached']['end_s']:g} s, before "

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.isolation import DECISION_OBSERVER
+from ..core.isolation import decision_observer
 from .detection_bench import Cell, cell_scenarios, format_rate, rate, screen_cells
 from .metrics import judge_identification
 from .screen import load_fdi, screen_sets
@@ -90,7 +90,8 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
                             **cell_identification(judged[i]["speed_aware"], level)}
     report = {"schema": "rw_fdi_ros/identification_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
               "date": time.strftime("%Y-%m-%d"),
-              "seed_base": SEED_BASE, "decision_observer": DECISION_OBSERVER, "observable_level_Nm": level,
+              "seed_base": SEED_BASE, "decision_observer": decision_observer("speed_aware"),
+              "observable_level_Nm": level,
               "cells": cells}
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

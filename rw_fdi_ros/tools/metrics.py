@@ -110,8 +110,12 @@ def series_from_bag(data) -> dict:
 
 
 def observers_of_runs(runs) -> list:
-    """The observer slots every one of ``runs`` was judged by, in slot order."""
-    return [obs for obs in OBSERVERS if runs and all(obs in r.series for r in runs)]
+    """The observer slots every one of ``runs`` was judged by, in slot order, then ``verdict`` (what
+    /diagnostics says) where the runs hold it."""
+    return [obs for obs in (*OBSERVERS, VERDICT) if runs and all(obs in r.series for r in runs)]
+
+
+VERDICT = "verdict"   # the series of /diagnostics' verdict beside the observers' (offline.verdict_series)
 
 
 def identification_from_bag(data) -> dict:
@@ -131,6 +135,23 @@ def identification_from_bag(data) -> dict:
 def health_topics() -> list:
     """The statuses :func:`fdi_health` reads: /diagnostics and each observer's status."""
     return [T.DIAGNOSTICS] + [T.fdi_output_topics(obs)["status"] for obs in T.OBSERVERS]
+
+
+def diagnostics_alarms(path):
+    """(time [s] (n,), faulty (n, 3) flags) of a bag's /diagnostics: a wheel whose status is ERROR (the
+    verdict users read: the decision observer's alarm, latched), streamed; empty arrays without it."""
+    from ..storage.bag import iter_messages, typestore
+    store, times, rows = typestore(), [], []
+    for _, _, raw in iter_messages(path, [T.DIAGNOSTICS]):
+        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
+        levels = {s.hardware_id: s.level for s in msg.status}
+        wheels = [levels.get(f"reaction_wheel_{a}") for a in AXES]
+        if None in wheels:
+            continue
+        times.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+        rows.append([level == 2 for level in wheels])   # DiagnosticStatus.ERROR
+    order = np.argsort(times, kind="stable")
+    return np.asarray(times, float)[order], np.asarray(rows, bool).reshape(len(times), 3)[order]
 
 
 def health_from_bag(path) -> dict:

@@ -172,6 +172,19 @@ def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -
     return out
 
 
+def verdict_series(series: dict, method: str, latch: bool = True):
+    """metrics.Series of what /diagnostics says: the decision observer's rows of ``series`` (observer ->
+    Series, :func:`fdi_series`) through the isolation node's LatchedVerdict."""
+    from ..core.isolation import LatchedVerdict, decision_observer
+    from .metrics import Series
+    s = series[decision_observer(method)]
+    verdict = LatchedVerdict(latch)
+    alarm = np.array([[verdict.update({a: (0.0, 0.0, bool(s.alarm[k, i]), float(s.time[k]))
+                                       for i, a in enumerate(AXES)})[a][2] for a in AXES]
+                      for k in range(len(s.time))], bool).reshape(len(s.time), 3)
+    return Series(s.time, s.residual, s.threshold, alarm)
+
+
 def identification_series(samples, alarm) -> list:
     """Per FDI sample, axis -> Identification or None: the isolation node's FaultIdentifier fed
     with ``samples`` (FdiSamples with the identification terms) and ``alarm`` ((n, 3) flags of the

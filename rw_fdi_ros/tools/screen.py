@@ -14,11 +14,10 @@ import numpy as np
 from ..core.calibration import calibration_samples
 from ..core.closed_loop import simulate
 from ..core.detection import ThresholdCurves, observers_of
-from ..core.isolation import DECISION_OBSERVER
 from ..core.wheel import WheelParams
 from ..paths import fdi_dir, thresholds_dir
-from .metrics import RunEval, judge, observers_of_runs
-from .offline import fdi_series, identification_series, load_models, observe
+from .metrics import VERDICT, RunEval, judge, observers_of_runs
+from .offline import fdi_series, identification_series, load_models, observe, verdict_series
 from .samples import samples_from_series
 
 BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
@@ -69,8 +68,9 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
     """name -> [RunEval] for several FDI sets {name: (weights, curves[, calibration samples])} judged on the
     same simulated runs (a set's own calibration samples, else ``calibration_samples``).
 
-    ``identification``: also identify the faults of the wheels the decision observer alarms
-    (the isolation node's FaultIdentifier), into RunEval.identification."""
+    Besides each observer's series, ``verdict``: what /diagnostics says (the decision observer's alarm,
+    latched: offline.verdict_series). ``identification``: also identify the faults of the wheels the
+    verdict names (the isolation node's FaultIdentifier), into RunEval.identification."""
     out = {name: [] for name in fdi_sets}
 
     def check(choices):
@@ -82,9 +82,10 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
         for name, (weights, curves, *own) in fdi_sets.items():
             k = own[0] if own else calibration_samples
             series = fdi_series(observe(samples, weights, calibration_samples=k), curves, persistence)
+            series[VERDICT] = verdict_series(series, next(iter(curves.values())).method)
             found = {}
             if identification and len(samples.time):
-                last = identification_series(samples, series[DECISION_OBSERVER].alarm)[-1]
+                last = identification_series(samples, series[VERDICT].alarm)[-1]
                 found = {a: v.values() for a, v in last.items() if v is not None}
             out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,
                                      seed=scenario.seed, faults=list(scenario.faults), series=series,
