@@ -80,3 +80,23 @@ def test_an_operator_resets_the_verdict_through_a_ros_2_service():
                 node.wait()
     assert call.returncode == 0, call.stderr[-2000:]
     assert call.stdout.strip().splitlines()[-1] == "True no confirmed failure to clear"
+
+
+def test_a_wheel_outside_the_operating_envelope_is_not_judged_but_a_confirmed_failure_stays():
+    from rw_fdi_ros.core.isolation import WHEEL_SPEED_ENVELOPE, in_envelope
+    assert in_envelope([0.0, -WHEEL_SPEED_ENVELOPE, 30.0]).all() and not in_envelope([60.0, 0, 0])[0]
+    t = np.arange(6.0)
+    alarm = np.zeros((6, 3), bool)
+    alarm[1:, 0] = True           # x alarms from 1 s: outside the envelope until 3 s, so confirmed at 3 s
+    alarm[4:, 1] = True           # y alarms at 4 s while outside the envelope: never confirmed
+    speed = np.full((6, 3), 25.0)
+    speed[:3, 0] = 60.0
+    speed[3:, 1] = 60.0
+    series = {"model": Series(t, np.zeros((6, 3)), np.ones((6, 3)), alarm)}
+    v = verdict_series(series, "speed_aware", speed)
+    assert v.alarm[:, 0].tolist() == [False, False, False, True, True, True]
+    assert not v.alarm[:, 1].any()
+    held = LatchedVerdict()
+    held.update(rows([True, False, False], [1.0, None, None]))
+    out = held.update(rows([False, False, False], [1.0, None, None]), {"x": False, "y": True, "z": True})
+    assert out["x"][2:] == (True, 1.0)   # confirmed before it left the envelope: still faulty

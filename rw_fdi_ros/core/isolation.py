@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .detection import AlarmRule, ThresholdCurves
 
 AXES = ("x", "y", "z")
@@ -19,6 +21,18 @@ AXES = ("x", "y", "z")
 # blamed one in 68 % (tools/operations_bench.py, tuning seeds; README "Operations"). The thesis method
 # has no model observer: its Elman network decides, as in the thesis.
 DECISION_OBSERVERS = {"speed_aware": "model", "thesis": "elman"}
+
+
+# The operating envelope's wheel speeds [rad/s]: the verdict is judged for |speed| <= this and STALE beyond.
+# Validated in operations from 0 (speeds through zero) to 45 rad/s (README "Operations"); above 47.3 rad/s
+# the nominal wheel cannot hold its speed even at the 5 V command limit (friction exceeds the motor's
+# torque, core/wheel.py), so a wheel there is not in any state the FDI was built for.
+WHEEL_SPEED_ENVELOPE = 45.0
+
+
+def in_envelope(wheel_speed) -> np.ndarray:
+    """Per wheel: whether its FDI sample's speed [rad/s] lies in the operating envelope."""
+    return np.abs(np.asarray(wheel_speed, float)) <= WHEEL_SPEED_ENVELOPE
 
 
 def decision_observer(method: str) -> str:
@@ -92,9 +106,13 @@ class LatchedVerdict:
         for a in axes:
             self.confirmed[a], self.latched[a] = None, False
 
-    def update(self, rows: dict) -> dict:
+    def update(self, rows: dict, judged=None) -> dict:
+        """``judged``: axis -> False for a wheel whose sample cannot be judged (outside the operating
+        envelope): its verdict holds (a confirmed failure stays, none is confirmed from this sample)."""
         out = {}
         for a, (r, threshold, alarm, first) in rows.items():
+            if judged is not None and not judged[a]:
+                alarm, first = False, None
             if alarm and self.confirmed[a] is None:
                 self.confirmed[a] = first
             held = self.latch and self.confirmed[a] is not None

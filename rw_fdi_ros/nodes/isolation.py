@@ -44,7 +44,8 @@ import numpy as np
 from ..core.detection import METHODS, ThresholdCurves, ThresholdError, observers_of
 from ..core.identification import FaultIdentifier
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
-from ..core.isolation import LatchedVerdict, ObserverChannel, decision_observer, stamp_seconds
+from ..core.isolation import (WHEEL_SPEED_ENVELOPE, LatchedVerdict, ObserverChannel, decision_observer, in_envelope,
+                              stamp_seconds)
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.scenario import AXES
 from ..paths import thresholds_dir
@@ -233,7 +234,11 @@ class IsolationNode(GraphNode):
                     for a, r in channel.rules.items()}
             self._publish_observer(obs, stamp, rows, silent=True)
             handled[obs] = rows
-        handled[self.decision] = self.verdict.update(handled[self.decision])   # /diagnostics: latched
+        # /diagnostics: latched, and not judged for a wheel outside the operating envelope
+        self.envelope = dict(zip(AXES, in_envelope(sample.wheel_speed) if sample.wheel_speed is not None
+                                 else [True] * len(AXES)))
+        self.speeds = sample.wheel_speed
+        handled[self.decision] = self.verdict.update(handled[self.decision], self.envelope)
         alarmed = {a: handled[self.decision][a][2] for a in AXES}
         finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
                                                         sample.ripple_phasor, sample.bus_motor_torque))
@@ -289,9 +294,12 @@ class IsolationNode(GraphNode):
                 extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
             if self.verdict.latched[a]:
                 extra.append(KeyValue(key="latched", value="true"))
+            unjudged = self._why_unjudged(self.decision, stamp, main[a], silent)
+            if unjudged is None and not self.envelope[a]:
+                unjudged = (f"outside the operating envelope (wheel speed {self.speeds[AXES.index(a)]:.1f} rad/s, "
+                            f"judged within +-{WHEEL_SPEED_ENVELOPE:g})")
             status = _status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
-                             extra=extra, identification=found, note=note,
-                             unjudged=self._why_unjudged(self.decision, stamp, main[a], silent),
+                             extra=extra, identification=found, note=note, unjudged=unjudged,
                              latched=self.verdict.latched[a])
             if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
                 # judged against the wheel type's spread until then: only gross faults show (calibration.py),

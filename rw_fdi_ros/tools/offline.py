@@ -172,15 +172,18 @@ def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -
     return out
 
 
-def verdict_series(series: dict, method: str, latch: bool = True):
+def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True):
     """metrics.Series of what /diagnostics says: the decision observer's rows of ``series`` (observer ->
-    Series, :func:`fdi_series`) through the isolation node's LatchedVerdict."""
-    from ..core.isolation import LatchedVerdict, decision_observer
+    Series, :func:`fdi_series`) through the isolation node's LatchedVerdict, a wheel outside the operating
+    envelope at a sample (``wheel_speed``: (n, 3) of the FDI samples) not judged there."""
+    from ..core.isolation import LatchedVerdict, decision_observer, in_envelope
     from .metrics import Series
     s = series[decision_observer(method)]
+    judged = np.ones(s.alarm.shape, bool) if wheel_speed is None else in_envelope(wheel_speed)
     verdict = LatchedVerdict(latch)
     alarm = np.array([[verdict.update({a: (0.0, 0.0, bool(s.alarm[k, i]), float(s.time[k]))
-                                       for i, a in enumerate(AXES)})[a][2] for a in AXES]
+                                       for i, a in enumerate(AXES)},
+                                      dict(zip(AXES, judged[k])))[a][2] for a in AXES]
                       for k in range(len(s.time))], bool).reshape(len(s.time), 3)
     return Series(s.time, s.residual, s.threshold, alarm)
 

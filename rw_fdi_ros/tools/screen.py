@@ -14,6 +14,8 @@ import numpy as np
 from ..core.calibration import calibration_samples
 from ..core.closed_loop import simulate
 from ..core.detection import ThresholdCurves, observers_of
+from ..core.isolation import AXES, in_envelope
+from ..nodes.topics import DIAGNOSTICS
 from ..core.wheel import WheelParams
 from ..paths import fdi_dir, thresholds_dir
 from .metrics import VERDICT, RunEval, judge, observers_of_runs
@@ -82,15 +84,27 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
         for name, (weights, curves, *own) in fdi_sets.items():
             k = own[0] if own else calibration_samples
             series = fdi_series(observe(samples, weights, calibration_samples=k), curves, persistence)
-            series[VERDICT] = verdict_series(series, next(iter(curves.values())).method)
+            series[VERDICT] = verdict_series(series, next(iter(curves.values())).method, samples.wheel_speed)
             found = {}
             if identification and len(samples.time):
                 last = identification_series(samples, series[VERDICT].alarm)[-1]
                 found = {a: v.values() for a, v in last.items() if v is not None}
             out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,
                                      seed=scenario.seed, faults=list(scenario.faults), series=series,
-                                     fault_effect_peak=peak, identification=found))
+                                     fault_effect_peak=peak, identification=found, health=envelope_health(samples)))
     return out
+
+
+def envelope_health(samples) -> dict:
+    """What the isolation node's /diagnostics says of samples outside the operating envelope (STALE, not
+    judged), in health_from_bag's form: {/diagnostics: {axis: {cannot_judge: samples, first_s, message}}}."""
+    if samples.wheel_speed is None or not len(samples.time):
+        return {}
+    outside = ~in_envelope(samples.wheel_speed)
+    return {DIAGNOSTICS: {a: {"cannot_judge": {"samples": int(outside[:, i].sum()),
+                                               "first_s": float(samples.time[int(np.argmax(outside[:, i]))]),
+                                               "message": "outside the operating envelope"}}
+                          for i, a in enumerate(AXES) if outside[:, i].any()}} if outside.any() else {}
 
 
 def summarize(runs) -> dict:
