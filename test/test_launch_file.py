@@ -97,14 +97,19 @@ def expected_nodes(scenario_file: Path, bag: Path):
     return graph_nodes(scenario, path, bag, fdi={"method": "speed_aware"})
 
 
+def launch_fault(ws: Path, work: Path, duration: float):
+    """(Launch, scenario file, bag) of `ros2 launch` recording a current loss on x at 40 s."""
+    scenario = work / "loss.yaml"
+    scenario.write_text(FAULT.format(name="loss", duration=duration))
+    bag = work / "bag"
+    return Launch(ws, work, f"scenario:={scenario}", f"bag:={bag}"), scenario, bag
+
+
 def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_verdict(colcon_workspace, tmp_path):
     from rw_fdi_ros.nodes import topics as T
     from rw_fdi_ros.storage.bag import bag_info, read_series
     from rw_fdi_ros.tools.fdi import fdi_verdict, verdict_topics
-    scenario = tmp_path / "short_loss.yaml"
-    scenario.write_text(FAULT.format(name="short_loss", duration=90))
-    bag = tmp_path / "bag"
-    launch = Launch(colcon_workspace, tmp_path, f"scenario:={scenario}", f"bag:={bag}")
+    launch, scenario, bag = launch_fault(colcon_workspace, tmp_path, 90)
     try:
         code = launch.wait(timeout=240)
         output = launch.output()
@@ -122,19 +127,17 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     counts = {info.counts[t] for t in T.STEP_TOPICS}
     assert counts == {901}, counts   # 0..90 s at 0.1 s on every per-step topic
     verdict = fdi_verdict(read_series(bag, verdict_topics()))
-    elman = verdict["elman"]
-    assert elman["x"] and not elman["y"] and not elman["z"], verdict
-    assert elman["x"][0][0] >= 40.0, verdict   # alarm intervals: none before the onset
-    assert verdict["identification"], verdict
+    for said in (verdict["verdict"], verdict["elman"]):   # /diagnostics and an observer of its own
+        assert said["x"] and not said["y"] and not said["z"], verdict
+        assert said["x"][0][0] >= 40.0, verdict   # alarm intervals: none before the onset
+    assert verdict["verdict"]["x"][0][1] is None   # confirmed, held to the end
+    assert verdict["identification"]["x"]["fault_kind"] == "current_loss", verdict
 
 
 def test_a_node_killed_mid_run_ends_the_launch_with_a_failure_and_a_readable_bag(colcon_workspace, tmp_path):
     from rw_fdi_ros.nodes import topics as T
     from rw_fdi_ros.storage.bag import bag_info
-    scenario = tmp_path / "long_loss.yaml"
-    scenario.write_text(FAULT.format(name="long_loss", duration=2000))
-    bag = tmp_path / "bag"
-    launch = Launch(colcon_workspace, tmp_path, f"scenario:={scenario}", f"bag:={bag}")
+    launch, _, bag = launch_fault(colcon_workspace, tmp_path, 2000)
     try:
         deadline = time.monotonic() + 120
         mcap = bag / "bag.mcap"

@@ -44,15 +44,21 @@ def declared(modules) -> dict:
     return out
 
 
-def readme_table() -> dict:
-    """node -> parameter -> (type, default) of README's "Node parameters" table."""
+def readme_rows():
+    """The cells (node, name, type, default, unit, description) of README's "Node parameters" table."""
     text = (ROOT / "README.md").read_text()
     section = text.split("## Node parameters", 1)[1].split("\n## ", 1)[0]
-    rows = {}
     for line in section.splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if len(cells) == 6 and cells[1].startswith("`"):
-            rows.setdefault(cells[0], {})[cells[1].strip("`")] = (cells[2], cells[3])
+            yield cells
+
+
+def readme_table() -> dict:
+    """node -> parameter -> (type, default) of README's "Node parameters" table."""
+    rows = {}
+    for cells in readme_rows():
+        rows.setdefault(cells[0], {})[cells[1].strip("`")] = (cells[2], cells[3])
     return rows
 
 
@@ -70,3 +76,37 @@ def test_the_table_check_would_see_a_missing_row():
     table = readme_table()
     assert "stall_timeout" in table["player"] and "stall_timeout" in declared(NODES["player"])
     assert set(table) == set(NODES)
+
+
+def test_every_numeric_parameter_has_a_range_and_the_table_states_it():
+    """Issue 26: `--persistence -2` made every wheel alarm with nothing said; every numeric node parameter
+    is now range-checked at declaration (nodes/parameters.py) and README says the range."""
+    from rw_fdi_ros.nodes.parameters import range_of, range_text
+    numeric = 0
+    for node, name, kind, _, _, description in readme_rows():
+        name = name.strip("`")
+        if kind in ("int", "double"):
+            numeric += 1
+            limits = range_of(node, "fault.x.bus_voltage" if name.startswith("fault.") else name)
+            assert limits is not None, f"{node}.{name}: numeric without a range (nodes/parameters.py)"
+            assert name.startswith("fault.") or range_text(limits) in description, (node, name, description)
+    assert numeric >= 40
+
+
+@pytest.mark.parametrize("args, said", [
+    (["isolation", "-p", "persistence:=-2"], "Parameter persistence out of range. Min: 0, Max: 1000, value: -2"),
+    (["pid_controller", "-p", "initial_tcv:=9.0"], "initial_tcv out of range"),
+    (["plant", "-p", "fault.y.current_limiter:=3.0"], "fault.y.current_limiter out of range"),
+    (["recorder", "-p", "drain_timeout:=0.0"], "drain_timeout out of range")])
+def test_a_node_refuses_a_parameter_out_of_its_range_in_one_line(args, said, tmp_path):
+    import os
+    import subprocess
+    import sys
+    from rw_fdi_ros.launch.launcher import DomainLease
+    with DomainLease() as lease:
+        env = dict(os.environ, ROS_DOMAIN_ID=str(lease.domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        run = subprocess.run([sys.executable, "-m", f"rw_fdi_ros.nodes.{args[0]}", "--ros-args", *args[1:]],
+                             capture_output=True, text=True, timeout=60, env=env, cwd=tmp_path)
+    assert run.returncode == 2, run.stderr[-1000:]
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and said in lines[0] and "Traceback" not in run.stderr, run.stderr[-1000:]

@@ -242,7 +242,7 @@ def _axis(where, value):
     raise ScenarioError(f"{where}: wheel must be one of x, y, z, got {value!r}")
 
 
-_FAULT_LIMITS = {"bus_voltage": (0.0, 40.0), "current_limiter": (0.0, 1.0),
+FAULT_LIMITS = {"bus_voltage": (0.0, 40.0), "current_limiter": (0.0, 1.0),
                  "temperature": (-100.0, 400.0), "ripple_gain": (0.0, 10.0)}
 
 
@@ -260,7 +260,7 @@ def _fault(where, raw, duration):
             raise ScenarioError(f"{where}: missing '{key}'")
     return Fault(kind=kind, wheel=_axis(f"{where}.wheel", raw["wheel"]),
                  onset=_num(f"{where}.onset", raw["onset"], 0.0, duration),
-                 value=_num(f"{where}.value", raw["value"], *_FAULT_LIMITS[kind]),
+                 value=_num(f"{where}.value", raw["value"], *FAULT_LIMITS[kind]),
                  ramp=_num(f"{where}.ramp", raw.get("ramp", 0.0), 0.0, None))
 
 

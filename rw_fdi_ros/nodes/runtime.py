@@ -42,6 +42,22 @@ class GraphNode(Node):
         self.exit_code: int | None = None
         self.exit_message = ""
 
+    def declare_parameter(self, name, value=None, descriptor=None, ignore_override=False):
+        """rclpy's, with the parameter's range (nodes/parameters.py) in its descriptor: a value out of it,
+        or a non-finite float, ends the node with one line naming the parameter before it starts."""
+        from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+        from .parameters import descriptor as ranged, finite
+        descriptor = descriptor or ranged(getattr(type(self), "node_name", self.get_name()), name, value)
+        try:
+            parameter = super().declare_parameter(name, value, descriptor, ignore_override) if descriptor \
+                else super().declare_parameter(name, value, ignore_override=ignore_override)
+        except (InvalidParameterValueException, InvalidParameterTypeException) as exc:
+            reason = str(exc).split("Reason: ", 1)[-1].removesuffix(f": {name}")
+            raise NodeError(reason if name in reason else f"parameter {name}: {reason}", EXIT_BAD_INPUT) from None
+        if not finite(parameter.value):
+            raise NodeError(f"parameter {name}: {parameter.value} is not a finite number", EXIT_BAD_INPUT)
+        return parameter
+
     def follow_run_end(self, grace: float = 10.0, period: float = 0.0):
         """End this node once the plant has published /plant/done and this node has handled its
         last stamp (``self.last_handled``): the done stamp itself, or with ``period`` the last
