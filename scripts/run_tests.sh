@@ -5,4 +5,4 @@ cd "$(dirname "$0")/.."
 bash scripts/setup_venv.sh
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_LOG_DIR="$(mktemp -d /tmp/rw_fdi_test_roslog.XXXXXX)"
-exec .venv/bin/python -m pytest -q -p no:cacheprovider "$@" test
+exec .venv/bin/python -m pytest -q -p no:cacheprovider --durations=12 "$@" test

@@ -173,9 +173,9 @@ def run_and_kill(procs, victim, when):
 
 
 def test_nan_torque_command_stops_the_run_naming_the_axis(scenario_file, tmp_path):
-    def nan_gain(nodes):
-        nodes[2].parameters["kp"] = float("nan")   # pid_controller_y
-    procs, lease, bag = graph(scenario_file, tmp_path, tweak=nan_gain)
+    def nan_setpoint(nodes):   # a controller that computes NaN (its gains are range-checked at start)
+        nodes[2].parameters["setpoints"] = [float("nan")] * len(nodes[2].parameters["setpoints"])   # _y
+    procs, lease, bag = graph(scenario_file, tmp_path, tweak=nan_setpoint)
     try:
         t0 = time.monotonic()
         result = procs.run(watchdog=60)

@@ -10,8 +10,11 @@ import subprocess
 import sys
 import time
 
+import os
+
 from rw_fdi_ros.launch.launcher import TEARDOWN_HUNG
-from rw_fdi_ros.nodes.runtime import TEARDOWN_TIMEOUT
+
+TEARDOWN_TIMEOUT = 3   # the test's own (RW_FDI_TEARDOWN_TIMEOUT), not the nodes' 10 s
 
 HANGING_TEARDOWN = """
 import sys, time, rclpy
@@ -29,7 +32,8 @@ print("never here", flush=True)
 def test_a_teardown_that_never_returns_ends_by_its_watchdog_with_the_stack_in_the_log():
     t0 = time.monotonic()
     done = subprocess.run([sys.executable, "-c", HANGING_TEARDOWN], capture_output=True, text=True,
-                          timeout=TEARDOWN_TIMEOUT + 60)
+                          timeout=TEARDOWN_TIMEOUT + 60,
+                          env=dict(os.environ, RW_FDI_TEARDOWN_TIMEOUT=str(TEARDOWN_TIMEOUT)))
     took = time.monotonic() - t0
     assert done.returncode == TEARDOWN_HUNG == -signal.SIGALRM, (done.returncode, done.stderr[-2000:])
     assert "destroying" in done.stdout and "never here" not in done.stdout
