@@ -2,22 +2,26 @@
 the first healthy minutes of a run (issue 17).
 
 Wheels of one type differ (wheel.DEFAULT_UNIT_SPREAD): to first order a unit whose torque constant
-times driver gain is (1 + b_m) times the datasheet's, whose viscous and coulomb friction are
-(1 + b_v) and (1 + b_c) times, leaves in any observer's error e = r - r^ (r: measured reaction torque,
-r^: the observer's estimate of the datasheet wheel's) the linear term
+and driver gain are (1 + d_kt) and (1 + d_Gd) times the datasheet's, whose viscous and coulomb
+friction are (1 + b_v) and (1 + b_c) times, leaves in any observer's error e = r - r^ (r: measured
+reaction torque, r^: the observer's estimate of the datasheet wheel's) the linear term
 
-    e_k = b_m (-tau_m,k) + b_v tau_v Omega_k + b_c tau_c tanh(Omega_k / w_c)
+    e_k = d_kt (-tau_m,k) + d_Gd (-tau_m,k^free) + b_v tau_v Omega_k + b_c tau_c tanh(Omega_k / w_c)
           + a_re Re p_k + a_im Im p_k + noise                                    (x_k . b + noise)
 
 with every term the FDI period's mean the wheel electronics report (telemetry.py): tau_m the nominal
-motor torque, tau_v Omega and tau_c tanh(.) the nominal viscous and coulomb friction, p the ripple
-phasor (its gain and phase are unknown: nuisance regressors, kept out of the fit's bias and out of
-the correction, which the ripple bound covers).
+motor torque, tau_m^free the same where the bridge does not clip the current (eq. 2.13; where it
+clips, the torque is k_t I_max whatever the driver gain), tau_v Omega and tau_c tanh(.) the nominal
+viscous and coulomb friction, p the ripple phasor (its gain and phase are unknown: nuisance
+regressors, kept out of the fit's bias and out of the correction, which the ripple bound covers).
+One motor share (d_kt + d_Gd) was not enough: on the slews that reach the EMF limit at high speed
+the clipped torque scales with d_kt alone, the one-share model left up to 1.4e-3 N m unexplained,
+and the coulomb share absorbed it (35 % off on 1 wheel in 40; tuning runs 83,000,000+).
 
 b is estimated by Bayesian least squares with the unit spreads as prior, b ~ N(0, P0),
-P0 = diag(s_kt^2 + s_Gd^2, s_v^2, s_c^2, (g_max B/2)^2, (g_max B/2)^2):
+P0 = diag(s_kt^2, s_Gd^2, s_v^2, s_c^2, (g_max B/2)^2, (g_max B/2)^2):
 
-    Sigma = (P0^-1 + X'X / s^2)^-1,    b^ = Sigma X'e / s^2,    s^2 = c max(RSS / (n - 5), sigma_floor^2)
+    Sigma = (P0^-1 + X'X / s^2)^-1,    b^ = Sigma X'e / s^2,    s^2 = c max(RSS / (n - 6), sigma_floor^2)
 
 (c: serial correlation of 1 s samples, as in identification.py). What the data cannot tell apart
 (viscous from coulomb friction while the speed barely moves; the motor torque scale from the
@@ -45,7 +49,8 @@ import numpy as np
 
 from . import wheel as wm
 
-PARAMETERS = ("motor_torque", "viscous_friction", "coulomb_friction")   # b_m, b_v, b_c
+PARAMETERS = wm.UNIT_PARAMETERS   # d_kt, d_Gd, b_v, b_c
+PHYSICAL = len(PARAMETERS)
 NUISANCE = ("ripple_re", "ripple_im")
 CORRELATION = 10.0     # noise variance widening for serially correlated 1 s samples (identification.py)
 SIGMA_FLOOR = 5e-5     # [N m] per FDI sample: bearing torque noise and what the models leave out
@@ -62,33 +67,35 @@ def prior_variances(spread: dict | None = None, ripple_gain_max: float = 2.0,
     """diag(P0): the unit spreads (shares, wheel.DEFAULT_UNIT_SPREAD) and the ripple's largest phasor gain."""
     s = dict(wm.DEFAULT_UNIT_SPREAD if spread is None else spread)
     ripple = (params.ripple_amplitude_share * params.ripple_coefficient * ripple_gain_max) ** 2
-    return np.array([s.get("torque_constant", 0.0) ** 2 + s.get("driver_gain", 0.0) ** 2,
-                     s.get("viscous_friction", 0.0) ** 2, s.get("coulomb_friction", 0.0) ** 2, ripple, ripple])
+    return np.array([s.get(name, 0.0) ** 2 for name in PARAMETERS] + [ripple, ripple])
 
 
 def tolerances(spread: dict | None = None) -> np.ndarray:
-    """The 1-sigma tolerance of each physical share (b_m, b_v, b_c) as a box: b_m = (1 + d_kt)(1 + d_Gd) - 1
-    reaches s_kt + s_Gd when both sit at the same end (the plant draws each within 3 sigma)."""
+    """The 1-sigma tolerance of each physical share (d_kt, d_Gd, b_v, b_c), a box: sum_i t_i |x_i| is the
+    largest error of a unit with every share at the same end (the plant draws each within 3 sigma)."""
     s = dict(wm.DEFAULT_UNIT_SPREAD if spread is None else spread)
-    return np.array([s.get("torque_constant", 0.0) + s.get("driver_gain", 0.0), s.get("viscous_friction", 0.0),
-                     s.get("coulomb_friction", 0.0)])
+    return np.array([s.get(name, 0.0) for name in PARAMETERS])
 
 
-def regressors(motor_torque, friction_torque, wheel_speed, ripple_phasor,
+def regressors(motor_torque, friction_torque, wheel_speed, ripple_phasor, free_motor_torque=None,
                params: wm.WheelParams = wm.WheelParams()) -> np.ndarray:
-    """x_k (..., 5) from the FDI sample's nominal terms (any leading shape, one wheel per element)."""
+    """x_k (..., 6) from the FDI sample's nominal terms (any leading shape, one wheel per element);
+    without ``free_motor_torque`` (telemetry from before it was reported) the bridge is taken as never
+    clipping."""
     viscous = wm.viscous_coefficient(wm.NOMINAL.temperature, params) * np.asarray(wheel_speed, float)
     p = np.asarray(ripple_phasor, complex)
-    return np.stack([-np.asarray(motor_torque, float), viscous, np.asarray(friction_torque, float) - viscous,
-                     p.real, p.imag], axis=-1)
+    motor = np.asarray(motor_torque, float)
+    free = motor if free_motor_torque is None else np.asarray(free_motor_torque, float)
+    return np.stack([-motor, -np.broadcast_to(free, motor.shape), viscous,
+                     np.asarray(friction_torque, float) - viscous, p.real, p.imag], axis=-1)
 
 
 @dataclass(frozen=True)
 class UnitEstimate:
-    """b^ and its posterior covariance, the physical part (b_m, b_v, b_c) first."""
+    """b^ and its posterior covariance, the physical part (d_kt, d_Gd, b_v, b_c) first."""
 
-    mean: np.ndarray        # (5,)
-    covariance: np.ndarray  # (5, 5)
+    mean: np.ndarray        # (6,)
+    covariance: np.ndarray  # (6, 6)
     samples: int
     noise: float            # s [N m] the posterior used
 
@@ -110,14 +117,15 @@ class UnitCalibration:
                  sigma_floor: float = SIGMA_FLOOR, correlation: float = CORRELATION, tolerance=None):
         self.samples = int(samples)
         p0 = prior_variances() if prior is None else np.asarray(prior, float)
-        if p0.shape != (5,) or np.any(p0 <= 0) or not np.all(np.isfinite(p0)):
-            raise ValueError(f"calibration prior variances must be 5 finite positive numbers, got {p0.tolist()}")
+        width = PHYSICAL + 2
+        if p0.shape != (width,) or np.any(p0 <= 0) or not np.all(np.isfinite(p0)):
+            raise ValueError(f"calibration prior variances must be {width} finite positive numbers, got {p0.tolist()}")
         self.prior_information = np.diag(1.0 / p0)
         self.tolerance = tolerances() if tolerance is None else np.asarray(tolerance, float)
         self.floor2 = float(sigma_floor) ** 2
         self.correlation = float(correlation)
-        self.xtx = np.zeros((5, 5))
-        self.xte = np.zeros(5)
+        self.xtx = np.zeros((width, width))
+        self.xte = np.zeros(width)
         self.ete = 0.0
         self.n = 0
         self.estimate = self._posterior()
@@ -134,13 +142,14 @@ class UnitCalibration:
             return cov @ self.xte / (self.correlation * s2), cov
         mean, _ = fit(self.floor2)
         rss = self.ete - 2.0 * mean @ self.xte + mean @ self.xtx @ mean
-        s2 = max(rss / (self.n - 5), self.floor2) if self.n > 5 else self.floor2
+        dof = self.n - len(self.xte)
+        s2 = max(rss / dof, self.floor2) if dof > 0 else self.floor2
         mean, cov = fit(s2)
         return UnitEstimate(mean, cov, self.n, float(np.sqrt(s2)))
 
     def update(self, error: float, x) -> tuple:
         x = np.asarray(x, float)
-        phys = x[:3]
+        phys = x[:PHYSICAL]
         if not self.frozen:   # learning: judge against the type's tolerances, and learn
             self.xtx += np.outer(x, x)
             self.xte += x * float(error)
@@ -150,4 +159,33 @@ class UnitCalibration:
                 self.estimate = self._posterior()
             return 0.0, float(np.abs(phys) @ self.tolerance)
         est = self.estimate
-        return float(phys @ est.mean[:3]), float(np.sqrt(max(phys @ est.covariance[:3, :3] @ phys, 0.0)))
+        cov = est.covariance[:PHYSICAL, :PHYSICAL]
+        return float(phys @ est.mean[:PHYSICAL]), float(np.sqrt(max(phys @ cov @ phys, 0.0)))
+
+    def unit(self) -> "UnitShares":
+        """What is known of this wheel's unit now: the posterior once frozen, the type's spread while learning."""
+        return UnitShares.of_estimate(self.estimate) if self.frozen else UnitShares.of_type()
+
+
+@dataclass(frozen=True)
+class UnitShares:
+    """What is known of a wheel's unit over the datasheet: (d_kt, d_Gd, b_v, b_c) ~ N(mean, covariance)
+    (fault identification judges the fault on this unit, with this uncertainty)."""
+
+    mean: np.ndarray          # (4,)
+    covariance: np.ndarray    # (4, 4)
+    source: str               # 'calibrated' (learnt from the run) or 'type' (the unit spreads only)
+
+    @classmethod
+    def of_estimate(cls, estimate: UnitEstimate) -> "UnitShares":
+        k = PHYSICAL
+        return cls(estimate.mean[:k].copy(), estimate.covariance[:k, :k].copy(), "calibrated")
+
+    @classmethod
+    def of_type(cls, spread: dict | None = None) -> "UnitShares":
+        """A unit nothing was learnt of: any unit of the type, b ~ N(0, diag(spread^2))."""
+        return cls(np.zeros(PHYSICAL), np.diag(prior_variances(spread)[:PHYSICAL]), "type")
+
+    def scales(self) -> np.ndarray:
+        """1 + mean: the unit's torque constant, driver gain, viscous and coulomb friction over the datasheet's."""
+        return 1.0 + self.mean

@@ -30,6 +30,21 @@ eliminated by projection:  RSS_h(theta) = || P_perp (r - r^(theta)) ||^2.
   Where the interval reaches the end of the grid only a bound is observable
   (tau_v is 0 from 215 C on; a bus clipping only part of the time).
 
+On a wheel that is not the datasheet's (unit calibration, core/calibration.py) every family is the
+calibrated unit's: its torque constant, driver gain, viscous and coulomb friction scaled by 1 + the
+learnt shares b^ = (d_kt, d_Gd, b_v, b_c) (calibration.UnitShares), and what the calibration does not
+know enters each fit as four more regressors, the sensitivities dr^/db at theta, with the
+calibration's posterior N(0, Sigma) as their prior:
+
+    RSS_h(theta) = min over (alpha, beta, db) of || r - r^(theta; b^) - X_r (alpha, beta) - X_u(theta) db ||^2
+                                                 + c s^2 db' Sigma^-1 db
+
+(running sums again; c s^2 the per-sample noise variance the interval uses). The fault and the unit
+share a direction (a limiter share a and d_kt + d_Gd both scale the motor torque; tau_v(T) and b_v
+the viscous friction), so the interval widens by what the calibration cannot tell, and says so
+where that doubles it. A wheel alarmed while its calibration still learns is judged against any unit
+of its type (b^ = 0, Sigma = the spreads).
+
 Samples count from the wheel's first alarm on (the fault began before it)
 and are never forgotten: the few seconds after a fault, while the controller
 moves the command, are what tells a current loss from a bus drop; a window of
@@ -43,6 +58,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import wheel as wm
+from .calibration import UnitCalibration, UnitShares, regressors
 
 KINDS = ("current_loss", "temperature", "bus_voltage")
 UNKNOWN = "unknown"
@@ -61,6 +77,7 @@ CORRELATION = 10.0     # interval widening for serially correlated 1 s samples
 # leave out (1.5e-5, eq. 2.16) plus half a grid step, up to 4e-5 N m where the bus family is steep.
 SIGMA_FLOOR = 5e-5
 MIN_SAMPLES = 5
+FREE_UNIT = 1e-3 * SIGMA_FLOOR ** 2   # [N^2 m^2] a ridge only: the unit's shares all but free (noise estimate)
 
 
 def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams(), grid=BUS_VOLTAGE_GRID):
@@ -70,58 +87,127 @@ def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams()
     return params.torque_constant * wm.motor_current(u, w, grid, 1.0, params)
 
 
-def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque):
+def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, scales=None, free_motor_torque=None):
     """Predicted reaction torque of every grid point of every family, (sum of grid sizes, n), families
     in KINDS order, for n FDI samples of one wheel.
 
     ``motor_torque``, ``friction_torque``, ``wheel_speed``: (n,) period means of the nominal
-    wheel's tau_m and tau_f and of Omega; ``bus_torque``: (n, len(BUS_VOLTAGE_GRID)).
+    wheel's tau_m and tau_f and of Omega; ``bus_torque``: (n, len(BUS_VOLTAGE_GRID)); ``scales``:
+    the unit's (1 + d_kt, 1 + d_Gd, 1 + b_v, 1 + b_c) (None: the datasheet wheel), whose driver gain
+    acts on ``free_motor_torque`` (tau_m where the bridge does not clip; default tau_m).
     """
     tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
+    bus = np.atleast_2d(np.asarray(bus_torque, float)).T
     tv = _VISCOUS_GRID   # eq. 2.15 is the same law for every wheel of the type: once, not per sample
-    coulomb = tf - _VISCOUS_NOMINAL * w
-    return np.concatenate([-CURRENT_LIMITER_GRID[:, None] * tm[None] + tf[None],
-                           -tm[None] + tv[:, None] * w[None] + coulomb[None],
-                           -np.atleast_2d(np.asarray(bus_torque, float)).T + tf[None]])
+    viscous = _VISCOUS_NOMINAL * w
+    coulomb = tf - viscous
+    if scales is None:
+        return np.concatenate([-CURRENT_LIMITER_GRID[:, None] * tm[None] + tf[None],
+                               -tm[None] + tv[:, None] * w[None] + coulomb[None],
+                               -bus + tf[None]])
+    kt, gd, sv, sc = (float(x) for x in scales)
+    free = _free(tm, free_motor_torque)
+    motor = kt * (tm + (gd - 1.0) * free)          # the unit's k_t clip((1 + d_Gd) G_d u, I_max), first order
+    friction = sv * viscous + sc * coulomb
+    return np.concatenate([-CURRENT_LIMITER_GRID[:, None] * motor[None] + friction[None],
+                           -motor[None] + sv * tv[:, None] * w[None] + sc * coulomb[None],
+                           -kt * (bus + (gd - 1.0) * _bus_free(tm, free, bus)) + friction[None]])
+
+
+def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, free_motor_torque=None):
+    """dr^/d(d_kt, d_Gd, b_v, b_c) of every grid point, (sum of grid sizes, n, 4): the directions in which
+    what the calibration does not know of the unit moves each family's prediction (to first order)."""
+    tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
+    bus = np.atleast_2d(np.asarray(bus_torque, float)).T
+    free = _free(tm, free_motor_torque)
+    n, temperatures, limiters = len(tm), len(TEMPERATURE_GRID), CURRENT_LIMITER_GRID[:, None]
+    viscous = _VISCOUS_NOMINAL * w
+    motor = np.concatenate([-limiters * tm[None], np.broadcast_to(-tm[None], (temperatures, n)), -bus])
+    gain = np.concatenate([-limiters * free[None], np.broadcast_to(-free[None], (temperatures, n)),
+                           -_bus_free(tm, free, bus)])
+    visc = np.concatenate([np.broadcast_to(viscous[None], (len(CURRENT_LIMITER_GRID), n)),
+                           _VISCOUS_GRID[:, None] * w[None], np.broadcast_to(viscous[None], (len(BUS_VOLTAGE_GRID), n))])
+    return np.stack([motor, gain, visc, np.broadcast_to((tf - viscous)[None], (_SIZE, n))], axis=-1)
+
+
+def _free(tm, free_motor_torque):
+    return tm if free_motor_torque is None else np.atleast_1d(np.asarray(free_motor_torque, float))
+
+
+def _bus_free(tm, free, bus):
+    """The bus family's unclipped motor torque: the 8 V wheel's where the bus at V clips no more than 8 V
+    does (equal torques), else 0."""
+    return np.where(np.abs(bus - tm[None]) <= 1e-12 + 1e-9 * np.abs(tm[None]), free[None], 0.0)
 
 
 _VISCOUS_GRID = wm.viscous_coefficient(TEMPERATURE_GRID)
 _VISCOUS_NOMINAL = float(wm.viscous_coefficient(wm.NOMINAL.temperature))
 GRIDS = {"current_loss": CURRENT_LIMITER_GRID, "temperature": TEMPERATURE_GRID, "bus_voltage": BUS_VOLTAGE_GRID}
+_SIZE = sum(map(len, GRIDS.values()))
 _SLICES = dict(zip(KINDS, np.split(np.arange(sum(map(len, GRIDS.values()))),
                                    np.cumsum([len(GRIDS[k]) for k in KINDS])[:-1])))
 
 
 class ProfileSums:
-    """Running sums that give RSS(theta) of every grid point with the ripple terms projected out:
+    """Running sums that give RSS(theta) of every grid point with the ripple (and the unit's
+    uncertainty) projected out:
 
-        RSS = sum e^2 - c^T G^-1 c,  e = r - r^(theta),  c = sum e x,  G = sum x x^T,  x = (Im p, Re p)
+        RSS = sum e^2 - c^T (G + Pi)^-1 c,  e = r - r^(theta),  c = sum e x,  G = sum x x^T,
+        x = (Im p, Re p[, dr^/db(theta)]),  Pi = the unit's prior information (0 on the ripple)
 
-    A sample costs O(grid) and the memory does not grow with the samples.
+    A sample costs O(grid) and the memory does not grow with the samples. ``unit``: what is known of
+    the wheel's unit (calibration.UnitShares); None for the datasheet wheel.
     """
 
-    def __init__(self):
-        size = sum(map(len, GRIDS.values()))
-        self.sq = np.zeros(size)
-        self.cross = np.zeros((size, 2))
-        self.gram = np.zeros((2, 2))
+    def __init__(self, unit: UnitShares | None = None):
+        self.unit = unit
+        self.scales = None if unit is None else unit.scales()
+        width = 2 if unit is None else 6
+        self.sq = np.zeros(_SIZE)
+        self.cross = np.zeros((_SIZE, width))
+        # the ripple's Gram is the same for every grid point; the unit's directions are not
+        self.gram = np.zeros((2, 2)) if unit is None else np.zeros((_SIZE, width, width))
         self.n = 0
 
     def add(self, row):
-        """``row``: (reaction torque, motor torque, friction torque, wheel speed, bus torques, phasor)."""
-        r, tm, tf, w, bus, p = row
-        e = r - family_predictions(tm, tf, w, bus[None, :])[:, 0]
-        x = np.array([np.imag(p), np.real(p)])
+        """``row``: (reaction torque, motor torque, friction torque, wheel speed, bus torques, phasor[, free
+        motor torque])."""
+        r, tm, tf, w, bus, p, *rest = row
+        free = rest[0] if rest else None
+        e = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free)[:, 0]
+        ripple = np.array([np.imag(p), np.real(p)])
+        if self.unit is None:
+            self.cross += e[:, None] * ripple[None, :]
+            self.gram += np.outer(ripple, ripple)
+        else:
+            x = np.empty((_SIZE, 6))
+            x[:, :2] = ripple
+            x[:, 2:] = unit_sensitivities(tm, tf, w, bus[None, :], free)[:, 0]
+            self.cross += e[:, None] * x
+            self.gram += x[:, :, None] * x[:, None, :]
         self.sq += e * e
-        self.cross += e[:, None] * x[None, :]
-        self.gram += np.outer(x, x)
         self.n += 1
 
-    def rss(self) -> np.ndarray:
-        if self.n <= 2 or not np.all(np.isfinite(self.gram)) or np.linalg.cond(self.gram) > 1e12:
-            return np.maximum(self.sq, 0.0)
-        solved = np.linalg.solve(self.gram, self.cross.T)          # (2, size)
-        return np.maximum(self.sq - np.einsum("ij,ji->i", self.cross, solved), 0.0)
+    def _ripple_usable(self, gram) -> bool:
+        return self.n > 2 and bool(np.all(np.isfinite(gram))) and np.linalg.cond(gram) <= 1e12
+
+    def rss(self, noise_variance: float | None = None) -> np.ndarray:
+        """RSS of every grid point, the ripple projected out; with ``noise_variance`` (c s^2) and a unit,
+        the unit's uncertainty too (penalised by its prior), else the unit taken at its mean."""
+        ripple_gram = self.gram if self.unit is None else self.gram[0, :2, :2]
+        ripple = self._ripple_usable(ripple_gram)
+        if noise_variance is None or self.unit is None:
+            if not ripple:
+                return np.maximum(self.sq, 0.0)
+            solved = np.linalg.solve(ripple_gram, self.cross[:, :2].T)          # (2, size)
+            return np.maximum(self.sq - np.einsum("ij,ji->i", self.cross[:, :2], solved), 0.0)
+        keep = slice(0, 6) if ripple else slice(2, 6)
+        penalty = np.zeros((6, 6))
+        penalty[2:, 2:] = noise_variance * np.linalg.inv(self.unit.covariance + 1e-12 * np.eye(4))
+        lhs = (self.gram + penalty)[:, keep, keep]
+        c = self.cross[:, keep]
+        solved = np.linalg.solve(lhs, c[:, :, None])[:, :, 0]
+        return np.maximum(self.sq - np.einsum("ij,ij->i", c, solved), 0.0)
 
 
 @dataclass
@@ -137,6 +223,8 @@ class Identification:
     best_guess: str = ""         # the best-fitting family even when the kind is 'unknown'
     rss: dict = field(default_factory=dict)   # kind -> RSS minimum
     healthy: bool = False        # the best fit is the nominal wheel: the data show no fault
+    unit: str = "datasheet"      # the wheel the families scale: 'datasheet', 'calibrated' or 'type' (still learning)
+    unit_limited: bool = False   # what is not known of the unit at least doubles the interval
 
     @property
     def bound_only(self) -> str:
@@ -151,30 +239,35 @@ class Identification:
 
     def message(self) -> str:
         """One line a person reads at a glance."""
+        why = ""
+        if self.unit_limited:
+            why = (" (wide: the unit is not calibrated yet)" if self.unit == "type"
+                   else " (wide: what the calibration does not know of the unit)")
         if self.kind == UNKNOWN:
             if self.samples < MIN_SAMPLES:
                 return f"identifying ({self.samples} samples)"
             if self.healthy:
                 return "fits a healthy wheel: alarm not confirmed"
             guess = self.best_guess.replace("_", " ")
-            return f"unknown fault (closest: {guess}, explains {100 * self.explained:.0f} %)"
+            return f"unknown fault (closest: {guess}, explains {100 * self.explained:.0f} %){why}"
         head, digits = {"current_loss": ("current loss, limiter", 2), "temperature": ("temperature", 0),
                         "bus_voltage": ("bus voltage", 2)}[self.kind]
         unit = f" {UNITS[self.kind]}" if UNITS[self.kind] else ""
         def fmt(v):
             return f"{v:.{digits}f}"
         if self.bound_only == "upper":
-            return f"{head} <= {fmt(self.high)}{unit}"
+            return f"{head} <= {fmt(self.high)}{unit}{why}"
         if self.bound_only == "lower":
-            return f"{head} >= {fmt(self.low)}{unit}"
-        return f"{head} {fmt(self.size)}{unit} [{fmt(self.low)}, {fmt(self.high)}]"
+            return f"{head} >= {fmt(self.low)}{unit}{why}"
+        return f"{head} {fmt(self.size)}{unit} [{fmt(self.low)}, {fmt(self.high)}]{why}"
 
     def values(self) -> dict:
         """The /diagnostics key-values (strings)."""
         def num(v):
             return "nan" if not np.isfinite(v) else f"{v:.6g}"
         return {"fault_kind": self.kind, "fault_size": num(self.size), "fault_size_low": num(self.low),
-                "fault_size_high": num(self.high)}
+                "fault_size_high": num(self.high), "fault_unit": self.unit,
+                "fault_size_unit_limited": "true" if self.unit_limited else "false"}
 
 
 def decide(sums: ProfileSums) -> Identification:
@@ -182,7 +275,16 @@ def decide(sums: ProfileSums) -> Identification:
     n = sums.n
     if n < MIN_SAMPLES:
         return Identification(UNKNOWN, samples=n)
-    rss_all = sums.rss()
+    known = sums.rss()                  # the unit at its mean (the datasheet wheel without a unit)
+    if not np.all(np.isfinite(known)):
+        return Identification(UNKNOWN, samples=n)
+    s2 = max(float(known.min()) / max(n - 3, 1), SIGMA_FLOOR ** 2)
+    rss_all = known
+    if sums.unit is not None:
+        # the noise from the fit where the unit is free (a unit taken at a wrong mean is no noise),
+        # then every family with the unit held to what the calibration knows
+        s2 = max(float(sums.rss(FREE_UNIT).min()) / max(n - 7, 1), SIGMA_FLOOR ** 2)
+        rss_all = sums.rss(CORRELATION * s2)
     if not np.all(np.isfinite(rss_all)):
         return Identification(UNKNOWN, samples=n)
     fits = {k: rss_all[_SLICES[k]] for k in KINDS}
@@ -190,43 +292,61 @@ def decide(sums: ProfileSums) -> Identification:
     best = min(KINDS, key=lambda k: fits[k].min())
     grid, rss = GRIDS[best], fits[best]
     rss_min = float(rss.min())
-    s2 = max(rss_min / max(n - 3, 1), SIGMA_FLOOR ** 2)
     explained = 1.0 - rss_min / nominal if nominal > 0 else 0.0
     margin = min((fits[k].min() - rss_min) / s2 for k in KINDS if k != best)
-    inside = np.nonzero(rss - rss_min <= CHI2_95 * s2 * CORRELATION)[0]
-    # never narrower than the grid's own resolution: half a step either side
-    lo_i, hi_i = inside.min(), inside.max()
-    step = abs(grid[1] - grid[0])
-    ends = sorted((float(grid[lo_i]), float(grid[hi_i])))
-    low = max(ends[0] - step / 2, min(grid[0], grid[-1]))
-    high = min(ends[1] + step / 2, max(grid[0], grid[-1]))
+    low, high = _interval(grid, rss, s2)
     size = float(grid[rss.argmin()])
     out = Identification(best, size, low, high, n, float(explained), best, {k: float(fits[k].min()) for k in KINDS})
     out.healthy = size == grid[0]
+    if sums.unit is not None:
+        out.unit = sums.unit.source
+        alone = _interval(grid, known[_SLICES[best]], s2)   # were the unit known exactly
+        out.unit_limited = (high - low) > 2.0 * (alone[1] - alone[0])
     if explained < EXPLAINED or margin < DECISIVE or out.healthy:
         out.kind = UNKNOWN
     return out
 
 
+def _interval(grid, rss, s2) -> tuple:
+    """{theta : RSS(theta) - RSS_min <= chi2_1(0.95) s^2 c}, never narrower than the grid's own
+    resolution (half a step either side)."""
+    inside = np.nonzero(rss - rss.min() <= CHI2_95 * s2 * CORRELATION)[0]
+    step = abs(grid[1] - grid[0])
+    ends = sorted((float(grid[inside.min()]), float(grid[inside.max()])))
+    return max(ends[0] - step / 2, min(grid[0], grid[-1])), min(ends[1] + step / 2, max(grid[0], grid[-1]))
+
+
 def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor,
-             ) -> Identification:
+             unit: UnitShares | None = None, free_motor_torque=None) -> Identification:
     """Kind and size of one wheel's fault from its n FDI samples since the alarm (whole arrays)."""
-    sums = ProfileSums()
-    for row in zip(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor):
+    sums = ProfileSums(unit)
+    free = motor_torque if free_motor_torque is None else free_motor_torque
+    for row in zip(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor, free):
         sums.add(row)
     return decide(sums)
 
 
 class FaultIdentifier:
-    """Three wheels, sample by sample: collects a wheel's FDI samples from its first alarm on and
-    identifies its fault on every new sample (the isolation node and the offline tools)."""
+    """The wheels, sample by sample: collects a wheel's FDI samples from its first alarm on and
+    identifies its fault on every new sample (the isolation node and the offline tools).
 
-    def __init__(self, axes=("x", "y", "z")):
+    With ``calibration_samples`` each wheel's unit is learnt from the first samples of the run as the
+    model observer learns it (the same calibration.UnitCalibration on the nominal model's error), and
+    a wheel's fault is identified on the unit known at its first alarm."""
+
+    def __init__(self, axes=("x", "y", "z"), calibration_samples: int = 0):
         self.axes = tuple(axes)
+        self.calibration_samples = int(calibration_samples)
         self.reset()
 
     def reset(self):
-        """Forget every wheel's samples: a new run starts."""
+        """Forget everything of the run, the units learnt included: a new run starts."""
+        self.calibrations = ({a: UnitCalibration(self.calibration_samples) for a in self.axes}
+                             if self.calibration_samples else None)
+        self.clear()
+
+    def clear(self):
+        """Forget every wheel's fault (an operator's reset); the units learnt stay."""
         self.sums = {a: None for a in self.axes}     # axis -> ProfileSums once alarmed
         self.latest = {a: None for a in self.axes}
 
@@ -234,11 +354,18 @@ class FaultIdentifier:
         """``sample``: a telemetry.FdiSample with the identification terms; ``alarmed``: axis -> bool.
         Returns axis -> Identification (None for a wheel never alarmed)."""
         for i, a in enumerate(self.axes):
+            calibration = None if self.calibrations is None else self.calibrations[a]
             if self.sums[a] is None and alarmed.get(a):
-                self.sums[a] = ProfileSums()
+                self.sums[a] = ProfileSums(None if calibration is None else calibration.unit())
+            free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
             if self.sums[a] is None:
+                if calibration is not None and not calibration.frozen:   # learns while its wheel is healthy
+                    calibration.update(sample.reaction_torque[i] - sample.model_torque[i],
+                                       regressors(sample.motor_torque[i], sample.friction_torque[i],
+                                                  sample.wheel_speed[i], sample.ripple_phasor[i], free))
                 continue
             self.sums[a].add((sample.reaction_torque[i], sample.motor_torque[i], sample.friction_torque[i],
-                              sample.wheel_speed[i], sample.bus_motor_torque[i], sample.ripple_phasor[i]))
+                              sample.wheel_speed[i], sample.bus_motor_torque[i], sample.ripple_phasor[i],
+                              sample.motor_torque[i] if free is None else free))
             self.latest[a] = decide(self.sums[a])
         return dict(self.latest)

@@ -32,10 +32,14 @@ from .sampling import FdiSampler
 
 
 def model_reaction_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams()):
-    """Reaction torque [N m] of a healthy wheel for command ``tcv`` at speed ``wheel_speed`` (no ripple)."""
+    """Reaction torque [N m] of a healthy wheel for command ``tcv`` at speed ``wheel_speed`` (no ripple),
+    its motor torque tau_m, and tau_m where the bridge does not clip the current (else 0: there a
+    unit's driver gain does not show, calibration.py)."""
     nominal = wm.NOMINAL
-    tau_m = params.torque_constant * wm.motor_current(tcv, wheel_speed, nominal.bus_voltage, 1.0, params)
-    return -(tau_m - wm.friction_torque(wheel_speed, nominal.temperature, params)), tau_m
+    current, clipped = wm.bridge(tcv, wheel_speed, nominal.bus_voltage, params)
+    tau_m = params.torque_constant * current
+    free = np.where(clipped, 0.0, tau_m)
+    return -(tau_m - wm.friction_torque(wheel_speed, nominal.temperature, params)), tau_m, free
 
 
 @dataclass
@@ -51,6 +55,7 @@ class FdiSample:
     # the nominal model's terms: calibration (calibration.py) and fault identification (identification.py)
     motor_torque: np.ndarray | None = None     # nominal tau_m(u, Omega; 8 V) [N m]
     friction_torque: np.ndarray | None = None  # nominal tau_f(Omega; 23 C) [N m]
+    free_motor_torque: np.ndarray | None = None  # nominal tau_m where the bridge does not clip, else 0 [N m]
     # fault identification only, when the sampler is asked for it:
     bus_motor_torque: np.ndarray | None = None  # (3, bus grid) tau_m(u, Omega; V) [N m]
     # the control sample at the FDI stamp itself (the thesis' instantaneous sampling)
@@ -72,7 +77,8 @@ class FdiSample:
 # exact too, and 30x cheaper to write than 651 reprs every second.
 REPORT_FIELDS = (("tcv", "tcv"), ("reaction_torque", "reaction_torque"), ("wheel_speed", "wheel_speed"),
                  ("model_reaction_torque", "model_torque"), ("motor_torque", "motor_torque"),
-                 ("friction_torque", "friction_torque"), ("tcv_instant", "tcv_instant"),
+                 ("friction_torque", "friction_torque"), ("free_motor_torque", "free_motor_torque"),
+                 ("tcv_instant", "tcv_instant"),
                  ("reaction_torque_instant", "reaction_torque_instant"))
 
 
@@ -175,9 +181,9 @@ class TelemetrySampler:
         """What is averaged over the FDI period, per control sample (any leading shape)."""
         if self.mode != "mean":
             raise ValueError("speed-aware FDI needs fdi_sampling 'mean' (the ripple bound is a mean)")
-        model, tau_m = model_reaction_torque(tcv, speed, self.params)
+        model, tau_m, free = model_reaction_torque(tcv, speed, self.params)
         phasor = tau_m * np.exp(1j * self.params.poles * theta)
-        out = [tcv, reaction_torque, speed, model, phasor, tau_m, model + tau_m]
+        out = [tcv, reaction_torque, speed, model, phasor, tau_m, model + tau_m, free]
         if self.identification:
             from .identification import bus_motor_torque
             out.append(bus_motor_torque(tcv, speed, self.params))

@@ -112,6 +112,12 @@ def motor_current(tcv, speed, bus_voltage, current_limiter, params: WheelParams 
     is algebraic at our 0.1 s step), EMF limiting in the motoring quadrant
     only (H_b, eq. 2.13), then the current-loss fault (current limiter).
     """
+    return bridge(tcv, speed, bus_voltage, params)[0] * current_limiter
+
+
+def bridge(tcv, speed, bus_voltage, params: WheelParams = WheelParams()):
+    """(current the bridge drives, whether the EMF limit clipped it) before the current limiter. Where it
+    clips, the motor torque is k_t I_max whatever the driver gain: a unit's G_d shows only elsewhere."""
     p = params
     w = np.asarray(speed, float)
     # minimum/maximum, not np.clip: the same numbers at a fifth of the cost on 3-vectors (the plant
@@ -123,8 +129,8 @@ def motor_current(tcv, speed, bus_voltage, current_limiter, params: WheelParams 
     current = p.driver_gain * v
     motoring = current * w > 0.0
     i_max = emf_current_limit(bus_voltage, w, p)
-    current = np.where(motoring, np.minimum(np.maximum(current, -i_max), i_max), current)
-    return current * current_limiter
+    clipped = motoring & (np.abs(current) > i_max)
+    return np.where(clipped, np.sign(current) * i_max, current), clipped
 
 
 def friction_torque(speed, temperature, params: WheelParams = WheelParams()):

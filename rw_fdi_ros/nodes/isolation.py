@@ -42,6 +42,7 @@ from geometry_msgs.msg import Vector3Stamped
 import numpy as np
 
 from ..core.detection import METHODS, ThresholdCurves, ThresholdError, observers_of
+from ..core.calibration import calibration_samples
 from ..core.identification import FaultIdentifier
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
 from ..core.isolation import (WHEEL_SPEED_ENVELOPE, LatchedVerdict, ObserverChannel, decision_observer, in_envelope,
@@ -145,7 +146,7 @@ class IsolationNode(GraphNode):
         self.pub_ident = gate(DiagnosticArray, T.IDENTIFICATION)
         self.gates = [self.pub_diag, self.pub_ident] + [p for pubs in self.pubs.values() for p in pubs.values()]
         self.done_samples = {}   # stamp -> observer (or 'telemetry') -> what arrived for that stamp
-        self.identifier = FaultIdentifier(AXES)
+        self.identifier = FaultIdentifier(AXES, calibration_samples(calibration, plant.fdi_period))
         self.inputs = {part: InputMonitor(f"{part} residuals" if part in self.channels else "FDI telemetry",
                                           plant.fdi_period) for part in (*self.channels, "telemetry")}
         self.last_input = time.monotonic()
@@ -254,7 +255,7 @@ class IsolationNode(GraphNode):
         for channel in self.channels.values():
             channel.reset()
         self.verdict.reset()
-        self.identifier.reset()
+        self.identifier.clear()   # the units learnt stay: the wheels are the same
         response.success = True
         response.message = (f"cleared the confirmed failures of wheels {', '.join(confirmed)}" if confirmed
                             else "no confirmed failure to clear")

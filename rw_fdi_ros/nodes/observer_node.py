@@ -94,8 +94,9 @@ class ObserverNode(GraphNode):
         """Wheel ``i``'s calibration regressors of ``sample`` (None when the node does not calibrate)."""
         if not self.calibration_samples:
             return None
+        free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
         return regressors(sample.motor_torque[i], sample.friction_torque[i], sample.wheel_speed[i],
-                          sample.ripple_phasor[i])
+                          sample.ripple_phasor[i], free)
 
     def _on_telemetry(self, msg):
         t0, c0 = time.perf_counter(), time.thread_time()

@@ -80,7 +80,8 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     if calibration_samples:
         if samples.motor_torque is None:
             raise ValueError("calibration needs FDI samples with the nominal motor and friction torque")
-        x = regressors(samples.motor_torque, samples.friction_torque, samples.wheel_speed, samples.ripple_phasor)
+        x = regressors(samples.motor_torque, samples.friction_torque, samples.wheel_speed, samples.ripple_phasor,
+                       samples.free_motor_torque)
     for k, v in est.items():
         residual[k], bound[k] = signed_residual_series(r, v, samples.ripple_phasor, window, gains[k], x,
                                                        calibration_samples)
@@ -188,12 +189,13 @@ def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = Tr
     return Series(s.time, s.residual, s.threshold, alarm)
 
 
-def identification_series(samples, alarm) -> list:
+def identification_series(samples, alarm, calibration_samples: int = 0) -> list:
     """Per FDI sample, axis -> Identification or None: the isolation node's FaultIdentifier fed
     with ``samples`` (FdiSamples with the identification terms) and ``alarm`` ((n, 3) flags of the
-    decision observer, as :func:`fdi_series` gives them)."""
+    decision observer, as :func:`fdi_series` gives them), learning the units over the first
+    ``calibration_samples`` as the isolation node does."""
     from ..core.identification import FaultIdentifier
-    identifier = FaultIdentifier(AXES)
+    identifier = FaultIdentifier(AXES, calibration_samples)
     return [identifier.update(row, {a: bool(alarm[k, i]) for i, a in enumerate(AXES)})
             for k, row in enumerate(samples.rows())]
 

@@ -28,13 +28,14 @@ class FdiSamples:
     # what fault identification fits (core/identification.py), when asked for
     motor_torque: np.ndarray | None = None
     friction_torque: np.ndarray | None = None
+    free_motor_torque: np.ndarray | None = None
     bus_motor_torque: np.ndarray | None = None    # (n, 3, bus grid)
 
     def rows(self):
         """The samples one by one as telemetry.FdiSample (what the nodes see)."""
         from ..core.telemetry import FdiSample
         names = ("wheel_speed", "model_torque", "ripple_phasor", "motor_torque", "friction_torque",
-                 "bus_motor_torque")
+                 "free_motor_torque", "bus_motor_torque")
         for k, t in enumerate(self.time):
             extra = {n: None if getattr(self, n) is None else getattr(self, n)[k] for n in names}
             yield FdiSample(int(round(t * 1e9)), self.tcv[k], self.reaction_torque[k], **extra)
@@ -60,7 +61,8 @@ def samples_from_rows(rows, bag=None, seed=None) -> FdiSamples:
                       tcv=stack("tcv") if rows else empty, reaction_torque=stack("reaction_torque") if rows else empty,
                       wheel_speed=stack("wheel_speed"), model_torque=stack("model_torque"),
                       ripple_phasor=stack("ripple_phasor"), motor_torque=stack("motor_torque"),
-                      friction_torque=stack("friction_torque"), bus_motor_torque=stack("bus_motor_torque"))
+                      friction_torque=stack("friction_torque"), free_motor_torque=stack("free_motor_torque"),
+                      bus_motor_torque=stack("bus_motor_torque"))
 
 
 def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: bool = True) -> FdiSamples:

@@ -87,7 +87,7 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
             series[VERDICT] = verdict_series(series, next(iter(curves.values())).method, samples.wheel_speed)
             found = {}
             if identification and len(samples.time):
-                last = identification_series(samples, series[VERDICT].alarm)[-1]
+                last = identification_series(samples, series[VERDICT].alarm, k)[-1]
                 found = {a: v.values() for a, v in last.items() if v is not None}
             out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,
                                      seed=scenario.seed, faults=list(scenario.faults), series=series,
