@@ -242,7 +242,9 @@ def _cmd_bench(args) -> int:
                                   hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations")
     elif args.what == "identification":
         from .tools.identification_bench import bench_identification
-        report = bench_identification(runs_per_cell=args.runs_per_cell or 100, out=args.out or "reports/identification",
+        default_out = "reports/identification_units" if args.units else "reports/identification"
+        report = bench_identification(runs_per_cell=args.runs_per_cell or (200 if args.units else 100),
+                                      out=args.out or default_out, units=args.units,
                                       **({"thesis_runs": args.thesis_runs,
                                           "bus_thesis_runs": args.thesis_runs * 17 // 10}
                                          if args.thesis_runs else {}))
@@ -434,6 +436,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--runs-per-cell", type=COUNT, default=None,
                    help="detection: runs per fault or ripple case (default 200); identification: per grid size "
                         "(default 100)")
+    b.add_argument("--units", action="store_true",
+                   help="identification: on varied wheels, calibrated 150 s, sizes drawn over ranges (default "
+                        "200 runs per kind, the bus 340; reports/identification_units)")
     b.add_argument("--thesis-runs", type=COUNT, default=None,
                    help="identification: runs per thesis size (default 200; the bus 340, as 6 in 10 are observable)")
     b.add_argument("--out", default=None, help="detection / identification / units / memory: report directory "

@@ -126,7 +126,8 @@ def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, f
     gain = np.concatenate([-limiters * free[None], np.broadcast_to(-free[None], (temperatures, n)),
                            -_bus_free(tm, free, bus)])
     visc = np.concatenate([np.broadcast_to(viscous[None], (len(CURRENT_LIMITER_GRID), n)),
-                           _VISCOUS_GRID[:, None] * w[None], np.broadcast_to(viscous[None], (len(BUS_VOLTAGE_GRID), n))])
+                           _VISCOUS_GRID[:, None] * w[None],
+                           np.broadcast_to(viscous[None], (len(BUS_VOLTAGE_GRID), n))])
     return np.stack([motor, gain, visc, np.broadcast_to((tf - viscous)[None], (_SIZE, n))], axis=-1)
 
 
