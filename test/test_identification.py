@@ -67,11 +67,15 @@ def test_one_operating_point_cannot_tell_a_current_loss_from_a_bus_drop():
     assert found.rss["temperature"] > 1e3 * found.rss[found.best_guess]   # the friction law is ruled out
 
 
-def test_identifier_starts_at_the_alarm_and_forgets_nothing():
-    """From the first alarm on, every sample counts (the transient after the fault tells a current
-    loss from a bus drop); the result equals a batch fit of the same samples."""
+def test_identifier_starts_at_the_onset_and_forgets_nothing():
+    """The alarm lags the fault (a window mean, then the persistence): at the alarm the identifier finds
+    the onset in the samples it kept (a step in the model error, the ripple a nuisance) and counts every
+    sample after it, the one at the step left out; the result equals a batch fit of those samples."""
     from types import SimpleNamespace
-    rows = list(zip(*wheel_rows("current_limiter", 0.5, n=400)))
+    healthy = wheel_rows("current_limiter", 1.0, n=30, seed=4)
+    held = wheel_rows("current_limiter", 0.5, n=30, seed=5, constant=True)   # the spacecraft holds: a step
+    moving = wheel_rows("current_limiter", 0.5, n=340, seed=6)
+    rows = list(zip(*healthy)) + list(zip(*held)) + list(zip(*moving))
     ident = idf.FaultIdentifier(("x", "y", "z"))
     out = None
     for k, row in enumerate(rows):
@@ -79,15 +83,24 @@ def test_identifier_starts_at_the_alarm_and_forgets_nothing():
         sample = SimpleNamespace(reaction_torque=np.array([r, 0, 0]), motor_torque=np.array([tm, 0, 0]),
                                  friction_torque=np.array([tf, 0, 0]), wheel_speed=np.array([w, 0, 0]),
                                  bus_motor_torque=np.stack([bus, bus, bus]), ripple_phasor=np.array([p, 0, 0]),
-                                 free_motor_torque=None)
-        out = ident.update(sample, {"x": k >= 10})
+                                 model_torque=np.array([-(tm - tf), 0, 0]), free_motor_torque=None)
+        out = ident.update(sample, {"x": k >= 45})   # alarmed 15 samples after the onset at sample 30
     assert out["y"] is None and out["z"] is None
-    assert out["x"].samples == 390
-    batch = idf.identify(*(np.array(col) for col in zip(*rows[10:])))
+    assert out["x"].samples == 400 - 31
+    batch = idf.identify(*(np.array(col) for col in zip(*rows[31:])))
     assert (out["x"].kind, out["x"].size, out["x"].low, out["x"].high) == (batch.kind, batch.size, batch.low,
                                                                            batch.high)
     assert out["x"].kind == "current_loss" and out["x"].size == pytest.approx(0.5)
     assert out["x"].rss == pytest.approx(batch.rss, rel=1e-9, abs=1e-18)
+
+
+def test_the_onset_is_the_step_not_the_ripple():
+    """A step of 1e-4 N m at sample 40 under an aliased ripple of 1e-3 N m whose phasor is known."""
+    rng = np.random.default_rng(0)
+    phasor = 0.01 * np.exp(1j * np.cumsum(rng.uniform(0.0, 0.3, 60)))
+    errors = 0.1 * phasor.imag - 0.05 * phasor.real + 1e-4 * (np.arange(60) >= 40) + 1e-6 * rng.standard_normal(60)
+    assert idf.onset_index(errors, phasor) == 40
+    assert idf.onset_index([], []) == 0 and idf.onset_index([1e-3], [0j]) == 0
 
 
 UNIT = wm.unit_wheel(P, {"torque_constant": 1.03, "driver_gain": 0.97, "viscous_friction": 1.25,
