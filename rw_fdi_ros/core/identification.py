@@ -330,14 +330,18 @@ def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_to
 
 
 def onset_index(errors, ripple_phasors) -> int:
-    """Where a step in the model error ``errors`` most likely begins (the index of its first sample): the
-    single change point of a step in white noise with the aliased commutation ripple as nuisance,
+    """Where a fault's effect in the model error ``errors`` begins (the index of its first sample).
+
+    First the single change point of a step in white noise with the aliased commutation ripple as
+    nuisance (Basseville & Nikiforov, Detection of Abrupt Changes, 1993, sec. 2.2):
 
         e_j = alpha Im p_j + beta Re p_j + delta 1[j >= k] + noise,    k^ = argmin_k RSS_k
 
-    (the likelihood ratio of one step at k; Basseville & Nikiforov, Detection of Abrupt Changes, 1993,
-    sec. 2.2). Without the ripple terms the change point followed the ripple: near an alias speed it
-    swings a healthy wheel's error by as much as a small fault for tens of seconds."""
+    then, as a fault's effect is a step only while the spacecraft holds (a large one grows over the
+    seconds before its alarm), the first sample from k^ on that leaves the ripple fit of the samples
+    before k^ by more than 3 max(s, sigma_floor) (s: their residual's rms). Without the ripple terms
+    the change point followed the ripple: near an alias speed it swings a healthy wheel's error by as
+    much as a small fault for tens of seconds."""
     e = np.asarray(errors, float)
     p = np.asarray(ripple_phasors, complex)
     n = e.size
@@ -351,7 +355,11 @@ def onset_index(errors, ripple_phasors) -> int:
         rss = float(np.sum((e - columns @ fit) ** 2))
         if rss < best_rss:
             best, best_rss = k, rss
-    return best
+    ripple, *_ = np.linalg.lstsq(columns[:best, :2], e[:best], rcond=None)
+    left = e - columns[:, :2] @ ripple
+    level = 3.0 * max(float(np.sqrt(np.mean(left[:best] ** 2))), SIGMA_FLOOR)
+    away = np.nonzero(np.abs(left[best:]) > level)[0]
+    return best + int(away[0]) if away.size else best
 
 
 class FaultIdentifier:
