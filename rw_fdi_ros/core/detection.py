@@ -384,8 +384,9 @@ class ThresholdCurves:
         observer's bound holds its correction's uncertainty, so the bands of one do not fit the other."""
         if abs(float(seconds) - self.unit_calibration_time) > 1e-9:
             raise ThresholdError(f"{origin}: fitted with unit_calibration_time={self.unit_calibration_time:g} s but "
-                                 f"the observers run unit_calibration_time={float(seconds):g} s; {REFIT} "
-                                 f"--unit-calibration {float(seconds):g}")
+                                 f"the observers run unit_calibration_time={float(seconds):g} s; fit bands for it "
+                                 f"with `rw-fdi fit-thresholds --simulate fault_free_units --unit-calibration "
+                                 f"{float(seconds):g} --out DIR`, then pass `--thresholds DIR`")
 
     def check_compatible(self, plant, origin: str = "thresholds"):
         """Refuse curves fitted under other plant choices than the running graph's.
