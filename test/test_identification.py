@@ -182,3 +182,26 @@ def test_screen_identifies_the_thesis_faults_with_the_node_code():
         # the Elman observer alarms on Z too: its identification says the wheel fits a healthy one)
         for a, found in run.identification.items():
             assert a == "x" or found["fault_kind"] == "unknown", (run.scenario, a, found)
+
+
+def test_a_calibration_a_fault_interrupted_learns_no_more_after_a_reset():
+    """Alarmed inside its calibration window, a wheel's unit stays the type's: an operator's reset must not
+    let the calibration learn the still faulty wheel as its unit."""
+    from types import SimpleNamespace
+    healthy, faulty = wheel_rows("current_limiter", 1.0, n=50, seed=1, unit=UNIT), wheel_rows(
+        "current_limiter", 0.8, n=100, seed=2, unit=UNIT)
+    ident = idf.FaultIdentifier(("x", "y", "z"), calibration_samples=100)
+    out = None
+    for k, row in enumerate(list(zip(*healthy)) + list(zip(*faulty))):
+        r, tm, tf, w, bus, p = row
+        sample = SimpleNamespace(reaction_torque=np.array([r, 0, 0]), motor_torque=np.array([tm, 0, 0]),
+                                 friction_torque=np.array([tf, 0, 0]), wheel_speed=np.array([w, 0, 0]),
+                                 bus_motor_torque=np.stack([bus, bus, bus]), ripple_phasor=np.array([p, 0, 0]),
+                                 model_torque=np.array([-(tm - tf), 0, 0]), free_motor_torque=None)
+        if k == 70:
+            ident.clear()
+        out = ident.update(sample, {"x": 55 <= k < 70 or k >= 80})
+    calibration = ident.calibrations["x"]
+    assert not calibration.frozen and calibration.n == 55   # the samples before the first alarm only
+    assert out["x"].unit == "type"
+    assert out["x"].best_guess == "current_loss" and out["x"].low <= 0.8 <= out["x"].high, out["x"]

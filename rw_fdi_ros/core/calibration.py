@@ -162,6 +162,10 @@ class UnitCalibration:
         cov = est.covariance[:PHYSICAL, :PHYSICAL]
         return float(phys @ est.mean[:PHYSICAL]), float(np.sqrt(max(phys @ cov @ phys, 0.0)))
 
+    def so_far(self) -> UnitEstimate:
+        """The posterior of the samples learnt so far (the frozen estimate once frozen)."""
+        return self.estimate if self.frozen else self._posterior()
+
     def unit(self) -> "UnitShares":
         """What is known of this wheel's unit now: the posterior once frozen, the type's spread while learning."""
         return UnitShares.of_estimate(self.estimate) if self.frozen else UnitShares.of_type()

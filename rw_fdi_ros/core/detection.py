@@ -242,7 +242,7 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
                            regressors=None, calibration_samples: int = 0):
     """(residuals, bounds) of whole series (time first, one column per axis) through :class:`SignedResidual`;
     with ``calibration_samples`` > 0 each wheel learns its unit from its first samples (``regressors``:
-    (n, axes, 5), calibration.regressors)."""
+    (n, axes, 6), calibration.regressors)."""
     from .calibration import UnitCalibration
     actual, estimate, phasor = (np.asarray(x) for x in (actual, estimate, ripple_phasor))
     res, bound = np.empty(actual.shape), np.empty(actual.shape)

@@ -25,7 +25,8 @@ eliminated by projection:  RSS_h(theta) = || P_perp (r - r^(theta)) ||^2.
   1 - RSS_h / RSS_nominal, and beats every other family by a likelihood-ratio
   margin (RSS_other - RSS_h) / s^2 >= ``DECISIVE``; else ``unknown``.
 * size: the argmin; interval {theta : RSS_h(theta) - RSS_min <= chi2_1(0.95) s^2 c}
-  with s^2 = max(RSS_min / (n - 3), sigma_floor^2) and c = ``CORRELATION``
+  with s^2 = max(RSS_min / (n - 3), sigma_floor^2) (on a unit: from the fit with the unit's
+  shares free, / (n - 7)) and c = ``CORRELATION``
   for the serial correlation of 1 s samples (bearing noise, ripple beats).
   Where the interval reaches the end of the grid only a bound is observable
   (tau_v is 0 from 215 C on; a bus clipping only part of the time).
@@ -349,7 +350,7 @@ def onset_index(errors, ripple_phasors) -> int:
         return 0
     best, best_rss = 0, np.inf
     columns = np.column_stack([p.imag, p.real, np.zeros(n)])
-    for k in range(1, n):
+    for k in range(min(3, n - 1), n):   # at least 3 samples before the step: the ripple fit needs them
         columns[:, 2] = np.arange(n) >= k
         fit, *_ = np.linalg.lstsq(columns, e, rcond=None)
         rss = float(np.sum((e - columns @ fit) ** 2))
@@ -389,10 +390,12 @@ class FaultIdentifier:
         """Forget everything of the run, the units learnt included: a new run starts."""
         self.calibrations = ({a: UnitCalibration(self.calibration_samples) for a in self.axes}
                              if self.calibration_samples else None)
+        self.faulted = {a: False for a in self.axes}   # alarmed once this run: its calibration learns no more
         self.clear()
 
     def clear(self):
-        """Forget every wheel's fault (an operator's reset); the units learnt stay."""
+        """Forget every wheel's fault (an operator's reset); the units learnt stay, and a calibration a
+        fault interrupted does not learn again (the wheel may still be faulty)."""
         self.sums = {a: None for a in self.axes}     # axis -> ProfileSums once alarmed
         self.latest = {a: None for a in self.axes}
         # (row, model error, calibration regressors) of the samples before an alarm
@@ -408,27 +411,33 @@ class FaultIdentifier:
                    sample.wheel_speed[i], sample.bus_motor_torque[i], sample.ripple_phasor[i],
                    sample.motor_torque[i] if free is None else free)
             if self.sums[a] is None:
-                error = sample.reaction_torque[i] - sample.model_torque[i]
+                model = sample.model_torque
+                error = sample.reaction_torque[i] - (model[i] if model is not None else np.nan)
                 x = None
-                if calibration is not None:
+                if calibration is not None and np.isfinite(error):
                     x = regressors(sample.motor_torque[i], sample.friction_torque[i], sample.wheel_speed[i],
                                    sample.ripple_phasor[i], free)
-                    if not calibration.frozen and not alarmed.get(a):   # learns while its wheel is healthy
+                    self.faulted[a] = self.faulted[a] or bool(alarmed.get(a))
+                    if not calibration.frozen and not self.faulted[a]:   # learns while its wheel is healthy
                         calibration.update(error, x)
                 if not alarmed.get(a):
                     self.backlog[a].append((row, error, x))
                     continue
                 self.sums[a] = ProfileSums(None if calibration is None else calibration.unit())
-                past = list(self.backlog[a]) + [(row, error, x)]
-                # the model error of each sample on the unit known now (samples from the learning window
-                # were not corrected when they came)
-                unit = self.sums[a].unit
-                errors = [e if unit is None or unit.source != "calibrated" else e - float(z[:PHYSICAL] @ unit.mean)
-                          for _, e, z in past]
-                onset = onset_index(errors, [r[5] for r, _, _ in past])
-                for earlier, _, _ in past[onset + 1:-1]:
-                    self.sums[a].add(earlier)
+                self._add_since_onset(a, list(self.backlog[a]) + [(row, error, x)], calibration)
                 self.backlog[a].clear()
             self.sums[a].add(row)
             self.latest[a] = decide(self.sums[a])
         return dict(self.latest)
+
+    def _add_since_onset(self, a, past, calibration):
+        """Add the kept samples after the onset (the last of ``past`` is the alarm's own, added after)."""
+        if any(not np.isfinite(e) for _, e, _ in past):   # telemetry without the nominal model: from the alarm
+            return
+        # each sample's model error on the unit known now (those of the learning window were not
+        # corrected when they came; a calibration still learning gives its posterior so far)
+        mean = None if calibration is None else calibration.so_far().mean[:PHYSICAL]
+        errors = [e if mean is None else e - float(z[:PHYSICAL] @ mean) for _, e, z in past]
+        onset = onset_index(errors, [r[5] for r, _, _ in past])
+        for earlier, _, _ in past[onset + 1:-1]:
+            self.sums[a].add(earlier)

@@ -14,10 +14,12 @@ decision observer alarms is a confirmed failure: /diagnostics holds it
 the inputs of stamp k alone, so the same run gives the same messages.
 
 It also identifies the fault of every alarmed wheel (core/identification.py):
-it reads the FDI telemetry (with the identification terms) and from a
-wheel's first alarm on estimates the fault's kind and size on every sample. The result goes into the wheel's
-/diagnostics status (fault_kind, fault_size, fault_size_low/high and the
-message) and onto /fdi/identification. Identification lives here, not in a
+it reads the FDI telemetry (with the identification terms) and from the
+fault's onset (found at a wheel's first alarm in the samples before it)
+estimates the fault's kind and size on every sample, on the wheel's own unit
+when the FDI calibrates. The result goes into the wheel's /diagnostics status
+(fault_kind, fault_size, fault_size_low/high, fault_unit,
+fault_size_unit_limited and the message) and onto /fdi/identification. Identification lives here, not in a
 node of its own, because it refines this node's verdict: one status per wheel,
 made of one stamp's alarm and telemetry.
 
@@ -242,7 +244,10 @@ class IsolationNode(GraphNode):
         handled[self.decision] = self.verdict.update(handled[self.decision], self.envelope)
         alarmed = {a: handled[self.decision][a][2] for a in AXES}
         finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
-                                                        sample.ripple_phasor, sample.bus_motor_torque))
+                                                        sample.ripple_phasor, sample.bus_motor_torque,
+                                                        sample.model_torque, sample.motor_torque,
+                                                        sample.friction_torque, sample.free_motor_torque)
+                     if x is not None)
         # a non-finite sample is not judged by the observers; it must not poison the estimate either
         identified = self.identifier.update(sample, alarmed) if finite else dict(self.identifier.latest)
         self._publish_diagnostics(stamp, handled, identified, self.decision in silent)

@@ -95,6 +95,10 @@ class ObserverNode(GraphNode):
         if not self.calibration_samples:
             return None
         free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
+        if free is None and not getattr(self, "_said_no_free", False):
+            self._said_no_free = True   # telemetry from before the report had it (an old bag's replay)
+            self.get_logger().warn(f"{T.FDI_TELEMETRY} without free_motor_torque: calibrating with one motor share "
+                                   "(k_t G_d), which misfits where the bridge clips at the EMF limit")
         return regressors(sample.motor_torque[i], sample.friction_torque[i], sample.wheel_speed[i],
                           sample.ripple_phasor[i], free)
 
