@@ -324,7 +324,7 @@ def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_to
              unit: UnitShares | None = None, free_motor_torque=None) -> Identification:
     """Kind and size of one wheel's fault from its n FDI samples since the alarm (whole arrays)."""
     sums = ProfileSums(unit)
-    free = motor_torque if free_motor_torque is None else free_motor_torque
+    free = [None] * len(reaction_torque) if free_motor_torque is None else free_motor_torque
     for row in zip(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor, free):
         sums.add(row)
     return decide(sums)
@@ -408,8 +408,7 @@ class FaultIdentifier:
             calibration = None if self.calibrations is None else self.calibrations[a]
             free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
             row = (sample.reaction_torque[i], sample.motor_torque[i], sample.friction_torque[i],
-                   sample.wheel_speed[i], sample.bus_motor_torque[i], sample.ripple_phasor[i],
-                   sample.motor_torque[i] if free is None else free)
+                   sample.wheel_speed[i], sample.bus_motor_torque[i], sample.ripple_phasor[i], free)
             if self.sums[a] is None:
                 model = sample.model_torque
                 error = sample.reaction_torque[i] - (model[i] if model is not None else np.nan)

@@ -64,6 +64,7 @@ class ObserverNode(GraphNode):
             raise NodeError("unit_calibration_time needs fdi_method speed_aware (the thesis' residual is unsigned)",
                             EXIT_BAD_INPUT)
         self.calibration_samples = calibration_samples(seconds, self.param("fdi_period"))
+        self.said_no_free = False   # telemetry without free_motor_torque is said once
         self.input = InputMonitor("FDI telemetry", self.param("fdi_period"))
 
     def start(self, estimate_topic: str, residual_topic: str, bound_topic: str):
@@ -95,8 +96,8 @@ class ObserverNode(GraphNode):
         if not self.calibration_samples:
             return None
         free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
-        if free is None and not getattr(self, "_said_no_free", False):
-            self._said_no_free = True   # telemetry from before the report had it (an old bag's replay)
+        if free is None and not self.said_no_free:
+            self.said_no_free = True   # telemetry from before the report had it (an old bag's replay)
             self.get_logger().warn(f"{T.FDI_TELEMETRY} without free_motor_torque: calibrating with one motor share "
                                    "(k_t G_d), which misfits where the bridge clips at the EMF limit")
         return regressors(sample.motor_torque[i], sample.friction_torque[i], sample.wheel_speed[i],
