@@ -240,6 +240,14 @@ def _cmd_bench(args) -> int:
         from .tools.operations_bench import bench_operations
         report = bench_operations(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
                                   hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations")
+    elif args.what == "recovery":
+        from .tools.recovery_bench import CELLS, bench_recovery
+        runs = args.runs_per_cell or 200
+        total = sum(args.fault_free_runs if c.kind is None else runs for c in CELLS)
+        from tqdm import tqdm
+        with tqdm(total=total, desc="recovery bench (core loop)", unit="run", file=sys.stderr) as bar:
+            report = bench_recovery(runs_per_cell=runs, fault_free_runs=args.fault_free_runs, seeds=args.seed_set,
+                                    out=args.out or "reports/recovery", progress=bar.update)
     elif args.what == "identification":
         from .tools.identification_bench import bench_identification
         default_out = "reports/identification_units" if args.units else "reports/identification"
@@ -420,7 +428,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
     b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification", "units", "memory",
-                                    "operations"],
+                                    "operations", "recovery"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
                         "node callback times and memory; study: record and replay throughput and the "
                         "thesis-scale reproduce time they give; detection: false-alarm and detection rates "
@@ -430,7 +438,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "with and without unit calibration (core loop); memory: peak memory of the run summary, "
                         "`rw-fdi bag` and evaluation for fault-free runs of --hours (recorded, minutes); operations: "
                         "every observer and the /diagnostics verdict in operations (manoeuvres at random times, "
-                        "hours-long runs, faults a manoeuvre follows, bus drops that tumble an axis; core loop)")
+                        "hours-long runs, faults a manoeuvre follows, bus drops that tumble an axis; core loop); "
+                        "recovery: the redundant wheel taking over from a wheel the FDI confirmed faulty (pointing "
+                        "back within 0.2 deg, peak error, time to recover; FDI and FDIR in the core loop)")
     b.add_argument("--hours", default="1,6", help="memory: run lengths in hours, comma-separated (default 1,6)")
     b.add_argument("--fault-free-runs", type=COUNT, default=1000, help="detection, units: fault-free runs")
     b.add_argument("--runs-per-cell", type=COUNT, default=None,

@@ -1,7 +1,9 @@
-"""Closed loop without ROS: the same Plant and PidController the nodes run, in one loop.
+"""Closed loop without ROS: the same Plant, PidController and allocation the nodes run, in one loop.
 
-Used for controller design and fast tests; the graph runs the identical
-step sequence across processes (plant step k -> controllers -> plant step k+1).
+Used for controller design, fast tests and campaigns; the graph runs the
+identical step sequence across processes (plant step k -> controllers ->
+allocation -> plant step k+1). With ``fdir`` the FDI's verdict is made in
+the loop too (onboard.py) and reconfigures the wheels (fdir.py).
 """
 from __future__ import annotations
 
@@ -9,6 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .allocation import TorqueAllocator
+from .fdir import DecisionDelay, Reconfiguration
+from .onboard import OnboardVerdict
 from .pid import PidController, PidGains, design_gains
 from .plant import Plant
 from .scenario import Scenario, setpoint_at
@@ -16,8 +21,18 @@ from .wheel import WheelParams
 
 
 @dataclass
+class Fdir:
+    """What the loop's FDIR decides on: the model observer's bands, its unit calibration [FDI samples]."""
+
+    curves: object                 # detection.ThresholdCurves of the model observer
+    calibration_samples: int = 0
+    fdi_period: float = 1.0
+
+
+@dataclass
 class Trajectory:
-    """Time series of a batch of runs: arrays (steps + 1, B, 3) and the time vector."""
+    """Time series of a batch of runs: body arrays (steps + 1, B, 3), wheel arrays (steps + 1, B, N),
+    and the time vector; with FDIR, each run's decisions (fdir.Decision) and wheels in use."""
 
     time: np.ndarray
     attitude: np.ndarray
@@ -27,6 +42,9 @@ class Trajectory:
     tcv: np.ndarray
     reaction_torque: np.ndarray
     fault_effect: np.ndarray
+    wheel_names: tuple = ("x", "y", "z")
+    decisions: list = None    # per run: [fdir.Decision]
+    in_use: np.ndarray = None  # (steps + 1, B, N) bool
 
     @property
     def error(self):
@@ -34,29 +52,59 @@ class Trajectory:
 
 
 def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = WheelParams(),
-             control_period=0.1, duration=None, disturbance=True, wheel_momentum_coupling=True) -> Trajectory:
-    """Run scenarios (one or a list) to their end; returns every control-period sample."""
+             control_period=0.1, duration=None, disturbance=True, wheel_momentum_coupling=True,
+             wheels=None, fdir: Fdir | None = None) -> Trajectory:
+    """Run scenarios (one or a list) to their end; returns every control-period sample. ``wheels``: the
+    wheel set (None: the scenarios'); ``fdir``: reconfigure on the FDI's confirmed failures."""
     if isinstance(scenarios, Scenario):
         scenarios = [scenarios]
     plant = Plant(scenarios, wheel=wheel, control_period=control_period, disturbance=disturbance,
-                  wheel_momentum_coupling=wheel_momentum_coupling)
+                  wheel_momentum_coupling=wheel_momentum_coupling, wheels=wheels)
+    allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit)
     gains = gains or design_gains()
-    pid = PidController(gains, control_period, initial_tcv=plant.tcv, wheel=wheel)
+    # the controllers' integrators hold the body-axis command of the wheels' holding voltages
+    pid = PidController(gains, control_period, initial_tcv=plant.tcv @ plant.spin_axes.T, wheel=wheel)
     schedules = [s.setpoint_schedule() for s in scenarios]
     duration = duration or scenarios[0].duration
     steps = int(round(duration / control_period))
+    onboard = reconfig = delays = None
+    if fdir is not None:
+        onboard = OnboardVerdict(plant.wheels.names, fdir.curves, plant.batch, fdir.fdi_period,
+                                 fdir.calibration_samples)
+        reconfig = [Reconfiguration(plant.wheels) for _ in scenarios]
+        delays = [DecisionDelay() for _ in scenarios]
     rec = {k: [] for k in ("attitude", "setpoint", "body_rate", "wheel_speed", "tcv", "reaction_torque",
-                           "fault_effect")}
+                           "fault_effect", "in_use")}
     sample = plant.sample()
     for _ in range(steps + 1):
         sp = np.array([setpoint_at(t, v, sample.time) for t, v in schedules])
         for key in rec:
-            rec[key].append(sp if key == "setpoint" else getattr(sample, key))
+            rec[key].append(sp if key == "setpoint" else allocator.in_use.copy() if key == "in_use"
+                            else getattr(sample, key))
         if plant.step_index == steps:
             break
-        sample = plant.step(pid.update(sp, sample.attitude, sample.body_rate))
+        if onboard is not None:
+            _fdir_step(onboard, reconfig, delays, allocator, plant, sample)
+        sample = plant.step(allocator.wheel_commands(pid.update(sp, sample.attitude, sample.body_rate)))
     time = np.arange(len(rec["attitude"])) * control_period
-    return Trajectory(time=time, **{k: np.array(v) for k, v in rec.items()})
+    return Trajectory(time=time, wheel_names=plant.wheels.names,
+                      decisions=[r.decisions for r in reconfig] if reconfig else None,
+                      **{k: np.array(v) for k, v in rec.items()})
+
+
+def _fdir_step(onboard, reconfig, delays, allocator, plant, sample):
+    """Feed the FDI this sample; on a confirmed failure decide the reconfiguration, and apply the
+    decisions due now (fdir.DecisionDelay) to the allocation before the next command."""
+    stamp = int(round(sample.time * 1e9))
+    confirmed = onboard.add(stamp, sample.tcv, sample.reaction_torque, sample.wheel_speed)
+    for b, (r, delay) in enumerate(zip(reconfig, delays)):
+        for wheel, first in sorted((confirmed[b] if confirmed else {}).items(), key=lambda x: x[1]):
+            if wheel not in r.given_up and wheel not in r.kept and wheel not in delay.requested:
+                delay.requested.add(wheel)
+                delay.put(sample.time, (wheel, f"confirmed faulty by the FDI (alarm since {first:g} s)"))
+        for wheel, reason in delay.due(sample.time):
+            if r.give_up(wheel, sample.time, reason, sample.wheel_speed[b], plant.inertia * sample.body_rate[b]):
+                allocator.use(r.ordered_in_use(), b)
 
 
 def step_metrics(traj: Trajectory, start: float = 0.0, band: float = 0.05, floor: float = np.deg2rad(0.01)):

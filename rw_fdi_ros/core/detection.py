@@ -307,6 +307,10 @@ class ThresholdCurves:
     unit_calibration_time: float = 0.0   # [s] of each run the observers learnt their wheel from (calibration.py)
 
     def at(self, axis: str, k: int) -> float:
+        """Threshold of wheel ``axis`` at FDI sample k. A wheel without a curve of its own (the redundant
+        wheel off the body axes) is of the same type as those fitted: it gets the widest of their curves."""
+        if axis not in self.curves:
+            return max(self.at(a, k) for a in self.curves)
         c = self.curves[axis]
         return float(c[min(k, len(c) - 1)])   # past the fitted horizon the last value holds
 

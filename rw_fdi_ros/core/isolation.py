@@ -56,24 +56,26 @@ class ObserverChannel:
     is False, it would clear an alarm) and the axis is in ``unjudged`` until its next finite sample.
     """
 
-    def __init__(self, observer: str, curves: ThresholdCurves, persistence: int | None = None):
+    def __init__(self, observer: str, curves: ThresholdCurves, persistence: int | None = None, wheels=AXES):
         self.observer = observer
         self.curves = curves
         self.persistence = persistence or curves.persistence
+        self.wheels = tuple(wheels)   # the wheels judged, in the order of the residual vectors
         self.reset()
 
     def reset(self):
         """Forget every alarm: a new run starts."""
-        self.rules = {a: AlarmRule(self.persistence) for a in AXES}
+        self.rules = {a: AlarmRule(self.persistence) for a in self.wheels}
         self.beyond_horizon = False
         self.unjudged = set()   # axes whose last sample could not be judged (non-finite input)
 
-    def update(self, stamp_ns: int, residual, bound=(0.0, 0.0, 0.0)):
+    def update(self, stamp_ns: int, residual, bound=None):
         t = stamp_seconds(stamp_ns)
         self.beyond_horizon = t > self.curves.horizon   # the curves cannot judge this moment (health)
         k = int(round(t / self.curves.sample_period))
         rows = {}
-        for i, axis in enumerate(AXES):
+        bound = np.zeros(len(self.wheels)) if bound is None else bound
+        for i, axis in enumerate(self.wheels):
             rule, r, b = self.rules[axis], float(residual[i]), float(bound[i])
             threshold = self.curves.at(axis, k) + b
             if math.isfinite(r) and math.isfinite(b):
@@ -95,15 +97,16 @@ class LatchedVerdict:
     :meth:`ObserverChannel.update`; a latched row keeps its first alarm time and has ``latched[axis]``
     True while the observer's own alarm is down."""
 
-    def __init__(self, latch: bool = True):
+    def __init__(self, latch: bool = True, wheels=AXES):
         self.latch = latch
+        self.wheels = tuple(wheels)
         self.reset()
 
-    def reset(self, axes=AXES):
+    def reset(self, axes=None):
         """Clear the confirmed failures of ``axes`` (an operator's command): judged afresh from now on."""
         if not hasattr(self, "confirmed"):
             self.confirmed, self.latched = {}, {}
-        for a in axes:
+        for a in self.wheels if axes is None else axes:
             self.confirmed[a], self.latched[a] = None, False
 
     def update(self, rows: dict, judged=None) -> dict:

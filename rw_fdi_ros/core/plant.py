@@ -1,13 +1,19 @@
-"""The plant: rigid body (eq. 2.27) driven by three Bialke wheels (Fig. 2.2) with faults.
+"""The plant: rigid body (eq. 2.27) driven by a set of Bialke wheels (Fig. 2.2) with faults.
 
 [choice] ``wheel_momentum_coupling`` (default on): the wheels' stored momentum
-h_w = J Omega enters the body's Euler equations and the body's angular
+h_w = J G Omega enters the body's Euler equations and the body's angular
 acceleration enters the wheels' (see :func:`body_acceleration`), as in every
 multibody simulator (Basilisk's BalancedWheels, test/test_basilisk.py); off is
 eq. 2.27 as the thesis writes it, body and wheels driven only by tau_n.
 
-One class, batched over runs: shape (B, 3) arrays, axis order x, y, z. The
-live plant node holds a batch of one; Monte-Carlo tools hold many.
+The wheels are a :class:`~.wheel_set.WheelSet`: N wheels of one type with spin
+axes g_i (columns of G); wheel i's reaction torque -tau_n,i acts along g_i.
+A standby wheel is unpowered and held at rest by its bearing (part of the
+locked body) until its first non-zero command releases it (wheel_set.py).
+
+One class, batched over runs: shape (B, N) wheel arrays in the set's order,
+(B, 3) body arrays (x, y, z). The live plant node holds a batch of one;
+Monte-Carlo tools hold many.
 
 Time is stepped in lockstep with the controllers: the torque command
 voltage (tcv) for step k is held over [t_k, t_k+1) (zero-order hold) and
@@ -23,25 +29,23 @@ from types import SimpleNamespace
 import numpy as np
 
 from . import wheel as wm
-from .scenario import FAULT_KINDS, Scenario, operating_point_at
+from .scenario import FAULT_KINDS, NOMINAL_VALUES, Scenario, operating_point_at
 from .spacecraft import INERTIA, body_acceleration, disturbance_torque
-
-
-_HEALTHY = operating_point_at((), 0.0)
+from .wheel_set import WheelSet, wheel_set as named_wheel_set
 
 
 @dataclass
 class PlantSample:
-    """What the plant publishes at one instant, shape (B, 3) each."""
+    """What the plant publishes at one instant: body arrays (B, 3), wheel arrays (B, N)."""
 
     time: float
     attitude: np.ndarray
     body_rate: np.ndarray
     wheel_speed: np.ndarray
     tcv: np.ndarray              # command in force (clamped to +-5 V)
-    reaction_torque: np.ndarray  # -(tau_n + ripple), eq. 2.18
+    reaction_torque: np.ndarray  # -(tau_n + ripple) along each wheel's spin axis, eq. 2.18
     fault_effect: np.ndarray     # reaction torque minus a healthy wheel's in the same state
-    operating_point: dict        # kind -> (B, 3)
+    operating_point: dict        # kind -> (B, N)
 
 
 def hold_command(wheel_speed, params: wm.WheelParams = wm.WheelParams()):
@@ -49,26 +53,32 @@ def hold_command(wheel_speed, params: wm.WheelParams = wm.WheelParams()):
     return wm.holding_tcv(wheel_speed, 23.0, params)
 
 
-def units_of(scenarios, base: wm.WheelParams) -> wm.WheelParams:
-    """The wheels of a batch of scenarios: ``base`` (the datasheet) unless some scenario draws its
-    units (Scenario.unit_scales); then each parameter of wm.UNIT_PARAMETERS as a (B, 3) array."""
-    scales = [s.unit_scales() for s in scenarios]
+def units_of(scenarios, base: wm.WheelParams, count: int = 3) -> wm.WheelParams:
+    """The ``count`` wheels of a batch of scenarios: ``base`` (the datasheet) unless some scenario draws its
+    units (Scenario.unit_scales); then each parameter of wm.UNIT_PARAMETERS as a (B, count) array."""
+    scales = [s.unit_scales(count) for s in scenarios]
     if all(sc is None for sc in scales):
         return base
-    ones = {name: np.ones(3) for name in wm.UNIT_PARAMETERS}
+    ones = {name: np.ones(count) for name in wm.UNIT_PARAMETERS}
     return wm.unit_wheel(base, {name: np.array([(sc or ones)[name] for sc in scales])
                                 for name in wm.UNIT_PARAMETERS})
 
 
 class Plant:
-    """Spacecraft with three reaction wheels for a batch of scenarios."""
+    """Spacecraft with a set of reaction wheels (the scenarios' ``wheel_set``) for a batch of scenarios."""
 
     def __init__(self, scenarios, wheel: wm.WheelParams = wm.WheelParams(), control_period=0.1,
-                 substeps=1, inertia=INERTIA, disturbance=True, wheel_momentum_coupling=True):
+                 substeps=1, inertia=INERTIA, disturbance=True, wheel_momentum_coupling=True,
+                 wheels: WheelSet | str | None = None):
         if isinstance(scenarios, Scenario):
             scenarios = [scenarios]
         self.scenarios = list(scenarios)
-        self.wheel = units_of(self.scenarios, wheel)
+        if wheels is None:
+            wheels = self.scenarios[0].plant_choices().wheel_set
+        self.wheels = named_wheel_set(wheels) if isinstance(wheels, str) else wheels
+        self.spin_axes = self.wheels.matrix
+        n = self.wheels.count
+        self.wheel = units_of(self.scenarios, wheel, n)
         self.dt = float(control_period)
         self.substeps = int(substeps)
         self.inertia = np.asarray(inertia, float)
@@ -77,12 +87,17 @@ class Plant:
         draws = [s.draws()[0] for s in self.scenarios]
         self.attitude = np.array([d.attitude for d in draws])
         self.body_rate = np.array([d.body_rate for d in draws])
-        self.wheel_speed = np.array([d.wheel_speed for d in draws])
+        self.wheel_speed = np.array([self.wheels.initial_speeds(d.wheel_speed) if len(d.wheel_speed) != n
+                                     else d.wheel_speed for d in draws], float)
         self.wheel_angle = np.zeros_like(self.wheel_speed)
+        # standby wheels: unpowered, held at rest by their bearing until their first non-zero command
+        self.locked = np.tile(self.wheels.mask(self.wheels.standby), (self.batch, 1))
+        self._locked_inertia()
         self.rngs = [s.disturbance_rng() for s in self.scenarios]
         self.extra_faults = [[] for _ in self.scenarios]  # injected live
         self.step_index = 0
-        self.tcv = np.clip(hold_command(self.wheel_speed, self.wheel), -wheel.command_limit, wheel.command_limit)
+        self.tcv = np.where(self.locked, 0.0, np.clip(hold_command(self.wheel_speed, self.wheel),
+                                                       -wheel.command_limit, wheel.command_limit))
 
     @property
     def batch(self) -> int:
@@ -100,26 +115,44 @@ class Plant:
         self.extra_faults[b].append(fault)
 
     def operating_point(self, t) -> dict:
-        ops = [operating_point_at(self.faults(b), t) for b in range(self.batch)]
+        ops = [operating_point_at(self.faults(b), t, self.wheels.count) for b in range(self.batch)]
         return {k: np.array([op[k] for op in ops]) for k in FAULT_KINDS}
+
+    def _locked_inertia(self):
+        """Sum over the free wheels of J g g^T (B, 3, 3), the part of the locked inertia that spins apart;
+        kept as its diagonal (B, 3) when that is all of it (wheels along body axes: eq. as the thesis')."""
+        j = np.broadcast_to(np.asarray(self.wheel.inertia, float), self.wheel_speed.shape)
+        free = np.where(self.locked, 0.0, j)
+        g = self.spin_axes
+        spun = np.einsum("in,bn,kn->bik", g, free, g)
+        off = spun - np.einsum("bii->bi", spun)[..., None] * np.eye(3)
+        self.spun_inertia = np.einsum("bii->bi", spun).copy() if not off.any() else spun
 
     def _derivatives(self, t, state, tcv, op, dist):
         rate, _att, speed, _ang = state
         tau_n, _ = wm.net_torque(tcv, speed, t, op, self.wheel)
-        torque = -tau_n + dist  # reaction torque of each wheel on its axis, eq. 2.18
+        tau_n = np.where(self.locked, 0.0, tau_n)   # a locked wheel turns with the body: no relative torque
+        g = self.spin_axes
+        torque = -(tau_n @ g.T) + dist   # reaction torques along the spin axes, eq. 2.18
         j = self.wheel.inertia
         if not self.wheel_momentum_coupling:
             return body_acceleration(rate, torque, self.inertia), rate, tau_n / j, speed
-        rate_dot = body_acceleration(rate, torque, self.inertia, wheel_momentum=j * speed, wheel_inertia=j)
-        # J (dOmega/dt + dw/dt) = tau_n: the tachometer's Omega is relative to the accelerating body
-        return rate_dot, rate, tau_n / j - rate_dot, speed
+        rate_dot = body_acceleration(rate, torque, self.inertia, wheel_momentum=(j * speed) @ g.T,
+                                     wheel_inertia=self.spun_inertia)
+        # J (dOmega/dt + g^T dw/dt) = tau_n: the tachometer's Omega is relative to the accelerating body
+        speed_dot = np.where(self.locked, 0.0, tau_n / j - rate_dot @ g)
+        return rate_dot, rate, speed_dot, speed
 
     def step(self, tcv) -> PlantSample:
-        """Hold ``tcv`` (B, 3) over one control period and return the sample at its end."""
-        tcv = np.asarray(tcv, float).reshape(self.batch, 3)
+        """Hold ``tcv`` (B, N) over one control period and return the sample at its end."""
+        tcv = np.asarray(tcv, float).reshape(self.batch, self.wheels.count)
         if not np.all(np.isfinite(tcv)):
             raise ValueError("torque command voltage is not finite")
         self.tcv = np.clip(tcv, -self.wheel.command_limit, self.wheel.command_limit)
+        released = self.locked & (self.tcv != 0.0)
+        if released.any():   # powered: the driver holds it from now on
+            self.locked = self.locked & ~released
+            self._locked_inertia()
         t0 = self.time
         op = SimpleNamespace(**self.operating_point(t0))
         if self.disturbance:
@@ -149,14 +182,15 @@ class Plant:
         ns = SimpleNamespace(**op)
         tau_n, tau_m = wm.net_torque(self.tcv, self.wheel_speed, t, ns, self.wheel)
         ripple = wm.torque_ripple(tau_m, self.wheel_angle, ns.ripple_gain, self.wheel)
-        return -(tau_n + ripple)
+        return np.where(self.locked, 0.0, -(tau_n + ripple))
 
     def sample(self) -> PlantSample:
         t = self.time
         op = self.operating_point(t)
         rt = self.reaction_torque(op, t)
-        nominal = all(np.all(op[k] == _HEALTHY[k]) for k in FAULT_KINDS)
-        healthy = rt if nominal else self.reaction_torque(_HEALTHY, t)   # no fault: the same torque, exactly
+        healthy_op = {k: np.full_like(op[k], NOMINAL_VALUES[k]) for k in FAULT_KINDS}
+        nominal = all(np.array_equal(op[k], healthy_op[k]) for k in FAULT_KINDS)
+        healthy = rt if nominal else self.reaction_torque(healthy_op, t)   # no fault: the same torque, exactly
         return PlantSample(time=t, attitude=self.attitude.copy(), body_rate=self.body_rate.copy(),
                            wheel_speed=self.wheel_speed.copy(), tcv=self.tcv.copy(), reaction_torque=rt,
                            fault_effect=rt - healthy, operating_point=op)

@@ -15,9 +15,10 @@ from dataclasses import asdict, dataclass, fields, replace
 
 from .sampling import SAMPLINGS as FDI_SAMPLINGS
 from .wheel import EMF_LIMITS
+from .wheel_set import WHEEL_SETS
 
 # what a scenario file may set under `plant:` (the rest is fixed by the graph)
-SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period")
+SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period", "wheel_set")
 # the value a recorded mapping without the key was made under
 LEGACY = {"wheel_momentum_coupling": False}
 # what the graph's FDI runs at, whatever the scenario: sample period [s] (the plant's telemetry report,
@@ -34,12 +35,17 @@ class PlantChoiceError(ValueError):
 class PlantChoices:
     """emf_limit: EMF torque limiting of the wheel drive (physics.md); wheel_momentum_coupling:
     the wheels' momentum h_w in the body's Euler equations (on: complete physics, off: eq. 2.27
-    as the thesis writes it); control_period: lockstep tick [s]; fdi_period / fdi_sampling:
-    the observers' sample period [s] and how control-rate data becomes one FDI sample."""
+    as the thesis writes it); control_period: lockstep tick [s]; wheel_set: the wheels and their
+    spin axes (wheel_set.py); fdi_period / fdi_sampling: the observers' sample period [s] and how
+    control-rate data becomes one FDI sample.
+"""
 
     emf_limit: str = "kf_scaled"
     wheel_momentum_coupling: bool = True
     control_period: float = 0.1
+    # [choice] the graph's FDI and bands are per wheel of the three-axis set; the four-wheel sets run
+    # through the core loop (tools/recovery_bench.py) until the graph monitors four wheels
+    wheel_set: str = "orthogonal"
     fdi_period: float = FDI_PERIOD
     fdi_sampling: str = FDI_SAMPLING
 
@@ -49,6 +55,8 @@ class PlantChoices:
         if not isinstance(self.wheel_momentum_coupling, bool):
             raise PlantChoiceError("wheel_momentum_coupling must be true or false, "
                                    f"got {self.wheel_momentum_coupling!r}")
+        if self.wheel_set not in WHEEL_SETS:
+            raise PlantChoiceError(f"wheel_set must be one of {', '.join(WHEEL_SETS)}, got {self.wheel_set!r}")
         if self.fdi_sampling not in FDI_SAMPLINGS:
             raise PlantChoiceError(f"fdi_sampling must be one of {', '.join(FDI_SAMPLINGS)}, got {self.fdi_sampling!r}")
         for key in ("control_period", "fdi_period"):

@@ -13,6 +13,7 @@ import numpy as np
 import yaml
 
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
+from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
 from .wheel import DEFAULT_UNIT_SPREAD, NOMINAL, UNIT_PARAMETERS, WheelParams, unit_wheel
 
 AXES = ("x", "y", "z")
@@ -55,8 +56,10 @@ class Fault:
             return nominal + share * (self.value - nominal)
         return self.value
 
-    def as_dict(self) -> dict:
-        return {"kind": self.kind, "wheel": AXES[self.wheel], "onset": self.onset,
+    def as_dict(self, wheel_names=None) -> dict:
+        """``wheel_names``: the run's wheel set's names (default: the default set's, x y z s)."""
+        names = wheel_names or WHEEL_SETS[DEFAULT_WHEEL_SET].names
+        return {"kind": self.kind, "wheel": names[self.wheel], "onset": self.onset,
                 "value": self.value, "ramp": self.ramp}
 
 
@@ -142,27 +145,36 @@ class Scenario:
             steps += [(t, np.deg2rad(change)) for t, change in self.manoeuvres.draw(self.seed, self.duration)]
         return ic, steps
 
-    def unit_scales(self) -> dict | None:
-        """Each wheel's parameters over the datasheet's (UNIT_PARAMETERS -> (3,) shares), or None for
-        datasheet wheels. Drawn N(1, spread) cut at 3 sigma from a stream of their own (the initial
-        conditions and the disturbance do not move); ``scale`` entries are taken as given."""
+    def unit_scales(self, count: int = 3) -> dict | None:
+        """Each of ``count`` wheels' parameters over the datasheet's (UNIT_PARAMETERS -> (count,) shares),
+        or None for datasheet wheels. Drawn N(1, spread) cut at 3 sigma from a stream of their own (the
+        initial conditions and the disturbance do not move); the first three wheels' from the stream they
+        always came from, any further wheel's (the redundant one) from another, so adding a wheel moves
+        none of the three. ``scale`` entries are taken as given (3 values: the first three wheels)."""
         if not self.wheels:
             return None
         spread = dict(DEFAULT_UNIT_SPREAD) if self.wheels.get("variation") else {}
         spread.update(self.wheels.get("spread", {}))
-        rng = np.random.default_rng([int(self.seed), 2])
+        rngs = [np.random.default_rng([int(self.seed), 2]), np.random.default_rng([int(self.seed), 4])]
         out = {}
         for name in UNIT_PARAMETERS:   # every draw made, used or not: one parameter's spread moves no other
-            z = np.clip(rng.standard_normal(3), -3.0, 3.0)
+            z = np.concatenate([np.clip(rng.standard_normal(n), -3.0, 3.0)
+                                for rng, n in zip(rngs, (3, max(count - 3, 0)))])[:count]
             out[name] = 1.0 + spread.get(name, 0.0) * z
         for name, values in self.wheels.get("scale", {}).items():
-            out[name] = np.asarray(values, float)
+            given = np.asarray(values, float)
+            out[name] = np.concatenate([given, out[name][len(given):]])[:count]
         return out
 
     def wheel_params(self, base: WheelParams = WheelParams()) -> WheelParams:
         """The plant's wheels for this scenario: ``base`` (the datasheet) or its units (unit_scales)."""
-        scales = self.unit_scales()
+        scales = self.unit_scales(self.wheel_set().count)
         return base if scales is None else unit_wheel(base, scales)
+
+    def wheel_set(self):
+        """The run's wheels (plant choice ``wheel_set``, wheel_set.py)."""
+        from .wheel_set import wheel_set
+        return wheel_set(self.plant_choices().wheel_set)
 
     def setpoint_schedule(self):
         """(times, attitude set-points [rad] of shape (n, 3)): piecewise constant from each time on."""
@@ -183,7 +195,7 @@ class Scenario:
         raw = yaml.safe_load(self.source_text) if self.source_text else {"name": self.name}
         raw = dict(raw or {})
         raw["seed"] = int(self.seed)
-        scales = self.unit_scales()
+        scales = self.unit_scales(self.wheel_set().count)
         if scales is not None:   # the units' values, so the bag alone redoes the run
             raw["wheels"] = {**raw.get("wheels", {}),
                              "scale": {k: [float(x) for x in v] for k, v in scales.items()}}
@@ -206,9 +218,10 @@ def setpoint_at(times, values, t):
     return values[max(i, 0)]
 
 
-def operating_point_at(faults, t):
-    """Per-wheel operating point at time t: dict kind -> array (3,), thesis Table 2.3 when healthy."""
-    op = {k: np.full(3, NOMINAL_VALUES[k]) for k in FAULT_KINDS}
+def operating_point_at(faults, t, count: int = 3):
+    """Per-wheel operating point of ``count`` wheels at time t: dict kind -> array (count,), thesis
+    Table 2.3 when healthy."""
+    op = {k: np.full(count, NOMINAL_VALUES[k]) for k in FAULT_KINDS}
     for f in faults:
         op[f.kind][f.wheel] = f.value_at(t)
     return op
@@ -234,19 +247,20 @@ def _num(where, value, lo=None, hi=None):
     return number
 
 
-def _axis(where, value):
-    if isinstance(value, str) and value.lower() in AXES:
-        return AXES.index(value.lower())
-    if isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 3:
+def _wheel(where, value, names=AXES):
+    """The index of a wheel named in a scenario (one of ``names``, its wheel set's; or its index)."""
+    if isinstance(value, str) and value.lower() in names:
+        return names.index(value.lower())
+    if isinstance(value, int) and not isinstance(value, bool) and 0 <= value < len(names):
         return value
-    raise ScenarioError(f"{where}: wheel must be one of x, y, z, got {value!r}")
+    raise ScenarioError(f"{where}: wheel must be one of {', '.join(names)}, got {value!r}")
 
 
 FAULT_LIMITS = {"bus_voltage": (0.0, 40.0), "current_limiter": (0.0, 1.0),
                  "temperature": (-100.0, 400.0), "ripple_gain": (0.0, 10.0)}
 
 
-def _fault(where, raw, duration):
+def _fault(where, raw, duration, names=AXES):
     if not isinstance(raw, dict):
         raise ScenarioError(f"{where}: expected a mapping with kind, wheel, onset, value")
     unknown = set(raw) - {"kind", "wheel", "onset", "value", "ramp"}
@@ -258,7 +272,7 @@ def _fault(where, raw, duration):
     for key in ("wheel", "onset", "value"):
         if key not in raw:
             raise ScenarioError(f"{where}: missing '{key}'")
-    return Fault(kind=kind, wheel=_axis(f"{where}.wheel", raw["wheel"]),
+    return Fault(kind=kind, wheel=_wheel(f"{where}.wheel", raw["wheel"], names),
                  onset=_num(f"{where}.onset", raw["onset"], 0.0, duration),
                  value=_num(f"{where}.value", raw["value"], *FAULT_LIMITS[kind]),
                  ramp=_num(f"{where}.ramp", raw.get("ramp", 0.0), 0.0, None))
@@ -310,10 +324,6 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     seed = raw.get("seed", 0)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ScenarioError(f"{origin}: seed must be a non-negative integer, got {seed!r}")
-    faults_raw = raw.get("faults") or []
-    if not isinstance(faults_raw, list):
-        raise ScenarioError(f"{origin}: faults must be a list")
-    faults = tuple(_fault(f"{origin}: faults[{i}]", f, duration) for i, f in enumerate(faults_raw))
     sps_raw = raw.get("setpoints", [{"time": 0.0, "change_deg": "random"}])
     if not isinstance(sps_raw, list):
         raise ScenarioError(f"{origin}: setpoints must be a list")
@@ -338,9 +348,13 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     if "control_period" in plant:
         _num(f"{origin}: plant.control_period", plant["control_period"], 1e-3, 1.0)
     try:
-        PlantChoices.for_scenario(plant)
+        names = WHEEL_SETS[PlantChoices.for_scenario(plant).wheel_set].names
     except PlantChoiceError as exc:
         raise ScenarioError(f"{origin}: plant.{exc}") from None
+    faults_raw = raw.get("faults") or []
+    if not isinstance(faults_raw, list):
+        raise ScenarioError(f"{origin}: faults must be a list")
+    faults = tuple(_fault(f"{origin}: faults[{i}]", f, duration, names) for i, f in enumerate(faults_raw))
     name = str(raw.get("name") or Path(origin).stem)
     return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
                     initial=initial, description=str(raw.get("description", "")), plant=dict(plant),

@@ -10,29 +10,38 @@ DISTURBANCE_SIGMA = 5.68e-5
 
 
 def body_acceleration(body_rate, torque, inertia=INERTIA, wheel_momentum=None, wheel_inertia=0.0):
-    """Euler's equations of a rigid body carrying three body-axis wheels; arrays of shape (..., 3).
+    """Euler's equations of a rigid body carrying reaction wheels; arrays of shape (..., 3).
 
-    With the wheels' stored momentum h_w = J_w Omega (Omega relative to the body, what a
-    tachometer reads) the rotational equations of body and wheels are (Hughes, Spacecraft
-    Attitude Dynamics, ch. 7; Basilisk's BalancedWheels model)
+    With wheel i spinning about g_i at Omega_i relative to the body (what a tachometer
+    reads), the stored momentum h_w = sum_i J g_i Omega_i and the rotational equations of
+    body and wheels are (Hughes, Spacecraft Attitude Dynamics, ch. 7; Basilisk's
+    BalancedWheels model)
 
-        (I - J_w) dw/dt = tau - w x (I w + h_w)       tau: external + reaction torques
-        J_w (dOmega/dt + dw/dt) = tau_n               (the wheel side, see Plant)
+        (I - J_s) dw/dt = tau - w x (I w + h_w)       J_s = sum_i J g_i g_i^T, the spinning part
+        J (dOmega_i/dt + g_i^T dw/dt) = tau_n,i        (the wheel side, see Plant)
 
-    where I is the inertia with the wheels locked. ``wheel_momentum=None`` drops h_w and
-    J_w: eq. 2.27 as the thesis writes it, I dw/dt = tau - w x (I w).
+    where I is the principal inertia with the wheels locked and tau the external plus the
+    reaction torques. ``wheel_inertia`` is J_s: its diagonal (..., 3) when the wheels spin
+    about body axes, else the (..., 3, 3) matrix. ``wheel_momentum=None`` drops h_w and
+    J_s: eq. 2.27 as the thesis writes it, I dw/dt = tau - w x (I w).
     """
     w = np.asarray(body_rate, float)
     inertia = np.asarray(inertia, float)
     h = inertia * w
+    spun = np.asarray(wheel_inertia, float)
+    matrix = spun.ndim == w.ndim + 1   # (..., 3, 3) beside (..., 3) rates
     if wheel_momentum is not None:
         h = h + wheel_momentum
-        inertia = inertia - wheel_inertia
+        if not matrix:
+            inertia = inertia - spun
     # w x h (written out: np.cross costs 10x on 3-vectors)
     coupling = np.stack((w[..., 1] * h[..., 2] - w[..., 2] * h[..., 1],
                          w[..., 2] * h[..., 0] - w[..., 0] * h[..., 2],
                          w[..., 0] * h[..., 1] - w[..., 1] * h[..., 0]), axis=-1)
-    return (np.asarray(torque, float) - coupling) / inertia
+    rhs = np.asarray(torque, float) - coupling
+    if wheel_momentum is not None and matrix:   # a wheel off the body axes couples them
+        return np.linalg.solve(np.eye(3) * inertia - spun, rhs[..., None])[..., 0]
+    return rhs / inertia
 
 
 def disturbance_torque(rng: np.random.Generator, shape=(3,), sigma=DISTURBANCE_SIGMA):

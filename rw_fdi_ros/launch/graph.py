@@ -36,6 +36,9 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     """Plant, three PID controllers, (when ``fdi``) the observers and isolation, and (when ``bag``)
     the recorder for one run. ``fdi`` maps 'models' / 'thresholds' to directories (None: shipped)."""
     choices = scenario.plant_choices(emf_limit=emf_limit)
+    if choices.wheel_set != "orthogonal":
+        raise ValueError(f"wheel_set {choices.wheel_set}: the graph runs the three-wheel set only so far; four "
+                         "wheels with FDIR run in the core loop (`rw-fdi bench recovery`)")
     period = choices.control_period
     ic, _ = scenario.draws()
     times, values = scenario.setpoint_schedule()

@@ -1,0 +1,149 @@
+"""FDIR: what the spacecraft does with a wheel the FDI has confirmed faulty (thesis chapter 1, 2.3).
+
+Detection and isolation exist so that "the redundant one will be excited
+in case any of the other three wheels fails". :class:`Reconfiguration`
+is that decision, made the way flight FDIR makes it:
+
+* only on a confirmed failure: the latched verdict of /diagnostics (the
+  decision observer's alarm after its persistence, isolation.LatchedVerdict),
+  or an operator's command; never on a single residual;
+* the wheel is given up: taken out of use for good (the allocation gives it
+  0 V from then on) and a standby wheel brought in, the first whose
+  addition keeps the wheels in use spanning the body;
+* with no standby left, the wheel is still taken out if the others span
+  the body (a pyramid loses one of four); if they do not, it is kept in
+  use and the decision says why: a faulty wheel that still gives some
+  torque is better than an axis without control, and the spacecraft never
+  commands a wheel it has given up on.
+
+Every decision is a :class:`Decision` (time, wheel, action, reason), which
+the graph publishes and records.
+
+:class:`DecisionDelay`: a decision made on the FDI sample stamped t acts on
+the commands from t + ``DECISION_DELAY`` on: one FDI period for the verdict to
+travel (flight software applies FDIR in the next cycle). The graph's
+allocation node and the core loop apply it at the same step, so they
+command the same wheels.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .allocation import distribution
+from .isolation import WHEEL_SPEED_ENVELOPE
+from .wheel import WheelParams
+from .wheel_set import WheelSet
+
+DECISION_DELAY = 1.0   # [s] from the FDI sample a decision is made on to the first command it shapes
+# [s] the speed a wheel can hold and still be judged: the FDI's envelope, just under the 47.3 rad/s at which
+# friction takes the whole 5 V command (isolation.WHEEL_SPEED_ENVELOPE); what a reconfiguration may ask
+HOLDABLE_SPEED = WHEEL_SPEED_ENVELOPE
+ACTIONS = ("out_of_use", "in_use", "kept_in_use")
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One reconfiguration decision: ``wheel`` goes ``action`` at sim time ``time`` [s] because ``reason``."""
+
+    time: float
+    wheel: str
+    action: str
+    reason: str
+
+    def message(self) -> str:
+        what = {"out_of_use": "taken out of use", "in_use": "brought into use",
+                "kept_in_use": "kept in use"}[self.action]
+        return f"wheel {self.wheel} {what} at {self.time:g} s: {self.reason}"
+
+
+def held_speeds(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0, 0.0, 0.0),
+                wheel_inertia: float = WheelParams().inertia) -> np.ndarray:
+    """Speeds (N,) [rad/s] the wheels ``in_use`` settle at once they hold all the momentum the spacecraft
+    has now (the wheels' at ``wheel_speed`` (N,) plus the body's I w), the others stopped and the body
+    pointing: J G Omega' = J G Omega + I w with the minimum-norm Omega'.
+
+    Angular momentum is conserved: a wheel given up spins down by its friction and its momentum goes to
+    the body, from which the controller moves it into the wheels in use. With three wheels in use there
+    is one answer; a redundant wheel at 1/sqrt(3) to an axis must spin sqrt(3) times as fast as the
+    axis wheel it replaces did.
+    """
+    u = distribution(wheels.matrix, wheels.mask(in_use))
+    return u @ (wheels.matrix @ np.asarray(wheel_speed, float) + np.asarray(body_momentum, float) / wheel_inertia)
+
+
+def momentum_shortfall(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0, 0.0, 0.0),
+                       holdable: float = HOLDABLE_SPEED) -> str | None:
+    """Why the wheels ``in_use`` cannot hold the spacecraft's momentum (one line), or None when they can."""
+    need = held_speeds(wheels, in_use, wheel_speed, body_momentum)
+    worst = int(np.argmax(np.abs(need)))
+    if abs(need[worst]) <= holdable:
+        return None
+    return (f"wheel {wheels.names[worst]} would have to spin at {abs(need[worst]):.1f} rad/s to hold the stored "
+            f"momentum (holds {holdable:g}): pointing is lost until momentum is dumped")
+
+
+class Reconfiguration:
+    """Which wheels of ``wheels`` are in use, and the decisions that made it so."""
+
+    def __init__(self, wheels: WheelSet):
+        self.wheels = wheels
+        self.in_use = list(wheels.active)
+        self.spares = list(wheels.standby)
+        self.given_up = []
+        self.kept = set()      # wheels confirmed faulty but kept (no replacement): said once
+        self.decisions = []
+
+    def give_up(self, wheel: str, t: float, reason: str, wheel_speed=None, body_momentum=(0.0, 0.0, 0.0)) -> list:
+        """Take ``wheel`` out of use (confirmed faulty, or an operator's command) and bring a standby
+        wheel in; returns the new decisions (none when it is already given up or said kept). With the
+        ``wheel_speed`` (N,) and ``body_momentum`` (3,) [N m s] now, the decision also says when the new
+        set cannot hold the momentum."""
+        self.wheels.index(wheel)   # ValueError naming the wheels for an unknown one
+        if wheel in self.given_up or wheel in self.kept:
+            return []
+        spare = None
+        if wheel in self.spares:   # a standby wheel that failed before it was needed
+            self.spares.remove(wheel)
+        elif wheel in self.in_use:
+            rest = [w for w in self.in_use if w != wheel]
+            spare = next((s for s in self.spares if self.wheels.spans(rest + [s])), None)
+            if spare is None and not self.wheels.spans(rest):
+                self.kept.add(wheel)
+                kept = Decision(t, wheel, "kept_in_use", f"{reason}; no wheel left to take over its torque")
+                self.decisions.append(kept)
+                return [kept]
+            self.in_use = rest + ([spare] if spare is not None else [])
+            if spare is not None:
+                self.spares.remove(spare)
+        self.given_up.append(wheel)
+        out = [Decision(t, wheel, "out_of_use", reason)]
+        if spare is not None:
+            short = None if wheel_speed is None else momentum_shortfall(self.wheels, self.in_use, wheel_speed,
+                                                                           body_momentum)
+            out.append(Decision(t, spare, "in_use", f"replaces wheel {wheel}" + (f"; but {short}" if short else "")))
+        self.decisions += out
+        return out
+
+    def ordered_in_use(self) -> tuple:
+        """The wheels in use in the set's order."""
+        return tuple(n for n in self.wheels.names if n in self.in_use)
+
+
+class DecisionDelay:
+    """Decisions made on FDI stamps, applied from ``delay`` seconds later (see the module docstring)."""
+
+    def __init__(self, delay: float = DECISION_DELAY):
+        self.delay = float(delay)
+        self.pending = []      # (apply from [s], what)
+        self.requested = set()  # what was put, ever (a confirmed failure is decided once)
+
+    def put(self, made_at: float, what):
+        self.pending.append((made_at + self.delay, what))
+
+    def due(self, t: float) -> list:
+        """What is due at sim time ``t`` (in the order it was put), removed from the pending."""
+        due = [w for at, w in self.pending if at <= t + 1e-9]
+        self.pending = [(at, w) for at, w in self.pending if at > t + 1e-9]
+        return due

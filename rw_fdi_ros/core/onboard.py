@@ -1,0 +1,52 @@
+"""The FDI verdict of /diagnostics computed inside the core loop, so that FDIR can act on it there.
+
+The graph's model observer node and isolation node make the verdict from
+the plant's FDI telemetry; :class:`OnboardVerdict` steps the same pieces in
+the same order for a batch of runs, one FDI sample at a time:
+TelemetrySampler (telemetry.py) -> the nominal model's SignedResidual per
+wheel, learning the wheel's unit when calibrating (detection.py,
+calibration.py) -> ObserverChannel against the model observer's bands ->
+LatchedVerdict with the operating envelope (isolation.py). The verdict is
+per wheel of the set, the redundant one included (its band: the widest of
+its type's, detection.ThresholdCurves.at).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .calibration import UnitCalibration, regressors
+from .detection import SignedResidual, ThresholdCurves
+from .isolation import LatchedVerdict, ObserverChannel, in_envelope
+from .telemetry import TelemetrySampler
+
+
+class OnboardVerdict:
+    """The latched verdict of wheels ``names`` for ``batch`` runs from control-rate telemetry."""
+
+    def __init__(self, names, curves: ThresholdCurves, batch: int, fdi_period: float = 1.0,
+                 calibration_samples: int = 0, persistence: int | None = None):
+        self.names = tuple(names)
+        self.sampler = TelemetrySampler(fdi_period, "mean")
+        self.calibration_samples = calibration_samples
+        self.filters = [[SignedResidual(calibration=UnitCalibration(calibration_samples) if calibration_samples
+                                        else None) for _ in self.names] for _ in range(batch)]
+        self.channels = [ObserverChannel("model", curves, persistence, self.names) for _ in range(batch)]
+        self.verdicts = [LatchedVerdict(True, self.names) for _ in range(batch)]
+
+    def add(self, stamp_ns: int, tcv, reaction_torque, wheel_speed):
+        """Control-rate sample (B, N) arrays in; on an FDI stamp, per run {wheel: first alarm [s] of a
+        confirmed failure} (None elsewhere)."""
+        sample = self.sampler.add(stamp_ns, tcv, reaction_torque, wheel_speed)
+        if sample is None:
+            return None
+        x = (regressors(sample.motor_torque, sample.friction_torque, sample.wheel_speed, sample.ripple_phasor,
+                        sample.free_motor_torque) if self.calibration_samples else None)
+        judged = in_envelope(sample.wheel_speed)
+        out = []
+        for b, (filters, channel, verdict) in enumerate(zip(self.filters, self.channels, self.verdicts)):
+            rows = [f.update(sample.reaction_torque[b, i], sample.model_torque[b, i], sample.ripple_phasor[b, i],
+                             None if x is None else x[b, i]) for i, f in enumerate(filters)]
+            residual, bound = np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
+            verdict.update(channel.update(stamp_ns, residual, bound), dict(zip(self.names, judged[b])))
+            out.append({a: t for a, t in verdict.confirmed.items() if t is not None})
+        return out

@@ -1,0 +1,122 @@
+"""A wheel set: N reaction wheels of one type, each with a spin axis in the body frame.
+
+The thesis' spacecraft (chapter 1, 2.3) carries four wheels, three active
+and one redundant that "will be excited in case any of the other three
+wheels fails". With three orthogonal wheels, losing one leaves its axis
+without control, so the redundant wheel must not be parallel to any of them:
+
+* ``orthogonal_skew`` (default): wheels x, y, z along the body axes and a
+  standby wheel s along (1, 1, 1)/sqrt(3). Any three of the four span the
+  body, so any single failure is recoverable.
+* ``pyramid``: four wheels whose spin axes lie on a cone of half-angle
+  90 deg - ``PYRAMID_ELEVATION`` about body z, 90 deg apart in azimuth, all
+  four in use (the minimum-norm allocation spreads the torque over them);
+  any three span the body.
+* ``orthogonal``: the thesis' three active wheels alone, no redundancy.
+
+The spin-axis matrix G (3 x N, column i = g_i) maps wheel torques to body
+torque; allocation.py inverts it over the wheels in use.
+
+A standby wheel is unpowered and at rest until the allocation first
+commands it: its driver is off and its bearing's static friction (tau_c =
+2 mN m, far above the micro-N m torques a body at rest transmits) holds it
+to the body, so it turns with the body as part of its locked inertia
+(spacecraft.INERTIA). The plant releases it at its first non-zero command.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# [choice] the pyramid's spin axes rise 35.26 deg above the x-y plane (tan e = 1/sqrt(2)): then
+# G G^T = (4/3) I, the same torque capability about every body axis with all four wheels in use
+PYRAMID_ELEVATION = float(np.degrees(np.arctan(1.0 / np.sqrt(2.0))))
+
+
+@dataclass(frozen=True)
+class WheelSet:
+    """``names[i]`` spins about ``spin_axes[i]`` (unit, body frame); ``standby`` wheels wait unpowered."""
+
+    name: str
+    names: tuple
+    spin_axes: tuple          # N unit 3-vectors, as tuples (hashable, exact)
+    standby: tuple = ()       # names of the redundant wheels, out of use until brought in
+
+    def __post_init__(self):
+        axes = np.asarray(self.spin_axes, float)
+        if axes.shape != (len(self.names), 3) or len(set(self.names)) != len(self.names):
+            raise ValueError(f"wheel set {self.name}: one spin axis (3 numbers) per distinct wheel name")
+        if not np.allclose(np.linalg.norm(axes, axis=1), 1.0, atol=1e-12):
+            raise ValueError(f"wheel set {self.name}: spin axes must be unit vectors")
+        if set(self.standby) - set(self.names):
+            raise ValueError(f"wheel set {self.name}: standby wheels must be among {self.names}")
+        if np.linalg.matrix_rank(self.matrix[:, self.mask(self.active)]) < 3:
+            raise ValueError(f"wheel set {self.name}: its active wheels do not span the three body axes")
+
+    @property
+    def count(self) -> int:
+        return len(self.names)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """G (3, N): column i is wheel i's spin axis g_i; body torque of wheel torques tau is G tau."""
+        return np.asarray(self.spin_axes, float).T
+
+    @property
+    def active(self) -> tuple:
+        """The wheels in use at launch (all but the standby ones)."""
+        return tuple(n for n in self.names if n not in self.standby)
+
+    def index(self, name: str) -> int:
+        if name not in self.names:
+            raise ValueError(f"wheel must be one of {', '.join(self.names)}, got {name!r}")
+        return self.names.index(name)
+
+    def mask(self, names) -> np.ndarray:
+        """(N,) bool: which of the set's wheels are in ``names``."""
+        names = set(names)
+        return np.array([n in names for n in self.names])
+
+    def spans(self, names) -> bool:
+        """Whether the wheels ``names`` together can give a torque about every body axis (rank 3)."""
+        return bool(np.linalg.matrix_rank(self.matrix[:, self.mask(names)]) == 3)
+
+    def initial_speeds(self, axis_speeds) -> np.ndarray:
+        """Wheel speeds (..., N) storing the momentum that ``axis_speeds`` (..., 3) on three body-axis
+        wheels would: h = J G Omega with the minimum-norm Omega over the active wheels, 0 on standby.
+        For orthogonal active wheels it is ``axis_speeds`` itself, exactly."""
+        axis_speeds = np.asarray(axis_speeds, float)
+        active = self.mask(self.active)
+        g = self.matrix[:, active]
+        out = np.zeros(axis_speeds.shape[:-1] + (self.count,))
+        if np.array_equal(g, np.eye(3)):
+            out[..., active] = axis_speeds
+        else:
+            out[..., active] = axis_speeds @ np.linalg.pinv(g).T
+        return out
+
+
+_SKEW = tuple(float(v) for v in np.full(3, 1.0 / np.sqrt(3.0)))
+
+
+def _pyramid(elevation_deg=PYRAMID_ELEVATION) -> tuple:
+    e = np.radians(elevation_deg)
+    return tuple((float(np.cos(e) * np.cos(a)), float(np.cos(e) * np.sin(a)), float(np.sin(e)))
+                 for a in np.radians([0.0, 90.0, 180.0, 270.0]))
+
+
+WHEEL_SETS = {
+    "orthogonal_skew": WheelSet("orthogonal_skew", ("x", "y", "z", "s"),
+                                ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), _SKEW), standby=("s",)),
+    "pyramid": WheelSet("pyramid", ("p1", "p2", "p3", "p4"), _pyramid()),
+    "orthogonal": WheelSet("orthogonal", ("x", "y", "z"), ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))),
+}
+DEFAULT_WHEEL_SET = "orthogonal_skew"
+
+
+def wheel_set(name: str) -> WheelSet:
+    """The named wheel set; ValueError naming the known ones otherwise."""
+    if name not in WHEEL_SETS:
+        raise ValueError(f"wheel_set must be one of {', '.join(WHEEL_SETS)}, got {name!r}")
+    return WHEEL_SETS[name]

@@ -1,0 +1,151 @@
+"""The redundant wheel: wheel sets, minimum-norm allocation, the N-wheel plant and the FDIR decision."""
+import numpy as np
+import pytest
+
+from rw_fdi_ros.core.allocation import TorqueAllocator, distribution, limited
+from rw_fdi_ros.core.closed_loop import Fdir, simulate
+from rw_fdi_ros.core.detection import ThresholdCurves
+from rw_fdi_ros.core.fdir import DecisionDelay, Reconfiguration, held_speeds, momentum_shortfall
+from rw_fdi_ros.core.plant import Plant
+from rw_fdi_ros.core.scenario import Fault, Scenario, ScenarioError, parse_scenario
+from rw_fdi_ros.core.wheel import WheelParams
+from rw_fdi_ros.core.wheel_set import WHEEL_SETS, WheelSet
+from rw_fdi_ros.paths import fdi_dir
+
+SKEW = WHEEL_SETS["orthogonal_skew"]
+PYRAMID = WHEEL_SETS["pyramid"]
+
+
+def test_wheel_sets_span_the_body_with_any_three_wheels():
+    for ws in (SKEW, PYRAMID):
+        for lost in ws.names:
+            assert ws.spans([n for n in ws.names if n != lost])
+    assert not SKEW.spans(["x", "y"])
+    # the pyramid's elevation gives the same capability about every axis: G G^T = (4/3) I
+    np.testing.assert_allclose(PYRAMID.matrix @ PYRAMID.matrix.T, 4.0 / 3.0 * np.eye(3), atol=1e-12)
+    with pytest.raises(ValueError, match="span"):
+        WheelSet("flat", ("a", "b", "c"), ((1, 0, 0), (0, 1, 0), (1, 0, 0)))
+
+
+def test_allocation_is_the_minimum_norm_solution_and_gives_unused_wheels_nothing():
+    rng = np.random.default_rng(0)
+    for ws, in_use in ((SKEW, ("y", "z", "s")), (SKEW, ("x", "y", "z", "s")), (PYRAMID, PYRAMID.names),
+                       (PYRAMID, ("p1", "p2", "p4"))):
+        d = distribution(ws.matrix, ws.mask(in_use))
+        v = rng.normal(size=3)
+        u = d @ v
+        np.testing.assert_allclose(ws.matrix @ u, v, atol=1e-12)          # the demanded body torque
+        assert np.all(u[~ws.mask(in_use)] == 0.0)                          # nothing to a wheel out of use
+        g = ws.matrix[:, ws.mask(in_use)]
+        np.testing.assert_allclose(u[ws.mask(in_use)], np.linalg.pinv(g) @ v, atol=1e-12)   # minimum norm
+    # three orthogonal wheels in use: the identity, exactly (the thesis' loop is unchanged)
+    a = TorqueAllocator(SKEW, 2)
+    v = rng.uniform(-5, 5, (2, 3))
+    assert np.array_equal(a.wheel_commands(v), np.concatenate([v, np.zeros((2, 1))], axis=1))
+
+
+def test_the_voltage_limit_scales_the_command_and_keeps_its_direction():
+    a = TorqueAllocator(SKEW, 1)
+    a.use(("y", "z", "s"))
+    u = a.wheel_commands([[4.0, 0.0, 0.0]])[0]     # the skew wheel alone gives x: it needs 4 sqrt(3) V
+    assert np.abs(u).max() == pytest.approx(5.0)
+    body = SKEW.matrix @ u
+    np.testing.assert_allclose(body / np.linalg.norm(body), [1.0, 0.0, 0.0], atol=1e-12)
+    assert np.array_equal(limited([[1.0, -2.0]], 5.0), [[1.0, -2.0]])
+
+
+def _scenario(seconds=60.0, faults=(), wheel_set="orthogonal_skew", seed=3):
+    return Scenario("t", duration=seconds, seed=seed, faults=tuple(faults), plant={"wheel_set": wheel_set})
+
+
+def test_a_standby_wheel_changes_nothing_until_it_is_used():
+    """The x, y, z wheels and the body run bit for bit as the three-wheel set's while s waits."""
+    faults = [Fault("current_limiter", 0, 20.0, 0.6), Fault("temperature", 2, 30.0, 80.0)]
+    runs = {ws: simulate([_scenario(faults=faults, wheel_set=ws), _scenario(seed=4, wheel_set=ws)])
+            for ws in ("orthogonal", "orthogonal_skew")}
+    three, four = runs["orthogonal"], runs["orthogonal_skew"]
+    assert np.array_equal(three.attitude, four.attitude)
+    for key in ("wheel_speed", "tcv", "reaction_torque", "fault_effect"):
+        assert np.array_equal(getattr(three, key), getattr(four, key)[..., :3]), key
+        assert np.all(getattr(four, key)[..., 3] == 0.0), key
+
+
+def test_angular_momentum_is_conserved_with_the_skew_wheel_spinning():
+    """No external torque: |I w + J G Omega| holds whatever the four wheels are commanded (Euler)."""
+    plant = Plant(_scenario(), disturbance=False, wheels=SKEW)
+    j = plant.wheel.inertia
+    def momentum():
+        return np.linalg.norm(plant.inertia * plant.body_rate[0] + j * SKEW.matrix @ plant.wheel_speed[0])
+    h0 = momentum()
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        plant.step(rng.uniform(-5, 5, (1, 4)))
+    assert not plant.locked.any()
+    assert abs(plant.wheel_speed[0, 3]) > 1.0          # s was released and spun
+    assert momentum() == pytest.approx(h0, rel=1e-9)
+
+
+def test_a_locked_standby_wheel_is_released_by_its_first_command():
+    plant = Plant(_scenario(), wheels=SKEW)
+    assert plant.locked[0].tolist() == [False, False, False, True]
+    plant.step([[1.0, 1.0, 1.0, 0.0]])
+    assert plant.locked[0, 3] and plant.wheel_speed[0, 3] == 0.0
+    plant.step([[1.0, 1.0, 1.0, 0.5]])
+    assert not plant.locked[0, 3] and plant.wheel_speed[0, 3] > 0.0
+
+
+def test_reconfiguration_brings_the_standby_in_once_and_keeps_a_wheel_it_cannot_replace():
+    r = Reconfiguration(SKEW)
+    first = r.give_up("x", 10.0, "confirmed")
+    assert [(d.wheel, d.action) for d in first] == [("x", "out_of_use"), ("s", "in_use")]
+    assert r.ordered_in_use() == ("y", "z", "s") and r.give_up("x", 11.0, "again") == []
+    kept = r.give_up("y", 20.0, "confirmed")   # y, z, s: without y nothing gives torque about y
+    assert [(d.wheel, d.action) for d in kept] == [("y", "kept_in_use")]
+    assert r.ordered_in_use() == ("y", "z", "s")
+    p = Reconfiguration(PYRAMID)   # no standby: one of four can go, the other three still span
+    assert [d.action for d in p.give_up("p1", 1.0, "c")] == ["out_of_use"] and len(p.in_use) == 3
+    with pytest.raises(ValueError, match="one of"):
+        r.give_up("w", 1.0, "typo")
+
+
+def test_the_momentum_a_replacement_must_hold():
+    """x out, s in: s carries the x momentum at 1/sqrt(3), so it spins sqrt(3) times as fast."""
+    speeds = np.array([20.0, 25.0, 24.0, 0.0])
+    need = held_speeds(SKEW, ("y", "z", "s"), speeds)
+    np.testing.assert_allclose(need, [0.0, 5.0, 4.0, 20.0 * np.sqrt(3.0)], atol=1e-12)
+    assert momentum_shortfall(SKEW, ("y", "z", "s"), speeds) is None
+    assert "47.6 rad/s" in momentum_shortfall(SKEW, ("y", "z", "s"), [27.5, 25.0, 24.0, 0.0])
+    d = DecisionDelay(1.0)
+    d.put(10.0, "a")
+    assert d.due(10.9) == [] and d.due(11.0) == ["a"] and d.due(12.0) == []
+
+
+def test_the_loop_reconfigures_on_a_confirmed_failure_and_points_again():
+    """10 % current loss on x at 150 s: the FDI confirms it, x gets 0 V from the decision on, s takes over,
+    and the pointing error is back within 0.2 deg within 60 s of the onset."""
+    curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
+    scenario = _scenario(300.0, [Fault("current_limiter", 0, 150.0, 0.6)], seed=11)
+    traj = simulate([scenario], fdir=Fdir(curves))
+    decisions = traj.decisions[0]
+    assert [(d.wheel, d.action) for d in decisions] == [("x", "out_of_use"), ("s", "in_use")]
+    assert 150.0 < decisions[0].time < 160.0 and "but" not in decisions[1].reason
+    after = traj.time > decisions[0].time   # a sample shows the command held over the step before it
+    assert np.all(traj.tcv[after, 0, 0] == 0.0)           # never a command to the wheel given up
+    assert traj.in_use[-1, 0].tolist() == [False, True, True, True]
+    error = np.degrees(np.abs(traj.error[:, 0])).max(axis=1)
+    assert error[traj.time >= 210.0].max() < 0.2
+
+
+def test_a_scenario_names_the_wheels_of_its_set():
+    s = parse_scenario("name: a\nplant: {wheel_set: orthogonal_skew}\nfaults:\n"
+                       "  - {kind: temperature, wheel: s, onset: 5, value: 100}\n")
+    assert s.faults[0].wheel == 3 and s.faults[0].as_dict(SKEW.names)["wheel"] == "s"
+    with pytest.raises(ScenarioError, match="one of x, y, z$|one of x, y, z,"):
+        parse_scenario("name: a\nfaults:\n  - {kind: temperature, wheel: s, onset: 5, value: 100}\n")
+    with pytest.raises(ScenarioError, match="wheel_set must be one of"):
+        parse_scenario("name: a\nplant: {wheel_set: hexagon}\n")
+    units = Scenario("u", seed=7, wheels={"variation": True})
+    three, four = units.unit_scales(3), units.unit_scales(4)
+    for name in three:   # the redundant wheel's unit is drawn apart: the three keep theirs
+        assert np.array_equal(three[name], four[name][:3]) and four[name][3] != 1.0
+    assert WheelParams().inertia == pytest.approx(0.0077)
