@@ -2,8 +2,9 @@
 
 It builds the same graph as `rw-fdi run` from rw_fdi_ros.launch.graph.graph_nodes,
 so both launchers start identical nodes with identical parameters: plant,
-three controllers, the FDI nodes (``fdi:=false`` leaves them out) and, with
-``bag``, the recorder. Parameters go as they are: graph_nodes names wheels and
+three controllers, the wheel allocation (reconfiguring on the FDI's confirmed
+verdict; ``fdir:=false`` keeps every wheel in use), the FDI nodes (``fdi:=false``
+leaves them out) and, with ``bag``, the recorder. Parameters go as they are: graph_nodes names wheels and
 axes by joint (``reaction_wheel_y``, ``attitude_y``) and paths absolutely, and
 refuses any string a YAML layer would retype (a bare ``y`` is a boolean to rcl).
 
@@ -38,7 +39,8 @@ def _nodes(context):
     bag = LaunchConfiguration("bag").perform(context) or None
     fdi = LaunchConfiguration("fdi").perform(context).lower() in ("true", "1", "yes")
     method = LaunchConfiguration("fdi_method").perform(context)
-    nodes = graph_nodes(scenario, path, bag, fdi={"method": method} if fdi else None)
+    fdir = LaunchConfiguration("fdir").perform(context).lower() in ("true", "1", "yes")
+    nodes = graph_nodes(scenario, path, bag, fdi={"method": method, "fdir": fdir} if fdi else None)
     actions = [Node(package="rw_fdi_ros", executable=n.executable, name=n.name, parameters=[n.parameters],
                     output="screen") for n in nodes]
     return actions + [RegisterEventHandler(OnProcessExit(target_action=a, on_exit=_on_exit(n.name)))
@@ -67,5 +69,7 @@ def generate_launch_description():
         DeclareLaunchArgument("bag", default_value="", description="bag directory to record (empty: no recorder)"),
         DeclareLaunchArgument("fdi", default_value="true", description="start the observers and the isolation node"),
         DeclareLaunchArgument("fdi_method", default_value="speed_aware", description="speed_aware or thesis"),
+        DeclareLaunchArgument("fdir", default_value="true",
+                              description="give up a wheel the FDI confirms faulty and bring the redundant one in"),
         OpaqueFunction(function=_nodes),
     ])

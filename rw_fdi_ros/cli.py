@@ -28,12 +28,14 @@ def _cmd_run(args) -> int:
     from .tools.run import resolve_scenario
     scenario, _ = resolve_scenario(args.scenario, args.seed)   # a bad scenario is the first thing to say
     writable_dir(args.out, "--out")
-    nodes = "plant, 3 PID controllers, recorder"
+    wheels = scenario.wheel_set()
+    nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
     if args.fdi:
         from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
         check_fdi_files(args.models, args.thresholds, scenario.plant_choices(emf_limit=args.emf_limit),
                         args.fdi_method, args.unit_calibration, scenario.duration)
-        nodes = ("plant, 3 PID controllers, 3 Elman observers, linear observer, "
+        nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
+                 f"{wheels.count} Elman observers, linear observer, "
                  + ("model observer, " if args.fdi_method == "speed_aware" else "") + "isolation, recorder")
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
           f" ({nodes}; private DDS domain)", flush=True)
@@ -42,7 +44,7 @@ def _cmd_run(args) -> int:
     if args.fdi:
         outcome = run_with_fdi(args.scenario, models=args.models, thresholds=args.thresholds,
                                persistence=args.persistence, figure=True, method=args.fdi_method,
-                               unit_calibration=args.unit_calibration, **common)
+                               unit_calibration=args.unit_calibration, fdir=args.fdir, **common)
     else:
         outcome = run_scenario(args.scenario, **common)
     if outcome.summary:
@@ -359,7 +361,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="wall seconds the plant waits for a command")
     r.add_argument("--keep-logs", action="store_true", help="keep node logs also after a successful run")
     r.add_argument("--no-fdi", dest="fdi", action="store_false",
-                   help="without the observers and isolation (plant, controllers, recorder only)")
+                   help="without the observers and isolation (plant, controllers, wheel allocation, recorder only)")
+    r.add_argument("--no-fdir", dest="fdir", action="store_false",
+                   help="detect, isolate and identify, but keep commanding every wheel in use (no reconfiguration: "
+                        "the FDI alone, as before the redundant wheel)")
     r.set_defaults(func=_cmd_run)
 
     c = sub.add_parser("campaign", help="record N runs of a scenario (seeds S..S+N-1), resumable",

@@ -17,6 +17,7 @@ from rw_fdi_ros.core.plant import Plant
 from rw_fdi_ros.core.scenario import parse_scenario
 from rw_fdi_ros.core.spacecraft import INERTIA
 from rw_fdi_ros.core.wheel import WheelParams, viscous_coefficient
+from rw_fdi_ros.core.wheel_set import WHEEL_SETS
 
 ROOT = Path(__file__).resolve().parents[1]
 BSK_PYTHON = ROOT / ".venv-bsk" / "bin" / "python"
@@ -33,11 +34,21 @@ def torque_profile(coulomb):
             + 0.002 * np.sin(2 * np.pi * t[:, None] / [37.0, 29.0, 43.0]))
 
 
-def basilisk(tmp_path, coulomb, use_rw_friction=None):
+def skew_profile():
+    """The three axis wheels' profile (no coulomb) and the standby wheel s spun up from rest by 2 mN m
+    plus a 3 mN m sine: every wheel of orthogonal_skew turning, s off the body axes."""
+    t = np.arange(STEPS) * PERIOD
+    return np.concatenate([torque_profile(0.0), (0.002 + 0.003 * np.sin(2 * np.pi * t / 70.0))[:, None]], axis=1)
+
+
+def basilisk(tmp_path, coulomb, use_rw_friction=None, wheels=None):
+    profile = torque_profile(coulomb) if wheels is None else skew_profile()
     spec = dict(inertia=INERTIA.tolist(), wheel_inertia=WheelParams().inertia, viscous=float(viscous_coefficient(23.0)),
-                coulomb=coulomb, wheel_speed=WHEEL_SPEED, body_rate=BODY_RATE, period=PERIOD,
-                motor_torque=torque_profile(coulomb).tolist(),
+                coulomb=coulomb, wheel_speed=WHEEL_SPEED + ([0.0] if wheels else []), body_rate=BODY_RATE,
+                period=PERIOD, motor_torque=profile.tolist(),
                 use_rw_friction=coulomb > 0 if use_rw_friction is None else use_rw_friction)
+    if wheels is not None:
+        spec["spin_axes"] = wheels.matrix.T.tolist()
     spec_path, out = tmp_path / "spec.json", tmp_path / "bsk.npz"
     spec_path.write_text(json.dumps(spec))
     assert BSK_PYTHON.exists(), "Basilisk environment missing: run scripts/setup_venv.sh"
@@ -47,14 +58,15 @@ def basilisk(tmp_path, coulomb, use_rw_friction=None):
     return d["body_rate"], d["wheel_speed"]
 
 
-def ours(coulomb, coupling):
+def ours(coulomb, coupling, wheels="orthogonal"):
     scenario = parse_scenario(f"duration: 400\ninitial: {{attitude_deg: [0, 0, 0], body_rate: {BODY_RATE}, "
                               f"wheel_speed: {WHEEL_SPEED}}}\nfaults: []\n")
     wheel = WheelParams(noise_angle=0.0, coulomb_friction=coulomb)
-    plant = Plant(scenario, wheel=wheel, control_period=PERIOD, disturbance=False, wheel_momentum_coupling=coupling)
+    plant = Plant(scenario, wheel=wheel, control_period=PERIOD, disturbance=False, wheel_momentum_coupling=coupling,
+                  wheels=wheels)
     volts_per_nm = 1.0 / (wheel.driver_gain * wheel.torque_constant)
     rates, speeds = [plant.body_rate[0].copy()], [plant.wheel_speed[0].copy()]
-    for torque in torque_profile(coulomb):
+    for torque in (torque_profile(coulomb) if plant.wheels.count == 3 else skew_profile()):
         plant.step(torque[None] * volts_per_nm)
         rates.append(plant.body_rate[0].copy())
         speeds.append(plant.wheel_speed[0].copy())
@@ -66,6 +78,18 @@ def test_plant_matches_basilisk_with_wheel_momentum_coupling(tmp_path, coulomb):
     bsk_rate, bsk_speed = basilisk(tmp_path, coulomb)
     rate, speed = ours(coulomb, coupling=True)
     assert np.abs(bsk_rate).max() > 3e-3           # the profile really moves the body
+    assert np.abs(rate - bsk_rate).max() < 5e-6    # rad/s
+    assert np.abs(speed - bsk_speed).max() < 4e-3  # rad/s
+
+
+def test_plant_matches_basilisk_with_the_skew_wheel_in_use(tmp_path):
+    """orthogonal_skew with all four wheels driven: s along (1, 1, 1)/sqrt(3) couples the axes through
+    the wheels' inertia matrix sum J g g^T and its momentum; Basilisk's BalancedWheels with the same
+    spin axes gives the same body rates and wheel speeds."""
+    wheels = WHEEL_SETS["orthogonal_skew"]
+    bsk_rate, bsk_speed = basilisk(tmp_path, 0.0, wheels=wheels)
+    rate, speed = ours(0.0, coupling=True, wheels=wheels)
+    assert bsk_speed.shape[1] == 4 and np.abs(bsk_speed[:, 3]).max() > 5.0   # s spun up
     assert np.abs(rate - bsk_rate).max() < 5e-6    # rad/s
     assert np.abs(speed - bsk_speed).max() < 4e-3  # rad/s
 

@@ -137,4 +137,4 @@ def test_a_varied_wheel_is_judged_against_its_own_unit():
     assert np.abs(calibrated).max() < np.abs(raw).max() / 3
     x = regressors(samples.motor_torque, samples.friction_torque, samples.wheel_speed, samples.ripple_phasor,
                    samples.free_motor_torque)
-    assert x.shape == (len(samples.time), 3, 6)
+    assert x.shape == (len(samples.time), len(samples.wheels), 6)   # every wheel of the set, s included

@@ -62,7 +62,7 @@ def make_bag(path, faults, alarms, seed=1, residual_above=None, observers=T.OBSE
 def run_eval(path):
     data = read_bag(path)
     s = scenario_of(data)
-    t, eff = data.vectors(T.FAULT_EFFECT)
+    t, eff = data.wheel_values(T.FAULT_EFFECT)
     return RunEval(bag=str(path), scenario=s.name, seed=s.seed, faults=list(s.faults), series=series_from_bag(data),
                    fault_effect_peak=np.abs(eff[t >= 50]).max(axis=0))
 

@@ -110,16 +110,17 @@ def test_live_residuals_equal_offline_residuals_of_the_same_code(runs, case, met
     data = read_bag(runs[case].bag)
     offline = observe(fdi_samples(data), load_models(fdi_dir(method)))
     assert offline.method == method
-    for i, a in enumerate(AXES):
-        _, live = data.vectors(T.residual_topic("elman", a))
-        np.testing.assert_allclose(live[:, i], offline.residual["elman"][:, i], rtol=0, atol=1e-15)
-        _, live = data.vectors(T.bound_topic("elman", a))
-        np.testing.assert_allclose(live[:, i], offline.bound["elman"][:, i], rtol=0, atol=1e-15)
+    assert offline.wheels == ("x", "y", "z", "s")
+    for i, a in enumerate(offline.wheels):   # one Elman node per wheel, the redundant s included
+        _, live = data.wheel_values(T.residual_topic("elman", a))
+        np.testing.assert_allclose(live[:, 0], offline.residual["elman"][:, i], rtol=0, atol=1e-15)
+        _, live = data.wheel_values(T.bound_topic("elman", a))
+        np.testing.assert_allclose(live[:, 0], offline.bound["elman"][:, i], rtol=0, atol=1e-15)
     assert list(offline.residual) == list(observers_of(method))
-    for obs in observers_of(method)[1:]:   # the observers of the three wheels at once
-        _, live = data.vectors(T.residual_topic(obs))
+    for obs in observers_of(method)[1:]:   # the observers of every wheel at once
+        _, live = data.wheel_values(T.residual_topic(obs))
         np.testing.assert_allclose(live, offline.residual[obs], rtol=0, atol=1e-15)
-        _, live = data.vectors(T.bound_topic(obs))
+        _, live = data.wheel_values(T.bound_topic(obs))
         np.testing.assert_allclose(live, offline.bound[obs], rtol=0, atol=1e-15)
 
 
@@ -136,13 +137,14 @@ def test_a_thesis_run_replays_to_its_live_result_without_a_model_observer(runs, 
     assert not any(t.startswith("/fdi/model/") for t in [*a.messages, *b.messages])
     for obs in observers_of("thesis"):
         for key in ("alarm", "threshold"):
-            ta, va = a.vectors(T.fdi_output_topics(obs)[key])
-            tb, vb = b.vectors(T.fdi_output_topics(obs)[key])
+            ta, va = a.wheel_values(T.fdi_output_topics(obs)[key])
+            tb, vb = b.wheel_values(T.fdi_output_topics(obs)[key])
             assert len(ta) == CASE_DURATION + 1
             np.testing.assert_array_equal(ta, tb)
             np.testing.assert_array_equal(va, vb)
-    np.testing.assert_array_equal(a.vectors(T.residual_topic("linear"))[1], b.vectors(T.residual_topic("linear"))[1])
-    assert np.any(b.vectors(T.fdi_output_topics("linear")["alarm"])[1])   # the fault was seen
+    np.testing.assert_array_equal(a.wheel_values(T.residual_topic("linear"))[1],
+                                  b.wheel_values(T.residual_topic("linear"))[1])
+    assert np.any(b.wheel_values(T.fdi_output_topics("linear")["alarm"])[1])   # the fault was seen
 
 
 def test_same_seed_twice_gives_identical_messages_on_every_topic(runs):
@@ -164,8 +166,8 @@ def test_diagnostics_one_status_per_wheel_stamped_in_sim_time(runs):
     assert len(rows) == end + 1
     log_time, last = rows[-1]
     assert last.header.stamp.sec == end and log_time == end * 10**9
-    assert [s.hardware_id for s in last.status] == [f"reaction_wheel_{a}" for a in AXES]
-    assert [s.level for s in last.status] == [2, 0, 0]
+    assert [s.hardware_id for s in last.status] == [f"reaction_wheel_{a}" for a in (*AXES, "s")]
+    assert [s.level for s in last.status] == [2, 0, 0, 0]
     values = {kv.key: kv.value for kv in last.status[0].values}
     assert {"residual", "threshold", "margin", "first_alarm"} <= set(values)
     assert float(values["margin"]) == pytest.approx(float(values["threshold"]) - abs(float(values["residual"])),
@@ -369,13 +371,14 @@ def _resolve(msg, path: str):
 
 
 def test_foxglove_layout_plots_only_what_a_recorded_bag_holds(runs):
-    """config/foxglove/rw_fdi.json (installed under share/): per wheel residual against threshold,
-    the alarms, the injected fault and the verdict; every topic and field it names is in a bag."""
+    """config/foxglove/rw_fdi.json (installed under share/): per wheel (the redundant s included) residual
+    against threshold, the alarms, the injected fault and the verdict, and FDIR's wheel states; every topic
+    and field it names is in a bag."""
     import json
     from rw_fdi_ros.paths import config_dir
     layout = json.loads((config_dir() / "foxglove" / "rw_fdi.json").read_text())
     paths = [p["value"] for panel in layout["configById"].values() for p in panel["paths"]]
-    assert len(paths) == 27   # per wheel: 4 plot lines, 3 observers' alarms, truth, verdict
+    assert len(paths) == 40   # per wheel: 4 plot lines, 3 observers' alarms, truth, verdict; FDIR per wheel
     data = read_bag(runs["current_0p6_x"].bag)
     for path in paths:
         topic = next(t for t in sorted(data.messages, key=len, reverse=True) if path.startswith(t + "."))

@@ -115,6 +115,12 @@ def test_the_momentum_a_replacement_must_hold():
     np.testing.assert_allclose(need, [0.0, 5.0, 4.0, 20.0 * np.sqrt(3.0)], atol=1e-12)
     assert momentum_shortfall(SKEW, ("y", "z", "s"), speeds) is None
     assert "47.6 rad/s" in momentum_shortfall(SKEW, ("y", "z", "s"), [27.5, 25.0, 24.0, 0.0])
+    # the wheels left could not hold it: a confirmed wheel is kept (it may still hold the pointing), said why;
+    # an operator's command gives it up all the same and says what that costs
+    kept = Reconfiguration(SKEW).give_up("x", 5.0, "confirmed", [27.5, 25.0, 24.0, 0.0])
+    assert [(d.wheel, d.action) for d in kept] == [("x", "kept_in_use")] and "would not help" in kept[0].reason
+    forced = Reconfiguration(SKEW).give_up("x", 5.0, "operator", [27.5, 25.0, 24.0, 0.0], force=True)
+    assert [d.action for d in forced] == ["out_of_use", "in_use"] and "47.6 rad/s" in forced[1].reason
     d = DecisionDelay(1.0)
     d.put(10.0, "a")
     assert d.due(10.9) == [] and d.due(11.0) == ["a"] and d.due(12.0) == []
@@ -140,8 +146,11 @@ def test_a_scenario_names_the_wheels_of_its_set():
     s = parse_scenario("name: a\nplant: {wheel_set: orthogonal_skew}\nfaults:\n"
                        "  - {kind: temperature, wheel: s, onset: 5, value: 100}\n")
     assert s.faults[0].wheel == 3 and s.faults[0].as_dict(SKEW.names)["wheel"] == "s"
-    with pytest.raises(ScenarioError, match="one of x, y, z$|one of x, y, z,"):
-        parse_scenario("name: a\nfaults:\n  - {kind: temperature, wheel: s, onset: 5, value: 100}\n")
+    default = parse_scenario("name: a\nfaults:\n  - {kind: temperature, wheel: s, onset: 5, value: 1}\n")
+    assert default.faults[0].wheel == 3
+    with pytest.raises(ScenarioError, match="one of x, y, z, got 's'"):   # the three-wheel set has no s
+        parse_scenario("name: a\nplant: {wheel_set: orthogonal}\nfaults:\n"
+                       "  - {kind: temperature, wheel: s, onset: 5, value: 100}\n")
     with pytest.raises(ScenarioError, match="wheel_set must be one of"):
         parse_scenario("name: a\nplant: {wheel_set: hexagon}\n")
     units = Scenario("u", seed=7, wheels={"variation": True})

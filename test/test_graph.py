@@ -99,14 +99,15 @@ def test_fault_run_records_every_topic_readable_by_rosbags_and_mcap(runs):
             assert stamps == log_times, topic            # log time is the sim-time stamp
             assert all(b > a for a, b in zip(stamps, stamps[1:])) or topic == T.PLANT_DONE, topic
     wheels = data.topic(T.WHEELS)[-1][1]
-    assert list(wheels.name) == ["reaction_wheel_x", "reaction_wheel_y", "reaction_wheel_z"]
-    assert len(wheels.position) == len(wheels.velocity) == len(wheels.effort) == 3
+    assert list(wheels.name) == ["reaction_wheel_x", "reaction_wheel_y", "reaction_wheel_z", "reaction_wheel_s"]
+    assert len(wheels.position) == len(wheels.velocity) == len(wheels.effort) == 4   # x, y, z and s
     truth = data.topic(T.FAULT_TRUTH)
     before = [m for t, m in truth if t < 20e9][-1]
     late = truth[-1][1]
-    assert [s.level for s in before.status] == [0, 0, 0]            # OK before the first onset
-    assert [s.level for s in late.status] == [2, 0, 2]              # ERROR on x and z
-    assert [s.hardware_id for s in late.status] == ["reaction_wheel_x", "reaction_wheel_y", "reaction_wheel_z"]
+    assert [s.level for s in before.status] == [0, 0, 0, 0]         # OK before the first onset
+    assert [s.level for s in late.status] == [2, 0, 2, 0]           # ERROR on x and z
+    assert [s.hardware_id for s in late.status] == ["reaction_wheel_x", "reaction_wheel_y", "reaction_wheel_z",
+                                                    "reaction_wheel_s"]
     assert late.status[0].message.startswith("bus_voltage=4 since 20") and "current_limiter" in late.status[2].message
     # the plant's physics is the core's: X's pointing diverges after the bus drops to 4 V
     summary = alone.summary
@@ -180,7 +181,8 @@ def test_nan_torque_command_stops_the_run_naming_the_axis(scenario_file, tmp_pat
         t0 = time.monotonic()
         result = procs.run(watchdog=60)
         assert not result.ok and time.monotonic() - t0 < 30
-        assert "plant" in result.reason and "axis y" in result.reason and "nan" in result.reason
+        # the wheel allocation takes the controllers' commands: it stops the run naming the axis
+        assert "wheel_allocation" in result.reason and "axis y" in result.reason and "nan" in result.reason
         assert read_bag(bag).topic(T.ATTITUDE)            # the bag was finalised and reads
     finally:
         procs.stop_all()
@@ -192,7 +194,8 @@ def test_the_plant_starts_only_once_the_recorder_has_matched_every_writer(scenar
     them (a CI run once recorded no /attitude at all). The plant waits for /recorder/ready as well."""
     def no_recorder(nodes):
         nodes.pop()   # the recorder; the plant still asks for its /recorder/ready, and for no reader count of it
-        nodes[0].parameters.update(attitude_readers=3, fdi_readers=0, wait_for_subscribers=0, startup_timeout=3.0)
+        nodes[0].parameters.update(attitude_readers=4, wheels_readers=1, fdi_readers=0, wait_for_subscribers=0,
+                                   startup_timeout=3.0)
     procs, lease, _ = graph(scenario_file, tmp_path, tweak=no_recorder)
     try:
         result = procs.run(watchdog=60)
@@ -254,7 +257,7 @@ def test_plant_alone_from_its_console_script():
     r = node_alone("plant", "-p", "scenario:=no_such_thing")
     assert r.returncode == 2 and "unknown scenario" in r.stderr and "Traceback" not in r.stderr
     r = node_alone("plant", "-p", "startup_timeout:=1.0")
-    assert r.returncode == 3 and "no controller for axis x, y, z" in r.stderr
+    assert r.returncode == 3 and "no wheel allocation on /wheels/command" in r.stderr
 
 
 def test_nodes_alone_reject_a_joint_they_do_not_have():

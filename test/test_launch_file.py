@@ -118,7 +118,8 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     assert code == 0, output[-3000:]
     started = node_pids(output)
     nodes = expected_nodes(scenario, bag)
-    assert len(started) == len(nodes) == 11, output[-3000:]
+    # plant, 3 controllers, the wheel allocation, 4 Elman (x, y, z, s), linear, model, isolation, recorder
+    assert len(started) == len(nodes) == 13, output[-3000:]
     for label in started:   # each ended by itself: exit 0, and launch never had to signal it
         assert f"[{label}]: process has finished cleanly" in output, label
     assert "sending signal" not in output and "Caught exception" not in output, output[-3000:]
@@ -126,12 +127,17 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     assert info.complete and T.PLANT_DONE in info.counts, info.note
     counts = {info.counts[t] for t in T.STEP_TOPICS}
     assert counts == {901}, counts   # 0..90 s at 0.1 s on every per-step topic
-    verdict = fdi_verdict(read_series(bag, verdict_topics()))
-    for said in (verdict["verdict"], verdict["elman"]):   # /diagnostics and an observer of its own
-        assert said["x"] and not said["y"] and not said["z"], verdict
-        assert said["x"][0][0] >= 40.0, verdict   # alarm intervals: none before the onset
+    data = read_series(bag, verdict_topics())
+    verdict = fdi_verdict(data)
+    said = verdict["verdict"]   # /diagnostics
+    assert said["x"] and not said["y"] and not said["z"] and not said["s"], verdict
+    assert said["x"][0][0] >= 40.0, verdict   # alarm intervals: none before the onset
     assert verdict["verdict"]["x"][0][1] is None   # confirmed, held to the end
-    assert verdict["identification"]["x"]["fault_kind"] == "current_loss", verdict
+    found = verdict["identification"]["x"]   # x given up within seconds: identified from the samples before
+    assert found["fault_kind"] in ("current_loss", "unknown") and "switched off" in found["message"], found
+    # FDIR acted on it: x given up, the redundant s brought in, said on /fdir/wheels (recorded)
+    states = {s.hardware_id: {kv.key: kv.value for kv in s.values}["state"] for s in data.last(T.FDIR_WHEELS).status}
+    assert states["reaction_wheel_x"] == "given_up" and states["reaction_wheel_s"] == "in_use", states
 
 
 def test_a_node_killed_mid_run_ends_the_launch_with_a_failure_and_a_readable_bag(colcon_workspace, tmp_path):

@@ -65,13 +65,13 @@ def _same_fdi_result(live_bag, replayed_bag):
     a, b = read_bag(live_bag), read_bag(replayed_bag)
     for obs in T.OBSERVERS:
         for key in ("alarm", "threshold"):
-            ta, va = a.vectors(T.fdi_output_topics(obs)[key])
-            tb, vb = b.vectors(T.fdi_output_topics(obs)[key])
+            ta, va = a.wheel_values(T.fdi_output_topics(obs)[key])
+            tb, vb = b.wheel_values(T.fdi_output_topics(obs)[key])
             np.testing.assert_array_equal(ta, tb)
             np.testing.assert_array_equal(va, vb)
-    for axis in AXES:
-        np.testing.assert_array_equal(a.vectors(T.residual_topic("elman", axis))[1],
-                                      b.vectors(T.residual_topic("elman", axis))[1])
+    for wheel in ("x", "y", "z", "s"):
+        np.testing.assert_array_equal(a.wheel_values(T.residual_topic("elman", wheel))[1],
+                                      b.wheel_values(T.residual_topic("elman", wheel))[1])
     assert [m.status for _, m in a.topic(T.IDENTIFICATION)] == [m.status for _, m in b.topic(T.IDENTIFICATION)]
     return a
 
@@ -91,7 +91,7 @@ def test_replay_equals_the_live_result(study):
     outcomes = replay_bags(order, [out / f"replayed_{i}" for i in range(3)], models=models, thresholds=models)
     assert [o.ok for o in outcomes] == [True] * 3, [o.reason for o in outcomes]
     alarmed = [_same_fdi_result(bag, o.bag) for bag, o in zip(order, outcomes)]
-    assert any(np.any(a.vectors(T.fdi_output_topics("elman")["alarm"])[1]) for a in alarmed)   # a fault was seen
+    assert any(np.any(a.wheel_values(T.fdi_output_topics("elman")["alarm"])[1]) for a in alarmed)   # a fault seen
     paced = replay_bag(live[0].bag, out / "replayed_paced", models=models, thresholds=models, rate=40.0)
     assert paced.ok, paced.reason
     _same_fdi_result(live[0].bag, paced.bag)

@@ -57,7 +57,7 @@ def test_plant_conserves_total_momentum_only_with_coupling(coupling):
     wheel = WheelParams(noise_angle=0.0)
     scenario = parse_scenario("duration: 100\ninitial: {attitude_deg: [0, 0, 0], body_rate: [0.004, -0.003, 0.002], "
                               "wheel_speed: [22, 25, 28]}\nfaults: []\n")
-    plant = Plant(scenario, wheel=wheel, disturbance=False, wheel_momentum_coupling=coupling)
+    plant = Plant(scenario, wheel=wheel, disturbance=False, wheel_momentum_coupling=coupling, wheels="orthogonal")
     def momentum():
         return np.linalg.norm(INERTIA * plant.body_rate[0] + wheel.inertia * plant.wheel_speed[0])
     h0 = momentum()

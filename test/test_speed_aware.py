@@ -25,7 +25,7 @@ def drive(plant, steps, tcv_of_k):
 
 def test_model_torque_is_the_healthy_wheel_without_ripple_and_noise():
     wheel = wm.WheelParams(ripple_amplitude_share=0.0, noise_angle=0.0)
-    plant = Plant(Scenario("s", duration=60.0, seed=3), wheel=wheel, disturbance=False)
+    plant = Plant(Scenario("s", duration=60.0, seed=3), wheel=wheel, disturbance=False, wheels="orthogonal")
     rng = np.random.default_rng(0)
     for stamp, u, r, w in drive(plant, 300, lambda k: rng.uniform(-4, 4, 3)):
         np.testing.assert_allclose(model_reaction_torque(u, w, wheel)[0], r, rtol=0, atol=1e-15)
@@ -60,7 +60,7 @@ def test_ripple_in_the_residual_never_exceeds_its_bound(speed):
     scenario = parse_scenario(f"duration: 200\ninitial: {{attitude_deg: [0, 0, 0], body_rate: [0, 0, 0], "
                               f"wheel_speed: [{speed}, {speed}, {speed}]}}\nsetpoints: []\n"
                               f"faults: [{{kind: ripple_gain, wheel: x, onset: 0, value: 1.6}}]\n")
-    plant = Plant(scenario, disturbance=False)
+    plant = Plant(scenario, disturbance=False, wheels="orthogonal")
     hold = plant.tcv[0].copy()
     sampler, filters = TelemetrySampler(1.0), [SignedResidual() for _ in range(3)]
     worst = 0.0
@@ -76,7 +76,7 @@ def test_ripple_in_the_residual_never_exceeds_its_bound(speed):
 def test_a_current_loss_rises_far_above_the_bound():
     scenario = Scenario("c", duration=120.0, seed=8, setpoints=(),
                         faults=(Fault("current_limiter", 1, 20.0, 0.9),))
-    plant = Plant(scenario, disturbance=False)
+    plant = Plant(scenario, disturbance=False, wheels="orthogonal")
     hold = plant.tcv[0].copy()
     sampler, f = TelemetrySampler(1.0), SignedResidual()
     last = None

@@ -47,18 +47,20 @@ def test_every_count_is_the_readers_the_table_gives_the_graph(graph):
 def test_the_counts_are_the_graph_we_know():
     """The derivation spelt out for the graphs we ship: controllers, FDI nodes, recorder, player."""
     full = counts(run_graph(True, True))
-    # the telemetry: 3 Elman, the linear and model observers, the isolation node, the recorder
-    assert full["plant"] == {"attitude_readers": 4, "fdi_readers": 7, "wait_for_subscribers": 1}
-    assert full["pid_controller_y"] == {"min_subscribers": 2}
+    # the attitude: 3 controllers, the wheel allocation (its momentum check), the recorder; the telemetry:
+    # 4 Elman (one per wheel, the redundant s included), the linear and model observers, isolation, recorder
+    assert full["plant"] == {"attitude_readers": 5, "wheels_readers": 2, "fdi_readers": 8, "wait_for_subscribers": 1}
+    assert full["pid_controller_y"] == {"min_subscribers": 2}   # the wheel allocation and the recorder
+    assert full["wheel_allocation"] == {"min_subscribers": 2, "fdir_readers": 1}
     assert full["elman_observer_z"] == full["linear_observer"] == full["model_observer"] == {
         "estimate_readers": 1, "min_subscribers": 2}
-    assert full["isolation"] == {"diagnostics_readers": 1, "min_subscribers": 1}
+    assert full["isolation"] == {"diagnostics_readers": 2, "min_subscribers": 1}   # the recorder, the wheel allocation
     bare = counts(run_graph(False, False))
-    assert bare["plant"] == {"attitude_readers": 3, "fdi_readers": 0, "wait_for_subscribers": 0}
+    assert bare["plant"] == {"attitude_readers": 4, "wheels_readers": 1, "fdi_readers": 0, "wait_for_subscribers": 0}
     assert bare["pid_controller_x"] == {"min_subscribers": 1}
     assert counts(run_graph(False, True))["plant"]["fdi_readers"] == 1   # the recorder records the telemetry
     replay = counts(replay_graph())
-    assert replay["player"] == {"min_subscribers": 6}      # the FDI nodes; the replay's recorder does not read it
+    assert replay["player"] == {"min_subscribers": 7}      # the FDI nodes; the replay's recorder does not read it
     assert replay["isolation"] == {"diagnostics_readers": 2, "min_subscribers": 1}   # + the pacing player
     assert counts(replay_graph(2.0))["isolation"]["diagnostics_readers"] == 1   # paced by the clock
 
@@ -78,7 +80,7 @@ def test_the_thesis_method_runs_its_two_observers():
     scenario, path = resolve_scenario("bus_5v5_x", 3)
     nodes = graph_nodes(scenario, path, "bags/demo", fdi={"method": "thesis"})
     assert "model_observer" not in {n.name for n in nodes}
-    assert counts(nodes)["plant"]["fdi_readers"] == 6
+    assert counts(nodes)["plant"]["fdi_readers"] == 7
     iso = next(n for n in nodes if n.name == "isolation")
     assert T.residual_topic("model") not in T.reads(iso) and T.residual_topic("linear") in T.reads(iso)
     # the recorders record (and wait at the run's end for) the observers that run, live and in replay

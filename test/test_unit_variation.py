@@ -54,7 +54,7 @@ def test_drawn_units_have_the_documented_spreads():
 def test_a_unit_holds_its_speed_with_its_own_command_and_scales_its_torques():
     units = scenario(wheels="{scale: {torque_constant: [1.1, 1, 1], driver_gain: [1, 0.95, 1], "
                             "viscous_friction: [1, 1, 1.3], coulomb_friction: [0.8, 1, 1]}}")
-    plant = Plant(units)
+    plant = Plant(units, wheels="orthogonal")
     w, base = plant.wheel_speed[0], WheelParams()
     friction = np.array([base.coulomb_friction * np.array([0.8, 1, 1]) * np.tanh(w / base.coulomb_smoothing_speed)
                          + 3.84e-4 * np.array([1, 1, 1.3]) * w]).ravel()

@@ -37,6 +37,13 @@ class ModelError(ValueError):
     """A model file that cannot be used; one line naming the file and how to regenerate it."""
 
 
+def network_wheel(wheel: str) -> str:
+    """Whose network a wheel runs: the networks are trained per body axis (x, y, z); a wheel off the
+    axes (the redundant s) is of the same type and runs x's, trained on the middle of the three
+    inertias (17 kg m^2 between 15 and 22)."""
+    return wheel if wheel in ("x", "y", "z") else "x"
+
+
 REGENERATE = "regenerate with `rw-fdi train --bags DIR --out DIR` (or `rw-fdi defaults` for the shipped set)"
 
 
@@ -154,9 +161,26 @@ class ElmanObserver:
         return self.previous
 
 
-def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel_speed=None):
-    """Recall-mode estimates for a sampled tcv series (what the node computes, sample by sample)."""
+def standby(tcv, reaction_torque) -> bool:
+    """Whether an FDI sample is of a standby wheel: unpowered and at rest for the whole period (its command
+    and reaction torque means exactly 0; wheel_set.py). A network trained on running wheels has nothing
+    to recall there: its recall starts at the wheel's first running sample, and until then its estimate
+    is the measured torque (residual 0)."""
+    return float(tcv) == 0.0 and float(reaction_torque) == 0.0
+
+
+def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel_speed=None, reaction_torque=None):
+    """Recall-mode estimates for a sampled tcv series (what the node computes, sample by sample); with
+    ``reaction_torque``, from the first running sample (:func:`standby`) on, the measured torque before."""
+    tcv = np.asarray(tcv, float)
+    start = 0
+    if reaction_torque is not None:
+        r = np.asarray(reaction_torque, float)
+        running = ~((tcv == 0.0) & (r == 0.0))
+        start = int(np.argmax(running)) if running.any() else len(tcv)
+        initial_torque = r[start] if start < len(tcv) else initial_torque
     obs = ElmanObserver(weights)
     obs.reset(initial_torque)
     speeds = [None] * len(tcv) if wheel_speed is None else np.asarray(wheel_speed, float)
-    return np.array([obs.update(u, None, w) for u, w in zip(np.asarray(tcv, float), speeds)])
+    out = [obs.update(u, None, w) for u, w in zip(tcv[start:], speeds[start:])]
+    return np.concatenate([np.asarray(reaction_torque, float)[:start] if start else np.zeros(0), out])

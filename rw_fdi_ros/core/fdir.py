@@ -43,6 +43,11 @@ HOLDABLE_SPEED = WHEEL_SPEED_ENVELOPE
 ACTIONS = ("out_of_use", "in_use", "kept_in_use")
 
 
+def confirmed_reason(first_alarm: float) -> str:
+    """Why a wheel is given up on the FDI's confirmed verdict (the same words in the graph and the loop)."""
+    return f"confirmed faulty by the FDI (alarm since {first_alarm:g} s)"
+
+
 @dataclass(frozen=True)
 class Decision:
     """One reconfiguration decision: ``wheel`` goes ``action`` at sim time ``time`` [s] because ``reason``."""
@@ -95,11 +100,16 @@ class Reconfiguration:
         self.kept = set()      # wheels confirmed faulty but kept (no replacement): said once
         self.decisions = []
 
-    def give_up(self, wheel: str, t: float, reason: str, wheel_speed=None, body_momentum=(0.0, 0.0, 0.0)) -> list:
+    def give_up(self, wheel: str, t: float, reason: str, wheel_speed=None, body_momentum=(0.0, 0.0, 0.0),
+                force: bool = False) -> list:
         """Take ``wheel`` out of use (confirmed faulty, or an operator's command) and bring a standby
-        wheel in; returns the new decisions (none when it is already given up or said kept). With the
-        ``wheel_speed`` (N,) and ``body_momentum`` (3,) [N m s] now, the decision also says when the new
-        set cannot hold the momentum."""
+        wheel in; returns the new decisions (none when it is already given up or said kept).
+
+        With the ``wheel_speed`` (N,) and ``body_momentum`` (3,) [N m s] now: when the wheels left could
+        not hold the spacecraft's momentum (:func:`momentum_shortfall`), giving the wheel up would lose the
+        pointing for certain, while the faulty wheel may still hold it (a current loss or a hotter bearing
+        leaves it torque): it is kept in use and the decision says why. ``force`` (an operator's command)
+        gives it up all the same, and says what that costs."""
         self.wheels.index(wheel)   # ValueError naming the wheels for an unknown one
         if wheel in self.given_up or wheel in self.kept:
             return []
@@ -110,21 +120,29 @@ class Reconfiguration:
             rest = [w for w in self.in_use if w != wheel]
             spare = next((s for s in self.spares if self.wheels.spans(rest + [s])), None)
             if spare is None and not self.wheels.spans(rest):
-                self.kept.add(wheel)
-                kept = Decision(t, wheel, "kept_in_use", f"{reason}; no wheel left to take over its torque")
-                self.decisions.append(kept)
-                return [kept]
-            self.in_use = rest + ([spare] if spare is not None else [])
+                return self._keep(wheel, t, f"{reason}; no wheel left to take over its torque")
+            after = rest + ([spare] if spare is not None else [])
+            short = None if wheel_speed is None else momentum_shortfall(self.wheels, after, wheel_speed,
+                                                                         body_momentum)
+            if short and not force:
+                return self._keep(wheel, t, f"{reason}; giving it up would not help: {short}")
+            self.in_use = after
             if spare is not None:
                 self.spares.remove(spare)
         self.given_up.append(wheel)
         out = [Decision(t, wheel, "out_of_use", reason)]
         if spare is not None:
             short = None if wheel_speed is None else momentum_shortfall(self.wheels, self.in_use, wheel_speed,
-                                                                           body_momentum)
+                                                                         body_momentum)
             out.append(Decision(t, spare, "in_use", f"replaces wheel {wheel}" + (f"; but {short}" if short else "")))
         self.decisions += out
         return out
+
+    def _keep(self, wheel: str, t: float, reason: str) -> list:
+        self.kept.add(wheel)
+        kept = Decision(t, wheel, "kept_in_use", reason)
+        self.decisions.append(kept)
+        return [kept]
 
     def ordered_in_use(self) -> tuple:
         """The wheels in use in the set's order."""

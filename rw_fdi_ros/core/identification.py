@@ -56,7 +56,7 @@ The estimate is refined on every sample.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -229,6 +229,7 @@ class Identification:
     healthy: bool = False        # the best fit is the nominal wheel: the data show no fault
     unit: str = "datasheet"      # the wheel the families scale: 'datasheet', 'calibrated' or 'type' (still learning)
     unit_limited: bool = False   # what is not known of the unit at least doubles the interval
+    unpowered: bool = False      # its driver is off (given up by FDIR): identified from the samples before
 
     @property
     def bound_only(self) -> str:
@@ -247,9 +248,12 @@ class Identification:
         if self.unit_limited:
             why = (" (wide: the unit is not calibrated yet)" if self.unit == "type"
                    else " (wide: what the calibration does not know of the unit)")
+        if self.unpowered and (self.kind != UNKNOWN or self.samples >= MIN_SAMPLES):
+            why += f" (from the {self.samples} samples before its driver was switched off)"
         if self.kind == UNKNOWN:
             if self.samples < MIN_SAMPLES:
-                return f"identifying ({self.samples} samples)"
+                return (f"not identified: its driver was switched off after {self.samples} samples of the fault"
+                        if self.unpowered else f"identifying ({self.samples} samples)")
             if self.healthy:
                 return "fits a healthy wheel: alarm not confirmed"
             guess = self.best_guess.replace("_", " ")
@@ -425,6 +429,13 @@ class FaultIdentifier:
                 self.sums[a] = ProfileSums(None if calibration is None else calibration.unit())
                 self._add_since_onset(a, list(self.backlog[a]) + [(row, error, x)], calibration)
                 self.backlog[a].clear()
+            tcv = getattr(sample, "tcv", None)
+            if tcv is not None and float(tcv[i]) == 0.0:
+                # its driver off (given up by FDIR): a bus or current fault no longer shows, the spin-down
+                # would dilute the fit; the identification made while it was driven holds, and says so
+                if self.sums[a].n and not (self.latest.get(a) and self.latest[a].unpowered):
+                    self.latest[a] = replace(self.latest.get(a) or decide(self.sums[a]), unpowered=True)
+                continue
             self.sums[a].add(row)
             self.latest[a] = decide(self.sums[a])
         return dict(self.latest)

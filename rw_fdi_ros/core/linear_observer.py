@@ -23,6 +23,12 @@ from .wheel import LinearWheel, linearised_wheel
 UNCERTAINTY_GAIN = {"x": 0.343, "y": 0.216, "z": 0.438}
 
 
+def uncertainty_gain(wheel: str) -> float:
+    """kappa of a wheel: its axis' measured one; a wheel off the body axes (the redundant s), of the same
+    type, gets the largest of them."""
+    return UNCERTAINTY_GAIN.get(wheel, max(UNCERTAINTY_GAIN.values()))
+
+
 def observer_gain(wheel: LinearWheel, speed_up: float = 4.0) -> float:
     """L with eig(A - L C) = speed_up x eig(A), by pole placement (the dual of state feedback)."""
     placed = signal.place_poles(np.array([[wheel.A]]), np.array([[wheel.C]]), [speed_up * wheel.A])

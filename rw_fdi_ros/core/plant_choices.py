@@ -15,12 +15,16 @@ from dataclasses import asdict, dataclass, fields, replace
 
 from .sampling import SAMPLINGS as FDI_SAMPLINGS
 from .wheel import EMF_LIMITS
-from .wheel_set import WHEEL_SETS
+from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
 
 # what a scenario file may set under `plant:` (the rest is fixed by the graph)
 SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period", "wheel_set")
 # the value a recorded mapping without the key was made under
-LEGACY = {"wheel_momentum_coupling": False}
+LEGACY = {"wheel_momentum_coupling": False, "wheel_set": "orthogonal"}
+# (choice, made under, running) pairs that are no difference to what was fitted or trained: a three-wheel
+# set's files hold for the same three wheels with a standby wheel, whose runs are bit for bit the same
+# until a reconfiguration (test_fdir.py); the standby wheel is judged with its type's band
+EQUIVALENT = {("wheel_set", "orthogonal", "orthogonal_skew")}
 # what the graph's FDI runs at, whatever the scenario: sample period [s] (the plant's telemetry report,
 # core/telemetry.py) and how control-rate data becomes one FDI sample (core/sampling.py [choice])
 FDI_PERIOD = 1.0
@@ -43,9 +47,7 @@ class PlantChoices:
     emf_limit: str = "kf_scaled"
     wheel_momentum_coupling: bool = True
     control_period: float = 0.1
-    # [choice] the graph's FDI and bands are per wheel of the three-axis set; the four-wheel sets run
-    # through the core loop (tools/recovery_bench.py) until the graph monitors four wheels
-    wheel_set: str = "orthogonal"
+    wheel_set: str = DEFAULT_WHEEL_SET
     fdi_period: float = FDI_PERIOD
     fdi_sampling: str = FDI_SAMPLING
 
@@ -101,7 +103,7 @@ class PlantChoices:
         for key in keys or [f.name for f in fields(self)]:
             ours, theirs = getattr(self, key), getattr(made_under, key)
             same = abs(ours - theirs) <= 1e-12 if isinstance(ours, float) else ours == theirs
-            if not same:
+            if not same and (key, theirs, ours) not in EQUIVALENT:
                 out.append((key, theirs, ours))
         return out
 

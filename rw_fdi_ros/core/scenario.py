@@ -171,10 +171,12 @@ class Scenario:
         scales = self.unit_scales(self.wheel_set().count)
         return base if scales is None else unit_wheel(base, scales)
 
-    def wheel_set(self):
-        """The run's wheels (plant choice ``wheel_set``, wheel_set.py)."""
+    def wheel_set(self, recorded: bool = False):
+        """The run's wheels (plant choice ``wheel_set``, wheel_set.py). ``recorded``: this is a bag's
+        /scenario, whose plant mapping lacks the choice if it predates it (the three-wheel set then)."""
         from .wheel_set import wheel_set
-        return wheel_set(self.plant_choices().wheel_set)
+        return wheel_set(PlantChoices.from_recorded(self.plant).wheel_set if recorded
+                         else self.plant_choices().wheel_set)
 
     def setpoint_schedule(self):
         """(times, attitude set-points [rad] of shape (n, 3)): piecewise constant from each time on."""
@@ -278,9 +280,10 @@ def _fault(where, raw, duration, names=AXES):
                  ramp=_num(f"{where}.ramp", raw.get("ramp", 0.0), 0.0, None))
 
 
-def _vector(where, raw):
-    if not isinstance(raw, (list, tuple)) or len(raw) != 3:
-        raise ScenarioError(f"{where}: expected a list of 3 numbers (x, y, z)")
+def _vector(where, raw, lengths=(3,)):
+    if not isinstance(raw, (list, tuple)) or len(raw) not in lengths:
+        what = "3 numbers (x, y, z)" if set(lengths) == {3} else f"3 numbers (x, y, z) or {max(lengths)} (every wheel)"
+        raise ScenarioError(f"{where}: expected a list of {what}")
     return tuple(_num(f"{where}[{i}]", v) for i, v in enumerate(raw))
 
 
@@ -358,7 +361,7 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     name = str(raw.get("name") or Path(origin).stem)
     return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
                     initial=initial, description=str(raw.get("description", "")), plant=dict(plant),
-                    wheels=_wheels(f"{origin}: wheels", raw.get("wheels")),
+                    wheels=_wheels(f"{origin}: wheels", raw.get("wheels"), len(names)),
                     manoeuvres=_manoeuvres(f"{origin}: manoeuvres", raw.get("manoeuvres"), duration), source_text=text)
 
 
@@ -389,9 +392,10 @@ UNIT_SPREAD_MAX = 0.3
 UNIT_SCALE_RANGE = (0.05, 5.0)
 
 
-def _wheels(where, raw) -> dict:
+def _wheels(where, raw, count: int = 3) -> dict:
     """The ``wheels:`` mapping: variation (true: every unit parameter drawn with its default spread),
-    spread (name -> 1-sigma share), scale (name -> 3 shares of the datasheet, x y z)."""
+    spread (name -> 1-sigma share), scale (name -> shares of the datasheet: x y z, or one per wheel of
+    the set's ``count``; a run's bag records all of them)."""
     if not raw:
         return {}
     if not isinstance(raw, dict) or set(raw) - {"variation", "spread", "scale"}:
@@ -403,7 +407,7 @@ def _wheels(where, raw) -> dict:
         out["variation"] = raw["variation"]
     for key, check in (("spread", lambda w, v: _num(w, v, 0.0, UNIT_SPREAD_MAX)),
                        ("scale", lambda w, v: tuple(_num(f"{w}[{i}]", x, *UNIT_SCALE_RANGE) for i, x in enumerate(
-                           _vector(w, v))))):
+                           _vector(w, v, (3, count)))))):
         table = raw.get(key) or {}
         if not isinstance(table, dict) or set(table) - set(UNIT_PARAMETERS):
             raise ScenarioError(f"{where}.{key}: may set only {', '.join(UNIT_PARAMETERS)}")

@@ -115,6 +115,11 @@ WHEEL_SETS = {
 DEFAULT_WHEEL_SET = "orthogonal_skew"
 
 
+def joint_name(wheel: str) -> str:
+    """The joint a wheel is named by on every ROS topic: reaction_wheel_<name>."""
+    return f"reaction_wheel_{wheel}"
+
+
 def wheel_set(name: str) -> WheelSet:
     """The named wheel set; ValueError naming the known ones otherwise."""
     if name not in WHEEL_SETS:

@@ -11,9 +11,11 @@ from pathlib import Path
 import yaml
 
 from ..core.detection import observers_of
-from ..core.plant import hold_command
+from ..core.elman import network_wheel
+from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.scenario import AXES, Scenario
+from ..core.wheel_set import joint_name, wheel_set
 from ..nodes import topics as T
 
 CONTROL_PERIOD = DEFAULT.control_period
@@ -33,31 +35,34 @@ class NodeSpec:
 
 def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command_timeout: float = 5.0,
                 emf_limit: str | None = None, fdi: dict | None = None):
-    """Plant, three PID controllers, (when ``fdi``) the observers and isolation, and (when ``bag``)
-    the recorder for one run. ``fdi`` maps 'models' / 'thresholds' to directories (None: shipped)."""
+    """Plant, three PID controllers, the wheel allocation (with FDIR when ``fdi``), (when ``fdi``) the
+    observers and isolation, and (when ``bag``) the recorder for one run. ``fdi`` maps 'models' /
+    'thresholds' to directories (None: shipped)."""
     choices = scenario.plant_choices(emf_limit=emf_limit)
-    if choices.wheel_set != "orthogonal":
-        raise ValueError(f"wheel_set {choices.wheel_set}: the graph runs the three-wheel set only so far; four "
-                         "wheels with FDIR run in the core loop (`rw-fdi bench recovery`)")
     period = choices.control_period
-    ic, _ = scenario.draws()
     times, values = scenario.setpoint_schedule()
-    hold = hold_command(ic.wheel_speed, scenario.wheel_params())   # the plant's own units' hold
+    start = Plant(scenario, wheels=choices.wheel_set)   # the plant's own units and wheels at t = 0
+    hold = start.tcv[0] @ start.spin_axes.T   # the body-axis command that holds them (closed_loop.simulate's)
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
-        "command_timeout": command_timeout, "recorder_ready": bag is not None})]
+        "wheel_set": choices.wheel_set, "command_timeout": command_timeout, "recorder_ready": bag is not None})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "joint": T.ATTITUDE_JOINTS[i], "control_period": period, "initial_tcv": float(hold[i]),
             "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]]}))
+    nodes.append(NodeSpec("wheel_allocation", "wheel_allocation", {
+        "wheel_set": choices.wheel_set, "control_period": period,
+        "fdir": fdi is not None and fdi.get("fdir", True) is not False,
+        "fdi_period": choices.fdi_period}))
     if fdi is not None:
         nodes += fdi_nodes(fdi, choices)
     if bag is not None:
         # absolute: a bag named like a number or a YAML word ("1e3", "on") is a path, never retyped
         nodes.append(NodeSpec("recorder", "recorder", {"output": str(Path(bag).resolve()),
                                                        "fdi_period": choices.fdi_period if fdi is not None else 0.0,
-                                                       "fdi_method": fdi_method(fdi or {})}))
+                                                       "fdi_method": fdi_method(fdi or {}),
+                                                       "wheel_set": choices.wheel_set}))
     return checked_strings(with_reader_counts(nodes))
 
 
@@ -111,8 +116,8 @@ def fdi_method(fdi: dict) -> str:
 
 
 def fdi_nodes(fdi: dict, choices: PlantChoices):
-    """Three Elman observers, the linear observer, the model observer (speed_aware) and the isolation node
-    (told the run's choices).
+    """An Elman observer per wheel of the set, the linear observer, the model observer (speed_aware) and the
+    isolation node (told the run's choices).
 
     ``fdi``: models / thresholds directories (None: the shipped set of the method), persistence
     (None: the threshold file's), method ('speed_aware' or 'thesis'), unit_calibration (seconds the
@@ -120,16 +125,15 @@ def fdi_nodes(fdi: dict, choices: PlantChoices):
     models, thresholds, method = fdi.get("models"), fdi.get("thresholds"), fdi_method(fdi)
     calibration = float(fdi.get("unit_calibration") or 0.0)
     nodes = []
-    for axis, wheel in zip(AXES, T.WHEEL_JOINTS):
-        params = {"wheel": wheel, "fdi_method": method, "fdi_period": choices.fdi_period,
-                  "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration}
+    common = {"fdi_method": method, "fdi_period": choices.fdi_period, "fdi_sampling": choices.fdi_sampling,
+              "unit_calibration_time": calibration, "wheel_set": choices.wheel_set}
+    for axis in wheel_set(choices.wheel_set).names:
+        params = {"wheel": joint_name(axis), **common}
         if models:
-            params["model"] = str(Path(models) / f"elman_{axis}.npz")
+            params["model"] = str(Path(models) / f"elman_{network_wheel(axis)}.npz")
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
-    for obs in observers_of(method)[1:]:   # linear_observer, model_observer: three wheels each
-        nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer",
-                              {"fdi_method": method, "fdi_period": choices.fdi_period,
-                               "fdi_sampling": choices.fdi_sampling, "unit_calibration_time": calibration}))
+    for obs in observers_of(method)[1:]:   # linear_observer, model_observer: every wheel each
+        nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer", dict(common)))
     iso = {**choices.as_dict(), "fdi_method": method, "persistence": int(fdi.get("persistence") or 0),
            "unit_calibration_time": calibration}
     if thresholds:

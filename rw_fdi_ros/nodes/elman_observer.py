@@ -1,5 +1,6 @@
 """elman_observer: one wheel's Elman network in recall mode (thesis Fig. 4.8), started once per wheel
-with the ``wheel`` parameter (its joint, ``reaction_wheel_x`` / ``_y`` / ``_z``).
+with the ``wheel`` parameter (its joint, ``reaction_wheel_x`` / ``_y`` / ``_z`` / ``_s``; the redundant
+wheel, of the same type, runs the network of its type, core/elman.network_wheel).
 
 Every FDI sample (1 s) it estimates the reaction torque from the command
 voltage, its own previous estimate and (speed-aware method) the wheel speed,
@@ -10,8 +11,7 @@ and publishes the estimate, the residual and the ripple bound: the signed
 from __future__ import annotations
 
 from ..core.detection import ResidualFilter
-from ..core.elman import REGENERATE, ElmanObserver, ElmanWeights, ModelError
-from ..core.scenario import AXES
+from ..core.elman import REGENERATE, ElmanObserver, ElmanWeights, ModelError, network_wheel, standby
 from ..paths import fdi_dir
 from . import topics as T
 from .observer_node import ObserverNode
@@ -23,13 +23,13 @@ class ElmanObserverNode(ObserverNode):
 
     def __init__(self):
         super().__init__(self.node_name)
-        self.declare_parameter("wheel", T.WHEEL_JOINTS[0])   # the wheel joint this network watches
+        self.declare_parameter("wheel", self.joints[0])   # the wheel joint this network watches
         self.declare_parameter("model", "")            # npz; empty: the shipped one of fdi_method
         try:
-            axis = T.axis_of_joint(self.param("wheel"), T.WHEEL_JOINTS)
+            axis = T.axis_of_joint(self.param("wheel"), self.joints)
         except ValueError as exc:
             raise NodeError(f"parameter wheel {exc}", EXIT_BAD_INPUT) from None
-        path = self.param("model") or str(fdi_dir(self.method) / f"elman_{axis}.npz")
+        path = self.param("model") or str(fdi_dir(self.method) / f"elman_{network_wheel(axis)}.npz")
         try:
             weights = ElmanWeights.load(path)
             if weights.speed_aware != self.speed_aware:
@@ -38,7 +38,8 @@ class ElmanObserverNode(ObserverNode):
                                  f"{REGENERATE}")
         except ModelError as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
-        self.index = AXES.index(axis)
+        self.index = self.names.index(axis)
+        self.out_joints = (self.param("wheel"),)
         self.weights = weights
         self.reset()
         self.start(T.estimate_topic("elman", axis), T.residual_topic("elman", axis), T.bound_topic("elman", axis))
@@ -53,10 +54,13 @@ class ElmanObserverNode(ObserverNode):
     def observe(self, sample):
         i = self.index
         u, r = float(sample.tcv[i]), float(sample.reaction_torque[i])
-        if not self.started:  # recall mode starts from the first measured torque
+        if not self.started and standby(u, r):   # nothing to recall yet: the estimate is the measurement
+            residual, bound = (self.residual.update(r, r, sample.ripple_phasor[i], self.regressors(sample, i))
+                               if self.speed_aware else (self.residual.update(r, r), 0.0))
+            return [r], [residual], [bound]
+        if not self.started:  # recall mode starts from the first measured torque (of the running wheel)
             self.observer.reset(r)
             self.started = True
-        own = [[0.0, 0.0, 0.0] for _ in range(3)]
         if self.speed_aware:
             network = self.observer.update(u, None, float(sample.wheel_speed[i]))   # recalls its own, uncorrected
             residual, bound = self.residual.update(r, network, sample.ripple_phasor[i], self.regressors(sample, i))
@@ -64,8 +68,7 @@ class ElmanObserverNode(ObserverNode):
         else:
             estimate = self.observer.update(u)
             residual, bound = self.residual.update(r, estimate), 0.0
-        own[0][i], own[1][i], own[2][i] = estimate, residual, bound
-        return own
+        return [estimate], [residual], [bound]
 
 
 main = main_for(ElmanObserverNode)

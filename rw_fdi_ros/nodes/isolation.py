@@ -39,7 +39,7 @@ import math
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Vector3Stamped
+from sensor_msgs.msg import JointState
 
 import numpy as np
 
@@ -50,10 +50,11 @@ from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMo
 from ..core.isolation import (WHEEL_SPEED_ENVELOPE, LatchedVerdict, ObserverChannel, decision_observer, in_envelope,
                               stamp_seconds)
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
-from ..core.scenario import AXES
+from ..core.wheel_set import joint_name, wheel_set
 from ..paths import thresholds_dir
+from ..storage.cdr import joint_state_cdr
 from . import topics as T
-from .convert import fdi_sample_of, time_msg, vector_msg
+from .convert import fdi_sample_of, time_msg
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 from .gate import GatedPublisher
 from .sync import StampSync
@@ -118,6 +119,9 @@ class IsolationNode(GraphNode):
         if method not in METHODS:
             raise NodeError(f"parameter fdi_method must be one of {', '.join(METHODS)}, got {method!r}", EXIT_BAD_INPUT)
         calibration = self.calibration_time = self.param("unit_calibration_time")
+        self.wheel_set = plant.wheel_set
+        self.names = wheel_set(plant.wheel_set).names   # every wheel of the set, the redundant one included
+        self.joints = tuple(joint_name(n) for n in self.names)
         self.channels = {}
         self.compute, self.compute_cpu = [], []
         for obs in observers_of(method):
@@ -132,23 +136,23 @@ class IsolationNode(GraphNode):
                                          f"FDI period {plant.fdi_period} s")
             except ThresholdError as exc:
                 raise NodeError(str(exc), EXIT_BAD_INPUT) from None
-            self.channels[obs] = ObserverChannel(obs, curves, self.param("persistence") or None)
+            self.channels[obs] = ObserverChannel(obs, curves, self.param("persistence") or None, self.names)
         self.decision = self.param("decision_observer") or decision_observer(method)
         if self.decision not in self.channels:
             raise NodeError(f"decision_observer must be one of {', '.join(self.channels)}", EXIT_BAD_INPUT)
-        self.verdict = LatchedVerdict(self.param("latch"))
+        self.verdict = LatchedVerdict(self.param("latch"), self.names)
         # the operator's command that clears every confirmed failure (std_srvs/Trigger, as FDIR resets go)
         from std_srvs.srv import Trigger
         self.create_service(Trigger, "~/reset", self._on_reset)
         def gate(msg_type, name, readers="min_subscribers"):
             return GatedPublisher(self.create_publisher(msg_type, name, T.RELIABLE), self.param(readers))
-        self.pubs = {obs: {k: gate(DiagnosticArray if k == "status" else Vector3Stamped, name)
+        self.pubs = {obs: {k: gate(DiagnosticArray if k == "status" else JointState, name)
                            for k, name in T.fdi_output_topics(obs).items()} for obs in self.channels}
         self.pub_diag = gate(DiagnosticArray, T.DIAGNOSTICS, "diagnostics_readers")
         self.pub_ident = gate(DiagnosticArray, T.IDENTIFICATION)
         self.gates = [self.pub_diag, self.pub_ident] + [p for pubs in self.pubs.values() for p in pubs.values()]
         self.done_samples = {}   # stamp -> observer (or 'telemetry') -> what arrived for that stamp
-        self.identifier = FaultIdentifier(AXES, calibration_samples(calibration, plant.fdi_period))
+        self.identifier = FaultIdentifier(self.names, calibration_samples(calibration, plant.fdi_period))
         self.inputs = {part: InputMonitor(f"{part} residuals" if part in self.channels else "FDI telemetry",
                                           plant.fdi_period) for part in (*self.channels, "telemetry")}
         self.last_input = time.monotonic()
@@ -162,14 +166,14 @@ class IsolationNode(GraphNode):
 
     def _follow_observer(self, observer):
         """Subscribe to an observer's residual and bound topics (one per wheel for the Elman nodes, one for
-        all three otherwise) and decide its rows stamp by stamp once every topic of the stamp is in."""
-        axes = T.observer_axes(observer)
+        all the wheels otherwise) and decide its rows stamp by stamp once every topic of the stamp is in."""
+        axes = T.observer_axes(observer, self.wheel_set)
         topics = {(kind, a): topic(observer, a) for a in axes
                   for kind, topic in (("residual", T.residual_topic), ("bound", T.bound_topic))}
 
         def row(stamp, v):
-            def column(kind):   # a per-wheel node sets its own wheel's component only
-                return v[kind, None] if axes == (None,) else [v[kind, a][i] for i, a in enumerate(AXES)]
+            def column(kind):   # a per-wheel node's messages carry its own wheel only
+                return v[kind, None] if axes == (None,) else [v[kind, a][0] for a in self.names]
             self._on_residual(observer, stamp, column("residual"), column("bound"))
         sync = StampSync(tuple(topics), row)
         for key, topic in topics.items():
@@ -206,7 +210,7 @@ class IsolationNode(GraphNode):
     def _on_telemetry(self, msg):
         t0, c0 = time.perf_counter(), time.thread_time()
         try:
-            sample = fdi_sample_of(msg, AXES)
+            sample = fdi_sample_of(msg, self.names)
         except ValueError as exc:
             self.fail(f"malformed {T.FDI_TELEMETRY}: {exc}", EXIT_BAD_INPUT)
             return
@@ -238,11 +242,11 @@ class IsolationNode(GraphNode):
             self._publish_observer(obs, stamp, rows, silent=True)
             handled[obs] = rows
         # /diagnostics: latched, and not judged for a wheel outside the operating envelope
-        self.envelope = dict(zip(AXES, in_envelope(sample.wheel_speed) if sample.wheel_speed is not None
-                                 else [True] * len(AXES)))
+        self.envelope = dict(zip(self.names, in_envelope(sample.wheel_speed) if sample.wheel_speed is not None
+                                 else [True] * len(self.names)))
         self.speeds = sample.wheel_speed
         handled[self.decision] = self.verdict.update(handled[self.decision], self.envelope)
-        alarmed = {a: handled[self.decision][a][2] for a in AXES}
+        alarmed = {a: handled[self.decision][a][2] for a in self.names}
         finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
                                                         sample.ripple_phasor, sample.bus_motor_torque,
                                                         sample.model_torque, sample.motor_torque,
@@ -276,7 +280,7 @@ class IsolationNode(GraphNode):
         ident.header.stamp = time_msg(stamp)
         main = rows_of[self.decision]
         note = self.inputs["telemetry"].take_note(stamp)
-        for a in AXES:
+        for a in self.names:
             found = identified.get(a)
             status = DiagnosticStatus(name=f"rw_fdi: identification wheel {a}", hardware_id=f"reaction_wheel_{a}")
             if found is None:
@@ -302,7 +306,8 @@ class IsolationNode(GraphNode):
                 extra.append(KeyValue(key="latched", value="true"))
             unjudged = self._why_unjudged(self.decision, stamp, main[a], silent)
             if unjudged is None and not self.envelope[a]:
-                unjudged = (f"outside the operating envelope (wheel speed {self.speeds[AXES.index(a)]:.1f} rad/s, "
+                speed = self.speeds[self.names.index(a)]
+                unjudged = (f"outside the operating envelope (wheel speed {speed:.1f} rad/s, "
                             f"judged within +-{WHEEL_SPEED_ENVELOPE:g})")
             status = _status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
                              extra=extra, identification=found, note=note, unjudged=unjudged,
@@ -327,12 +332,12 @@ class IsolationNode(GraphNode):
     def _publish_observer(self, observer, stamp, rows, note=None, silent=False):
         """Thresholds, alarms and the per-wheel status of one observer's sample."""
         pubs = self.pubs[observer]
-        pubs["threshold"].publish(vector_msg(stamp, [rows[a][1] for a in AXES]))
-        pubs["alarm"].publish(vector_msg(stamp, [float(rows[a][2]) for a in AXES]))
+        pubs["threshold"].publish(joint_state_cdr(stamp, self.joints, effort=[rows[a][1] for a in self.names]))
+        pubs["alarm"].publish(joint_state_cdr(stamp, self.joints, effort=[float(rows[a][2]) for a in self.names]))
         status = DiagnosticArray()
         status.header.stamp = time_msg(stamp)
         status.status = [_status(f"{observer} observer: wheel {a}", a, *rows[a], note=note,
-                                 unjudged=self._why_unjudged(observer, stamp, rows[a], silent)) for a in AXES]
+                                 unjudged=self._why_unjudged(observer, stamp, rows[a], silent)) for a in self.names]
         pubs["status"].publish(status)
 
     def _why_unjudged(self, observer, stamp, row, silent=False):
@@ -362,7 +367,7 @@ class IsolationNode(GraphNode):
             self.silent_said = True
             msg = DiagnosticArray()
             msg.header.stamp = time_msg(last)
-            for a in AXES:
+            for a in self.names:
                 msg.status.append(DiagnosticStatus(
                     level=bytes([STALE]), name=f"rw_fdi: reaction wheel {a} ({self.decision} observer)",
                     hardware_id=f"reaction_wheel_{a}",

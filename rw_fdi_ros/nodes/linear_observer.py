@@ -12,8 +12,7 @@ the back-EMF: it is the thesis' baseline beside the Elman and model observers.
 """
 from __future__ import annotations
 
-from ..core.linear_observer import UNCERTAINTY_GAIN, LinearObserver
-from ..core.scenario import AXES
+from ..core.linear_observer import LinearObserver, uncertainty_gain
 from .observer_node import WheelsObserverNode
 from .runtime import main_for
 
@@ -21,7 +20,9 @@ from .runtime import main_for
 class LinearObserverNode(WheelsObserverNode):
     node_name = "linear_observer"
     slot = "linear"
-    uncertainty_gains = tuple(UNCERTAINTY_GAIN[a] for a in AXES)
+
+    def uncertainty_gain(self, wheel: str) -> float:
+        return uncertainty_gain(wheel)
 
     def __init__(self):
         super().__init__(self.node_name)

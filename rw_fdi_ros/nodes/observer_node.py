@@ -17,15 +17,16 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import Vector3Stamped
+from sensor_msgs.msg import JointState
 
 from ..core.calibration import UnitCalibration, calibration_samples, regressors
 from ..core.detection import METHODS, WINDOW, ResidualFilter, SignedResidual
 from ..core.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
 from ..core.sampling import SAMPLINGS
-from ..core.scenario import AXES
+from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
+from ..storage.cdr import joint_state_cdr
 from . import topics as T
-from .convert import fdi_sample_of, vector_msg
+from .convert import fdi_sample_of
 from .gate import GatedPublisher
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError
 
@@ -36,6 +37,7 @@ class ObserverNode(GraphNode):
     def __init__(self, name: str):
         super().__init__(name)
         self.declare_parameter("fdi_method", "speed_aware")  # speed_aware (ours) or thesis
+        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)  # the wheels the telemetry reports (wheel_set.py)
         self.declare_parameter("fdi_period", 1.0)       # [s] FDI sample period (and discretisation period)
         self.declare_parameter("fdi_sampling", "mean")  # mean over the FDI period, or 'instant' (thesis)
         self.declare_parameter("window", WINDOW)        # residual moving-average length [samples]
@@ -44,6 +46,12 @@ class ObserverNode(GraphNode):
         # [s] from each run's start the observer learns its own wheel (core/calibration.py); 0: the datasheet's
         self.declare_parameter("unit_calibration_time", 0.0)
         self.compute, self.callback, self.callback_cpu = [], [], []   # s: observe() / callback wall / CPU
+        try:
+            self.names = wheel_set(self.param("wheel_set")).names
+        except ValueError as exc:
+            raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
+        self.joints = tuple(joint_name(n) for n in self.names)
+        self.out_joints = self.joints   # the wheels this node's messages carry (an Elman node: its own)
         self.method = self.param("fdi_method")
         if self.method not in METHODS:
             raise NodeError(f"parameter fdi_method must be one of {', '.join(METHODS)}, got {self.method!r}",
@@ -70,7 +78,7 @@ class ObserverNode(GraphNode):
     def start(self, estimate_topic: str, residual_topic: str, bound_topic: str):
         """Publishers and subscriptions, once the subclass knows its topics."""
         def pub(topic, readers):
-            return GatedPublisher(self.create_publisher(Vector3Stamped, topic, T.RELIABLE), self.param(readers))
+            return GatedPublisher(self.create_publisher(JointState, topic, T.RELIABLE), self.param(readers))
         self.pub_estimate = pub(estimate_topic, "estimate_readers")
         self.pub_residual = pub(residual_topic, "min_subscribers")
         self.pub_bound = pub(bound_topic, "min_subscribers")
@@ -78,7 +86,7 @@ class ObserverNode(GraphNode):
         self.follow_run_end(period=self.param("fdi_period"))
 
     def observe(self, sample):
-        """(estimate, residual, bound) as 3-vectors for one FdiSample."""
+        """(estimate, residual, bound), one value per wheel of ``out_joints``, for one FdiSample."""
         raise NotImplementedError
 
     def reset(self):
@@ -106,7 +114,7 @@ class ObserverNode(GraphNode):
     def _on_telemetry(self, msg):
         t0, c0 = time.perf_counter(), time.thread_time()
         try:
-            sample = fdi_sample_of(msg, AXES, identification=False).sampled(self.sampling)
+            sample = fdi_sample_of(msg, self.names, identification=False).sampled(self.sampling)
         except ValueError as exc:
             self.fail(f"malformed {T.FDI_TELEMETRY}: {exc}", EXIT_BAD_INPUT)
             return
@@ -132,11 +140,10 @@ class ObserverNode(GraphNode):
             self.get_logger().warn(f"non-finite input at t={sample.stamp_ns * 1e-9:g} s: tcv={sample.tcv.tolist()}, "
                                    f"reaction torque={sample.reaction_torque.tolist()}" +
                                    (f", wheel speed={sample.wheel_speed.tolist()}" if self.speed_aware else ""))
-            estimate = residual = bound = np.full(3, np.nan)
+            estimate = residual = bound = np.full(len(self.out_joints), np.nan)
         self.compute.append(time.perf_counter() - t0)
-        self.pub_estimate.publish(vector_msg(sample.stamp_ns, estimate))
-        self.pub_residual.publish(vector_msg(sample.stamp_ns, residual))
-        self.pub_bound.publish(vector_msg(sample.stamp_ns, bound))
+        for pub, values in ((self.pub_estimate, estimate), (self.pub_residual, residual), (self.pub_bound, bound)):
+            pub.publish(joint_state_cdr(sample.stamp_ns, self.out_joints, effort=np.asarray(values, float)))
         self.last_handled = sample.stamp_ns
         self.callback.append(time.perf_counter() - t0)
         self.callback_cpu.append(time.thread_time() - c0)
@@ -154,11 +161,14 @@ class ObserverNode(GraphNode):
 
 
 class WheelsObserverNode(ObserverNode):
-    """An observer of the three wheels at once in one slot (linear_observer, model_observer): the
-    subclass gives ``estimate(sample)`` r^ (3,), this class the residuals of the method."""
+    """An observer of every wheel at once in one slot (linear_observer, model_observer): the
+    subclass gives ``estimate(sample)`` r^ (N,), this class the residuals of the method."""
 
     slot = ""
-    uncertainty_gains = (0.0, 0.0, 0.0)   # kappa per wheel (detection.SignedResidual): the model error term
+
+    def uncertainty_gain(self, wheel: str) -> float:
+        """kappa of a wheel (detection.SignedResidual): the observer's model error term; 0 by default."""
+        return 0.0
     needs_speed = False                   # it reads the wheel speed: speed_aware only
 
     def __init__(self, name: str):
@@ -171,20 +181,21 @@ class WheelsObserverNode(ObserverNode):
         self.start(T.estimate_topic(self.slot), T.residual_topic(self.slot), T.bound_topic(self.slot))
 
     def reset(self):
-        self.filters = [self.signed_residual(kappa) if self.speed_aware else ResidualFilter(self.param("window"))
-                        for kappa in self.uncertainty_gains]
+        self.filters = [self.signed_residual(self.uncertainty_gain(w)) if self.speed_aware
+                        else ResidualFilter(self.param("window")) for w in self.names]
 
     def declare_own_parameters(self):
         """The subclass' own parameters, declared before its first reset."""
 
     def estimate(self, sample):
-        """r^ of the three wheels for one FdiSample."""
+        """r^ of every wheel for one FdiSample."""
         raise NotImplementedError
 
     def observe(self, sample):
         estimate, torque = self.estimate(sample), sample.reaction_torque
         if not self.speed_aware:
-            return estimate, np.array([f.update(r, e) for f, r, e in zip(self.filters, torque, estimate)]), np.zeros(3)
+            return (estimate, np.array([f.update(r, e) for f, r, e in zip(self.filters, torque, estimate)]),
+                    np.zeros(len(self.names)))
         rows = [f.update(torque[i], estimate[i], sample.ripple_phasor[i], self.regressors(sample, i))
                 for i, f in enumerate(self.filters)]
         calibrated = np.array([f.estimate for f in self.filters])   # corrected when the node calibrates

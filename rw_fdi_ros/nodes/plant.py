@@ -1,9 +1,10 @@
-"""plant: spacecraft + three reaction wheels, owner of /clock, stepped in lockstep.
+"""plant: spacecraft + its set of reaction wheels, owner of /clock, stepped in lockstep.
 
 It publishes the sample of step k (stamped k * control_period), waits until
-every axis' command stamped k has arrived, advances one control period and
-publishes step k+1. A command missing for ``command_timeout`` wall seconds
-stops the run with an error naming the axis.
+the wheel allocation's command stamped k has arrived (one voltage per wheel
+of the set, core/wheel_set.py), advances one control period and publishes
+step k+1. A command missing for ``command_timeout`` wall seconds stops the
+run with an error.
 
 It also plays the wheel electronics' part for the FDI: from the applied
 command, reaction torque and speed of every control step it makes the FDI
@@ -16,7 +17,6 @@ import math
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
@@ -26,10 +26,11 @@ from std_msgs.msg import Header, String
 
 from ..core.plant import Plant
 from ..core.telemetry import TelemetrySampler
-from ..core.scenario import AXES, FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
+from ..core.scenario import FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
+from ..core.wheel_set import joint_name
 from ..core.wheel import WheelParams
 from . import topics as T
-from ..storage.cdr import clock_cdr, joint_state_cdr, read_vector_cdr, vector_cdr
+from ..storage.cdr import clock_cdr, joint_state_cdr, read_joint_state_cdr
 from .convert import fdi_telemetry_msg, step_stamp_ns, time_msg
 from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for, wall_time
 
@@ -47,29 +48,35 @@ class PlantNode(GraphNode):
         self.declare_parameter("control_period", 0.0)    # lockstep tick [s]; 0: the scenario's, else 0.1
         self.declare_parameter("emf_limit", "")          # physics.md [choice]; empty: the scenario's, else kf_scaled
         self.declare_parameter("wheel_momentum_coupling", Parameter.Type.BOOL)  # unset: the scenario's, else true
+        self.declare_parameter("wheel_set", "")          # core/wheel_set.py; empty: the scenario's
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
         # readers to wait for before the first step, per topic (launch/graph.py derives them from topics.READS)
-        self.declare_parameter("attitude_readers", 3)    # the controllers (+ recorder)
+        self.declare_parameter("attitude_readers", 3)    # the controllers (+ wheel allocation, recorder)
+        self.declare_parameter("wheels_readers", 0)      # of /wheels: the wheel allocation (+ recorder)
         self.declare_parameter("fdi_readers", 0)         # of the FDI telemetry: the FDI nodes (+ recorder)
         self.declare_parameter("wait_for_subscribers", 0)  # of each other topic it sends per step (the recorder)
         # a recorder's reader may match the plant's writer later than the writer matches it (DDS discovery
         # is per direction): until /recorder/ready it could miss a whole run while the counts above look done
         self.declare_parameter("recorder_ready", False)  # wait for /recorder/ready (a recorder records the run)
         self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
-        for axis in AXES:  # live fault injection: setting one injects from the current sim time
-            for kind in FAULT_KINDS:
-                self.declare_parameter(f"fault.{axis}.{kind}", NOMINAL_VALUES[kind])
-        self.add_on_set_parameters_callback(self._on_parameters)
-
         try:
             scenario = load_scenario(self.param("scenario"))
             self.choices = scenario.plant_choices(emf_limit=self.param("emf_limit"),
                                                   wheel_momentum_coupling=self.param("wheel_momentum_coupling"),
-                                                  control_period=self.param("control_period") or None)
+                                                  control_period=self.param("control_period") or None,
+                                                  wheel_set=self.param("wheel_set"))
             wheel = WheelParams(emf_limit=self.choices.emf_limit)
         except (ScenarioError, ValueError) as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+        from ..core.wheel_set import wheel_set
+        self.wheels = wheel_set(self.choices.wheel_set)
+        self.names = self.wheels.names
+        self.joints = tuple(joint_name(n) for n in self.names)
+        for name in self.names:  # live fault injection: setting one injects from the current sim time
+            for kind in FAULT_KINDS:
+                self.declare_parameter(f"fault.{name}.{kind}", NOMINAL_VALUES[kind])
+        self.add_on_set_parameters_callback(self._on_parameters)
         if self.param("seed") >= 0:
             scenario = scenario.with_seed(self.param("seed"))
         self.duration = self.param("duration") or scenario.duration
@@ -77,9 +84,9 @@ class PlantNode(GraphNode):
         self.last_step = int(round(self.duration / self.period))
         self.scenario = scenario
         self.plant = Plant(scenario, wheel=wheel, control_period=self.period,
-                           wheel_momentum_coupling=self.choices.wheel_momentum_coupling)
+                           wheel_momentum_coupling=self.choices.wheel_momentum_coupling, wheels=self.wheels)
         w = self.plant.wheel   # this run's units (ground truth): datasheet values unless the scenario draws them
-        self.units = {name: np.broadcast_to(np.asarray(value, float), (1, 3))[0] for name, value in (
+        self.units = {name: np.broadcast_to(np.asarray(value, float), (1, len(self.names)))[0] for name, value in (
             ("torque_constant", w.torque_constant), ("driver_gain", w.driver_gain),
             ("viscous_friction_scale", w.viscous_scale), ("coulomb_friction", w.coulomb_friction))}
 
@@ -91,24 +98,21 @@ class PlantNode(GraphNode):
         self.pub_clock = pub(Clock, T.CLOCK)
         self.pub_attitude = pub(JointState, T.ATTITUDE)
         self.pub_wheels = pub(JointState, T.WHEELS)
-        self.pub_effect = pub(Vector3Stamped, T.FAULT_EFFECT)
+        self.pub_effect = pub(JointState, T.FAULT_EFFECT)
         self.pub_fdi = pub(DiagnosticArray, T.FDI_TELEMETRY)
         self.pub_truth = pub(DiagnosticArray, T.FAULT_TRUTH)
         self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
         self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
-        self.subs = [self.create_subscription(Vector3Stamped, T.tcv_command(a),
-                                              lambda m, i=i: self._on_command(i, m), T.RELIABLE, raw=True)
-                     for i, a in enumerate(AXES)]
+        self.subs = [self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE, raw=True)]
         self.recorder = RecorderReady(self, self.param("recorder_ready"))
-        self.commands = [None, None, None]
         self.started = False
         self.t_wait = wall_time()
         self.truth_key = None
         self.truth_due = 0.0
         self.step_wall = []   # wall seconds from publishing step k to publishing step k+1
         self.compute_wall = []  # of which the plant's own step computation
-        self.get_logger().info(f"scenario {scenario.name} seed {scenario.seed}, {self.duration:g} s; "
-                               f"waiting for the graph")
+        self.get_logger().info(f"scenario {scenario.name} seed {scenario.seed}, {self.duration:g} s, wheels "
+                               f"{', '.join(self.names)} ({self.wheels.name}); waiting for the graph")
 
     # -- parameters: live fault injection ----------------------------------------
     def _on_parameters(self, params):
@@ -118,7 +122,7 @@ class PlantNode(GraphNode):
                 value = float(p.value)
                 if not math.isfinite(value):
                     return SetParametersResult(successful=False, reason="fault value must be finite")
-                fault = Fault(kind=parts[2], wheel=AXES.index(parts[1]), onset=self.plant.time, value=value)
+                fault = Fault(kind=parts[2], wheel=self.names.index(parts[1]), onset=self.plant.time, value=value)
                 self.plant.inject(fault)
                 self.get_logger().warn(f"injected {parts[2]}={value:g} on wheel {parts[1]} at {self.plant.time:.1f} s")
         return SetParametersResult(successful=True)
@@ -127,8 +131,9 @@ class PlantNode(GraphNode):
     def _graph_ready(self) -> bool:
         if any(s.get_publisher_count() < 1 for s in self.subs) or not self.recorder.seen:
             return False
-        need = [(self.pub_attitude, self.param("attitude_readers")), (self.pub_fdi, self.param("fdi_readers"))]
-        need += [(p, self.param("wait_for_subscribers")) for p in (self.pub_wheels, self.pub_effect, self.pub_clock,
+        need = [(self.pub_attitude, self.param("attitude_readers")), (self.pub_fdi, self.param("fdi_readers")),
+                (self.pub_wheels, self.param("wheels_readers"))]
+        need += [(p, self.param("wait_for_subscribers")) for p in (self.pub_effect, self.pub_clock,
                                                                    self.pub_truth, self.pub_scenario)]
         return all(p.get_subscription_count() >= k for p, k in need)
 
@@ -141,37 +146,31 @@ class PlantNode(GraphNode):
                 self.pub_scenario.publish(String(data=self.scenario.effective_text(self.choices.scenario_dict())))
                 self._publish(self.plant.sample())
             elif now - self.t_wait > self.param("startup_timeout"):
-                missing = [a for a, s in zip(AXES, self.subs) if s.get_publisher_count() < 1]
-                what = (f"no controller for axis {', '.join(missing)}" if missing else
+                missing = self.subs[0].get_publisher_count() < 1
+                what = (f"no wheel allocation on {T.WHEEL_COMMAND}" if missing else
                         "subscribers missing" if self.recorder.seen else
                         f"the recorder never reported every topic matched on {T.RECORDER_READY}")
                 self.fail(f"graph not ready after {self.param('startup_timeout'):g} s ({what})", EXIT_TIMEOUT)
             return
         if self.exit_code is None and now - self.t_wait > self.param("command_timeout"):
-            missing = [a for a, c in zip(AXES, self.commands) if c is None]
-            self.fail(f"no torque command from axis {', '.join(missing)} for step t={self.plant.time:.1f} s "
+            self.fail(f"no wheel command on {T.WHEEL_COMMAND} for step t={self.plant.time:.1f} s "
                       f"within {self.param('command_timeout'):g} s", EXIT_TIMEOUT)
 
-    def _on_command(self, axis: int, raw):
+    def _on_command(self, raw):
         if not self.started or self.exit_code is not None:
             return
-        stamp, values = read_vector_cdr(raw)
+        stamp, _, _, tcv = read_joint_state_cdr(raw)
         if stamp != step_stamp_ns(self.plant.step_index, self.period):
             return  # a stale or early command: the lockstep only takes this step's
-        value = float(values[axis])
-        if not math.isfinite(value):
-            self.fail(f"torque command from axis {AXES[axis]} at t={self.plant.time:.1f} s is {value}",
-                      EXIT_BAD_INPUT)
+        if len(tcv) != len(self.names) or not np.all(np.isfinite(tcv)):
+            self.fail(f"wheel command at t={self.plant.time:.1f} s is {tcv.tolist()}: one finite voltage per "
+                      f"wheel ({', '.join(self.joints)}) expected", EXIT_BAD_INPUT)
             return
-        self.commands[axis] = value
-        if all(c is not None for c in self.commands):
-            tcv = np.array(self.commands)
-            self.commands = [None, None, None]
-            t0 = wall_time()
-            sample = self.plant.step(tcv)
-            self.compute_wall.append(wall_time() - t0)
-            self.step_wall.append(t0 - self.t_wait)
-            self._publish(sample)
+        t0 = wall_time()
+        sample = self.plant.step(tcv)
+        self.compute_wall.append(wall_time() - t0)
+        self.step_wall.append(t0 - self.t_wait)
+        self._publish(sample)
 
     def _publish(self, sample):
         self.t_wait = wall_time()
@@ -180,13 +179,13 @@ class PlantNode(GraphNode):
         # the controllers' input first: they compute while the rest goes out
         self.pub_attitude.publish(joint_state_cdr(stamp, T.ATTITUDE_JOINTS, sample.attitude[0], sample.body_rate[0]))
         self.pub_clock.publish(clock_cdr(stamp))
-        self.pub_wheels.publish(joint_state_cdr(stamp, T.WHEEL_JOINTS, self.plant.wheel_angle[0],
+        self.pub_wheels.publish(joint_state_cdr(stamp, self.joints, self.plant.wheel_angle[0],
                                                 sample.wheel_speed[0], sample.reaction_torque[0]))
         if any(f.onset <= sample.time for f in self.plant.faults()):   # zero by definition before
-            self.pub_effect.publish(vector_cdr(stamp, sample.fault_effect[0]))
+            self.pub_effect.publish(joint_state_cdr(stamp, self.joints, effort=sample.fault_effect[0]))
         report = self.telemetry.add(stamp, sample.tcv[0], sample.reaction_torque[0], sample.wheel_speed[0])
         if report is not None:
-            self.pub_fdi.publish(fdi_telemetry_msg(report, AXES))
+            self.pub_fdi.publish(fdi_telemetry_msg(report, self.names))
         self._publish_truth(stamp, sample)
         if k >= self.last_step:
             # done only once every reader has the last sample: a recorder that sees done has it all
@@ -212,9 +211,9 @@ class PlantNode(GraphNode):
         self.truth_due = sample.time + self.param("truth_period")
         msg = DiagnosticArray()
         msg.header.stamp = time_msg(stamp)
-        for i, axis in enumerate(AXES):
+        for i, axis in enumerate(self.names):
             active = [f for f in self.plant.faults() if f.wheel == i and f.onset <= sample.time]
-            status = DiagnosticStatus(name=f"plant: wheel {axis} injected fault", hardware_id=f"reaction_wheel_{axis}")
+            status = DiagnosticStatus(name=f"plant: wheel {axis} injected fault", hardware_id=self.joints[i])
             status.level = DiagnosticStatus.ERROR if active else DiagnosticStatus.OK
             status.message = "; ".join(f"{f.kind}={f.value:g} since {f.onset:g} s" for f in active) or "nominal"
             status.values = [KeyValue(key=k, value=f"{op[k][i]:.9g}") for k in FAULT_KINDS]

@@ -25,6 +25,7 @@ from std_msgs.msg import String
 from ..storage.bag import BagError, BagWriter
 from ..storage.cdr import header_stamp_ns
 from . import topics as T
+from ..core.wheel_set import DEFAULT_WHEEL_SET
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
 
 
@@ -41,6 +42,7 @@ class RecorderNode(GraphNode):
         self.declare_parameter("fdi_period", 0.0)             # > 0: the FDI nodes run; record their topics
         self.declare_parameter("fdi_method", "speed_aware")   # whose observers' topics (with fdi_period > 0)
         self.declare_parameter("record_plant", True)          # False: FDI outputs only (bag replay)
+        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)  # whose wheels' FDI topics (one Elman node per wheel)
         self.outputs = list(self.param("outputs") or []) or [self.param("output")]
         self.output_index = 0
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
@@ -48,10 +50,10 @@ class RecorderNode(GraphNode):
         method = self.param("fdi_method")
         try:
             rows = T.recorded_rows(self.param("record_plant"), self.fdi_period_ns > 0, self.param("extra_topics"),
-                                   method)
-        except ValueError as exc:   # an unknown fdi_method
+                                   method, self.param("wheel_set"))
+            self.fdi_names = [t for t, _, _ in T.fdi_topics(method, self.param("wheel_set"))]
+        except ValueError as exc:   # an unknown fdi_method or wheel set
             raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
-        self.fdi_names = [t for t, _, _ in T.fdi_topics(method)]
         self.rows = rows = [(name, type_name, getattr(T, qos)) for name, type_name, qos in rows]
         self._open()
         try:

@@ -1,15 +1,15 @@
 """Pairing of messages that belong to the same sim-time stamp, across topics."""
 from __future__ import annotations
 
-from geometry_msgs.msg import Vector3Stamped
+from sensor_msgs.msg import JointState
 
-from ..storage.cdr import read_vector_cdr
+from ..storage.cdr import read_joint_state_cdr
 
 
 class StampSync:
-    """Collects one Vector3Stamped per named input for a stamp; calls ``on_complete(stamp_ns, values)``
-    once all inputs of that stamp are in (values: name -> np.ndarray(3)). The callbacks take the
-    serialised message: subscribe with ``raw=True``."""
+    """Collects one per-wheel JointState per named input for a stamp; calls ``on_complete(stamp_ns, values)``
+    once all inputs of that stamp are in (values: name -> np.ndarray, the messages' efforts, one per
+    joint). The callbacks take the serialised message: subscribe with ``raw=True``."""
 
     def __init__(self, names, on_complete, accept=None):
         self.names = tuple(names)
@@ -18,11 +18,14 @@ class StampSync:
         self.pending = {}
 
     def callback(self, name):
-        return lambda raw: self.add(name, *read_vector_cdr(raw))
+        def on_raw(raw):
+            stamp, _, _, effort = read_joint_state_cdr(raw)
+            self.add(name, stamp, effort)
+        return on_raw
 
-    def subscribe(self, node, name: str, topic: str, qos):
+    def subscribe(self, node, name, topic: str, qos):
         """A raw subscription of ``node`` to ``topic`` feeding input ``name``."""
-        return node.create_subscription(Vector3Stamped, topic, self.callback(name), qos, raw=True)
+        return node.create_subscription(JointState, topic, self.callback(name), qos, raw=True)
 
     def add(self, name, stamp, values):
         if not self.accept(stamp):

@@ -3,11 +3,14 @@
 Per control step the plant sends three messages the graph acts on: the clock,
 the attitude state (controllers) and the wheel state, both
 sensor_msgs/JointState, the standard way ROS reports rotational degrees of
-freedom (PlotJuggler and Foxglove plot them by joint name). Once per FDI
-period it sends the FDI telemetry every FDI node reads. Vectors are
-geometry_msgs/Vector3Stamped with x, y, z the spacecraft axes (one wheel per
-axis). Every message that analysis depends on carries a header stamp in sim
-time.
+freedom (PlotJuggler and Foxglove plot them by joint name); the controllers
+answer with body-axis commands (geometry_msgs/Vector3Stamped, x, y, z the
+spacecraft axes) and the wheel allocation with one command per wheel. Once per
+FDI period the plant sends the FDI telemetry every FDI node reads. Whatever is
+per wheel is a JointState with the wheels' joint names (reaction_wheel_<name>,
+the wheel set's names: x, y, z and the redundant s by default): N wheels, not
+three axes. Every message that analysis depends on carries a header stamp in
+sim time.
 
 Who reads what is a table here too (READS), and how many readers each
 publisher waits for before its first message is derived from it for a
@@ -17,9 +20,10 @@ rclpy is imported only for the QoS profiles, on first use.
 from __future__ import annotations
 
 from ..core.detection import OBSERVERS, observers_of
+from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set as named_wheel_set
 
 
-AXES = ("x", "y", "z")
+AXES = ("x", "y", "z")   # the body axes: attitude joints and controllers
 JOINT_STATE = "sensor_msgs/msg/JointState"
 
 CLOCK = "/clock"
@@ -27,23 +31,33 @@ CLOCK = "/clock"
 # thesis' per-axis angles, not a quaternion: a tumbling axis would wrap, and the controllers need them.
 ATTITUDE = "/attitude"
 ATTITUDE_JOINTS = tuple(f"attitude_{a}" for a in AXES)
-# JointState reaction_wheel_<axis>: position = rotor angle [rad], velocity = wheel speed Omega [rad/s]
-# (relative to the body, what the tachometer reads), effort = reaction torque on the body [N m]
+# JointState reaction_wheel_<name>: position = rotor angle [rad], velocity = wheel speed Omega [rad/s]
+# (relative to the body, what the tachometer reads), effort = reaction torque along its spin axis [N m]
 WHEELS = "/wheels"
-WHEEL_JOINTS = tuple(f"reaction_wheel_{a}" for a in AXES)
+# JointState reaction_wheel_<name>, effort = torque command voltage [V] (what the wheel electronics take),
+# from the wheel allocation to the plant every step; a wheel out of use gets 0
+WHEEL_COMMAND = "/wheels/command"
+# DiagnosticArray, one status per wheel: in use (OK), standby (OK), given up (ERROR) and why; on every
+# reconfiguration decision and at the start (nodes/wheel_allocation.py)
+FDIR_WHEELS = "/fdir/wheels"
+
+
+def wheel_joints(wheel_set: str = DEFAULT_WHEEL_SET) -> tuple:
+    """The joint names of a wheel set's wheels, in its order."""
+    return tuple(joint_name(n) for n in named_wheel_set(wheel_set).names)
 
 
 def axis_of_joint(joint: str, joints: tuple) -> str:
-    """The axis letter of ``joint`` (one of ``joints``, e.g. 'reaction_wheel_y' -> 'y'). Nodes are told
-    their joint by name, never by a bare axis letter: a YAML layer between a launch file and rcl reads
+    """The axis or wheel name of ``joint`` (one of ``joints``, e.g. 'reaction_wheel_y' -> 'y'). Nodes are
+    told their joint by name, never by a bare letter: a YAML layer between a launch file and rcl reads
     a bare ``y`` or ``n`` as a boolean. ValueError naming the valid joints otherwise."""
     if joint not in joints:
         raise ValueError(f"must be one of {', '.join(joints)}, got {joint!r}")
-    return AXES[joints.index(joint)]
+    return joint.rsplit("_", 1)[1]
 # the wheel electronics' report once per FDI period (DiagnosticArray, one status per wheel): period
 # means of tcv, reaction torque, speed and the nominal model's terms (core/telemetry.py)
 FDI_TELEMETRY = "/wheels/fdi_telemetry"
-FAULT_EFFECT = "/fault/effect"        # reaction torque minus a healthy wheel's [N m], while a fault is injected
+FAULT_EFFECT = "/fault/effect"        # JointState effort: reaction torque minus a healthy wheel's [N m], per wheel
 FAULT_TRUTH = "/fault/ground_truth"   # what is injected where since when (DiagnosticArray)
 SCENARIO = "/scenario"                # the scenario YAML (latched)
 PLANT_DONE = "/plant/done"            # std_msgs/Header: stamp = last step, frame_id = why it ended
@@ -57,7 +71,7 @@ def tcv_command(axis: str) -> str:
 
 
 # one message each per control step: a whole recorded run has as many of each as it has steps
-STEP_TOPICS = (CLOCK, ATTITUDE, WHEELS, *(tcv_command(a) for a in AXES))
+STEP_TOPICS = (CLOCK, ATTITUDE, WHEELS, *(tcv_command(a) for a in AXES), WHEEL_COMMAND)
 
 
 def _profiles() -> dict:
@@ -82,10 +96,11 @@ def __getattr__(name):
 VECTOR, DIAGNOSTICS_TYPE = "geometry_msgs/msg/Vector3Stamped", "diagnostic_msgs/msg/DiagnosticArray"
 # (topic, ROS type name, QoS name) of everything the plant side of a run sends (resolved by graph_topics)
 PLANT_ROWS = ((CLOCK, "rosgraph_msgs/msg/Clock", "RELIABLE"), (ATTITUDE, JOINT_STATE, "RELIABLE"),
-              (WHEELS, JOINT_STATE, "RELIABLE"), (FAULT_EFFECT, VECTOR, "RELIABLE"),
+              (WHEELS, JOINT_STATE, "RELIABLE"), (FAULT_EFFECT, JOINT_STATE, "RELIABLE"),
               (FDI_TELEMETRY, DIAGNOSTICS_TYPE, "RELIABLE"), (FAULT_TRUTH, DIAGNOSTICS_TYPE, "RELIABLE"),
               (SCENARIO, "std_msgs/msg/String", "LATCHED"), (PLANT_DONE, "std_msgs/msg/Header", "LATCHED"),
-              *((tcv_command(a), VECTOR, "RELIABLE") for a in AXES))
+              *((tcv_command(a), VECTOR, "RELIABLE") for a in AXES), (WHEEL_COMMAND, JOINT_STATE, "RELIABLE"),
+              (FDIR_WHEELS, DIAGNOSTICS_TYPE, "RELIABLE"))
 
 
 def _with_qos(rows):
@@ -101,8 +116,10 @@ DIAGNOSTICS = "/diagnostics"
 IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel (DiagnosticArray)
 
 
+# The observers' and the isolation node's per-wheel outputs are JointStates: name = the wheels' joints,
+# effort = the value ([N m]; an alarm 1 or 0). An Elman node watches one wheel: its messages hold that joint.
 def estimate_topic(observer: str, axis: str | None = None) -> str:
-    """Estimated reaction torque [N m]; the Elman nodes publish one per axis (own component set)."""
+    """Estimated reaction torque [N m]; the Elman nodes publish one per wheel (its own joint)."""
     return f"/fdi/{observer}/{axis}/estimate" if axis else f"/fdi/{observer}/estimate"
 
 
@@ -122,22 +139,22 @@ def fdi_output_topics(observer: str):
             "status": f"/fdi/{observer}/status"}
 
 
-def _fdi_rows(method: str | None = None):
+def _fdi_rows(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET):
     """(topic, type, QoS name) of the FDI half of a graph of FDI ``method`` (None: every slot's)."""
     rows, observers = [], OBSERVERS if method is None else observers_of(method)
     for obs in observers:
-        rows += [(f(obs, axis), VECTOR, "RELIABLE") for axis in observer_axes(obs)
+        rows += [(f(obs, axis), JOINT_STATE, "RELIABLE") for axis in observer_axes(obs, wheel_set)
                  for f in (estimate_topic, residual_topic, bound_topic)]
     for obs in observers:
         out = fdi_output_topics(obs)
-        rows += [(out["threshold"], VECTOR, "RELIABLE"), (out["alarm"], VECTOR, "RELIABLE"),
+        rows += [(out["threshold"], JOINT_STATE, "RELIABLE"), (out["alarm"], JOINT_STATE, "RELIABLE"),
                  (out["status"], DIAGNOSTICS_TYPE, "RELIABLE")]
     return rows + [(DIAGNOSTICS, DIAGNOSTICS_TYPE, "RELIABLE"), (IDENTIFICATION, DIAGNOSTICS_TYPE, "RELIABLE")]
 
 
-def fdi_topics(method: str | None = None):
+def fdi_topics(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET):
     """(topic, type, qos) of the FDI half of a graph of FDI ``method`` (None: every slot's)."""
-    return _with_qos(_fdi_rows(method))
+    return _with_qos(_fdi_rows(method, wheel_set))
 
 
 # what bag replay plays: what the observer and isolation nodes (and the recorder of their outputs) read, one
@@ -147,12 +164,13 @@ FDI_INPUTS = [FDI_TELEMETRY, FAULT_TRUTH, SCENARIO, PLANT_DONE]
 REPLAY_RECORDED = (CLOCK, SCENARIO, PLANT_DONE, FAULT_TRUTH)
 
 
-def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method: str = "speed_aware"):
+def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method: str = "speed_aware",
+                  wheel_set: str = DEFAULT_WHEEL_SET):
     """(topic, type, QoS name) the recorder subscribes to: the plant's topics (with ``record_plant``
-    false only REPLAY_RECORDED), with ``fdi`` those of the FDI of ``method``, and ``extra``
-    'name:pkg/msg/Type'."""
+    false only REPLAY_RECORDED), with ``fdi`` those of the FDI of ``method`` on ``wheel_set``, and
+    ``extra`` 'name:pkg/msg/Type'."""
     rows = [r for r in PLANT_ROWS if record_plant or r[0] in REPLAY_RECORDED]
-    rows += _fdi_rows(method) if fdi else []
+    rows += _fdi_rows(method, wheel_set) if fdi else []
     for spec in extra or ():
         name, _, type_name = spec.partition(":")
         rows.append((name, type_name, "RELIABLE"))
@@ -171,27 +189,36 @@ def _run_end(p) -> list:
     return [PLANT_DONE] if p.get("end_with_run", True) else []
 
 
-def observer_axes(observer: str) -> tuple:
-    """The axes of an observer's own topics: one Elman node per wheel, the others one for all three (None)."""
-    return AXES if observer == "elman" else (None,)
+def observer_axes(observer: str, wheel_set: str = DEFAULT_WHEEL_SET) -> tuple:
+    """The wheels of an observer's own topics: one Elman node per wheel of the set, the others one for
+    all the wheels (None)."""
+    return named_wheel_set(wheel_set).names if observer == "elman" else (None,)
 
 
-def residual_inputs(method: str = "speed_aware") -> list:
+def residual_inputs(method: str = "speed_aware", wheel_set: str = DEFAULT_WHEEL_SET) -> list:
     """What the isolation node of FDI ``method`` reads of its observers: residual and ripple bound of each."""
-    return [f(obs, a) for obs in observers_of(method) for a in observer_axes(obs)
+    return [f(obs, a) for obs in observers_of(method) for a in observer_axes(obs, wheel_set)
             for f in (residual_topic, bound_topic)]
+
+
+def _wheel_set(p) -> str:
+    return p.get("wheel_set") or DEFAULT_WHEEL_SET
 
 
 # executable -> its parameters -> the topics it subscribes to
 READS = {
-    "plant": lambda p: [tcv_command(a) for a in AXES] + ([RECORDER_READY] if p.get("recorder_ready") else []),
+    "plant": lambda p: [WHEEL_COMMAND] + ([RECORDER_READY] if p.get("recorder_ready") else []),
     "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
+    "wheel_allocation": lambda p: [*(tcv_command(a) for a in AXES), ATTITUDE, WHEELS]
+                                  + ([DIAGNOSTICS] if p.get("fdir", True) else []) + _run_end(p),
     "elman_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "linear_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "model_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
-    "isolation": lambda p: [FDI_TELEMETRY, *residual_inputs(p.get("fdi_method", "speed_aware"))] + _run_end(p),
+    "isolation": lambda p: [FDI_TELEMETRY, *residual_inputs(p.get("fdi_method", "speed_aware"), _wheel_set(p))]
+                           + _run_end(p),
     "recorder": lambda p: [r[0] for r in recorded_rows(p.get("record_plant", True), p.get("fdi_period", 0.0) > 0,
-                                                       p.get("extra_topics"), p.get("fdi_method", "speed_aware"))],
+                                                       p.get("extra_topics"), p.get("fdi_method", "speed_aware"),
+                                                       _wheel_set(p))],
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
     "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
                         + ([RECORDER_CLOSED, RECORDER_READY] if p.get("await_recorder", False) else []),
@@ -205,10 +232,11 @@ def _observer_waits(observer: str, axis: str | None) -> dict:
 
 # executable -> its parameters -> {parameter: the topics of its own whose readers that parameter counts}
 WAITS = {
-    "plant": lambda p: {"attitude_readers": [ATTITUDE], "fdi_readers": [FDI_TELEMETRY],
-                        "wait_for_subscribers": [CLOCK, WHEELS, FAULT_EFFECT, FAULT_TRUTH, SCENARIO]},
+    "plant": lambda p: {"attitude_readers": [ATTITUDE], "wheels_readers": [WHEELS], "fdi_readers": [FDI_TELEMETRY],
+                        "wait_for_subscribers": [CLOCK, FAULT_EFFECT, FAULT_TRUTH, SCENARIO]},
     "pid_controller": lambda p: {"min_subscribers": [tcv_command(axis_of_joint(p["joint"], ATTITUDE_JOINTS))]},
-    "elman_observer": lambda p: _observer_waits("elman", axis_of_joint(p["wheel"], WHEEL_JOINTS)),
+    "wheel_allocation": lambda p: {"min_subscribers": [WHEEL_COMMAND], "fdir_readers": [FDIR_WHEELS]},
+    "elman_observer": lambda p: _observer_waits("elman", axis_of_joint(p["wheel"], wheel_joints(_wheel_set(p)))),
     "linear_observer": lambda p: _observer_waits("linear", None),
     "model_observer": lambda p: _observer_waits("model", None),
     "isolation": lambda p: {"diagnostics_readers": [DIAGNOSTICS],

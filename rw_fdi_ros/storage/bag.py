@@ -127,8 +127,19 @@ class BagData:
                       key=lambda r: r[0])
         t = np.array([sec + nsec * 1e-9 for (sec, nsec), _ in rows])
         def field(f):
+            if not rows:
+                return np.zeros((0, 0))
             return np.array([np.asarray(getattr(m, f), float) for _, m in rows]).reshape(len(rows), -1)
         return t, field("position"), field("velocity"), field("effort")
+
+    def wheel_values(self, name):
+        """(time [s], values (n, wheels)) of a per-wheel topic: a JointState's efforts (what the graph
+        writes, one column per joint), or a Vector3Stamped's x, y, z (bags recorded before the redundant
+        wheel, one column per axis wheel)."""
+        if self.types.get(name) == _VECTOR3_STAMPED:
+            return self.vectors(name)
+        t, _, _, effort = self.joint_states(name)
+        return t, effort
 
     @property
     def scenario_text(self):
@@ -316,7 +327,16 @@ class BagSeries:
     def joint_states(self, name):
         """(time [s], position, velocity, effort) of a JointState topic by header stamp, each (n, joints)."""
         t, fields = self._columns(name, 3)
-        return (t, *(f.reshape(len(t), -1) for f in fields))
+        return (t, *(f.reshape(len(t), -1) if len(t) else np.zeros((0, 0)) for f in fields))
+
+    def wheel_values(self, name):
+        """(time [s], values (n, wheels)) of a per-wheel topic: a JointState's efforts (what the graph
+        writes, one column per joint), or a Vector3Stamped's x, y, z (bags recorded before the redundant
+        wheel, one column per axis wheel)."""
+        if self.types.get(name) == _VECTOR3_STAMPED:
+            return self.vectors(name)
+        t, _, _, effort = self.joint_states(name)
+        return t, effort
 
     def _columns(self, name, n_fields):
         rows = self.rows.get(name)

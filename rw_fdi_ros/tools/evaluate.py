@@ -64,9 +64,10 @@ def _check_bag(bag: Path, curves: dict):
     for c in curves.values():
         c.check_compatible(plant, origin=f"{bag.name}: curves")
         c.check_horizon(scenario.duration, origin=f"{bag.name}: thresholds_{c.observer}.json")
-    t, effect = data.vectors(T.FAULT_EFFECT)
+    t, effect = data.wheel_values(T.FAULT_EFFECT)
     onset = min((f.onset for f in scenario.faults), default=None)
-    peak = np.abs(effect[t >= onset]).max(axis=0) if onset is not None and np.any(t >= onset) else np.zeros(3)
+    wheels = scenario.wheel_set(recorded=True).count
+    peak = np.abs(effect[t >= onset]).max(axis=0) if onset is not None and np.any(t >= onset) else np.zeros(wheels)
     return scenario, peak
 
 
@@ -90,7 +91,7 @@ def evaluate_replayed(bag: Path, out: Path, scenario, peak, observers=None) -> R
         raise ValueError(f"{out.name}: the replay holds no outputs of the {', '.join(missing)} observer")
     return RunEval(bag=str(bag), scenario=scenario.name, seed=scenario.seed, faults=list(scenario.faults),
                    series=series, fault_effect_peak=peak, identification=identification_from_bag(replay),
-                   health=health_from_bag(out))
+                   health=health_from_bag(out), wheels=scenario.wheel_set(recorded=True).names)
 
 
 def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: int | None = None, executor=None,

@@ -49,11 +49,13 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
 
 def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int | None = None,
                  figure: bool = False, method: str = "speed_aware", unit_calibration: float = 0.0,
-                 **kw) -> RunOutcome:
-    """Run the full graph (plant, PIDs, observers, isolation, recorder); attach the FDI verdict."""
+                 fdir: bool = True, **kw) -> RunOutcome:
+    """Run the full graph (plant, PIDs, wheel allocation, observers, isolation, recorder); attach the FDI
+    verdict. ``fdir`` False: the wheel allocation keeps every wheel in use (detection alone)."""
     outcome = run_scenario(ref, seed=seed, out_dir=out_dir, fdi={"models": models, "thresholds": thresholds,
                                                                  "persistence": persistence, "method": method,
-                                                                 "unit_calibration": unit_calibration}, **kw)
+                                                                 "unit_calibration": unit_calibration,
+                                                                 "fdir": fdir}, **kw)
     if outcome.bag.exists():
         try:
             data = read_series(outcome.bag, verdict_topics())
@@ -70,8 +72,10 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=No
 
 def verdict_topics() -> list:
     """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag."""
-    bounds = [T.bound_topic(obs, a) for obs in T.OBSERVERS for a in T.observer_axes(obs)]
-    return [T.SCENARIO, *metrics.fdi_output_topics(), *bounds]
+    from ..core.wheel_set import WHEEL_SETS
+    wheels = sorted({n for ws in WHEEL_SETS.values() for n in ws.names})   # any set's Elman topics
+    bounds = [T.bound_topic(obs, a) for obs in T.OBSERVERS for a in (wheels if obs == "elman" else (None,))]
+    return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, *metrics.fdi_output_topics(), *bounds]
 
 
 def fdi_verdict(data) -> dict:
@@ -80,19 +84,20 @@ def fdi_verdict(data) -> dict:
 
     ``data``: a storage.bag BagSeries (or BagData) holding :func:`verdict_topics`."""
     scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
-    out = {"truth": {a: [f.as_dict() for f in scenario.faults if AXES[f.wheel] == a] for a in AXES},
+    wheels = scenario.wheel_set(recorded=True).names
+    out = {"truth": {a: [f.as_dict(wheels) for f in scenario.faults if wheels[f.wheel] == a] for a in wheels},
            "observers": metrics.observers_in_bag(data)}
     for obs in out["observers"]:
-        t, alarm = data.vectors(T.fdi_output_topics(obs)["alarm"])
-        out[obs] = {a: metrics.alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(AXES)}
+        t, alarm = data.wheel_values(T.fdi_output_topics(obs)["alarm"])
+        out[obs] = {a: metrics.alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(wheels)}
     if "linear" in out["observers"] and "model" not in out["observers"]:
-        _, bound = data.vectors(T.bound_topic("linear"))
+        _, bound = data.wheel_values(T.bound_topic("linear"))
         if bound.size and np.any(bound != 0):   # speed-aware without a model slot: an older bag
             out["note"] = ("recorded before the observers had three slots: its linear observer is the model "
                            "observer (the nominal wheel model), not the Luenberger observer")
     t_diag, faulty = metrics.diagnostics_alarms(data.path)
     if len(t_diag):   # what /diagnostics said: the decision observer's alarm, latched
-        out["verdict"] = {a: metrics.alarm_intervals(t_diag, faulty[:, i]) for i, a in enumerate(AXES)}
+        out["verdict"] = {a: metrics.alarm_intervals(t_diag, faulty[:, i]) for i, a in enumerate(wheels)}
     out["identification"] = metrics.identification_from_bag(data)
     try:
         series = metrics.series_from_bag(data)
@@ -103,9 +108,9 @@ def fdi_verdict(data) -> dict:
         series[metrics.VERDICT] = metrics.Series(t_diag, zeros, zeros, faulty)
     end = float(series[next(iter(series))].time[-1])
     # a run that stopped early (interrupted) is judged over the time it covers: a later fault is not missed
-    out["not_reached"] = {"end_s": end, "faults": [f.as_dict() for f in scenario.faults if f.onset > end]}
+    out["not_reached"] = {"end_s": end, "faults": [f.as_dict(wheels) for f in scenario.faults if f.onset > end]}
     run = metrics.RunEval(bag=str(data.path), scenario=scenario.name, seed=scenario.seed,
-                          faults=[f for f in scenario.faults if f.onset <= end], series=series)
+                          faults=[f for f in scenario.faults if f.onset <= end], series=series, wheels=wheels)
     out["judged"] = {obs: metrics.judge(run, obs) for obs in series}
     return out
 
@@ -155,12 +160,13 @@ def format_verdict(v: dict) -> str:
         return "; ".join(parts)
 
     observers = v.get("observers", [o for o in T.OBSERVERS if o in v]) + (["verdict"] if "verdict" in v else [])
+    wheels = list(v["truth"])
     truths = {a: "; ".join(f"{f['kind']}={f['value']:g} from {f['onset']:g} s" for f in v["truth"][a]) or "healthy"
-              for a in AXES}
-    columns = [("ground truth", truths)] + [(observer_label(o), {a: fmt(v[o][a]) for a in AXES}) for o in observers]
+              for a in wheels}
+    columns = [("ground truth", truths)] + [(observer_label(o), {a: fmt(v[o][a]) for a in wheels}) for o in observers]
     widths = [max(34, *(len(c) + 2 for c in cells.values())) for _, cells in columns]
     lines = [(f"  {'wheel':6s}" + "".join(f"{h:{w}s}" for (h, _), w in zip(columns, widths))).rstrip()]
-    for a in AXES:
+    for a in wheels:
         lines.append((f"  {a:6s}" + "".join(f"{cells[a]:{w}s}" for (_, cells), w in zip(columns, widths))).rstrip())
     if v.get("note"):
         lines.append(f"  note: {v['note']}")
@@ -212,13 +218,16 @@ def _plot_residuals(data, path: Path) -> Path:
     from matplotlib.figure import Figure   # no pyplot: its global figure stack is not thread-safe
     verdict = fdi_verdict(data)
     observers = verdict["observers"] or ["elman"]
-    fig = Figure(figsize=(14, 3.25 * len(observers)))
-    axes = fig.subplots(len(observers), 3, sharex=True, squeeze=False)
+    wheels = list(verdict["truth"])
+    fig = Figure(figsize=(3.6 * len(wheels) + 3, 3.25 * (len(observers) + 1)))
+    grid = fig.add_gridspec(len(observers) + 1, len(wheels))
+    axes = np.array([[fig.add_subplot(grid[r, c]) for c in range(len(wheels))] for r in range(len(observers))])
+    chain = fig.add_subplot(grid[-1, :], sharex=axes[0, 0])
     for row, obs in enumerate(observers):
-        t_c, thr = data.vectors(T.fdi_output_topics(obs)["threshold"])
-        t_r, res = metrics.observer_vectors(data, obs)
-        _, bound = metrics.observer_vectors(data, obs, T.bound_topic)
-        for i, a in enumerate(AXES):
+        t_c, thr = data.wheel_values(T.fdi_output_topics(obs)["threshold"])
+        t_r, res = metrics.observer_vectors(data, obs, wheels=tuple(wheels))
+        _, bound = metrics.observer_vectors(data, obs, T.bound_topic, wheels=tuple(wheels))
+        for i, a in enumerate(wheels):
             ax = axes[row, i]
             speed_aware = bound.size and np.any(bound[:, i] != 0.0)
             ax.plot(*envelope(t_r, np.abs(res[:, i]) * 1e3), label="|residual|", lw=1.2)
@@ -237,9 +246,39 @@ def _plot_residuals(data, path: Path) -> Path:
             ax.set_title(f"{observer_label(obs)}, wheel {a}", fontsize=10)
             ax.set_ylabel("10⁻³ N m")
             ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel("sim time [s]")
+    _plot_pointing(data, verdict, chain)
+    chain.set_xlabel("sim time [s]")
     axes[0, 0].legend(fontsize=8, loc="upper right")
-    fig.suptitle(f"{data.path.name}: residuals vs threshold curves (shaded: alarm)")
+    fig.suptitle(f"{data.path.name}: residuals vs threshold curves (shaded: alarm); last row: the FDIR chain")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return path
+
+
+def _plot_pointing(data, verdict, ax):
+    """The chain in one row: the pointing error per axis against the 0.2 deg requirement, with the fault's
+    onset, the verdict's first alarm and each reconfiguration (/fdir/wheels) marked."""
+    from ..core.scenario import setpoint_at
+    from .summary import POINTING_DEG
+    scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
+    times, values = scenario.setpoint_schedule()
+    t, attitude, _, _ = data.joint_states(T.ATTITUDE)
+    if len(t):
+        error = np.degrees(np.abs(attitude - np.array([setpoint_at(times, values, x) for x in t])))
+        for i, a in enumerate(AXES):
+            ax.semilogy(*envelope(t, np.maximum(error[:, i], 1e-5)), label=f"axis {a}", lw=1.0)
+    ax.axhline(POINTING_DEG, color="k", ls="--", lw=0.8)
+    marks = [(f.onset, f"{f.kind}", "k") for f in scenario.faults]
+    marks += [(iv[0][0], f"verdict {a}", "tab:orange") for a, iv in verdict.get("verdict", {}).items() if iv]
+    fdir = data.last(T.FDIR_WHEELS)
+    for status in getattr(fdir, "status", []):
+        values_ = {kv.key: kv.value for kv in status.values}
+        if "since" in values_:
+            marks.append((float(values_["since"]), f"{status.hardware_id.removeprefix('reaction_wheel_')} "
+                          f"{values_['state'].replace('_', ' ')}", "tab:green"))
+    for x, label, color in marks:
+        ax.axvline(x, color=color, lw=0.8, ls=":")
+        ax.text(x, POINTING_DEG * 3, f" {label}", fontsize=7, rotation=90, color=color, va="bottom")
+    ax.set_title("pointing error [deg]: fault, verdict, reconfiguration", fontsize=10)
+    ax.legend(fontsize=7, loc="lower left")
+    ax.grid(alpha=0.3)

@@ -47,10 +47,11 @@ class RunEval:
     identification: dict = field(default_factory=dict)
     # what the FDI said about itself (health_from_bag): status topic -> wheel -> cannot_judge / input_trouble
     health: dict = field(default_factory=dict)
+    wheels: tuple = AXES   # the run's wheel names (its wheel set's), the order of the series' columns
 
     @property
     def faulty_axes(self):
-        return sorted({AXES[f.wheel] for f in self.faults if f.kind not in DISTURBANCE_KINDS})
+        return sorted({self.wheels[f.wheel] for f in self.faults if f.kind not in DISTURBANCE_KINDS})
 
     @property
     def onset(self):
@@ -68,26 +69,41 @@ class RunEval:
 
 def fdi_output_topics() -> list:
     """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more)."""
-    rows = [T.residual_topic(obs, a) for obs in OBSERVERS for a in T.observer_axes(obs)]
+    from ..core.wheel_set import WHEEL_SETS
+    wheels = sorted({n for ws in WHEEL_SETS.values() for n in ws.names})   # any set's Elman topics
+    rows = [T.residual_topic(obs, a) for obs in OBSERVERS for a in (wheels if obs == "elman" else (None,))]
     return rows + [t for obs in OBSERVERS for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
-        T.IDENTIFICATION]
+        T.IDENTIFICATION, T.SCENARIO]
 
 
-def observer_vectors(data, observer: str, topic=T.residual_topic):
-    """(time [s], values (n, 3)) of one observer's ``topic`` (residual_topic, bound_topic, estimate_topic):
-    the Elman nodes' three topics, each carrying its own wheel's component, joined into one."""
+def wheels_of_bag(data) -> tuple:
+    """The wheel names of a recorded run: its /scenario's wheel set (a bag from before the redundant wheel:
+    the three axis wheels)."""
+    import yaml
+    from ..core.plant_choices import PlantChoices
+    from ..core.wheel_set import wheel_set
+    recorded = (yaml.safe_load(data.scenario_text or "") or {}).get("plant") if data.scenario_text else None
+    return wheel_set(PlantChoices.from_recorded(recorded).wheel_set).names
+
+
+def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
+    """(time [s], values (n, wheels)) of one observer's ``topic`` (residual_topic, bound_topic, estimate_topic):
+    the Elman nodes' per-wheel topics, each carrying its own wheel (or, recorded before the redundant
+    wheel, its own axis' component), joined into one."""
     axes = T.observer_axes(observer)
     if axes == (None,):
-        return data.vectors(topic(observer))
-    cols = [data.vectors(topic(observer, a)) for a in axes]
+        return data.wheel_values(topic(observer))
+    wheels = wheels or wheels_of_bag(data)
+    cols = [data.wheel_values(topic(observer, a)) for a in wheels]
     n = min(len(t) for t, _ in cols)
-    values = np.stack([v[:n, i] for i, (_, v) in enumerate(cols)], axis=1) if n else np.zeros((0, 3))
+    values = (np.stack([v[:n, i if v.shape[1] == 3 and len(wheels) == 3 else 0] for i, (_, v) in enumerate(cols)],
+                       axis=1) if n else np.zeros((0, len(wheels))))
     return cols[0][0][:n], values
 
 
 def observers_in_bag(data) -> list:
     """The observer slots whose decisions a bag holds (the method's: core/detection.observers_of)."""
-    return [obs for obs in OBSERVERS if len(data.vectors(T.fdi_output_topics(obs)["alarm"])[0])]
+    return [obs for obs in OBSERVERS if len(data.wheel_values(T.fdi_output_topics(obs)["alarm"])[0])]
 
 
 def series_from_bag(data) -> dict:
@@ -96,8 +112,8 @@ def series_from_bag(data) -> dict:
     out = {}
     for obs in observers_in_bag(data):
         topics = T.fdi_output_topics(obs)
-        t, alarm = data.vectors(topics["alarm"])
-        t_c, thr = data.vectors(topics["threshold"])
+        t, alarm = data.wheel_values(topics["alarm"])
+        t_c, thr = data.wheel_values(topics["threshold"])
         t_r, res = observer_vectors(data, obs)
         n = min(len(t), len(t_c), len(t_r))
         if n == 0:
@@ -138,20 +154,22 @@ def health_topics() -> list:
 
 
 def diagnostics_alarms(path):
-    """(time [s] (n,), faulty (n, 3) flags) of a bag's /diagnostics: a wheel whose status is ERROR (the
-    verdict users read: the decision observer's alarm, latched), streamed; empty arrays without it."""
+    """(time [s] (n,), faulty (n, wheels) flags) of a bag's /diagnostics: a wheel whose status is ERROR (the
+    verdict users read: the decision observer's alarm, latched), streamed; empty arrays without it. The
+    wheels are those of the first message, in its order (the wheel set's)."""
     from ..storage.bag import iter_messages, typestore
-    store, times, rows = typestore(), [], []
+    store, times, rows, joints = typestore(), [], [], None
     for _, _, raw in iter_messages(path, [T.DIAGNOSTICS]):
         msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
         levels = {s.hardware_id: s.level for s in msg.status}
-        wheels = [levels.get(f"reaction_wheel_{a}") for a in AXES]
+        joints = joints or [s.hardware_id for s in msg.status]
+        wheels = [levels.get(j) for j in joints]
         if None in wheels:
             continue
         times.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
         rows.append([level == 2 for level in wheels])   # DiagnosticStatus.ERROR
     order = np.argsort(times, kind="stable")
-    return np.asarray(times, float)[order], np.asarray(rows, bool).reshape(len(times), 3)[order]
+    return np.asarray(times, float)[order], np.asarray(rows, bool).reshape(len(times), len(joints or ()))[order]
 
 
 def health_from_bag(path) -> dict:
@@ -215,13 +233,13 @@ def alarm_intervals(times, flags) -> list:
 def judge(run: RunEval, observer: str) -> dict:
     """Verdict of one run for one observer: alarms per axis, correctness, per-faulty-axis figures."""
     s = run.series[observer]
-    alarmed = [a for i, a in enumerate(AXES) if s.alarm[:, i].any()]
+    alarmed = [a for i, a in enumerate(run.wheels) if s.alarm[:, i].any()]
     out = {"alarmed_axes": alarmed, "false_alarm": bool(alarmed) and run.category in ("fault_free", "disturbance")}
     if run.category in ("single", "multiple"):
         figures = {}
         for a in run.faulty_axes:
-            onset = min(f.onset for f in run.faults if AXES[f.wheel] == a)
-            figures[a] = axis_figures(s, AXES.index(a), onset)
+            onset = min(f.onset for f in run.faults if run.wheels[f.wheel] == a)
+            figures[a] = axis_figures(s, run.wheels.index(a), onset)
         others = [a for a in alarmed if a not in run.faulty_axes]
         out["axes"] = figures
         out["wrong_axes"] = others
@@ -250,7 +268,7 @@ def judge_identification(run: RunEval, strict_bus: bool = False) -> dict:
     """
     out = {}
     for f in run.faults:
-        a = AXES[f.wheel]
+        a = run.wheels[f.wheel]
         if f.kind in DISTURBANCE_KINDS or sum(g.wheel == f.wheel for g in run.faults) > 1:
             continue
         found = run.identification.get(a) or {}
@@ -320,7 +338,8 @@ def alarm_before_onset(run: RunEval, observer: str) -> bool:
 def observable(run: RunEval, level: dict) -> bool:
     """Every faulty wheel's recorded fault effect peaks above ``level[axis]``, the fault-free residual
     level [N m]: a fault below it is physically invisible, not missed by the observer."""
-    return all(run.fault_effect_peak[AXES.index(a)] > level[a] for a in run.faulty_axes)
+    return all(run.fault_effect_peak[run.wheels.index(a)] > level.get(a, max(level.values()))
+               for a in run.faulty_axes)
 
 
 def observable_level(curves: dict) -> dict:

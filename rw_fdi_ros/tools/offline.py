@@ -17,8 +17,8 @@ from ..core.detection import (FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_A
                               ThresholdError, fit_band, observers_of, residual_series, run_statistic,
                               signed_residual_series)
 from ..core.calibration import calibration_samples, regressors
-from ..core.elman import ElmanWeights, ModelError, recall_series
-from ..core.linear_observer import UNCERTAINTY_GAIN, estimate_series
+from ..core.elman import ElmanWeights, ModelError, network_wheel, recall_series
+from ..core.linear_observer import estimate_series, uncertainty_gain
 from ..core.plant_choices import FDI_PERIOD, FDI_SAMPLING
 from ..core.scenario import AXES
 
@@ -47,6 +47,7 @@ class ObserverRun:
     residual: dict      # observer -> (n, 3); signed (speed_aware) or >= 0 (thesis)
     bound: dict         # observer -> (n, 3); 0 for the thesis method
     method: str = "thesis"
+    wheels: tuple = AXES   # the columns' wheel names
 
 
 def fdi_method_of(models: dict) -> str:
@@ -62,20 +63,23 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     first samples (core/calibration.py)."""
     r = samples.reaction_torque
     method = fdi_method_of(models)
+    wheels = getattr(samples, "wheels", AXES)
+    nets = [models[network_wheel(a)] for a in wheels]   # the redundant wheel runs its type's network
     if method == "thesis":
-        elman = np.stack([recall_series(models[a], samples.tcv[:, i], r[0, i]) for i, a in enumerate(AXES)], axis=1)
+        elman = np.stack([recall_series(m, samples.tcv[:, i], r[0, i], reaction_torque=r[:, i])
+                          for i, m in enumerate(nets)], axis=1)
         est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period)}
         zero = np.zeros_like(r)
         return ObserverRun(samples.time, r, est, {k: residual_series(r, v, window) for k, v in est.items()},
-                           {k: zero for k in est})
+                           {k: zero for k in est}, wheels=wheels)
     if samples.wheel_speed is None:
         raise ValueError("speed-aware observers need FDI samples with wheel speed (fdi_sampling 'mean')")
-    elman = np.stack([recall_series(models[a], samples.tcv[:, i], r[0, i], samples.wheel_speed[:, i])
-                      for i, a in enumerate(AXES)], axis=1)
+    elman = np.stack([recall_series(m, samples.tcv[:, i], r[0, i], samples.wheel_speed[:, i], r[:, i])
+                      for i, m in enumerate(nets)], axis=1)
     est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period), "model": samples.model_torque}
     residual, bound = {}, {}
-    gains = {"elman": [models[a].uncertainty_gain for a in AXES], "linear": [UNCERTAINTY_GAIN[a] for a in AXES],
-             "model": [0.0] * 3}
+    gains = {"elman": [m.uncertainty_gain for m in nets], "linear": [uncertainty_gain(a) for a in wheels],
+             "model": [0.0] * len(wheels)}
     x = None
     if calibration_samples:
         if samples.motor_torque is None:
@@ -85,7 +89,7 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     for k, v in est.items():
         residual[k], bound[k] = signed_residual_series(r, v, samples.ripple_phasor, window, gains[k], x,
                                                        calibration_samples)
-    return ObserverRun(samples.time, r, est, residual, bound, method)
+    return ObserverRun(samples.time, r, est, residual, bound, method, wheels)
 
 
 def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
@@ -128,10 +132,15 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     report = {}
     describe = {"elman": model_ref, "linear": "linearised wheel, poles 4x",
                 "model": "nominal wheel model at the measured speed"}
+    # the axis wheels' columns: a standby wheel never used in a fitting run has no residual to fit, and gets
+    # the widest band of its type (ThresholdCurves.at)
+    axis_columns = [runs[0].wheels.index(a) for a in AXES] if runs else []
     if runs and runs[0].method == "speed_aware":
         p = persistence or PERSISTENCE_SPEED_AWARE
         for obs in observers_of("speed_aware"):
-            stats = np.array([run_statistic(np.abs(run.residual[obs]) - run.bound[obs], p) for run in runs])
+            cols = axis_columns
+            stats = np.array([run_statistic(np.abs(run.residual[obs][:, cols]) - run.bound[obs][:, cols], p)
+                              for run in runs])
             # the Elman and Luenberger bounds spent half of alpha on kappa (detection.demand_gain)
             share = 1.0 if obs == "model" else 0.5
             bands = fit_band(stats, false_alarm_rate, share=share)
@@ -147,7 +156,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
             report[obs] = {a: bands[a]["band"] for a in AXES}
         return report
     for obs in observers_of("thesis"):
-        stack = np.stack([run.residual[obs][:n] for run in runs])          # (runs, n, 3)
+        stack = np.stack([run.residual[obs][:n, axis_columns] for run in runs])          # (runs, n, 3)
         curves = {a: fit_threshold_curve(stack[:, :, i]) for i, a in enumerate(AXES)}
         ThresholdCurves(observer=obs, curves=curves, sample_period=FDI_PERIOD, window=window, seeds=seeds,
                         plant=plant, model=describe[obs], persistence=persistence or PERSISTENCE).save(
@@ -165,15 +174,15 @@ def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -
     out = {}
     for obs, c in curves.items():
         c.check_method(run.method, origin=f"thresholds_{obs}")
-        channel = ObserverChannel(obs, c, persistence)
+        channel = ObserverChannel(obs, c, persistence, run.wheels)
         rows = [channel.update(int(s), r, b) for s, r, b in zip(stamps, run.residual[obs], run.bound[obs])]
         def col(j):
-            return np.array([[row[a][j] for a in AXES] for row in rows]).reshape(len(rows), 3)
+            return np.array([[row[a][j] for a in run.wheels] for row in rows]).reshape(len(rows), len(run.wheels))
         out[obs] = Series(run.time, np.abs(col(0)), col(1), col(2).astype(bool))
     return out
 
 
-def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True):
+def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True, wheels=AXES):
     """metrics.Series of what /diagnostics says: the decision observer's rows of ``series`` (observer ->
     Series, :func:`fdi_series`) through the isolation node's LatchedVerdict, a wheel outside the operating
     envelope at a sample (``wheel_speed``: (n, 3) of the FDI samples) not judged there."""
@@ -181,11 +190,11 @@ def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = Tr
     from .metrics import Series
     s = series[decision_observer(method)]
     judged = np.ones(s.alarm.shape, bool) if wheel_speed is None else in_envelope(wheel_speed)
-    verdict = LatchedVerdict(latch)
+    verdict = LatchedVerdict(latch, wheels)
     alarm = np.array([[verdict.update({a: (0.0, 0.0, bool(s.alarm[k, i]), float(s.time[k]))
-                                       for i, a in enumerate(AXES)},
-                                      dict(zip(AXES, judged[k])))[a][2] for a in AXES]
-                      for k in range(len(s.time))], bool).reshape(len(s.time), 3)
+                                       for i, a in enumerate(wheels)},
+                                      dict(zip(wheels, judged[k])))[a][2] for a in wheels]
+                      for k in range(len(s.time))], bool).reshape(len(s.time), len(wheels))
     return Series(s.time, s.residual, s.threshold, alarm)
 
 
@@ -195,8 +204,9 @@ def identification_series(samples, alarm, calibration_samples: int = 0) -> list:
     decision observer, as :func:`fdi_series` gives them), learning the units over the first
     ``calibration_samples`` as the isolation node does."""
     from ..core.identification import FaultIdentifier
-    identifier = FaultIdentifier(AXES, calibration_samples)
-    return [identifier.update(row, {a: bool(alarm[k, i]) for i, a in enumerate(AXES)})
+    wheels = getattr(samples, "wheels", AXES)
+    identifier = FaultIdentifier(wheels, calibration_samples)
+    return [identifier.update(row, {a: bool(alarm[k, i]) for i, a in enumerate(wheels)})
             for k, row in enumerate(samples.rows())]
 
 
@@ -205,7 +215,7 @@ def decisions(run: ObserverRun, curves: dict, persistence: int | None = None) ->
     out = {}
     for obs, s in fdi_series(run, curves, persistence).items():
         out[obs] = {}
-        for i, a in enumerate(AXES):
+        for i, a in enumerate(run.wheels):
             flags = s.alarm[:, i]
             up = np.nonzero(flags)[0]   # AlarmRule's first alarm: where the flag first goes up
             out[obs][a] = (flags, float(s.time[up[0]]) if up.size else None)

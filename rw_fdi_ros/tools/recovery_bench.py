@@ -181,29 +181,31 @@ def format_recovery(report: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def plot_before_after(path: Path, fdir: Fdir, seed: int = 86_999_999):
-    """The pointing error of one run with a 40 % current loss on x, without and with FDIR."""
+def plot_before_after(path: Path, fdir: Fdir):
+    """The pointing error of the main job's scenario (fdir_bus_x: bus 4.5 V on x), without and with FDIR."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    scenario = Scenario("current loss 40 % on x", duration=400.0, seed=seed,
-                        faults=(Fault("current_limiter", 0, 150.0, 0.6),),
-                        initial={"wheel_speed": (18.0, 21.0, 16.0)}, plant={"wheel_set": WHEELS.name})
+    from ..core.scenario import load_scenario
+    scenario = load_scenario("fdir_bus_x")
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.6), sharey=True)
-    for ax, (label, f) in zip(axes, (("before: the faulty wheel stays in use", None),
+    for ax, (label, f) in zip(axes, (("before: the faulty wheel x stays in use", None),
                                      ("after: x given up, s takes over", fdir))):
         traj = simulate([scenario], fdir=f)
         for i, a in enumerate("xyz"):
             ax.semilogy(traj.time, np.maximum(np.degrees(np.abs(traj.error[:, 0, i])), 1e-5), label=a)
         ax.axhline(POINTING_DEG, color="k", ls="--", lw=0.8)
-        ax.axvline(150.0, color="r", ls=":", lw=0.8)
+        for fault in scenario.faults:
+            ax.axvline(fault.onset, color="r", ls=":", lw=0.8)
         for d in traj.decisions[0] if traj.decisions else ():
             ax.axvline(d.time, color="g", ls=":", lw=0.8)
         ax.set_title(label, fontsize=10)
         ax.set_xlabel("time [s]")
         ax.set_xlim(100, 400)
     axes[0].set_ylabel("|pointing error| [deg]")
-    axes[0].legend(loc="lower left")
+    axes[0].legend(loc="lower right")
+    faults = ", ".join(f"{f.kind}={f.value:g} on {WHEELS.names[f.wheel]} at {f.onset:g} s" for f in scenario.faults)
+    fig.suptitle(f"{scenario.name}: {faults}; red: onsets, green: reconfigurations", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -14,8 +14,9 @@ from ..storage.bag import BagError, bag_is_complete, read_bag
 
 @dataclass
 class FdiSamples:
-    """One run at the FDI period, (n, 3) arrays per wheel: tcv [V], reaction torque [N m], and for the
-    speed-aware observers wheel speed [rad/s], the nominal model's torque [N m] and the ripple phasor."""
+    """One run at the FDI period, (n, wheels) arrays: tcv [V], reaction torque [N m], and for the
+    speed-aware observers wheel speed [rad/s], the nominal model's torque [N m] and the ripple phasor;
+    ``wheels``: the names of the columns (the run's wheel set's)."""
 
     bag: Path | None
     seed: int | None
@@ -29,7 +30,8 @@ class FdiSamples:
     motor_torque: np.ndarray | None = None
     friction_torque: np.ndarray | None = None
     free_motor_torque: np.ndarray | None = None
-    bus_motor_torque: np.ndarray | None = None    # (n, 3, bus grid)
+    bus_motor_torque: np.ndarray | None = None    # (n, wheels, bus grid)
+    wheels: tuple = AXES
 
     def rows(self):
         """The samples one by one as telemetry.FdiSample (what the nodes see)."""
@@ -42,27 +44,28 @@ class FdiSamples:
 
 
 def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0,
-                        sampling: str = "mean", bag=None, seed=None, identification: bool = False) -> FdiSamples:
+                        sampling: str = "mean", bag=None, seed=None, identification: bool = False,
+                        wheels=AXES) -> FdiSamples:
     """Control-rate series (time first) -> FdiSamples through the plant's TelemetrySampler
     (``identification``: with the terms fault identification fits)."""
     rows = sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed, period, sampling,
                             identification=identification)
-    return samples_from_rows(rows, bag, seed)
+    return samples_from_rows(rows, bag, seed, wheels)
 
 
-def samples_from_rows(rows, bag=None, seed=None) -> FdiSamples:
+def samples_from_rows(rows, bag=None, seed=None, wheels=AXES) -> FdiSamples:
     """A list of telemetry.FdiSample -> FdiSamples (arrays over time)."""
     stamps = np.array([row.stamp_ns for row in rows], np.int64)
     def stack(name):
         return None if not rows or getattr(rows[0], name) is None else np.array([getattr(x, name)
                                                                                              for x in rows])
-    empty = np.zeros((0, 3))
+    empty = np.zeros((0, len(wheels)))
     return FdiSamples(bag=bag, seed=seed, time=stamps // 10**9 + (stamps % 10**9) * 1e-9,
                       tcv=stack("tcv") if rows else empty, reaction_torque=stack("reaction_torque") if rows else empty,
                       wheel_speed=stack("wheel_speed"), model_torque=stack("model_torque"),
                       ripple_phasor=stack("ripple_phasor"), motor_torque=stack("motor_torque"),
                       friction_torque=stack("friction_torque"), free_motor_torque=stack("free_motor_torque"),
-                      bus_motor_torque=stack("bus_motor_torque"))
+                      bus_motor_torque=stack("bus_motor_torque"), wheels=tuple(wheels))
 
 
 def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: bool = True) -> FdiSamples:
@@ -71,8 +74,10 @@ def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: 
     msgs = data.topic(FDI_TELEMETRY)
     if not msgs:
         raise BagError(f"{data.path}: no {FDI_TELEMETRY} messages")
+    # the wheels the plant reported, in its order (hardware_id reaction_wheel_<name>)
+    wheels = tuple(s.hardware_id.removeprefix("reaction_wheel_") for s in msgs[0][1].status)
     try:
-        rows = [fdi_sample_of(m, AXES, identification=False).sampled(sampling) for _, m in msgs]
+        rows = [fdi_sample_of(m, wheels, identification=False).sampled(sampling) for _, m in msgs]
     except ValueError as exc:
         raise BagError(f"{data.path}: {FDI_TELEMETRY}: {exc}") from None
     rows.sort(key=lambda r: r.stamp_ns)
@@ -86,7 +91,7 @@ def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: 
     if data.scenario_text:
         import yaml
         seed = (yaml.safe_load(data.scenario_text) or {}).get("seed")
-    return samples_from_rows(rows, bag=data.path, seed=seed)
+    return samples_from_rows(rows, bag=data.path, seed=seed, wheels=wheels)
 
 
 def bag_dirs(root) -> list:

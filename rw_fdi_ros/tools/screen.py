@@ -14,7 +14,7 @@ import numpy as np
 from ..core.calibration import calibration_samples
 from ..core.closed_loop import simulate
 from ..core.detection import ThresholdCurves, observers_of
-from ..core.isolation import AXES, in_envelope
+from ..core.isolation import in_envelope
 from ..nodes.topics import DIAGNOSTICS
 from ..core.wheel import WheelParams
 from ..paths import fdi_dir, thresholds_dir
@@ -57,10 +57,11 @@ def simulated_runs(scenarios, identification: bool = False, check=None, progress
         stamps = np.round(traj.time * 1e9).astype(np.int64)
         for b, scenario in enumerate(batch):
             samples = samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
-                                          seed=scenario.seed, identification=identification)
+                                          seed=scenario.seed, identification=identification, wheels=traj.wheel_names)
             onset = min((f.onset for f in scenario.faults), default=None)
             after = traj.time >= onset if onset is not None else np.zeros(len(traj.time), bool)
-            yield scenario, samples, np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any() else np.zeros(3)
+            yield scenario, samples, (np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any()
+                                      else np.zeros(len(traj.wheel_names)))
         if progress:
             progress(len(batch))
 
@@ -84,14 +85,16 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
         for name, (weights, curves, *own) in fdi_sets.items():
             k = own[0] if own else calibration_samples
             series = fdi_series(observe(samples, weights, calibration_samples=k), curves, persistence)
-            series[VERDICT] = verdict_series(series, next(iter(curves.values())).method, samples.wheel_speed)
+            series[VERDICT] = verdict_series(series, next(iter(curves.values())).method, samples.wheel_speed,
+                                             wheels=samples.wheels)
             found = {}
             if identification and len(samples.time):
                 last = identification_series(samples, series[VERDICT].alarm, k)[-1]
                 found = {a: v.values() for a, v in last.items() if v is not None}
             out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,
                                      seed=scenario.seed, faults=list(scenario.faults), series=series,
-                                     fault_effect_peak=peak, identification=found, health=envelope_health(samples)))
+                                     fault_effect_peak=peak, identification=found, health=envelope_health(samples),
+                                     wheels=samples.wheels))
     return out
 
 
@@ -104,7 +107,7 @@ def envelope_health(samples) -> dict:
     return {DIAGNOSTICS: {a: {"cannot_judge": {"samples": int(outside[:, i].sum()),
                                                "first_s": float(samples.time[int(np.argmax(outside[:, i]))]),
                                                "message": "outside the operating envelope"}}
-                          for i, a in enumerate(AXES) if outside[:, i].any()}} if outside.any() else {}
+                          for i, a in enumerate(samples.wheels) if outside[:, i].any()}} if outside.any() else {}
 
 
 def summarize(runs) -> dict:

@@ -6,13 +6,15 @@ from pathlib import Path
 import numpy as np
 
 from ..core.scenario import AXES, parse_scenario, setpoint_at
-from ..nodes.topics import ATTITUDE, FAULT_EFFECT, SCENARIO
+from ..nodes.topics import ATTITUDE, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
 
-SUMMARY_TOPICS = [SCENARIO, ATTITUDE, FAULT_EFFECT]   # what run_summary reads of a bag
+SUMMARY_TOPICS = [SCENARIO, ATTITUDE, FAULT_EFFECT, FDIR_WHEELS]   # what run_summary reads of a bag
+POINTING_DEG = 0.2   # the pointing requirement [deg] (thesis Table 2.3)
 
 
 def run_summary(path) -> dict:
-    """Pointing error per axis at the end, peak error after the first fault, faults, bag state.
+    """Pointing error per axis at the end, peak error after the first fault, when the pointing was back
+    within 0.2 deg, the reconfiguration decisions (/fdir/wheels), faults, bag state.
 
     One pass over the bag folding each sample into the figures (the last error, running maxima):
     memory does not grow with the run's length."""
@@ -21,16 +23,18 @@ def run_summary(path) -> dict:
     info = BagInfo(path=Path(path))
     scenario, waiting = None, []   # attitude rows that came before the scenario (latched, at the start)
     last, peak, effect = None, None, None
-    onset = None
+    onset, outside, decisions = None, None, {}   # outside: the last time after onset beyond POINTING_DEG
 
     def fold(stamp, attitude):
-        nonlocal last, peak
+        nonlocal last, peak, outside
         t = stamp // 10**9 + (stamp % 10**9) * 1e-9
         err = np.abs(np.rad2deg(attitude - setpoint_at(times, values, t)))
         if last is None or t >= last[0]:
             last = (t, err)
         if onset is not None and t >= onset:
             peak = err if peak is None else np.maximum(peak, err)
+            if err.max() >= POINTING_DEG and (outside is None or t > outside):
+                outside = t
 
     for topic, _, raw in iter_messages(path, SUMMARY_TOPICS, info):
         if topic == SCENARIO and scenario is None:
@@ -47,21 +51,36 @@ def run_summary(path) -> dict:
                 waiting.append((stamp, attitude))
             else:
                 fold(stamp, attitude)
-        elif topic == FAULT_EFFECT:
-            stamp, value = read_vector_cdr(raw)
+        elif topic == FAULT_EFFECT:   # per wheel: a JointState's efforts (a Vector3Stamped before the 4th wheel)
+            value = (read_vector_cdr(raw)[1] if info.types[topic].endswith("Vector3Stamped")
+                     else read_joint_state_cdr(raw)[3])
             effect = np.abs(value) if effect is None else np.maximum(effect, np.abs(value))
+        elif topic == FDIR_WHEELS:
+            msg = typestore().deserialize_cdr(raw, info.types[topic])
+            for status in msg.status:
+                v = {kv.key: kv.value for kv in status.values}
+                if "since" in v:
+                    decisions[(float(v["since"]), status.hardware_id)] = (v["state"], v["reason"])
     if scenario is None:
         raise ValueError(f"{info.path}: no /scenario message, cannot tell the set-points")
     if last is None:
         raise ValueError(f"{info.path}: no {ATTITUDE} messages")
+    wheels = scenario.wheel_set(recorded=True).names
     out = {"scenario": scenario.name, "seed": scenario.seed, "end_time": float(last[0]),
            "final_error_deg": dict(zip(AXES, last[1].round(4).tolist())),
-           "faults": [f.as_dict() for f in scenario.faults], "bag": str(info.path),
-           "complete": info.complete}
+           "faults": [f.as_dict(wheels) for f in scenario.faults], "bag": str(info.path),
+           "complete": info.complete,
+           "reconfiguration": [{"time": t, "wheel": joint.removeprefix("reaction_wheel_"), "state": state,
+                                "reason": reason}   # at one time: the wheel given up before the one brought in
+                               for (t, joint), (state, reason) in sorted(
+                                   decisions.items(), key=lambda d: (d[0][0], d[1][0] != "given_up"))]}
     if peak is not None:
         out["peak_error_after_fault_deg"] = dict(zip(AXES, peak.round(4).tolist()))
+        # pointing within the requirement from this time on (never out after the onset: the onset)
+        back = onset if outside is None else outside + 0.1
+        out["pointing_back_s"] = None if outside is not None and outside >= last[0] else float(back)
         if effect is not None:
-            out["peak_fault_effect_Nm"] = dict(zip(AXES, effect.tolist()))
+            out["peak_fault_effect_Nm"] = dict(zip(wheels, effect.tolist()))
     return out
 
 
@@ -70,8 +89,15 @@ def format_summary(s: dict) -> str:
     lines.append("  final pointing error [deg]: " + "  ".join(f"{a}={v:.3f}" for a, v in s["final_error_deg"].items()))
     for f in s["faults"]:
         lines.append(f"  fault: {f['kind']}={f['value']:g} on wheel {f['wheel']} from {f['onset']:g} s")
+    for d in s.get("reconfiguration", []):
+        lines.append(f"  reconfiguration at {d['time']:g} s: wheel {d['wheel']} {d['state'].replace('_', ' ')} "
+                     f"({d['reason']})")
     if "peak_error_after_fault_deg" in s:
         lines.append("  peak error after fault [deg]: " +
                      "  ".join(f"{a}={v:.3f}" for a, v in s["peak_error_after_fault_deg"].items()))
+        back, onset = s.get("pointing_back_s"), min((f["onset"] for f in s["faults"]), default=0.0)
+        lines.append(f"  pointing within {POINTING_DEG:g} deg on every axis " +
+                     ("never again after the fault" if back is None else "throughout" if back <= onset
+                      else f"again from {back:.1f} s ({back - onset:.1f} s after the onset)"))
     lines.append(f"  bag: {s['bag']}" + ("" if s["complete"] else " (incomplete)"))
     return "\n".join(lines)

@@ -1,13 +1,14 @@
-"""Run a Basilisk spacecraft with three body-axis reaction wheels under a given motor-torque profile.
+"""Run a Basilisk spacecraft with reaction wheels (body axes, or the spin axes given) under a motor-torque profile.
 
 Runs in the separate Basilisk environment (.venv-bsk, see scripts/setup_venv.sh):
 
     .venv-bsk/bin/python test/basilisk/bsk_run.py spec.json out.npz
 
 spec.json: inertia [3], wheel_inertia, viscous, coulomb, use_rw_friction (the rwFactory flag
-without which it silently zeroes fCoulomb), wheel_speed [3] (rad/s), body_rate [3] (rad/s),
-period (s), motor_torque [[tx, ty, tz], ...] held over each period.
-out.npz: time, body_rate (n+1, 3), wheel_speed (n+1, 3), sampled at the period boundaries.
+without which it silently zeroes fCoulomb), spin_axes [N][3] (optional: the body axes),
+wheel_speed [N] (rad/s), body_rate [3] (rad/s), period (s), motor_torque [[t_1 .. t_N], ...] held
+over each period.
+out.npz: time, body_rate (n+1, 3), wheel_speed (n+1, N), sampled at the period boundaries.
 BalancedWheels, no Stribeck, no torque or speed limits, RK4 at the period (as our plant).
 """
 import json
@@ -34,7 +35,7 @@ def main(spec_path, out_path):
     sc.hub.sigma_BNInit = [[0.0], [0.0], [0.0]]
 
     factory = simIncludeRW.rwFactory()
-    for axis, speed in zip(np.eye(3), spec["wheel_speed"]):
+    for axis, speed in zip(np.asarray(spec.get("spin_axes", np.eye(3)), float), spec["wheel_speed"]):
         factory.create("custom", axis.tolist(), Js=float(spec["wheel_inertia"]),
                        Omega=float(speed) / macros.RPM, cViscous=float(spec["viscous"]),
                        fCoulomb=float(spec["coulomb"]), useRWfriction=bool(spec["use_rw_friction"]),

@@ -1,0 +1,227 @@
+"""wheel_allocation: the controllers' body-axis commands over the wheels in use, and FDIR's reconfiguration.
+
+For each plant step k it takes the three controllers' commands stamped k
+(/<axis>/tcv_command) and answers with one torque command voltage per wheel
+of the set on /wheels/command, stamped k: the minimum-norm allocation over
+the wheels in use within the +-5 V limit (core/allocation.py); a wheel out
+of use gets 0 V.
+
+FDIR (core/fdir.py): a wheel /diagnostics reports ERROR (the FDI's latched,
+confirmed verdict) is given up and the standby wheel brought in; the decision
+made on the FDI sample stamped t shapes the commands from t + 1 s on
+(fdir.DECISION_DELAY), so before the command of step k the node waits for
+/diagnostics of that sample: the run is the same run whatever the processes'
+timing, the one the core loop computes (test_fdir_graph.py). An operator
+takes a wheel out of use by the parameter ``out_of_use`` (joint names;
+``ros2 param set /wheel_allocation out_of_use "['reaction_wheel_x']"``),
+from the next step on. Every decision goes out on /fdir/wheels (one status
+per wheel: in use, standby, given up and why), which the recorder keeps. A
+wheel given up is never commanded again.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Vector3Stamped
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+
+from ..core.allocation import TorqueAllocator
+from ..core.fdir import DecisionDelay, Reconfiguration, confirmed_reason
+from ..core.isolation import stamp_seconds
+from ..core.scenario import AXES
+from ..core.spacecraft import INERTIA
+from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
+from ..storage.cdr import joint_state_cdr, read_joint_state_cdr, read_vector_cdr
+from . import topics as T
+from .convert import stamp_ns, time_msg
+from .gate import GatedPublisher
+from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+
+OPERATOR = "operator command"
+STATES = {"in_use": DiagnosticStatus.OK, "standby": DiagnosticStatus.OK, "kept_in_use": DiagnosticStatus.WARN,
+          "given_up": DiagnosticStatus.ERROR}
+
+
+class WheelAllocationNode(GraphNode):
+    node_name = "wheel_allocation"
+
+    def __init__(self):
+        super().__init__(self.node_name)
+        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)   # core/wheel_set.py
+        self.declare_parameter("control_period", 0.1)            # the lockstep tick [s]
+        self.declare_parameter("fdir", True)                     # act on /diagnostics (false: no FDI in the graph)
+        self.declare_parameter("fdi_period", 1.0)                # [s] the stamps /diagnostics comes at
+        self.declare_parameter("verdict_timeout", 10.0)          # wall s to wait for a verdict before going on
+        self.declare_parameter("out_of_use", Parameter.Type.STRING_ARRAY)   # joints the operator took out
+        self.declare_parameter("min_subscribers", 1)             # plant (+ recorder) before the first command
+        self.declare_parameter("fdir_readers", 0)                # of /fdir/wheels (the recorder) before it goes
+        try:
+            self.wheels = wheel_set(self.param("wheel_set"))
+        except ValueError as exc:
+            raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
+        self.joints = tuple(joint_name(n) for n in self.wheels.names)
+        self.period = self.param("control_period")
+        self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
+        self.allocator = TorqueAllocator(self.wheels)
+        self.reconfiguration = Reconfiguration(self.wheels)
+        self.delay = DecisionDelay()
+        self.operator = []          # joints the operator took out, not yet applied
+        self.axis_commands = {}     # stamp -> {axis index: value}
+        self.state = {}             # stamp -> (wheel speeds, body rate): what a decision's momentum check reads
+        self.verdict_ns = -1        # the latest /diagnostics stamp in
+        self.waiting_since = None   # wall time a complete command started waiting for a verdict
+        self.blind_said = False
+        self.add_on_set_parameters_callback(self._on_parameters)
+        self.pub = GatedPublisher(self.create_publisher(JointState, T.WHEEL_COMMAND, T.RELIABLE),
+                                  self.param("min_subscribers"))
+        self.pub_fdir = GatedPublisher(self.create_publisher(DiagnosticArray, T.FDIR_WHEELS, T.RELIABLE),
+                                       self.param("fdir_readers"))
+        for i, axis in enumerate(AXES):
+            self.create_subscription(Vector3Stamped, T.tcv_command(axis), lambda raw, i=i: self._on_axis(i, raw),
+                                     T.RELIABLE, raw=True)
+        self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE, raw=True)
+        self.create_subscription(JointState, T.ATTITUDE, self._on_attitude, T.RELIABLE, raw=True)
+        if self.param("fdir"):
+            self.create_subscription(DiagnosticArray, T.DIAGNOSTICS, self._on_diagnostics, T.RELIABLE)
+        self.said_start = False
+        self.follow_run_end()
+
+    # -- inputs ----------------------------------------------------------------------
+    def _on_axis(self, i, raw):
+        if self.exit_code is not None:
+            return
+        stamp, values = read_vector_cdr(raw)
+        value = float(values[i])
+        if not math.isfinite(value):
+            self.fail(f"torque command from axis {AXES[i]} at t={stamp * 1e-9:.1f} s is {value}", EXIT_BAD_INPUT)
+            return
+        self.axis_commands.setdefault(stamp, {})[i] = value
+        self._try_command()
+
+    def _on_wheels(self, raw):
+        stamp, _, speed, _ = read_joint_state_cdr(raw)
+        self.state.setdefault(stamp, [None, None])[0] = speed
+
+    def _on_attitude(self, raw):
+        stamp, _, rate, _ = read_joint_state_cdr(raw)
+        self.state.setdefault(stamp, [None, None])[1] = rate
+
+    def _on_diagnostics(self, msg):
+        """A wheel /diagnostics says ERROR is confirmed faulty: decided now, applied DECISION_DELAY later."""
+        stamp = stamp_ns(msg.header.stamp)
+        confirmed = []
+        for status in msg.status:
+            name = status.hardware_id.removeprefix("reaction_wheel_")
+            if status.level == DiagnosticStatus.ERROR and name in self.wheels.names:
+                first = next((kv.value for kv in status.values if kv.key == "first_alarm"), "none")
+                confirmed.append((float(first) if first != "none" else stamp_seconds(stamp), name))
+        for first, name in sorted(confirmed, key=lambda c: c[0]):   # sort is stable: set order for ties
+            if name not in self.reconfiguration.given_up and name not in self.reconfiguration.kept \
+                    and name not in self.delay.requested:
+                self.delay.requested.add(name)
+                self.delay.put(stamp_seconds(stamp), (name, confirmed_reason(first)))
+        self.verdict_ns = max(self.verdict_ns, stamp)
+        self._try_command()
+
+    def _on_parameters(self, params):
+        for p in params:
+            if p.name != "out_of_use":
+                continue
+            wanted = list(p.value or [])
+            unknown = [j for j in wanted if j not in self.joints]
+            if unknown:
+                return SetParametersResult(successful=False, reason=f"unknown wheel joint(s) {unknown}; the set's: "
+                                                                    f"{', '.join(self.joints)}")
+            given = [joint_name(w) for w in self.reconfiguration.given_up]
+            back = [j for j in self.param("out_of_use") or [] if j not in wanted and j in given]
+            if back:
+                return SetParametersResult(successful=False, reason=f"{', '.join(back)} given up: a wheel given up "
+                                                                    "stays out of use")
+            self.operator += [j for j in wanted if j not in given and j not in self.operator]
+        return SetParametersResult(successful=True)
+
+    # -- the command of one step ---------------------------------------------------------
+    def _verdict_needed(self, stamp) -> int:
+        """The /diagnostics stamp the command of ``stamp`` waits for (-1: none)."""
+        if not self.param("fdir"):
+            return -1
+        made = stamp - int(round(self.delay.delay * 1e9))
+        return -1 if made < 0 else made - made % self.fdi_period_ns
+
+    def _try_command(self):
+        for stamp in sorted(self.axis_commands):
+            if len(self.axis_commands[stamp]) < 3:
+                return
+            if self.verdict_ns < self._verdict_needed(stamp) and not self._blind(stamp):
+                return
+            t = stamp_seconds(stamp)
+            due = self.delay.due(t) + [(j.removeprefix("reaction_wheel_"), OPERATOR) for j in self.operator]
+            if due and any(x is None for x in self.state.get(stamp, (None,))):
+                self.delay.pending[:0] = [(t, w) for w in due if w[1] != OPERATOR]
+                return   # the momentum check reads this step's state: it comes with the attitude
+            self.operator = []
+            self.waiting_since = None
+            commands = self.axis_commands.pop(stamp)
+            speeds, rate = self.state.pop(stamp, (None, None))
+            for old in [s for s in self.state if s < stamp]:
+                del self.state[old]
+            decisions = []
+            for wheel, reason in due:   # an operator's command is obeyed even where it costs the pointing
+                decisions += self.reconfiguration.give_up(wheel, t, reason, speeds, INERTIA * rate,
+                                                          force=reason == OPERATOR)
+            if decisions:
+                self.allocator.use(self.reconfiguration.ordered_in_use())
+                for d in decisions:
+                    self.get_logger().warning(d.message())
+            if decisions or not self.said_start:
+                self.said_start = True
+                self._publish_wheels(stamp)
+            u = self.allocator.wheel_commands([[commands[0], commands[1], commands[2]]])[0]
+            self.pub.publish(joint_state_cdr(stamp, self.joints, effort=u))
+            self.last_handled = stamp
+
+    def _blind(self, stamp) -> bool:
+        """Whether to command without the verdict: none came for ``verdict_timeout`` wall seconds (said)."""
+        now = time.monotonic()
+        if self.waiting_since is None:
+            self.waiting_since = now
+        if now - self.waiting_since < self.param("verdict_timeout"):
+            return False
+        if not self.blind_said:
+            self.blind_said = True
+            self.get_logger().error(f"no /diagnostics for {self._verdict_needed(stamp) * 1e-9:g} s within "
+                                    f"{self.param('verdict_timeout'):g} s: FDIR blind, commanding without it")
+        return True
+
+    def _publish_wheels(self, stamp):
+        r = self.reconfiguration
+        msg = DiagnosticArray()
+        msg.header.stamp = time_msg(stamp)
+        last = {d.wheel: d for d in r.decisions}
+        for name, joint in zip(self.wheels.names, self.joints):
+            state = ("given_up" if name in r.given_up else "kept_in_use" if name in r.kept else
+                     "in_use" if name in r.in_use else "standby")
+            d = last.get(name)
+            status = DiagnosticStatus(level=STATES[state], name=f"fdir: reaction wheel {name}",
+                                      hardware_id=joint, message=state.replace("_", " ") + (
+                                          f" since {d.time:g} s: {d.reason}" if d else ""))
+            status.values = [KeyValue(key="state", value=state)] + (
+                [KeyValue(key="since", value=f"{d.time:g}"), KeyValue(key="reason", value=d.reason)] if d else [])
+            msg.status.append(status)
+        self.pub_fdir.publish(msg)
+
+    def poll(self):
+        if self.axis_commands:
+            self._try_command()
+        if self.pub.flush() & self.pub_fdir.flush() and self.run_ended():
+            self.finish()
+
+
+main = main_for(WheelAllocationNode)
+
+if __name__ == "__main__":
+    main()

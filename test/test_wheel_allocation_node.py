@@ -1,0 +1,79 @@
+"""The wheel allocation node's own logic, in process: the operator's parameter, the wait for the verdict,
+never a command to a wheel given up. (The live graph: test_fdir_graph.py.)"""
+import os
+
+import numpy as np
+import pytest
+
+from rw_fdi_ros.storage.cdr import joint_state_cdr, vector_cdr
+
+
+@pytest.fixture()
+def node(monkeypatch):
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(100 + os.getpid() % 100))
+    import rclpy
+    from rw_fdi_ros.nodes.wheel_allocation import WheelAllocationNode
+    rclpy.init()
+    n = WheelAllocationNode()
+    sent = []
+    n.pub.publish = sent.append        # what would go to the plant, as CDR bytes
+    n.pub_fdir.publish = lambda msg: sent.append(msg)
+    n.sent = sent
+    yield n
+    n.destroy_node()
+    rclpy.try_shutdown()
+
+
+def _step(node, k, axis=(1.0, -2.0, 0.5)):
+    stamp = k * 100_000_000
+    node._on_wheels(joint_state_cdr(stamp, node.joints, [0.0] * 4, [20.0, 19.0, 17.0, 0.0], [0.0] * 4))
+    node._on_attitude(joint_state_cdr(stamp, ("attitude_x", "attitude_y", "attitude_z"), [0.0] * 3, [0.0] * 3))
+    for i in range(3):
+        node._on_axis(i, vector_cdr(stamp, [axis[i] if j == i else 0.0 for j in range(3)]))
+
+
+def _commands(node):
+    from rw_fdi_ros.storage.cdr import read_joint_state_cdr
+    return [read_joint_state_cdr(m)[3] for m in node.sent if isinstance(m, bytes)]
+
+
+def test_the_operator_takes_a_wheel_out_and_it_is_never_commanded_again(node):
+    from rclpy.parameter import Parameter
+    node.set_parameters([Parameter("fdir", value=False)])   # no FDI here: no verdict to wait for
+    node._verdict_needed = lambda stamp: -1
+    _step(node, 0)
+    assert np.array_equal(_commands(node)[-1], [1.0, -2.0, 0.5, 0.0])   # three axis wheels: the identity
+    result = node.set_parameters([Parameter("out_of_use", value=["reaction_wheel_x"])])[0]
+    assert result.successful
+    _step(node, 1)
+    u = _commands(node)[-1]
+    assert u[0] == 0.0 and u[3] != 0.0
+    np.testing.assert_allclose(node.wheels.matrix @ u, [1.0, -2.0, 0.5], atol=1e-12)   # the same body torque
+    refused = node.set_parameters([Parameter("out_of_use", Parameter.Type.STRING_ARRAY, [])])[0]
+    assert not refused.successful and "stays out of use" in refused.reason
+    bad = node.set_parameters([Parameter("out_of_use", value=["reaction_wheel_q"])])[0]
+    assert not bad.successful and "reaction_wheel_s" in bad.reason
+    for k in range(2, 6):
+        _step(node, k)
+    assert all(u[0] == 0.0 for u in _commands(node)[1:])
+    fdir = [m for m in node.sent if not isinstance(m, bytes)][-1]
+    states = {s.hardware_id: {kv.key: kv.value for kv in s.values}["state"] for s in fdir.status}
+    assert states == {"reaction_wheel_x": "given_up", "reaction_wheel_y": "in_use", "reaction_wheel_z": "in_use",
+                      "reaction_wheel_s": "in_use"}
+
+
+def test_a_command_waits_for_the_verdict_it_depends_on(node):
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    for k in range(10):   # before 1 s no verdict is due: the commands go out at once
+        _step(node, k)
+    assert len(_commands(node)) == 10
+    _step(node, 10)       # t = 1 s depends on the verdict of t = 0
+    assert len(_commands(node)) == 10
+    msg = DiagnosticArray()
+    msg.status = [DiagnosticStatus(level=DiagnosticStatus.ERROR if j == "reaction_wheel_y" else DiagnosticStatus.OK,
+                                   hardware_id=j, values=[KeyValue(key="first_alarm", value="0")])
+                  for j in node.joints]
+    node._on_diagnostics(msg)   # stamped 0: y confirmed faulty, applied from t = 1 s
+    u = _commands(node)[-1]
+    assert len(_commands(node)) == 11 and u[1] == 0.0 and u[3] != 0.0
