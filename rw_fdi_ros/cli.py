@@ -244,7 +244,7 @@ def _cmd_bench(args) -> int:
                                   hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations")
     elif args.what == "recovery":
         from .tools.recovery_bench import CELLS, bench_recovery
-        runs = args.runs_per_cell or 200
+        runs = args.runs_per_cell or 100
         total = sum(args.fault_free_runs if c.kind is None else runs for c in CELLS)
         from tqdm import tqdm
         with tqdm(total=total, desc="recovery bench (core loop)", unit="run", file=sys.stderr) as bar:
@@ -450,7 +450,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--fault-free-runs", type=COUNT, default=1000, help="detection, units: fault-free runs")
     b.add_argument("--runs-per-cell", type=COUNT, default=None,
                    help="detection: runs per fault or ripple case (default 200); identification: per grid size "
-                        "(default 100)")
+                        "(default 100); recovery: per fault case (default 100)")
     b.add_argument("--units", action="store_true",
                    help="identification: on varied wheels, calibrated 150 s, sizes drawn over ranges (default "
                         "200 runs per kind, the bus 340; reports/identification_units)")

@@ -94,6 +94,16 @@ class BagWriter:
         self.writer.close()
 
 
+def _wheel_values(bag, name):
+    """(time [s], values (n, wheels)) of a per-wheel topic of a :class:`BagData` or :class:`BagSeries`: a
+    JointState's efforts (what the graph writes, one column per joint), or a Vector3Stamped's x, y, z (bags
+    recorded before the redundant wheel, one column per axis wheel)."""
+    if bag.types.get(name) == _VECTOR3_STAMPED:
+        return bag.vectors(name)
+    t, _, _, effort = bag.joint_states(name)
+    return t, effort
+
+
 @dataclass
 class BagData:
     """Decoded messages per topic, in log-time order, and how complete the file was."""
@@ -132,14 +142,7 @@ class BagData:
             return np.array([np.asarray(getattr(m, f), float) for _, m in rows]).reshape(len(rows), -1)
         return t, field("position"), field("velocity"), field("effort")
 
-    def wheel_values(self, name):
-        """(time [s], values (n, wheels)) of a per-wheel topic: a JointState's efforts (what the graph
-        writes, one column per joint), or a Vector3Stamped's x, y, z (bags recorded before the redundant
-        wheel, one column per axis wheel)."""
-        if self.types.get(name) == _VECTOR3_STAMPED:
-            return self.vectors(name)
-        t, _, _, effort = self.joint_states(name)
-        return t, effort
+    wheel_values = _wheel_values   # one function for both readers
 
     @property
     def scenario_text(self):
@@ -329,14 +332,7 @@ class BagSeries:
         t, fields = self._columns(name, 3)
         return (t, *(f.reshape(len(t), -1) if len(t) else np.zeros((0, 0)) for f in fields))
 
-    def wheel_values(self, name):
-        """(time [s], values (n, wheels)) of a per-wheel topic: a JointState's efforts (what the graph
-        writes, one column per joint), or a Vector3Stamped's x, y, z (bags recorded before the redundant
-        wheel, one column per axis wheel)."""
-        if self.types.get(name) == _VECTOR3_STAMPED:
-            return self.vectors(name)
-        t, _, _, effort = self.joint_states(name)
-        return t, effort
+    wheel_values = _wheel_values   # one function for both readers
 
     def _columns(self, name, n_fields):
         rows = self.rows.get(name)
