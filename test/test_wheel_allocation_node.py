@@ -77,3 +77,29 @@ def test_a_command_waits_for_the_verdict_it_depends_on(node):
     node._on_diagnostics(msg)   # stamped 0: y confirmed faulty, applied from t = 1 s
     u = _commands(node)[-1]
     assert len(_commands(node)) == 11 and u[1] == 0.0 and u[3] != 0.0
+
+
+def test_without_verdicts_it_goes_blind_once_and_stays_blind_until_one_comes(node):
+    import time
+    from rclpy.parameter import Parameter
+    node.set_parameters([Parameter("verdict_timeout", value=0.01)])
+    for k in range(11):
+        _step(node, k)
+    assert len(_commands(node)) == 10        # t = 1 s waits for the verdict of t = 0
+    time.sleep(0.05)
+    node._try_command()                       # the timeout passed: said, and commanded without it
+    assert len(_commands(node)) == 11 and node.blind_said
+    for k in range(11, 31):                   # no new verdict: every later step goes out at once
+        _step(node, k)
+    assert len(_commands(node)) == 31
+
+
+def test_an_operator_overrules_a_wheel_fdir_kept():
+    from rw_fdi_ros.core.fdir import Reconfiguration
+    from rw_fdi_ros.core.wheel_set import WHEEL_SETS
+    r = Reconfiguration(WHEEL_SETS["orthogonal_skew"])
+    speeds = [27.5, 25.0, 24.0, 0.0]
+    assert [d.action for d in r.give_up("x", 5.0, "confirmed", speeds)] == ["kept_in_use"]
+    assert r.give_up("x", 6.0, "confirmed", speeds) == []                 # FDIR does not ask again
+    forced = r.give_up("x", 7.0, "operator command", speeds, force=True)
+    assert [d.action for d in forced] == ["out_of_use", "in_use"] and r.ordered_in_use() == ("y", "z", "s")

@@ -37,7 +37,7 @@ from .wheel import WheelParams
 from .wheel_set import WheelSet
 
 DECISION_DELAY = 1.0   # [s] from the FDI sample a decision is made on to the first command it shapes
-# [s] the speed a wheel can hold and still be judged: the FDI's envelope, just under the 47.3 rad/s at which
+# [rad/s] the speed a wheel can hold and still be judged: the FDI's envelope, just under the 47.3 rad/s at which
 # friction takes the whole 5 V command (isolation.WHEEL_SPEED_ENVELOPE); what a reconfiguration may ask
 HOLDABLE_SPEED = WHEEL_SPEED_ENVELOPE
 ACTIONS = ("out_of_use", "in_use", "kept_in_use")
@@ -67,7 +67,8 @@ def held_speeds(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0, 0.0, 
                 wheel_inertia: float = WheelParams().inertia) -> np.ndarray:
     """Speeds (N,) [rad/s] the wheels ``in_use`` settle at once they hold all the momentum the spacecraft
     has now (the wheels' at ``wheel_speed`` (N,) plus the body's I w), the others stopped and the body
-    pointing: J G Omega' = J G Omega + I w with the minimum-norm Omega'.
+    pointing: J G Omega' = J G Omega + I w. Three wheels in use have one answer; with more, this is the
+    minimum-norm one, which the loop need not reach.
 
     Angular momentum is conserved: a wheel given up spins down by its friction and its momentum goes to
     the body, from which the controller moves it into the wheels in use. With three wheels in use there
@@ -111,8 +112,9 @@ class Reconfiguration:
         leaves it torque): it is kept in use and the decision says why. ``force`` (an operator's command)
         gives it up all the same, and says what that costs."""
         self.wheels.index(wheel)   # ValueError naming the wheels for an unknown one
-        if wheel in self.given_up or wheel in self.kept:
+        if wheel in self.given_up or (wheel in self.kept and not force):
             return []
+        self.kept.discard(wheel)   # an operator overrules a wheel FDIR kept
         spare = None
         if wheel in self.spares:   # a standby wheel that failed before it was needed
             self.spares.remove(wheel)

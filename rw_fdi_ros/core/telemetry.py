@@ -44,7 +44,7 @@ def model_reaction_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelPar
 
 @dataclass
 class FdiSample:
-    """One FDI sample of three wheels; every field (3,) and a mean over the FDI period."""
+    """One FDI sample of the wheel set's wheels; every field (N,) and a mean over the FDI period."""
 
     stamp_ns: int
     tcv: np.ndarray              # [V]

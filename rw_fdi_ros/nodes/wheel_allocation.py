@@ -55,7 +55,9 @@ class WheelAllocationNode(GraphNode):
         self.declare_parameter("control_period", 0.1)            # the lockstep tick [s]
         self.declare_parameter("fdir", True)                     # act on /diagnostics (false: no FDI in the graph)
         self.declare_parameter("fdi_period", 1.0)                # [s] the stamps /diagnostics comes at
-        self.declare_parameter("verdict_timeout", 10.0)          # wall s to wait for a verdict before going on
+        # wall s to wait for a verdict before going on: under the plant's command_timeout (5 s), or the plant
+        # would end the run first
+        self.declare_parameter("verdict_timeout", 3.0)
         self.declare_parameter("out_of_use", Parameter.Type.STRING_ARRAY)   # joints the operator took out
         self.declare_parameter("min_subscribers", 1)             # plant (+ recorder) before the first command
         self.declare_parameter("fdir_readers", 0)                # of /fdir/wheels (the recorder) before it goes
@@ -69,12 +71,17 @@ class WheelAllocationNode(GraphNode):
         self.allocator = TorqueAllocator(self.wheels)
         self.reconfiguration = Reconfiguration(self.wheels)
         self.delay = DecisionDelay()
-        self.operator = []          # joints the operator took out, not yet applied
+        self.operator = list(self.param("out_of_use") or [])   # joints the operator took out, not yet applied
+        unknown = [j for j in self.operator if j not in self.joints]
+        if unknown:
+            raise NodeError(f"parameter out_of_use: unknown wheel joint(s) {unknown}; the set's: "
+                            f"{', '.join(self.joints)}", EXIT_BAD_INPUT)
         self.axis_commands = {}     # stamp -> {axis index: value}
         self.state = {}             # stamp -> (wheel speeds, body rate): what a decision's momentum check reads
         self.verdict_ns = -1        # the latest /diagnostics stamp in
         self.waiting_since = None   # wall time a complete command started waiting for a verdict
         self.blind_said = False
+        self.blind_at = None        # the verdict stamp FDIR went blind at: blind until a newer one comes
         self.add_on_set_parameters_callback(self._on_parameters)
         self.pub = GatedPublisher(self.create_publisher(JointState, T.WHEEL_COMMAND, T.RELIABLE),
                                   self.param("min_subscribers"))
@@ -186,11 +193,14 @@ class WheelAllocationNode(GraphNode):
 
     def _blind(self, stamp) -> bool:
         """Whether to command without the verdict: none came for ``verdict_timeout`` wall seconds (said)."""
+        if self.blind_at is not None and self.blind_at == self.verdict_ns:
+            return True   # still no new verdict: do not stall every step again
         now = time.monotonic()
         if self.waiting_since is None:
             self.waiting_since = now
         if now - self.waiting_since < self.param("verdict_timeout"):
             return False
+        self.blind_at = self.verdict_ns
         if not self.blind_said:
             self.blind_said = True
             self.get_logger().error(f"no /diagnostics for {self._verdict_needed(stamp) * 1e-9:g} s within "

@@ -34,7 +34,7 @@ def replay_nodes(bags: list, out_bags: list, fdi: dict, plant: dict, rate: float
                                                "await_recorder": True}))
     nodes.append(NodeSpec("recorder", "recorder", {"outputs": [str(b) for b in out_bags],
                                                    "fdi_period": choices.fdi_period, "fdi_method": fdi_method(fdi),
-                                                   "record_plant": False}))
+                                                   "record_plant": False, "wheel_set": choices.wheel_set}))
     return with_reader_counts(nodes)
 
 

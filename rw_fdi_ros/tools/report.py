@@ -214,7 +214,7 @@ def write_plots(runs, figures: dict, out: Path) -> list:
                     ax.fill_between(s.time, 0, 1, where=s.alarm[:, i], transform=ax.get_xaxis_transform(),
                                     color="tab:orange", alpha=0.15)
                 for f in r.faults:
-                    if AXES[f.wheel] == a:
+                    if r.wheels[f.wheel] == a:
                         ax.axvline(f.onset, color="k", lw=0.8)
                 ax.set_title(f"{obs}, wheel {a}", fontsize=9)
                 ax.grid(alpha=0.3)
