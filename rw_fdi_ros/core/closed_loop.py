@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .allocation import TorqueAllocator
-from .fdir import DecisionDelay, Reconfiguration, confirmed_reason
+from .fdir import DecisionDelay, Reconfiguration
 from .onboard import OnboardVerdict
 from .pid import PidController, PidGains, design_gains
 from .plant import Plant
@@ -98,10 +98,8 @@ def _fdir_step(onboard, reconfig, delays, allocator, plant, sample):
     stamp = int(round(sample.time * 1e9))
     confirmed = onboard.add(stamp, sample.tcv, sample.reaction_torque, sample.wheel_speed)
     for b, (r, delay) in enumerate(zip(reconfig, delays)):
-        for wheel, first in sorted((confirmed[b] if confirmed else {}).items(), key=lambda x: x[1]):
-            if wheel not in r.given_up and wheel not in r.kept and wheel not in delay.requested:
-                delay.requested.add(wheel)
-                delay.put(sample.time, (wheel, confirmed_reason(first)))
+        if confirmed:
+            delay.confirm(confirmed[b], sample.time, r.settled)
         for wheel, reason in delay.due(sample.time):
             if r.give_up(wheel, sample.time, reason, sample.wheel_speed[b], plant.inertia * sample.body_rate[b]):
                 allocator.use(r.ordered_in_use(), b)

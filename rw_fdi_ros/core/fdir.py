@@ -146,6 +146,11 @@ class Reconfiguration:
         self.decisions.append(kept)
         return [kept]
 
+    @property
+    def settled(self) -> set:
+        """The wheels decided for good: given up, or kept with the reason said."""
+        return set(self.given_up) | self.kept
+
     def ordered_in_use(self) -> tuple:
         """The wheels in use in the set's order."""
         return tuple(n for n in self.wheels.names if n in self.in_use)
@@ -161,6 +166,15 @@ class DecisionDelay:
 
     def put(self, made_at: float, what):
         self.pending.append((made_at + self.delay, what))
+
+    def confirm(self, confirmed: dict, made_at: float, settled=()):
+        """Put each wheel of ``confirmed`` (wheel -> first alarm [s], in the set's order) that is not
+        ``settled`` and was not put before: a confirmed failure is decided once, the earliest alarm first
+        (ties in the set's order). The core loop and the wheel allocation node both call this."""
+        for wheel, first in sorted(confirmed.items(), key=lambda c: c[1]):
+            if wheel not in settled and wheel not in self.requested:
+                self.requested.add(wheel)
+                self.put(made_at, (wheel, confirmed_reason(first)))
 
     def due(self, t: float) -> list:
         """What is due at sim time ``t`` (in the order it was put), removed from the pending."""

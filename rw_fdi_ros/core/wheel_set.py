@@ -113,6 +113,8 @@ WHEEL_SETS = {
     "orthogonal": WheelSet("orthogonal", ("x", "y", "z"), ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))),
 }
 DEFAULT_WHEEL_SET = "orthogonal_skew"
+# every name a wheel of any set has (a bag reader asks for any set's per-wheel topics)
+ALL_WHEEL_NAMES = tuple(sorted({n for ws in WHEEL_SETS.values() for n in ws.names}))
 
 
 def joint_name(wheel: str) -> str:

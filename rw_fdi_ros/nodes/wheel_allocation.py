@@ -30,7 +30,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from ..core.allocation import TorqueAllocator
-from ..core.fdir import DecisionDelay, Reconfiguration, confirmed_reason
+from ..core.fdir import DecisionDelay, Reconfiguration
 from ..core.isolation import stamp_seconds
 from ..core.scenario import AXES
 from ..core.spacecraft import INERTIA
@@ -120,17 +120,13 @@ class WheelAllocationNode(GraphNode):
     def _on_diagnostics(self, msg):
         """A wheel /diagnostics says ERROR is confirmed faulty: decided now, applied DECISION_DELAY later."""
         stamp = stamp_ns(msg.header.stamp)
-        confirmed = []
+        confirmed = {}   # in the statuses' order: the set's
         for status in msg.status:
             name = status.hardware_id.removeprefix("reaction_wheel_")
             if status.level == DiagnosticStatus.ERROR and name in self.wheels.names:
                 first = next((kv.value for kv in status.values if kv.key == "first_alarm"), "none")
-                confirmed.append((float(first) if first != "none" else stamp_seconds(stamp), name))
-        for first, name in sorted(confirmed, key=lambda c: c[0]):   # sort is stable: set order for ties
-            if name not in self.reconfiguration.given_up and name not in self.reconfiguration.kept \
-                    and name not in self.delay.requested:
-                self.delay.requested.add(name)
-                self.delay.put(stamp_seconds(stamp), (name, confirmed_reason(first)))
+                confirmed[name] = float(first) if first != "none" else stamp_seconds(stamp)
+        self.delay.confirm(confirmed, stamp_seconds(stamp), self.reconfiguration.settled)
         self.verdict_ns = max(self.verdict_ns, stamp)
         self._try_command()
 

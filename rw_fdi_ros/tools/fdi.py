@@ -72,9 +72,8 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=No
 
 def verdict_topics() -> list:
     """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag."""
-    from ..core.wheel_set import WHEEL_SETS
-    wheels = sorted({n for ws in WHEEL_SETS.values() for n in ws.names})   # any set's Elman topics
-    bounds = [T.bound_topic(obs, a) for obs in T.OBSERVERS for a in (wheels if obs == "elman" else (None,))]
+    from ..core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
+    bounds = [T.bound_topic(obs, a) for obs in T.OBSERVERS for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
     return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, *metrics.fdi_output_topics(), *bounds]
 
 

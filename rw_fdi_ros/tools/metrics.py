@@ -69,9 +69,8 @@ class RunEval:
 
 def fdi_output_topics() -> list:
     """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more)."""
-    from ..core.wheel_set import WHEEL_SETS
-    wheels = sorted({n for ws in WHEEL_SETS.values() for n in ws.names})   # any set's Elman topics
-    rows = [T.residual_topic(obs, a) for obs in OBSERVERS for a in (wheels if obs == "elman" else (None,))]
+    from ..core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
+    rows = [T.residual_topic(obs, a) for obs in OBSERVERS for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
     return rows + [t for obs in OBSERVERS for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
         T.IDENTIFICATION, T.SCENARIO]
 
