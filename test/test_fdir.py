@@ -115,12 +115,18 @@ def test_the_momentum_a_replacement_must_hold():
     np.testing.assert_allclose(need, [0.0, 5.0, 4.0, 20.0 * np.sqrt(3.0)], atol=1e-12)
     assert momentum_shortfall(SKEW, ("y", "z", "s"), speeds) is None
     assert "47.6 rad/s" in momentum_shortfall(SKEW, ("y", "z", "s"), [27.5, 25.0, 24.0, 0.0])
-    # the wheels left could not hold it: a confirmed wheel is kept (it may still hold the pointing), said why;
-    # an operator's command gives it up all the same and says what that costs
-    kept = Reconfiguration(SKEW).give_up("x", 5.0, "confirmed", [27.5, 25.0, 24.0, 0.0])
-    assert [(d.wheel, d.action) for d in kept] == [("x", "kept_in_use")] and "would not help" in kept[0].reason
+    # the wheels left could not hold it: a confirmed wheel is held at its speed (out of control, a momentum
+    # store) and s brought in, said why; an operator's command gives it up all the same and says what that costs
+    r = Reconfiguration(SKEW)
+    held = r.give_up("x", 5.0, "confirmed", [27.5, 25.0, 24.0, 0.0])
+    assert [(d.wheel, d.action) for d in held] == [("x", "held"), ("s", "in_use")] and "47.6 rad/s" in held[0].reason
+    assert r.held == {"x": 27.5} and r.ordered_in_use() == ("y", "z", "s") and "x" in r.settled
+    assert r.give_up("x", 6.0, "confirmed", [27.5, 25.0, 24.0, 0.0]) == []       # decided once
     forced = Reconfiguration(SKEW).give_up("x", 5.0, "operator", [27.5, 25.0, 24.0, 0.0], force=True)
     assert [d.action for d in forced] == ["out_of_use", "in_use"] and "47.6 rad/s" in forced[1].reason
+    assert "dumped" in forced[1].reason
+    overruled = r.give_up("x", 7.0, "operator", [20.0, 25.0, 24.0, 10.0], force=True)   # a held wheel given up
+    assert [(d.wheel, d.action) for d in overruled] == [("x", "out_of_use")] and not r.held and "x" in r.given_up
     d = DecisionDelay(1.0)
     d.put(10.0, "a")
     assert d.due(10.9) == [] and d.due(11.0) == ["a"] and d.due(12.0) == []
@@ -158,3 +164,39 @@ def test_a_scenario_names_the_wheels_of_its_set():
     for name in three:   # the redundant wheel's unit is drawn apart: the three keep theirs
         assert np.array_equal(three[name], four[name][:3]) and four[name][3] != 1.0
     assert WheelParams().inertia == pytest.approx(0.0077)
+
+
+def test_the_hold_command_cancels_friction_at_the_reference_and_pulls_back_to_it():
+    """u = u_f(Omega_ref) + k (Omega_ref - Omega): at the reference the wheel's net torque is zero
+    (closed form, eq. 2.15's friction), off it the command pulls it back, and it stays in +-5 V."""
+    from rw_fdi_ros.core.allocation import HOLD_GAIN, hold_command
+    from rw_fdi_ros.core.wheel import friction_torque
+    p = WheelParams()
+    u = hold_command(30.0, 30.0)
+    assert p.driver_gain * p.torque_constant * u == pytest.approx(float(friction_torque(30.0, 23.0, p)), rel=1e-12)
+    assert hold_command(30.0, 29.0) == pytest.approx(u + HOLD_GAIN)
+    assert hold_command(30.0, 0.0) == 5.0 and hold_command(-30.0, 0.0) == -5.0
+    a = TorqueAllocator(SKEW, 1)
+    a.use(("y", "z", "s"), held={"x": 30.0})
+    out = a.wheel_commands([[1.0, 0.0, 0.0]], [[30.0, 0.0, 0.0, 0.0]])[0]
+    assert out[0] == pytest.approx(u) and np.allclose(SKEW.matrix[:, 1:] @ out[1:], [1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="wheel speeds"):
+        a.wheel_commands([[1.0, 0.0, 0.0]])
+
+
+def test_a_wheel_whose_momentum_the_others_cannot_take_is_held_and_the_pointing_recovers():
+    """Bus 5.5 V on x at 30 rad/s: giving x up would ask s for 52 rad/s, so x is held out of control and s
+    comes in; x slows to the speed its bus can hold (wheel.bus_fault_visible_above: 23.5 rad/s) and s takes
+    only the momentum it sheds; the pointing is within 0.2 deg again within 60 s of the onset."""
+    from rw_fdi_ros.core.wheel import bus_fault_visible_above
+    curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
+    scenario = Scenario("t", duration=400.0, seed=5, faults=(Fault("bus_voltage", 0, 150.0, 5.5),),
+                        initial={"wheel_speed": (30.0, 25.0, 24.0)}, plant={"wheel_set": "orthogonal_skew"})
+    traj = simulate([scenario], fdir=Fdir(curves))
+    assert [(d.wheel, d.action) for d in traj.decisions[0]] == [("x", "held"), ("s", "in_use")]
+    assert traj.wheel_speed[-1, 0, 0] == pytest.approx(bus_fault_visible_above(5.5), abs=0.5)
+    assert traj.in_use[-1, 0].tolist() == [False, True, True, True]
+    after = traj.time > traj.decisions[0][0].time
+    assert np.all(traj.tcv[after, 0, 0] > 0.0)           # held: commanded, never 0 V
+    error = np.degrees(np.abs(traj.error[:, 0])).max(axis=1)
+    assert error[traj.time >= 210.0].max() < 0.2

@@ -1,14 +1,16 @@
 """The graph closes the loop as the core loop does: same verdict, same reconfiguration, same run.
 
-One run of the FDIR scenario shortened (bus 4.5 V on x at 60 s, +150 C on the redundant wheel s at
-130 s) through the live graph (plant, controllers, wheel allocation with FDIR, every observer,
-isolation, recorder) and through closed_loop.simulate with the FDI's verdict in the loop. The bag
-holds every decision on /fdir/wheels; the wheel given up gets 0 V from the decision on; the
-attitude is the core loop's; an operator's parameter takes a wheel out of use the same way.
+One run of the FDIR scenario shortened (bus 4.5 V on x at 60 s, x spinning faster than s could take
+over, +150 C on the redundant wheel s at 130 s) through the live graph (plant, controllers, wheel
+allocation with FDIR, every observer, isolation, recorder) and through closed_loop.simulate with the
+FDI's verdict in the loop. The bag holds every decision on /fdir/wheels; the wheel held gets the
+speed-hold command of its own speed from the decision on; the attitude is the core loop's. (A wheel
+given up, 0 V: test_launch_file.py; an operator's parameter: test_wheel_allocation_node.py.)
 """
 import numpy as np
 import pytest
 
+from rw_fdi_ros.core.allocation import hold_command
 from rw_fdi_ros.core.closed_loop import Fdir, simulate
 from rw_fdi_ros.core.detection import ThresholdCurves
 from rw_fdi_ros.core.scenario import load_scenario
@@ -20,7 +22,7 @@ from rw_fdi_ros.tools.fdi import run_with_fdi
 SCENARIO = """name: fdir_short
 duration: 180.0
 seed: 21000000
-initial: {wheel_speed: [21.0, 19.0, 17.0]}
+initial: {wheel_speed: [30.0, 19.0, 17.0]}
 faults:
   - {kind: bus_voltage, wheel: x, onset: 60.0, value: 4.5}
   - {kind: temperature, wheel: s, onset: 130.0, value: 173.0}
@@ -42,19 +44,24 @@ def test_the_graph_reconfigures_as_the_core_loop_does(run):
     outcome, traj = run
     summary = outcome.summary
     core = [(d.time, d.wheel, d.action, d.reason) for d in traj.decisions[0]]
-    assert [(w, a) for _, w, a, _ in core] == [("x", "out_of_use"), ("s", "in_use"), ("s", "kept_in_use")]
-    state = {"out_of_use": "given_up", "in_use": "in_use", "kept_in_use": "kept_in_use"}
+    assert [(w, a) for _, w, a, _ in core] == [("x", "held"), ("s", "in_use"), ("s", "kept_in_use")]
+    state = {"held": "held", "in_use": "in_use", "kept_in_use": "kept_in_use"}
     graph = [(d["time"], d["wheel"], d["state"], d["reason"]) for d in summary["reconfiguration"]]
     assert sorted(graph) == sorted((t, w, state[a], r) for t, w, a, r in core)
-    data = read_bag(outcome.bag, topics=[T.ATTITUDE, T.WHEEL_COMMAND])
+    data = read_bag(outcome.bag, topics=[T.ATTITUDE, T.WHEEL_COMMAND, T.WHEELS])
     t, attitude, _, _ = data.joint_states(T.ATTITUDE)
     np.testing.assert_allclose(attitude, traj.attitude[:, 0], rtol=0, atol=1e-12)   # the same run
     t_cmd, _, _, command = data.joint_states(T.WHEEL_COMMAND)
-    given_up = core[0][0]
-    assert np.all(command[t_cmd >= given_up, 0] == 0.0) and np.any(command[t_cmd < given_up, 0] != 0.0)
-    assert np.any(command[t_cmd >= given_up, 3] != 0.0)      # s commanded from the reconfiguration on
+    t_w, _, speed, _ = data.joint_states(T.WHEELS)
+    held_at = core[0][0]
+    reference = float(traj.wheel_speed[np.searchsorted(traj.time, held_at - 1e-9), 0, 0])
+    after = t_cmd >= held_at
+    assert np.array_equal(t_w[np.searchsorted(t_w, t_cmd[after])], t_cmd[after])
+    np.testing.assert_allclose(command[after, 0], hold_command(reference, speed[np.searchsorted(t_w, t_cmd[after]), 0]),
+                               rtol=0, atol=1e-12)   # held: its speed-hold command, from its speed of that step
+    assert np.any(command[after, 3] != 0.0)      # s commanded from the reconfiguration on
     assert summary["pointing_back_s"] is not None and summary["pointing_back_s"] - 60.0 <= 60.0
     verdict = summary["fdi"]["verdict"]
     assert verdict["x"] and verdict["s"] and not verdict["y"] and not verdict["z"]
-    found = summary["fdi"]["identification"]["x"]   # identified from the samples before x's driver went off
-    assert found["fault_kind"] in ("bus_voltage", "unknown") and "switched off" in found["message"], found
+    found = summary["fdi"]["identification"]["x"]   # held, x stays driven: identified on all its samples
+    assert found["fault_kind"] == "bus_voltage" and "switched off" not in found["message"], found

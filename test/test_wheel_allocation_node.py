@@ -94,12 +94,36 @@ def test_without_verdicts_it_goes_blind_once_and_stays_blind_until_one_comes(nod
     assert len(_commands(node)) == 31
 
 
-def test_an_operator_overrules_a_wheel_fdir_kept():
+def test_an_operator_overrules_a_wheel_fdir_held():
     from rw_fdi_ros.core.fdir import Reconfiguration
     from rw_fdi_ros.core.wheel_set import WHEEL_SETS
     r = Reconfiguration(WHEEL_SETS["orthogonal_skew"])
     speeds = [27.5, 25.0, 24.0, 0.0]
-    assert [d.action for d in r.give_up("x", 5.0, "confirmed", speeds)] == ["kept_in_use"]
+    assert [d.action for d in r.give_up("x", 5.0, "confirmed", speeds)] == ["held", "in_use"]
     assert r.give_up("x", 6.0, "confirmed", speeds) == []                 # FDIR does not ask again
     forced = r.give_up("x", 7.0, "operator command", speeds, force=True)
-    assert [d.action for d in forced] == ["out_of_use", "in_use"] and r.ordered_in_use() == ("y", "z", "s")
+    assert [d.action for d in forced] == ["out_of_use"] and r.ordered_in_use() == ("y", "z", "s")
+    assert not r.held and r.given_up == ["x"]
+
+
+def test_a_held_wheel_gets_the_speed_hold_command_from_its_own_speed(node):
+    """x confirmed at 20 rad/s where s could not take its momentum: held at 20 rad/s, out of control;
+    its command each step is the hold law on that step's speed, the others the allocation's."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rw_fdi_ros.core.allocation import hold_command
+    node.reconfiguration.holdable = 10.0   # s holds 10 rad/s here: x's 20 is more than it could take
+    for k in range(10):
+        _step(node, k)
+    msg = DiagnosticArray()
+    msg.status = [DiagnosticStatus(level=DiagnosticStatus.ERROR if j == "reaction_wheel_x" else DiagnosticStatus.OK,
+                                   hardware_id=j, values=[KeyValue(key="first_alarm", value="0")])
+                  for j in node.joints]
+    node._on_diagnostics(msg)
+    _step(node, 10)
+    assert node.reconfiguration.held == {"x": 20.0}
+    u = _commands(node)[-1]
+    assert u[0] == pytest.approx(float(hold_command(20.0, 20.0)))
+    np.testing.assert_allclose(node.wheels.matrix[:, 1:] @ u[1:], [1.0, -2.0, 0.5], atol=1e-12)
+    fdir_msg = [m for m in node.sent if not isinstance(m, bytes)][-1]
+    states = {s.hardware_id: {kv.key: kv.value for kv in s.values}["state"] for s in fdir_msg.status}
+    assert states["reaction_wheel_x"] == "held" and states["reaction_wheel_s"] == "in_use"

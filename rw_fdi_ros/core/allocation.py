@@ -17,12 +17,19 @@ Voltage limit: where the largest |u_i| exceeds the +-5 V command range
 the whole vector is scaled down to it. A per-wheel clip (Basilisk's
 ``rwMotorVoltage``) would turn the body torque away from the demand and
 couple the axes; scaling keeps its direction and loses only magnitude.
+
+A wheel FDIR holds (fdir.py: confirmed faulty, but the wheels in use could
+not take its momentum) is out of the allocation and gets the speed-hold
+command of :func:`hold_command` instead, from its measured speed.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .wheel import WheelParams, holding_tcv
 from .wheel_set import WheelSet
+
+HOLD_GAIN = 2.0   # [V/(rad/s)] speed-hold gain: a 0.7 s time constant on the datasheet wheel, stable at 0.1 s
 
 
 def distribution(spin_axes, in_use) -> np.ndarray:
@@ -42,6 +49,21 @@ def limited(wheel_commands, limit: float):
     return np.where(peak > limit, u * (limit / np.maximum(peak, 1e-300)), u)
 
 
+def hold_command(reference, speed, gain: float = HOLD_GAIN, limit: float = 5.0,
+                 params: WheelParams = WheelParams()):
+    """Command [V] that holds a wheel at ``reference`` [rad/s] from its measured ``speed``:
+
+        u = u_f(Omega_ref) + k (Omega_ref - Omega),   clipped to +-``limit``
+
+    u_f the datasheet wheel's friction-cancelling voltage at 23 C (wheel.holding_tcv), k = ``gain``. The
+    proportional term takes up what the feed-forward misses (a unit's own drag, a current loss); where the
+    fault leaves less torque than friction (a bus drop's back-EMF limit), the wheel slows to the speed it
+    can hold and the wheels in use take the momentum it sheds."""
+    ref = np.asarray(reference, float)
+    u = holding_tcv(ref, 23.0, params) + gain * (ref - np.asarray(speed, float))
+    return np.minimum(np.maximum(u, -limit), limit)
+
+
 class TorqueAllocator:
     """Wheel commands of a batch of runs, each with its own wheels in use (``in_use``: (B, N) bool)."""
 
@@ -49,6 +71,7 @@ class TorqueAllocator:
         self.wheels = wheels
         self.limit = float(limit)
         self.in_use = np.tile(wheels.mask(wheels.active), (batch, 1))
+        self.hold_speed = np.full(self.in_use.shape, np.nan)   # [rad/s] per held wheel, NaN for the others
         self._matrix = {}
         self._dist = np.stack([self._distribution(row) for row in self.in_use])
 
@@ -58,13 +81,25 @@ class TorqueAllocator:
             self._matrix[key] = distribution(self.wheels.matrix, row)
         return self._matrix[key]
 
-    def use(self, names, b: int = 0):
-        """Run ``b`` uses the wheels ``names`` from the next command on (ValueError: they do not span)."""
+    def use(self, names, b: int = 0, held=None):
+        """Run ``b`` uses the wheels ``names`` from the next command on (ValueError: they do not span) and
+        holds the wheels of ``held`` (name -> speed [rad/s]) at their speed."""
         row = self.wheels.mask(names)
         self._dist[b] = self._distribution(row)
         self.in_use[b] = row
+        self.hold_speed[b] = np.nan
+        for name, speed in (held or {}).items():
+            self.hold_speed[b, self.wheels.index(name)] = speed
 
-    def wheel_commands(self, axis_commands) -> np.ndarray:
-        """u (B, N) [V] for the controllers' axis commands v (B, 3) [V], within the voltage limit."""
+    def wheel_commands(self, axis_commands, wheel_speed=None) -> np.ndarray:
+        """u (B, N) [V] for the controllers' axis commands v (B, 3) [V], within the voltage limit; a held
+        wheel's command from its ``wheel_speed`` (B, N) [rad/s] (needed once a wheel is held)."""
         v = np.asarray(axis_commands, float).reshape(len(self.in_use), 3)
-        return limited(np.einsum("bnk,bk->bn", self._dist, v), self.limit)
+        u = limited(np.einsum("bnk,bk->bn", self._dist, v), self.limit)
+        held = ~np.isnan(self.hold_speed)
+        if held.any():
+            if wheel_speed is None:
+                raise ValueError("a held wheel's command needs the wheel speeds")
+            speed = np.asarray(wheel_speed, float).reshape(u.shape)
+            u[held] = hold_command(self.hold_speed[held], speed[held], limit=self.limit)
+        return u

@@ -85,7 +85,8 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
             break
         if onboard is not None:
             _fdir_step(onboard, reconfig, delays, allocator, plant, sample)
-        sample = plant.step(allocator.wheel_commands(pid.update(sp, sample.attitude, sample.body_rate)))
+        sample = plant.step(allocator.wheel_commands(pid.update(sp, sample.attitude, sample.body_rate),
+                                                     sample.wheel_speed))
     time = np.arange(len(rec["attitude"])) * control_period
     return Trajectory(time=time, wheel_names=plant.wheels.names,
                       decisions=[r.decisions for r in reconfig] if reconfig else None,
@@ -102,7 +103,7 @@ def _fdir_step(onboard, reconfig, delays, allocator, plant, sample):
             delay.confirm(confirmed[b], sample.time, r.settled)
         for wheel, reason in delay.due(sample.time):
             if r.give_up(wheel, sample.time, reason, sample.wheel_speed[b], plant.inertia * sample.body_rate[b]):
-                allocator.use(r.ordered_in_use(), b)
+                allocator.use(r.ordered_in_use(), b, r.held)
 
 
 def step_metrics(traj: Trajectory, start: float = 0.0, band: float = 0.05, floor: float = np.deg2rad(0.01)):

@@ -14,7 +14,15 @@ is that decision, made the way flight FDIR makes it:
   the body (a pyramid loses one of four); if they do not, it is kept in
   use and the decision says why: a faulty wheel that still gives some
   torque is better than an axis without control, and the spacecraft never
-  commands a wheel it has given up on.
+  commands a wheel it has given up on;
+* where the wheels left could not hold the spacecraft's angular momentum
+  without it (:func:`momentum_shortfall`), the wheel is *held*: relieved
+  of attitude control (the standby wheel comes in all the same) and
+  commanded only to keep its speed (allocation.hold_command), a momentum
+  store. A wheel given up spins down by its friction and its momentum goes
+  to the others; a held one keeps what its fault lets it keep (a 4 V bus:
+  up to 6 rad/s, wheel.bus_fault_visible_above; a current loss or a hotter
+  bearing: all of it), so the wheels in use only take the rest.
 
 Every decision is a :class:`Decision` (time, wheel, action, reason), which
 the graph publishes and records.
@@ -40,7 +48,7 @@ DECISION_DELAY = 1.0   # [s] from the FDI sample a decision is made on to the fi
 # [rad/s] the speed a wheel can hold and still be judged: the FDI's envelope, just under the 47.3 rad/s at which
 # friction takes the whole 5 V command (isolation.WHEEL_SPEED_ENVELOPE); what a reconfiguration may ask
 HOLDABLE_SPEED = WHEEL_SPEED_ENVELOPE
-ACTIONS = ("out_of_use", "in_use", "kept_in_use")
+ACTIONS = ("out_of_use", "in_use", "kept_in_use", "held")
 
 
 def confirmed_reason(first_alarm: float) -> str:
@@ -59,7 +67,7 @@ class Decision:
 
     def message(self) -> str:
         what = {"out_of_use": "taken out of use", "in_use": "brought into use",
-                "kept_in_use": "kept in use"}[self.action]
+                "kept_in_use": "kept in use", "held": "held at its speed"}[self.action]
         return f"wheel {self.wheel} {what} at {self.time:g} s: {self.reason}"
 
 
@@ -87,18 +95,20 @@ def momentum_shortfall(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0
     if abs(need[worst]) <= holdable:
         return None
     return (f"wheel {wheels.names[worst]} would have to spin at {abs(need[worst]):.1f} rad/s to hold the stored "
-            f"momentum (holds {holdable:g}): pointing is lost until momentum is dumped")
+            f"momentum (holds {holdable:g})")
 
 
 class Reconfiguration:
     """Which wheels of ``wheels`` are in use, and the decisions that made it so."""
 
-    def __init__(self, wheels: WheelSet):
+    def __init__(self, wheels: WheelSet, holdable: float = HOLDABLE_SPEED):
         self.wheels = wheels
+        self.holdable = float(holdable)   # [rad/s] the speed a wheel in use may be asked to hold
         self.in_use = list(wheels.active)
         self.spares = list(wheels.standby)
         self.given_up = []
         self.kept = set()      # wheels confirmed faulty but kept (no replacement): said once
+        self.held = {}         # wheel -> the speed [rad/s] it is held at (out of control, a momentum store)
         self.decisions = []
 
     def give_up(self, wheel: str, t: float, reason: str, wheel_speed=None, body_momentum=(0.0, 0.0, 0.0),
@@ -108,35 +118,45 @@ class Reconfiguration:
 
         With the ``wheel_speed`` (N,) and ``body_momentum`` (3,) [N m s] now: when the wheels left could
         not hold the spacecraft's momentum (:func:`momentum_shortfall`), giving the wheel up would lose the
-        pointing for certain, while the faulty wheel may still hold it (a current loss or a hotter bearing
-        leaves it torque): it is kept in use and the decision says why. ``force`` (an operator's command)
-        gives it up all the same, and says what that costs."""
+        pointing for certain: it is held instead (relieved of control, kept at its speed now; see the module
+        docstring) and the standby wheel brought in, and the decision says why. ``force`` (an operator's
+        command) gives it up all the same, a held wheel too, and says what that costs."""
         self.wheels.index(wheel)   # ValueError naming the wheels for an unknown one
-        if wheel in self.given_up or (wheel in self.kept and not force):
+        if wheel in self.given_up or ((wheel in self.kept or wheel in self.held) and not force):
             return []
-        self.kept.discard(wheel)   # an operator overrules a wheel FDIR kept
         spare = None
         if wheel in self.spares:   # a standby wheel that failed before it was needed
             self.spares.remove(wheel)
         elif wheel in self.in_use:
             rest = [w for w in self.in_use if w != wheel]
             spare = next((s for s in self.spares if self.wheels.spans(rest + [s])), None)
-            if spare is None and not self.wheels.spans(rest):
-                return self._keep(wheel, t, f"{reason}; no wheel left to take over its torque")
+            if spare is None and not self.wheels.spans(rest):   # not even an operator can take its axis away
+                return [] if wheel in self.kept else self._keep(wheel, t, f"{reason}; no wheel left to take over "
+                                                                          "its torque")
             after = rest + ([spare] if spare is not None else [])
             short = None if wheel_speed is None else momentum_shortfall(self.wheels, after, wheel_speed,
-                                                                         body_momentum)
-            if short and not force:
-                return self._keep(wheel, t, f"{reason}; giving it up would not help: {short}")
+                                                                         body_momentum, self.holdable)
             self.in_use = after
             if spare is not None:
                 self.spares.remove(spare)
+            if short and not force:
+                speed = float(wheel_speed[self.wheels.index(wheel)])
+                self.held[wheel] = speed
+                out = [Decision(t, wheel, "held", f"{reason}; relieved of control and held at {speed:.1f} rad/s "
+                                                  f"as a momentum store: were it given up, {short}")]
+                return self._decided(out, spare, wheel, None)
+            if short:
+                short += ": pointing is lost until momentum is dumped"
+            self.given_up.append(wheel)
+            return self._decided([Decision(t, wheel, "out_of_use", reason)], spare, wheel, short)
+        self.held.pop(wheel, None)   # an operator overrules a wheel FDIR held
         self.given_up.append(wheel)
-        out = [Decision(t, wheel, "out_of_use", reason)]
+        return self._decided([Decision(t, wheel, "out_of_use", reason)], None, wheel, None)
+
+    def _decided(self, out: list, spare, wheel: str, short) -> list:
         if spare is not None:
-            short = None if wheel_speed is None else momentum_shortfall(self.wheels, self.in_use, wheel_speed,
-                                                                         body_momentum)
-            out.append(Decision(t, spare, "in_use", f"replaces wheel {wheel}" + (f"; but {short}" if short else "")))
+            out.append(Decision(out[0].time, spare, "in_use",
+                                f"replaces wheel {wheel}" + (f"; but {short}" if short else "")))
         self.decisions += out
         return out
 
@@ -148,8 +168,8 @@ class Reconfiguration:
 
     @property
     def settled(self) -> set:
-        """The wheels decided for good: given up, or kept with the reason said."""
-        return set(self.given_up) | self.kept
+        """The wheels decided for good: given up, held, or kept with the reason said."""
+        return set(self.given_up) | self.kept | set(self.held)
 
     def ordered_in_use(self) -> tuple:
         """The wheels in use in the set's order."""

@@ -15,8 +15,10 @@ timing, the one the core loop computes (test_fdir_graph.py). An operator
 takes a wheel out of use by the parameter ``out_of_use`` (joint names;
 ``ros2 param set /wheel_allocation out_of_use "['reaction_wheel_x']"``),
 from the next step on. Every decision goes out on /fdir/wheels (one status
-per wheel: in use, standby, given up and why), which the recorder keeps. A
-wheel given up is never commanded again.
+per wheel: in use, standby, held, given up and why), which the recorder
+keeps. A wheel given up is never commanded again; a held one (its momentum
+more than the wheels in use could take) gets only the speed-hold command,
+from its speed of the same step (allocation.hold_command).
 """
 from __future__ import annotations
 
@@ -43,7 +45,7 @@ from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 
 OPERATOR = "operator command"
 STATES = {"in_use": DiagnosticStatus.OK, "standby": DiagnosticStatus.OK, "kept_in_use": DiagnosticStatus.WARN,
-          "given_up": DiagnosticStatus.ERROR}
+          "held": DiagnosticStatus.WARN, "given_up": DiagnosticStatus.ERROR}
 
 
 class WheelAllocationNode(GraphNode):
@@ -112,10 +114,14 @@ class WheelAllocationNode(GraphNode):
     def _on_wheels(self, raw):
         stamp, _, speed, _ = read_joint_state_cdr(raw)
         self.state.setdefault(stamp, [None, None])[0] = speed
+        if self.axis_commands:   # a command may be waiting for this state
+            self._try_command()
 
     def _on_attitude(self, raw):
         stamp, _, rate, _ = read_joint_state_cdr(raw)
         self.state.setdefault(stamp, [None, None])[1] = rate
+        if self.axis_commands:
+            self._try_command()
 
     def _on_diagnostics(self, msg):
         """A wheel /diagnostics says ERROR is confirmed faulty: decided now, applied DECISION_DELAY later."""
@@ -163,9 +169,9 @@ class WheelAllocationNode(GraphNode):
                 return
             t = stamp_seconds(stamp)
             due = self.delay.due(t) + [(j.removeprefix("reaction_wheel_"), OPERATOR) for j in self.operator]
-            if due and any(x is None for x in self.state.get(stamp, (None,))):
+            if (due or self.reconfiguration.held) and any(x is None for x in self.state.get(stamp, (None,))):
                 self.delay.pending[:0] = [(t, w) for w in due if w[1] != OPERATOR]
-                return   # the momentum check reads this step's state: it comes with the attitude
+                return   # the momentum check and a held wheel read this step's state: it comes with the attitude
             self.operator = []
             self.waiting_since = None
             commands = self.axis_commands.pop(stamp)
@@ -177,13 +183,14 @@ class WheelAllocationNode(GraphNode):
                 decisions += self.reconfiguration.give_up(wheel, t, reason, speeds, INERTIA * rate,
                                                           force=reason == OPERATOR)
             if decisions:
-                self.allocator.use(self.reconfiguration.ordered_in_use())
+                self.allocator.use(self.reconfiguration.ordered_in_use(), held=self.reconfiguration.held)
                 for d in decisions:
                     self.get_logger().warning(d.message())
             if decisions or not self.said_start:
                 self.said_start = True
                 self._publish_wheels(stamp)
-            u = self.allocator.wheel_commands([[commands[0], commands[1], commands[2]]])[0]
+            u = self.allocator.wheel_commands([[commands[0], commands[1], commands[2]]],
+                                              None if speeds is None else [speeds])[0]
             self.pub.publish(joint_state_cdr(stamp, self.joints, effort=u))
             self.last_handled = stamp
 
@@ -210,7 +217,7 @@ class WheelAllocationNode(GraphNode):
         last = {d.wheel: d for d in r.decisions}
         for name, joint in zip(self.wheels.names, self.joints):
             state = ("given_up" if name in r.given_up else "kept_in_use" if name in r.kept else
-                     "in_use" if name in r.in_use else "standby")
+                     "held" if name in r.held else "in_use" if name in r.in_use else "standby")
             d = last.get(name)
             status = DiagnosticStatus(level=STATES[state], name=f"fdir: reaction wheel {name}",
                                       hardware_id=joint, message=state.replace("_", " ") + (

@@ -71,9 +71,9 @@ def run_summary(path) -> dict:
            "faults": [f.as_dict(wheels) for f in scenario.faults], "bag": str(info.path),
            "complete": info.complete,
            "reconfiguration": [{"time": t, "wheel": joint.removeprefix("reaction_wheel_"), "state": state,
-                                "reason": reason}   # at one time: the wheel given up before the one brought in
+                                "reason": reason}   # at one time: the wheel given up (held) before the one brought in
                                for (t, joint), (state, reason) in sorted(
-                                   decisions.items(), key=lambda d: (d[0][0], d[1][0] != "given_up"))]}
+                                   decisions.items(), key=lambda d: (d[0][0], d[1][0] not in ("given_up", "held")))]}
     if peak is not None:
         out["peak_error_after_fault_deg"] = dict(zip(AXES, peak.round(4).tolist()))
         # pointing within the requirement from this time on (never out after the onset: the onset)
