@@ -1,4 +1,4 @@
-"""README's node parameter table and the nodes' declarations cannot drift apart.
+"""docs/graph.md's node parameter table and the nodes' declarations cannot drift apart.
 
 The declarations are read from the node modules' source (every `self.declare_parameter(...)` with a
 literal name, in the node's own module and the base classes it uses); the two kinds declared in a
@@ -44,9 +44,9 @@ def declared(modules) -> dict:
     return out
 
 
-def readme_rows():
-    """The cells (node, name, type, default, unit, description) of README's "Node parameters" table."""
-    text = (ROOT / "README.md").read_text()
+def documented_rows():
+    """The cells (node, name, type, default, unit, description) of docs/graph.md's "Node parameters" table."""
+    text = (ROOT / "docs" / "graph.md").read_text()
     section = text.split("## Node parameters", 1)[1].split("\n## ", 1)[0]
     for line in section.splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
@@ -54,17 +54,17 @@ def readme_rows():
             yield cells
 
 
-def readme_table() -> dict:
-    """node -> parameter -> (type, default) of README's "Node parameters" table."""
+def documented_table() -> dict:
+    """node -> parameter -> (type, default) of docs/graph.md's "Node parameters" table."""
     rows = {}
-    for cells in readme_rows():
+    for cells in documented_rows():
         rows.setdefault(cells[0], {})[cells[1].strip("`")] = (cells[2], cells[3])
     return rows
 
 
 @pytest.mark.parametrize("node", sorted(NODES))
 def test_readme_lists_every_parameter_the_node_declares(node):
-    table = readme_table().get(node, {})
+    table = documented_table().get(node, {})
     code = declared(NODES[node])
     assert set(table) == set(code) | LOOPED.get(node, set())
     for name, (kind, default) in code.items():
@@ -73,17 +73,17 @@ def test_readme_lists_every_parameter_the_node_declares(node):
 
 
 def test_the_table_check_would_see_a_missing_row():
-    table = readme_table()
+    table = documented_table()
     assert "stall_timeout" in table["player"] and "stall_timeout" in declared(NODES["player"])
     assert set(table) == set(NODES)
 
 
 def test_every_numeric_parameter_has_a_range_and_the_table_states_it():
     """Issue 26: `--persistence -2` made every wheel alarm with nothing said; every numeric node parameter
-    is now range-checked at declaration (nodes/parameters.py) and README says the range."""
+    is now range-checked at declaration (nodes/parameters.py) and docs/graph.md says the range."""
     from rw_fdi_ros.nodes.parameters import range_of, range_text
     numeric = 0
-    for node, name, kind, _, _, description in readme_rows():
+    for node, name, kind, _, _, description in documented_rows():
         name = name.strip("`")
         if kind in ("int", "double"):
             numeric += 1

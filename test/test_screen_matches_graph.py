@@ -21,7 +21,7 @@ from rw_fdi_ros.tools.screen import load_fdi, screen_runs
 
 # (kind, value) per run; wheel = index mod 3, onset spread over 30..72 s
 KINDS = [("current_limiter", 0.9)] * 4 + [("temperature", 53.0)] * 3 + [("ripple_gain", 1.6)] * 3 + [None] * 2
-SEED0 = 20_000_000   # disjoint from every other seed range (README "Seeds")
+SEED0 = 20_000_000   # disjoint from every other seed range (docs/fdi.md "Seeds")
 
 
 def scenario_files(root):

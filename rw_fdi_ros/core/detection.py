@@ -7,7 +7,7 @@ Two methods, chosen by ``fdi_method`` (one setting for the whole FDI):
     threshold_k  = mean_n(residual_k) + 3 std_n(residual_k)   over N fault-free runs n (eq. 4.11)
     alarm        = residual above threshold for P = 5 consecutive samples
 
-``speed_aware`` (ours, README "FDI design"):
+``speed_aware`` (ours, docs/fdi.md):
     residual_k   = mean(r_j - r^_j, j = k-W+1..k)             signed: zero-mean ripple cancels
     bound_k      = (B/2) g_max reach(p_j) / W + kappa mean(|r_j|)   aliased ripple (telemetry.py) + model error
     threshold_k  = c_axis + bound_k                           c: designed false-alarm rate (fit_band)

@@ -18,13 +18,13 @@ AXES = ("x", "y", "z")
 # the manoeuvres a network was trained on: in operations (set-point changes at random times, hours of
 # slews and holds) it raised no false alarm where the Elman network raised 1.5 % (400-s runs) and 2 in
 # 6 two-hour runs, and it blamed no healthy wheel for a bus drop that tumbles its axis where the Elman
-# blamed one in 68 % (tools/operations_bench.py, tuning seeds; README "Operations"). The thesis method
+# blamed one in 68 % (tools/operations_bench.py, tuning seeds; docs/fdi.md "Operations"). The thesis method
 # has no model observer: its Elman network decides, as in the thesis.
 DECISION_OBSERVERS = {"speed_aware": "model", "thesis": "elman"}
 
 
 # The operating envelope's wheel speeds [rad/s]: the verdict is judged for |speed| <= this and STALE beyond.
-# Validated in operations from 0 (speeds through zero) to 45 rad/s (README "Operations"); above 47.3 rad/s
+# Validated in operations from 0 (speeds through zero) to 45 rad/s (docs/fdi.md "Operations"); above 47.3 rad/s
 # the nominal wheel cannot hold its speed even at the 5 V command limit (friction exceeds the motor's
 # torque, core/wheel.py), so a wheel there is not in any state the FDI was built for.
 WHEEL_SPEED_ENVELOPE = 45.0

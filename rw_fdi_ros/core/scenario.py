@@ -1,6 +1,6 @@
 """Scenarios: a seed, a duration, initial conditions, set-point changes and a fault schedule.
 
-A scenario file (YAML, see README "Scenario format") fixes what is fixed;
+A scenario file (YAML, see docs/scenarios.md) fixes what is fixed;
 everything it leaves open is drawn from the thesis Table 2.3 envelope with
 the run's seed, so the same seed always gives the same run.
 """

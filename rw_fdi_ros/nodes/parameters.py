@@ -3,7 +3,7 @@
 GraphNode.declare_parameter gives each numeric parameter named here a ROS 2 ParameterDescriptor with
 its range (IntegerRange / FloatingPointRange), so rcl refuses an out-of-range value at declaration
 and `ros2 param describe` shows the range; a non-finite float is refused too (a range lets NaN
-through). README's node parameter table states each range (test/test_node_parameters.py).
+through). docs/graph.md's node parameter table states each range (test/test_node_parameters.py).
 """
 from __future__ import annotations
 
@@ -82,7 +82,7 @@ def finite(value) -> bool:
 
 
 def range_text(limits) -> str:
-    """How README's table states a range: 'range [0, 1000]'."""
+    """How docs/graph.md's table states a range: 'range [0, 1000]'."""
     def shown(x):
         return str(x) if isinstance(x, int) else f"{x:g}"
     return f"range [{shown(limits[0])}, {shown(limits[1])}]"
