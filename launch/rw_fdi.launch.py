@@ -32,7 +32,7 @@ class RunFailed(RuntimeError):
 
 
 def _nodes(context):
-    from rw_fdi_ros.tools.run import resolve_scenario
+    from rw_fdi_ros.tools.campaigns.run import resolve_scenario
     from rw_fdi_ros.launch.graph import graph_nodes
     seed = int(LaunchConfiguration("seed").perform(context))
     scenario, path = resolve_scenario(LaunchConfiguration("scenario").perform(context), seed if seed >= 0 else None)

@@ -23,15 +23,15 @@ def writable_dir(path: str, option: str) -> Path:
 
 
 def _cmd_run(args) -> int:
-    from .tools.run import run_scenario
-    from .tools.summary import format_summary
-    from .tools.run import resolve_scenario
+    from .tools.campaigns.run import run_scenario
+    from .tools.campaigns.summary import format_summary
+    from .tools.campaigns.run import resolve_scenario
     scenario, _ = resolve_scenario(args.scenario, args.seed)   # a bad scenario is the first thing to say
     writable_dir(args.out, "--out")
     wheels = scenario.wheel_set()
     nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
     if args.fdi:
-        from .tools.fdi import check_fdi_files, format_verdict, run_with_fdi
+        from .tools.campaigns.fdi import check_fdi_files, format_verdict, run_with_fdi
         check_fdi_files(args.models, args.thresholds, scenario.plant_choices(emf_limit=args.emf_limit),
                         args.fdi_method, args.unit_calibration, scenario.duration)
         nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
@@ -66,7 +66,7 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_campaign(args) -> int:
-    from .tools.campaign import run_campaign
+    from .tools.campaigns.campaign import run_campaign
     writable_dir(args.out, "--out")
     res = run_campaign(args.scenario, args.runs, args.seed_start, args.out, fdi=args.fdi,
                        executor=_executor(args))
@@ -81,12 +81,12 @@ def _cmd_campaign(args) -> int:
 
 
 def _executor(args):
-    from .tools.campaign import make_executor
+    from .tools.campaigns.campaign import make_executor
     return make_executor(getattr(args, "jobs", None), getattr(args, "scheduler", None))
 
 
 def _cmd_evaluate(args) -> int:
-    from .tools.evaluate import evaluate, main_summary
+    from .tools.evaluation.evaluate import evaluate, main_summary
     report = evaluate(args.bags, args.report, models=args.models, thresholds=args.thresholds,
                       persistence=args.persistence, executor=_executor(args), unit_calibration=args.unit_calibration)
     print(main_summary(report))
@@ -96,7 +96,7 @@ def _cmd_evaluate(args) -> int:
 
 def _cmd_reproduce(args) -> int:
     import time
-    from .tools.reproduce import reproduce
+    from .tools.evaluation.reproduce import reproduce
     t0 = time.monotonic()
     report = reproduce(args.out, args.scale, executor=_executor(args), persistence=args.persistence)
     print(f"reproduce ({args.scale}) done in {time.monotonic() - t0:.0f} s wall: {report['runs']} runs evaluated; "
@@ -105,9 +105,9 @@ def _cmd_reproduce(args) -> int:
 
 
 def _cmd_train(args) -> int:
-    from .tools.offline import plant_conditions
-    from .tools.samples import load_samples
-    from .tools.train import EPOCHS, THESIS_EPOCHS, train_models
+    from .tools.design.offline import plant_conditions
+    from .tools.design.samples import load_samples
+    from .tools.design.train import EPOCHS, THESIS_EPOCHS, train_models
     samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
     if args.runs:
         samples = samples[:args.runs]
@@ -129,8 +129,8 @@ def _cmd_fit(args) -> int:
     if (args.bags is None) == (args.simulate is None):
         raise ValueError("give either --bags DIR or --simulate SCENARIO --seeds A..B")
     seeds = parse_seeds(args.seeds, "--seeds") if args.simulate else None
-    from .tools.offline import fdi_method_of, fit_thresholds, load_models
-    from .tools.samples import load_samples
+    from .tools.design.offline import fdi_method_of, fit_thresholds, load_models
+    from .tools.design.samples import load_samples
     from .paths import config_dir, shown_path
     import time
     models_dir = args.models or str(config_dir() / "fdi")
@@ -161,7 +161,7 @@ def _simulated_fitting_runs(ref: str, seeds) -> tuple:
     from tqdm import tqdm
     from .core.plant_choices import PlantChoices
     from .core.scenario import load_scenario
-    from .tools.screen import simulated_runs
+    from .tools.evaluation.screen import simulated_runs
     scenario = load_scenario(ref)
     if scenario.faults:
         raise ValueError(f"--simulate {ref}: thresholds are fitted on fault-free runs, this scenario has faults")
@@ -173,7 +173,7 @@ def _simulated_fitting_runs(ref: str, seeds) -> tuple:
 
 
 def _cmd_defaults(args) -> int:
-    from .tools.defaults import format_report, regenerate_defaults
+    from .tools.design.defaults import format_report, regenerate_defaults
     from .paths import config_dir
     report = regenerate_defaults(work=args.work, out=args.out or config_dir() / "fdi", fit_runs=args.fit_runs,
                                  heldout_runs=args.heldout_runs, train_runs=args.train_runs,
@@ -198,8 +198,8 @@ def parse_seeds(text: str, option: str) -> range:
 def _cmd_screen(args) -> int:
     seeds = parse_seeds(args.seeds, "--seeds")   # before the imports: a bad option answers at once
     from .core.scenario import load_scenario
-    from .tools.screen import format_screen, screen
-    from .tools.fdi import check_fdi_files
+    from .tools.evaluation.screen import format_screen, screen
+    from .tools.campaigns.fdi import check_fdi_files
     for name in args.scenario:
         if args.unit_calibration:
             check_fdi_files(args.models, args.thresholds, None, args.fdi_method, args.unit_calibration,
@@ -218,15 +218,15 @@ def _cmd_scenarios(args) -> int:
 
 
 def _cmd_bench(args) -> int:
-    from .tools.bench import bench_fdi, bench_graph, bench_study
+    from .tools.benches.bench import bench_fdi, bench_graph, bench_study
     if args.what == "study":
         report = bench_study(runs=args.runs, duration=args.duration, seed=args.seed, jobs=args.jobs)
     elif args.what == "detection":
-        from .tools.detection_bench import bench_detection
+        from .tools.benches.detection_bench import bench_detection
         report = bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
                                  out=args.out or "reports/detection")
     elif args.what == "memory":
-        from .tools.memory_bench import bench_memory
+        from .tools.benches.memory_bench import bench_memory
         try:
             hours = tuple(float(h) for h in args.hours.split(","))
         except ValueError:
@@ -235,15 +235,15 @@ def _cmd_bench(args) -> int:
             raise ValueError(f"--hours: each length must be in (0, 48] hours, got {args.hours!r}")
         report = bench_memory(hours, seed=args.seed, out=args.out or "reports/memory")
     elif args.what == "units":
-        from .tools.units_bench import bench_units
+        from .tools.benches.units_bench import bench_units
         report = bench_units(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
                              out=args.out or "reports/units")
     elif args.what == "operations":
-        from .tools.operations_bench import bench_operations
+        from .tools.benches.operations_bench import bench_operations
         report = bench_operations(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
                                   hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations")
     elif args.what == "recovery":
-        from .tools.recovery_bench import CELLS, bench_recovery
+        from .tools.benches.recovery_bench import CELLS, bench_recovery
         runs = args.runs_per_cell or 100
         total = sum(args.fault_free_runs if c.kind is None else runs for c in CELLS)
         from tqdm import tqdm
@@ -251,7 +251,7 @@ def _cmd_bench(args) -> int:
             report = bench_recovery(runs_per_cell=runs, fault_free_runs=args.fault_free_runs, seeds=args.seed_set,
                                     out=args.out or "reports/recovery", progress=bar.update)
     elif args.what == "identification":
-        from .tools.identification_bench import bench_identification
+        from .tools.benches.identification_bench import bench_identification
         default_out = "reports/identification_units" if args.units else "reports/identification"
         report = bench_identification(runs_per_cell=args.runs_per_cell or (200 if args.units else 100),
                                       out=args.out or default_out, units=args.units,
@@ -269,7 +269,7 @@ def _cmd_bag(args) -> int:
     verdict: each a stream over the file, so memory does not grow with the run's length."""
     from .nodes import topics as T
     from .storage.bag import bag_info, read_series
-    from .tools.summary import format_summary, run_summary
+    from .tools.campaigns.summary import format_summary, run_summary
     info = bag_info(args.bag)
     state = "complete" if info.complete else f"incomplete: {info.note}"
     print(f"{info.path}: {state}")
@@ -284,7 +284,7 @@ def _cmd_bag(args) -> int:
         if T.PLANT_DONE not in info.counts:   # what a script checks after a launch that ended early
             print(f"  run interrupted: no {T.PLANT_DONE} (the plant did not reach the run's end)")
     if T.fdi_output_topics("elman")["alarm"] in info.counts:
-        from .tools.fdi import fdi_verdict, format_verdict, plot_residuals, verdict_topics
+        from .tools.campaigns.fdi import fdi_verdict, format_verdict, plot_residuals, verdict_topics
         from .tools.metrics import health_from_bag
         data = read_series(args.bag, verdict_topics())
         verdict = {**fdi_verdict(data), "health": health_from_bag(args.bag)}

@@ -107,12 +107,12 @@ def test_curves_are_refused_in_another_observer_slot():
 
 
 def test_fitting_runs_of_different_lengths_are_refused(tmp_path):
-    from rw_fdi_ros.tools.offline import fit_thresholds
-    from rw_fdi_ros.tools.samples import FdiSamples
+    from rw_fdi_ros.tools.design.offline import fit_thresholds
+    from rw_fdi_ros.tools.design.samples import FdiSamples
     def run(n, seed):
         z = np.zeros((n, 3))
         return FdiSamples(bag=None, seed=seed, time=np.arange(n, dtype=float), tcv=z, reaction_torque=z)
-    from rw_fdi_ros.tools.screen import load_fdi
+    from rw_fdi_ros.tools.evaluation.screen import load_fdi
     weights, _ = load_fdi(method="thesis")
     with pytest.raises(ThresholdError, match="different lengths \\(3 to 401 FDI samples; shortest: 2\\)"):
         fit_thresholds([run(401, 1), run(3, 2)], weights, tmp_path, plant={"emf_limit": "kf_scaled"})

@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from rw_fdi_ros.core.elman import ElmanObserver, ElmanWeights, ModelError, recall_series
-from rw_fdi_ros.tools.train import torch_forward, train_axis
+from rw_fdi_ros.tools.design.train import torch_forward, train_axis
 
 
 def weights(seed=0):

@@ -11,7 +11,8 @@ from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 from rw_fdi_ros.core.sampling import FdiSampler, sample_series
 from rw_fdi_ros.nodes import topics as T
 from rw_fdi_ros.storage.bag import BagWriter, read_bag, read_series
-from rw_fdi_ros.tools.metrics import RunEval, aggregate, judge, observers_of_runs, scenario_of, series_from_bag
+from rw_fdi_ros.tools.metrics import (RunEval, aggregate, judge, observers_of_runs, scenario_of,
+                                                series_from_bag)
 
 N = 101   # samples 0..100 s
 AXES = "xyz"
@@ -79,14 +80,14 @@ def test_a_bag_is_judged_by_the_observers_it_holds(tmp_path):
     assert observers_of_runs([r, full]) == ["elman", "linear"]   # what every run was judged by
     assert judge(full, "model")["correct"] and judge(r, "linear")["correct"]
     # a speed-aware bag (non-zero ripple bound) without a model slot predates the three slots: said so
-    from rw_fdi_ros.tools.fdi import fdi_verdict, format_verdict, verdict_topics
+    from rw_fdi_ros.tools.campaigns.fdi import fdi_verdict, format_verdict, verdict_topics
     old = make_bag(tmp_path / "old", FAULT_X, {"x": [(62, 1000)]}, observers=("elman", "linear"), linear_bound=1e-5)
     said = format_verdict(fdi_verdict(read_series(old, verdict_topics())))
     assert "its linear observer is the model observer" in said
     assert "note" not in fdi_verdict(read_series(tmp_path / "a", verdict_topics()))   # thesis: bound 0
     assert "note" not in fdi_verdict(read_series(tmp_path / "b", verdict_topics()))   # three slots
     # evaluation asks a replay for every observer of its method: one short of it is refused, not judged
-    from rw_fdi_ros.tools.evaluate import evaluate_replayed
+    from rw_fdi_ros.tools.evaluation.evaluate import evaluate_replayed
     scenario = scenario_of(read_bag(tmp_path / "a"))
     with pytest.raises(ValueError, match="a: the replay holds no outputs of the model observer"):
         evaluate_replayed(tmp_path / "a", tmp_path / "a", scenario, np.zeros(3), observers=["elman", "linear", "model"])
@@ -171,7 +172,7 @@ def _cell(kind, sev, detected, correct=None, delays=()):
 
 
 def test_headline_smallest_detected_and_table42_cells():
-    from rw_fdi_ros.tools.report import headline, smallest_detected
+    from rw_fdi_ros.tools.evaluation.report import headline, smallest_detected
     cells = [_cell("bus_voltage", 10.0, 0.1), _cell("bus_voltage", 20.0, 0.5, delays=(20.0, 30.0)),
              _cell("bus_voltage", 31.25, 0.9, correct=0.8, delays=(9.0,)), _cell("current_limiter", 20.0, 0.0),
              _cell("temperature", 60.0, 0.4), _cell("temperature", 150.0, 1.0, correct=1.0, delays=(12.0,))]
@@ -227,7 +228,7 @@ def test_alarm_intervals_are_the_runs_of_the_flag():
 
 
 def test_a_figure_line_keeps_every_bucket_extreme_in_bounded_points():
-    from rw_fdi_ros.tools.fdi import envelope
+    from rw_fdi_ros.tools.campaigns.fdi import envelope
     t = np.arange(100_000) * 1.0
     y = np.sin(t / 500.0)
     y[12_345], y[77_777] = 5.0, -4.0                    # spikes a plain stride would drop

@@ -7,7 +7,7 @@ from contextlib import closing
 
 import pytest
 
-from rw_fdi_ros.tools.campaign import LocalExecutor
+from rw_fdi_ros.tools.campaigns.campaign import LocalExecutor
 
 
 def test_an_interrupted_map_starts_no_queued_call():

@@ -24,8 +24,8 @@ from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.nodes import topics as T
 from rw_fdi_ros.paths import config_dir, fdi_dir
 from rw_fdi_ros.storage.bag import read_bag
-from rw_fdi_ros.tools.offline import load_models, observe
-from rw_fdi_ros.tools.samples import fdi_samples
+from rw_fdi_ros.tools.design.offline import load_models, observe
+from rw_fdi_ros.tools.design.samples import fdi_samples
 
 BIN = Path(sys.executable).parent
 SHIPPED = config_dir() / "fdi"
@@ -128,7 +128,7 @@ def test_a_thesis_run_replays_to_its_live_result_without_a_model_observer(runs, 
     """The thesis' FDI has no model observer: its replay graph neither starts one nor waits for one (the
     recorder once waited its drain timeout for /fdi/model and dropped the replay), and gives the live
     alarms, thresholds and residuals to the bit."""
-    from rw_fdi_ros.tools.replay import replay_bag
+    from rw_fdi_ros.tools.campaigns.replay import replay_bag
     live = runs["current_0p6_x_thesis"].bag
     thesis = fdi_dir("thesis")
     replayed = replay_bag(live, tmp_path / "replayed", models=thesis, thresholds=thesis, method="thesis")
@@ -250,7 +250,7 @@ def test_model_observer_refuses_the_thesis_method():
 def test_screen_without_ros_agrees_with_the_thesis_pattern():
     """The ROS-free screen (same code as the nodes), thesis method: Elman holds the current-loss alarm,
     linear loses it."""
-    from rw_fdi_ros.tools.screen import screen
+    from rw_fdi_ros.tools.evaluation.screen import screen
     out = screen(load_scenario("current_0p6_x"), range(12, 15), method="thesis")
     assert out["elman"]["held"] == 3 and out["elman"]["lost"] == 0
     assert out["linear"]["lost"] >= 2 and out["linear"]["lost"] > out["linear"]["held"]
@@ -285,9 +285,9 @@ def _set_value(msg, wheel, key, value):
 def test_the_fdi_reports_its_own_health_under_bad_inputs(runs, tmp_path):
     """Dropped, delayed, duplicated and NaN observer inputs: the statuses say so (never OK while a
     wheel could not be judged), a healthy wheel gets no fault verdict, an alarm is held, not lost."""
-    from rw_fdi_ros.tools.fdi import fdi_verdict, format_verdict, verdict_topics
+    from rw_fdi_ros.tools.campaigns.fdi import fdi_verdict, format_verdict, verdict_topics
     from rw_fdi_ros.tools.metrics import health_from_bag
-    from rw_fdi_ros.tools.replay import replay_bag
+    from rw_fdi_ros.tools.campaigns.replay import replay_bag
     from rw_fdi_ros.storage.bag import read_series
     s = 10**9
     first_alarm = runs["current_0p6_x"].summary["fdi"]["elman"]["x"][0][0]   # the live run's, on wheel x

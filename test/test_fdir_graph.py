@@ -17,7 +17,7 @@ from rw_fdi_ros.core.scenario import load_scenario
 from rw_fdi_ros.nodes import topics as T
 from rw_fdi_ros.paths import fdi_dir
 from rw_fdi_ros.storage.bag import read_bag
-from rw_fdi_ros.tools.fdi import run_with_fdi
+from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
 
 SCENARIO = """name: fdir_short
 duration: 180.0

@@ -19,7 +19,7 @@ from rw_fdi_ros.launch.graph import graph_nodes
 from rw_fdi_ros.launch.launcher import DomainLease, GraphProcesses
 from rw_fdi_ros.nodes import topics as T
 from rw_fdi_ros.storage.bag import read_bag
-from rw_fdi_ros.tools.run import resolve_scenario, run_scenario
+from rw_fdi_ros.tools.campaigns.run import resolve_scenario, run_scenario
 
 BIN = Path(sys.executable).parent
 FAULT_RUN = """name: short_faults
@@ -270,8 +270,8 @@ def test_nodes_alone_reject_a_joint_they_do_not_have():
 
 def test_a_campaign_starts_a_hung_graph_over_once(monkeypatch, tmp_path):
     """A watchdog failure (every process alive, none finishing) gets one more graph; others do not."""
-    from rw_fdi_ros.tools import campaign
-    from rw_fdi_ros.tools.run import RunOutcome
+    from rw_fdi_ros.tools.campaigns import campaign
+    from rw_fdi_ros.tools.campaigns.run import RunOutcome
     calls = []
 
     def fake_run(ref, seed, out_dir, **kwargs):

@@ -7,7 +7,7 @@ from rw_fdi_ros.core import identification as idf
 from rw_fdi_ros.core import wheel as wm
 from rw_fdi_ros.core.scenario import load_scenario
 from rw_fdi_ros.tools.metrics import judge_identification
-from rw_fdi_ros.tools.screen import load_fdi, screen_runs
+from rw_fdi_ros.tools.evaluation.screen import load_fdi, screen_runs
 
 P = wm.WheelParams()
 

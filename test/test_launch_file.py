@@ -23,7 +23,7 @@ from colcon_ws import colcon_env
 from launch_api import launch_env, ros2_launch_command, use_launch
 from rw_fdi_ros.launch.graph import graph_nodes, misread_by_yaml
 from rw_fdi_ros.launch.launcher import DomainLease
-from rw_fdi_ros.tools.run import resolve_scenario
+from rw_fdi_ros.tools.campaigns.run import resolve_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SOURCE_LAUNCH_FILE = ROOT / "launch" / "rw_fdi.launch.py"
@@ -108,7 +108,7 @@ def launch_fault(ws: Path, work: Path, duration: float):
 def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_verdict(colcon_workspace, tmp_path):
     from rw_fdi_ros.nodes import topics as T
     from rw_fdi_ros.storage.bag import bag_info, read_series
-    from rw_fdi_ros.tools.fdi import fdi_verdict, verdict_topics
+    from rw_fdi_ros.tools.campaigns.fdi import fdi_verdict, verdict_topics
     launch, scenario, bag = launch_fault(colcon_workspace, tmp_path, 90)
     try:
         code = launch.wait(timeout=240)

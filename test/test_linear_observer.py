@@ -58,7 +58,7 @@ def test_the_speed_aware_model_error_term_covers_held_out_runs():
     fault-free runs 5000-5009 no run errs by more per unit of torque demand, on any wheel."""
     from rw_fdi_ros.core.linear_observer import UNCERTAINTY_GAIN, estimate_series
     from rw_fdi_ros.core.scenario import AXES, load_scenario
-    from rw_fdi_ros.tools.screen import simulated_runs
+    from rw_fdi_ros.tools.evaluation.screen import simulated_runs
     runs = [s for _, s, _ in simulated_runs([load_scenario("fault_free").with_seed(k) for k in range(5000, 5010)])]
     from rw_fdi_ros.core.detection import demand_ratio
     for i, a in enumerate(AXES):

@@ -49,8 +49,8 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
     from rw_fdi_ros.launch.graph import graph_nodes
     from rw_fdi_ros.nodes import topics as T
     from rw_fdi_ros.storage.bag import BagWriter
-    from rw_fdi_ros.tools.evaluate import _check_bag
-    from rw_fdi_ros.tools.offline import plant_conditions
+    from rw_fdi_ros.tools.evaluation.evaluate import _check_bag
+    from rw_fdi_ros.tools.design.offline import plant_conditions
 
     ref = tmp_path / "quiet.yaml"
     ref.write_text("name: quiet\nduration: 10.0\nseed: 4\n"

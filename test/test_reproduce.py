@@ -14,11 +14,11 @@ import pytest
 from rw_fdi_ros.core.scenario import AXES
 from rw_fdi_ros.nodes import topics as T
 from rw_fdi_ros.storage.bag import BagError, BagWriter, read_bag
-from rw_fdi_ros.tools.campaign import DaskExecutor, LocalExecutor, run_campaign
-from rw_fdi_ros.tools.evaluate import evaluate
-from rw_fdi_ros.tools.report import validate_report
-from rw_fdi_ros.tools.reproduce import plan, reproduce
-from rw_fdi_ros.tools.run import short_step_topics
+from rw_fdi_ros.tools.campaigns.campaign import DaskExecutor, LocalExecutor, run_campaign
+from rw_fdi_ros.tools.evaluation.evaluate import evaluate
+from rw_fdi_ros.tools.evaluation.report import validate_report
+from rw_fdi_ros.tools.evaluation.reproduce import plan, reproduce
+from rw_fdi_ros.tools.campaigns.run import short_step_topics
 
 
 @pytest.fixture(scope="module")
@@ -79,8 +79,8 @@ def _same_fdi_result(live_bag, replayed_bag):
 def test_replay_equals_the_live_result(study):
     """Bags replayed one after another through one graph (the FDI nodes start over at each run) give
     exactly the FDI result recorded live in each; so does a replay paced by the wall clock."""
-    from rw_fdi_ros.tools.fdi import run_with_fdi
-    from rw_fdi_ros.tools.replay import replay_bag, replay_bags
+    from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
+    from rw_fdi_ros.tools.campaigns.replay import replay_bag, replay_bags
     out, _ = study
     scenario = next((out / "scenarios").glob("current_*pct_*.yaml"))
     models = out / "models"
@@ -194,7 +194,7 @@ def test_a_bad_bag_in_a_replay_graph_fails_alone(study, tmp_path):
     """One graph for [good, a bag without FDI telemetry, good]: the recorder refuses to close the bad run
     as finished, the graph is split, and both good bags are still replayed; a bag that cannot be read
     at all is answered before any graph starts."""
-    from rw_fdi_ros.tools.replay import replay_bags, replay_finished
+    from rw_fdi_ros.tools.campaigns.replay import replay_bags, replay_finished
     out, _ = study
     good = sorted((out / "bags" / "table42").iterdir())[:2]
     data = read_bag(good[0], topics=[T.SCENARIO, T.PLANT_DONE], raw=True)

@@ -15,9 +15,9 @@ import pytest
 from conftest import CASES
 from rw_fdi_ros.core.calibration import calibration_samples
 from rw_fdi_ros.core.scenario import AXES, load_scenario
-from rw_fdi_ros.tools.fdi import run_with_fdi
+from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
 from rw_fdi_ros.tools.metrics import judge
-from rw_fdi_ros.tools.screen import load_fdi, screen_runs
+from rw_fdi_ros.tools.evaluation.screen import load_fdi, screen_runs
 
 # (kind, value) per run; wheel = index mod 3, onset spread over 30..72 s
 KINDS = [("current_limiter", 0.9)] * 4 + [("temperature", 53.0)] * 3 + [("ripple_gain", 1.6)] * 3 + [None] * 2

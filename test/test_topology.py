@@ -12,8 +12,8 @@ import pytest
 from rw_fdi_ros.core.plant_choices import DEFAULT
 from rw_fdi_ros.launch.graph import NodeSpec, graph_nodes, with_reader_counts
 from rw_fdi_ros.nodes import topics as T
-from rw_fdi_ros.tools.replay import replay_nodes
-from rw_fdi_ros.tools.run import resolve_scenario
+from rw_fdi_ros.tools.campaigns.replay import replay_nodes
+from rw_fdi_ros.tools.campaigns.run import resolve_scenario
 
 
 def run_graph(fdi: bool, recording: bool):
@@ -107,7 +107,7 @@ def test_one_count_for_topics_with_different_readers_is_refused(monkeypatch):
 
 
 def test_graph_building_tools_import_no_rclpy():
-    code = ("import sys, rw_fdi_ros.nodes.topics, rw_fdi_ros.launch.graph, rw_fdi_ros.tools.replay\n"
+    code = ("import sys, rw_fdi_ros.nodes.topics, rw_fdi_ros.launch.graph, rw_fdi_ros.tools.campaigns.replay\n"
             "assert 'rclpy' not in sys.modules, 'rclpy imported'")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr

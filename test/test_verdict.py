@@ -10,7 +10,7 @@ import pytest
 from rw_fdi_ros.core.isolation import LatchedVerdict, decision_observer
 from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.tools.metrics import Series
-from rw_fdi_ros.tools.offline import verdict_series
+from rw_fdi_ros.tools.design.offline import verdict_series
 
 
 def rows(alarms, first):

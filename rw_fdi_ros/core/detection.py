@@ -81,7 +81,7 @@ class SignedResidual:
     (:func:`ripple_reach`; ripple_phasor: the FDI sample's mean of tau_m e^{i N theta}, telemetry.py)
     plus the observer's own model error, which grows with the torque the wheel is asked for
     (``uncertainty_gain`` kappa: 0 for the nominal wheel model, measured on the training runs
-    for an Elman network, tools/train.py), plus, with a ``calibration`` to the wheel's own unit
+    for an Elman network, tools/design/train.py), plus, with a ``calibration`` to the wheel's own unit
     (core/calibration.py), the uncertainty u of its correction to the estimate.
     """
 

@@ -13,7 +13,7 @@ u is the torque command voltage, r the reaction torque. In training mode
 r_{k-1} is the measured torque (thesis Fig. 4.9); in recall mode it is the
 network's own previous output (Fig. 4.8), so the network keeps modelling a
 healthy wheel when the real one turns faulty. The live node runs recall
-mode with this code; training (tools/train.py) uses torch with the same
+mode with this code; training (tools/design/train.py) uses torch with the same
 equations, and a test proves both agree.
 """
 from __future__ import annotations

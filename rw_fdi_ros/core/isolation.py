@@ -18,7 +18,7 @@ AXES = ("x", "y", "z")
 # the manoeuvres a network was trained on: in operations (set-point changes at random times, hours of
 # slews and holds) it raised no false alarm where the Elman network raised 1.5 % (400-s runs) and 2 in
 # 6 two-hour runs, and it blamed no healthy wheel for a bus drop that tumbles its axis where the Elman
-# blamed one in 68 % (tools/operations_bench.py, tuning seeds; docs/fdi.md "Operations"). The thesis method
+# blamed one in 68 % (tools/benches/operations_bench.py, tuning seeds; docs/fdi.md "Operations"). The thesis method
 # has no model observer: its Elman network decides, as in the thesis.
 DECISION_OBSERVERS = {"speed_aware": "model", "thesis": "elman"}
 

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.scenario import AXES, parse_scenario, setpoint_at
-from ..nodes.topics import ATTITUDE, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
+from ...core.scenario import AXES, parse_scenario, setpoint_at
+from ...nodes.topics import ATTITUDE, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
 
 SUMMARY_TOPICS = [SCENARIO, ATTITUDE, FAULT_EFFECT, FDIR_WHEELS]   # what run_summary reads of a bag
 POINTING_DEG = 0.2   # the pointing requirement [deg] (thesis Table 2.3)
@@ -18,8 +18,8 @@ def run_summary(path) -> dict:
 
     One pass over the bag folding each sample into the figures (the last error, running maxima):
     memory does not grow with the run's length."""
-    from ..storage.bag import BagInfo, iter_messages, typestore
-    from ..storage.cdr import read_joint_state_cdr, read_vector_cdr
+    from ...storage.bag import BagInfo, iter_messages, typestore
+    from ...storage.cdr import read_joint_state_cdr, read_vector_cdr
     info = BagInfo(path=Path(path))
     scenario, waiting = None, []   # attitude rows that came before the scenario (latched, at the start)
     last, peak, effect = None, None, None

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import yaml
 
-from ..core.scenario import AXES
-from .campaign import run_campaign
-from .train import EPOCHS
+from ...core.scenario import AXES
+from ..campaigns.campaign import run_campaign
+from ..design.train import EPOCHS
 
 
 @dataclass(frozen=True)
@@ -143,9 +143,9 @@ class StageClock:
 
 def reproduce(out, scale_name: str = "small", executor=None, persistence: int | None = None) -> dict:
     from .evaluate import evaluate
-    from .offline import fit_thresholds, load_models, plant_conditions
-    from .samples import load_samples
-    from .train import train_models
+    from ..design.offline import fit_thresholds, load_models, plant_conditions
+    from ..design.samples import load_samples
+    from ..design.train import train_models
     out = Path(out)
     s = SCALES[scale_name]
     jobs = plan(out, scale_name)
@@ -180,7 +180,7 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int | 
     t = time.monotonic()
     replays = out / "report" / "replays"
     def replayed():   # complete replays only: a stalled one leaves an incomplete directory behind
-        from ..storage.bag import bag_is_complete
+        from ...storage.bag import bag_is_complete
         return sum(bag_is_complete(p) for p in replays.iterdir()) if replays.is_dir() else 0
     before = replayed()
     report = evaluate(out / "bags", out / "report", models=models, thresholds=models, persistence=persistence,

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.telemetry import sample_telemetry
-from ..nodes.convert import fdi_sample_of
-from ..nodes.topics import AXES, FDI_TELEMETRY
-from ..storage.bag import BagError, bag_is_complete, read_bag
+from ...core.telemetry import sample_telemetry
+from ...nodes.convert import fdi_sample_of
+from ...nodes.topics import AXES, FDI_TELEMETRY
+from ...storage.bag import BagError, bag_is_complete, read_bag
 
 
 @dataclass
@@ -35,7 +35,7 @@ class FdiSamples:
 
     def rows(self):
         """The samples one by one as telemetry.FdiSample (what the nodes see)."""
-        from ..core.telemetry import FdiSample
+        from ...core.telemetry import FdiSample
         names = ("wheel_speed", "model_torque", "ripple_phasor", "motor_torque", "friction_torque",
                  "free_motor_torque", "bus_motor_torque")
         for k, t in enumerate(self.time):

@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.detection import FALSE_ALARM_RATE
-from ..core.elman import HIDDEN, SETTLE_STEPS, ElmanWeights
-from ..core.scenario import AXES
-from ..paths import shown_path
+from ...core.detection import FALSE_ALARM_RATE
+from ...core.elman import HIDDEN, SETTLE_STEPS, ElmanWeights
+from ...core.scenario import AXES
+from ...paths import shown_path
 
 MODES = ("teacher", "recall")
 # Epochs of the speed-aware networks. On the 100 fitting runs (x axis) the largest fault-free run
@@ -107,8 +107,8 @@ def train_axis(tcv, torque, mode: str = "recall", epochs: int = EPOCHS, lr: floa
 def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE) -> float:
     """kappa of an Elman network (core/detection.demand_gain over ``samples``): it models slews less well
     than holding, and its first seconds start from a zero state."""
-    from ..core.detection import demand_gain, demand_ratio
-    from ..core.elman import recall_series
+    from ...core.detection import demand_gain, demand_ratio
+    from ...core.elman import recall_series
     ratios = [demand_ratio(s.reaction_torque[:, axis],
                            recall_series(weights, s.tcv[:, axis], s.reaction_torque[0, axis], s.wheel_speed[:, axis]),
                            s.ripple_phasor[:, axis]) for s in samples]

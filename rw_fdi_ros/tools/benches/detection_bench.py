@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.scenario import Fault, Scenario
-from .metrics import alarm_before_onset, judge, observable, observable_level
-from .screen import load_fdi, screen_sets
+from ...core.scenario import Fault, Scenario
+from ..metrics import alarm_before_onset, judge, observable, observable_level
+from ..evaluation.screen import load_fdi, screen_sets
 
 SEED_BASE = 10_000_000
 ONSET_RANGE = (60.0, 300.0)

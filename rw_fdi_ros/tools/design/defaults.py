@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, ThresholdCurves, observers_of
-from ..core.scenario import AXES
-from .campaign import run_campaign
+from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, ThresholdCurves, observers_of
+from ...core.scenario import AXES
+from ..campaigns.campaign import run_campaign
 from .offline import decisions, fdi_method_of, fit_thresholds, load_models, observe, plant_conditions
 from .samples import load_samples
 from .train import EPOCHS, THESIS_EPOCHS, train_models

@@ -22,11 +22,11 @@ import time
 from functools import partial
 from pathlib import Path
 
-from ..core.calibration import calibration_samples
-from ..core.plant_choices import FDI_PERIOD
+from ...core.calibration import calibration_samples
+from ...core.plant_choices import FDI_PERIOD
 from .detection_bench import (CELLS, cell_results, cell_scenarios, cell_sizes, format_rate, observable_levels,
                               screen_cells, write_report)
-from .screen import load_fdi, screen_sets
+from ..evaluation.screen import load_fdi, screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands
 ONSET_RANGE = (160.0, 300.0)

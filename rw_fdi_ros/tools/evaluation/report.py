@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.scenario import AXES
+from ...core.scenario import AXES
 
 THESIS = {
     "reliability": {"linear": (99, 99, 100), "elman": (97, 100, 96)},
@@ -272,7 +272,7 @@ def write_plots(runs, figures: dict, out: Path) -> list:
 
 
 def validate_report(report: dict):
-    """Check a report.json against rw_fdi_ros/tools/report_schema.json (raises on mismatch)."""
+    """Check a report.json against rw_fdi_ros/tools/evaluation/report_schema.json (raises on mismatch)."""
     import json
     import jsonschema
     schema = json.loads((Path(__file__).with_name("report_schema.json")).read_text())

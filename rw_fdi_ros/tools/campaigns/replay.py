@@ -13,12 +13,12 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from ..core.plant_choices import PlantChoices
-from ..launch.graph import NodeSpec, fdi_method, fdi_nodes, with_reader_counts
-from ..launch.launcher import DomainLease, GraphProcesses, cleanup
-from ..nodes import topics as T
-from ..storage.bag import BagError, bag_is_complete, read_bag
-from .offline import plant_conditions
+from ...core.plant_choices import PlantChoices
+from ...launch.graph import NodeSpec, fdi_method, fdi_nodes, with_reader_counts
+from ...launch.launcher import DomainLease, GraphProcesses, cleanup
+from ...nodes import topics as T
+from ...storage.bag import BagError, bag_is_complete, read_bag
+from ..design.offline import plant_conditions
 from .run import RunOutcome
 
 

@@ -6,11 +6,11 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.scenario import Scenario, load_scenario
-from ..launch.graph import graph_nodes
-from ..launch.launcher import DomainLease, GraphProcesses, cleanup
-from ..nodes import topics as T
-from ..storage.bag import BagError, message_counts
+from ...core.scenario import Scenario, load_scenario
+from ...launch.graph import graph_nodes
+from ...launch.launcher import DomainLease, GraphProcesses, cleanup
+from ...nodes import topics as T
+from ...storage.bag import BagError, message_counts
 from .summary import run_summary
 
 
@@ -33,7 +33,7 @@ def resolve_scenario(ref: str, seed: int | None = None):
     scenario = load_scenario(ref)
     path = Path(ref) if Path(ref).is_file() else None
     if path is None:
-        from ..core.scenario import scenario_dir
+        from ...core.scenario import scenario_dir
         path = scenario_dir() / f"{ref}.yaml"
     if seed is not None:
         scenario = scenario.with_seed(seed)

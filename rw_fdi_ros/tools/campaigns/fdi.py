@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 
 
-from ..core.scenario import AXES, parse_scenario
-from ..nodes import topics as T
-from ..storage.bag import read_series
-from . import metrics
+from ...core.scenario import AXES, parse_scenario
+from ...nodes import topics as T
+from ...storage.bag import read_series
+from .. import metrics
 from .run import RunOutcome, run_scenario
 
 
@@ -19,10 +19,10 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
     """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError.
 
     ``plant``: the run's PlantChoices (default: the defaults); ``method``: the FDI method."""
-    from ..core.detection import ThresholdCurves, ThresholdError, observers_of
-    from ..core.elman import REGENERATE, ElmanWeights, ModelError
-    from ..core.plant_choices import DEFAULT
-    from ..paths import fdi_dir, thresholds_dir
+    from ...core.detection import ThresholdCurves, ThresholdError, observers_of
+    from ...core.elman import REGENERATE, ElmanWeights, ModelError
+    from ...core.plant_choices import DEFAULT
+    from ...paths import fdi_dir, thresholds_dir
     if not (np.isfinite(unit_calibration) and unit_calibration >= 0):
         raise ThresholdError(f"--unit-calibration must be a finite number of seconds >= 0, got {unit_calibration}")
     if unit_calibration and method != "speed_aware":
@@ -72,7 +72,7 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=No
 
 def verdict_topics() -> list:
     """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag."""
-    from ..core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
+    from ...core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
     bounds = [T.bound_topic(obs, a) for obs in T.OBSERVERS for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
     return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, *metrics.fdi_output_topics(), *bounds]
 
@@ -257,7 +257,7 @@ def _plot_residuals(data, path: Path) -> Path:
 def _plot_pointing(data, verdict, ax):
     """The chain in one row: the pointing error per axis against the 0.2 deg requirement, with the fault's
     onset, the verdict's first alarm and each reconfiguration (/fdir/wheels) marked."""
-    from ..core.scenario import setpoint_at
+    from ...core.scenario import setpoint_at
     from .summary import POINTING_DEG
     scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
     times, values = scenario.setpoint_schedule()

@@ -20,7 +20,7 @@ def _timing_reports(log_dir: Path):
 
 def bench_graph(duration: float = 400.0, seed: int = 1) -> dict:
     """Real-time factor of a recorded fault-free run and where the time goes."""
-    from .run import run_scenario
+    from ..campaigns.run import run_scenario
     os.environ["RW_FDI_TIMING"] = "1"
     out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_"))
     scenario = out / "bench.yaml"
@@ -66,13 +66,13 @@ def _step_times(fn, n=20000):
 def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     """Compute time of one FDI step per observer, callback times in the live nodes, node memory."""
     import numpy as np
-    from ..core.detection import SignedResidual
-    from ..core.elman import ElmanObserver
-    from ..core.linear_observer import LinearObserver
-    from ..core.telemetry import TelemetrySampler
-    from ..paths import config_dir
-    from .fdi import run_with_fdi
-    from .offline import load_models
+    from ...core.detection import SignedResidual
+    from ...core.elman import ElmanObserver
+    from ...core.linear_observer import LinearObserver
+    from ...core.telemetry import TelemetrySampler
+    from ...paths import config_dir
+    from ..campaigns.fdi import run_with_fdi
+    from ..design.offline import load_models
     rng = np.random.default_rng(0)
     u, r = rng.uniform(-5, 5, (20000, 3)), rng.uniform(-0.01, 0.01, (20000, 3))
     w = rng.uniform(20, 30, (20000, 3))
@@ -130,11 +130,11 @@ def bench_study(runs: int = 8, duration: float = 400.0, seed: int = 1, jobs: int
     times over, so each replay graph takes about as many bags as `rw-fdi evaluate` gives one
     (evaluate.REPLAY_CHUNK) and the figure includes its share of graph start-up."""
     import time
-    from ..paths import config_dir
-    from .campaign import LocalExecutor, run_campaign
-    from .evaluate import replay_chunks
-    from .replay import replay_bags
-    from .reproduce import SCALES, plan
+    from ...paths import config_dir
+    from ..campaigns.campaign import LocalExecutor, run_campaign
+    from ..evaluation.evaluate import replay_chunks
+    from ..campaigns.replay import replay_bags
+    from ..evaluation.reproduce import SCALES, plan
     out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_study_"))
     scenario = out / "bench_study.yaml"
     scenario.write_text(f"name: bench_study\nduration: {duration}\nseed: {seed}\n"

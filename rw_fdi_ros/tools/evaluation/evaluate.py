@@ -2,7 +2,7 @@
 
 Bags are replayed (player + the method's observers + isolation + recorder
 of the FDI outputs) into ``<report>/replays/<bag>``, many bags through one
-graph (tools/replay.py): one graph per worker and per ``REPLAY_CHUNK`` bags.
+graph (tools/campaigns/replay.py): one graph per worker and per ``REPLAY_CHUNK`` bags.
 A bag already replayed is not replayed again, so an interrupted evaluation
 resumes. A bad bag
 (truncated, no ground truth, recorded under other plant choices than the
@@ -17,19 +17,19 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.detection import ThresholdCurves, ThresholdError, observers_of
-from ..core.elman import ModelError
-from ..nodes import topics as T
-from ..paths import config_dir, thresholds_dir
-from ..storage.bag import BagError, bag_is_complete, read_bag, read_series
-from .campaign import LocalExecutor, _progress
-from .run import short_step_topics
-from ..paths import shown_path
-from .metrics import (RunEval, aggregate, observable_level, fdi_output_topics, health_from_bag, health_rows,
+from ...core.detection import ThresholdCurves, ThresholdError, observers_of
+from ...core.elman import ModelError
+from ...nodes import topics as T
+from ...paths import config_dir, thresholds_dir
+from ...storage.bag import BagError, bag_is_complete, read_bag, read_series
+from ..campaigns.campaign import LocalExecutor, _progress
+from ..campaigns.run import short_step_topics
+from ...paths import shown_path
+from ..metrics import (RunEval, aggregate, observable_level, fdi_output_topics, health_from_bag, health_rows,
                       identification_figures, identification_from_bag, scenario_of, series_from_bag)
-from ..core.plant_choices import PlantChoices
-from .offline import fdi_method_of, load_models, model_card
-from .replay import replay_bags, replay_finished
+from ...core.plant_choices import PlantChoices
+from ..design.offline import fdi_method_of, load_models, model_card
+from ..campaigns.replay import replay_bags, replay_finished
 
 
 def find_bags(root) -> list:

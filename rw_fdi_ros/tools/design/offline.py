@@ -13,14 +13,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.detection import (FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, WINDOW, ThresholdCurves,
+from ...core.detection import (FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, WINDOW, ThresholdCurves,
                               ThresholdError, fit_band, observers_of, residual_series, run_statistic,
                               signed_residual_series)
-from ..core.calibration import calibration_samples, regressors
-from ..core.elman import ElmanWeights, ModelError, network_wheel, recall_series
-from ..core.linear_observer import estimate_series, uncertainty_gain
-from ..core.plant_choices import FDI_PERIOD, FDI_SAMPLING
-from ..core.scenario import AXES
+from ...core.calibration import calibration_samples, regressors
+from ...core.elman import ElmanWeights, ModelError, network_wheel, recall_series
+from ...core.linear_observer import estimate_series, uncertainty_gain
+from ...core.plant_choices import FDI_PERIOD, FDI_SAMPLING
+from ...core.scenario import AXES
 
 
 
@@ -96,8 +96,8 @@ def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
     """The plant choices the bags were recorded under (FdiSamples or bag paths), as a mapping;
     they must all agree."""
     import yaml
-    from ..core.plant_choices import PlantChoices
-    from ..storage.bag import read_bag
+    from ...core.plant_choices import PlantChoices
+    from ...storage.bag import read_bag
     seen = set()
     for s in samples_list:
         text = read_bag(getattr(s, "bag", s), topics=["/scenario"]).scenario_text or ""
@@ -115,7 +115,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     designed per-run ``false_alarm_rate`` at persistence P, returns the bands.
     ``unit_calibration`` [s]: bands for observers that learn their wheel first; ``plant``: the plant
     choices of runs that are not bags (default: read from the bags)."""
-    from ..core.detection import fit_threshold_curve
+    from ...core.detection import fit_threshold_curve
     lengths = sorted({len(s.time) for s in samples_list})
     if len(lengths) > 1:   # the curves would end with the shortest run: a longer run could not be judged
         short = min(samples_list, key=lambda s: len(s.time))
@@ -168,8 +168,8 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
 def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -> dict:
     """observer -> metrics.Series (|residual|, threshold + bound, alarm), stepped through the isolation
     node's ObserverChannel: what the node would publish for this run (P: the curves' own unless given)."""
-    from ..core.isolation import ObserverChannel
-    from .metrics import Series
+    from ...core.isolation import ObserverChannel
+    from ..metrics import Series
     stamps = np.round(run.time * 1e9).astype(np.int64)
     out = {}
     for obs, c in curves.items():
@@ -186,8 +186,8 @@ def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = Tr
     """metrics.Series of what /diagnostics says: the decision observer's rows of ``series`` (observer ->
     Series, :func:`fdi_series`) through the isolation node's LatchedVerdict, a wheel outside the operating
     envelope at a sample (``wheel_speed``: (n, 3) of the FDI samples) not judged there."""
-    from ..core.isolation import LatchedVerdict, decision_observer, in_envelope
-    from .metrics import Series
+    from ...core.isolation import LatchedVerdict, decision_observer, in_envelope
+    from ..metrics import Series
     s = series[decision_observer(method)]
     judged = np.ones(s.alarm.shape, bool) if wheel_speed is None else in_envelope(wheel_speed)
     verdict = LatchedVerdict(latch, wheels)
@@ -203,7 +203,7 @@ def identification_series(samples, alarm, calibration_samples: int = 0) -> list:
     with ``samples`` (FdiSamples with the identification terms) and ``alarm`` ((n, 3) flags of the
     decision observer, as :func:`fdi_series` gives them), learning the units over the first
     ``calibration_samples`` as the isolation node does."""
-    from ..core.identification import FaultIdentifier
+    from ...core.identification import FaultIdentifier
     wheels = getattr(samples, "wheels", AXES)
     identifier = FaultIdentifier(wheels, calibration_samples)
     return [identifier.update(row, {a: bool(alarm[k, i]) for i, a in enumerate(wheels)})

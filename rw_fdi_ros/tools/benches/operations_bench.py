@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.scenario import Fault, Manoeuvres, Scenario
+from ...core.scenario import Fault, Manoeuvres, Scenario
 from .detection_bench import cell_figures, format_rate, screen_cells, write_report
-from .metrics import observable_level
-from .screen import load_fdi, screen_sets
+from ..metrics import observable_level
+from ..evaluation.screen import load_fdi, screen_sets
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
 # manoeuvres of the 400-s runs: after the thesis' change at 0 s, one every 100-300 s (up to three more)

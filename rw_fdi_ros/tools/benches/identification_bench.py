@@ -29,13 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.calibration import calibration_samples
-from ..core.isolation import decision_observer
-from ..core.plant_choices import FDI_PERIOD
-from ..core.scenario import Fault, Scenario
+from ...core.calibration import calibration_samples
+from ...core.isolation import decision_observer
+from ...core.plant_choices import FDI_PERIOD
+from ...core.scenario import Fault, Scenario
 from .detection_bench import Cell, cell_scenarios, format_rate, rate, screen_cells
-from .metrics import judge_identification
-from .screen import load_fdi, screen_sets
+from ..metrics import judge_identification
+from ..evaluation.screen import load_fdi, screen_sets
 
 SEED_BASE = 30_000_000
 KIND_ORDER = ("current_loss", "temperature", "bus_voltage", "unknown", "none")

@@ -14,8 +14,8 @@ from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..core.scenario import load_scenario
-from ..storage.bag import bag_is_complete
+from ...core.scenario import load_scenario
+from ...storage.bag import bag_is_complete
 from .run import bag_name, run_scenario, short_step_topics
 
 

@@ -24,12 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.closed_loop import Fdir, simulate
-from ..core.fdir import held_speeds
-from ..core.scenario import Fault, Manoeuvres, Scenario
-from ..core.wheel_set import WHEEL_SETS
+from ...core.closed_loop import Fdir, simulate
+from ...core.fdir import held_speeds
+from ...core.scenario import Fault, Manoeuvres, Scenario
+from ...core.wheel_set import WHEEL_SETS
 from .detection_bench import format_rate, rate, write_report
-from .screen import load_fdi
+from ..evaluation.screen import load_fdi
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}
 POINTING_DEG = 0.2
@@ -202,7 +202,7 @@ def plot_before_after(path: Path, fdir: Fdir):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from ..core.scenario import load_scenario
+    from ...core.scenario import load_scenario
     scenario = load_scenario("fdir_bus_x")
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.6), sharey=True)
     for ax, (label, f) in zip(axes, (("before: the faulty wheel x stays in use", None),

@@ -11,16 +11,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.calibration import calibration_samples
-from ..core.closed_loop import simulate
-from ..core.detection import ThresholdCurves, observers_of
-from ..core.isolation import in_envelope
-from ..nodes.topics import DIAGNOSTICS
-from ..core.wheel import WheelParams
-from ..paths import fdi_dir, thresholds_dir
-from .metrics import VERDICT, RunEval, judge, observers_of_runs
-from .offline import fdi_series, identification_series, load_models, observe, verdict_series
-from .samples import samples_from_series
+from ...core.calibration import calibration_samples
+from ...core.closed_loop import simulate
+from ...core.detection import ThresholdCurves, observers_of
+from ...core.isolation import in_envelope
+from ...nodes.topics import DIAGNOSTICS
+from ...core.wheel import WheelParams
+from ...paths import fdi_dir, thresholds_dir
+from ..metrics import VERDICT, RunEval, judge, observers_of_runs
+from ..design.offline import fdi_series, identification_series, load_models, observe, verdict_series
+from ..design.samples import samples_from_series
 
 BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
 

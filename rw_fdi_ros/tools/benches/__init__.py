@@ -1,0 +1,1 @@
+"""Benchmarks and figures of record: `rw-fdi bench ...`."""

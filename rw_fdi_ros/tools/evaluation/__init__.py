@@ -1,0 +1,1 @@
+"""Judging the FDI: the core-loop screen, bag evaluation, the thesis-scale study and its report."""
