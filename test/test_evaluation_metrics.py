@@ -10,7 +10,8 @@ from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
 from rw_fdi_ros.core.sampling import FdiSampler, sample_series
 from rw_fdi_ros.nodes import topics as T
-from rw_fdi_ros.storage.bag import BagWriter, read_bag, read_series
+from rw_fdi_ros.storage.bag import read_bag, read_series
+from rw_fdi_ros.storage.writer import BagWriter
 from rw_fdi_ros.tools.metrics import (RunEval, aggregate, judge, observers_of_runs, scenario_of,
                                                 series_from_bag)
 

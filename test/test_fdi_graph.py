@@ -261,7 +261,8 @@ def _tampered_bag(src, out, tamper):
     """A copy of bag ``src`` whose FDI telemetry rows go through ``tamper(log_time, msg)``, which
     returns the [(log_time, msg)] to write instead (none: dropped, two: duplicated, a later log
     time: delayed past the next sample)."""
-    from rw_fdi_ros.storage.bag import BagWriter, typestore
+    from rw_fdi_ros.storage.bag import typestore
+    from rw_fdi_ros.storage.writer import BagWriter
     data, store = read_bag(src, raw=True), typestore()
     w = BagWriter(out)
     for topic in data.messages:

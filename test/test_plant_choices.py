@@ -48,7 +48,7 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
     from rw_fdi_ros.core.scenario import load_scenario
     from rw_fdi_ros.launch.graph import graph_nodes
     from rw_fdi_ros.nodes import topics as T
-    from rw_fdi_ros.storage.bag import BagWriter
+    from rw_fdi_ros.storage.writer import BagWriter
     from rw_fdi_ros.tools.evaluation.evaluate import _check_bag
     from rw_fdi_ros.tools.design.offline import plant_conditions
 

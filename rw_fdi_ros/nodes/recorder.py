@@ -22,7 +22,8 @@ from __future__ import annotations
 from rclpy.parameter import Parameter
 from std_msgs.msg import String
 
-from ..storage.bag import BagError, BagWriter
+from ..storage.bag import BagError
+from ..storage.writer import BagWriter
 from ..storage.cdr import header_stamp_ns
 from . import topics as T
 from ..core.wheel_set import DEFAULT_WHEEL_SET
@@ -89,6 +90,7 @@ class RecorderNode(GraphNode):
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         for name, type_name, _ in self.rows:
             self.bag.add_topic(name, type_name)
+        self.bag.set_custom_data("engine", "graph")   # which engine recorded the run (the core loop can too)
         self.last_stamp = {}
         self.done_stamp = None
         self.done_wall = 0.0

@@ -1,9 +1,8 @@
-"""rosbag2 bags in MCAP storage: the writer behind the recorder and the readers behind every tool.
+"""rosbag2 bags in MCAP storage: the readers behind every tool (the writer: writer.py).
 
-Writing goes through ``rosbags.rosbag2.Writer`` (metadata.yaml + one .mcap).
-The writer closes its MCAP chunk every ``flush_period`` of sim time and
-flushes it to disk, so a recorder killed with SIGKILL loses at most that
-much: the file then has no summary, footer or metadata.yaml.
+A bag is a directory with one .mcap and, once closed, metadata.yaml. A
+recorder killed with SIGKILL leaves the chunks its writer flushed: the file
+then has no summary, footer or metadata.yaml.
 
 Reading never needs the summary: :func:`iter_messages` streams the .mcap
 records front to back (mcap's StreamReader) and stops cleanly at a truncated
@@ -35,63 +34,6 @@ def typestore():
 
 class BagError(RuntimeError):
     """A bag that cannot be read at all; one line naming the bag."""
-
-
-def _rosbags_version() -> str:
-    from importlib.metadata import version
-    return version("rosbags")
-
-
-class BagWriter:
-    """A rosbag2 (MCAP) writer that flushes a chunk every ``flush_period_ns`` of log time."""
-
-    def __init__(self, path, flush_period_ns: int = 10_000_000_000):
-        from rosbags.rosbag2 import StoragePlugin, Writer
-        self.path = Path(path)
-        if self.path.exists():
-            raise BagError(f"{self.path}: already exists")
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
-        self.writer.open()
-        # rosbags keeps MCAP chunks in memory and has no public call to close one early; the flush
-        # reaches into its MCAP storage. Should an upgrade move that, say so at once: a silent
-        # no-op would let a SIGKILLed recorder lose its whole bag (rosbags is pinned in requirements).
-        storage = getattr(self.writer, "storage", None)
-        if not all(hasattr(storage, name) for name in ("chunk", "close_chunk", "bio")):
-            self.writer.close()
-            raise BagError(f"rosbags {_rosbags_version()}: its MCAP writer no longer has the chunk internals "
-                           "storage/bag.py flushes through; pin rosbags==0.11.9 or update BagWriter.flush")
-        self.connections = {}
-        self.flush_period_ns = flush_period_ns
-        self.next_flush = flush_period_ns
-        self.count = 0
-
-    def add_topic(self, topic: str, type_name: str):
-        self.connections[topic] = self.writer.add_connection(topic, type_name, typestore=typestore())
-
-    def write(self, topic: str, log_time_ns: int, raw: bytes):
-        self.writer.write(self.connections[topic], log_time_ns, raw)
-        self.count += 1
-        if log_time_ns >= self.next_flush:
-            self.flush()
-            self.next_flush = log_time_ns + self.flush_period_ns
-
-    def write_message(self, topic: str, log_time_ns: int, msg):
-        """Write a rosbags message object (tests and offline tools that make bags)."""
-        self.write(topic, log_time_ns, typestore().serialize_cdr(msg, self.connections[topic].msgtype))
-
-    def flush(self):
-        """Close the pending MCAP chunk and push it to disk (rosbags keeps chunks in memory)."""
-        storage = self.writer.storage
-        if storage.chunk is not None and storage.chunk.bio.tell():
-            storage.close_chunk()
-        storage.bio.flush()
-
-    def set_custom_data(self, key: str, value: str):
-        self.writer.set_custom_data(key, value)
-
-    def close(self):
-        self.writer.close()
 
 
 def _wheel_values(bag, name):
