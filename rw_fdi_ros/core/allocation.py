@@ -72,6 +72,8 @@ class TorqueAllocator:
         self.limit = float(limit)
         self.in_use = np.tile(wheels.mask(wheels.active), (batch, 1))
         self.hold_speed = np.full(self.in_use.shape, np.nan)   # [rad/s] per held wheel, NaN for the others
+        self.held = np.zeros(self.in_use.shape, bool)
+        self._holding = False    # any wheel held in any run: decided in use(), not on every command
         self._matrix = {}
         self._dist = np.stack([self._distribution(row) for row in self.in_use])
 
@@ -90,16 +92,17 @@ class TorqueAllocator:
         self.hold_speed[b] = np.nan
         for name, speed in (held or {}).items():
             self.hold_speed[b, self.wheels.index(name)] = speed
+        self.held[b] = ~np.isnan(self.hold_speed[b])
+        self._holding = bool(self.held.any())
 
     def wheel_commands(self, axis_commands, wheel_speed=None) -> np.ndarray:
         """u (B, N) [V] for the controllers' axis commands v (B, 3) [V], within the voltage limit; a held
         wheel's command from its ``wheel_speed`` (B, N) [rad/s] (needed once a wheel is held)."""
         v = np.asarray(axis_commands, float).reshape(len(self.in_use), 3)
         u = limited(np.einsum("bnk,bk->bn", self._dist, v), self.limit)
-        held = ~np.isnan(self.hold_speed)
-        if held.any():
+        if self._holding:
             if wheel_speed is None:
                 raise ValueError("a held wheel's command needs the wheel speeds")
             speed = np.asarray(wheel_speed, float).reshape(u.shape)
-            u[held] = hold_command(self.hold_speed[held], speed[held], limit=self.limit)
+            u[self.held] = hold_command(self.hold_speed[self.held], speed[self.held], limit=self.limit)
         return u

@@ -114,13 +114,15 @@ class WheelAllocationNode(GraphNode):
     def _on_wheels(self, raw):
         stamp, _, speed, _ = read_joint_state_cdr(raw)
         self.state.setdefault(stamp, [None, None])[0] = speed
-        if self.axis_commands:   # a command may be waiting for this state
-            self._try_command()
+        self._state_in()
 
     def _on_attitude(self, raw):
         stamp, _, rate, _ = read_joint_state_cdr(raw)
         self.state.setdefault(stamp, [None, None])[1] = rate
-        if self.axis_commands:
+        self._state_in()
+
+    def _state_in(self):
+        if self.axis_commands:   # a command may be waiting for this step's state (a decision, a held wheel)
             self._try_command()
 
     def _on_diagnostics(self, msg):
