@@ -69,7 +69,7 @@ def _cmd_campaign(args) -> int:
     from .tools.campaigns.campaign import run_campaign
     writable_dir(args.out, "--out")
     res = run_campaign(args.scenario, args.runs, args.seed_start, args.out, fdi=args.fdi,
-                       executor=_executor(args))
+                       executor=_executor(args), engine=args.engine)
     print(f"campaign {args.scenario}: {len(res.done)} recorded, {len(res.skipped)} already complete, "
           f"{len(res.failed)} failed" + (f", {len(res.retried)} started over" if res.retried else "")
           + f" -> {args.out}")
@@ -88,7 +88,8 @@ def _executor(args):
 def _cmd_evaluate(args) -> int:
     from .tools.evaluation.evaluate import evaluate, main_summary
     report = evaluate(args.bags, args.report, models=args.models, thresholds=args.thresholds,
-                      persistence=args.persistence, executor=_executor(args), unit_calibration=args.unit_calibration)
+                      persistence=args.persistence, executor=_executor(args), unit_calibration=args.unit_calibration,
+                      engine=args.engine)
     print(main_summary(report))
     print(f"report: {args.report}/report.md, {args.report}/report.json")
     return 0 if report["runs"] else 1
@@ -98,7 +99,8 @@ def _cmd_reproduce(args) -> int:
     import time
     from .tools.evaluation.reproduce import reproduce
     t0 = time.monotonic()
-    report = reproduce(args.out, args.scale, executor=_executor(args), persistence=args.persistence)
+    report = reproduce(args.out, args.scale, executor=_executor(args), persistence=args.persistence,
+                       engine=args.engine, graph_sample=args.graph_sample)
     print(f"reproduce ({args.scale}) done in {time.monotonic() - t0:.0f} s wall: {report['runs']} runs evaluated; "
           f"report {args.out}/report/report.md")
     return 0
@@ -373,7 +375,10 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--runs", type=COUNT, required=True)
     c.add_argument("--seed-start", type=SEED, default=1)
     c.add_argument("--out", required=True, help="directory for the bags")
-    c.add_argument("--fdi", action="store_true", help="run the observers and isolation live too")
+    c.add_argument("--fdi", action="store_true", help="run the observers and isolation live too (graph engine)")
+    c.add_argument("--engine", default="graph", choices=["graph", "core"],
+                   help="graph: the ROS graph records each run (the reference); core: the node code on the batched "
+                        "core loop writes the same bags, ~10x faster (docs/evaluation.md \"Engines\")")
     c.set_defaults(func=_cmd_campaign)
 
     t = sub.add_parser("train", help="train the three Elman observers from fault-free bags (torch)",
@@ -414,12 +419,21 @@ def build_parser() -> argparse.ArgumentParser:
                        parents=[fdi_files, cluster, unit])
     e.add_argument("--bags", required=True, help="directory of bags (searched recursively)")
     e.add_argument("--report", required=True, help="directory for report.md, report.json, plots, replays")
+    e.add_argument("--engine", default="graph", choices=["graph", "core"],
+                   help="graph: replay every bag through the FDI graph (the reference); core: the observer and "
+                        "isolation nodes' code on each bag's recorded telemetry, no replay (the same report)")
     e.set_defaults(func=_cmd_evaluate)
 
     p2 = sub.add_parser("reproduce", help="the whole thesis study from nothing (resumable)",
                         parents=[cluster, persistence])
     p2.add_argument("--out", required=True)
     p2.add_argument("--scale", default="small", choices=["small", "thesis"])
+    p2.add_argument("--engine", default="core", choices=["core", "graph"],
+                    help="core (default): the node code on the core loop records and judges every run, and a "
+                         "sample goes through the graph as reference; graph: every run through the graph")
+    p2.add_argument("--graph-sample", type=number(int, 0), default=1, metavar="N",
+                    help="with the core engine: runs per group recorded and replayed through the graph as well, "
+                         "and compared (default 1; 0: none)")
     p2.set_defaults(func=_cmd_reproduce)
 
     q = sub.add_parser("screen", help="FDI figures for many seeds in seconds (core loop + node code, no ROS)",

@@ -55,7 +55,17 @@ def test_small_reproduce_writes_a_report_that_passes_its_schema(study):
     text = (out / "report" / "report.md").read_text()
     assert "Threshold reliability" in text and "thesis" in text and "runs per minute" in text
     assert (out / "report" / "detection_grid.png").stat().st_size > 5000
-    assert {"record fit", "train", "evaluate (replay)", "total"} <= set(raw["stages"])
+    assert {"record fit", "train", "evaluate (core)", "graph sample (record, replay, compare)", "total"} <= set(
+        raw["stages"])
+    # recorded and judged by the core engine; one run per group through the graph as well: the same bags,
+    # the same evaluation
+    check = raw["engines"]["graph_sample"]
+    assert raw["engines"]["recorded_and_judged_by"] == "core" and raw["engine"] == "core"
+    assert check["runs"] == 6 and check["identical_bags"] == 6 and check["differing"] == []
+    assert check["evaluated"] == 6 and check["evaluation_agrees"]
+    assert "6 of 6** bags the same" in text
+    from rw_fdi_ros.storage.bag import bag_engine
+    assert {bag_engine(b) for b in (out / "bags").glob("*/*")} == {"core"}
     # the report names no path of the machine that made it, and says what the FDI said of itself
     for made_here in (str(out.resolve()), str(out.parent.resolve())):
         assert made_here not in text and made_here not in json.dumps(raw)

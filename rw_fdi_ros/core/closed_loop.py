@@ -45,6 +45,10 @@ class Trajectory:
     wheel_names: tuple = ("x", "y", "z")
     decisions: list = None    # per run: [fdir.Decision]
     in_use: np.ndarray = None  # (steps + 1, B, N) bool
+    wheel_angle: np.ndarray = None      # rotor angle [rad] (steps + 1, B, N)
+    axis_command: np.ndarray = None     # the controllers' body-axis commands v of each sample [V] (steps + 1, B, 3)
+    wheel_command: np.ndarray = None    # the allocation's wheel commands u of each sample [V] (steps + 1, B, N)
+    operating_point: dict = None        # fault kind -> (steps + 1, B, N), core.scenario.operating_point_at
 
     @property
     def error(self):
@@ -74,22 +78,31 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
         reconfig = [Reconfiguration(plant.wheels) for _ in scenarios]
         delays = [DecisionDelay() for _ in scenarios]
     rec = {k: [] for k in ("attitude", "setpoint", "body_rate", "wheel_speed", "tcv", "reaction_torque",
-                           "fault_effect", "in_use")}
+                           "fault_effect", "in_use", "wheel_angle", "axis_command", "wheel_command")}
+    operating_point = []
     sample = plant.sample()
     for _ in range(steps + 1):
         sp = np.array([setpoint_at(t, v, sample.time) for t, v in schedules])
-        for key in rec:
-            rec[key].append(sp if key == "setpoint" else allocator.in_use.copy() if key == "in_use"
-                            else getattr(sample, key))
-        if plant.step_index == steps:
-            break
+        for key in ("attitude", "body_rate", "wheel_speed", "tcv", "reaction_torque", "fault_effect"):
+            rec[key].append(getattr(sample, key))
+        rec["setpoint"].append(sp)
+        rec["in_use"].append(allocator.in_use.copy())
+        rec["wheel_angle"].append(plant.wheel_angle.copy())
+        operating_point.append(sample.operating_point)
         if onboard is not None:
             _fdir_step(onboard, reconfig, delays, allocator, plant, sample)
-        sample = plant.step(allocator.wheel_commands(pid.update(sp, sample.attitude, sample.body_rate),
-                                                     sample.wheel_speed))
+        # the last sample is answered too, as the controllers and the allocation node answer it
+        axis_command = pid.update(sp, sample.attitude, sample.body_rate)
+        wheel_command = allocator.wheel_commands(axis_command, sample.wheel_speed)
+        rec["axis_command"].append(axis_command)
+        rec["wheel_command"].append(wheel_command)
+        if plant.step_index == steps:
+            break
+        sample = plant.step(wheel_command)
     time = np.arange(len(rec["attitude"])) * control_period
     return Trajectory(time=time, wheel_names=plant.wheels.names,
                       decisions=[r.decisions for r in reconfig] if reconfig else None,
+                      operating_point={k: np.array([op[k] for op in operating_point]) for k in operating_point[0]},
                       **{k: np.array(v) for k, v in rec.items()})
 
 

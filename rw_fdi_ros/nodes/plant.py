@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
@@ -25,13 +25,13 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Header, String
 
 from ..core.plant import Plant
-from ..core.telemetry import TelemetrySampler
 from ..core.scenario import FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
 from ..core.wheel_set import joint_name
 from ..core.wheel import WheelParams
 from . import topics as T
-from ..storage.cdr import clock_cdr, joint_state_cdr, read_joint_state_cdr
-from .convert import fdi_telemetry_msg, step_stamp_ns, time_msg
+from ..storage.cdr import read_joint_state_cdr
+from .convert import step_stamp_ns
+from .plant_report import PlantReport, run_units
 from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for, wall_time
 
 
@@ -85,13 +85,10 @@ class PlantNode(GraphNode):
         self.scenario = scenario
         self.plant = Plant(scenario, wheel=wheel, control_period=self.period,
                            wheel_momentum_coupling=self.choices.wheel_momentum_coupling, wheels=self.wheels)
-        w = self.plant.wheel   # this run's units (ground truth): datasheet values unless the scenario draws them
-        self.units = {name: np.broadcast_to(np.asarray(value, float), (1, len(self.names)))[0] for name, value in (
-            ("torque_constant", w.torque_constant), ("driver_gain", w.driver_gain),
-            ("viscous_friction_scale", w.viscous_scale), ("coulomb_friction", w.coulomb_friction))}
-
-        # the FDI's nominal wheel model is the datasheet's, whatever the plant's emf-limit choice
-        self.telemetry = TelemetrySampler(self.choices.fdi_period, "mean", identification=True)
+        # this run's units (ground truth): datasheet values unless the scenario draws them
+        self.report = PlantReport(scenario.effective_text(self.choices.scenario_dict()), self.names,
+                                  run_units(self.plant.wheel, 0, len(self.names)), self.choices.fdi_period,
+                                  self.param("truth_period"))
 
         def pub(msg_type, topic, qos=T.RELIABLE):
             return self.create_publisher(msg_type, topic, qos)
@@ -103,12 +100,13 @@ class PlantNode(GraphNode):
         self.pub_truth = pub(DiagnosticArray, T.FAULT_TRUTH)
         self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
         self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
+        self.publishers_by_topic = {p.topic_name: p for p in (
+            self.pub_clock, self.pub_attitude, self.pub_wheels, self.pub_effect, self.pub_fdi, self.pub_truth,
+            self.pub_scenario, self.pub_done)}
         self.subs = [self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE, raw=True)]
         self.recorder = RecorderReady(self, self.param("recorder_ready"))
         self.started = False
         self.t_wait = wall_time()
-        self.truth_key = None
-        self.truth_due = 0.0
         self.step_wall = []   # wall seconds from publishing step k to publishing step k+1
         self.compute_wall = []  # of which the plant's own step computation
         self.get_logger().info(f"scenario {scenario.name} seed {scenario.seed}, {self.duration:g} s, wheels "
@@ -143,7 +141,7 @@ class PlantNode(GraphNode):
             if self._graph_ready():
                 self.started = True
                 self.t_first = wall_time()
-                self.pub_scenario.publish(String(data=self.scenario.effective_text(self.choices.scenario_dict())))
+                self._send(self.report.start())
                 self._publish(self.plant.sample())
             elif now - self.t_wait > self.param("startup_timeout"):
                 missing = self.subs[0].get_publisher_count() < 1
@@ -172,21 +170,18 @@ class PlantNode(GraphNode):
         self.step_wall.append(t0 - self.t_wait)
         self._publish(sample)
 
+    def _send(self, messages):
+        for topic, message in messages:
+            self.publishers_by_topic[topic].publish(message)
+
     def _publish(self, sample):
         self.t_wait = wall_time()
         k = self.plant.step_index
         stamp = step_stamp_ns(k, self.period)
-        # the controllers' input first: they compute while the rest goes out
-        self.pub_attitude.publish(joint_state_cdr(stamp, T.ATTITUDE_JOINTS, sample.attitude[0], sample.body_rate[0]))
-        self.pub_clock.publish(clock_cdr(stamp))
-        self.pub_wheels.publish(joint_state_cdr(stamp, self.joints, self.plant.wheel_angle[0],
-                                                sample.wheel_speed[0], sample.reaction_torque[0]))
-        if any(f.onset <= sample.time for f in self.plant.faults()):   # zero by definition before
-            self.pub_effect.publish(joint_state_cdr(stamp, self.joints, effort=sample.fault_effect[0]))
-        report = self.telemetry.add(stamp, sample.tcv[0], sample.reaction_torque[0], sample.wheel_speed[0])
-        if report is not None:
-            self.pub_fdi.publish(fdi_telemetry_msg(report, self.names))
-        self._publish_truth(stamp, sample)
+        self._send(self.report.step(stamp, sample.time, sample.attitude[0], sample.body_rate[0],
+                                    self.plant.wheel_angle[0], sample.wheel_speed[0], sample.reaction_torque[0],
+                                    sample.tcv[0], sample.fault_effect[0],
+                                    {kind: v[0] for kind, v in sample.operating_point.items()}, self.plant.faults()))
         if k >= self.last_step:
             # done only once every reader has the last sample: a recorder that sees done has it all
             for pub in (self.pub_clock, self.pub_truth, self.pub_attitude, self.pub_wheels, self.pub_fdi,
@@ -195,33 +190,11 @@ class PlantNode(GraphNode):
                     self.get_logger().warn(f"{pub.topic_name}: not every reader acknowledged the last step "
                                            "within 5 s; done anyway (the recorder says what it lacks)")
             self.t_last = wall_time()
-            self.pub_done.publish(Header(stamp=time_msg(stamp), frame_id="completed"))
+            self._send(self.report.done(stamp))
             # every node ends on it, the recorder included: it must reach them before this writer goes
             if not self.pub_done.wait_for_all_acked(Duration(seconds=5.0)):
                 self.get_logger().warn(f"{T.PLANT_DONE}: not every reader acknowledged it within 5 s")
             self.finish()
-
-    def _publish_truth(self, stamp, sample):
-        """Ground truth on change and every truth_period: a DiagnosticArray, one status per wheel."""
-        op = {k: v[0] for k, v in sample.operating_point.items()}
-        key = tuple(tuple(np.round(v, 9)) for v in op.values())
-        if key == self.truth_key and sample.time + 1e-9 < self.truth_due:
-            return
-        self.truth_key = key
-        self.truth_due = sample.time + self.param("truth_period")
-        msg = DiagnosticArray()
-        msg.header.stamp = time_msg(stamp)
-        for i, axis in enumerate(self.names):
-            active = [f for f in self.plant.faults() if f.wheel == i and f.onset <= sample.time]
-            status = DiagnosticStatus(name=f"plant: wheel {axis} injected fault", hardware_id=self.joints[i])
-            status.level = DiagnosticStatus.ERROR if active else DiagnosticStatus.OK
-            status.message = "; ".join(f"{f.kind}={f.value:g} since {f.onset:g} s" for f in active) or "nominal"
-            status.values = [KeyValue(key=k, value=f"{op[k][i]:.9g}") for k in FAULT_KINDS]
-            status.values.append(KeyValue(key="onset", value=f"{min((f.onset for f in active), default=-1.0):g}"))
-            status.values.append(KeyValue(key="fault_effect", value=f"{sample.fault_effect[0][i]:.9g}"))
-            status.values += [KeyValue(key=k, value=repr(float(v[i]))) for k, v in self.units.items()]
-            msg.status.append(status)
-        self.pub_truth.publish(msg)
 
     def timing(self):
         from .timing import summary

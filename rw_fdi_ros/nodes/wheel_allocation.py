@@ -48,6 +48,26 @@ STATES = {"in_use": DiagnosticStatus.OK, "standby": DiagnosticStatus.OK, "kept_i
           "held": DiagnosticStatus.WARN, "given_up": DiagnosticStatus.ERROR}
 
 
+def wheel_states_msg(stamp: int, reconfiguration: Reconfiguration, names) -> DiagnosticArray:
+    """/fdir/wheels: one status per wheel of the set (in use, standby, kept in use, held, given up and why)
+    as ``reconfiguration`` (core/fdir.py) stands at ``stamp``; the core-loop engine writes the same."""
+    r = reconfiguration
+    msg = DiagnosticArray()
+    msg.header.stamp = time_msg(stamp)
+    last = {d.wheel: d for d in r.decisions}
+    for name in names:
+        state = ("given_up" if name in r.given_up else "kept_in_use" if name in r.kept else
+                 "held" if name in r.held else "in_use" if name in r.in_use else "standby")
+        d = last.get(name)
+        status = DiagnosticStatus(level=STATES[state], name=f"fdir: reaction wheel {name}",
+                                  hardware_id=joint_name(name), message=state.replace("_", " ") + (
+                                      f" since {d.time:g} s: {d.reason}" if d else ""))
+        status.values = [KeyValue(key="state", value=state)] + (
+            [KeyValue(key="since", value=f"{d.time:g}"), KeyValue(key="reason", value=d.reason)] if d else [])
+        msg.status.append(status)
+    return msg
+
+
 class WheelAllocationNode(GraphNode):
     node_name = "wheel_allocation"
 
@@ -213,21 +233,7 @@ class WheelAllocationNode(GraphNode):
         return True
 
     def _publish_wheels(self, stamp):
-        r = self.reconfiguration
-        msg = DiagnosticArray()
-        msg.header.stamp = time_msg(stamp)
-        last = {d.wheel: d for d in r.decisions}
-        for name, joint in zip(self.wheels.names, self.joints):
-            state = ("given_up" if name in r.given_up else "kept_in_use" if name in r.kept else
-                     "held" if name in r.held else "in_use" if name in r.in_use else "standby")
-            d = last.get(name)
-            status = DiagnosticStatus(level=STATES[state], name=f"fdir: reaction wheel {name}",
-                                      hardware_id=joint, message=state.replace("_", " ") + (
-                                          f" since {d.time:g} s: {d.reason}" if d else ""))
-            status.values = [KeyValue(key="state", value=state)] + (
-                [KeyValue(key="since", value=f"{d.time:g}"), KeyValue(key="reason", value=d.reason)] if d else [])
-            msg.status.append(status)
-        self.pub_fdir.publish(msg)
+        self.pub_fdir.publish(wheel_states_msg(stamp, self.reconfiguration, self.wheels.names))
 
     def poll(self):
         if self.axis_commands:

@@ -336,6 +336,20 @@ def message_counts(path) -> dict:
         raise BagError(f"{meta}: unreadable metadata ({exc})") from None
 
 
+def bag_engine(path) -> str | None:
+    """Which engine recorded a finished bag ('graph' or 'core', its metadata.yaml custom_data); None when
+    it does not say (an unfinished bag, or one recorded before bags said)."""
+    import yaml
+    meta = Path(path) / "metadata.yaml"
+    if not meta.is_file():
+        return None
+    try:
+        info = yaml.safe_load(meta.read_text())["rosbag2_bagfile_information"]
+    except (yaml.YAMLError, KeyError, TypeError) as exc:
+        raise BagError(f"{meta}: unreadable metadata ({exc})") from None
+    return (info.get("custom_data") or {}).get("engine")
+
+
 def bag_is_complete(path) -> bool:
     """True for a finished bag: metadata.yaml written and the MCAP footer present."""
     path = Path(path)

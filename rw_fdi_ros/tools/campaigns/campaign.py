@@ -1,22 +1,25 @@
 """Campaigns: many recorded runs of one scenario, several at once, resumable.
 
-Runs go through an executor (local threads driving graph processes by
-default); each run leases its own ROS_DOMAIN_ID, so parallel runs never
-meet. A run whose bag is already complete is skipped, so an interrupted
-campaign resumes where it stopped.
+Two engines record them (engine.py): ``graph``, the ROS graph, each run
+leasing its own ROS_DOMAIN_ID so parallel runs never meet (local threads
+driving graph processes by default), and ``core``, the node code on the
+batched core loop (local processes, a batch of runs each). Either way a run
+whose bag is already complete is skipped, so an interrupted campaign
+resumes where it stopped, and a bag says which engine recorded it.
 """
 from __future__ import annotations
 
 import os
 import sys
-from concurrent.futures import ThreadPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...core.scenario import load_scenario
 from ...storage.bag import bag_is_complete
-from .run import bag_name, run_scenario, short_step_topics
+from .engine import batches, check_engine, record_batch
+from .run import bag_name, resolve_scenario, run_scenario, short_step_topics
 
 
 @dataclass
@@ -28,13 +31,20 @@ class CampaignResult:
 
 
 class LocalExecutor:
-    """Runs callables on ``jobs`` threads; each call starts and supervises its own graph processes."""
+    """Runs callables on ``jobs`` threads (each call starts and supervises its own graph processes), or with
+    ``processes`` on ``jobs`` worker processes (work that computes in Python: the core engine)."""
 
     def __init__(self, jobs: int | None = None):
         self.jobs = jobs or max(1, min(2, os.cpu_count() or 1))
 
-    def map_unordered(self, fn, items):
-        pool = ThreadPoolExecutor(self.jobs)
+    def map_unordered(self, fn, items, processes: bool = False):
+        if processes:
+            import multiprocessing
+            # fork: a caller's script is not re-imported (spawn would run an unguarded script again); the
+            # workers compute with numpy only, nothing of a parent's threads is needed in them
+            pool = ProcessPoolExecutor(self.jobs, mp_context=multiprocessing.get_context("fork"))
+        else:
+            pool = ThreadPoolExecutor(self.jobs)
         try:
             futures = [pool.submit(fn, item) for item in items]
             for fut in as_completed(futures):
@@ -53,7 +63,8 @@ class DaskExecutor:
         from distributed import Client
         self.client = address if hasattr(address, "submit") else Client(address)
 
-    def map_unordered(self, fn, items):
+    def map_unordered(self, fn, items, processes: bool = False):
+        """``processes`` is ignored: the workers are processes already."""
         from distributed import as_completed as dask_completed
         futures = self.client.map(fn, list(items), pure=False)
         try:
@@ -80,8 +91,10 @@ def _progress(total, desc):
 
 
 def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executor=None, fdi: bool = False,
-                 desc: str | None = None, **run_kwargs) -> CampaignResult:
-    """Record ``runs`` runs with seeds seed_start.. into ``out_dir``; complete bags are kept."""
+                 desc: str | None = None, engine: str = "graph", **run_kwargs) -> CampaignResult:
+    """Record ``runs`` runs with seeds seed_start.. into ``out_dir`` by ``engine`` ('graph' or 'core');
+    complete bags are kept, whichever engine recorded them."""
+    check_engine(engine, fdi)
     out_dir = Path(out_dir)
     scenario = load_scenario(scenario_ref)
     seeds = list(range(seed_start, seed_start + runs))
@@ -94,6 +107,9 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
             todo.append(seed)
     executor = executor or LocalExecutor()
     result = CampaignResult(done=[], skipped=skipped, failed=[])
+    if engine == "core":
+        return _record_core(scenario_ref, todo, out_dir, executor, result, desc or scenario.name,
+                            run_kwargs.get("emf_limit"))
 
     def attempt(seed):
         if fdi:
@@ -123,6 +139,28 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
                     result.failed.append((seed, outcome.reason))
                     bar.write(f"seed {seed}: {outcome.reason}")
                 bar.update(1)
+    finally:
+        bar.close()
+    return result
+
+
+def _record_core(scenario_ref, seeds, out_dir, executor, result, desc, emf_limit) -> CampaignResult:
+    """The core engine's part of run_campaign: ``seeds`` in batches over the executor's processes."""
+    scenario, path = resolve_scenario(scenario_ref)   # absolute: a worker process loads it by itself
+    items = [(path, seed, str(out_dir / bag_name(scenario.with_seed(seed))), emf_limit) for seed in seeds]
+    jobs = getattr(executor, "jobs", 2)
+    bar = _progress(len(result.skipped) + len(seeds), desc)
+    bar.update(len(result.skipped))
+    try:
+        with closing(executor.map_unordered(record_batch, batches(items, jobs), processes=True)) as outcomes:
+            for outcome in outcomes:
+                for seed, bag, _, error in outcome:
+                    if error is None:
+                        result.done.append(Path(bag))
+                    else:
+                        result.failed.append((seed, error))
+                        bar.write(f"seed {seed}: {error}")
+                bar.update(len(outcome))
     finally:
         bar.close()
     return result

@@ -68,16 +68,18 @@ def samples_from_rows(rows, bag=None, seed=None, wheels=AXES) -> FdiSamples:
                       bus_motor_torque=stack("bus_motor_torque"), wheels=tuple(wheels))
 
 
-def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: bool = True) -> FdiSamples:
+def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: bool = True,
+                identification: bool = False) -> FdiSamples:
     """The FDI samples the observers of a run saw: the bag's FDI telemetry (what the plant reported
-    once per FDI period), as the observers of FDI sampling ``sampling`` read it."""
+    once per FDI period), as the observers of FDI sampling ``sampling`` read it; with ``identification``
+    also the terms only fault identification reads (the bus-voltage grid)."""
     msgs = data.topic(FDI_TELEMETRY)
     if not msgs:
         raise BagError(f"{data.path}: no {FDI_TELEMETRY} messages")
     # the wheels the plant reported, in its order (hardware_id reaction_wheel_<name>)
     wheels = tuple(s.hardware_id.removeprefix("reaction_wheel_") for s in msgs[0][1].status)
     try:
-        rows = [fdi_sample_of(m, wheels, identification=False).sampled(sampling) for _, m in msgs]
+        rows = [fdi_sample_of(m, wheels, identification=identification).sampled(sampling) for _, m in msgs]
     except ValueError as exc:
         raise BagError(f"{data.path}: {FDI_TELEMETRY}: {exc}") from None
     rows.sort(key=lambda r: r.stamp_ns)

@@ -94,10 +94,39 @@ def evaluate_replayed(bag: Path, out: Path, scenario, peak, observers=None) -> R
                    health=health_from_bag(out), wheels=scenario.wheel_set(recorded=True).names)
 
 
+def judge_bags(chunk) -> list:
+    """The core engine's evaluation of a chunk: ``chunk`` = (bags, {bag: (scenario, peak)}, models,
+    thresholds, persistence, method, unit_calibration); [(bag, RunEval or the one-line reason it is
+    skipped)]. The observer and isolation nodes' code on each bag's recorded FDI telemetry (screen.judge_run),
+    no replay. Module level: process pools and Dask workers run it."""
+    from ...core.calibration import calibration_samples
+    from ..design.samples import fdi_samples
+    from .screen import judge_run, load_fdi
+    bags, checked, models, thresholds, persistence, method, unit_calibration = chunk
+    weights, curves = load_fdi(models, thresholds, method, unit_calibration)
+    out = []
+    for bag in bags:
+        scenario, peak = checked[bag]
+        choices = PlantChoices.of_recording(scenario.plant)
+        try:
+            data = read_bag(bag, topics=[T.FDI_TELEMETRY, T.SCENARIO])
+            samples = fdi_samples(data, choices.fdi_period, choices.fdi_sampling, speed_aware=True,
+                                  identification=True)
+            out.append((bag, judge_run(scenario, samples, peak, weights, curves, persistence, identification=True,
+                                       calibration_samples=calibration_samples(unit_calibration), bag=str(bag))))
+        except (BagError, ValueError) as exc:
+            out.append((bag, str(exc)))
+    return out
+
+
 def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: int | None = None, executor=None,
-             plots: bool = True, unit_calibration: float = 0.0) -> dict:
-    """Replay every bag under ``bags_root`` through the FDI nodes; the method follows the models
-    (``unit_calibration`` [s]: the observers learn each run's wheels first, core/calibration.py)."""
+             plots: bool = True, unit_calibration: float = 0.0, engine: str = "graph") -> dict:
+    """Judge every bag under ``bags_root`` by the FDI nodes: ``engine`` 'graph' replays it through them
+    (report/replays/), 'core' runs their code on its recorded telemetry (judge_bags: the same verdicts,
+    test_engine.py). The method follows the models (``unit_calibration`` [s]: the observers learn each run's
+    wheels first, core/calibration.py)."""
+    from ..campaigns.engine import check_engine
+    check_engine(engine)
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
     shipped = models is None
@@ -118,7 +147,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
     executor = executor or LocalExecutor()
 
     replays = report_dir / "replays"
-    bar = _progress(len(bags), "evaluate (replay)")
+    bar = _progress(len(bags), "evaluate (replay)" if engine == "graph" else "evaluate (core)")
 
     def skip(bag, reason):
         skipped.append((str(bag), reason))
@@ -131,8 +160,21 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
             checked[bag] = _check_bag(bag, curves)
         except (BagError, ValueError, ThresholdError) as exc:
             skip(bag, str(exc))
-    todo = [b for b in checked if not replay_finished(replays / b.name)]   # interrupted replays are redone
-    done = [b for b in checked if b not in todo]
+    if engine == "core":
+        todo, done = [], []
+        chunks = [(chunk, {b: checked[b] for b in chunk}, models, thresholds, persistence, method, unit_calibration)
+                  for chunk in replay_chunks(list(checked), getattr(executor, "jobs", 2))]
+        with closing(executor.map_unordered(judge_bags, chunks, processes=True)) as judged:
+            for pairs in judged:
+                for bag, run in pairs:
+                    if isinstance(run, str):
+                        skip(bag, run)
+                    else:
+                        runs.append(run)
+                        bar.update(1)
+    else:   # interrupted replays are redone
+        todo = [b for b in checked if not replay_finished(replays / b.name)]
+        done = [b for b in checked if b not in todo]
 
     def replay_chunk(chunk):
         outcomes = replay_bags(chunk, [replays / b.name for b in chunk], models=models, thresholds=thresholds,
@@ -163,7 +205,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
     except ModelError:   # a model set without its card: nothing known to exclude
         training = []
     figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level, training, observers=list(curves))
-    report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence,
+    report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence, "engine": engine,
               "unit_calibration_time": unit_calibration,
               "models": shown_path(models, report_dir.parent),
               "thresholds": shown_path(thresholds, report_dir.parent), "observable_level_Nm": level, "runs": len(runs),

@@ -182,6 +182,20 @@ def write_markdown(report: dict, path: Path):
         lines += ["## Skipped bags", ""] + [f"- `{s['bag']}`: {s['reason']}" for s in report["skipped"]] + [""]
     if report.get("plots"):
         lines += ["## Plots", ""] + [f"![{Path(p).stem}]({Path(p).name})" for p in report["plots"]] + [""]
+    engines = report.get("engines")
+    if engines:
+        lines += ["## Engines", "", f"Recorded and judged by the **{engines['recorded_and_judged_by']}** engine "
+                  "(docs/evaluation.md \"Engines\")."]
+        check = engines.get("graph_sample")
+        if check:
+            lines += ["", f"The graph as reference: {check['runs']} runs recorded through the graph as well; "
+                      f"**{check['identical_bags']} of {check['runs']}** bags the same as the core engine's, topic "
+                      f"by topic and message by message; {check['evaluated']} replayed through the FDI graph: "
+                      f"evaluation {'**the same**' if check['evaluation_agrees'] else '**differs**'} (figures, "
+                      "identification, health)" + (f" (differs in {', '.join(check['disagreeing'])})"
+                                                   if check["disagreeing"] else "") + "."]
+            lines += [f"- `{d['bag']}`: {'; '.join(d['differences'])}" for d in check["differing"]]
+        lines.append("")
     if report.get("stages"):
         lines += ["## Time", "", "| stage | seconds | runs | runs per minute |", "|---|---|---|---|"]
         for name, st in report["stages"].items():

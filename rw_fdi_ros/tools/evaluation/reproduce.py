@@ -2,9 +2,17 @@
 
 fault-free fitting and held-out runs -> Table 4.2 runs (100 per kind at
 thesis scale) -> Table 5.1/5.2 grid of fault sizes -> ripple +40 % runs ->
-multiple-fault runs -> train -> fit thresholds -> evaluate by replay ->
-report. Faults rotate over the x, y and z wheels by seed, so isolation is
-tested in every direction. Every stage skips what is already complete.
+multiple-fault runs -> train -> fit thresholds -> evaluate -> report.
+Faults rotate over the x, y and z wheels by seed, so isolation is tested in
+every direction. Every stage skips what is already complete.
+
+The runs are recorded and judged by ``engine``: ``core`` (default: the node
+code on the core loop, tools/campaigns/engine.py) or ``graph`` (the ROS graph
+records, the FDI graph replays). With the core engine the graph stays the
+reference: ``graph_sample`` runs of every group are recorded through the graph
+too and compared message by message with the core engine's bags, and replayed
+through the FDI graph and judged against the core engine's evaluation; the
+report says whether they agree.
 """
 from __future__ import annotations
 
@@ -141,7 +149,40 @@ class StageClock:
         return {**self.data["stages"], "total": {"seconds": total, "runs": None}}
 
 
-def reproduce(out, scale_name: str = "small", executor=None, persistence: int | None = None) -> dict:
+def graph_check(out: Path, jobs, sample: int, executor, models: Path, persistence) -> dict:
+    """The graph as reference for a core-engine study: the first ``sample`` seeds of each group's first
+    campaign recorded again through the graph (``out/graph_sample``), compared with the core engine's bags
+    message by message, and evaluated by both engines (replay through the FDI graph, and the core
+    engine's node code): what agreed."""
+    from ...storage.compare import bag_differences
+    from .evaluate import evaluate
+    root = out / "graph_sample"
+    compared, differing = 0, []
+    for group in ("fit", "heldout", "table42", "grid", "ripple", "multiple"):
+        first = next((j for j in jobs if j[0] == group), None)
+        if first is None:
+            continue
+        _, scenario, runs, seed = first
+        res = run_campaign(scenario, min(sample, runs), seed, root / "bags" / group, executor=executor,
+                           desc=f"graph sample {group}", engine="graph")
+        for bag in sorted(res.done + res.skipped):
+            compared += 1
+            diff = bag_differences(bag, out / "bags" / group / bag.name, limit=3)
+            if diff:
+                differing.append({"bag": f"{group}/{bag.name}", "differences": diff})
+        differing += [{"bag": f"{group}/seed {s}", "differences": [f"graph run failed: {r}"]} for s, r in res.failed]
+    reports = {engine: evaluate(root / "bags", root / f"report_{engine}", models=models, thresholds=models,
+                                persistence=persistence, executor=executor, plots=False, engine=engine)
+               for engine in ("graph", "core")}
+    keys = ("observers", "identification", "health")
+    return {"runs": compared, "identical_bags": compared - len(differing), "differing": differing,
+            "evaluated": reports["graph"]["runs"],
+            "evaluation_agrees": all(reports["graph"][k] == reports["core"][k] for k in keys),
+            "disagreeing": [k for k in keys if reports["graph"][k] != reports["core"][k]]}
+
+
+def reproduce(out, scale_name: str = "small", executor=None, persistence: int | None = None, engine: str = "core",
+              graph_sample: int = 1) -> dict:
     from .evaluate import evaluate
     from ..design.offline import fit_thresholds, load_models, plant_conditions
     from ..design.samples import load_samples
@@ -149,7 +190,9 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int | 
     out = Path(out)
     s = SCALES[scale_name]
     jobs = plan(out, scale_name)
-    command = f"rw-fdi reproduce --out {out.name} --scale {scale_name}"   # the directory's name: no machine path
+    # the directory's name: no machine path
+    command = f"rw-fdi reproduce --out {out.name} --scale {scale_name}" + (f" --engine {engine}" if engine != "core"
+                                                                            else "")
     clock = StageClock(out, command)
     print(f"reproduce ({scale_name}): {sum(j[2] for j in jobs)} runs in {len(jobs)} campaigns -> {out}",
           file=sys.stderr, flush=True)
@@ -159,7 +202,7 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int | 
         for g, scenario, runs, seed in jobs:
             if g == group:
                 res = run_campaign(scenario, runs, seed, out / "bags" / group, executor=executor,
-                                   desc=f"{group} {Path(scenario).stem}")
+                                   desc=f"{group} {Path(scenario).stem}", engine=engine)
                 n += len(res.done)
                 if res.failed:
                     print(f"{len(res.failed)} runs failed in {Path(scenario).stem}: {res.failed[0][1]}",
@@ -184,8 +227,17 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int | 
         return sum(bag_is_complete(p) for p in replays.iterdir()) if replays.is_dir() else 0
     before = replayed()
     report = evaluate(out / "bags", out / "report", models=models, thresholds=models, persistence=persistence,
-                      executor=executor)
-    clock.add("evaluate (replay)", time.monotonic() - t, replayed() - before)
+                      executor=executor, engine=engine)
+    if engine == "core":
+        clock.add("evaluate (core)", time.monotonic() - t, report["runs"], redo=True)
+    else:
+        clock.add("evaluate (replay)", time.monotonic() - t, replayed() - before)
+    report["engines"] = {"recorded_and_judged_by": engine}
+    if engine == "core" and graph_sample > 0:
+        t = time.monotonic()
+        check = graph_check(out, jobs, graph_sample, executor, models, persistence)
+        clock.add("graph sample (record, replay, compare)", time.monotonic() - t, check["runs"], redo=True)
+        report["engines"]["graph_sample"] = check
     clock.save()
     report["stages"] = clock.stages()
     report["stages"]["total"]["runs"] = sum(j[2] for j in jobs)

@@ -83,19 +83,28 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
                 c.check_horizon(max(s.duration for s in scenarios), origin=f"thresholds_{c.observer}.json")
     for scenario, samples, peak in simulated_runs(scenarios, identification, check, progress):
         for name, (weights, curves, *own) in fdi_sets.items():
-            k = own[0] if own else calibration_samples
-            series = fdi_series(observe(samples, weights, calibration_samples=k), curves, persistence)
-            series[VERDICT] = verdict_series(series, next(iter(curves.values())).method, samples.wheel_speed,
-                                             wheels=samples.wheels)
-            found = {}
-            if identification and len(samples.time):
-                last = identification_series(samples, series[VERDICT].alarm, k)[-1]
-                found = {a: v.values() for a, v in last.items() if v is not None}
-            out[name].append(RunEval(bag=f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name,
-                                     seed=scenario.seed, faults=list(scenario.faults), series=series,
-                                     fault_effect_peak=peak, identification=found, health=envelope_health(samples),
-                                     wheels=samples.wheels))
+            out[name].append(judge_run(scenario, samples, peak, weights, curves, persistence, identification,
+                                       own[0] if own else calibration_samples))
     return out
+
+
+def judge_run(scenario, samples, peak, weights, curves, persistence: int | None = None,
+              identification: bool = False, calibration_samples: int = 0, bag: str | None = None) -> RunEval:
+    """The RunEval of one run from its FDI samples, by the observer and isolation nodes' code: each
+    observer's series, ``verdict`` (what /diagnostics says: the decision observer's alarm, latched:
+    offline.verdict_series) and with ``identification`` the faults of the wheels the verdict names (the
+    isolation node's FaultIdentifier; the samples must carry the bus grid). ``peak``: |fault effect| per
+    wheel after the first onset."""
+    series = fdi_series(observe(samples, weights, calibration_samples=calibration_samples), curves, persistence)
+    series[VERDICT] = verdict_series(series, next(iter(curves.values())).method, samples.wheel_speed,
+                                     wheels=samples.wheels)
+    found = {}
+    if identification and len(samples.time):
+        last = identification_series(samples, series[VERDICT].alarm, calibration_samples)[-1]
+        found = {a: v.values() for a, v in last.items() if v is not None}
+    return RunEval(bag=bag or f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name, seed=scenario.seed,
+                   faults=list(scenario.faults), series=series, fault_effect_peak=peak, identification=found,
+                   health=envelope_health(samples), wheels=samples.wheels)
 
 
 def envelope_health(samples) -> dict:
