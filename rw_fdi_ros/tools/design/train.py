@@ -16,6 +16,7 @@ card (bags, seeds, losses, normalisation, plant conditions) per axis.
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -104,6 +105,12 @@ def train_axis(tcv, torque, mode: str = "recall", epochs: int = EPOCHS, lr: floa
                         speed_scale=speed_scale).validate(), losses
 
 
+def _train_one(args):
+    """train_axis in a worker process: (tcv, torque, mode, epochs, seed, wheel speed) -> (weights, losses)."""
+    tcv, torque, mode, epochs, seed, speed = args
+    return train_axis(tcv, torque, mode, epochs, seed=seed, wheel_speed=speed)
+
+
 def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE) -> float:
     """kappa of an Elman network (core/detection.demand_gain over ``samples``): it models slews less well
     than holding, and its first seconds start from a zero state."""
@@ -121,8 +128,9 @@ def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALS
 
 def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, plant: dict | None = None,
                  seed: int = 0, quiet: bool = False, speed_aware: bool = True, calibration=None,
-                 false_alarm_rate: float = FALSE_ALARM_RATE) -> dict:
+                 false_alarm_rate: float = FALSE_ALARM_RATE, jobs: int | None = None) -> dict:
     """Train x, y, z networks on a list of FdiSamples and save them with cards; returns the set card.
+    ``jobs``: axes trained at once, one process each (default: 2 on 2 cores; 1: in this process).
 
     ``speed_aware``: three inputs with the wheel speed (ours); False: the thesis' two.
     ``calibration``: fault-free runs kappa is measured on (default: the training runs). More
@@ -146,15 +154,24 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
         card["uncertainty_gain_seeds"] = [s.seed for s in calibration]
     bar = tqdm(total=3 * epochs, desc=f"train elman ({mode}, {len(samples)} runs)", unit="epoch",
                file=sys.stderr, disable=quiet or None, mininterval=1.0)
-    for i, axis in enumerate(AXES):
-        tcv = np.stack([s.tcv[:n, i] for s in samples])
-        torque = np.stack([s.reaction_torque[:n, i] for s in samples])
-
-        def tick(k, loss, axis=axis):
+    inputs = [(np.stack([s.tcv[:n, i] for s in samples]), np.stack([s.reaction_torque[:n, i] for s in samples]),
+               mode, epochs, seed + i, np.stack([s.wheel_speed[:n, i] for s in samples]) if speed_aware else None)
+              for i in range(len(AXES))]
+    jobs = max(1, min(jobs or min(2, os.cpu_count() or 1), len(AXES)))
+    if jobs == 1:
+        def tick(k, loss):
             bar.update(k)
-            bar.set_postfix(axis=axis, mse=f"{loss:.2e}")
-        speed = np.stack([s.wheel_speed[:n, i] for s in samples]) if speed_aware else None
-        weights, losses = train_axis(tcv, torque, mode, epochs, seed=seed + i, progress=tick, wheel_speed=speed)
+            bar.set_postfix(mse=f"{loss:.2e}")
+        trained = (train_axis(*args[:4], seed=args[4], progress=tick, wheel_speed=args[5]) for args in inputs)
+    else:   # the axes are independent: one process each (torch on one thread), the same weights as in turn
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+        pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"))
+        futures = [pool.submit(_train_one, args) for args in inputs]
+        trained = (f.result() for f in futures)
+    for i, (axis, (weights, losses)) in enumerate(zip(AXES, trained)):
+        if jobs > 1:
+            bar.update(epochs)
         if speed_aware:
             weights.uncertainty_gain = uncertainty_gain(weights, calibration, i, false_alarm_rate)
         axis_card = {**{k: v for k, v in card.items() if k != "axes"}, "axis": axis,
@@ -164,6 +181,8 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
         weights.save(out_dir / f"elman_{axis}.npz", axis_card)
         card["axes"][axis] = {"final_loss": losses[-1], "torque_scale": weights.torque_scale,
                               "uncertainty_gain": weights.uncertainty_gain}
+    if jobs > 1:
+        pool.shutdown()
     bar.close()
     card["train_seconds"] = time.monotonic() - t0
     (out_dir / "model_set.json").write_text(json.dumps(card, indent=2))
