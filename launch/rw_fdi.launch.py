@@ -4,7 +4,9 @@ It builds the same graph as `rw-fdi run` from rw_fdi_ros.launch.graph.graph_node
 so both launchers start identical nodes with identical parameters: plant,
 three controllers, the wheel allocation (reconfiguring on the FDI's confirmed
 verdict; ``fdir:=false`` keeps every wheel in use), the FDI nodes (``fdi:=false``
-leaves them out) and, with ``bag``, the recorder. Parameters go as they are: graph_nodes names wheels and
+leaves them out) and, with ``bag``, the recorder; ``compose`` groups them into processes as our launcher
+does (launch/graph.GROUPINGS: one composed process by default, ``compose:=none`` one per node). Parameters
+go as they are: graph_nodes names wheels and
 axes by joint (``reaction_wheel_y``, ``attitude_y``) and paths absolutely, and
 refuses any string a YAML layer would retype (a bare ``y`` is a boolean to rcl).
 
@@ -23,6 +25,7 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction, RegisterEventH
 from launch.event_handlers import OnProcessExit
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
+from rw_fdi_ros.launch.graph import DEFAULT_GROUPING, GROUPINGS
 from rw_fdi_ros.paths import fastdds_profiles
 
 
@@ -32,8 +35,10 @@ class RunFailed(RuntimeError):
 
 
 def _nodes(context):
+    import tempfile
     from rw_fdi_ros.tools.campaigns.run import resolve_scenario
-    from rw_fdi_ros.launch.graph import graph_nodes
+    from rw_fdi_ros.launch.graph import graph_nodes, processes
+    from rw_fdi_ros.launch.launcher import write_params_file
     seed = int(LaunchConfiguration("seed").perform(context))
     scenario, path = resolve_scenario(LaunchConfiguration("scenario").perform(context), seed if seed >= 0 else None)
     bag = LaunchConfiguration("bag").perform(context) or None
@@ -41,10 +46,15 @@ def _nodes(context):
     method = LaunchConfiguration("fdi_method").perform(context)
     fdir = LaunchConfiguration("fdir").perform(context).lower() in ("true", "1", "yes")
     nodes = graph_nodes(scenario, path, bag, fdi={"method": method, "fdir": fdir} if fdi else None)
-    actions = [Node(package="rw_fdi_ros", executable=n.executable, name=n.name, parameters=[n.parameters],
-                    output="screen") for n in nodes]
-    return actions + [RegisterEventHandler(OnProcessExit(target_action=a, on_exit=_on_exit(n.name)))
-                      for a, n in zip(actions, nodes)]
+    groups = processes(nodes, LaunchConfiguration("compose").perform(context))
+    # a composed process reads every node's parameters from one file, keyed by node name (our launcher's)
+    params = write_params_file(nodes, os.path.join(tempfile.mkdtemp(prefix="rw_fdi_launch_"), "params.yaml"))
+    actions = [Node(package="rw_fdi_ros", executable=p.nodes[0].executable, name=p.name,
+                    parameters=[p.nodes[0].parameters], output="screen") if len(p.nodes) == 1 else
+               Node(package="rw_fdi_ros", executable="composed", parameters=[str(params)], output="screen",
+                    arguments=[f"{n.name}={n.executable}" for n in p.nodes]) for p in groups]
+    return actions + [RegisterEventHandler(OnProcessExit(target_action=a, on_exit=_on_exit(p.name)))
+                      for a, p in zip(actions, groups)]
 
 
 def _on_exit(name: str):
@@ -69,6 +79,9 @@ def generate_launch_description():
         DeclareLaunchArgument("bag", default_value="", description="bag directory to record (empty: no recorder)"),
         DeclareLaunchArgument("fdi", default_value="true", description="start the observers and the isolation node"),
         DeclareLaunchArgument("fdi_method", default_value="speed_aware", description="speed_aware or thesis"),
+        DeclareLaunchArgument("compose", default_value=DEFAULT_GROUPING,
+                              description="which nodes share a process: " + ", ".join(GROUPINGS) +
+                                          " (none: every node its own process)"),
         DeclareLaunchArgument("fdir", default_value="true",
                               description="give up a wheel the FDI confirms faulty and bring the redundant one in"),
         OpaqueFunction(function=_nodes),

@@ -21,7 +21,8 @@ import pytest
 
 from colcon_ws import colcon_env
 from launch_api import launch_env, ros2_launch_command, use_launch
-from rw_fdi_ros.launch.graph import graph_nodes, misread_by_yaml
+from rw_fdi_ros.launch.graph import DEFAULT_GROUPING, graph_nodes, misread_by_yaml, processes
+from rw_fdi_ros.storage.compare import bag_differences
 from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.tools.campaigns.run import resolve_scenario
 
@@ -97,12 +98,12 @@ def expected_nodes(scenario_file: Path, bag: Path):
     return graph_nodes(scenario, path, bag, fdi={"method": "speed_aware"})
 
 
-def launch_fault(ws: Path, work: Path, duration: float):
+def launch_fault(ws: Path, work: Path, duration: float, *arguments, bag_name: str = "bag"):
     """(Launch, scenario file, bag) of `ros2 launch` recording a current loss on x at 40 s."""
     scenario = work / "loss.yaml"
     scenario.write_text(FAULT.format(name="loss", duration=duration))
-    bag = work / "bag"
-    return Launch(ws, work, f"scenario:={scenario}", f"bag:={bag}"), scenario, bag
+    bag = work / bag_name
+    return Launch(ws, work, f"scenario:={scenario}", f"bag:={bag}", *arguments), scenario, bag
 
 
 def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_verdict(colcon_workspace, tmp_path):
@@ -118,8 +119,9 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     assert code == 0, output[-3000:]
     started = node_pids(output)
     nodes = expected_nodes(scenario, bag)
-    # plant, 3 controllers, the wheel allocation, 4 Elman (x, y, z, s), linear, model, isolation, recorder
-    assert len(started) == len(nodes) == 13, output[-3000:]
+    # plant, 3 controllers, the wheel allocation, 4 Elman (x, y, z, s), linear, model, isolation, recorder:
+    # composed by default into two processes (the loop and the recorder; the FDI nodes)
+    assert len(nodes) == 13 and len(started) == len(processes(nodes, DEFAULT_GROUPING)) == 2, output[-3000:]
     for label in started:   # each ended by itself: exit 0, and launch never had to signal it
         assert f"[{label}]: process has finished cleanly" in output, label
     assert "sending signal" not in output and "Caught exception" not in output, output[-3000:]
@@ -138,12 +140,21 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     # FDIR acted on it: x given up, the redundant s brought in, said on /fdir/wheels (recorded)
     states = {s.hardware_id: {kv.key: kv.value for kv in s.values}["state"] for s in data.last(T.FDIR_WHEELS).status}
     assert states["reaction_wheel_x"] == "given_up" and states["reaction_wheel_s"] == "in_use", states
+    # every node its own process (compose:=none): the same bag, message for message
+    launch, _, alone = launch_fault(colcon_workspace, tmp_path, 90, "compose:=none", bag_name="bag_none")
+    try:
+        code = launch.wait(timeout=240)
+        output = launch.output()
+    finally:
+        launch.close()
+    assert code == 0 and len(node_pids(output)) == 13, output[-3000:]
+    assert bag_differences(bag, alone) == []
 
 
 def test_a_node_killed_mid_run_ends_the_launch_with_a_failure_and_a_readable_bag(colcon_workspace, tmp_path):
     from rw_fdi_ros.nodes import topics as T
     from rw_fdi_ros.storage.bag import bag_info
-    launch, _, bag = launch_fault(colcon_workspace, tmp_path, 2000)
+    launch, _, bag = launch_fault(colcon_workspace, tmp_path, 2000, "compose:=none")
     try:
         deadline = time.monotonic() + 120
         mcap = bag / "bag.mcap"
@@ -194,7 +205,9 @@ def parameter_files(overrides: dict) -> list:
     for entity in description.entities:
         if isinstance(entity, DeclareLaunchArgument):
             context.launch_configurations[entity.name] = "".join(s.perform(context) for s in entity.default_value)
-    context.launch_configurations.update(overrides)
+    # every node its own Node action, as `ros2 run` starts them: the parameter files launch_ros writes per
+    # node (a composed process reads our launcher's file, test_strings_yaml_would_retype_reach_a_node_...)
+    context.launch_configurations.update({"compose": "none", **overrides})
     opaque = next(e for e in description.entities if isinstance(e, OpaqueFunction))
     out = []
     for action in opaque.execute(context):

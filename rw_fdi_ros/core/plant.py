@@ -29,7 +29,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from . import wheel as wm
-from .scenario import FAULT_KINDS, NOMINAL_VALUES, Scenario, operating_point_at
+from .scenario import FAULT_KINDS, NOMINAL_VALUES, Scenario, operating_points
 from .spacecraft import INERTIA, body_acceleration, disturbance_torque
 from .wheel_set import WheelSet, wheel_set as named_wheel_set
 
@@ -115,8 +115,7 @@ class Plant:
         self.extra_faults[b].append(fault)
 
     def operating_point(self, t) -> dict:
-        ops = [operating_point_at(self.faults(b), t, self.wheels.count) for b in range(self.batch)]
-        return {k: np.array([op[k] for op in ops]) for k in FAULT_KINDS}
+        return operating_points([self.faults(b) for b in range(self.batch)], t, self.wheels.count)
 
     def _locked_inertia(self):
         """Sum over the free wheels of J g g^T (B, 3, 3), the part of the locked inertia that spins apart;

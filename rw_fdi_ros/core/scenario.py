@@ -223,9 +223,15 @@ def setpoint_at(times, values, t):
 def operating_point_at(faults, t, count: int = 3):
     """Per-wheel operating point of ``count`` wheels at time t: dict kind -> array (count,), thesis
     Table 2.3 when healthy."""
-    op = {k: np.full(count, NOMINAL_VALUES[k]) for k in FAULT_KINDS}
-    for f in faults:
-        op[f.kind][f.wheel] = f.value_at(t)
+    return {k: v[0] for k, v in operating_points([faults], t, count).items()}
+
+
+def operating_points(fault_lists, t, count: int = 3):
+    """:func:`operating_point_at` of a batch of runs (one fault list each): dict kind -> array (B, count)."""
+    op = {k: np.full((len(fault_lists), count), NOMINAL_VALUES[k]) for k in FAULT_KINDS}
+    for b, faults in enumerate(fault_lists):
+        for f in faults:
+            op[f.kind][b, f.wheel] = f.value_at(t)
     return op
 
 

@@ -33,6 +33,43 @@ class NodeSpec:
         return f"rw_fdi_ros.nodes.{self.executable}"
 
 
+@dataclass
+class ProcessSpec:
+    """One process of the graph: a node's own (one node) or a composed one (nodes/composed.py)."""
+
+    name: str
+    nodes: list
+
+    @property
+    def essential(self) -> bool:
+        return any(n.essential for n in self.nodes)
+
+
+# which process each node executable goes to, per grouping (--compose / compose:=); "none": every node its
+# own process, as `ros2 run` starts them. The default was chosen by measurement (docs/benchmarks.md).
+_LOOP = {"plant": "loop", "player": "loop", "pid_controller": "loop", "wheel_allocation": "loop"}
+_FDI = {"elman_observer": "fdi", "linear_observer": "fdi", "model_observer": "fdi", "isolation": "fdi"}
+GROUPINGS = {
+    "none": None,
+    "all": dict.fromkeys([*_LOOP, *_FDI, "recorder"], "graph"),
+    "loop_fdi": {**_LOOP, **_FDI, "recorder": "loop"},
+    "loop_fdi_recorder": {**_LOOP, **_FDI, "recorder": "recorder"},
+}
+DEFAULT_GROUPING = "loop_fdi"
+
+
+def processes(nodes, grouping: str = DEFAULT_GROUPING) -> list:
+    """``nodes`` (NodeSpec) dealt into the processes of ``grouping`` (GROUPINGS), in the nodes' order; a
+    group of one node is that node's own process. ValueError for an unknown grouping."""
+    if grouping not in GROUPINGS:
+        raise ValueError(f"grouping must be one of {', '.join(GROUPINGS)}, got {grouping!r}")
+    table = GROUPINGS[grouping]
+    groups = {}
+    for node in nodes:
+        groups.setdefault(node.name if table is None else table.get(node.executable, node.name), []).append(node)
+    return [ProcessSpec(members[0].name if len(members) == 1 else name, members) for name, members in groups.items()]
+
+
 def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command_timeout: float = 5.0,
                 emf_limit: str | None = None, fdi: dict | None = None):
     """Plant, three PID controllers, the wheel allocation (with FDIR when ``fdi``), (when ``fdi``) the

@@ -137,11 +137,27 @@ def node_command(n, params_file, python: str = sys.executable) -> list:
         "--ros-args", "-r", f"__node:={n.name}", "--params-file", str(params_file), "--log-level", "warn"]
 
 
-class GraphProcesses:
-    """Start a list of :class:`NodeSpec` as processes and supervise them."""
+def process_command(process, params_file, python: str = sys.executable) -> list:
+    """The command line of one process of the graph (launch.graph.ProcessSpec): a node's own, or the composed
+    executable with NAME=EXECUTABLE per node (no name remapping: it would rename all of them)."""
+    if len(process.nodes) == 1:
+        return node_command(process.nodes[0], params_file, python)
+    exe = installed_executable("composed")
+    return ([str(exe)] if exe else [python, "-m", "rw_fdi_ros.nodes.composed"]) + [
+        f"{n.name}={n.executable}" for n in process.nodes] + [
+        "--ros-args", "--params-file", str(params_file), "--log-level", "warn"]
 
-    def __init__(self, nodes, domain_id: int, work_dir: Path, python: str = sys.executable):
+
+class GraphProcesses:
+    """Start a list of :class:`NodeSpec` as processes (``grouping``: launch.graph.GROUPINGS) and supervise them.
+    Nodes are named by their node name (``run(main=...)``); what failed is named by its process."""
+
+    def __init__(self, nodes, domain_id: int, work_dir: Path, python: str = sys.executable,
+                 grouping: str = "none"):
+        from .graph import processes
         self.nodes = nodes
+        self.processes = processes(nodes, grouping)
+        self.process_of = {n.name: p.name for p in self.processes for n in p.nodes}
         self.domain_id = domain_id
         self.work_dir = Path(work_dir)
         self.work_dir.mkdir(parents=True, exist_ok=True)
@@ -151,10 +167,10 @@ class GraphProcesses:
 
     def start(self):
         params_file = write_params_file(self.nodes, self.work_dir / "params.yaml")
-        for n in self.nodes:
-            cmd = node_command(n, params_file, self.python)
-            log = open(self.work_dir / f"{n.name}.log", "w")
-            self.procs[n.name] = subprocess.Popen(cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT,
+        for p in self.processes:
+            cmd = process_command(p, params_file, self.python)
+            log = open(self.work_dir / f"{p.name}.log", "w")
+            self.procs[p.name] = subprocess.Popen(cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT,
                                                   stdin=subprocess.DEVNULL, start_new_session=True)
             log.close()
         return self
@@ -165,16 +181,20 @@ class GraphProcesses:
         line = _last_line(self.work_dir / f"{name}.log")
         return f"{name} stopped ({how})" + (f": {line}" if line else "")
 
-    def stop_all(self, first=("recorder",)):
-        """Stop everything; the recorder last so it can finalise what the others sent."""
-        stop_processes([p for n, p in self.procs.items() if n not in first])
-        stop_processes([self.procs[n] for n in first if n in self.procs], grace=10.0)
+    def stop_all(self, last=("recorder",)):
+        """Stop everything; the recorder's process last so it can finalise what the others sent."""
+        last = {self.process_of.get(n, n) for n in last}
+        stop_processes([p for n, p in self.procs.items() if n not in last])
+        stop_processes([self.procs[n] for n in last if n in self.procs], grace=10.0)
 
     def run(self, main: str = "plant", watchdog: float = 600.0, finisher: str | None = "recorder",
             finish_timeout: float = 30.0) -> GraphResult:
-        """Wait for ``main`` to end; then for ``finisher``; any other essential death fails the run."""
+        """Wait for the process of node ``main`` to end; then for ``finisher``'s; any other essential death
+        fails the run."""
         t0 = time.monotonic()
-        essential = {n.name for n in self.nodes if n.essential}
+        essential = {p.name for p in self.processes if p.essential}
+        main = self.process_of.get(main, main)
+        finisher = self.process_of.get(finisher, finisher) if finisher else None
         try:
             while True:
                 time.sleep(0.02)

@@ -21,8 +21,8 @@ from .runtime import EXIT_BAD_INPUT, NodeError, main_for
 class ElmanObserverNode(ObserverNode):
     node_name = "elman_observer"
 
-    def __init__(self):
-        super().__init__(self.node_name)
+    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
+        super().__init__(name or self.node_name)
         self.declare_parameter("wheel", self.joints[0])   # the wheel joint this network watches
         self.declare_parameter("model", "")            # npz; empty: the shipped one of fdi_method
         try:

@@ -95,8 +95,8 @@ def _status(name, axis, residual, threshold, alarm, first, extra=(), identificat
 class IsolationNode(GraphNode):
     node_name = "isolation"
 
-    def __init__(self):
-        super().__init__(self.node_name)
+    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
+        super().__init__(name or self.node_name)
         self.declare_parameter("thresholds_elman", "")     # empty: the shipped thresholds_<observer>.json
         self.declare_parameter("thresholds_linear", "")    # of the method
         self.declare_parameter("thresholds_model", "")     # (speed_aware only)

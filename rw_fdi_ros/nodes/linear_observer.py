@@ -24,8 +24,8 @@ class LinearObserverNode(WheelsObserverNode):
     def uncertainty_gain(self, wheel: str) -> float:
         return uncertainty_gain(wheel)
 
-    def __init__(self):
-        super().__init__(self.node_name)
+    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
+        super().__init__(name or self.node_name)
 
     def declare_own_parameters(self):
         self.declare_parameter("speed_up", 4.0)      # observer pole / wheel pole (thesis 3.3)

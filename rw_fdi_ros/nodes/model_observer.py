@@ -20,8 +20,8 @@ class ModelObserverNode(WheelsObserverNode):
     slot = "model"
     needs_speed = True
 
-    def __init__(self):
-        super().__init__(self.node_name)
+    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
+        super().__init__(name or self.node_name)
 
     def estimate(self, sample):
         return sample.model_torque

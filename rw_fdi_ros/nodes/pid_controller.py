@@ -23,8 +23,8 @@ from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 class PidControllerNode(GraphNode):
     node_name = "pid_controller"
 
-    def __init__(self):
-        super().__init__(self.node_name)
+    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
+        super().__init__(name or self.node_name)
         self.declare_parameter("joint", T.ATTITUDE_JOINTS[0])   # the attitude joint this controller holds
         try:
             axis = T.axis_of_joint(self.param("joint"), T.ATTITUDE_JOINTS)

@@ -38,8 +38,8 @@ from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, Recorde
 class PlantNode(GraphNode):
     node_name = "plant"
 
-    def __init__(self):
-        super().__init__(self.node_name)
+    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
+        super().__init__(name or self.node_name)
         self.t_created = wall_time()
         self.t_first = self.t_last = None   # wall time of the first and the last step published
         self.declare_parameter("scenario", "fault_free")

@@ -23,6 +23,7 @@ EXIT_TIMEOUT = 3
 # after its work is done (bag closed, last message acknowledged) a node gets this long to tear its DDS
 # entities down; a teardown stuck past it dumps every thread's stack to the log and the process ends by
 # SIGALRM, which the launcher reads as "done, teardown hung" (launch/launcher.py TEARDOWN_HUNG)
+POLL_PERIOD = 0.005   # [s] wall time between two GraphNode.poll calls of a node while callbacks keep coming
 TEARDOWN_TIMEOUT = int(os.environ.get("RW_FDI_TEARDOWN_TIMEOUT", "10"))   # the environment: tests
 
 
@@ -94,7 +95,8 @@ class GraphNode(Node):
         self.finish(code, message)
 
     def poll(self):
-        """Called between callbacks (at least every 50 ms): timeouts live here."""
+        """Called between callbacks, every POLL_PERIOD while they keep coming and at least every 50 ms:
+        timeouts and start-up gates live here, never a step of the run."""
 
     def close(self):
         """Called once on the way out, also after a signal. By default: let every reader have what
@@ -138,63 +140,111 @@ class RecorderReady:
 
 def spin_node(factory, args=None) -> int:
     """Create the node, spin it until it finishes or a signal arrives, and return the exit code."""
+    return spin_nodes([factory], args)
+
+
+def spin_nodes(factories, args=None) -> int:
+    """Create the nodes (one each of ``factories``: callables returning a GraphNode), spin them in one
+    executor until every one has finished, one fails, or a signal arrives; the exit code (the first
+    failure's). One factory is a node's own process; several are ROS 2 composition as rclpy has it
+    (nodes/composed.py): separate node objects, names, parameters and topics, one executor. A node
+    that finishes is closed at once (a recorder's bag is final) and spins no more."""
     import faulthandler
     import signal
     # `kill -USR1 <pid>` (the launcher does, on a node that does not end) writes where it is to its log
     faulthandler.register(signal.SIGUSR1, all_threads=True)
     rclpy.init(args=args)
-    node = None
-    name = getattr(factory, "node_name", "node")
-    code = EXIT_OK
-    message = ""
+    nodes, closed = [], set()
+    name = getattr(factories[0], "node_name", "node") if factories else "node"
+    failed = None   # (name, code, message) of the first node that failed
     try:
-        node = factory()
-        name = node.get_name()
+        for factory in factories:
+            name = getattr(factory, "node_name", "node")
+            nodes.append(factory())
         from rclpy.experimental import EventsExecutor
         executor = EventsExecutor()
-        executor.add_node(node)
-        profile_dir = os.environ.get("RW_FDI_PROFILE")  # developer aid: cProfile each node
+        for node in nodes:
+            executor.add_node(node)
+        profile_dir = os.environ.get("RW_FDI_PROFILE")  # developer aid: cProfile each process
         if profile_dir:
             import cProfile
             profiler = cProfile.Profile()
             profiler.enable()
-        while node.exit_code is None and rclpy.ok():
+        live = list(nodes)
+        last_poll = 0.0
+        while live and failed is None:
             executor.spin_once(timeout_sec=0.05)
-            node.poll()
+            # polls (timeouts, start-up gates) every POLL_PERIOD, not after every callback: a lockstep step
+            # is some thirty callbacks, and polling every node after each cost more than the step itself
+            now = time.monotonic()
+            due = now - last_poll >= POLL_PERIOD
+            if due:
+                last_poll = now
+                if not rclpy.ok():   # shut down (a signal): what each node did so far is its outcome
+                    break
+            for node in list(live):
+                if due and node.exit_code is None:
+                    node.poll()
+                if node.exit_code is None:
+                    continue
+                live.remove(node)
+                if node.exit_code != EXIT_OK:
+                    failed = (node.get_name(), node.exit_code, node.exit_message)
+                    break
+                if len(nodes) > 1:   # composed: its work is done, the others go on
+                    executor.remove_node(node)
+                    _close(node, closed)
         if profile_dir:
             profiler.disable()
-            profiler.dump_stats(os.path.join(profile_dir, f"{name}.prof"))
-        code, message = (node.exit_code or EXIT_OK), node.exit_message
+            profiler.dump_stats(os.path.join(profile_dir, f"{nodes[0].get_name()}.prof"))
     except NodeError as exc:
-        code, message = exc.code, str(exc)
+        failed = (name, exc.code, str(exc))
     except (KeyboardInterrupt, ExternalShutdownException):
-        code = EXIT_OK if node is None or node.exit_code is None else node.exit_code
-        message = "" if node is None else node.exit_message
+        pass
     except Exception as exc:  # a bug: still one line, with the type
-        code, message = EXIT_ERROR, f"{type(exc).__name__}: {exc}"
+        failed = (name, EXIT_ERROR, f"{type(exc).__name__}: {exc}")
     finally:
-        if node is not None:
-            try:
-                node.close()
-            except Exception as exc:
-                code, message = EXIT_ERROR, f"while closing: {type(exc).__name__}: {exc}"
-        _tear_down(node, name, code, message)
-    if node is not None and os.environ.get("RW_FDI_TIMING") == "1":
-        report = {"node": name, "cpu_s": time.process_time(), "max_rss_mb": _peak_rss_mb(), **node.timing()}
-        print("RW_FDI_TIMING " + json.dumps(report), flush=True)
-    return code
+        outcome = {}   # node name -> (code, message), in the nodes' order
+        for node in nodes:
+            problem = _close(node, closed)
+            outcome[node.get_name()] = ((EXIT_ERROR, problem) if problem else
+                                        (node.exit_code or EXIT_OK, node.exit_message))
+        if failed is not None:
+            outcome[failed[0]] = failed[1:]
+        _tear_down(nodes, outcome)
+    if os.environ.get("RW_FDI_TIMING") == "1":
+        for node, node_name in zip(nodes, outcome):   # a destroyed node no longer says its name
+            report = {"node": node_name, "cpu_s": time.process_time(), "max_rss_mb": _peak_rss_mb(),
+                      "process_nodes": len(nodes), **node.timing()}
+            print("RW_FDI_TIMING " + json.dumps(report), flush=True)
+    codes = [code for code, _ in outcome.values() if code != EXIT_OK]
+    return codes[0] if codes else EXIT_OK
 
 
-def _tear_down(node, name: str, code: int, message: str):
-    """Destroy the node and shut rclpy down, watched: the node's work is done, and a DDS teardown that
-    never returns must not hold the run. The message is said first, so the log has it either way."""
+def _close(node, closed: set) -> str:
+    """Close ``node`` once; what went wrong closing it ('' when nothing)."""
+    if id(node) in closed:
+        return ""
+    closed.add(id(node))
+    try:
+        node.close()
+    except Exception as exc:  # noqa: BLE001 -- said, and the process fails
+        return f"while closing: {type(exc).__name__}: {exc}"
+    return ""
+
+
+def _tear_down(nodes, outcome: dict):
+    """Destroy the nodes and shut rclpy down, watched: their work is done, and a DDS teardown that
+    never returns must not hold the run. Each node's message (``outcome``: name -> (code, message)) is
+    said first, so the log has it either way."""
     import faulthandler
     import signal
-    if message:
-        print(f"{name}: {'error: ' if code else ''}{message}", file=sys.stderr, flush=True)
+    for name, (code, message) in outcome.items():
+        if message:
+            print(f"{name}: {'error: ' if code else ''}{message}", file=sys.stderr, flush=True)
     faulthandler.dump_traceback_later(TEARDOWN_TIMEOUT - 1, exit=False)
     signal.alarm(TEARDOWN_TIMEOUT)   # default action: the kernel ends the process, GIL or not
-    if node is not None:
+    for node in nodes:
         node.destroy_node()
     rclpy.try_shutdown()
     signal.alarm(0)
@@ -215,13 +265,18 @@ def _peak_rss_mb() -> float:
 
 
 def main_for(factory):
-    """A console-script entry point for ``factory``."""
+    """A console-script entry point for ``factory`` (kept as ``main.factory``: composition makes its nodes)."""
     def main(args=None):
-        code = spin_node(factory, args=args if args is not None else sys.argv)
-        import signal
-        signal.alarm(TEARDOWN_TIMEOUT)   # the interpreter's own exit (DDS threads, destructors) is watched too
-        sys.exit(code)
+        exit_watched(spin_node(factory, args=args if args is not None else sys.argv))
+    main.factory = factory
     return main
+
+
+def exit_watched(code: int):
+    """Exit with ``code``; the interpreter's own exit (DDS threads, destructors) is watched too."""
+    import signal
+    signal.alarm(TEARDOWN_TIMEOUT)
+    sys.exit(code)
 
 
 def wall_time() -> float:

@@ -71,8 +71,8 @@ def wheel_states_msg(stamp: int, reconfiguration: Reconfiguration, names) -> Dia
 class WheelAllocationNode(GraphNode):
     node_name = "wheel_allocation"
 
-    def __init__(self):
-        super().__init__(self.node_name)
+    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
+        super().__init__(name or self.node_name)
         self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)   # core/wheel_set.py
         self.declare_parameter("control_period", 0.1)            # the lockstep tick [s]
         self.declare_parameter("fdir", True)                     # act on /diagnostics (false: no FDI in the graph)

@@ -90,6 +90,20 @@ def _progress(total, desc):
                 disable=None if sys.stderr.isatty() else False, mininterval=1.0)
 
 
+def pending(scenario_ref: str, runs: int, seed_start: int, out_dir) -> tuple:
+    """(seeds still to record, complete bags already there) of a campaign: a bag short of its run (its
+    recorder lost messages) is recorded again."""
+    scenario = load_scenario(scenario_ref)
+    todo, skipped = [], []
+    for seed in range(seed_start, seed_start + runs):
+        bag = Path(out_dir) / bag_name(scenario.with_seed(seed))
+        if bag_is_complete(bag) and not short_step_topics(bag):
+            skipped.append(bag)
+        else:
+            todo.append(seed)
+    return todo, skipped
+
+
 def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executor=None, fdi: bool = False,
                  desc: str | None = None, engine: str = "graph", **run_kwargs) -> CampaignResult:
     """Record ``runs`` runs with seeds seed_start.. into ``out_dir`` by ``engine`` ('graph' or 'core');
@@ -98,13 +112,7 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
     out_dir = Path(out_dir)
     scenario = load_scenario(scenario_ref)
     seeds = list(range(seed_start, seed_start + runs))
-    todo, skipped = [], []
-    for seed in seeds:
-        bag = out_dir / bag_name(scenario.with_seed(seed))
-        if bag_is_complete(bag) and not short_step_topics(bag):   # a bag short of its run is recorded again
-            skipped.append(bag)
-        else:
-            todo.append(seed)
+    todo, skipped = pending(scenario_ref, runs, seed_start, out_dir)
     executor = executor or LocalExecutor()
     result = CampaignResult(done=[], skipped=skipped, failed=[])
     if engine == "core":
@@ -146,15 +154,34 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
 
 def _record_core(scenario_ref, seeds, out_dir, executor, result, desc, emf_limit) -> CampaignResult:
     """The core engine's part of run_campaign: ``seeds`` in batches over the executor's processes."""
-    scenario, path = resolve_scenario(scenario_ref)   # absolute: a worker process loads it by itself
-    items = [(path, seed, str(out_dir / bag_name(scenario.with_seed(seed))), emf_limit) for seed in seeds]
-    jobs = getattr(executor, "jobs", 2)
-    bar = _progress(len(result.skipped) + len(seeds), desc)
-    bar.update(len(result.skipped))
+    return record_campaigns([(scenario_ref, seeds, out_dir, result)], executor, desc, emf_limit)[0]
+
+
+def record_campaigns(campaigns, executor=None, desc: str = "core engine", emf_limit=None) -> list:
+    """Several campaigns by the core engine at once: ``campaigns`` = [(scenario ref, seeds to record, out
+    dir, CampaignResult to fill)]; runs of every campaign share batches where their duration and plant
+    choices agree (engine.batch_key), so small campaigns (a grid of fault sizes) cost what one large one
+    does. The results, filled, in order."""
+    from ...core.scenario import load_scenario
+    from .engine import batch_key
+    executor = executor or LocalExecutor()
+    groups, owner = {}, {}
+    for index, (ref, seeds, out_dir, _) in enumerate(campaigns):
+        scenario, path = resolve_scenario(ref)   # absolute: a worker process loads it by itself
+        key = batch_key(load_scenario(path), emf_limit)
+        for seed in seeds:
+            bag = str(Path(out_dir) / bag_name(scenario.with_seed(seed)))
+            groups.setdefault(key, []).append((path, seed, bag, emf_limit))
+            owner[bag] = index
+    work = [b for items in groups.values() for b in batches(items, getattr(executor, "jobs", 2))]
+    results = [c[3] for c in campaigns]
+    bar = _progress(sum(len(r.skipped) for r in results) + len(owner), desc)
+    bar.update(sum(len(r.skipped) for r in results))
     try:
-        with closing(executor.map_unordered(record_batch, batches(items, jobs), processes=True)) as outcomes:
+        with closing(executor.map_unordered(record_batch, work, processes=True)) as outcomes:
             for outcome in outcomes:
                 for seed, bag, _, error in outcome:
+                    result = results[owner[bag]]
                     if error is None:
                         result.done.append(Path(bag))
                     else:
@@ -163,4 +190,4 @@ def _record_core(scenario_ref, seeds, out_dir, executor, result, desc, emf_limit
                 bar.update(len(outcome))
     finally:
         bar.close()
-    return result
+    return results

@@ -82,20 +82,27 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     return writer.count
 
 
+def batch_key(scenario, emf_limit) -> tuple:
+    """What runs simulated in one batch share: duration and plant choices (their faults, seeds, manoeuvres
+    and wheel units may differ)."""
+    return (scenario.duration, scenario.plant_choices(emf_limit=emf_limit))
+
+
 def record_batch(items) -> list:
-    """Record one batch: ``items`` = [(scenario ref, seed, bag path, emf_limit)] of one scenario file
-    (equal durations and plant choices); [(seed, bag, wall seconds, error or None)]. Module level, so
-    process pools and Dask workers can run it."""
+    """Record one batch: ``items`` = [(scenario ref, seed, bag path, emf_limit)] of equal batch_key;
+    [(seed, bag, wall seconds, error or None)]. Module level, so process pools and Dask workers can run it."""
     from ...core.closed_loop import simulate
     from ...core.plant import units_of
     from ...core.scenario import load_scenario
     from ...core.wheel import WheelParams
     from ...core.wheel_set import wheel_set
     t0 = time.monotonic()
-    ref, emf_limit = items[0][0], items[0][3]
-    base = load_scenario(ref)
-    scenarios = [base.with_seed(seed) for _, seed, _, _ in items]
-    choices = base.plant_choices(emf_limit=emf_limit)
+    loaded = {}
+    scenarios = [loaded.setdefault(ref, load_scenario(ref)).with_seed(seed) for ref, seed, _, _ in items]
+    keys = {batch_key(s, emf) for s, (_, _, _, emf) in zip(scenarios, items)}
+    if len(keys) != 1:
+        raise ValueError(f"one batch, several durations or plant choices: {sorted(map(str, keys))}")
+    choices = scenarios[0].plant_choices(emf_limit=items[0][3])
     wheel = WheelParams(emf_limit=choices.emf_limit)
     traj = simulate(scenarios, wheel=wheel, control_period=choices.control_period,
                     wheel_momentum_coupling=choices.wheel_momentum_coupling, wheels=choices.wheel_set)

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ...core.plant_choices import PlantChoices
 from ...launch.graph import NodeSpec, fdi_method, fdi_nodes, with_reader_counts
+from ...launch.graph import DEFAULT_GROUPING
 from ...launch.launcher import DomainLease, GraphProcesses, cleanup
 from ...nodes import topics as T
 from ...storage.bag import BagError, bag_is_complete, read_bag
@@ -40,11 +41,11 @@ def replay_nodes(bags: list, out_bags: list, fdi: dict, plant: dict, rate: float
 
 def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int | None = None, rate: float = 0.0,
                 keep_logs: bool = False, watchdog: float | None = None, method: str | None = None,
-                unit_calibration: float = 0.0) -> list:
-    """Replay ``bags`` (recorded under the same plant choices) through one graph; the FDI outputs of
-    bag i go to ``out_bags[i]``. Returns one RunOutcome per bag, in order. A graph that fails part
-    way keeps the bags it finished; the first unfinished bag gets a graph alone and the rest another,
-    so a bad bag fails alone."""
+                unit_calibration: float = 0.0, grouping: str = DEFAULT_GROUPING) -> list:
+    """Replay ``bags`` (recorded under the same plant choices) through one graph (``grouping``: which nodes
+    share a process, launch/graph.GROUPINGS); the FDI outputs of bag i go to ``out_bags[i]``. Returns one
+    RunOutcome per bag, in order. A graph that fails part way keeps the bags it finished; the first
+    unfinished bag gets a graph alone and the rest another, so a bad bag fails alone."""
     bags, out_bags = [Path(b) for b in bags], [Path(b) for b in out_bags]
     outcomes = [None] * len(bags)
     readable = []
@@ -70,7 +71,8 @@ def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int |
         with DomainLease() as lease:
             work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_replay_{bags[todo[0]].name}_"))
             limit = watchdog if watchdog is not None else 120.0 + 60.0 * len(todo)
-            result = GraphProcesses(nodes, lease.domain_id, work).start().run(main="player", watchdog=limit)
+            result = GraphProcesses(nodes, lease.domain_id, work, grouping=grouping).start().run(main="player",
+                                                                                                  watchdog=limit)
         for i in todo:
             ok = result.ok or replay_finished(out_bags[i])
             outcomes[i] = RunOutcome(ok, "completed" if ok else result.reason, out_bags[i],
@@ -103,6 +105,8 @@ def replay_finished(out_bag: Path) -> bool:
 
 
 def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int | None = None, rate: float = 0.0,
-               keep_logs: bool = False, watchdog: float = 300.0, method: str | None = None) -> RunOutcome:
+               keep_logs: bool = False, watchdog: float = 300.0, method: str | None = None,
+               grouping: str = DEFAULT_GROUPING) -> RunOutcome:
     """Replay one bag; its FDI outputs are recorded to ``out_bag``."""
-    return replay_bags([bag], [out_bag], models, thresholds, persistence, rate, keep_logs, watchdog, method)[0]
+    return replay_bags([bag], [out_bag], models, thresholds, persistence, rate, keep_logs, watchdog, method,
+                       grouping=grouping)[0]

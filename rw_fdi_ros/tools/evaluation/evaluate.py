@@ -95,26 +95,26 @@ def evaluate_replayed(bag: Path, out: Path, scenario, peak, observers=None) -> R
 
 
 def judge_bags(chunk) -> list:
-    """The core engine's evaluation of a chunk: ``chunk`` = (bags, {bag: (scenario, peak)}, models,
-    thresholds, persistence, method, unit_calibration); [(bag, RunEval or the one-line reason it is
-    skipped)]. The observer and isolation nodes' code on each bag's recorded FDI telemetry (screen.judge_run),
-    no replay. Module level: process pools and Dask workers run it."""
+    """The core engine's evaluation of a chunk: ``chunk`` = (bags, models, thresholds, persistence, method,
+    unit_calibration); [(bag, RunEval or the one-line reason it is skipped)]. Each bag is checked as for a
+    replay (_check_bag), then the observer and isolation nodes' code runs on its recorded FDI telemetry
+    (screen.judge_run), no replay. Module level: process pools and Dask workers run it."""
     from ...core.calibration import calibration_samples
     from ..design.samples import fdi_samples
     from .screen import judge_run, load_fdi
-    bags, checked, models, thresholds, persistence, method, unit_calibration = chunk
+    bags, models, thresholds, persistence, method, unit_calibration = chunk
     weights, curves = load_fdi(models, thresholds, method, unit_calibration)
     out = []
     for bag in bags:
-        scenario, peak = checked[bag]
-        choices = PlantChoices.of_recording(scenario.plant)
         try:
+            scenario, peak = _check_bag(bag, curves)
+            choices = PlantChoices.of_recording(scenario.plant)
             data = read_bag(bag, topics=[T.FDI_TELEMETRY, T.SCENARIO])
             samples = fdi_samples(data, choices.fdi_period, choices.fdi_sampling, speed_aware=True,
                                   identification=True)
             out.append((bag, judge_run(scenario, samples, peak, weights, curves, persistence, identification=True,
                                        calibration_samples=calibration_samples(unit_calibration), bag=str(bag))))
-        except (BagError, ValueError) as exc:
+        except (BagError, ValueError, ThresholdError) as exc:
             out.append((bag, str(exc)))
     return out
 
@@ -155,15 +155,10 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
         bar.update(1)
 
     checked = {}
-    for bag in bags:
-        try:
-            checked[bag] = _check_bag(bag, curves)
-        except (BagError, ValueError, ThresholdError) as exc:
-            skip(bag, str(exc))
-    if engine == "core":
+    if engine == "core":   # each bag checked where it is judged, in the worker processes
         todo, done = [], []
-        chunks = [(chunk, {b: checked[b] for b in chunk}, models, thresholds, persistence, method, unit_calibration)
-                  for chunk in replay_chunks(list(checked), getattr(executor, "jobs", 2))]
+        chunks = [(chunk, models, thresholds, persistence, method, unit_calibration)
+                  for chunk in replay_chunks(bags, getattr(executor, "jobs", 2))]
         with closing(executor.map_unordered(judge_bags, chunks, processes=True)) as judged:
             for pairs in judged:
                 for bag, run in pairs:
@@ -173,6 +168,11 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
                         runs.append(run)
                         bar.update(1)
     else:   # interrupted replays are redone
+        for bag in bags:
+            try:
+                checked[bag] = _check_bag(bag, curves)
+            except (BagError, ValueError, ThresholdError) as exc:
+                skip(bag, str(exc))
         todo = [b for b in checked if not replay_finished(replays / b.name)]
         done = [b for b in checked if b not in todo]
 

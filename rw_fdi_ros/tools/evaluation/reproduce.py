@@ -26,7 +26,7 @@ from pathlib import Path
 import yaml
 
 from ...core.scenario import AXES
-from ..campaigns.campaign import run_campaign
+from ..campaigns.campaign import CampaignResult, pending, record_campaigns, run_campaign
 from ..design.train import EPOCHS
 
 
@@ -53,6 +53,7 @@ SCALES = {
                     ripple_runs=20, multiple_runs=20, train_runs=40, epochs=EPOCHS),
 }
 
+GROUPS = ("fit", "heldout", "table42", "grid", "ripple", "multiple")   # the study's campaign groups, in order
 # (kind, value, label) of thesis Table 4.2 and the Tables 5.1/5.2 grid
 TABLE42 = [("bus_voltage", 5.5, "bus_5v5"), ("current_limiter", 0.6, "current_0p6"), ("temperature", 173.0, "temp_150")]
 GRID = ([("bus_voltage", 8.0 * (1 - p / 100), f"bus_{p}pct") for p in (10, 20, 30, 40)]
@@ -156,15 +157,22 @@ def graph_check(out: Path, jobs, sample: int, executor, models: Path, persistenc
     engine's node code): what agreed."""
     from ...storage.compare import bag_differences
     from .evaluate import evaluate
+    from concurrent.futures import ThreadPoolExecutor
+    from ..campaigns.campaign import LocalExecutor
     root = out / "graph_sample"
     compared, differing = 0, []
-    for group in ("fit", "heldout", "table42", "grid", "ripple", "multiple"):
-        first = next((j for j in jobs if j[0] == group), None)
-        if first is None:
-            continue
-        _, scenario, runs, seed = first
-        res = run_campaign(scenario, min(sample, runs), seed, root / "bags" / group, executor=executor,
-                           desc=f"graph sample {group}", engine="graph")
+    firsts = [next(j for j in jobs if j[0] == g) for g in GROUPS if any(j[0] == g for j in jobs)]
+    local = executor is None or isinstance(executor, LocalExecutor)
+    jobs_at_once = getattr(executor, "jobs", None) or LocalExecutor().jobs
+
+    def record(job):   # the groups' samples side by side: one graph each, ``jobs`` at once
+        group, scenario, runs, seed = job
+        return group, run_campaign(scenario, min(sample, runs), seed, root / "bags" / group,
+                                   executor=LocalExecutor(1) if local else executor, desc=f"graph sample {group}",
+                                   engine="graph")
+    with ThreadPoolExecutor(jobs_at_once) as pool:
+        recorded = list(pool.map(record, firsts))
+    for group, res in recorded:
         for bag in sorted(res.done + res.skipped):
             compared += 1
             diff = bag_differences(bag, out / "bags" / group / bag.name, limit=3)
@@ -196,17 +204,24 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int | 
     clock = StageClock(out, command)
     print(f"reproduce ({scale_name}): {sum(j[2] for j in jobs)} runs in {len(jobs)} campaigns -> {out}",
           file=sys.stderr, flush=True)
-    for group in ("fit", "heldout", "table42", "grid", "ripple", "multiple"):
+    for group in GROUPS:
         t = time.monotonic()
         n = 0
-        for g, scenario, runs, seed in jobs:
-            if g == group:
-                res = run_campaign(scenario, runs, seed, out / "bags" / group, executor=executor,
-                                   desc=f"{group} {Path(scenario).stem}", engine=engine)
-                n += len(res.done)
-                if res.failed:
-                    print(f"{len(res.failed)} runs failed in {Path(scenario).stem}: {res.failed[0][1]}",
-                          file=sys.stderr)
+        mine = [(scenario, runs, seed) for g, scenario, runs, seed in jobs if g == group]
+        if engine == "core":   # the group's campaigns share batches: a grid of small ones costs one large one
+            campaigns = []
+            for scenario, runs, seed in mine:
+                todo, skipped = pending(scenario, runs, seed, out / "bags" / group)
+                campaigns.append((scenario, todo, out / "bags" / group, CampaignResult([], skipped, [])))
+            results = record_campaigns(campaigns, executor, desc=f"{group} ({len(mine)} campaigns)")
+        else:
+            results = [run_campaign(scenario, runs, seed, out / "bags" / group, executor=executor,
+                                    desc=f"{group} {Path(scenario).stem}", engine=engine)
+                       for scenario, runs, seed in mine]
+        for (scenario, _, _), res in zip(mine, results):
+            n += len(res.done)
+            if res.failed:
+                print(f"{len(res.failed)} runs failed in {Path(scenario).stem}: {res.failed[0][1]}", file=sys.stderr)
         clock.add(f"record {group}", time.monotonic() - t, n)
 
     models = out / "models"
