@@ -24,7 +24,7 @@ class Node:
         print("destroying", flush=True)
         time.sleep(3600)
 rclpy.init(args=[])
-runtime._tear_down(Node(), "recorder", 0, "")
+runtime._tear_down([Node()], {"recorder": (0, "")})
 print("never here", flush=True)
 """
 
