@@ -215,7 +215,7 @@ def spin_nodes(factories, args=None) -> int:
     if os.environ.get("RW_FDI_TIMING") == "1":
         for node, node_name in zip(nodes, outcome):   # a destroyed node no longer says its name
             report = {"node": node_name, "cpu_s": time.process_time(), "max_rss_mb": _peak_rss_mb(),
-                      "process_nodes": len(nodes), **node.timing()}
+                      "process_nodes": len(nodes), "pid": os.getpid(), **node.timing()}
             print("RW_FDI_TIMING " + json.dumps(report), flush=True)
     codes = [code for code, _ in outcome.values() if code != EXIT_OK]
     return codes[0] if codes else EXIT_OK

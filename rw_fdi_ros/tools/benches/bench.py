@@ -62,7 +62,7 @@ def _bench_graph_run(duration: float, seed: int, grouping: str) -> dict:
     lines.append("  CPU seconds per process (2 cores shared by all):")
     seen = set()
     for name, r in reports.items():
-        key = (r["cpu_s"], r["max_rss_mb"])   # a composed process' nodes each report the process' figures
+        key = r.get("pid", name)   # a composed process' nodes each report the process' figures
         if r.get("process_nodes", 1) > 1 and key in seen:
             continue
         seen.add(key)
