@@ -6,7 +6,7 @@ from setuptools import find_packages, setup
 
 PACKAGE = "rw_fdi_ros"
 NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "model_observer", "isolation",
-         "wheel_allocation", "player", "composed"]   # rw_fdi_ros/nodes/entry.py: the same list
+         "wheel_allocation", "player", "composed", "momentum_dumping"]   # rw_fdi_ros/nodes/entry.py: the same list
 
 
 
@@ -30,7 +30,7 @@ setup(
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/launch", glob("launch/*.py")),
     ] + config_files(),
-    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "rosbags", "mcap"],
+    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "rosbags", "mcap", "sgp4", "ppigrf"],
     extras_require={"test": ["pytest"]},   # `colcon test` runs pytest when the package asks for it
     zip_safe=True,
     maintainer="rw_fdi_ros developers",

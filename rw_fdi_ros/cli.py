@@ -244,6 +244,11 @@ def _cmd_bench(args) -> int:
         from .tools.benches.operations_bench import bench_operations
         report = bench_operations(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
                                   hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations")
+    elif args.what == "dumping":
+        from .tools.benches.dumping_bench import bench_dumping
+        report = bench_dumping(hours=args.day_hours, seed=args.seed if args.seed is not None else 1,
+                               operations_runs=args.orbit_runs, runs_per_cell=args.runs_per_cell or 100,
+                               out=args.out or "reports/dumping")
     elif args.what == "recovery":
         from .tools.benches.recovery_bench import CELLS, bench_recovery
         runs = args.runs_per_cell or 100
@@ -447,7 +452,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
     b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification", "units", "memory",
-                                    "operations", "recovery"],
+                                    "operations", "recovery", "dumping"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
                         "node callback times and memory; study: record and replay throughput and the "
                         "thesis-scale reproduce time they give; detection: false-alarm and detection rates "
@@ -459,7 +464,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "every observer and the /diagnostics verdict in operations (manoeuvres at random times, "
                         "hours-long runs, faults a manoeuvre follows, bus drops that tumble an axis; core loop); "
                         "recovery: the redundant wheel taking over from a wheel the FDI confirmed faulty (pointing "
-                        "back within 0.2 deg, peak error, time to recover; FDI and FDIR in the core loop)")
+                        "back within 0.2 deg, peak error, time to recover; FDI and FDIR in the core loop); dumping: "
+                        "a day in orbit with the magnetorquers dumping and with them off (wheel speed band, "
+                        "pointing, when the wheels saturate; a plot), the FDI through hours of dumping and faults "
+                        "during a dump (core loop)")
+    b.add_argument("--day-hours", type=number(float, 0, 240, low_open=True), default=24.0,
+                   help="dumping: the length of the day in orbit [h] (default 24)")
+    b.add_argument("--orbit-runs", type=COUNT, default=20,
+                   help="dumping: 6-hour runs of operations in orbit with dumping (default 20: 120 simulated hours)")
     b.add_argument("--hours", default="1,6", help="memory: run lengths in hours, comma-separated (default 1,6)")
     b.add_argument("--fault-free-runs", type=COUNT, default=1000, help="detection, units: fault-free runs")
     b.add_argument("--runs-per-cell", type=COUNT, default=None,

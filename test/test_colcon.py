@@ -8,7 +8,8 @@ import sys
 
 from colcon_ws import BIN, ROOT, colcon_env, sourced
 
-NODES = ["composed", "elman_observer", "isolation", "linear_observer", "model_observer", "pid_controller", "plant",
+NODES = ["composed", "elman_observer", "isolation", "linear_observer", "model_observer", "momentum_dumping",
+         "pid_controller", "plant",
          "player", "recorder", "wheel_allocation"]
 # the fast subset `colcon test` runs here (docs/running.md: the whole suite is plain `colcon test`)
 FAST_TESTS = ["test/test_convert.py", "test/test_wheel.py", "test/test_plant_choices.py", "test/test_detection.py"]

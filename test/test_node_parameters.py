@@ -17,7 +17,8 @@ NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime"],
          "elman_observer": ["elman_observer", "observer_node", "runtime"],
          "linear_observer": ["linear_observer", "observer_node", "runtime"],
          "model_observer": ["model_observer", "observer_node", "runtime"], "isolation": ["isolation", "runtime"],
-         "recorder": ["recorder"], "player": ["player"], "wheel_allocation": ["wheel_allocation", "runtime"]}
+         "recorder": ["recorder"], "player": ["player"], "wheel_allocation": ["wheel_allocation", "runtime"],
+         "momentum_dumping": ["momentum_dumping", "runtime"]}
 LOOPED = {"plant": {"fault.<wheel>.<kind>"}, "isolation": set(DEFAULT.as_dict())}
 TYPES = {bool: "bool", int: "int", float: "double", str: "string"}
 ARRAYS = {"DOUBLE_ARRAY": "double[]", "STRING_ARRAY": "string[]", "BOOL": "bool"}

@@ -9,7 +9,8 @@ ROOT = Path(__file__).resolve().parents[1]
 KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml", "torch": "python3-torch",
         "rosbags": "python3-rosbags-pip", "mcap": "mcap-ros2-support", "mcap_ros2": "mcap-ros2-support",
         "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "jsonschema": "python3-jsonschema",
-        "rclpy": "rclpy", "ament_index_python": "ament_index_python", "dask": None, "distributed": None}
+        "rclpy": "rclpy", "ament_index_python": "ament_index_python", "dask": None, "distributed": None,
+        "sgp4": None, "ppigrf": None}
 
 
 def imported_modules() -> set:

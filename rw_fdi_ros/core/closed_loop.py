@@ -13,6 +13,7 @@ import numpy as np
 
 from .allocation import TorqueAllocator
 from .fdir import DecisionDelay, Reconfiguration
+from .magnetorquers import Dumper
 from .onboard import OnboardVerdict
 from .pid import PidController, PidGains, design_gains
 from .plant import Plant
@@ -49,6 +50,8 @@ class Trajectory:
     axis_command: np.ndarray = None     # the controllers' body-axis commands v of each sample [V] (steps + 1, B, 3)
     wheel_command: np.ndarray = None    # the allocation's wheel commands u of each sample [V] (steps + 1, B, N)
     operating_point: dict = None        # fault kind -> (steps + 1, B, N), core.scenario.operating_point_at
+    magnetic_field: np.ndarray = None   # in orbit: the magnetometer's last reading [T] (steps + 1, B, 3)
+    dipole: np.ndarray = None           # in orbit: the magnetorquers' dipole in force [A m^2] (steps + 1, B, 3)
 
     @property
     def error(self):
@@ -57,19 +60,23 @@ class Trajectory:
 
 def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = WheelParams(),
              control_period=0.1, duration=None, disturbance=True, wheel_momentum_coupling=True,
-             wheels=None, fdir: Fdir | None = None) -> Trajectory:
-    """Run scenarios (one or a list) to their end; returns every control-period sample. ``wheels``: the
-    wheel set (None: the scenarios'); ``fdir``: reconfigure on the FDI's confirmed failures."""
+             wheels=None, fdir: Fdir | None = None, magnetic_field: str | None = None,
+             every: int = 1) -> Trajectory:
+    """Run scenarios (one or a list) to their end; returns every ``every``-th control-period sample (and
+    the last). ``wheels``: the wheel set (None: the scenarios'); ``fdir``: reconfigure on the FDI's
+    confirmed failures; in orbit the magnetorquers dump momentum by the scenarios' law."""
     if isinstance(scenarios, Scenario):
         scenarios = [scenarios]
+    duration = duration or scenarios[0].duration
     plant = Plant(scenarios, wheel=wheel, control_period=control_period, disturbance=disturbance,
-                  wheel_momentum_coupling=wheel_momentum_coupling, wheels=wheels)
+                  wheel_momentum_coupling=wheel_momentum_coupling, wheels=wheels, duration=duration,
+                  magnetic_field=magnetic_field)
+    dumper = Dumper([s.magnetorquers for s in scenarios]) if plant.in_orbit else None
     allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit)
     gains = gains or design_gains()
     # the controllers' integrators hold the body-axis command of the wheels' holding voltages
     pid = PidController(gains, control_period, initial_tcv=plant.tcv @ plant.spin_axes.T, wheel=wheel)
     schedules = [s.setpoint_schedule() for s in scenarios]
-    duration = duration or scenarios[0].duration
     steps = int(round(duration / control_period))
     onboard = reconfig = delays = None
     if fdir is not None:
@@ -78,28 +85,39 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
         reconfig = [Reconfiguration(plant.wheels) for _ in scenarios]
         delays = [DecisionDelay() for _ in scenarios]
     rec = {k: [] for k in ("attitude", "setpoint", "body_rate", "wheel_speed", "tcv", "reaction_torque",
-                           "fault_effect", "in_use", "wheel_angle", "axis_command", "wheel_command")}
+                           "fault_effect", "in_use", "wheel_angle", "axis_command", "wheel_command",
+                           "magnetic_field", "dipole")}
     operating_point = []
+    field = np.zeros((plant.batch, 3))
     sample = plant.sample()
     for _ in range(steps + 1):
         sp = np.array([setpoint_at(t, v, sample.time) for t, v in schedules])
-        for key in ("attitude", "body_rate", "wheel_speed", "tcv", "reaction_torque", "fault_effect"):
-            rec[key].append(getattr(sample, key))
-        rec["setpoint"].append(sp)
-        rec["in_use"].append(allocator.in_use.copy())
-        rec["wheel_angle"].append(plant.wheel_angle.copy())
-        operating_point.append(sample.operating_point)
         if onboard is not None:
+            in_use = allocator.in_use.copy()   # recorded as it was when the sample came, before FDIR acts
             _fdir_step(onboard, reconfig, delays, allocator, plant, sample)
+        if sample.magnetic_field is not None:   # the law runs on the reading, the rods hold its dipole
+            field = sample.magnetic_field
+            plant.command_dipole(dumper.update(field, sample.wheel_speed, allocator.in_use, wheel.inertia,
+                                               plant.spin_axes))
         # the last sample is answered too, as the controllers and the allocation node answer it
         axis_command = pid.update(sp, sample.attitude, sample.body_rate)
         wheel_command = allocator.wheel_commands(axis_command, sample.wheel_speed)
-        rec["axis_command"].append(axis_command)
-        rec["wheel_command"].append(wheel_command)
-        if plant.step_index == steps:
+        last = plant.step_index == steps
+        if plant.step_index % every == 0 or last:
+            for key in ("attitude", "body_rate", "wheel_speed", "tcv", "reaction_torque", "fault_effect"):
+                rec[key].append(getattr(sample, key))
+            rec["setpoint"].append(sp)
+            rec["in_use"].append(in_use if onboard is not None else allocator.in_use.copy())
+            rec["wheel_angle"].append(plant.wheel_angle.copy())
+            rec["axis_command"].append(axis_command)
+            rec["wheel_command"].append(wheel_command)
+            rec["magnetic_field"].append(field)
+            rec["dipole"].append(plant.dipole)
+            operating_point.append(sample.operating_point)
+        if last:
             break
         sample = plant.step(wheel_command)
-    time = np.arange(len(rec["attitude"])) * control_period
+    time = np.array([min(k * every, steps) for k in range(len(rec["attitude"]))]) * control_period
     return Trajectory(time=time, wheel_names=plant.wheels.names,
                       decisions=[r.decisions for r in reconfig] if reconfig else None,
                       operating_point={k: np.array([op[k] for op in operating_point]) for k in operating_point[0]},

@@ -30,6 +30,7 @@ import numpy as np
 
 from . import wheel as wm
 from .scenario import FAULT_KINDS, NOMINAL_VALUES, Scenario, operating_points
+from .environment import MAGNETOMETER_PERIOD, Environments
 from .spacecraft import INERTIA, body_acceleration, disturbance_torque
 from .wheel_set import WheelSet, wheel_set as named_wheel_set
 
@@ -46,6 +47,7 @@ class PlantSample:
     reaction_torque: np.ndarray  # -(tau_n + ripple) along each wheel's spin axis, eq. 2.18
     fault_effect: np.ndarray     # reaction torque minus a healthy wheel's in the same state
     operating_point: dict        # kind -> (B, N)
+    magnetic_field: np.ndarray | None = None   # the magnetometer's reading (B, 3) [T] at its samples, in orbit
 
 
 def hold_command(wheel_speed, params: wm.WheelParams = wm.WheelParams()):
@@ -69,7 +71,8 @@ class Plant:
 
     def __init__(self, scenarios, wheel: wm.WheelParams = wm.WheelParams(), control_period=0.1,
                  substeps=1, inertia=INERTIA, disturbance=True, wheel_momentum_coupling=True,
-                 wheels: WheelSet | str | None = None):
+                 wheels: WheelSet | str | None = None, duration: float | None = None,
+                 magnetic_field: str | None = None):
         if isinstance(scenarios, Scenario):
             scenarios = [scenarios]
         self.scenarios = list(scenarios)
@@ -84,6 +87,13 @@ class Plant:
         self.inertia = np.asarray(inertia, float)
         self.disturbance = disturbance
         self.wheel_momentum_coupling = bool(wheel_momentum_coupling)
+        # in orbit (environment.py): the track is computed on the first step, not for a look at t = 0
+        self.duration = float(duration or max(s.duration for s in self.scenarios))
+        self.field_model = magnetic_field or self.scenarios[0].plant_choices().magnetic_field
+        self.in_orbit = any(s.environment is not None for s in self.scenarios)
+        self._environment = None
+        self.dipole = np.zeros((self.batch, 3))   # the magnetorquers' dipole in force [A m^2]
+        self.magnetometer_steps = int(round(MAGNETOMETER_PERIOD / self.dt))
         draws = [s.draws()[0] for s in self.scenarios]
         self.attitude = np.array([d.attitude for d in draws])
         self.body_rate = np.array([d.body_rate for d in draws])
@@ -98,6 +108,20 @@ class Plant:
         self.step_index = 0
         self.tcv = np.where(self.locked, 0.0, np.clip(hold_command(self.wheel_speed, self.wheel),
                                                        -wheel.command_limit, wheel.command_limit))
+
+    @property
+    def environment(self) -> Environments | None:
+        if self.in_orbit and self._environment is None:
+            self._environment = Environments([s.environment for s in self.scenarios],
+                                             [s.seed for s in self.scenarios], self.duration, self.field_model)
+        return self._environment
+
+    def command_dipole(self, dipole):
+        """Hold the magnetorquers' ``dipole`` (B, 3) [A m^2] from now on (magnetorquers.py)."""
+        dipole = np.asarray(dipole, float).reshape(self.batch, 3)
+        if not np.all(np.isfinite(dipole)):
+            raise ValueError("magnetorquer dipole is not finite")
+        self.dipole = dipole
 
     @property
     def batch(self) -> int:
@@ -158,6 +182,8 @@ class Plant:
             dist = np.array([disturbance_torque(r) for r in self.rngs])
         else:
             dist = np.zeros((self.batch, 3))
+        if self.in_orbit:   # secular torques and the rods', held over the period like eq. 2.34's
+            dist = dist + self.environment.torque(t0, self.attitude, self.inertia, self.dipole)
         state = (self.body_rate, self.attitude, self.wheel_speed, self.wheel_angle)
         h = self.dt / self.substeps
         t = t0
@@ -190,6 +216,9 @@ class Plant:
         healthy_op = {k: np.full_like(op[k], NOMINAL_VALUES[k]) for k in FAULT_KINDS}
         nominal = all(np.array_equal(op[k], healthy_op[k]) for k in FAULT_KINDS)
         healthy = rt if nominal else self.reaction_torque(healthy_op, t)   # no fault: the same torque, exactly
-        return PlantSample(time=t, attitude=self.attitude.copy(), body_rate=self.body_rate.copy(),
+        field = None
+        if self.in_orbit and self.step_index % self.magnetometer_steps == 0:
+            field = self.environment.magnetometer(t, self.attitude, self.step_index)
+        return PlantSample(magnetic_field=field, time=t, attitude=self.attitude.copy(), body_rate=self.body_rate.copy(),
                            wheel_speed=self.wheel_speed.copy(), tcv=self.tcv.copy(), reaction_torque=rt,
                            fault_effect=rt - healthy, operating_point=op)

@@ -13,18 +13,21 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
 
+from .geomagnetic import FIELD_MODELS
 from .sampling import SAMPLINGS as FDI_SAMPLINGS
 from .wheel import EMF_LIMITS
 from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
 
 # what a scenario file may set under `plant:` (the rest is fixed by the graph)
-SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period", "wheel_set")
+SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period", "wheel_set", "magnetic_field")
 # the value a recorded mapping without the key was made under
 LEGACY = {"wheel_momentum_coupling": False, "wheel_set": "orthogonal"}
 # (choice, made under, running) pairs that are no difference to what was fitted or trained: a three-wheel
 # set's files hold for the same three wheels with a standby wheel, whose runs are bit for bit the same
-# until a reconfiguration (test_fdir.py); the standby wheel is judged with its type's band
-EQUIVALENT = {("wheel_set", "orthogonal", "orthogonal_skew")}
+# until a reconfiguration (test_fdir.py); the standby wheel is judged with its type's band. The field
+# model moves the body, not the wheels the observers model.
+EQUIVALENT = {("wheel_set", "orthogonal", "orthogonal_skew"), ("magnetic_field", "igrf", "tilted_dipole"),
+              ("magnetic_field", "tilted_dipole", "igrf")}
 # what the graph's FDI runs at, whatever the scenario: sample period [s] (the plant's telemetry report,
 # core/telemetry.py) and how control-rate data becomes one FDI sample (core/sampling.py [choice])
 FDI_PERIOD = 1.0
@@ -41,7 +44,8 @@ class PlantChoices:
     the wheels' momentum h_w in the body's Euler equations (on: complete physics, off: eq. 2.27
     as the thesis writes it); control_period: lockstep tick [s]; wheel_set: the wheels and their
     spin axes (wheel_set.py); fdi_period / fdi_sampling: the observers' sample period [s] and how
-    control-rate data becomes one FDI sample.
+    control-rate data becomes one FDI sample; magnetic_field: the geomagnetic model of a run in orbit
+    (geomagnetic.py; no effect without an orbit).
 """
 
     emf_limit: str = "kf_scaled"
@@ -50,8 +54,12 @@ class PlantChoices:
     wheel_set: str = DEFAULT_WHEEL_SET
     fdi_period: float = FDI_PERIOD
     fdi_sampling: str = FDI_SAMPLING
+    magnetic_field: str = "igrf"
 
     def __post_init__(self):
+        if self.magnetic_field not in FIELD_MODELS:
+            raise PlantChoiceError(f"magnetic_field must be one of {', '.join(FIELD_MODELS)}, "
+                                   f"got {self.magnetic_field!r}")
         if self.emf_limit not in EMF_LIMITS:
             raise PlantChoiceError(f"emf_limit must be one of {', '.join(EMF_LIMITS)}, got {self.emf_limit!r}")
         if not isinstance(self.wheel_momentum_coupling, bool):

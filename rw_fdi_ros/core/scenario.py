@@ -7,11 +7,16 @@ the run's seed, so the same seed always gives the same run.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from datetime import date, datetime, timezone
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from .environment import OrbitEnvironment
+from .geomagnetic import IGRF_YEARS
+from .magnetorquers import MomentumDumping
+from .orbit import CircularOrbit, OrbitError, TleOrbit
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
 from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
 from .wheel import DEFAULT_UNIT_SPREAD, NOMINAL, UNIT_PARAMETERS, WheelParams, unit_wheel
@@ -110,6 +115,8 @@ class Scenario:
     plant: dict = field(default_factory=dict)   # plant choices the run was made under (emf_limit, ...)
     wheels: dict = field(default_factory=dict)  # unit-to-unit variation (variation, spread, scale); {}: datasheet
     manoeuvres: Manoeuvres | None = None        # set-point changes at random times beside ``setpoints``
+    environment: OrbitEnvironment | None = None  # in orbit (environment.py); None: no orbit, no field
+    magnetorquers: MomentumDumping | None = None  # rods and their dumping law (magnetorquers.py)
     source_text: str = ""     # the YAML it came from, recorded in every bag
 
     def with_seed(self, seed: int) -> "Scenario":
@@ -326,7 +333,7 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     if not isinstance(raw, dict):
         raise ScenarioError(f"{origin}: a scenario is a YAML mapping (name, duration, faults, ...)")
     unknown = set(raw) - {"name", "description", "duration", "seed", "faults", "setpoints", "initial", "plant",
-                          "wheels", "manoeuvres"}
+                          "wheels", "manoeuvres", "environment", "magnetorquers"}
     if unknown:
         raise ScenarioError(f"{origin}: unknown field(s) {sorted(unknown)}")
     duration = _num(f"{origin}: duration", raw.get("duration", 400.0), 1.0, 1e6)
@@ -365,10 +372,15 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
         raise ScenarioError(f"{origin}: faults must be a list")
     faults = tuple(_fault(f"{origin}: faults[{i}]", f, duration, names) for i, f in enumerate(faults_raw))
     name = str(raw.get("name") or Path(origin).stem)
+    environment = _environment(f"{origin}: environment", raw.get("environment"))
+    magnetorquers = _magnetorquers(f"{origin}: magnetorquers", raw.get("magnetorquers"))
+    if magnetorquers is not None and environment is None:
+        raise ScenarioError(f"{origin}: magnetorquers need a field: give the scenario an environment (an orbit)")
     return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
                     initial=initial, description=str(raw.get("description", "")), plant=dict(plant),
                     wheels=_wheels(f"{origin}: wheels", raw.get("wheels"), len(names)),
-                    manoeuvres=_manoeuvres(f"{origin}: manoeuvres", raw.get("manoeuvres"), duration), source_text=text)
+                    manoeuvres=_manoeuvres(f"{origin}: manoeuvres", raw.get("manoeuvres"), duration), source_text=text,
+                    environment=environment, magnetorquers=magnetorquers)
 
 
 def _range(where, raw, lo, hi) -> tuple:
@@ -390,6 +402,80 @@ def _manoeuvres(where, raw, duration) -> Manoeuvres | None:
     return Manoeuvres(interval_s=_range(f"{where}.interval_s", raw.get("interval_s", default.interval_s), 1.0, 1e6),
                       size_deg=_range(f"{where}.size_deg", raw.get("size_deg", default.size_deg), -180.0, 180.0),
                       start_s=_num(f"{where}.start_s", raw.get("start_s", 0.0), 0.0, duration))
+
+
+def _environment(where, raw) -> OrbitEnvironment | None:
+    """The ``environment:`` mapping: orbit (altitude_km, inclination_deg, raan_deg, argument_of_latitude_deg)
+    or tle (its two lines), epoch (UTC date-time, IGRF's years), residual_dipole [A m^2] (x, y, z)."""
+    if raw is None:
+        return None
+    if raw is True:
+        raw = {}
+    if not isinstance(raw, dict) or set(raw) - {"orbit", "tle", "epoch", "residual_dipole"}:
+        raise ScenarioError(f"{where}: a mapping of orbit (or tle), epoch and residual_dipole")
+    if "orbit" in raw and "tle" in raw:
+        raise ScenarioError(f"{where}: give an orbit or a tle, not both")
+    if "tle" in raw:
+        lines = raw["tle"]
+        if not isinstance(lines, list) or len(lines) != 2 or not all(isinstance(x, str) for x in lines):
+            raise ScenarioError(f"{where}.tle: expected the element set's two lines as two strings")
+        orbit = TleOrbit(*(x.strip() for x in lines))
+        try:
+            orbit.satellite()
+        except OrbitError as exc:
+            raise ScenarioError(f"{where}.tle: {exc}") from None
+    else:
+        elements = raw.get("orbit") or {}
+        limits = {"altitude_km": (150.0, 40000.0), "inclination_deg": (0.0, 180.0),
+                  "raan_deg": (-360.0, 360.0), "argument_of_latitude_deg": (-360.0, 360.0)}
+        if not isinstance(elements, dict) or set(elements) - set(limits):
+            raise ScenarioError(f"{where}.orbit: may set only {', '.join(limits)}")
+        orbit = CircularOrbit(**{k: _num(f"{where}.orbit.{k}", v, *limits[k]) for k, v in elements.items()})
+    epoch = None
+    if "epoch" in raw:
+        value = raw["epoch"]
+        try:
+            epoch = value if isinstance(value, datetime) else (
+                datetime(value.year, value.month, value.day) if isinstance(value, date)
+                else datetime.fromisoformat(str(value)))
+        except ValueError:
+            raise ScenarioError(f"{where}.epoch: expected a UTC date-time like 2026-01-01T00:00:00, "
+                                f"got {value!r}") from None
+        epoch = epoch.replace(tzinfo=timezone.utc) if epoch.tzinfo is None else epoch.astimezone(timezone.utc)
+        if not IGRF_YEARS[0] <= epoch.year < IGRF_YEARS[1]:
+            raise ScenarioError(f"{where}.epoch: {epoch.date()} is outside the field model's years "
+                                f"{IGRF_YEARS[0]}-{IGRF_YEARS[1] - 1}")
+    given = {} if "residual_dipole" not in raw else {
+        "residual_dipole": tuple(_num(f"{where}.residual_dipole[{i}]", v, -100.0, 100.0)
+                                 for i, v in enumerate(_vector(f"{where}.residual_dipole", raw["residual_dipole"])))}
+    return OrbitEnvironment(orbit=orbit, epoch=epoch, **given)
+
+
+def _magnetorquers(where, raw) -> MomentumDumping | None:
+    """The ``magnetorquers:`` mapping: dipole_limit [A m^2], and dumping: true, false (rods idle) or a
+    mapping of gain [1/s], start_speed and stop_speed [rad/s]."""
+    if raw is None:
+        return None
+    if raw is True:
+        raw = {}
+    if not isinstance(raw, dict) or set(raw) - {"dipole_limit", "dumping"}:
+        raise ScenarioError(f"{where}: a mapping of dipole_limit and dumping")
+    values = {}
+    if "dipole_limit" in raw:
+        values["dipole_limit"] = _num(f"{where}.dipole_limit", raw["dipole_limit"], 0.0, 1000.0)
+    dumping = raw.get("dumping", True)
+    if isinstance(dumping, bool):
+        values["enabled"] = dumping
+    elif isinstance(dumping, dict) and not set(dumping) - {"gain", "start_speed", "stop_speed"}:
+        limits = {"gain": (0.0, 1.0), "start_speed": (0.0, 1000.0), "stop_speed": (0.0, 1000.0)}
+        values.update({k: _num(f"{where}.dumping.{k}", v, *limits[k]) for k, v in dumping.items()})
+    else:
+        raise ScenarioError(f"{where}.dumping: true, false or a mapping of gain, start_speed and stop_speed")
+    settings = MomentumDumping(**values)
+    if settings.stop_speed > settings.start_speed:
+        raise ScenarioError(f"{where}.dumping: stop_speed {settings.stop_speed:g} above start_speed "
+                            f"{settings.start_speed:g}")
+    return settings
 
 
 # a spread's draws are cut at 3 sigma, so every drawn scale lies inside the range a `scale` may give:

@@ -47,7 +47,8 @@ class ProcessSpec:
 
 # which process each node executable goes to, per grouping (--compose / compose:=); "none": every node its
 # own process, as `ros2 run` starts them. The default was chosen by measurement (docs/benchmarks.md).
-_LOOP = {"plant": "loop", "player": "loop", "pid_controller": "loop", "wheel_allocation": "loop"}
+_LOOP = {"plant": "loop", "player": "loop", "pid_controller": "loop", "wheel_allocation": "loop",
+         "momentum_dumping": "loop"}
 _FDI = {"elman_observer": "fdi", "linear_observer": "fdi", "model_observer": "fdi", "isolation": "fdi"}
 GROUPINGS = {
     "none": None,
@@ -83,7 +84,8 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
-        "wheel_set": choices.wheel_set, "command_timeout": command_timeout, "recorder_ready": bag is not None})]
+        "wheel_set": choices.wheel_set, "magnetic_field": choices.magnetic_field, "command_timeout": command_timeout,
+        "recorder_ready": bag is not None, "magnetorquers": scenario.magnetorquers is not None})]
     for i, axis in enumerate(AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "joint": T.ATTITUDE_JOINTS[i], "control_period": period, "initial_tcv": float(hold[i]),
@@ -92,6 +94,11 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         "wheel_set": choices.wheel_set, "control_period": period,
         "fdir": fdi is not None and fdi.get("fdir", True) is not False,
         "fdi_period": choices.fdi_period}))
+    if scenario.magnetorquers is not None:
+        rods = scenario.magnetorquers
+        nodes.append(NodeSpec("momentum_dumping", "momentum_dumping", {
+            "wheel_set": choices.wheel_set, "dipole_limit": rods.dipole_limit, "gain": rods.gain,
+            "start_speed": rods.start_speed, "stop_speed": rods.stop_speed, "enabled": rods.enabled}))
     if fdi is not None:
         nodes += fdi_nodes(fdi, choices)
     if bag is not None:
@@ -99,7 +106,9 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         nodes.append(NodeSpec("recorder", "recorder", {"output": str(Path(bag).resolve()),
                                                        "fdi_period": choices.fdi_period if fdi is not None else 0.0,
                                                        "fdi_method": fdi_method(fdi or {}),
-                                                       "wheel_set": choices.wheel_set}))
+                                                       "wheel_set": choices.wheel_set,
+                                                       "orbit": scenario.environment is not None,
+                                                       "magnetorquers": scenario.magnetorquers is not None}))
     return checked_strings(with_reader_counts(nodes))
 
 

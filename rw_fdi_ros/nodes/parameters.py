@@ -27,6 +27,11 @@ RANGES = {
     "fdi_readers": (0, COUNT_MAX),
     "wheels_readers": (0, COUNT_MAX),
     "fdir_readers": (0, COUNT_MAX),
+    "magnetometer_readers": (0, COUNT_MAX),
+    "dipole_limit": (0.0, 1000.0),                    # [A m^2] per rod
+    "gain": (0.0, 1.0),                               # [1/s] the dumping law's
+    "start_speed": (0.0, 1000.0),                     # [rad/s]
+    "stop_speed": (0.0, 1000.0),
     "verdict_timeout": TIMEOUT,
     "wait_for_subscribers": (0, COUNT_MAX),
     "speed_up": (0.01, 1000.0),

@@ -21,7 +21,8 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
+from geometry_msgs.msg import Vector3Stamped
+from sensor_msgs.msg import JointState, MagneticField
 from std_msgs.msg import Header, String
 
 from ..core.plant import Plant
@@ -29,7 +30,7 @@ from ..core.scenario import FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, l
 from ..core.wheel_set import joint_name
 from ..core.wheel import WheelParams
 from . import topics as T
-from ..storage.cdr import read_joint_state_cdr
+from ..storage.cdr import read_joint_state_cdr, read_vector_cdr
 from .convert import step_stamp_ns
 from .plant_report import PlantReport, run_units
 from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for, wall_time
@@ -49,6 +50,7 @@ class PlantNode(GraphNode):
         self.declare_parameter("emf_limit", "")          # physics.md [choice]; empty: the scenario's, else kf_scaled
         self.declare_parameter("wheel_momentum_coupling", Parameter.Type.BOOL)  # unset: the scenario's, else true
         self.declare_parameter("wheel_set", "")          # core/wheel_set.py; empty: the scenario's
+        self.declare_parameter("magnetic_field", "")     # core/geomagnetic.py, in orbit; empty: the scenario's
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
         # readers to wait for before the first step, per topic (launch/graph.py derives them from topics.READS)
@@ -56,6 +58,10 @@ class PlantNode(GraphNode):
         self.declare_parameter("wheels_readers", 0)      # of /wheels: the wheel allocation (+ recorder)
         self.declare_parameter("fdi_readers", 0)         # of the FDI telemetry: the FDI nodes (+ recorder)
         self.declare_parameter("wait_for_subscribers", 0)  # of each other topic it sends per step (the recorder)
+        self.declare_parameter("magnetometer_readers", 0)  # of /magnetometer: the momentum dumping (+ recorder)
+        # in orbit with magnetorquers: wait for the momentum-dumping node's dipole on each magnetometer step
+        # (false: the rods stay off)
+        self.declare_parameter("magnetorquers", False)
         # a recorder's reader may match the plant's writer later than the writer matches it (DDS discovery
         # is per direction): until /recorder/ready it could miss a whole run while the counts above look done
         self.declare_parameter("recorder_ready", False)  # wait for /recorder/ready (a recorder records the run)
@@ -65,7 +71,8 @@ class PlantNode(GraphNode):
             self.choices = scenario.plant_choices(emf_limit=self.param("emf_limit"),
                                                   wheel_momentum_coupling=self.param("wheel_momentum_coupling"),
                                                   control_period=self.param("control_period") or None,
-                                                  wheel_set=self.param("wheel_set"))
+                                                  wheel_set=self.param("wheel_set"),
+                                                  magnetic_field=self.param("magnetic_field"))
             wheel = WheelParams(emf_limit=self.choices.emf_limit)
         except (ScenarioError, ValueError) as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
@@ -84,7 +91,12 @@ class PlantNode(GraphNode):
         self.last_step = int(round(self.duration / self.period))
         self.scenario = scenario
         self.plant = Plant(scenario, wheel=wheel, control_period=self.period,
-                           wheel_momentum_coupling=self.choices.wheel_momentum_coupling, wheels=self.wheels)
+                           wheel_momentum_coupling=self.choices.wheel_momentum_coupling, wheels=self.wheels,
+                           duration=self.duration, magnetic_field=self.choices.magnetic_field)
+        self.rods = self.param("magnetorquers") and scenario.magnetorquers is not None
+        if self.param("magnetorquers") and not self.rods:
+            raise NodeError(f"parameter magnetorquers: scenario {scenario.name} has none (give it an environment "
+                            "and magnetorquers)", EXIT_BAD_INPUT)
         # this run's units (ground truth): datasheet values unless the scenario draws them
         self.report = PlantReport(scenario.effective_text(self.choices.scenario_dict()), self.names,
                                   run_units(self.plant.wheel, 0, len(self.names)), self.choices.fdi_period,
@@ -100,10 +112,16 @@ class PlantNode(GraphNode):
         self.pub_truth = pub(DiagnosticArray, T.FAULT_TRUTH)
         self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
         self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
+        self.pub_magnetometer = pub(MagneticField, T.MAGNETOMETER) if self.plant.in_orbit else None
         self.publishers_by_topic = {p.topic_name: p for p in (
             self.pub_clock, self.pub_attitude, self.pub_wheels, self.pub_effect, self.pub_fdi, self.pub_truth,
-            self.pub_scenario, self.pub_done)}
+            self.pub_scenario, self.pub_done, self.pub_magnetometer) if p is not None}
         self.subs = [self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE, raw=True)]
+        if self.rods:
+            self.subs.append(self.create_subscription(Vector3Stamped, T.DIPOLE_COMMAND, self._on_dipole,
+                                                      T.RELIABLE, raw=True))
+        self.tcv = self.dipole = None   # this step's answers, stepped on once both are in (dipole: when due)
+        self.dipole_due = False
         self.recorder = RecorderReady(self, self.param("recorder_ready"))
         self.started = False
         self.t_wait = wall_time()
@@ -133,6 +151,8 @@ class PlantNode(GraphNode):
                 (self.pub_wheels, self.param("wheels_readers"))]
         need += [(p, self.param("wait_for_subscribers")) for p in (self.pub_effect, self.pub_clock,
                                                                    self.pub_truth, self.pub_scenario)]
+        if self.pub_magnetometer is not None:
+            need.append((self.pub_magnetometer, self.param("magnetometer_readers")))
         return all(p.get_subscription_count() >= k for p, k in need)
 
     def poll(self):
@@ -144,26 +164,51 @@ class PlantNode(GraphNode):
                 self._send(self.report.start())
                 self._publish(self.plant.sample())
             elif now - self.t_wait > self.param("startup_timeout"):
-                missing = self.subs[0].get_publisher_count() < 1
-                what = (f"no wheel allocation on {T.WHEEL_COMMAND}" if missing else
+                writers = {T.WHEEL_COMMAND: "wheel allocation", T.DIPOLE_COMMAND: "momentum dumping"}
+                missing = [f"no {writers[s.topic_name]} on {s.topic_name}" for s in self.subs
+                           if s.get_publisher_count() < 1]
+                what = (", ".join(missing) if missing else
                         "subscribers missing" if self.recorder.seen else
                         f"the recorder never reported every topic matched on {T.RECORDER_READY}")
                 self.fail(f"graph not ready after {self.param('startup_timeout'):g} s ({what})", EXIT_TIMEOUT)
             return
         if self.exit_code is None and now - self.t_wait > self.param("command_timeout"):
-            self.fail(f"no wheel command on {T.WHEEL_COMMAND} for step t={self.plant.time:.1f} s "
-                      f"within {self.param('command_timeout'):g} s", EXIT_TIMEOUT)
+            what = (f"wheel command on {T.WHEEL_COMMAND}" if self.tcv is None else
+                    f"magnetorquer dipole on {T.DIPOLE_COMMAND}")
+            self.fail(f"no {what} for step t={self.plant.time:.1f} s within {self.param('command_timeout'):g} s",
+                      EXIT_TIMEOUT)
+
+    def _this_step(self, stamp) -> bool:
+        """Whether an answer stamped ``stamp`` is for the step waiting (the lockstep only takes this step's)."""
+        return self.started and self.exit_code is None and stamp == step_stamp_ns(self.plant.step_index, self.period)
 
     def _on_command(self, raw):
-        if not self.started or self.exit_code is not None:
-            return
         stamp, _, _, tcv = read_joint_state_cdr(raw)
-        if stamp != step_stamp_ns(self.plant.step_index, self.period):
-            return  # a stale or early command: the lockstep only takes this step's
+        if not self._this_step(stamp):
+            return
         if len(tcv) != len(self.names) or not np.all(np.isfinite(tcv)):
             self.fail(f"wheel command at t={self.plant.time:.1f} s is {tcv.tolist()}: one finite voltage per "
                       f"wheel ({', '.join(self.joints)}) expected", EXIT_BAD_INPUT)
             return
+        self.tcv = tcv
+        self._advance()
+
+    def _on_dipole(self, raw):
+        stamp, dipole = read_vector_cdr(raw)
+        if not self._this_step(stamp):
+            return
+        if not np.all(np.isfinite(dipole)):
+            self.fail(f"magnetorquer dipole at t={self.plant.time:.1f} s is not finite", EXIT_BAD_INPUT)
+            return
+        self.dipole = dipole
+        self._advance()
+
+    def _advance(self):
+        if self.tcv is None or (self.dipole_due and self.dipole is None):
+            return
+        if self.dipole_due:
+            self.plant.command_dipole(self.dipole)
+        tcv, self.tcv, self.dipole = self.tcv, None, None
         t0 = wall_time()
         sample = self.plant.step(tcv)
         self.compute_wall.append(wall_time() - t0)
@@ -178,10 +223,13 @@ class PlantNode(GraphNode):
         self.t_wait = wall_time()
         k = self.plant.step_index
         stamp = step_stamp_ns(k, self.period)
+        field = None if sample.magnetic_field is None else sample.magnetic_field[0]
+        self.dipole_due = self.rods and field is not None
         self._send(self.report.step(stamp, sample.time, sample.attitude[0], sample.body_rate[0],
                                     self.plant.wheel_angle[0], sample.wheel_speed[0], sample.reaction_torque[0],
                                     sample.tcv[0], sample.fault_effect[0],
-                                    {kind: v[0] for kind, v in sample.operating_point.items()}, self.plant.faults()))
+                                    {kind: v[0] for kind, v in sample.operating_point.items()}, self.plant.faults(),
+                                    field))
         if k >= self.last_step:
             # done only once every reader has the last sample: a recorder that sees done has it all
             for pub in (self.pub_clock, self.pub_truth, self.pub_attitude, self.pub_wheels, self.pub_fdi,

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from sensor_msgs.msg import MagneticField
 from std_msgs.msg import Header, String
 
+from ..core.environment import MAGNETOMETER_NOISE
 from ..core.scenario import FAULT_KINDS
 from ..core.telemetry import TelemetrySampler
 from ..core.wheel_set import joint_name
@@ -30,6 +32,17 @@ def run_units(wheel, run: int, count: int) -> dict:
         value = np.asarray(getattr(wheel, attr), float)
         out[key] = np.broadcast_to(value if value.ndim < 2 else value[run], (count,))
     return out
+
+
+def magnetometer_msg(stamp: int, field) -> MagneticField:
+    """sensor_msgs/MagneticField in body axes [T], its covariance the noise's (environment.MAGNETOMETER_NOISE)."""
+    msg = MagneticField()
+    msg.header.stamp = time_msg(stamp)
+    msg.header.frame_id = "body"
+    msg.magnetic_field.x, msg.magnetic_field.y, msg.magnetic_field.z = (float(v) for v in field)
+    variance = MAGNETOMETER_NOISE ** 2
+    msg.magnetic_field_covariance = [variance, 0.0, 0.0, 0.0, variance, 0.0, 0.0, 0.0, variance]
+    return msg
 
 
 class PlantReport:
@@ -53,13 +66,16 @@ class PlantReport:
         return [(T.SCENARIO, String(data=self.scenario_text))]
 
     def step(self, stamp: int, time: float, attitude, body_rate, wheel_angle, wheel_speed, reaction_torque, tcv,
-             fault_effect, operating_point: dict, faults) -> list:
+             fault_effect, operating_point: dict, faults, magnetic_field=None) -> list:
         """(topic, CDR bytes or message) of one step, in the order they go out (the controllers' input
         first: they compute while the rest goes out). Wheel arrays (N,), body arrays (3,);
-        ``operating_point`` kind -> (N,); ``faults`` the run's core.scenario.Fault list."""
+        ``operating_point`` kind -> (N,); ``faults`` the run's core.scenario.Fault list; in orbit the
+        magnetometer's reading (3,) [T] on its steps."""
         out = [(T.ATTITUDE, joint_state_cdr(stamp, T.ATTITUDE_JOINTS, attitude, body_rate)),
                (T.CLOCK, clock_cdr(stamp)),
                (T.WHEELS, joint_state_cdr(stamp, self.joints, wheel_angle, wheel_speed, reaction_torque))]
+        if magnetic_field is not None:
+            out.append((T.MAGNETOMETER, magnetometer_msg(stamp, magnetic_field)))
         if any(f.onset <= time for f in faults):   # zero by definition before
             out.append((T.FAULT_EFFECT, joint_state_cdr(stamp, self.joints, effort=fault_effect)))
         report = self.telemetry.add(stamp, tcv, reaction_torque, wheel_speed)

@@ -44,6 +44,8 @@ class RecorderNode(GraphNode):
         self.declare_parameter("fdi_method", "speed_aware")   # whose observers' topics (with fdi_period > 0)
         self.declare_parameter("record_plant", True)          # False: FDI outputs only (bag replay)
         self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)  # whose wheels' FDI topics (one Elman node per wheel)
+        self.declare_parameter("orbit", False)                 # in orbit: record the magnetometer
+        self.declare_parameter("magnetorquers", False)         # record the magnetorquers' command
         self.outputs = list(self.param("outputs") or []) or [self.param("output")]
         self.output_index = 0
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
@@ -51,7 +53,7 @@ class RecorderNode(GraphNode):
         method = self.param("fdi_method")
         try:
             rows = T.recorded_rows(self.param("record_plant"), self.fdi_period_ns > 0, self.param("extra_topics"),
-                                   method, self.param("wheel_set"))
+                                   method, self.param("wheel_set"), self.param("orbit"), self.param("magnetorquers"))
             self.fdi_names = [t for t, _, _ in T.fdi_topics(method, self.param("wheel_set"))]
         except ValueError as exc:   # an unknown fdi_method or wheel set
             raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
@@ -70,7 +72,9 @@ class RecorderNode(GraphNode):
         self.pub_ready = self.create_publisher(String, T.RECORDER_READY, T.LATCHED)
         # what /recorder/ready waits for: the topics whose writers exist from the graph's start (the plant's
         # and the FDI nodes'); a replay's player writes only what its bag holds, extra topics may have none
-        awaited = set(self.fdi_names) | ({n for n, _, _ in T.PLANT_ROWS} if self.param("record_plant") else set())
+        plant_rows = [*T.PLANT_ROWS, *(T.ORBIT_ROWS if self.param("orbit") else ()),
+                      *(T.MAGNETORQUER_ROWS if self.param("magnetorquers") else ())]
+        awaited = set(self.fdi_names) | ({n for n, _, _ in plant_rows} if self.param("record_plant") else set())
         self.subs, self.unmatched, self.ready, self.done_sub = [], [], False, None
         self.started, self.said_unmatched = wall_time(), False
         for name, type_name, qos in rows:

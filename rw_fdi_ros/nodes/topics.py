@@ -40,6 +40,11 @@ WHEEL_COMMAND = "/wheels/command"
 # DiagnosticArray, one status per wheel: in use (OK), standby (OK), given up (ERROR) and why; on every
 # reconfiguration decision and at the start (nodes/wheel_allocation.py)
 FDIR_WHEELS = "/fdir/wheels"
+# in orbit (core/environment.py): sensor_msgs/MagneticField, the field in body axes [T] with the noise's
+# covariance, from the plant once per magnetometer period; and the magnetorquers' dipole in body axes
+# [A m^2] (geometry_msgs/Vector3Stamped, frame body) from the momentum-dumping node for the same stamp
+MAGNETOMETER = "/magnetometer"
+DIPOLE_COMMAND = "/magnetorquers/command"
 
 
 def wheel_joints(wheel_set: str = DEFAULT_WHEEL_SET) -> tuple:
@@ -101,6 +106,8 @@ PLANT_ROWS = ((CLOCK, "rosgraph_msgs/msg/Clock", "RELIABLE"), (ATTITUDE, JOINT_S
               (SCENARIO, "std_msgs/msg/String", "LATCHED"), (PLANT_DONE, "std_msgs/msg/Header", "LATCHED"),
               *((tcv_command(a), VECTOR, "RELIABLE") for a in AXES), (WHEEL_COMMAND, JOINT_STATE, "RELIABLE"),
               (FDIR_WHEELS, DIAGNOSTICS_TYPE, "RELIABLE"))
+ORBIT_ROWS = ((MAGNETOMETER, "sensor_msgs/msg/MagneticField", "RELIABLE"),)
+MAGNETORQUER_ROWS = ((DIPOLE_COMMAND, VECTOR, "RELIABLE"),)
 
 
 def _with_qos(rows):
@@ -165,11 +172,13 @@ REPLAY_RECORDED = (CLOCK, SCENARIO, PLANT_DONE, FAULT_TRUTH)
 
 
 def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method: str = "speed_aware",
-                  wheel_set: str = DEFAULT_WHEEL_SET):
+                  wheel_set: str = DEFAULT_WHEEL_SET, orbit: bool = False, magnetorquers: bool = False):
     """(topic, type, QoS name) the recorder subscribes to: the plant's topics (with ``record_plant``
-    false only REPLAY_RECORDED), with ``fdi`` those of the FDI of ``method`` on ``wheel_set``, and
-    ``extra`` 'name:pkg/msg/Type'."""
+    false only REPLAY_RECORDED; in ``orbit`` the magnetometer, with ``magnetorquers`` their command),
+    with ``fdi`` those of the FDI of ``method`` on ``wheel_set``, and ``extra`` 'name:pkg/msg/Type'."""
     rows = [r for r in PLANT_ROWS if record_plant or r[0] in REPLAY_RECORDED]
+    if record_plant:
+        rows += list(ORBIT_ROWS if orbit else ()) + list(MAGNETORQUER_ROWS if magnetorquers else ())
     rows += _fdi_rows(method, wheel_set) if fdi else []
     for spec in extra or ():
         name, _, type_name = spec.partition(":")
@@ -207,18 +216,22 @@ def _wheel_set(p) -> str:
 
 # executable -> its parameters -> the topics it subscribes to
 READS = {
-    "plant": lambda p: [WHEEL_COMMAND] + ([RECORDER_READY] if p.get("recorder_ready") else []),
+    "plant": lambda p: [WHEEL_COMMAND] + ([DIPOLE_COMMAND] if p.get("magnetorquers") else [])
+                       + ([RECORDER_READY] if p.get("recorder_ready") else []),
     "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
     "wheel_allocation": lambda p: [*(tcv_command(a) for a in AXES), ATTITUDE, WHEELS]
                                   + ([DIAGNOSTICS] if p.get("fdir", True) else []) + _run_end(p),
     "elman_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "linear_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "model_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
+    "momentum_dumping": lambda p: [MAGNETOMETER, WHEELS] + ([FDIR_WHEELS] if p.get("fdir", True) else [])
+                                  + _run_end(p),
     "isolation": lambda p: [FDI_TELEMETRY, *residual_inputs(p.get("fdi_method", "speed_aware"), _wheel_set(p))]
                            + _run_end(p),
     "recorder": lambda p: [r[0] for r in recorded_rows(p.get("record_plant", True), p.get("fdi_period", 0.0) > 0,
                                                        p.get("extra_topics"), p.get("fdi_method", "speed_aware"),
-                                                       _wheel_set(p))],
+                                                       _wheel_set(p), p.get("orbit", False),
+                                                       p.get("magnetorquers", False))],
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
     "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
                         + ([RECORDER_CLOSED, RECORDER_READY] if p.get("await_recorder", False) else []),
@@ -233,9 +246,11 @@ def _observer_waits(observer: str, axis: str | None) -> dict:
 # executable -> its parameters -> {parameter: the topics of its own whose readers that parameter counts}
 WAITS = {
     "plant": lambda p: {"attitude_readers": [ATTITUDE], "wheels_readers": [WHEELS], "fdi_readers": [FDI_TELEMETRY],
-                        "wait_for_subscribers": [CLOCK, FAULT_EFFECT, FAULT_TRUTH, SCENARIO]},
+                        "wait_for_subscribers": [CLOCK, FAULT_EFFECT, FAULT_TRUTH, SCENARIO],
+                        **({"magnetometer_readers": [MAGNETOMETER]} if p.get("magnetorquers") else {})},
     "pid_controller": lambda p: {"min_subscribers": [tcv_command(axis_of_joint(p["joint"], ATTITUDE_JOINTS))]},
     "wheel_allocation": lambda p: {"min_subscribers": [WHEEL_COMMAND], "fdir_readers": [FDIR_WHEELS]},
+    "momentum_dumping": lambda p: {"min_subscribers": [DIPOLE_COMMAND]},
     "elman_observer": lambda p: _observer_waits("elman", axis_of_joint(p["wheel"], wheel_joints(_wheel_set(p)))),
     "linear_observer": lambda p: _observer_waits("linear", None),
     "model_observer": lambda p: _observer_waits("model", None),

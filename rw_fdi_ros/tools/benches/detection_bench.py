@@ -89,6 +89,23 @@ def screen_cells(sizes, chunk_job, desc: str, jobs: int = 2, chunk: int = 50) ->
             for i, by_name in judged.items()}
 
 
+class SpeedAwareChunk:
+    """A picklable chunk job for :func:`screen_cells`: the runs ``seeds`` of cell ``cell_index`` as
+    ``scenarios(cell_index, seeds, seed_base)`` (a module-level function) makes them, judged by the shipped
+    speed-aware FDI; with ``on_run`` (a picklable callable returning objects with a ``seed``) also what
+    it says of each run's trajectory, under the name "runs"."""
+
+    def __init__(self, scenarios, seed_base: int, on_run=None):
+        self.scenarios, self.seed_base, self.on_run = scenarios, seed_base, on_run
+
+    def __call__(self, cell_index: int, seeds):
+        seen = []
+        hook = None if self.on_run is None else (lambda sc, traj, b: seen.append(self.on_run(sc, traj, b)))
+        out = screen_sets(self.scenarios(cell_index, seeds, self.seed_base),
+                          {"speed_aware": load_fdi(method="speed_aware")}, on_run=hook)
+        return {**out, "runs": seen} if self.on_run is not None else out
+
+
 def wilson(k: int, n: int, z: float = 1.96):
     """95 % Wilson score interval of k successes in n trials."""
     if n == 0:

@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from ...core.scenario import Fault, Manoeuvres, Scenario
-from .detection_bench import cell_figures, format_rate, screen_cells, write_report
+from .detection_bench import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
 from ..metrics import observable_level
-from ..evaluation.screen import load_fdi, screen_sets
+from ..evaluation.screen import load_fdi
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
 # manoeuvres of the 400-s runs: after the thesis' change at 0 s, one every 100-300 s (up to three more)
@@ -80,15 +80,8 @@ def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int) -> list:
     return out
 
 
-class _Chunk:
-    """A picklable chunk job of one seed set (screen_cells runs it in worker processes)."""
-
-    def __init__(self, seed_base: int):
-        self.seed_base = seed_base
-
-    def __call__(self, cell_index: int, seeds):
-        return screen_sets(cell_scenarios(CELLS[cell_index], seeds, cell_index, self.seed_base),
-                           {"speed_aware": load_fdi(method="speed_aware")})
+def _cell_runs(cell_index: int, seeds, seed_base: int) -> list:
+    return cell_scenarios(CELLS[cell_index], seeds, cell_index, seed_base)
 
 
 def manoeuvre_after_fault(scenario: Scenario) -> bool:
@@ -105,7 +98,7 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
     sizes = [hours_runs if c.duration > 400.0 else fault_free_runs if c.kind is None and c.wheel_speed is None
              else runs_per_cell for c in CELLS]
     t0 = time.monotonic()
-    judged = screen_cells(sizes, _Chunk(seed_base), f"operations bench ({seeds} seeds)", jobs)
+    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, seed_base), f"operations bench ({seeds} seeds)", jobs)
     cells = {}
     for i, cell in enumerate(CELLS):
         runs = judged[i]["speed_aware"]

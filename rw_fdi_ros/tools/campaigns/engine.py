@@ -35,6 +35,7 @@ def _serialized(message) -> bytes:
 def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     """Write run ``run`` of the core-loop trajectory ``traj`` as the graph's recorder would have recorded
     it into ``bag`` (created); the number of messages."""
+    from ...core.environment import MAGNETOMETER_PERIOD
     from ...core.fdir import Reconfiguration
     from ...core.wheel_set import joint_name, wheel_set
     from ...nodes import topics as T
@@ -47,8 +48,10 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     names, joints = wheels.names, tuple(joint_name(n) for n in wheels.names)
     report = PlantReport(scenario.effective_text(choices.scenario_dict()), names,
                          run_units(units, run, wheels.count), choices.fdi_period)
+    orbit, rods = scenario.environment is not None, scenario.magnetorquers is not None
+    magnetometer_steps = int(round(MAGNETOMETER_PERIOD / choices.control_period))
     writer = BagWriter(bag)
-    for topic, type_name, _ in T.recorded_rows(True, False, (), "speed_aware", choices.wheel_set):
+    for topic, type_name, _ in T.recorded_rows(True, False, (), "speed_aware", choices.wheel_set, orbit, rods):
         writer.add_topic(topic, type_name)
     writer.set_custom_data("engine", "core")
 
@@ -64,10 +67,13 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
         last = len(traj.time) - 1
         for k in range(last + 1):
             stamp = step_stamp_ns(k, choices.control_period)
+            magnetometer = orbit and k % magnetometer_steps == 0
             write(report.step(stamp, traj.time[k], traj.attitude[k, run], traj.body_rate[k, run],
                               traj.wheel_angle[k, run], traj.wheel_speed[k, run], traj.reaction_torque[k, run],
                               traj.tcv[k, run], traj.fault_effect[k, run], {kind: v[k] for kind, v in ops.items()},
-                              faults), stamp)
+                              faults, traj.magnetic_field[k, run] if magnetometer else None), stamp)
+            if magnetometer and rods:
+                write([(T.DIPOLE_COMMAND, vector_cdr(stamp, traj.dipole[k, run]))], stamp)
             command = traj.axis_command[k, run]
             for i, axis in enumerate(T.AXES):   # each controller's vector holds its own axis only
                 write([(T.tcv_command(axis), vector_cdr(stamp, [command[i] if j == i else 0.0 for j in range(3)]))],
@@ -105,7 +111,8 @@ def record_batch(items) -> list:
     choices = scenarios[0].plant_choices(emf_limit=items[0][3])
     wheel = WheelParams(emf_limit=choices.emf_limit)
     traj = simulate(scenarios, wheel=wheel, control_period=choices.control_period,
-                    wheel_momentum_coupling=choices.wheel_momentum_coupling, wheels=choices.wheel_set)
+                    wheel_momentum_coupling=choices.wheel_momentum_coupling, wheels=choices.wheel_set,
+                    magnetic_field=choices.magnetic_field)
     units = units_of(scenarios, wheel, wheel_set(choices.wheel_set).count)
     out = []
     for run, (scenario, (_, seed, bag, _)) in enumerate(zip(scenarios, items)):

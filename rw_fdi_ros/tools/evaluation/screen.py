@@ -43,10 +43,11 @@ def screen_runs(scenarios, weights, curves, persistence: int | None = None, prog
                        calibration_samples)["fdi"]
 
 
-def simulated_runs(scenarios, identification: bool = False, check=None, progress=None):
+def simulated_runs(scenarios, identification: bool = False, check=None, progress=None, on_run=None):
     """(scenario, FdiSamples, fault effect peak per wheel) of every scenario, by the core closed loop in
     batches of BATCH (equal durations and plant choices within a batch): the FDI samples the plant
-    node would report. ``check(plant_choices)`` runs before each batch is simulated."""
+    node would report. ``check(plant_choices)`` runs before each batch is simulated; ``on_run(scenario,
+    trajectory, index)`` sees each run's whole trajectory (what else a bench counts of it)."""
     for start in range(0, len(scenarios), BATCH):
         batch = scenarios[start:start + BATCH]
         choices = batch[0].plant_choices()
@@ -56,6 +57,8 @@ def simulated_runs(scenarios, identification: bool = False, check=None, progress
                         wheel_momentum_coupling=choices.wheel_momentum_coupling)
         stamps = np.round(traj.time * 1e9).astype(np.int64)
         for b, scenario in enumerate(batch):
+            if on_run is not None:
+                on_run(scenario, traj, b)
             samples = samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
                                           seed=scenario.seed, identification=identification, wheels=traj.wheel_names)
             onset = min((f.onset for f in scenario.faults), default=None)
@@ -67,13 +70,14 @@ def simulated_runs(scenarios, identification: bool = False, check=None, progress
 
 
 def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None,
-                identification: bool = False, calibration_samples: int = 0) -> dict:
+                identification: bool = False, calibration_samples: int = 0, on_run=None) -> dict:
     """name -> [RunEval] for several FDI sets {name: (weights, curves[, calibration samples])} judged on the
     same simulated runs (a set's own calibration samples, else ``calibration_samples``).
 
     Besides each observer's series, ``verdict``: what /diagnostics says (the decision observer's alarm,
     latched: offline.verdict_series). ``identification``: also identify the faults of the wheels the
-    verdict names (the isolation node's FaultIdentifier), into RunEval.identification."""
+    verdict names (the isolation node's FaultIdentifier), into RunEval.identification. ``on_run``: as
+    :func:`simulated_runs`'."""
     out = {name: [] for name in fdi_sets}
 
     def check(choices):
@@ -81,7 +85,7 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
             for c in entry[1].values():
                 c.check_compatible(choices, origin=f"thresholds_{c.observer}.json")
                 c.check_horizon(max(s.duration for s in scenarios), origin=f"thresholds_{c.observer}.json")
-    for scenario, samples, peak in simulated_runs(scenarios, identification, check, progress):
+    for scenario, samples, peak in simulated_runs(scenarios, identification, check, progress, on_run):
         for name, (weights, curves, *own) in fdi_sets.items():
             out[name].append(judge_run(scenario, samples, peak, weights, curves, persistence, identification,
                                        own[0] if own else calibration_samples))

@@ -1,0 +1,134 @@
+"""The orbit environment of a run: the field the magnetometer reads and the torques the body feels.
+
+A scenario's ``environment:`` mapping puts the spacecraft in orbit (orbit.py); without it a run has
+no orbit and no field, as the thesis' runs (eq. 2.34's random disturbance only). In orbit, beside
+eq. 2.34, two secular disturbance torques act on the body, both from the physics, not drawn:
+
+- gravity gradient (Wertz, Spacecraft Attitude Determination and Control, eq. 17-39; Hughes ch. 8):
+  tau_gg = 3 mu / |r|^5 (r_b x I r_b), with r_b the position in body axes and I the inertia;
+- the spacecraft's residual magnetic dipole m_res (harness loops, magnetised parts): tau = m_res x b_b,
+
+and the magnetorquers' torque tau_mtb = m x b_b (magnetorquers.py). An inertially pointing body meets
+the gravity gradient at twice the orbit rate with a mean of -3/2 n^2 (o x I o) (o the orbit normal) and
+a dipole field whose orbit mean is not zero: both build wheel momentum up over hours.
+
+[choice] Attitude frame: the thesis' per-axis angles (phi, theta, psi) about x, y, z, read as 3-2-1
+Euler angles from the inertial frame, C_bi = R1(phi) R2(theta) R3(psi); the kinematics stays the
+thesis' d(angle)/dt = body rate. Set points are inertial (an inertially pointing spacecraft).
+
+[choice] Position and field are evaluated every ENVIRONMENT_STEP seconds over the run and interpolated
+linearly between (the field turns by 0.6 deg of orbit in 10 s; a 1 s grid changes a 24-h run's wheel
+momentum by < 1e-4 N m s); the torques are held over each control period like eq. 2.34's.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import datetime, timezone
+
+import numpy as np
+
+from .geomagnetic import field_inertial
+from .orbit import MU_EARTH, CircularOrbit, TleOrbit, sidereal_angle
+
+ENVIRONMENT_STEP = 10.0
+DEFAULT_EPOCH = datetime(2026, 1, 1, tzinfo=timezone.utc)
+# [choice] the residual dipole [A m^2]: 0.5 per axis, 0.87 A m^2 in all, gives the thesis' worst-case
+# magnetic disturbance (eq. 2.32, 4.5e-5 N m) at the 52 uT the field reaches near the poles at 700 km
+DEFAULT_RESIDUAL_DIPOLE = (0.5, 0.5, 0.5)
+# [choice] magnetometer noise, 1 sigma per axis [T] (a fluxgate's tens of nT), and its sample period [s]:
+# the dumping law runs on each reading and the rods hold its dipole until the next
+MAGNETOMETER_NOISE = 50e-9
+MAGNETOMETER_PERIOD = 1.0
+
+
+@dataclass(frozen=True)
+class OrbitEnvironment:
+    """A scenario's ``environment:``: the orbit, the epoch its t = 0 is, the residual dipole."""
+
+    orbit: CircularOrbit | TleOrbit = CircularOrbit()
+    epoch: datetime | None = None    # None: the TLE's own epoch, else DEFAULT_EPOCH
+    residual_dipole: tuple = DEFAULT_RESIDUAL_DIPOLE
+
+    def start(self) -> datetime:
+        if self.epoch is not None:
+            return self.epoch
+        return self.orbit.epoch() if isinstance(self.orbit, TleOrbit) else DEFAULT_EPOCH
+
+    def track(self, duration: float, field_model: str = "igrf") -> "Track":
+        """Position and field every ENVIRONMENT_STEP seconds over [0, duration]."""
+        times = np.arange(0.0, float(duration) + 2 * ENVIRONMENT_STEP, ENVIRONMENT_STEP)
+        epoch = self.start()
+        position = self.orbit.position(times, epoch)
+        field = field_inertial(position, sidereal_angle(epoch, times), epoch, field_model)
+        return Track(times, position, field)
+
+
+@dataclass
+class Track:
+    """One run's orbit: grid times (n,) [s], inertial position (n, 3) [m] and field (n, 3) [T]."""
+
+    times: np.ndarray
+    position: np.ndarray
+    field: np.ndarray
+
+    def at(self, t: float):
+        """(position, field) at ``t``, linear between grid points (held past the last)."""
+        x = min(max(t / ENVIRONMENT_STEP, 0.0), len(self.times) - 1.0)
+        i = min(int(x), len(self.times) - 2)
+        w = x - i
+        return ((1 - w) * self.position[i] + w * self.position[i + 1],
+                (1 - w) * self.field[i] + w * self.field[i + 1])
+
+
+def body_from_inertial(attitude) -> np.ndarray:
+    """C_bi (..., 3, 3) of attitude angles (..., 3) read as 3-2-1 Euler angles: R1(phi) R2(theta) R3(psi)."""
+    phi, theta, psi = (np.asarray(attitude, float)[..., i] for i in range(3))
+    cf, sf, ct, st, cp, sp = np.cos(phi), np.sin(phi), np.cos(theta), np.sin(theta), np.cos(psi), np.sin(psi)
+    return np.stack((np.stack((ct * cp, ct * sp, -st), -1),
+                     np.stack((sf * st * cp - cf * sp, sf * st * sp + cf * cp, sf * ct), -1),
+                     np.stack((cf * st * cp + sf * sp, cf * st * sp - sf * cp, cf * ct), -1)), -2)
+
+
+def gravity_gradient_torque(position_body, inertia) -> np.ndarray:
+    """tau_gg = 3 mu / |r|^5 (r x I r) [N m] for positions in body axes (..., 3) and a principal inertia
+    (3,) [kg m^2]."""
+    r = np.asarray(position_body, float)
+    return 3.0 * MU_EARTH / np.linalg.norm(r, axis=-1, keepdims=True) ** 5 * np.cross(r, np.asarray(inertia) * r)
+
+
+class Environments:
+    """The environment of a batch of runs (None where a run has none), asked once per control period."""
+
+    def __init__(self, environments, seeds, duration: float, field_model: str = "igrf"):
+        self.environments = list(environments)
+        self.seeds = [int(s) for s in seeds]
+        self.tracks = [None if e is None else e.track(duration, field_model) for e in self.environments]
+        self.active = np.array([e is not None for e in self.environments])
+        self.residual = np.array([e.residual_dipole if e is not None else (0.0, 0.0, 0.0)
+                                  for e in self.environments], float)
+
+    def state(self, t: float, attitude):
+        """(position, field) in body axes (B, 3) at ``t`` for the batch's attitudes (B, 3); zeros where
+        a run has no orbit."""
+        r = np.zeros((len(self.tracks), 3))
+        b = np.zeros_like(r)
+        for i, track in enumerate(self.tracks):
+            if track is not None:
+                r[i], b[i] = track.at(t)
+        c = body_from_inertial(attitude)
+        return np.einsum("bij,bj->bi", c, r), np.einsum("bij,bj->bi", c, b)
+
+    def torque(self, t: float, attitude, inertia, dipole) -> np.ndarray:
+        """Gravity gradient + (residual dipole + magnetorquers' ``dipole``) x field [N m], (B, 3)."""
+        r_body, b_body = self.state(t, attitude)
+        gg = np.where(self.active[:, None], gravity_gradient_torque(np.where(self.active[:, None], r_body, 1.0),
+                                                                     inertia), 0.0)
+        return gg + np.cross(self.residual + dipole, b_body)
+
+    def magnetometer(self, t: float, attitude, step: int) -> np.ndarray:
+        """The field in body axes [T] as the magnetometer reads it at ``step``: plus N(0, MAGNETOMETER_NOISE)
+        per axis from a stream keyed by the run's seed and the step (the same reading however often asked)."""
+        _, b_body = self.state(t, attitude)
+        noise = np.array([np.random.default_rng([s, 5, int(step)]).normal(0.0, MAGNETOMETER_NOISE, 3)
+                          for s in self.seeds])
+        return np.where(self.active[:, None], b_body + noise, 0.0)

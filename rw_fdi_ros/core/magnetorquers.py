@@ -1,0 +1,80 @@
+"""Three magnetorquers along the body axes and the momentum-dumping law that commands them.
+
+The rods make a dipole m [A m^2] (one component each, at most ``dipole_limit``); in the field b the
+body feels tau = m x b (environment.py). Only the part of a wanted torque across b can be made.
+
+The law (the cross-product law; Basilisk's mtbMomentumManagementSimple with torque2Dipole):
+
+    h   = sum_i J g_i Omega_i          momentum of the wheels in use, body axes
+    tau = -k h                         the external torque that would dump it
+    m   = (b x tau) / |b|^2            the dipole whose torque m x b is tau's part across b
+
+and m scaled down as a whole when a rod would exceed its limit (its direction kept, so the torque
+stays across b and opposed to h). [choice] Hysteresis: a run dumps from the moment a wheel in use
+passes ``start_speed`` until every wheel in use is below ``stop_speed``; between dumps the rods are
+off, so the wheels drift with the secular torques, and are pulled back, now and then through zero.
+Wheels given up are not dumped: their momentum is not the controller's to move (a held wheel keeps
+it). The law runs on each magnetometer reading (environment.MAGNETOMETER_PERIOD); the dipole is held
+between.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class MomentumDumping:
+    """The rods and the law's settings (a scenario's ``magnetorquers:`` mapping)."""
+
+    dipole_limit: float = 15.0     # [A m^2] per rod (a 100-kg class spacecraft's rods)
+    gain: float = 2e-3             # k [1/s]: a wheel at 35 rad/s (0.27 N m s) asks 5e-4 N m, the rods' most
+    # [rad/s] start: 10 rad/s inside the FDI's envelope (isolation.WHEEL_SPEED_ENVELOPE, 45 rad/s) and
+    # 12 below the speed the nominal wheel cannot hold even at the 5 V limit (47.3 rad/s, friction)
+    start_speed: float = 35.0
+    stop_speed: float = 5.0        # [rad/s]: "back to zero" (thesis ch. 1), short of it
+    enabled: bool = True           # false: rods idle (a run without dumping, for comparison)
+
+
+def wheel_momentum(wheel_speed, wheel_inertia, spin_axes, in_use) -> np.ndarray:
+    """h = sum over the wheels in use of J g_i Omega_i [N m s]: speeds (B, N), inertia J scalar or (B, N),
+    spin axes G (3, N), in_use (B, N) bool; shape (B, 3)."""
+    stored = np.where(in_use, np.asarray(wheel_inertia) * np.asarray(wheel_speed, float), 0.0)
+    return stored @ np.asarray(spin_axes).T
+
+
+def cross_product_dipole(field, torque) -> np.ndarray:
+    """m = (b x tau) / |b|^2 [A m^2]: the dipole whose torque m x b is tau's component across b."""
+    b = np.asarray(field, float)
+    norm2 = np.sum(b * b, axis=-1, keepdims=True)
+    return np.cross(b, torque) / np.where(norm2 > 0.0, norm2, np.inf)
+
+
+def saturate(dipole, limit) -> np.ndarray:
+    """``dipole`` (..., 3) scaled down as a whole so that no rod exceeds ``limit`` (scalar or (..., 1));
+    its direction kept."""
+    m = np.asarray(dipole, float)
+    peak = np.max(np.abs(m), axis=-1, keepdims=True)
+    return m * np.minimum(1.0, limit / np.where(peak > 0.0, peak, np.inf))
+
+
+class Dumper:
+    """The law for a batch of runs, each with its settings (None: no rods): whether each dumps
+    (hysteresis) and the dipole it commands."""
+
+    def __init__(self, settings):
+        on = [s if s is not None and s.enabled else None for s in settings]
+        self.enabled = np.array([s is not None for s in on])
+        off = MomentumDumping()
+        self.gain, self.limit, self.start, self.stop = (np.array([getattr(s or off, k) for s in on], float)
+                                                        for k in ("gain", "dipole_limit", "start_speed", "stop_speed"))
+        self.dumping = np.zeros(len(on), bool)
+
+    def update(self, field, wheel_speed, in_use, wheel_inertia, spin_axes) -> np.ndarray:
+        """The dipole (B, 3) [A m^2] for the magnetometer's ``field`` (B, 3) [T] and the wheels' state."""
+        fastest = np.max(np.where(in_use, np.abs(wheel_speed), 0.0), axis=-1)
+        self.dumping = self.enabled & np.where(self.dumping, fastest >= self.stop, fastest > self.start)
+        h = wheel_momentum(wheel_speed, wheel_inertia, spin_axes, in_use)
+        m = saturate(cross_product_dipole(field, -self.gain[:, None] * h), self.limit[:, None])
+        return np.where(self.dumping[:, None], m, 0.0)

@@ -1,0 +1,104 @@
+"""momentum_dumping: the magnetorquers' flight software, the cross-product law (core/magnetorquers.py).
+
+On each magnetometer reading stamped k (/magnetometer, sensor_msgs/MagneticField, body axes [T]) and
+the wheel state stamped k (/wheels), it answers with the three rods' dipole stamped k
+(/magnetorquers/command, geometry_msgs/Vector3Stamped, body axes [A m^2]); the plant holds it from
+step k on, and waits for it like for the wheel command (the lockstep). It dumps the momentum of the
+wheels in use only: what the wheel allocation says of its wheels on /fdir/wheels (a wheel given up or
+held is not the controller's to move).
+"""
+from __future__ import annotations
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Vector3Stamped
+from sensor_msgs.msg import JointState, MagneticField
+
+from ..core.environment import MAGNETOMETER_PERIOD
+from ..core.magnetorquers import Dumper, MomentumDumping
+from ..core.wheel import WheelParams
+from ..core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, joint_name, wheel_set
+from . import topics as T
+from ..storage.cdr import read_joint_state_cdr, vector_cdr
+from .convert import stamp_ns
+from .gate import GatedPublisher
+from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+
+IN_USE_STATES = ("in_use", "kept_in_use")   # wheel_allocation.wheel_states_msg's states the controller moves
+
+
+class MomentumDumpingNode(GraphNode):
+    node_name = "momentum_dumping"
+
+    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
+        super().__init__(name or self.node_name)
+        default = MomentumDumping()
+        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)          # core/wheel_set.py
+        self.declare_parameter("dipole_limit", default.dipole_limit)   # [A m^2] per rod
+        self.declare_parameter("gain", default.gain)                   # k [1/s]
+        self.declare_parameter("start_speed", default.start_speed)     # [rad/s] a wheel in use above: dump
+        self.declare_parameter("stop_speed", default.stop_speed)       # [rad/s] every wheel in use below: stop
+        self.declare_parameter("enabled", True)                        # false: the rods stay off
+        self.declare_parameter("fdir", True)                           # follow /fdir/wheels (the wheels in use)
+        self.declare_parameter("min_subscribers", 1)                   # the plant (+ recorder) before the first
+        if self.param("wheel_set") not in WHEEL_SETS:
+            raise NodeError(f"parameter wheel_set must be one of {', '.join(WHEEL_SETS)}, "
+                            f"got {self.param('wheel_set')!r}", EXIT_BAD_INPUT)
+        if self.param("stop_speed") > self.param("start_speed"):
+            raise NodeError("parameter stop_speed must not be above start_speed", EXIT_BAD_INPUT)
+        self.wheels = wheel_set(self.param("wheel_set"))
+        self.joints = tuple(joint_name(n) for n in self.wheels.names)
+        self.in_use = ~self.wheels.mask(self.wheels.standby)[None, :]
+        settings = MomentumDumping(**{k: self.param(k) for k in ("dipole_limit", "gain", "start_speed",
+                                                                  "stop_speed", "enabled")})
+        self.dumper = Dumper([settings])
+        self.wheel_inertia = WheelParams().inertia   # the datasheet's J: what flight software knows
+        self.field = None        # (stamp, reading) waiting for the wheel state of its stamp
+        self.speeds = {}         # stamp -> wheel speeds (N,), the latest few
+        self.pub = GatedPublisher(self.create_publisher(Vector3Stamped, T.DIPOLE_COMMAND, T.RELIABLE),
+                                  self.param("min_subscribers"))
+        self.create_subscription(MagneticField, T.MAGNETOMETER, self._on_field, T.RELIABLE)
+        self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE, raw=True)
+        if self.param("fdir"):
+            self.create_subscription(DiagnosticArray, T.FDIR_WHEELS, self._on_wheel_states, T.RELIABLE)
+        self.follow_run_end(period=MAGNETOMETER_PERIOD)   # it answers the magnetometer's stamps only
+
+    def _on_wheel_states(self, msg):
+        states = {s.hardware_id: next((v.value for v in s.values if v.key == "state"), "") for s in msg.status}
+        self.in_use = np.array([[states.get(j, "") in IN_USE_STATES for j in self.joints]])
+
+    def _on_field(self, msg):
+        f = msg.magnetic_field
+        self.field = (stamp_ns(msg.header.stamp), [[f.x, f.y, f.z]])
+        self._answer()
+
+    def _on_wheels(self, raw):
+        stamp, _, speed, _ = read_joint_state_cdr(raw)
+        if len(speed) != len(self.joints):
+            self.fail(f"{T.WHEELS} has {len(speed)} wheels, the wheel set {self.wheels.name} "
+                      f"{len(self.joints)}", EXIT_BAD_INPUT)
+            return
+        self.speeds[stamp] = speed
+        for old in [s for s in self.speeds if s < stamp - 10 ** 10]:   # 10 s back is plenty
+            del self.speeds[old]
+        self._answer()
+
+    def _answer(self):
+        if self.field is None or self.field[0] not in self.speeds:
+            return
+        stamp, reading = self.field
+        self.field = None
+        dipole = self.dumper.update(reading, self.speeds[stamp][None, :], self.in_use, self.wheel_inertia,
+                                    self.wheels.matrix)[0]
+        self.pub.publish(vector_cdr(stamp, dipole))
+        self.last_handled = stamp
+
+    def poll(self):
+        if self.pub.flush() and self.run_ended():
+            self.finish()
+
+
+main = main_for(MomentumDumpingNode)
+
+if __name__ == "__main__":
+    main()

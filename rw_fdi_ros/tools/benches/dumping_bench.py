@@ -1,0 +1,280 @@
+"""`rw-fdi bench dumping`: momentum dumping by the magnetorquers, and the FDI through it.
+
+Two parts, both by the node code on the core loop (the plant, controllers, allocation and the
+momentum-dumping law the nodes run; the FDI by screen):
+
+1. **A day in orbit** (scenario ``dumping_day``: the thesis' 700 km sun-synchronous orbit, IGRF, gravity
+   gradient and the residual dipole, inertial hold): the same seed with dumping and with the rods off.
+   Figures: the band the wheels in use stay in, the pointing error after the first slew settles, how
+   many dumps and how long; without dumping, when a wheel first needs the whole 5 V command and when
+   the pointing first leaves 0.2 deg. A plot (``day.png``).
+2. **The FDI through dumping**: continuous operations in orbit (manoeuvres every 60-900 s, dumps
+   whenever a wheel passes the start speed), fault-free, >= 100 simulated hours; and a 10 % current loss
+   and +30 C with the onset inside a dump (wheels started above the start speed, so that a dump begins
+   at once; the onset drawn from the seed inside the first dump of the run's fault-free twin, which is
+   the same run up to the onset). Seeds from 82,000,000 (no other bench, training or fitting uses them).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+from ...core.closed_loop import simulate
+from ...core.environment import MAGNETOMETER_PERIOD, OrbitEnvironment
+from ...core.magnetorquers import MomentumDumping
+from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
+from ...core.wheel import WheelParams
+from .detection_bench import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
+from ..metrics import observable_level
+from ..evaluation.screen import load_fdi
+
+SEED_BASE = 82_000_000
+POINTING_LIMIT_DEG = 0.2
+SETTLE_S = 600.0   # the first slew (Table 2.3's set-point change at 0 s) is over by then
+HOURS = Manoeuvres(interval_s=(60.0, 900.0))
+EVERY = int(round(MAGNETOMETER_PERIOD / 0.1))   # the day's series at the magnetometer's 1 s
+
+
+def dumps(dipole, time) -> list:
+    """[(start, end)] [s] of the intervals the rods were on (a dipole not zero), from series (n, 3)."""
+    on = np.any(dipole != 0.0, axis=-1).astype(int)
+    edges = np.diff(np.concatenate(([0], on, [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return [(float(time[a]), float(time[b])) for a, b in zip(starts, ends)]
+
+
+def zero_crossings(speed) -> int:
+    """How often the wheels' speeds (n, N) change sign."""
+    s = np.sign(speed)
+    return int(np.sum((s[1:] * s[:-1]) < 0))
+
+
+def day_figures(traj, run: int, limit: float) -> dict:
+    """The figures of run ``run`` of a day's trajectory."""
+    t = traj.time
+    in_use = traj.in_use[:, run]
+    speed = np.where(in_use, traj.wheel_speed[:, run], np.nan)
+    error = np.rad2deg(np.abs(traj.error[:, run])).max(axis=-1)
+    after = t >= SETTLE_S
+    at_limit = np.any(in_use & (np.abs(traj.tcv[:, run]) >= limit - 1e-9), axis=-1) & after
+    outside = (error > POINTING_LIMIT_DEG) & after
+    intervals = dumps(traj.dipole[:, run], t)
+    return {"wheel_speed_band": [float(np.nanmin(speed)), float(np.nanmax(speed))],
+            "max_abs_wheel_speed": float(np.nanmax(np.abs(speed))),
+            "max_pointing_error_deg": float(error[after].max()),
+            "first_command_limit_s": float(t[np.argmax(at_limit)]) if at_limit.any() else None,
+            "first_pointing_loss_s": float(t[np.argmax(outside)]) if outside.any() else None,
+            "dumps": len(intervals), "dumping_hours": sum(b - a for a, b in intervals) / 3600.0,
+            "dump_intervals_s": intervals, "zero_crossings": zero_crossings(traj.wheel_speed[:, run][:, in_use[0]])}
+
+
+def bench_day(hours: float = 24.0, seed: int = 1, out: Path | None = None) -> dict:
+    """A day in orbit with dumping and with the rods off (the same seed)."""
+    with_dumping = load_scenario("dumping_day").with_seed(seed)
+    with_dumping = replace(with_dumping, duration=hours * 3600.0)
+    rods_off = replace(with_dumping, magnetorquers=replace(with_dumping.magnetorquers, enabled=False))
+    t0 = time.monotonic()
+    traj = simulate([with_dumping, rods_off], duration=with_dumping.duration, every=EVERY)
+    limit = WheelParams().command_limit
+    report = {"scenario": "dumping_day", "seed": seed, "hours": hours, "seconds": time.monotonic() - t0,
+              "with_dumping": day_figures(traj, 0, limit), "rods_off": day_figures(traj, 1, limit),
+              "settle_s": SETTLE_S}
+    if out is not None:
+        plot_day(traj, report, Path(out) / "day.png")
+    return report
+
+
+def plot_day(traj, report: dict, path: Path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    h = traj.time / 3600.0
+    fig, axes = plt.subplots(4, 1, figsize=(11, 11), sharex=True)
+    names = traj.wheel_names
+    for run, (label, style) in enumerate((("with dumping", "-"), ("rods off", ":"))):
+        for i, name in enumerate(names):
+            if traj.in_use[0, run, i]:
+                axes[0].plot(h, traj.wheel_speed[:, run, i], style, lw=0.8, color=f"C{i}",
+                             label=f"wheel {name}, {label}")
+    axes[0].axhspan(-MomentumDumping().start_speed, MomentumDumping().start_speed, color="0.92", zorder=0)
+    axes[0].set_ylabel("wheel speed [rad/s]")
+    axes[0].legend(ncol=2, fontsize=7, loc="upper left")
+    axes[0].set_title(f"A day in orbit (dumping_day, seed {report['seed']}): shaded, the speeds below the "
+                      "dump start", fontsize=10)
+    for i, axis in enumerate("xyz"):
+        axes[1].plot(h, traj.dipole[:, 0, i], lw=0.8, label=f"m_{axis}")
+    axes[1].set_ylabel("rod dipole [A m^2]")
+    axes[1].legend(fontsize=7, loc="upper left")
+    for run, label in enumerate(("with dumping", "rods off")):
+        err = np.rad2deg(np.abs(traj.error[:, run])).max(axis=-1)
+        axes[2].semilogy(h, np.maximum(err, 1e-6), lw=0.8, label=label)
+        axes[3].plot(h, np.abs(traj.tcv[:, run][:, traj.in_use[0, run]]).max(axis=-1), lw=0.8, label=label)
+    axes[2].axhline(POINTING_LIMIT_DEG, color="k", ls="--", lw=0.8)
+    axes[2].set_ylabel("pointing error [deg]")
+    axes[2].legend(fontsize=7, loc="upper left")
+    axes[3].axhline(WheelParams().command_limit, color="k", ls="--", lw=0.8)
+    axes[3].set_ylabel("largest |tcv| [V]")
+    axes[3].set_xlabel("time [h]")
+    axes[3].legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# -- the FDI through dumping ----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Cell:
+    name: str
+    kind: str | None = None        # None: fault-free
+    value: float = 0.0
+    duration: float = 6 * 3600.0
+    wheel_speed: float | None = None   # every wheel's initial speed [rad/s]; None: Table 2.3's 20-30
+    onset_in_dump: bool = False
+    environment: OrbitEnvironment = field(default_factory=OrbitEnvironment)
+
+
+DUMP_START = 38.0   # the fault cells' initial wheel speed: above the start speed, a dump begins at once
+# 3x the residual dipole: the wheels drift 3x faster and are dumped 3x as often
+STRONG = OrbitEnvironment(residual_dipole=(1.5, 1.5, 1.5))
+CELLS = (
+    Cell("operations in orbit with dumping, 6-h runs"),
+    Cell("the same, a residual dipole of 2.6 A m^2", environment=STRONG),
+    Cell("current loss 10 % during a dump", "current_limiter", 0.9, duration=1800.0, wheel_speed=DUMP_START,
+         onset_in_dump=True),
+    Cell("temperature +30 C during a dump", "temperature", 53.0, duration=1800.0, wheel_speed=DUMP_START,
+         onset_in_dump=True),
+)
+
+
+def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int = SEED_BASE) -> list:
+    """The runs ``seeds`` (a range) of a cell: seed seed_base + 100,000 index + n; in a fault cell the
+    fault on wheel seed mod 3, its onset drawn from the seed inside the first dump of the fault-free twin
+    (10 s after it starts to 10 s before it ends)."""
+    base = []
+    for n in seeds:
+        seed = seed_base + 100_000 * index + n
+        initial = {} if cell.wheel_speed is None else {"wheel_speed": (cell.wheel_speed,) * 3}
+        base.append(Scenario(cell.name, duration=cell.duration, seed=seed, initial=initial, manoeuvres=HOURS,
+                             environment=cell.environment, magnetorquers=MomentumDumping()))
+    if cell.kind is None:
+        return base
+    twins = simulate(base, every=EVERY)
+    out = []
+    for b, scenario in enumerate(base):
+        first = dumps(twins.dipole[:, b], twins.time)[0]
+        lo, hi = first[0] + 10.0, max(first[0] + 10.0, first[1] - 10.0)
+        onset = float(np.round(np.random.default_rng(scenario.seed).uniform(lo, hi), 1))
+        out.append(scenario.with_faults([Fault(cell.kind, scenario.seed % 3, onset, cell.value)]))
+    return out
+
+
+def _cell_runs(cell_index: int, seeds, seed_base: int) -> list:
+    return cell_scenarios(CELLS[cell_index], seeds, cell_index, seed_base)
+
+
+def dumping_of(scenario, traj, b: int) -> SimpleNamespace:
+    """What a run's trajectory says of its dumping: time with the rods on [s], dumps, the wheels in use's
+    zero crossings and fastest speed."""
+    intervals = dumps(traj.dipole[:, b], traj.time)
+    in_use = traj.in_use[0, b]
+    speed = traj.wheel_speed[:, b][:, in_use]
+    onset = min((f.onset for f in scenario.faults), default=None)
+    at = None if onset is None else int(np.searchsorted(traj.time, onset))
+    return SimpleNamespace(seed=scenario.seed, dumping_s=sum(e - s + traj.time[1] for s, e in intervals),
+                           dumps=len(intervals), zero_crossings=zero_crossings(speed),
+                           max_speed=float(np.abs(speed).max()),
+                           onset_in_dump=None if at is None else bool(np.any(traj.dipole[at, b] != 0.0)))
+
+
+def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20, runs_per_cell: int = 100,
+                  out: str | Path = "reports/dumping", jobs: int = 2) -> dict:
+    t0 = time.monotonic()
+    day = bench_day(hours, seed, Path(out))
+    _, curves = load_fdi(method="speed_aware")
+    level = observable_level(curves)
+    sizes = [operations_runs if c.kind is None else runs_per_cell for c in CELLS]
+    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, SEED_BASE, dumping_of), "dumping bench (FDI)", jobs,
+                          chunk=10)
+    cells = {}
+    for i, cell in enumerate(CELLS):
+        runs = judged[i]["speed_aware"]
+        columns = list(runs[0].series)
+        entry = {"cell": {"name": cell.name, "kind": cell.kind, "value": cell.value, "duration": cell.duration,
+                          "wheel_speed": cell.wheel_speed},
+                 "seeds": [SEED_BASE + 100_000 * i, SEED_BASE + 100_000 * i + sizes[i] - 1],
+                 "hours": sum(r.series[columns[0]].time[-1] for r in runs) / 3600.0,
+                 "observers": {obs: cell_figures(runs, obs, level) for obs in columns}}
+        seen = judged[i]["runs"]
+        entry["dumping"] = {"hours": sum(d.dumping_s for d in seen) / 3600.0, "dumps": sum(d.dumps for d in seen),
+                            "zero_crossings": sum(d.zero_crossings for d in seen),
+                            "max_speed": max(d.max_speed for d in seen)}
+        if cell.kind is not None:
+            entry["dumping"]["onset_in_dump"] = sum(bool(d.onset_in_dump) for d in seen)
+        if cell.kind is None:
+            entry["runs_not_judged_somewhere"] = sum(bool(r.health) for r in runs)
+            entry["false_alarm_runs"] = {obs: sum(bool(r.series[obs].alarm.any()) for r in runs) for obs in columns}
+        cells[cell.name] = entry
+    report = {"schema": "rw_fdi_ros/dumping_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
+              "date": time.strftime("%Y-%m-%d"), "seed_base": SEED_BASE, "observable_level_Nm": level,
+              "day": day, "cells": cells, "settings": MomentumDumping().__dict__}
+    return write_report(report, out, "dumping", format_dumping)
+
+
+def _hours(seconds) -> str:
+    return "never" if seconds is None else f"{seconds / 3600.0:.1f} h"
+
+
+def format_dumping(report: dict) -> str:
+    day, on, off = report["day"], report["day"]["with_dumping"], report["day"]["rods_off"]
+    s = report["settings"]
+    lines = ["# Momentum dumping and the FDI through it (`rw-fdi bench dumping`)", "",
+             f"Measured {report['date']}; {report['seconds'] / 60:.0f} min on this machine. Law: cross-product, "
+             f"gain {s['gain']:g} 1/s, rods {s['dipole_limit']:g} A m^2, dump from {s['start_speed']:g} rad/s "
+             f"until every wheel in use is below {s['stop_speed']:g} rad/s.", "",
+             f"## A day in orbit (`dumping_day`, seed {day['seed']}, {day['hours']:g} h)", "",
+             "![a day in orbit](day.png)", "",
+             "| | with dumping | rods off |", "|---|---|---|",
+             f"| wheel speeds (wheels in use) [rad/s] | {on['wheel_speed_band'][0]:.1f} .. "
+             f"{on['wheel_speed_band'][1]:.1f} | {off['wheel_speed_band'][0]:.1f} .. "
+             f"{off['wheel_speed_band'][1]:.1f} |",
+             f"| largest pointing error after {day['settle_s']:g} s [deg] | {on['max_pointing_error_deg']:.4f} | "
+             f"{off['max_pointing_error_deg']:.3f} |",
+             f"| a wheel first at the 5 V command limit | {_hours(on['first_command_limit_s'])} | "
+             f"{_hours(off['first_command_limit_s'])} |",
+             f"| pointing first beyond {POINTING_LIMIT_DEG} deg | {_hours(on['first_pointing_loss_s'])} | "
+             f"{_hours(off['first_pointing_loss_s'])} |",
+             f"| dumps (hours with the rods on) | {on['dumps']} ({on['dumping_hours']:.1f} h) | - |",
+             f"| wheel speed zero crossings | {on['zero_crossings']} | {off['zero_crossings']} |", "",
+             "## The FDI through dumping", "",
+             "Shipped speed-aware FDI, seeds from "
+             f"{report['seed_base']:,}. Rates with 95 % Wilson intervals; `verdict`: what /diagnostics says.", ""]
+    cells = report["cells"]
+    columns = list(next(iter(cells.values()))["observers"])
+    lines += ["| case | hours | dumping: hours, dumps, zero crossings | " + " | ".join(
+        f"{o} false alarms" for o in columns) + " |", "|---|---|---|" + "---|" * len(columns)]
+    for name, c in cells.items():
+        if c["cell"]["kind"] is None:
+            d = c["dumping"]
+            lines.append(f"| {name} | {c['hours']:.0f} | {d['hours']:.1f} h, {d['dumps']}, {d['zero_crossings']} | "
+                         + " | ".join(format_rate(c["observers"][o]["false_alarm"]) for o in columns) + " |")
+    lines += ["", "Faults with the onset inside a dump: " + ", ".join(
+        f"{name}: {c['dumping']['onset_in_dump']} of {c['observers'][columns[0]]['correct']['n']}"
+        for name, c in cells.items() if c["cell"]["kind"] is not None) + ".", "",
+        "| case | observer | correct | detected | delay median / p90 [s] | held to end | alarm before onset |",
+        "|---|---|---|---|---|---|---|"]
+    for name, c in cells.items():
+        if c["cell"]["kind"] is None:
+            continue
+        for obs in columns:
+            f = c["observers"][obs]
+            d = f["delay_s"]
+            delay = f"{d['median']:.0f} / {d['p90']:.0f}" if d["median"] is not None else "-"
+            lines.append(f"| {name} | {obs} | {format_rate(f['correct'])} | {format_rate(f['detected'])} | {delay} | "
+                         f"{format_rate(f['held_to_end'])} | {format_rate(f['alarm_before_onset'])} |")
+    return "\n".join(lines) + "\n"
