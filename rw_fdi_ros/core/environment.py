@@ -29,6 +29,7 @@ import numpy as np
 
 from .geomagnetic import field_inertial
 from .orbit import MU_EARTH, CircularOrbit, TleOrbit, sidereal_angle
+from .spacecraft import cross
 
 ENVIRONMENT_STEP = 10.0
 DEFAULT_EPOCH = datetime(2026, 1, 1, tzinfo=timezone.utc)
@@ -93,37 +94,43 @@ def gravity_gradient_torque(position_body, inertia) -> np.ndarray:
     """tau_gg = 3 mu / |r|^5 (r x I r) [N m] for positions in body axes (..., 3) and a principal inertia
     (3,) [kg m^2]."""
     r = np.asarray(position_body, float)
-    return 3.0 * MU_EARTH / np.linalg.norm(r, axis=-1, keepdims=True) ** 5 * np.cross(r, np.asarray(inertia) * r)
+    return 3.0 * MU_EARTH / np.linalg.norm(r, axis=-1, keepdims=True) ** 5 * cross(r, np.asarray(inertia) * r)
 
 
 class Environments:
-    """The environment of a batch of runs (None where a run has none), asked once per control period."""
+    """The environment of a batch of runs (None where a run has none), asked once per control period.
+    The runs share one grid (one duration), so a step interpolates the whole batch at once."""
 
     def __init__(self, environments, seeds, duration: float, field_model: str = "igrf"):
         self.environments = list(environments)
         self.seeds = [int(s) for s in seeds]
         self.tracks = [None if e is None else e.track(duration, field_model) for e in self.environments]
         self.active = np.array([e is not None for e in self.environments])
+        times = next(t.times for t in self.tracks if t is not None)
+        self.last = len(times) - 1
+        # a run without an orbit: far away (no gravity gradient worth a bit) and no field
+        self.position = np.array([t.position if t is not None else np.full((len(times), 3), 1e30)
+                                  for t in self.tracks])
+        self.field = np.array([t.field if t is not None else np.zeros((len(times), 3)) for t in self.tracks])
         self.residual = np.array([e.residual_dipole if e is not None else (0.0, 0.0, 0.0)
                                   for e in self.environments], float)
 
     def state(self, t: float, attitude):
-        """(position, field) in body axes (B, 3) at ``t`` for the batch's attitudes (B, 3); zeros where
-        a run has no orbit."""
-        r = np.zeros((len(self.tracks), 3))
-        b = np.zeros_like(r)
-        for i, track in enumerate(self.tracks):
-            if track is not None:
-                r[i], b[i] = track.at(t)
+        """(position, field) in body axes (B, 3) at ``t`` for the batch's attitudes (B, 3), linear between
+        grid points (Track.at); a run without an orbit has no field."""
+        x = min(max(t / ENVIRONMENT_STEP, 0.0), float(self.last))
+        i = min(int(x), self.last - 1)
+        w = x - i
+        r = (1 - w) * self.position[:, i] + w * self.position[:, i + 1]
+        b = (1 - w) * self.field[:, i] + w * self.field[:, i + 1]
         c = body_from_inertial(attitude)
         return np.einsum("bij,bj->bi", c, r), np.einsum("bij,bj->bi", c, b)
 
     def torque(self, t: float, attitude, inertia, dipole) -> np.ndarray:
         """Gravity gradient + (residual dipole + magnetorquers' ``dipole``) x field [N m], (B, 3)."""
         r_body, b_body = self.state(t, attitude)
-        gg = np.where(self.active[:, None], gravity_gradient_torque(np.where(self.active[:, None], r_body, 1.0),
-                                                                     inertia), 0.0)
-        return gg + np.cross(self.residual + dipole, b_body)
+        gg = np.where(self.active[:, None], gravity_gradient_torque(r_body, inertia), 0.0)
+        return gg + cross(self.residual + dipole, b_body)
 
     def magnetometer(self, t: float, attitude, step: int) -> np.ndarray:
         """The field in body axes [T] as the magnetometer reads it at ``step``: plus N(0, MAGNETOMETER_NOISE)

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .spacecraft import cross
+
 
 @dataclass(frozen=True)
 class MomentumDumping:
@@ -48,7 +50,7 @@ def cross_product_dipole(field, torque) -> np.ndarray:
     """m = (b x tau) / |b|^2 [A m^2]: the dipole whose torque m x b is tau's component across b."""
     b = np.asarray(field, float)
     norm2 = np.sum(b * b, axis=-1, keepdims=True)
-    return np.cross(b, torque) / np.where(norm2 > 0.0, norm2, np.inf)
+    return cross(b, np.asarray(torque, float)) / np.where(norm2 > 0.0, norm2, np.inf)
 
 
 def saturate(dipole, limit) -> np.ndarray:
