@@ -45,24 +45,26 @@ def test_the_sidereal_angle_of_j2000():
     assert np.degrees(sidereal_angle(j2000, 86164.0905)) == pytest.approx(280.46061837, abs=1e-3)
 
 
-def test_the_tilted_dipole_is_twice_as_strong_on_its_axis():
-    """A centred dipole's field is 2 B0 (a/r)^3 along its axis and B0 (a/r)^3 across it, B0 the norm of
-    the degree-1 coefficients (g10, g11, h11); the moment points along -(g11, h11, g10)."""
+def test_the_tilted_dipole_is_the_closed_form_dipole():
+    """The degree-1 terms are the field of a centred dipole along m = (g11, h11, g10) (its potential
+    a (a/r)^2 (m . r^) with B = -grad V): B = (a/r)^3 (3 (m . r^) r^ - m), so 2 |m| (a/r)^3 along m^ at either
+    end of the axis and -|m| (a/r)^3 m^ across it; at the geographic north pole the field points down."""
     from ppigrf.ppigrf import read_shc
     g, h = read_shc()
-    g10, g11, h11 = g.loc[EPOCH.replace(tzinfo=None), (1, 0)], g.loc[EPOCH.replace(tzinfo=None), (1, 1)], \
-        h.loc[EPOCH.replace(tzinfo=None), (1, 1)]
-    b0 = np.sqrt(g10 ** 2 + g11 ** 2 + h11 ** 2) * 1e-9
-    axis = -np.array([g11, h11, g10]) / np.sqrt(g10 ** 2 + g11 ** 2 + h11 ** 2)
+    date = EPOCH.replace(tzinfo=None)
+    m = np.array([g.loc[date, (1, 1)], h.loc[date, (1, 1)], g.loc[date, (1, 0)]]) * 1e-9
+    axis = m / np.linalg.norm(m)
     across = np.cross(axis, [1.0, 0.0, 0.0])
     across /= np.linalg.norm(across)
-    r = 7078.137e3
-    points = np.array([r * axis, r * across])
-    field = field_inertial(points, np.zeros(2), EPOCH, "tilted_dipole")
-    scale = (6371.2e3 / r) ** 3
-    assert np.linalg.norm(field[0]) == pytest.approx(2 * b0 * scale, rel=1e-9)
-    assert np.linalg.norm(field[1]) == pytest.approx(b0 * scale, rel=1e-9)
-    assert np.allclose(np.cross(field[0], axis), 0.0, atol=1e-15)   # along the axis there
+    r, a = 7078.137e3, 6371.2e3
+    points = np.array([r * axis, -r * axis, r * across, [0.0, 0.0, r]])
+    field = field_inertial(points, np.zeros(4), EPOCH, "tilted_dipole")
+    scale = (a / r) ** 3
+    np.testing.assert_allclose(field[0], 2 * scale * m, rtol=1e-9)
+    np.testing.assert_allclose(field[1], 2 * scale * m, rtol=1e-9)
+    np.testing.assert_allclose(field[2], -scale * m, rtol=1e-9)
+    np.testing.assert_allclose(field[3], scale * (3 * m[2] * np.array([0.0, 0.0, 1.0]) - m), rtol=1e-6, atol=1e-12)
+    assert field[3][2] < 0.0
 
 
 def test_the_field_turns_with_the_earth_and_igrf_stays_near_the_dipole():
@@ -129,7 +131,16 @@ def test_environments_of_a_batch():
     assert not np.array_equal(a, env.magnetometer(20.0, attitude, 210))
     _, truth = env.state(20.0, attitude)
     assert np.abs(a[0] - truth[0]).max() < 5 * 50e-9
-    # between grid points the track is linear
+    # between grid points the track is linear, past its end held
     track = env.tracks[0]
-    mid = track.at(ENVIRONMENT_STEP * 1.5)[1]
-    assert np.allclose(mid, 0.5 * (track.field[1] + track.field[2]))
+    _, mid = env.state(ENVIRONMENT_STEP * 1.5, attitude)
+    assert np.allclose(mid[0], 0.5 * (track.field[1] + track.field[2]), rtol=1e-12, atol=0.0)
+    _, late = env.state(1e6, attitude)
+    assert np.array_equal(late[0], track.field[-1])
+
+
+def test_a_point_over_a_pole_has_a_field():
+    """ppigrf divides by sin(colatitude): exactly over a pole the field is taken 6 mm off it, not NaN."""
+    field = field_inertial(np.array([[0.0, 0.0, 7.0e6], [0.0, 0.0, -7.0e6]]), np.zeros(2), EPOCH)
+    # into the Earth over the north pole, out of it over the south: along -z at both
+    assert np.all(np.isfinite(field)) and field[0, 2] < -30e-6 and field[1, 2] < -30e-6

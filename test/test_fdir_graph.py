@@ -65,3 +65,37 @@ def test_the_graph_reconfigures_as_the_core_loop_does(run):
     assert verdict["x"] and verdict["s"] and not verdict["y"] and not verdict["z"]
     found = summary["fdi"]["identification"]["x"]   # held, x stays driven: identified on all its samples
     assert found["fault_kind"] == "bus_voltage" and "switched off" not in found["message"], found
+
+
+ORBIT = """name: fdir_orbit
+duration: 150.0
+seed: 21000001
+initial: {wheel_speed: [20.0, -36.0, 40.0]}
+environment: {epoch: 2026-03-01T00:00:00}
+magnetorquers: {}
+faults:
+  - {kind: current_limiter, wheel: x, onset: 60.0, value: 0.6}
+"""
+
+
+def test_in_orbit_the_rods_follow_the_reconfiguration_as_in_the_core_loop(tmp_path):
+    """Dumping from the start (y and z above the dump start), x loses 40 % of its current at 60 s and is
+    held at its speed out of control (y, z and s could not take its momentum at once), s comes in: the
+    graph's momentum-dumping node, told by /fdir/wheels, commands the dipoles
+    the core loop's law does, stamp for stamp, and the run is the core loop's."""
+    path = tmp_path / "fdir_orbit.yaml"
+    path.write_text(ORBIT)
+    outcome = run_with_fdi(str(path), out_dir=tmp_path / "bags")
+    assert outcome.ok, outcome.reason
+    curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
+    traj = simulate([load_scenario(str(path))], fdir=Fdir(curves))
+    assert [(d.wheel, d.action) for d in traj.decisions[0]] == [("x", "held"), ("s", "in_use")]
+    data = read_bag(outcome.bag, topics=[T.ATTITUDE, T.DIPOLE_COMMAND])
+    _, attitude, _, _ = data.joint_states(T.ATTITUDE)
+    np.testing.assert_allclose(attitude, traj.attitude[:, 0], rtol=0, atol=1e-12)
+    stamps = np.array([t for t, _ in data.topic(T.DIPOLE_COMMAND)]) * 1e-9
+    dipoles = np.array([[m.vector.x, m.vector.y, m.vector.z] for _, m in data.topic(T.DIPOLE_COMMAND)])
+    assert len(stamps) == 151   # every magnetometer reading answered, the last one too
+    core = traj.dipole[np.searchsorted(traj.time, stamps - 1e-9), 0]
+    np.testing.assert_allclose(dipoles, core, rtol=0, atol=1e-12)
+    assert np.any(dipoles[stamps > traj.decisions[0][0].time + 1.0] != 0.0)   # still dumping, without x

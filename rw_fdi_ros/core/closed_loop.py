@@ -92,13 +92,15 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
     sample = plant.sample()
     for _ in range(steps + 1):
         sp = np.array([setpoint_at(t, v, sample.time) for t, v in schedules])
-        if onboard is not None:
-            in_use = allocator.in_use.copy()   # recorded as it was when the sample came, before FDIR acts
-            _fdir_step(onboard, reconfig, delays, allocator, plant, sample)
-        if sample.magnetic_field is not None:   # the law runs on the reading, the rods hold its dipole
+        in_use = allocator.in_use.copy()   # as it was when the sample came, before FDIR acts on it
+        if sample.magnetic_field is not None:
+            # the law runs on the reading and the wheels in use as the momentum-dumping node knows them when
+            # the reading comes (decisions of earlier samples: the allocation says them before its command,
+            # the plant steps on the command); the rods hold its dipole
             field = sample.magnetic_field
-            plant.command_dipole(dumper.update(field, sample.wheel_speed, allocator.in_use, wheel.inertia,
-                                               plant.spin_axes))
+            plant.command_dipole(dumper.update(field, sample.wheel_speed, in_use, wheel.inertia, plant.spin_axes))
+        if onboard is not None:
+            _fdir_step(onboard, reconfig, delays, allocator, plant, sample)
         # the last sample is answered too, as the controllers and the allocation node answer it
         axis_command = pid.update(sp, sample.attitude, sample.body_rate)
         wheel_command = allocator.wheel_commands(axis_command, sample.wheel_speed)
@@ -107,7 +109,7 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
             for key in ("attitude", "body_rate", "wheel_speed", "tcv", "reaction_torque", "fault_effect"):
                 rec[key].append(getattr(sample, key))
             rec["setpoint"].append(sp)
-            rec["in_use"].append(in_use if onboard is not None else allocator.in_use.copy())
+            rec["in_use"].append(in_use)
             rec["wheel_angle"].append(plant.wheel_angle.copy())
             rec["axis_command"].append(axis_command)
             rec["wheel_command"].append(wheel_command)

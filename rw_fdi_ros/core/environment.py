@@ -72,13 +72,6 @@ class Track:
     position: np.ndarray
     field: np.ndarray
 
-    def at(self, t: float):
-        """(position, field) at ``t``, linear between grid points (held past the last)."""
-        x = min(max(t / ENVIRONMENT_STEP, 0.0), len(self.times) - 1.0)
-        i = min(int(x), len(self.times) - 2)
-        w = x - i
-        return ((1 - w) * self.position[i] + w * self.position[i + 1],
-                (1 - w) * self.field[i] + w * self.field[i + 1])
 
 
 def body_from_inertial(attitude) -> np.ndarray:
@@ -117,7 +110,7 @@ class Environments:
 
     def state(self, t: float, attitude):
         """(position, field) in body axes (B, 3) at ``t`` for the batch's attitudes (B, 3), linear between
-        grid points (Track.at); a run without an orbit has no field."""
+        grid points (held past the last); a run without an orbit has no field."""
         x = min(max(t / ENVIRONMENT_STEP, 0.0), float(self.last))
         i = min(int(x), self.last - 1)
         w = x - i

@@ -41,7 +41,8 @@ def field_inertial(position, sidereal, epoch: datetime, model: str = "igrf") -> 
     import ppigrf
     fixed = _rotate_z(np.asarray(position, float), sidereal)
     r = np.linalg.norm(fixed, axis=-1)
-    theta = np.arccos(np.clip(fixed[:, 2] / r, -1.0, 1.0))
+    # ppigrf divides B_phi by sin(theta): a point exactly over a pole is taken 1e-9 rad (6 mm) off it
+    theta = np.clip(np.arccos(np.clip(fixed[:, 2] / r, -1.0, 1.0)), 1e-9, np.pi - 1e-9)
     phi = np.arctan2(fixed[:, 1], fixed[:, 0])
     b_r, b_theta, b_phi = (c[0] for c in ppigrf.igrf_gc(r / 1e3, np.rad2deg(theta), np.rad2deg(phi),
                                                         epoch.replace(tzinfo=None),

@@ -11,7 +11,8 @@ The law (the cross-product law; Basilisk's mtbMomentumManagementSimple with torq
 
 and m scaled down as a whole when a rod would exceed its limit (its direction kept, so the torque
 stays across b and opposed to h). [choice] Hysteresis: a run dumps from the moment a wheel in use
-passes ``start_speed`` until every wheel in use is below ``stop_speed``; between dumps the rods are
+passes ``start_speed`` until the net momentum |h| is below J ``stop_speed`` (what one wheel holds at
+that speed; with three orthogonal wheels every one is then below it); between dumps the rods are
 off, so the wheels drift with the secular torques, and are pulled back, now and then through zero.
 Wheels given up are not dumped: their momentum is not the controller's to move (a held wheel keeps
 it). The law runs on each magnetometer reading (environment.MAGNETOMETER_PERIOD); the dipole is held
@@ -35,7 +36,7 @@ class MomentumDumping:
     # [rad/s] start: 10 rad/s inside the FDI's envelope (isolation.WHEEL_SPEED_ENVELOPE, 45 rad/s) and
     # 12 below the speed the nominal wheel cannot hold even at the 5 V limit (47.3 rad/s, friction)
     start_speed: float = 35.0
-    stop_speed: float = 5.0        # [rad/s]: "back to zero" (thesis ch. 1), short of it
+    stop_speed: float = 5.0        # [rad/s] |h| / J: "back to zero" (thesis ch. 1), short of it
     enabled: bool = True           # false: rods idle (a run without dumping, for comparison)
 
 
@@ -76,7 +77,10 @@ class Dumper:
     def update(self, field, wheel_speed, in_use, wheel_inertia, spin_axes) -> np.ndarray:
         """The dipole (B, 3) [A m^2] for the magnetometer's ``field`` (B, 3) [T] and the wheels' state."""
         fastest = np.max(np.where(in_use, np.abs(wheel_speed), 0.0), axis=-1)
-        self.dumping = self.enabled & np.where(self.dumping, fastest >= self.stop, fastest > self.start)
         h = wheel_momentum(wheel_speed, wheel_inertia, spin_axes, in_use)
+        # on when a wheel nears saturation; off when the net momentum is what one wheel holds at the stop
+        # speed: speed the wheels hold in their null space (four in use) is not the rods' to dump
+        left = np.linalg.norm(h, axis=-1) / np.max(np.asarray(wheel_inertia, float))
+        self.dumping = self.enabled & np.where(self.dumping, left >= self.stop, fastest > self.start)
         m = saturate(cross_product_dipole(field, -self.gain[:, None] * h), self.limit[:, None])
         return np.where(self.dumping[:, None], m, 0.0)

@@ -93,7 +93,10 @@ class Plant:
         self.in_orbit = any(s.environment is not None for s in self.scenarios)
         self._environment = None
         self.dipole = np.zeros((self.batch, 3))   # the magnetorquers' dipole in force [A m^2]
-        self.magnetometer_steps = int(round(MAGNETOMETER_PERIOD / self.dt))
+        self.magnetometer_steps = max(int(round(MAGNETOMETER_PERIOD / self.dt)), 1)
+        if self.in_orbit and abs(self.magnetometer_steps * self.dt - MAGNETOMETER_PERIOD) > 1e-9:
+            raise ValueError(f"in orbit the control period must divide the magnetometer's {MAGNETOMETER_PERIOD:g} s, "
+                             f"got {self.dt:g} s")
         draws = [s.draws()[0] for s in self.scenarios]
         self.attitude = np.array([d.attitude for d in draws])
         self.body_rate = np.array([d.body_rate for d in draws])

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .environment import OrbitEnvironment
+from .environment import MAGNETOMETER_PERIOD, OrbitEnvironment
 from .geomagnetic import IGRF_YEARS
 from .magnetorquers import MomentumDumping
 from .orbit import CircularOrbit, OrbitError, TleOrbit
@@ -372,7 +372,11 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
         raise ScenarioError(f"{origin}: faults must be a list")
     faults = tuple(_fault(f"{origin}: faults[{i}]", f, duration, names) for i, f in enumerate(faults_raw))
     name = str(raw.get("name") or Path(origin).stem)
-    environment = _environment(f"{origin}: environment", raw.get("environment"))
+    environment = _environment(f"{origin}: environment", raw.get("environment"), duration)
+    period = float(plant.get("control_period", PlantChoices().control_period))
+    if environment is not None and abs(round(MAGNETOMETER_PERIOD / period) * period - MAGNETOMETER_PERIOD) > 1e-9:
+        raise ScenarioError(f"{origin}: plant.control_period {period:g} s does not divide the magnetometer's "
+                            f"{MAGNETOMETER_PERIOD:g} s (in orbit)")
     magnetorquers = _magnetorquers(f"{origin}: magnetorquers", raw.get("magnetorquers"))
     if magnetorquers is not None and environment is None:
         raise ScenarioError(f"{origin}: magnetorquers need a field: give the scenario an environment (an orbit)")
@@ -404,7 +408,7 @@ def _manoeuvres(where, raw, duration) -> Manoeuvres | None:
                       start_s=_num(f"{where}.start_s", raw.get("start_s", 0.0), 0.0, duration))
 
 
-def _environment(where, raw) -> OrbitEnvironment | None:
+def _environment(where, raw, duration: float) -> OrbitEnvironment | None:
     """The ``environment:`` mapping: orbit (altitude_km, inclination_deg, raan_deg, argument_of_latitude_deg)
     or tle (its two lines), epoch (UTC date-time, IGRF's years), residual_dipole [A m^2] (x, y, z)."""
     if raw is None:
@@ -425,7 +429,7 @@ def _environment(where, raw) -> OrbitEnvironment | None:
         except OrbitError as exc:
             raise ScenarioError(f"{where}.tle: {exc}") from None
     else:
-        elements = raw.get("orbit") or {}
+        elements = {} if raw.get("orbit") is None else raw["orbit"]
         limits = {"altitude_km": (150.0, 40000.0), "inclination_deg": (0.0, 180.0),
                   "raan_deg": (-360.0, 360.0), "argument_of_latitude_deg": (-360.0, 360.0)}
         if not isinstance(elements, dict) or set(elements) - set(limits):
@@ -442,9 +446,16 @@ def _environment(where, raw) -> OrbitEnvironment | None:
             raise ScenarioError(f"{where}.epoch: expected a UTC date-time like 2026-01-01T00:00:00, "
                                 f"got {value!r}") from None
         epoch = epoch.replace(tzinfo=timezone.utc) if epoch.tzinfo is None else epoch.astimezone(timezone.utc)
-        if not IGRF_YEARS[0] <= epoch.year < IGRF_YEARS[1]:
-            raise ScenarioError(f"{where}.epoch: {epoch.date()} is outside the field model's years "
-                                f"{IGRF_YEARS[0]}-{IGRF_YEARS[1] - 1}")
+    start = epoch or OrbitEnvironment(orbit=orbit).start()
+    if not IGRF_YEARS[0] <= start.year < IGRF_YEARS[1]:
+        what = "epoch" if epoch is not None else "tle (its epoch)"
+        raise ScenarioError(f"{where}.{what}: {start.date()} is outside the field model's years "
+                            f"{IGRF_YEARS[0]}-{IGRF_YEARS[1] - 1}")
+    if isinstance(orbit, TleOrbit):
+        try:   # SGP4 must carry the element set through the whole run
+            orbit.position([0.0, duration], start)
+        except OrbitError as exc:
+            raise ScenarioError(f"{where}.tle: {exc}") from None
     given = {} if "residual_dipole" not in raw else {
         "residual_dipole": tuple(_num(f"{where}.residual_dipole[{i}]", v, -100.0, 100.0)
                                  for i, v in enumerate(_vector(f"{where}.residual_dipole", raw["residual_dipole"])))}

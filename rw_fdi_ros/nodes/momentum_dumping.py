@@ -48,7 +48,8 @@ class MomentumDumpingNode(GraphNode):
             raise NodeError("parameter stop_speed must not be above start_speed", EXIT_BAD_INPUT)
         self.wheels = wheel_set(self.param("wheel_set"))
         self.joints = tuple(joint_name(n) for n in self.wheels.names)
-        self.in_use = ~self.wheels.mask(self.wheels.standby)[None, :]
+        self.in_use = ~self.wheels.mask(self.wheels.standby)[None, :]   # before the allocation says otherwise
+        self.decided = []        # (stamp, in use (1, N)) of the allocation's /fdir/wheels
         settings = MomentumDumping(**{k: self.param(k) for k in ("dipole_limit", "gain", "start_speed",
                                                                   "stop_speed", "enabled")})
         self.dumper = Dumper([settings])
@@ -65,7 +66,17 @@ class MomentumDumpingNode(GraphNode):
 
     def _on_wheel_states(self, msg):
         states = {s.hardware_id: next((v.value for v in s.values if v.key == "state"), "") for s in msg.status}
-        self.in_use = np.array([[states.get(j, "") in IN_USE_STATES for j in self.joints]])
+        self.decided.append((stamp_ns(msg.header.stamp), np.array([[states.get(j, "") in IN_USE_STATES
+                                                                     for j in self.joints]])))
+
+    def _in_use_before(self, stamp: int):
+        """The wheels in use as the allocation decided them at a step before ``stamp`` (the core loop's
+        order: a decision of step k acts on the readings after it; a reading of step k may come before
+        or after the decision of its own step). The allocation says a decision before it sends its
+        command, and the plant steps on that command: a decision of an earlier step is here first."""
+        earlier = [(t, use) for t, use in self.decided if t < stamp]
+        self.decided = earlier[-1:] + [(t, use) for t, use in self.decided if t >= stamp]
+        return earlier[-1][1] if earlier else self.in_use
 
     def _on_field(self, msg):
         f = msg.magnetic_field
@@ -88,8 +99,8 @@ class MomentumDumpingNode(GraphNode):
             return
         stamp, reading = self.field
         self.field = None
-        dipole = self.dumper.update(reading, self.speeds[stamp][None, :], self.in_use, self.wheel_inertia,
-                                    self.wheels.matrix)[0]
+        dipole = self.dumper.update(reading, self.speeds[stamp][None, :], self._in_use_before(stamp),
+                                    self.wheel_inertia, self.wheels.matrix)[0]
         self.pub.publish(vector_cdr(stamp, dipole))
         self.last_handled = stamp
 

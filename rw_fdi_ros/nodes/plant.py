@@ -97,6 +97,9 @@ class PlantNode(GraphNode):
         if self.param("magnetorquers") and not self.rods:
             raise NodeError(f"parameter magnetorquers: scenario {scenario.name} has none (give it an environment "
                             "and magnetorquers)", EXIT_BAD_INPUT)
+        if scenario.magnetorquers is not None and not self.rods:
+            self.get_logger().warn("the scenario has magnetorquers but parameter magnetorquers is false: "
+                                   "the rods stay off (no momentum_dumping node is waited for)")
         # this run's units (ground truth): datasheet values unless the scenario draws them
         self.report = PlantReport(scenario.effective_text(self.choices.scenario_dict()), self.names,
                                   run_units(self.plant.wheel, 0, len(self.names)), self.choices.fdi_period,
@@ -233,7 +236,7 @@ class PlantNode(GraphNode):
         if k >= self.last_step:
             # done only once every reader has the last sample: a recorder that sees done has it all
             for pub in (self.pub_clock, self.pub_truth, self.pub_attitude, self.pub_wheels, self.pub_fdi,
-                        self.pub_effect):
+                        self.pub_effect, *([self.pub_magnetometer] if self.pub_magnetometer else [])):
                 if not pub.wait_for_all_acked(Duration(seconds=5.0)):
                     self.get_logger().warn(f"{pub.topic_name}: not every reader acknowledged the last step "
                                            "within 5 s; done anyway (the recorder says what it lacks)")

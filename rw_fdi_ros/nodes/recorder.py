@@ -27,6 +27,7 @@ from ..storage.writer import BagWriter
 from ..storage.cdr import header_stamp_ns
 from . import topics as T
 from ..core.wheel_set import DEFAULT_WHEEL_SET
+from ..core.environment import MAGNETOMETER_PERIOD
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
 
 
@@ -68,6 +69,8 @@ class RecorderNode(GraphNode):
     def _subscribe(self, rows):
         # the plant's per-step topics that must have reached the done stamp (none when replaying)
         self.final = list(T.STEP_TOPICS) if self.param("record_plant") else []
+        # in orbit, once a magnetometer period: the last reading and the rods' answer to it
+        self.final_orbit = [t for t, _, _ in rows if t in (T.MAGNETOMETER, T.DIPOLE_COMMAND)]
         self.pub_closed = self.create_publisher(String, T.RECORDER_CLOSED, T.LATCHED)
         self.pub_ready = self.create_publisher(String, T.RECORDER_READY, T.LATCHED)
         # what /recorder/ready waits for: the topics whose writers exist from the graph's start (the plant's
@@ -139,7 +142,9 @@ class RecorderNode(GraphNode):
             lagging_fdi = [t for t in self.fdi_names if self.last_stamp.get(t, -1) < last_fdi]
         else:
             lagging_fdi = []
-        lagging = [t for t in final if self.last_stamp.get(t, -1) < self.done_stamp] + lagging_fdi
+        last_reading = self.done_stamp - self.done_stamp % int(round(MAGNETOMETER_PERIOD * 1e9))
+        lagging = ([t for t in final if self.last_stamp.get(t, -1) < self.done_stamp] + lagging_fdi
+                   + [t for t in self.final_orbit if self.last_stamp.get(t, -1) < last_reading])
         # a loaded recorder may still be working through its queue: only silence ends the wait
         if not lagging or wall_time() - max(self.done_wall, self.last_message_wall) > self.param("drain_timeout"):
             if lagging and not self.param("record_plant"):
