@@ -235,8 +235,9 @@ def format_dumping(report: dict) -> str:
     s = report["settings"]
     lines = ["# Momentum dumping and the FDI through it (`rw-fdi bench dumping`)", "",
              f"Measured {report['date']}; {report['seconds'] / 60:.0f} min on this machine. Law: cross-product, "
-             f"gain {s['gain']:g} 1/s, rods {s['dipole_limit']:g} A m^2, dump from {s['start_speed']:g} rad/s "
-             f"until every wheel in use is below {s['stop_speed']:g} rad/s.", "",
+             f"gain {s['gain']:g} 1/s, rods {s['dipole_limit']:g} A m^2, a dump from a wheel in use above "
+             f"{s['start_speed']:g} rad/s until the net momentum is what one wheel holds at {s['stop_speed']:g} "
+             "rad/s.", "",
              f"## A day in orbit (`dumping_day`, seed {day['seed']}, {day['hours']:g} h)", "",
              "![a day in orbit](day.png)", "",
              "| | with dumping | rods off |", "|---|---|---|",
@@ -263,6 +264,10 @@ def format_dumping(report: dict) -> str:
             d = c["dumping"]
             lines.append(f"| {name} | {c['hours']:.0f} | {d['hours']:.1f} h, {d['dumps']}, {d['zero_crossings']} | "
                          + " | ".join(format_rate(c["observers"][o]["false_alarm"]) for o in columns) + " |")
+    lines += ["", "Runs in which /diagnostics said STALE somewhere (a wheel beyond the operating envelope's 45 "
+              "rad/s, not judged there): " + ", ".join(
+                  f"{name}: {c['runs_not_judged_somewhere']} of {c['observers'][columns[0]]['false_alarm']['n']}"
+                  for name, c in cells.items() if c["cell"]["kind"] is None) + "."]
     lines += ["", "Faults with the onset inside a dump: " + ", ".join(
         f"{name}: {c['dumping']['onset_in_dump']} of {c['observers'][columns[0]]['correct']['n']}"
         for name, c in cells.items() if c["cell"]["kind"] is not None) + ".", "",
