@@ -3,6 +3,8 @@
 - `ros2 launch` of the installed file (a colcon install of a clean copy), a faulty scenario with the FDI
   nodes: every node starts and ends by itself, so does the launch (exit 0), and the bag is a whole run
   with the right verdict.
+- In orbit with magnetorquers: the momentum-dumping node starts, answers every magnetometer reading
+  and ends by itself.
 - A node killed mid-run: the launch ends promptly with a non-zero exit naming it, every other node is
   stopped, and the bag is readable up to the failure and says the run was interrupted.
 - Without running: the parameter files launch_ros writes for each node, read back by rcl itself,
@@ -149,6 +151,41 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
         launch.close()
     assert code == 0 and len(node_pids(output)) == 13, output[-3000:]
     assert bag_differences(bag, alone) == []
+
+
+ORBIT = """name: orbit
+duration: 30.0
+seed: 3
+initial: {wheel_speed: [38.0, -36.0, 37.0]}
+environment: {epoch: 2026-03-01T00:00:00}
+magnetorquers: {}
+"""
+
+
+def test_ros2_launch_in_orbit_runs_the_momentum_dumping_node(colcon_workspace, tmp_path):
+    """In orbit with magnetorquers the launch file starts the momentum-dumping node too (its own process
+    with compose:=none, a params file from launch_ros): it answers every magnetometer reading, the rods
+    dump (the wheels start above the dump start), and everything ends by itself."""
+    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.storage.bag import bag_info, read_bag
+    scenario = tmp_path / "orbit.yaml"
+    scenario.write_text(ORBIT)
+    bag = tmp_path / "orbit_bag"
+    launch = Launch(colcon_workspace, tmp_path, f"scenario:={scenario}", f"bag:={bag}", "compose:=none")
+    try:
+        code = launch.wait(timeout=240)
+        output = launch.output()
+    finally:
+        launch.close()
+    assert code == 0, output[-3000:]
+    started = node_pids(output)
+    assert any(label.startswith("momentum_dumping") for label in started), sorted(started)
+    for label in started:
+        assert f"[{label}]: process has finished cleanly" in output, label
+    info = bag_info(bag)
+    assert info.complete and info.counts[T.MAGNETOMETER] == info.counts[T.DIPOLE_COMMAND] == 31, info.counts
+    dipoles = [m.vector for _, m in read_bag(bag, [T.DIPOLE_COMMAND]).topic(T.DIPOLE_COMMAND)]
+    assert all(max(abs(v.x), abs(v.y), abs(v.z)) > 1.0 for v in dipoles)
 
 
 def test_a_node_killed_mid_run_ends_the_launch_with_a_failure_and_a_readable_bag(colcon_workspace, tmp_path):
