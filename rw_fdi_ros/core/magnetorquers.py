@@ -84,3 +84,23 @@ class Dumper:
         self.dumping = self.enabled & np.where(self.dumping, left >= self.stop, fastest > self.start)
         m = saturate(cross_product_dipole(field, -self.gain[:, None] * h), self.limit[:, None])
         return np.where(self.dumping[:, None], m, 0.0)
+
+
+class DumpLog:
+    """The dumps of a run, fed the rods' dipole sample by sample in time order: intervals [(start, end)] [s]
+    from the first to the last sample with a dipole not zero (one pass, no series kept)."""
+
+    def __init__(self):
+        self.intervals = []
+        self._open = None
+
+    def add(self, time: float, dipole):
+        if np.any(np.asarray(dipole) != 0.0):
+            self._open = [self._open[0] if self._open else float(time), float(time)]
+        elif self._open is not None:
+            self.intervals.append(tuple(self._open))
+            self._open = None
+
+    def done(self) -> list:
+        """The intervals, a dump still on at the end closed at its last sample."""
+        return self.intervals + ([tuple(self._open)] if self._open else [])

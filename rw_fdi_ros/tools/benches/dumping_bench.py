@@ -25,7 +25,7 @@ import numpy as np
 
 from ...core.closed_loop import simulate
 from ...core.environment import MAGNETOMETER_PERIOD, OrbitEnvironment
-from ...core.magnetorquers import MomentumDumping
+from ...core.magnetorquers import DumpLog, MomentumDumping
 from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.wheel import WheelParams
 from .detection_bench import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
@@ -39,12 +39,13 @@ HOURS = Manoeuvres(interval_s=(60.0, 900.0))
 EVERY = int(round(MAGNETOMETER_PERIOD / 0.1))   # the day's series at the magnetometer's 1 s
 
 
-def dumps(dipole, time) -> list:
-    """[(start, end)] [s] of the intervals the rods were on (a dipole not zero), from series (n, 3)."""
-    on = np.any(dipole != 0.0, axis=-1).astype(int)
-    edges = np.diff(np.concatenate(([0], on, [0])))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
-    return [(float(time[a]), float(time[b])) for a, b in zip(starts, ends)]
+def dumps(dipole, time, every: int = 1) -> list:
+    """[(start, end)] [s] of the intervals the rods were on, from series (n, 3) sampled ``every`` steps (the
+    dipole changes on magnetometer steps only: take those)."""
+    log = DumpLog()
+    for t, d in zip(time[::every], dipole[::every]):
+        log.add(t, d)
+    return log.done()
 
 
 def zero_crossings(speed) -> int:
@@ -68,7 +69,8 @@ def day_figures(traj, run: int, limit: float) -> dict:
             "max_pointing_error_deg": float(error[after].max()),
             "first_command_limit_s": float(t[np.argmax(at_limit)]) if at_limit.any() else None,
             "first_pointing_loss_s": float(t[np.argmax(outside)]) if outside.any() else None,
-            "dumps": len(intervals), "dumping_hours": sum(b - a for a, b in intervals) / 3600.0,
+            "dumps": len(intervals),
+            "dumping_hours": sum(b - a + MAGNETOMETER_PERIOD for a, b in intervals) / 3600.0,
             "dump_intervals_s": intervals, "zero_crossings": zero_crossings(traj.wheel_speed[:, run][:, in_use[0]])}
 
 
@@ -167,7 +169,7 @@ def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int = SEED_BASE) ->
     twins = simulate(base, every=EVERY)
     out = []
     for b, scenario in enumerate(base):
-        first = dumps(twins.dipole[:, b], twins.time)[0]
+        first = dumps(twins.dipole[:, b], twins.time)[0]   # already every EVERY steps
         lo, hi = first[0] + 10.0, max(first[0] + 10.0, first[1] - 10.0)
         onset = float(np.round(np.random.default_rng(scenario.seed).uniform(lo, hi), 1))
         out.append(scenario.with_faults([Fault(cell.kind, scenario.seed % 3, onset, cell.value)]))
@@ -181,12 +183,13 @@ def _cell_runs(cell_index: int, seeds, seed_base: int) -> list:
 def dumping_of(scenario, traj, b: int) -> SimpleNamespace:
     """What a run's trajectory says of its dumping: time with the rods on [s], dumps, the wheels in use's
     zero crossings and fastest speed."""
-    intervals = dumps(traj.dipole[:, b], traj.time)
+    intervals = dumps(traj.dipole[:, b], traj.time, EVERY)
     in_use = traj.in_use[0, b]
     speed = traj.wheel_speed[:, b][:, in_use]
     onset = min((f.onset for f in scenario.faults), default=None)
     at = None if onset is None else int(np.searchsorted(traj.time, onset))
-    return SimpleNamespace(seed=scenario.seed, dumping_s=sum(e - s + traj.time[1] for s, e in intervals),
+    # a dipole is held for a magnetometer period after the reading it answers
+    return SimpleNamespace(seed=scenario.seed, dumping_s=sum(e - s + MAGNETOMETER_PERIOD for s, e in intervals),
                            dumps=len(intervals), zero_crossings=zero_crossings(speed),
                            max_speed=float(np.abs(speed).max()),
                            onset_in_dump=None if at is None else bool(np.any(traj.dipole[at, b] != 0.0)))

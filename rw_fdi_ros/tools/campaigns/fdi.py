@@ -74,7 +74,7 @@ def verdict_topics() -> list:
     """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag."""
     from ...core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
     bounds = [T.bound_topic(obs, a) for obs in T.OBSERVERS for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
-    return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, *metrics.fdi_output_topics(), *bounds]
+    return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, T.DIPOLE_COMMAND, *metrics.fdi_output_topics(), *bounds]
 
 
 def fdi_verdict(data) -> dict:
@@ -256,7 +256,10 @@ def _plot_residuals(data, path: Path) -> Path:
 
 def _plot_pointing(data, verdict, ax):
     """The chain in one row: the pointing error per axis against the 0.2 deg requirement, with the fault's
-    onset, the verdict's first alarm and each reconfiguration (/fdir/wheels) marked."""
+    onset, the verdict's first alarm and each reconfiguration (/fdir/wheels) marked, and in orbit the
+    momentum dumps shaded."""
+    from ...core.environment import MAGNETOMETER_PERIOD
+    from ...core.magnetorquers import DumpLog
     from ...core.scenario import setpoint_at
     from .summary import POINTING_DEG
     scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
@@ -267,6 +270,13 @@ def _plot_pointing(data, verdict, ax):
         for i, a in enumerate(AXES):
             ax.semilogy(*envelope(t, np.maximum(error[:, i], 1e-5)), label=f"axis {a}", lw=1.0)
     ax.axhline(POINTING_DEG, color="k", ls="--", lw=0.8)
+    t_m, dipole = data.vectors(T.DIPOLE_COMMAND)
+    dumps = DumpLog()
+    for x, m in zip(t_m, dipole):
+        dumps.add(x, m)
+    for n, (start, end) in enumerate(dumps.done()):   # a dipole holds until the next reading's
+        ax.axvspan(start, min(end + MAGNETOMETER_PERIOD, t[-1]) if len(t) else end, color="tab:blue", alpha=0.08,
+                   label="momentum dumping" if n == 0 else None)
     marks = [(f.onset, f"{f.kind}", "k") for f in scenario.faults]
     marks += [(iv[0][0], f"verdict {a}", "tab:orange") for a, iv in verdict.get("verdict", {}).items() if iv]
     fdir = data.last(T.FDIR_WHEELS)
@@ -278,6 +288,7 @@ def _plot_pointing(data, verdict, ax):
     for x, label, color in marks:
         ax.axvline(x, color=color, lw=0.8, ls=":")
         ax.text(x, POINTING_DEG * 3, f" {label}", fontsize=7, rotation=90, color=color, va="bottom")
-    ax.set_title("pointing error [deg]: fault, verdict, reconfiguration", fontsize=10)
+    ax.set_title("pointing error [deg]: fault, verdict, reconfiguration" + (", momentum dumps (shaded)"
+                                                                             if dumps.done() else ""), fontsize=10)
     ax.legend(fontsize=7, loc="lower left")
     ax.grid(alpha=0.3)

@@ -6,15 +6,19 @@ from pathlib import Path
 import numpy as np
 
 from ...core.scenario import AXES, parse_scenario, setpoint_at
-from ...nodes.topics import ATTITUDE, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
+from ...core.environment import MAGNETOMETER_PERIOD
+from ...core.magnetorquers import DumpLog
+from ...nodes.topics import ATTITUDE, DIPOLE_COMMAND, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
 
-SUMMARY_TOPICS = [SCENARIO, ATTITUDE, FAULT_EFFECT, FDIR_WHEELS]   # what run_summary reads of a bag
+# what run_summary reads of a bag
+SUMMARY_TOPICS = [SCENARIO, ATTITUDE, FAULT_EFFECT, FDIR_WHEELS, DIPOLE_COMMAND]
 POINTING_DEG = 0.2   # the pointing requirement [deg] (thesis Table 2.3)
 
 
 def run_summary(path) -> dict:
     """Pointing error per axis at the end, peak error after the first fault, when the pointing was back
-    within 0.2 deg, the reconfiguration decisions (/fdir/wheels), faults, bag state.
+    within 0.2 deg, the reconfiguration decisions (/fdir/wheels), in orbit the momentum dumps, faults,
+    bag state.
 
     One pass over the bag folding each sample into the figures (the last error, running maxima):
     memory does not grow with the run's length."""
@@ -24,6 +28,7 @@ def run_summary(path) -> dict:
     scenario, waiting = None, []   # attitude rows that came before the scenario (latched, at the start)
     last, peak, effect = None, None, None
     onset, outside, decisions = None, None, {}   # outside: the last time after onset beyond POINTING_DEG
+    dumps = DumpLog()
 
     def fold(stamp, attitude):
         nonlocal last, peak, outside
@@ -55,6 +60,9 @@ def run_summary(path) -> dict:
             value = (read_vector_cdr(raw)[1] if info.types[topic].endswith("Vector3Stamped")
                      else read_joint_state_cdr(raw)[3])
             effect = np.abs(value) if effect is None else np.maximum(effect, np.abs(value))
+        elif topic == DIPOLE_COMMAND:
+            stamp, dipole = read_vector_cdr(raw)
+            dumps.add(stamp * 1e-9, dipole)
         elif topic == FDIR_WHEELS:
             msg = typestore().deserialize_cdr(raw, info.types[topic])
             for status in msg.status:
@@ -74,6 +82,8 @@ def run_summary(path) -> dict:
                                 "reason": reason}   # at one time: the wheel given up (held) before the one brought in
                                for (t, joint), (state, reason) in sorted(
                                    decisions.items(), key=lambda d: (d[0][0], d[1][0] not in ("given_up", "held")))]}
+    if DIPOLE_COMMAND in info.counts:   # a dipole holds until the next reading's
+        out["momentum_dumps"] = [[a, min(b + MAGNETOMETER_PERIOD, out["end_time"])] for a, b in dumps.done()]
     if peak is not None:
         out["peak_error_after_fault_deg"] = dict(zip(AXES, peak.round(4).tolist()))
         # pointing within the requirement from this time on (never out after the onset: the onset)
@@ -92,6 +102,11 @@ def format_summary(s: dict) -> str:
     for d in s.get("reconfiguration", []):
         lines.append(f"  reconfiguration at {d['time']:g} s: wheel {d['wheel']} {d['state'].replace('_', ' ')} "
                      f"({d['reason']})")
+    if "momentum_dumps" in s:
+        dumps = s["momentum_dumps"]
+        lines.append(f"  momentum dumping: {len(dumps)} dump{'s' if len(dumps) != 1 else ''}" + (
+            " (rods on " + ", ".join(f"{a:g}-{b:g} s" for a, b in dumps[:6]) + (", ..." if len(dumps) > 6 else "")
+            + ")" if dumps else ""))
     if "peak_error_after_fault_deg" in s:
         lines.append("  peak error after fault [deg]: " +
                      "  ".join(f"{a}={v:.3f}" for a, v in s["peak_error_after_fault_deg"].items()))
