@@ -67,6 +67,13 @@ class Launch:
     def output(self) -> str:
         return self.log.read_text(errors="replace")
 
+    def run(self, timeout: float = 240) -> tuple:
+        """(exit code, output) once the launch has ended by itself; torn down whatever happens."""
+        try:
+            return self.wait(timeout=timeout), self.output()
+        finally:
+            self.close()
+
     def close(self, reuse_domain: bool = True):
         if self.proc.poll() is None:
             os.killpg(self.proc.pid, signal.SIGINT)
@@ -113,11 +120,7 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     from rw_fdi_ros.storage.bag import bag_info, read_series
     from rw_fdi_ros.tools.campaigns.fdi import fdi_verdict, verdict_topics
     launch, scenario, bag = launch_fault(colcon_workspace, tmp_path, 90)
-    try:
-        code = launch.wait(timeout=240)
-        output = launch.output()
-    finally:
-        launch.close()
+    code, output = launch.run()
     assert code == 0, output[-3000:]
     started = node_pids(output)
     nodes = expected_nodes(scenario, bag)
@@ -144,11 +147,7 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     assert states["reaction_wheel_x"] == "given_up" and states["reaction_wheel_s"] == "in_use", states
     # every node its own process (compose:=none): the same bag, message for message
     launch, _, alone = launch_fault(colcon_workspace, tmp_path, 90, "compose:=none", bag_name="bag_none")
-    try:
-        code = launch.wait(timeout=240)
-        output = launch.output()
-    finally:
-        launch.close()
+    code, output = launch.run()
     assert code == 0 and len(node_pids(output)) == 13, output[-3000:]
     assert bag_differences(bag, alone) == []
 
@@ -172,11 +171,7 @@ def test_ros2_launch_in_orbit_runs_the_momentum_dumping_node(colcon_workspace, t
     scenario.write_text(ORBIT)
     bag = tmp_path / "orbit_bag"
     launch = Launch(colcon_workspace, tmp_path, f"scenario:={scenario}", f"bag:={bag}", "compose:=none")
-    try:
-        code = launch.wait(timeout=240)
-        output = launch.output()
-    finally:
-        launch.close()
+    code, output = launch.run()
     assert code == 0, output[-3000:]
     started = node_pids(output)
     assert any(label.startswith("momentum_dumping") for label in started), sorted(started)
