@@ -42,6 +42,16 @@ MAGNETOMETER_NOISE = 50e-9
 MAGNETOMETER_PERIOD = 1.0
 
 
+def magnetometer_steps(control_period: float) -> int:
+    """Control steps per magnetometer reading: a reading (and the rods' answer) on every step k with
+    k % this == 0. ValueError when the control period does not divide MAGNETOMETER_PERIOD."""
+    steps = max(int(round(MAGNETOMETER_PERIOD / control_period)), 1)
+    if abs(steps * control_period - MAGNETOMETER_PERIOD) > 1e-9:
+        raise ValueError(f"in orbit the control period must divide the magnetometer's {MAGNETOMETER_PERIOD:g} s, "
+                         f"got {control_period:g} s")
+    return steps
+
+
 @dataclass(frozen=True)
 class OrbitEnvironment:
     """A scenario's ``environment:``: the orbit, the epoch its t = 0 is, the residual dipole."""

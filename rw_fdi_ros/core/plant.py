@@ -30,7 +30,7 @@ import numpy as np
 
 from . import wheel as wm
 from .scenario import FAULT_KINDS, NOMINAL_VALUES, Scenario, operating_points
-from .environment import MAGNETOMETER_PERIOD, Environments
+from .environment import Environments, magnetometer_steps
 from .spacecraft import INERTIA, body_acceleration, disturbance_torque
 from .wheel_set import WheelSet, wheel_set as named_wheel_set
 
@@ -87,16 +87,14 @@ class Plant:
         self.inertia = np.asarray(inertia, float)
         self.disturbance = disturbance
         self.wheel_momentum_coupling = bool(wheel_momentum_coupling)
-        # in orbit (environment.py): the track is computed on the first step, not for a look at t = 0
+        # in orbit (environment.py): the track is computed on first use (the first sample), not for a look at
+        # the initial state (launch/graph.py)
         self.duration = float(duration or max(s.duration for s in self.scenarios))
         self.field_model = magnetic_field or self.scenarios[0].plant_choices().magnetic_field
         self.in_orbit = any(s.environment is not None for s in self.scenarios)
         self._environment = None
         self.dipole = np.zeros((self.batch, 3))   # the magnetorquers' dipole in force [A m^2]
-        self.magnetometer_steps = max(int(round(MAGNETOMETER_PERIOD / self.dt)), 1)
-        if self.in_orbit and abs(self.magnetometer_steps * self.dt - MAGNETOMETER_PERIOD) > 1e-9:
-            raise ValueError(f"in orbit the control period must divide the magnetometer's {MAGNETOMETER_PERIOD:g} s, "
-                             f"got {self.dt:g} s")
+        self.magnetometer_steps = magnetometer_steps(self.dt) if self.in_orbit else None
         draws = [s.draws()[0] for s in self.scenarios]
         self.attitude = np.array([d.attitude for d in draws])
         self.body_rate = np.array([d.body_rate for d in draws])

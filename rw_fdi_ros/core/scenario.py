@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .environment import MAGNETOMETER_PERIOD, OrbitEnvironment
+from .environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
 from .geomagnetic import IGRF_YEARS
 from .magnetorquers import MomentumDumping
 from .orbit import CircularOrbit, OrbitError, TleOrbit
@@ -374,9 +374,12 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     name = str(raw.get("name") or Path(origin).stem)
     environment = _environment(f"{origin}: environment", raw.get("environment"), duration)
     period = float(plant.get("control_period", PlantChoices().control_period))
-    if environment is not None and abs(round(MAGNETOMETER_PERIOD / period) * period - MAGNETOMETER_PERIOD) > 1e-9:
+    try:
+        if environment is not None:
+            magnetometer_steps(period)
+    except ValueError:
         raise ScenarioError(f"{origin}: plant.control_period {period:g} s does not divide the magnetometer's "
-                            f"{MAGNETOMETER_PERIOD:g} s (in orbit)")
+                            f"{MAGNETOMETER_PERIOD:g} s (in orbit)") from None
     magnetorquers = _magnetorquers(f"{origin}: magnetorquers", raw.get("magnetorquers"))
     if magnetorquers is not None and environment is None:
         raise ScenarioError(f"{origin}: magnetorquers need a field: give the scenario an environment (an orbit)")

@@ -4,8 +4,8 @@ On each magnetometer reading stamped k (/magnetometer, sensor_msgs/MagneticField
 the wheel state stamped k (/wheels), it answers with the three rods' dipole stamped k
 (/magnetorquers/command, geometry_msgs/Vector3Stamped, body axes [A m^2]); the plant holds it from
 step k on, and waits for it like for the wheel command (the lockstep). It dumps the momentum of the
-wheels in use only: what the wheel allocation says of its wheels on /fdir/wheels (a wheel given up or
-held is not the controller's to move).
+wheels in use only: what the wheel allocation said of its wheels on /fdir/wheels at a step before k (a
+wheel given up or held is not the controller's to move).
 """
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ class MomentumDumpingNode(GraphNode):
         self.declare_parameter("dipole_limit", default.dipole_limit)   # [A m^2] per rod
         self.declare_parameter("gain", default.gain)                   # k [1/s]
         self.declare_parameter("start_speed", default.start_speed)     # [rad/s] a wheel in use above: dump
-        self.declare_parameter("stop_speed", default.stop_speed)       # [rad/s] every wheel in use below: stop
+        self.declare_parameter("stop_speed", default.stop_speed)       # [rad/s] net momentum below J x this: stop
         self.declare_parameter("enabled", True)                        # false: the rods stay off
         self.declare_parameter("fdir", True)                           # follow /fdir/wheels (the wheels in use)
         self.declare_parameter("min_subscribers", 1)                   # the plant (+ recorder) before the first

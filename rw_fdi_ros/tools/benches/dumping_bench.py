@@ -24,7 +24,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from ...core.closed_loop import simulate
-from ...core.environment import MAGNETOMETER_PERIOD, OrbitEnvironment
+from ...core.environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
+from ...core.plant_choices import DEFAULT
 from ...core.magnetorquers import DumpLog, MomentumDumping
 from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.wheel import WheelParams
@@ -36,7 +37,7 @@ SEED_BASE = 87_000_000   # docs/fdi.md "Seeds": no other bench, training or fitt
 POINTING_LIMIT_DEG = 0.2
 SETTLE_S = 600.0   # the first slew (Table 2.3's set-point change at 0 s) is over by then
 HOURS = Manoeuvres(interval_s=(60.0, 900.0))
-EVERY = int(round(MAGNETOMETER_PERIOD / 0.1))   # the day's series at the magnetometer's 1 s
+EVERY = magnetometer_steps(DEFAULT.control_period)   # series at the magnetometer's readings
 
 
 def dumps(dipole, time, every: int = 1) -> list:
@@ -137,7 +138,6 @@ class Cell:
     value: float = 0.0
     duration: float = 6 * 3600.0
     wheel_speed: float | None = None   # every wheel's initial speed [rad/s]; None: Table 2.3's 20-30
-    onset_in_dump: bool = False
     environment: OrbitEnvironment = field(default_factory=OrbitEnvironment)
 
 
@@ -147,10 +147,9 @@ STRONG = OrbitEnvironment(residual_dipole=(1.5, 1.5, 1.5))
 CELLS = (
     Cell("operations in orbit with dumping, 6-h runs"),
     Cell("the same, a residual dipole of 2.6 A m^2", environment=STRONG),
-    Cell("current loss 10 % during a dump", "current_limiter", 0.9, duration=1800.0, wheel_speed=DUMP_START,
-         onset_in_dump=True),
-    Cell("temperature +30 C during a dump", "temperature", 53.0, duration=1800.0, wheel_speed=DUMP_START,
-         onset_in_dump=True),
+    # a fault cell's onset lies inside the run's first dump (cell_scenarios)
+    Cell("current loss 10 % during a dump", "current_limiter", 0.9, duration=1800.0, wheel_speed=DUMP_START),
+    Cell("temperature +30 C during a dump", "temperature", 53.0, duration=1800.0, wheel_speed=DUMP_START),
 )
 
 

@@ -35,7 +35,7 @@ def _serialized(message) -> bytes:
 def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     """Write run ``run`` of the core-loop trajectory ``traj`` as the graph's recorder would have recorded
     it into ``bag`` (created); the number of messages."""
-    from ...core.environment import MAGNETOMETER_PERIOD
+    from ...core.environment import magnetometer_steps
     from ...core.fdir import Reconfiguration
     from ...core.wheel_set import joint_name, wheel_set
     from ...nodes import topics as T
@@ -49,7 +49,7 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     report = PlantReport(scenario.effective_text(choices.scenario_dict()), names,
                          run_units(units, run, wheels.count), choices.fdi_period)
     orbit, rods = scenario.environment is not None, scenario.magnetorquers is not None
-    magnetometer_steps = int(round(MAGNETOMETER_PERIOD / choices.control_period))
+    reading_every = magnetometer_steps(choices.control_period) if orbit else None
     writer = BagWriter(bag)
     for topic, type_name, _ in T.recorded_rows(True, False, (), "speed_aware", choices.wheel_set, orbit, rods):
         writer.add_topic(topic, type_name)
@@ -67,7 +67,7 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
         last = len(traj.time) - 1
         for k in range(last + 1):
             stamp = step_stamp_ns(k, choices.control_period)
-            magnetometer = orbit and k % magnetometer_steps == 0
+            magnetometer = orbit and k % reading_every == 0
             write(report.step(stamp, traj.time[k], traj.attitude[k, run], traj.body_rate[k, run],
                               traj.wheel_angle[k, run], traj.wheel_speed[k, run], traj.reaction_torque[k, run],
                               traj.tcv[k, run], traj.fault_effect[k, run], {kind: v[k] for kind, v in ops.items()},

@@ -76,8 +76,8 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
 
     Besides each observer's series, ``verdict``: what /diagnostics says (the decision observer's alarm,
     latched: offline.verdict_series). ``identification``: also identify the faults of the wheels the
-    verdict names (the isolation node's FaultIdentifier), into RunEval.identification. ``on_run``: as
-    :func:`simulated_runs`'."""
+    verdict names (the isolation node's FaultIdentifier), into RunEval.identification. ``on_run``: as in
+    :func:`simulated_runs`."""
     out = {name: [] for name in fdi_sets}
 
     def check(choices):
