@@ -257,6 +257,12 @@ def _cmd_bench(args) -> int:
         with tqdm(total=total, desc="recovery bench (core loop)", unit="run", file=sys.stderr) as bar:
             report = bench_recovery(runs_per_cell=runs, fault_free_runs=args.fault_free_runs, seeds=args.seed_set,
                                     out=args.out or "reports/recovery", progress=bar.update)
+    elif args.what == "service":
+        from .tools.benches.service_bench import bench_service
+        from tqdm import tqdm
+        with tqdm(total=args.service_runs, desc="service bench (core loop)", unit="run", file=sys.stderr) as bar:
+            report = bench_service(runs=args.service_runs, seeds=args.seed_set, out=args.out or "reports/service",
+                                   jobs=args.jobs or 2, progress=bar.update)
     elif args.what == "identification":
         from .tools.benches.identification_bench import bench_identification
         default_out = "reports/identification_units" if args.units else "reports/identification"
@@ -452,7 +458,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
     b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification", "units", "memory",
-                                    "operations", "recovery", "dumping"],
+                                    "operations", "recovery", "dumping", "service"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
                         "node callback times and memory; study: record and replay throughput and the "
                         "thesis-scale reproduce time they give; detection: false-alarm and detection rates "
@@ -467,7 +473,12 @@ def build_parser() -> argparse.ArgumentParser:
                         "back within 0.2 deg, peak error, time to recover; FDI and FDIR in the core loop); dumping: "
                         "a day in orbit with the magnetorquers dumping and with them off (wheel speed band, "
                         "pointing, when the wheels saturate; a plot), the FDI through hours of dumping and faults "
-                        "during a dump (core loop)")
+                        "during a dump (core loop); service: FDIR in service, every capability at once (units "
+                        "and datasheet wheels, manoeuvres before and after faults of every kind, size, wheel, "
+                        "onset and ramp, second faults, orbit with dumping, 600 s to 6 h; reconfigurations "
+                        "without a fault, the right wheel acted on, pointing kept, identification; core loop)")
+    b.add_argument("--service-runs", type=COUNT, default=1000,
+                   help="service: in-service runs, each drawn from its seed (default 1000)")
     b.add_argument("--day-hours", type=number(float, 0, 240, low_open=True), default=24.0,
                    help="dumping: the length of the day in orbit [h] (default 24)")
     b.add_argument("--orbit-runs", type=COUNT, default=20,
@@ -487,9 +498,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--hours-runs", type=COUNT, default=50,
                    help="operations: 2-hour runs of continuous operations (default 50: 100 simulated hours)")
     b.add_argument("--seed-set", default="evaluation", choices=["evaluation", "tuning"],
-                   help="operations: the seeds of record (default) or the ones the decision rule was chosen on")
+                   help="operations, recovery, service: the seeds of record (default) or the ones the design "
+                        "was chosen on")
     b.add_argument("--runs", type=COUNT, default=8, help="study: runs to record and replay")
-    b.add_argument("--jobs", type=COUNT, default=None, help="study: runs at a time (default: 2)")
+    b.add_argument("--jobs", type=COUNT, default=None, help="study, service: processes at a time (default: 2)")
     b.add_argument("--duration", type=number(float, 0, low_open=True), default=400.0)
     b.add_argument("--seed", type=SEED, default=1)
     b.add_argument("--json", action="store_true")

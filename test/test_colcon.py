@@ -3,6 +3,7 @@ from a directory outside the source tree through the installed executables.
 
 colcon comes from PyPI (requirements.txt); the build takes a few seconds.
 """
+import re
 import subprocess
 import sys
 
@@ -59,10 +60,11 @@ def test_installed_run_from_outside_the_tree_gives_the_source_tree_verdict(colco
     assert source.returncode == 0, source.stderr[-1500:]
     verdict = _verdict(installed.stdout)
     assert verdict == _verdict(source.stdout)
-    # the FDIR gives x up within seconds of the confirmation: it is identified from the samples before
+    # the FDIR acts on x within seconds of the confirmation (kept beside s, or given up: identified from the
+    # samples before)
     assert verdict[0].startswith("x") and "faulty from" in verdict[0] and "identified on wheel x: " in verdict[-1]
     assert "switched off" in verdict[-1] or "current loss" in verdict[-1], verdict[-1]
-    assert "wheel x given up" in installed.stdout and "wheel s in use" in installed.stdout
+    assert re.search(r"wheel x (given up|kept in use)", installed.stdout) and "wheel s in use" in installed.stdout
     assert (elsewhere / "installed_bags" / "short_loss_s0003" / "metadata.yaml").is_file()
 
 

@@ -5,7 +5,7 @@ import pytest
 from rw_fdi_ros.core.allocation import TorqueAllocator, distribution, limited
 from rw_fdi_ros.core.closed_loop import Fdir, simulate
 from rw_fdi_ros.core.detection import ThresholdCurves
-from rw_fdi_ros.core.fdir import DecisionDelay, Reconfiguration, held_speeds, momentum_shortfall
+from rw_fdi_ros.core.fdir import DecisionDelay, Reconfiguration, held_speeds, momentum_shortfall, slew_excursion
 from rw_fdi_ros.core.plant import Plant
 from rw_fdi_ros.core.scenario import Fault, Scenario, ScenarioError, parse_scenario
 from rw_fdi_ros.core.wheel import WheelParams
@@ -113,39 +113,88 @@ def test_the_momentum_a_replacement_must_hold():
     speeds = np.array([20.0, 25.0, 24.0, 0.0])
     need = held_speeds(SKEW, ("y", "z", "s"), speeds)
     np.testing.assert_allclose(need, [0.0, 5.0, 4.0, 20.0 * np.sqrt(3.0)], atol=1e-12)
-    assert momentum_shortfall(SKEW, ("y", "z", "s"), speeds) is None
-    assert "47.6 rad/s" in momentum_shortfall(SKEW, ("y", "z", "s"), [27.5, 25.0, 24.0, 0.0])
-    # the wheels left could not hold it: a confirmed wheel is held at its speed (out of control, a momentum
-    # store) and s brought in, said why; an operator's command gives it up all the same and says what that costs
+    assert momentum_shortfall(SKEW, ("y", "z", "s"), speeds, slew_rate=0.0) is None
+    assert "47.6 rad/s" in momentum_shortfall(SKEW, ("y", "z", "s"), [27.5, 25.0, 24.0, 0.0], slew_rate=0.0)
+
+
+def test_the_share_of_its_torque_a_wheel_gives_is_the_current_loss_family_fit():
+    """a^ = sum tau_m (tau_f - r) / sum tau_m^2: exactly a for a wheel whose motor gives a tau_m (closed form),
+    NaN where it was asked for no torque; the log keeps the last samples of each wheel of each run."""
+    from rw_fdi_ros.core.fdir import DeliveryLog, delivered_share
+    from rw_fdi_ros.core.telemetry import model_reaction_torque
+    u, w = np.linspace(0.5, 3.0, 10), np.linspace(20.0, 21.0, 10)
+    model, tau_m, _ = model_reaction_torque(u, w)
+    tau_f = model + tau_m
+    assert delivered_share(u, w, -(0.6 * tau_m - tau_f)) == pytest.approx(0.6, rel=1e-12)
+    assert delivered_share(u, w, model) == pytest.approx(1.0, rel=1e-12)
+    assert np.isnan(delivered_share(np.zeros(10), np.zeros(10), np.zeros(10)))
+    log = DeliveryLog(3)
+    for k in range(5):
+        log.add([[u[k], 0.0], [u[k], u[k]]], [[w[k], 0.0], [w[k], w[k]]],
+                [[model[k], 0.0], [-(0.3 * tau_m[k] - tau_f[k]), model[k]]])
+    assert len(log.rows) == 3 and log.share(0, 0) == pytest.approx(1.0) and log.share(0, 1) == pytest.approx(0.3)
+    assert np.isnan(log.share(1, 0)) and np.isnan(DeliveryLog().share(0))
+
+
+def test_a_slew_moves_each_wheel_by_its_share_of_the_body_momentum():
+    """dOmega_i = sum_a |D_ia| I_a w / J: the identity on three orthogonal wheels; s in for x moves by
+    sqrt(3) times as much as x did, and y, z, which cancel its cross-axis torque, by more still."""
+    rate, j = np.deg2rad(0.5), WheelParams().inertia
+    np.testing.assert_allclose(slew_excursion(SKEW, ("x", "y", "z"), rate), [17 * rate / j, 15 * rate / j,
+                                                                              22 * rate / j, 0.0], rtol=1e-12)
+    moved = slew_excursion(SKEW, ("y", "z", "s"), rate)
+    np.testing.assert_allclose(moved[3], np.sqrt(3.0) * 17 * rate / j, rtol=1e-12)
+    np.testing.assert_allclose(moved[1:3], [(15 + 17) * rate / j, (22 + 17) * rate / j], rtol=1e-12)
+    assert moved[0] == 0.0 and slew_excursion(SKEW, ("y", "z", "s"), 0.0).max() == 0.0
+    assert "more for a slew" in momentum_shortfall(SKEW, ("y", "z", "s"), [20.0, 25.0, 24.0, 0.0])
+    assert momentum_shortfall(SKEW, ("y", "z", "s"), [0.5, 0.5, 0.5, 0.0], slew_rate=np.deg2rad(0.1)) is None
+
+
+def test_a_wheel_the_others_could_not_replace_is_kept_beside_the_spare_or_held():
+    """The wheels left could not hold the momentum and slew: the confirmed wheel stays in use beside s (all
+    four share the work), said why; with no spare left, a further one is held at its speed (a momentum
+    store); an operator's command gives a wheel up all the same."""
     r = Reconfiguration(SKEW)
-    held = r.give_up("x", 5.0, "confirmed", [27.5, 25.0, 24.0, 0.0])
-    assert [(d.wheel, d.action) for d in held] == [("x", "held"), ("s", "in_use")] and "47.6 rad/s" in held[0].reason
-    assert r.held == {"x": 27.5} and r.ordered_in_use() == ("y", "z", "s") and "x" in r.settled
+    kept = r.give_up("x", 5.0, "confirmed", [27.5, 25.0, 24.0, 0.0])
+    assert [(d.wheel, d.action) for d in kept] == [("x", "kept_in_use"), ("s", "in_use")]
+    assert "47.6 rad/s" in kept[0].reason and "beside wheel s" in kept[0].reason
+    assert r.ordered_in_use() == ("x", "y", "z", "s") and "x" in r.settled and not r.spares
     assert r.give_up("x", 6.0, "confirmed", [27.5, 25.0, 24.0, 0.0]) == []       # decided once
+    held = r.give_up("y", 8.0, "confirmed", [27.5, 25.0, 24.0, 30.0])
+    assert [(d.wheel, d.action) for d in held] == [("y", "held")] and r.held == {"y": 25.0}
+    assert r.ordered_in_use() == ("x", "z", "s")
     forced = Reconfiguration(SKEW).give_up("x", 5.0, "operator", [27.5, 25.0, 24.0, 0.0], force=True)
     assert [d.action for d in forced] == ["out_of_use", "in_use"] and "47.6 rad/s" in forced[1].reason
     assert "dumped" in forced[1].reason
-    overruled = r.give_up("x", 7.0, "operator", [20.0, 25.0, 24.0, 10.0], force=True)   # a held wheel given up
-    assert [(d.wheel, d.action) for d in overruled] == [("x", "out_of_use")] and not r.held and "x" in r.given_up
+    overruled = r.give_up("y", 9.0, "operator", [20.0, 25.0, 24.0, 10.0], force=True)   # a held wheel given up
+    assert [(d.wheel, d.action) for d in overruled] == [("y", "out_of_use")] and not r.held and "y" in r.given_up
     d = DecisionDelay(1.0)
     d.put(10.0, "a")
     assert d.due(10.9) == [] and d.due(11.0) == ["a"] and d.due(12.0) == []
 
 
 def test_the_loop_reconfigures_on_a_confirmed_failure_and_points_again():
-    """10 % current loss on x at 150 s: the FDI confirms it, x gets 0 V from the decision on, s takes over,
-    and the pointing error is back within 0.2 deg within 60 s of the onset."""
+    """40 % current loss on x at 150 s: the FDI confirms it; s could not take x's momentum and still slew, so
+    x stays in use beside s (all four share the work) and the pointing error is back within 0.2 deg within
+    60 s of the onset. With slews no faster than 0.05 deg/s the three left could take it all: x is given up,
+    0 V from the decision on."""
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     scenario = _scenario(300.0, [Fault("current_limiter", 0, 150.0, 0.6)], seed=11)
     traj = simulate([scenario], fdir=Fdir(curves))
     decisions = traj.decisions[0]
-    assert [(d.wheel, d.action) for d in decisions] == [("x", "out_of_use"), ("s", "in_use")]
-    assert 150.0 < decisions[0].time < 160.0 and "but" not in decisions[1].reason
-    after = traj.time > decisions[0].time   # a sample shows the command held over the step before it
-    assert np.all(traj.tcv[after, 0, 0] == 0.0)           # never a command to the wheel given up
-    assert traj.in_use[-1, 0].tolist() == [False, True, True, True]
+    assert [(d.wheel, d.action) for d in decisions] == [("x", "kept_in_use"), ("s", "in_use")]
+    assert 150.0 < decisions[0].time < 160.0 and "more for a slew" in decisions[0].reason
+    assert traj.in_use[-1, 0].tolist() == [True, True, True, True]
     error = np.degrees(np.abs(traj.error[:, 0])).max(axis=1)
     assert error[traj.time >= 210.0].max() < 0.2
+    gentle = simulate([scenario], fdir=Fdir(curves, slew_rate=np.deg2rad(0.05)))
+    decisions = gentle.decisions[0]
+    assert [(d.wheel, d.action) for d in decisions] == [("x", "out_of_use"), ("s", "in_use")]
+    after = gentle.time > decisions[0].time   # a sample shows the command held over the step before it
+    assert np.all(gentle.tcv[after, 0, 0] == 0.0)           # never a command to the wheel given up
+    assert gentle.in_use[-1, 0].tolist() == [False, True, True, True]
+    error = np.degrees(np.abs(gentle.error[:, 0])).max(axis=1)
+    assert error[gentle.time >= 210.0].max() < 0.2
 
 
 def test_a_scenario_names_the_wheels_of_its_set():
@@ -185,15 +234,18 @@ def test_the_hold_command_cancels_friction_at_the_reference_and_pulls_back_to_it
 
 
 def test_a_wheel_whose_momentum_the_others_cannot_take_is_held_and_the_pointing_recovers():
-    """Bus 5.5 V on x at 30 rad/s: giving x up would ask s for 52 rad/s, so x is held out of control and s
-    comes in; x slows to the speed its bus can hold (wheel.bus_fault_visible_above: 23.5 rad/s) and s takes
-    only the momentum it sheds; the pointing is within 0.2 deg again within 60 s of the onset."""
+    """Bus 5.5 V on x at 30 rad/s: giving x up would ask s for 52 rad/s and a slew more, and x gives under
+    half its torque (its bus cannot drive it at this speed), too little to keep in use: x is held out of
+    control and s comes in; x slows to the speed its bus can hold (wheel.bus_fault_visible_above: 23.5
+    rad/s) and s takes only the momentum it sheds; the pointing is within 0.2 deg again within 60 s of the
+    onset."""
     from rw_fdi_ros.core.wheel import bus_fault_visible_above
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     scenario = Scenario("t", duration=400.0, seed=5, faults=(Fault("bus_voltage", 0, 150.0, 5.5),),
                         initial={"wheel_speed": (30.0, 25.0, 24.0)}, plant={"wheel_set": "orthogonal_skew"})
     traj = simulate([scenario], fdir=Fdir(curves))
     assert [(d.wheel, d.action) for d in traj.decisions[0]] == [("x", "held"), ("s", "in_use")]
+    assert "% of its torque" in traj.decisions[0][0].reason
     assert traj.wheel_speed[-1, 0, 0] == pytest.approx(bus_fault_visible_above(5.5), abs=0.5)
     assert traj.in_use[-1, 0].tolist() == [False, True, True, True]
     after = traj.time > traj.decisions[0][0].time

@@ -3,7 +3,8 @@
 One run of the FDIR scenario shortened (bus 4.5 V on x at 60 s, x spinning faster than s could take
 over, +150 C on the redundant wheel s at 130 s) through the live graph (plant, controllers, wheel
 allocation with FDIR, every observer, isolation, recorder) and through closed_loop.simulate with the
-FDI's verdict in the loop. The bag holds every decision on /fdir/wheels; the wheel held gets the
+FDI's verdict in the loop. x, giving a fifth of its torque, is held rather than kept beside s (fdir.py).
+The bag holds every decision on /fdir/wheels; the wheel held gets the
 speed-hold command of its own speed from the decision on; the attitude is the core loop's. (A wheel
 given up, 0 V: test_launch_file.py; an operator's parameter: test_wheel_allocation_node.py.)
 """
@@ -80,7 +81,7 @@ faults:
 
 def test_in_orbit_the_rods_follow_the_reconfiguration_as_in_the_core_loop(tmp_path):
     """Dumping from the start (y and z above the dump start), x loses 40 % of its current at 60 s and is
-    held at its speed out of control (y, z and s could not take its momentum at once), s comes in: the
+    kept in use beside s (y, z and s could not take its momentum and slew; x still gives 60 %): the
     graph's momentum-dumping node, told by /fdir/wheels, commands the dipoles
     the core loop's law does, stamp for stamp, and the run is the core loop's."""
     path = tmp_path / "fdir_orbit.yaml"
@@ -89,7 +90,7 @@ def test_in_orbit_the_rods_follow_the_reconfiguration_as_in_the_core_loop(tmp_pa
     assert outcome.ok, outcome.reason
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     traj = simulate([load_scenario(str(path))], fdir=Fdir(curves))
-    assert [(d.wheel, d.action) for d in traj.decisions[0]] == [("x", "held"), ("s", "in_use")]
+    assert [(d.wheel, d.action) for d in traj.decisions[0]] == [("x", "kept_in_use"), ("s", "in_use")]
     data = read_bag(outcome.bag, topics=[T.ATTITUDE, T.DIPOLE_COMMAND])
     _, attitude, _, _ = data.joint_states(T.ATTITUDE)
     np.testing.assert_allclose(attitude, traj.attitude[:, 0], rtol=0, atol=1e-12)
@@ -98,4 +99,4 @@ def test_in_orbit_the_rods_follow_the_reconfiguration_as_in_the_core_loop(tmp_pa
     assert len(stamps) == 151   # every magnetometer reading answered, the last one too
     core = traj.dipole[np.searchsorted(traj.time, stamps - 1e-9), 0]
     np.testing.assert_allclose(dipoles, core, rtol=0, atol=1e-12)
-    assert np.any(dipoles[stamps > traj.decisions[0][0].time + 1.0] != 0.0)   # still dumping, without x
+    assert np.any(dipoles[stamps > traj.decisions[0][0].time + 1.0] != 0.0)   # still dumping, x among the four

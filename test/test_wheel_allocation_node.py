@@ -76,7 +76,8 @@ def test_a_command_waits_for_the_verdict_it_depends_on(node):
                   for j in node.joints]
     node._on_diagnostics(msg)   # stamped 0: y confirmed faulty, applied from t = 1 s
     u = _commands(node)[-1]
-    assert len(_commands(node)) == 11 and u[1] == 0.0 and u[3] != 0.0
+    # s could not take y's momentum and slew from these speeds; y, reported giving no torque, is held
+    assert len(_commands(node)) == 11 and u[3] != 0.0 and node.reconfiguration.held == {"y": 19.0}
 
 
 def test_without_verdicts_it_goes_blind_once_and_stays_blind_until_one_comes(node):
@@ -99,7 +100,8 @@ def test_an_operator_overrules_a_wheel_fdir_held():
     from rw_fdi_ros.core.wheel_set import WHEEL_SETS
     r = Reconfiguration(WHEEL_SETS["orthogonal_skew"])
     speeds = [27.5, 25.0, 24.0, 0.0]
-    assert [d.action for d in r.give_up("x", 5.0, "confirmed", speeds)] == ["held", "in_use"]
+    assert [d.action for d in r.give_up("z", 4.0, "confirmed", speeds)] == ["kept_in_use", "in_use"]
+    assert [d.action for d in r.give_up("x", 5.0, "confirmed", speeds)] == ["held"]   # no spare left
     assert r.give_up("x", 6.0, "confirmed", speeds) == []                 # FDIR does not ask again
     forced = r.give_up("x", 7.0, "operator command", speeds, force=True)
     assert [d.action for d in forced] == ["out_of_use"] and r.ordered_in_use() == ("y", "z", "s")
@@ -107,19 +109,27 @@ def test_an_operator_overrules_a_wheel_fdir_held():
 
 
 def test_a_held_wheel_gets_the_speed_hold_command_from_its_own_speed(node):
-    """x confirmed at 20 rad/s where s could not take its momentum: held at 20 rad/s, out of control;
-    its command each step is the hold law on that step's speed, the others the allocation's."""
+    """z confirmed first (kept beside s: no spare left), then x at 20 rad/s, more than y, z and s could take:
+    held at 20 rad/s, out of control; its command each step is the hold law on that step's speed, the
+    others the allocation's."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from rw_fdi_ros.core.allocation import hold_command
-    node.reconfiguration.holdable = 10.0   # s holds 10 rad/s here: x's 20 is more than it could take
+
+    def verdict(faulty, stamp_s):
+        msg = DiagnosticArray()
+        msg.status = [DiagnosticStatus(level=DiagnosticStatus.ERROR if j in faulty else DiagnosticStatus.OK,
+                                       hardware_id=j, values=[KeyValue(key="first_alarm", value=str(stamp_s))])
+                      for j in node.joints]
+        msg.header.stamp.sec = stamp_s
+        return msg
     for k in range(10):
         _step(node, k)
-    msg = DiagnosticArray()
-    msg.status = [DiagnosticStatus(level=DiagnosticStatus.ERROR if j == "reaction_wheel_x" else DiagnosticStatus.OK,
-                                   hardware_id=j, values=[KeyValue(key="first_alarm", value="0")])
-                  for j in node.joints]
-    node._on_diagnostics(msg)
-    _step(node, 10)
+    node._on_diagnostics(verdict({"reaction_wheel_z"}, 0))
+    for k in range(10, 20):
+        _step(node, k)
+    assert node.reconfiguration.kept == {"z"} and not node.reconfiguration.spares
+    node._on_diagnostics(verdict({"reaction_wheel_z", "reaction_wheel_x"}, 1))
+    _step(node, 20)
     assert node.reconfiguration.held == {"x": 20.0}
     u = _commands(node)[-1]
     assert u[0] == pytest.approx(float(hold_command(20.0, 20.0)))

@@ -32,7 +32,8 @@ uncertainty at the present operating point,
 
 widens the bound: the observer never judges a wheel more sharply than it knows it.
 
-The first ``samples`` FDI periods of a run are learnt from (assumed healthy: a fault inside them
+The first ``samples`` FDI periods in which the wheel runs are learnt from (a standby wheel's from when
+it is brought in; assumed healthy: a fault inside them
 would be taken as the unit's own); meanwhile the wheel is judged against its type: the datasheet
 model with the type's tolerance box, u_k = sum_i t_i |x_k,i| (t: :func:`tolerances`; z u_k is the
 largest error of any unit whose every parameter lies within z sigma, wide: a 1-sigma unit is
@@ -150,6 +151,10 @@ class UnitCalibration:
     def update(self, error: float, x) -> tuple:
         x = np.asarray(x, float)
         phys = x[:PHYSICAL]
+        if not self.frozen and not np.any(x):
+            # a wheel at rest and unpowered (a standby wheel not yet brought in) shows nothing of its unit:
+            # it learns from its first running samples, whenever they come (judged by its type till then)
+            return 0.0, 0.0
         if not self.frozen:   # learning: judge against the type's tolerances, and learn
             self.xtx += np.outer(x, x)
             self.xte += x * float(error)

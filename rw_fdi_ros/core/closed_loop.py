@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .allocation import TorqueAllocator
-from .fdir import DecisionDelay, Reconfiguration
+from .fdir import SLEW_RATE, DecisionDelay, DeliveryLog, Reconfiguration
 from .magnetorquers import Dumper
 from .onboard import OnboardVerdict
 from .pid import PidController, PidGains, design_gains
@@ -28,6 +28,8 @@ class Fdir:
     curves: object                 # detection.ThresholdCurves of the model observer
     calibration_samples: int = 0
     fdi_period: float = 1.0
+    identification: bool = False   # also identify each alarmed wheel's fault (the isolation node's code)
+    slew_rate: float = SLEW_RATE   # [rad/s] the slews the wheels in use must still take (fdir.momentum_shortfall)
 
 
 @dataclass
@@ -45,6 +47,7 @@ class Trajectory:
     fault_effect: np.ndarray
     wheel_names: tuple = ("x", "y", "z")
     decisions: list = None    # per run: [fdir.Decision]
+    identified: list = None   # per run, with Fdir.identification: wheel -> the last identification.Identification
     in_use: np.ndarray = None  # (steps + 1, B, N) bool
     wheel_angle: np.ndarray = None      # rotor angle [rad] (steps + 1, B, N)
     axis_command: np.ndarray = None     # the controllers' body-axis commands v of each sample [V] (steps + 1, B, 3)
@@ -81,15 +84,17 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
     onboard = reconfig = delays = None
     if fdir is not None:
         onboard = OnboardVerdict(plant.wheels.names, fdir.curves, plant.batch, fdir.fdi_period,
-                                 fdir.calibration_samples)
-        reconfig = [Reconfiguration(plant.wheels) for _ in scenarios]
+                                 fdir.calibration_samples, identification=fdir.identification)
+        reconfig = [Reconfiguration(plant.wheels, slew_rate=fdir.slew_rate) for _ in scenarios]
         delays = [DecisionDelay() for _ in scenarios]
+        delivery = DeliveryLog()
     rec = {k: [] for k in ("attitude", "setpoint", "body_rate", "wheel_speed", "tcv", "reaction_torque",
                            "fault_effect", "in_use", "wheel_angle", "axis_command", "wheel_command",
                            "magnetic_field", "dipole")}
     operating_point = []
     field = np.zeros((plant.batch, 3))
     sample = plant.sample()
+    wheel_command = None
     for _ in range(steps + 1):
         sp = np.array([setpoint_at(t, v, sample.time) for t, v in schedules])
         in_use = allocator.in_use.copy()   # as it was when the sample came, before FDIR acts on it
@@ -100,7 +105,9 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
             field = sample.magnetic_field
             plant.command_dipole(dumper.update(field, sample.wheel_speed, in_use, wheel.inertia, plant.spin_axes))
         if onboard is not None:
-            _fdir_step(onboard, reconfig, delays, allocator, plant, sample)
+            if wheel_command is not None:   # the command in force over the step that led to this sample
+                delivery.add(wheel_command, sample.wheel_speed, sample.reaction_torque)
+            _fdir_step(onboard, reconfig, delays, allocator, plant, sample, delivery)
         # the last sample is answered too, as the controllers and the allocation node answer it
         axis_command = pid.update(sp, sample.attitude, sample.body_rate)
         wheel_command = allocator.wheel_commands(axis_command, sample.wheel_speed)
@@ -122,11 +129,12 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
     time = np.array([min(k * every, steps) for k in range(len(rec["attitude"]))]) * control_period
     return Trajectory(time=time, wheel_names=plant.wheels.names,
                       decisions=[r.decisions for r in reconfig] if reconfig else None,
+                      identified=onboard.identified if onboard is not None and fdir.identification else None,
                       operating_point={k: np.array([op[k] for op in operating_point]) for k in operating_point[0]},
                       **{k: np.array(v) for k, v in rec.items()})
 
 
-def _fdir_step(onboard, reconfig, delays, allocator, plant, sample):
+def _fdir_step(onboard, reconfig, delays, allocator, plant, sample, delivery):
     """Feed the FDI this sample; on a confirmed failure decide the reconfiguration, and apply the
     decisions due now (fdir.DecisionDelay) to the allocation before the next command."""
     stamp = int(round(sample.time * 1e9))
@@ -135,7 +143,8 @@ def _fdir_step(onboard, reconfig, delays, allocator, plant, sample):
         if confirmed:
             delay.confirm(confirmed[b], sample.time, r.settled)
         for wheel, reason in delay.due(sample.time):
-            if r.give_up(wheel, sample.time, reason, sample.wheel_speed[b], plant.inertia * sample.body_rate[b]):
+            if r.give_up(wheel, sample.time, reason, sample.wheel_speed[b], plant.inertia * sample.body_rate[b],
+                         delivered=delivery.share(r.wheels.index(wheel), b)):
                 allocator.use(r.ordered_in_use(), b, r.held)
 
 

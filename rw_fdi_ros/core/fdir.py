@@ -16,9 +16,22 @@ is that decision, made the way flight FDIR makes it:
   torque is better than an axis without control, and the spacecraft never
   commands a wheel it has given up on;
 * where the wheels left could not hold the spacecraft's angular momentum
-  without it (:func:`momentum_shortfall`), the wheel is *held*: relieved
-  of attitude control (the standby wheel comes in all the same) and
-  commanded only to keep its speed (allocation.hold_command), a momentum
+  without it and still take the manoeuvres to come (:func:`momentum_shortfall`:
+  the momentum held plus a slew's excursion, :func:`slew_excursion`), the wheel is
+  *kept in use beside the spare*: all four share the work by minimum norm, the
+  faulty one keeps its momentum (nothing to transfer) and the slews move each wheel
+  no further than the three healthy ones did. On the skew set a 5-deg slew moves
+  the wheels left after giving up an axis wheel by up to 44 rad/s (the spare at
+  1/sqrt(3) to the axis, the other two cancelling its cross-axis torque), so the
+  three left cannot slew from Table 2.3's speeds: in service (manoeuvres after the
+  fault, rw-fdi bench service) giving the wheel up lost the pointing on the next
+  slew in one run in seven. A degraded wheel still gives torque, and the
+  controller's feedback takes up what it does not give;
+* where it gives less than half its motor torque (:func:`delivered_share`: a
+  bus drop above the speed its bus can drive, which sheds its momentum
+  whatever it is commanded), or no spare is left, with the same shortfall, the
+  wheel is *held*: relieved of attitude control (a spare, if any, brought in)
+  and commanded only to keep its speed (allocation.hold_command), a momentum
   store. A wheel given up spins down by its friction and its momentum goes
   to the others; a held one keeps what its fault lets it keep (a 4 V bus:
   up to 6 rad/s, wheel.bus_fault_visible_above; a current loss or a hotter
@@ -41,6 +54,8 @@ import numpy as np
 
 from .allocation import distribution
 from .isolation import WHEEL_SPEED_ENVELOPE
+from .spacecraft import INERTIA
+from .telemetry import model_reaction_torque
 from .wheel import WheelParams
 from .wheel_set import WheelSet
 
@@ -49,6 +64,14 @@ DECISION_DELAY = 1.0   # [s] from the FDI sample a decision is made on to the fi
 # friction takes the whole 5 V command (isolation.WHEEL_SPEED_ENVELOPE); what a reconfiguration may ask
 HOLDABLE_SPEED = WHEEL_SPEED_ENVELOPE
 ACTIONS = ("out_of_use", "in_use", "kept_in_use", "held")
+# [rad/s] body rate per axis of Table 2.3's largest set-point change (5 deg) under the PID: its peak,
+# 0.45-0.48 deg/s, measured on a step of 5 deg on every axis (the wheels' speeds then move by up to 22 rad/s)
+SLEW_RATE = np.deg2rad(0.5)
+# a wheel kept in use beside the spare must still give at least this share of its motor torque: one that gives
+# less (a bus drop above the speed its bus can drive: it gives next to nothing and sheds its momentum) would
+# leave the controllers a fifth of their gain about its axis, and is held instead
+KEEPABLE_SHARE = 0.5
+DELIVERY_SAMPLES = 10   # control samples (one FDI period) the share is measured over before a decision
 
 
 def confirmed_reason(first_alarm: float) -> str:
@@ -87,23 +110,76 @@ def held_speeds(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0, 0.0, 
     return u @ (wheels.matrix @ np.asarray(wheel_speed, float) + np.asarray(body_momentum, float) / wheel_inertia)
 
 
+def slew_excursion(wheels: WheelSet, in_use, slew_rate: float = SLEW_RATE, body_inertia=INERTIA,
+                   wheel_inertia: float = WheelParams().inertia) -> np.ndarray:
+    """How far (N,) [rad/s] each wheel ``in_use`` may have to move its speed for a slew at ``slew_rate``
+    [rad/s] about any combination of axes: the body momentum I w of the slew, |w_a| <= slew_rate, spread
+    by the minimum-norm distribution D of the wheels in use,
+
+        dOmega_i = sum_a |D_ia| I_a slew_rate / J
+
+    A redundant wheel at 1/sqrt(3) to the axis it takes over moves sqrt(3) times as far as the axis wheel
+    did: about 33 rad/s on the datasheet wheel for Table 2.3's 5-deg slews."""
+    d = distribution(wheels.matrix, wheels.mask(in_use))
+    return np.abs(d) @ (np.asarray(body_inertia, float) * slew_rate) / wheel_inertia
+
+
 def momentum_shortfall(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0, 0.0, 0.0),
-                       holdable: float = HOLDABLE_SPEED) -> str | None:
-    """Why the wheels ``in_use`` cannot hold the spacecraft's momentum (one line), or None when they can."""
-    need = held_speeds(wheels, in_use, wheel_speed, body_momentum)
-    worst = int(np.argmax(np.abs(need)))
-    if abs(need[worst]) <= holdable:
+                       holdable: float = HOLDABLE_SPEED, slew_rate: float = SLEW_RATE) -> str | None:
+    """Why the wheels ``in_use`` cannot hold the spacecraft's momentum and still take a slew at ``slew_rate``
+    (one line), or None when they can: every wheel within ``holdable`` at |held speed| + slew excursion."""
+    need = np.abs(held_speeds(wheels, in_use, wheel_speed, body_momentum))
+    reach = need + slew_excursion(wheels, in_use, slew_rate)
+    worst = int(np.argmax(reach))
+    if reach[worst] <= holdable:
         return None
-    return (f"wheel {wheels.names[worst]} would have to spin at {abs(need[worst]):.1f} rad/s to hold the stored "
-            f"momentum (holds {holdable:g})")
+    slew = f" and {reach[worst] - need[worst]:.0f} more for a slew" if slew_rate > 0 else ""
+    return (f"wheel {wheels.names[worst]} would have to spin at {need[worst]:.1f} rad/s to hold the stored "
+            f"momentum{slew} (holds {holdable:g})")
+
+
+def delivered_share(tcv, wheel_speed, reaction_torque) -> float:
+    """The share a^ of its nominal motor torque a wheel gave over control samples (arrays (n,)): the command
+    in force ``tcv`` [V] and the wheel's ``wheel_speed`` [rad/s] and ``reaction_torque`` [N m] it led to,
+
+        a^ = sum tau_m (tau_f - r) / sum tau_m^2        (r = -(a tau_m - tau_f), the current-loss family)
+
+    with tau_m, tau_f the nominal wheel's (telemetry.model_reaction_torque). NaN where the wheel was asked
+    for next to no motor torque (nothing to measure it on)."""
+    model, tau_m, _ = model_reaction_torque(np.asarray(tcv, float), np.asarray(wheel_speed, float))
+    tau_f = model + tau_m
+    power = float(np.sum(tau_m * tau_m))
+    if power < len(np.atleast_1d(tau_m)) * 1e-8:   # |tau_m| under 1e-4 N m on average
+        return float("nan")
+    return float(np.sum(tau_m * (tau_f - np.asarray(reaction_torque, float))) / power)
+
+
+class DeliveryLog:
+    """The last DELIVERY_SAMPLES control samples of a batch: the command in force and the wheel speed and
+    reaction torque it led to, (B, N) each, for :func:`delivered_share` at a decision (the core loop and the
+    wheel allocation node keep one alike)."""
+
+    def __init__(self, samples: int = DELIVERY_SAMPLES):
+        from collections import deque
+        self.rows = deque(maxlen=samples)
+
+    def add(self, tcv, wheel_speed, reaction_torque):
+        self.rows.append(tuple(np.atleast_2d(np.asarray(x, float)) for x in (tcv, wheel_speed, reaction_torque)))
+
+    def share(self, wheel_index: int, b: int = 0) -> float:
+        if not self.rows:
+            return float("nan")
+        u, w, r = (np.array([row[k][b, wheel_index] for row in self.rows]) for k in range(3))
+        return delivered_share(u, w, r)
 
 
 class Reconfiguration:
     """Which wheels of ``wheels`` are in use, and the decisions that made it so."""
 
-    def __init__(self, wheels: WheelSet, holdable: float = HOLDABLE_SPEED):
+    def __init__(self, wheels: WheelSet, holdable: float = HOLDABLE_SPEED, slew_rate: float = SLEW_RATE):
         self.wheels = wheels
         self.holdable = float(holdable)   # [rad/s] the speed a wheel in use may be asked to hold
+        self.slew_rate = float(slew_rate)   # [rad/s] the body rate of the slews the wheels in use must take
         self.in_use = list(wheels.active)
         self.spares = list(wheels.standby)
         self.given_up = []
@@ -112,7 +188,7 @@ class Reconfiguration:
         self.decisions = []
 
     def give_up(self, wheel: str, t: float, reason: str, wheel_speed=None, body_momentum=(0.0, 0.0, 0.0),
-                force: bool = False) -> list:
+                force: bool = False, delivered: float = float("nan")) -> list:
         """Take ``wheel`` out of use (confirmed faulty, or an operator's command) and bring a standby
         wheel in; returns the new decisions (none when it is already given up or said kept).
 
@@ -135,15 +211,29 @@ class Reconfiguration:
                                                                           "its torque")
             after = rest + ([spare] if spare is not None else [])
             short = None if wheel_speed is None else momentum_shortfall(self.wheels, after, wheel_speed,
-                                                                         body_momentum, self.holdable)
+                                                                         body_momentum, self.holdable,
+                                                                         self.slew_rate)
+            if short and spare is not None and not force and not delivered < KEEPABLE_SHARE:
+                # the wheels left could not hold the momentum and still slew: the faulty wheel keeps its
+                # momentum and a share of the work beside the spare (all of them in use, minimum norm)
+                self.spares.remove(spare)
+                self.in_use = self.in_use + [spare]
+                self.kept.add(wheel)
+                out = [Decision(t, wheel, "kept_in_use", f"{reason}; kept in use beside wheel {spare}: were it "
+                                                         f"given up, {short}"),
+                       Decision(t, spare, "in_use", f"shares the work of wheel {wheel}")]
+                self.decisions += out
+                return out
             self.in_use = after
             if spare is not None:
                 self.spares.remove(spare)
             if short and not force:
                 speed = float(wheel_speed[self.wheels.index(wheel)])
                 self.held[wheel] = speed
+                weak = (f"it gives {100 * max(delivered, 0.0):.0f} % of its torque, too little to keep in use; "
+                        if spare is not None else "")
                 out = [Decision(t, wheel, "held", f"{reason}; relieved of control and held at {speed:.1f} rad/s "
-                                                  f"as a momentum store: were it given up, {short}")]
+                                                  f"as a momentum store ({weak}were it given up, {short})")]
                 return self._decided(out, spare, wheel, None)
             if short:
                 short += ": pointing is lost until momentum is dumped"

@@ -173,24 +173,24 @@ class ProfileSums:
         self.gram = np.zeros((2, 2)) if unit is None else np.zeros((_SIZE, width, width))
         self.n = 0
 
-    def add(self, row):
+    def add(self, row, weight: float = 1.0):
         """``row``: (reaction torque, motor torque, friction torque, wheel speed, bus torques, phasor[, free
-        motor torque])."""
+        motor torque]); ``weight`` -1 takes a sample added before out again (a moving window)."""
         r, tm, tf, w, bus, p, *rest = row
         free = rest[0] if rest else None
         e = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free)[:, 0]
         ripple = np.array([np.imag(p), np.real(p)])
         if self.unit is None:
-            self.cross += e[:, None] * ripple[None, :]
-            self.gram += np.outer(ripple, ripple)
+            self.cross += weight * e[:, None] * ripple[None, :]
+            self.gram += weight * np.outer(ripple, ripple)
         else:
             x = np.empty((_SIZE, 6))
             x[:, :2] = ripple
             x[:, 2:] = unit_sensitivities(tm, tf, w, bus[None, :], free)[:, 0]
-            self.cross += e[:, None] * x
-            self.gram += x[:, :, None] * x[:, None, :]
-        self.sq += e * e
-        self.n += 1
+            self.cross += weight * e[:, None] * x
+            self.gram += weight * (x[:, :, None] * x[:, None, :])
+        self.sq += weight * e * e
+        self.n += int(weight)
 
     def _ripple_usable(self, gram) -> bool:
         return self.n > 2 and bool(np.all(np.isfinite(gram))) and np.linalg.cond(gram) <= 1e12
@@ -230,6 +230,7 @@ class Identification:
     unit: str = "datasheet"      # the wheel the families scale: 'datasheet', 'calibrated' or 'type' (still learning)
     unit_limited: bool = False   # what is not known of the unit at least doubles the interval
     unpowered: bool = False      # its driver is off (given up by FDIR): identified from the samples before
+    recent: int = 0              # > 0: identified on the last ``recent`` samples (the fault grew before them)
 
     @property
     def bound_only(self) -> str:
@@ -248,6 +249,8 @@ class Identification:
         if self.unit_limited:
             why = (" (wide: the unit is not calibrated yet)" if self.unit == "type"
                    else " (wide: what the calibration does not know of the unit)")
+        if self.recent:
+            why += f" (on the last {self.recent} samples: it grew before them)"
         if self.unpowered and (self.kind != UNKNOWN or self.samples >= MIN_SAMPLES):
             why += f" (from the {self.samples} samples before its driver was switched off)"
         if self.kind == UNKNOWN:
@@ -384,6 +387,9 @@ class FaultIdentifier:
     a wheel's fault is identified on the unit known at its first alarm."""
 
     BACKLOG = 60   # FDI samples: the 40-sample window and the persistence the alarm lags by, and a margin
+    # FDI samples of the moving window a fault that ramps is identified on once the samples since its onset
+    # fit no one size (steps and ramps of 50-300 s in service, rw-fdi bench service)
+    RECENT = 90
 
     def __init__(self, axes=("x", "y", "z"), calibration_samples: int = 0):
         self.axes = tuple(axes)
@@ -401,6 +407,7 @@ class FaultIdentifier:
         """Forget every wheel's fault (an operator's reset); the units learnt stay, and a calibration a
         fault interrupted does not learn again (the wheel may still be faulty)."""
         self.sums = {a: None for a in self.axes}     # axis -> ProfileSums once alarmed
+        self.recent = {a: None for a in self.axes}   # axis -> (ProfileSums, rows) of the last RECENT samples
         self.latest = {a: None for a in self.axes}
         # (row, model error, calibration regressors) of the samples before an alarm
         self.backlog = {a: deque(maxlen=self.BACKLOG) for a in self.axes}
@@ -437,8 +444,30 @@ class FaultIdentifier:
                     self.latest[a] = replace(self.latest.get(a) or decide(self.sums[a]), unpowered=True)
                 continue
             self.sums[a].add(row)
-            self.latest[a] = decide(self.sums[a])
+            self._slide(a, row)
+            self.latest[a] = self._decide(a)
         return dict(self.latest)
+
+    def _slide(self, a, row):
+        """The last RECENT samples in a moving window of their own (a fault that ramps)."""
+        if self.recent[a] is None:
+            self.recent[a] = (ProfileSums(self.sums[a].unit), deque())
+        sums, rows = self.recent[a]
+        sums.add(row)
+        rows.append(row)
+        if len(rows) > self.RECENT:
+            sums.add(rows.popleft(), -1.0)
+
+    def _decide(self, a) -> Identification:
+        """Every sample since the onset; where they fit no one fault (a ramp still growing for part of them),
+        the last RECENT samples, once the window is full."""
+        found = decide(self.sums[a])
+        sums, rows = self.recent[a]
+        if found.kind == UNKNOWN and found.samples >= MIN_SAMPLES and len(rows) >= self.RECENT:
+            window = decide(sums)
+            if window.kind != UNKNOWN:
+                return replace(window, samples=found.samples, recent=len(rows))
+        return found
 
     def _add_since_onset(self, a, past, calibration):
         """Add the kept samples after the onset (the last of ``past`` is the alarm's own, added after)."""
@@ -451,3 +480,4 @@ class FaultIdentifier:
         onset = onset_index(errors, [r[5] for r, _, _ in past])
         for earlier, _, _ in past[onset + 1:-1]:
             self.sums[a].add(earlier)
+            self._slide(a, earlier)

@@ -77,7 +77,9 @@ class ObserverChannel:
         bound = np.zeros(len(self.wheels)) if bound is None else bound
         for i, axis in enumerate(self.wheels):
             rule, r, b = self.rules[axis], float(residual[i]), float(bound[i])
-            threshold = self.curves.at(axis, k) + b
+            # never below 0: a calibrated band may be negative (the bound over-covers), and an exactly
+            # zero residual with a zero bound (a standby wheel at rest, unpowered) agrees perfectly
+            threshold = max(self.curves.at(axis, k) + b, 0.0)
             if math.isfinite(r) and math.isfinite(b):
                 self.unjudged.discard(axis)
                 rule.update(abs(r), threshold, t)

@@ -8,14 +8,18 @@ wheel, learning the wheel's unit when calibrating (detection.py,
 calibration.py) -> ObserverChannel against the model observer's bands ->
 LatchedVerdict with the operating envelope (isolation.py). The verdict is
 per wheel of the set, the redundant one included (its band: the widest of
-its type's, detection.ThresholdCurves.at).
+its type's, detection.ThresholdCurves.at). With ``identification`` the
+isolation node's FaultIdentifier names each alarmed wheel's fault as well.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from dataclasses import fields
+
 from .calibration import UnitCalibration, regressors
 from .detection import SignedResidual, ThresholdCurves
+from .identification import FaultIdentifier
 from .isolation import LatchedVerdict, ObserverChannel, in_envelope
 from .telemetry import TelemetrySampler
 
@@ -24,9 +28,12 @@ class OnboardVerdict:
     """The latched verdict of wheels ``names`` for ``batch`` runs from control-rate telemetry."""
 
     def __init__(self, names, curves: ThresholdCurves, batch: int, fdi_period: float = 1.0,
-                 calibration_samples: int = 0, persistence: int | None = None):
+                 calibration_samples: int = 0, persistence: int | None = None, identification: bool = False):
         self.names = tuple(names)
-        self.sampler = TelemetrySampler(fdi_period, "mean")
+        self.sampler = TelemetrySampler(fdi_period, "mean", identification=identification)
+        self.identifiers = ([FaultIdentifier(self.names, calibration_samples) for _ in range(batch)]
+                            if identification else None)
+        self.identified = [{} for _ in range(batch)]   # per run: wheel -> the latest Identification (or None)
         self.calibration_samples = calibration_samples
         self.filters = [[SignedResidual(calibration=UnitCalibration(calibration_samples) if calibration_samples
                                         else None) for _ in self.names] for _ in range(batch)]
@@ -47,6 +54,15 @@ class OnboardVerdict:
             rows = [f.update(sample.reaction_torque[b, i], sample.model_torque[b, i], sample.ripple_phasor[b, i],
                              None if x is None else x[b, i]) for i, f in enumerate(filters)]
             residual, bound = np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
-            verdict.update(channel.update(stamp_ns, residual, bound), dict(zip(self.names, judged[b])))
+            rows = verdict.update(channel.update(stamp_ns, residual, bound), dict(zip(self.names, judged[b])))
+            if self.identifiers is not None:
+                self.identified[b] = self.identifiers[b].update(_run_of(sample, b),
+                                                                {a: row[2] for a, row in rows.items()})
             out.append({a: t for a, t in verdict.confirmed.items() if t is not None})
         return out
+
+
+def _run_of(sample, b: int):
+    """The FDI sample of run ``b`` of a batch: every (B, N, ...) field at ``b``."""
+    values = {f.name: getattr(sample, f.name) for f in fields(sample)}
+    return type(sample)(**{k: v[b] if isinstance(v, np.ndarray) and v.ndim >= 2 else v for k, v in values.items()})

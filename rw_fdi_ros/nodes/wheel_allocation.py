@@ -6,8 +6,11 @@ of the set on /wheels/command, stamped k: the minimum-norm allocation over
 the wheels in use within the +-5 V limit (core/allocation.py); a wheel out
 of use gets 0 V.
 
-FDIR (core/fdir.py): a wheel /diagnostics reports ERROR (the FDI's latched,
-confirmed verdict) is given up and the standby wheel brought in; the decision
+FDIR (core/fdir.py): for a wheel /diagnostics reports ERROR (the FDI's latched,
+confirmed verdict) the standby wheel is brought in and the wheel given up, kept
+in use beside it, or held, by its momentum and by the share of its torque it
+gave over the last second (fdir.DeliveryLog, kept from /wheels and the commands
+sent, as the core loop keeps it); the decision
 made on the FDI sample stamped t shapes the commands from t + 1 s on
 (fdir.DECISION_DELAY), so before the command of step k the node waits for
 /diagnostics of that sample: the run is the same run whatever the processes'
@@ -15,7 +18,7 @@ timing, the one the core loop computes (test_fdir_graph.py). An operator
 takes a wheel out of use by the parameter ``out_of_use`` (joint names;
 ``ros2 param set /wheel_allocation out_of_use "['reaction_wheel_x']"``),
 from the next step on. Every decision goes out on /fdir/wheels (one status
-per wheel: in use, standby, held, given up and why), which the recorder
+per wheel: in use, standby, kept in use, held, given up and why), which the recorder
 keeps. A wheel given up is never commanded again; a held one (its momentum
 more than the wheels in use could take) gets only the speed-hold command,
 from its speed of the same step (allocation.hold_command).
@@ -32,7 +35,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from ..core.allocation import TorqueAllocator
-from ..core.fdir import DecisionDelay, Reconfiguration
+from ..core.fdir import DecisionDelay, DeliveryLog, Reconfiguration
 from ..core.isolation import stamp_seconds
 from ..core.scenario import AXES
 from ..core.spacecraft import INERTIA
@@ -100,6 +103,8 @@ class WheelAllocationNode(GraphNode):
                             f"{', '.join(self.joints)}", EXIT_BAD_INPUT)
         self.axis_commands = {}     # stamp -> {axis index: value}
         self.state = {}             # stamp -> (wheel speeds, body rate): what a decision's momentum check reads
+        self.commands_sent = {}     # stamp -> the wheel commands sent for it (in force over the next step)
+        self.delivery = DeliveryLog()   # what the wheels gave for their commands, as the core loop keeps it
         self.verdict_ns = -1        # the latest /diagnostics stamp in
         self.waiting_since = None   # wall time a complete command started waiting for a verdict
         self.blind_said = False
@@ -132,7 +137,12 @@ class WheelAllocationNode(GraphNode):
         self._try_command()
 
     def _on_wheels(self, raw):
-        stamp, _, speed, _ = read_joint_state_cdr(raw)
+        stamp, _, speed, torque = read_joint_state_cdr(raw)
+        command = self.commands_sent.pop(stamp - int(round(self.period * 1e9)), None)
+        for old in [s for s in self.commands_sent if s < stamp]:
+            del self.commands_sent[old]
+        if command is not None:   # the command in force over the step that led to this state
+            self.delivery.add(command, speed, torque)
         self.state.setdefault(stamp, [None, None])[0] = speed
         self._state_in()
 
@@ -202,8 +212,9 @@ class WheelAllocationNode(GraphNode):
                 del self.state[old]
             decisions = []
             for wheel, reason in due:   # an operator's command is obeyed even where it costs the pointing
-                decisions += self.reconfiguration.give_up(wheel, t, reason, speeds, INERTIA * rate,
-                                                          force=reason == OPERATOR)
+                decisions += self.reconfiguration.give_up(
+                    wheel, t, reason, speeds, INERTIA * rate, force=reason == OPERATOR,
+                    delivered=self.delivery.share(self.wheels.index(wheel)))
             if decisions:
                 self.allocator.use(self.reconfiguration.ordered_in_use(), held=self.reconfiguration.held)
                 for d in decisions:
@@ -213,6 +224,7 @@ class WheelAllocationNode(GraphNode):
                 self._publish_wheels(stamp)
             u = self.allocator.wheel_commands([[commands[0], commands[1], commands[2]]],
                                               None if speeds is None else [speeds])[0]
+            self.commands_sent[stamp] = u
             self.pub.publish(joint_state_cdr(stamp, self.joints, effort=u))
             self.last_handled = stamp
 

@@ -1,0 +1,305 @@
+"""`rw-fdi bench service`: FDIR in service, every capability at once (issue 34).
+
+Each run is drawn from its seed as a spacecraft in service meets it, all at once:
+
+* the four-wheel set (orthogonal_skew: x, y, z and the standby s);
+* wheel units (varied, the observers calibrated for 150 s) or datasheet wheels, half each;
+* manoeuvres from the start to the end, before and after any fault: intervals drawn per run within
+  60-900 s, sizes up to Table 2.3's 5 deg per axis;
+* a fault (two runs in three) of any kind, its size drawn over the kind's range (off every grid), on
+  any active wheel, its onset anywhere (a share right after the calibration), a step or a ramp of
+  50-300 s; a second fault (one faulty run in five) on another wheel, s included once it came in;
+* a share in orbit (one in five), the magnetorquers dumping momentum;
+* 600 s to 6 h.
+
+The core loop runs the node code: the onboard verdict, the isolation node's fault identification and
+the reconfiguration (core.closed_loop.simulate with Fdir). Figures, each with its 95 % Wilson interval:
+
+* reconfigurations without a fault, per 600-s fault-free run and per 100 h of fault-free service (the
+  fault-free runs and the time before the first onset of the others);
+* the faulty wheel, and no other, acted on (given up, held or kept with its reason) among the runs whose
+  fault is physically visible; a fault the physics hides is counted as such;
+* pointing kept: within 0.2 deg on every axis at every sample from 60 s after the first onset (60 s
+  from the start without a fault) that is not within 60 s of a set-point change; a run whose FDIR said
+  the momentum could not allow it, when it happened, is counted apart with that reason;
+* identification of the wheel acted on: kind right, size within tolerance, interval covering the truth.
+
+Seeds: tuning from 90,000,000, evaluation (figures of record) from 91,000,000, the suite's net
+from 92,000,000.
+"""
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from ...core.calibration import calibration_samples
+from ...core.closed_loop import Fdir, simulate
+from ...core.identification import UNKNOWN
+from ...core.scenario import Scenario, parse_scenario
+from ...core.wheel_set import WHEEL_SETS
+from ..metrics import IDENTIFIED_KIND, size_tolerance
+from .detection_bench import format_rate, rate, write_report
+from ..evaluation.screen import load_fdi
+
+SEED_BASES = {"tuning": 90_000_000, "evaluation": 91_000_000, "net": 92_000_000}
+WHEELS = WHEEL_SETS["orthogonal_skew"]
+POINTING_DEG = 0.2
+SETTLE_S = 60.0          # [s] after an onset and after a set-point change, not judged
+CALIBRATION_S = 150.0    # [s] the shipped unit_calibrated bands
+DURATIONS = ((600.0, 0.6), (1800.0, 0.2), (7200.0, 0.15), (21600.0, 0.05))   # [s], share of runs
+FAULT_RANGES = {"current_limiter": (0.5, 0.92), "temperature": (48.0, 173.0), "bus_voltage": (4.0, 5.5)}
+EVERY = 10               # record every 10th control sample (1 s): hours of four wheels in memory
+BATCH = 25
+ACTED = ("out_of_use", "held", "kept_in_use")
+# what FDIR says when the momentum (or the wheels left) cannot keep the pointing (core/fdir.py)
+MOMENTUM_REASONS = ("pointing is lost", "no wheel left")
+
+
+@dataclass(frozen=True)
+class Draw:
+    """What one in-service run is, before it is a Scenario (the report lists these)."""
+
+    seed: int
+    duration: float
+    units: bool
+    orbit: bool
+    interval_s: tuple
+    size_deg: float
+    faults: tuple    # ({kind, wheel, onset, value, ramp}, ...)
+
+
+def draw(seed: int) -> Draw:
+    """The in-service run of ``seed`` (module docstring)."""
+    rng = np.random.default_rng([int(seed), 34])
+    durations, shares = zip(*DURATIONS)
+    duration = float(rng.choice(durations, p=shares))
+    units = bool(rng.random() < 0.5)
+    orbit = bool(rng.random() < 0.2)
+    low = float(rng.uniform(60.0, 300.0))
+    interval = (round(low, 1), round(float(min(900.0, low + rng.uniform(0.0, 600.0))), 1))
+    size = round(float(rng.uniform(1.0, 5.0)), 2)
+    faults = []
+    if rng.random() < 2.0 / 3.0:
+        earliest = CALIBRATION_S + 5.0 if units else 20.0
+        if units and rng.random() < 0.15:   # right after the calibration
+            onset = rng.uniform(earliest, earliest + 20.0)
+        else:
+            onset = rng.uniform(earliest, duration - 240.0)
+        wheel = str(rng.choice(WHEELS.active))
+        faults.append(_fault(rng, wheel, onset))
+        if rng.random() < 0.2 and onset + 100.0 < duration - 240.0:
+            others = [w for w in WHEELS.names if w != wheel]
+            second = rng.uniform(onset + 100.0, min(onset + 600.0, duration - 240.0))
+            faults.append(_fault(rng, str(rng.choice(others)), second))
+    return Draw(int(seed), duration, units, orbit, interval, size, tuple(faults))
+
+
+def _fault(rng, wheel: str, onset: float) -> dict:
+    kind = str(rng.choice(list(FAULT_RANGES)))
+    value = round(float(rng.uniform(*FAULT_RANGES[kind])), 4)
+    ramp = 0.0 if rng.random() < 0.5 else round(float(rng.uniform(50.0, 300.0)), 1)
+    return {"kind": kind, "wheel": wheel, "onset": round(float(onset), 1), "value": value, "ramp": ramp}
+
+
+def scenario(d: Draw) -> Scenario:
+    """The Scenario of a draw, through the scenario file's own checks (and its text, as a bag records it)."""
+    raw = {"name": "service", "duration": d.duration, "seed": d.seed,
+           "description": "in service: every capability at once (rw-fdi bench service)",
+           "plant": {"wheel_set": WHEELS.name},
+           "manoeuvres": {"interval_s": list(d.interval_s), "size_deg": [-d.size_deg, d.size_deg]},
+           "faults": [dict(f) for f in d.faults]}
+    if d.units:
+        raw["wheels"] = {"variation": True}
+    if d.orbit:
+        raw["environment"] = {"epoch": "2026-01-01T00:00:00"}
+        raw["magnetorquers"] = {}
+    return parse_scenario(yaml.safe_dump(raw, sort_keys=False), origin=f"service seed {d.seed}")
+
+
+def fdir_for(units: bool) -> Fdir:
+    _, curves = load_fdi(method="speed_aware", unit_calibration=CALIBRATION_S if units else 0.0)
+    return Fdir(curves["model"], calibration_samples(CALIBRATION_S) if units else 0, identification=True)
+
+
+def judged_mask(time, scenario_: Scenario, start: float) -> np.ndarray:
+    """The samples the pointing is judged at: from ``start`` on, not within SETTLE_S after a set-point change."""
+    times, _ = scenario_.setpoint_schedule()
+    ok = time >= start
+    for t in times:
+        if t > 0.0:
+            ok &= ~((time >= t) & (time < t + SETTLE_S))
+    return ok
+
+
+def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
+    """What one run did: decisions, pointing, identification, against the truth."""
+    names = traj.wheel_names
+    decisions = [(round(x.time, 1), x.wheel, x.action, x.reason) for x in traj.decisions[b]]
+    first = min((f["onset"] for f in d.faults), default=None)
+    start = (first if first is not None else 0.0) + SETTLE_S
+    judged = judged_mask(traj.time, scenario_, start)
+    error = np.degrees(np.abs(traj.error[:, b])).max(axis=1)
+    bad = judged & (error > POINTING_DEG)
+    out = {"seed": d.seed, "duration": d.duration, "units": d.units, "orbit": d.orbit, "faults": list(d.faults),
+           "decisions": decisions, "pointing_kept": not bad.any(),
+           "worst_deg": float(error[judged].max(initial=0.0)),
+           "first_lost_s": float(traj.time[np.argmax(bad)]) if bad.any() else None,
+           "peak_wheel_speed": float(np.abs(traj.wheel_speed[:, b]).max())}
+    said = [x for x in decisions if any(m in x[3] for m in MOMENTUM_REASONS)]
+    out["momentum_said"] = said[0][3] if said else None
+    out["reconfigured_before_fault"] = [x for x in decisions if first is None or x[0] < first]
+    acted = {w for _, w, a, _ in decisions if a in ACTED}
+    faulty = {f["wheel"] for f in d.faults}
+    if d.faults:
+        f0 = d.faults[0]
+        after = traj.time >= f0["onset"]
+        i = names.index(f0["wheel"])
+        out["fault_effect_peak"] = float(np.abs(traj.fault_effect[after, b, i]).max(initial=0.0))
+        out["acted_right"] = f0["wheel"] in acted and not (acted - faulty)
+        out["healthy_acted"] = sorted(acted - faulty)
+        out["delay_s"] = next((t - f0["onset"] for t, w, a, _ in decisions if w == f0["wheel"] and a in ACTED), None)
+        out["action"] = next((a for _, w, a, _ in decisions if w == f0["wheel"] and a in ACTED), None)
+        single = sum(f["wheel"] == f0["wheel"] for f in d.faults) == 1
+        found = (traj.identified[b] or {}).get(f0["wheel"]) if traj.identified else None
+        if single and f0["wheel"] in acted:
+            truth = IDENTIFIED_KIND[f0["kind"]]
+            row = {"true_kind": truth, "kind": found.kind if found else "none",
+                   "message": found.message() if found else "never alarmed"}
+            row["kind_right"] = row["kind"] == truth
+            if row["kind_right"]:
+                row.update(size=found.size, low=found.low, high=found.high,
+                           size_right=abs(found.size - f0["value"]) <= size_tolerance(f0["kind"], f0["value"]),
+                           covered=found.low <= f0["value"] <= found.high)
+            out["identification"] = row
+    return out
+
+
+def _simulate(draws: list) -> list:
+    """One batch (equal duration, wheels and orbit): the runs' figures."""
+    scenarios = [scenario(d) for d in draws]
+    traj = simulate(scenarios, fdir=fdir_for(draws[0].units), every=EVERY)
+    return [run_figures(traj, b, d, s) for b, (d, s) in enumerate(zip(draws, scenarios))]
+
+
+def batches(draws: list, size: int = BATCH) -> list:
+    """Draws grouped by what a batch must share (duration, units, orbit), longest first, in batches."""
+    groups = defaultdict(list)
+    for d in draws:
+        groups[(d.duration, d.units, d.orbit)].append(d)
+    out = []
+    for key in sorted(groups, key=lambda k: -k[0]):
+        members = groups[key]
+        per = max(1, min(size, int(size * 1800.0 / key[0])) if key[0] > 1800.0 else size)
+        out += [members[i:i + per] for i in range(0, len(members), per)]
+    return out
+
+
+def run_service(seeds, jobs: int = 2, progress=None) -> list:
+    """Figures of the in-service runs of ``seeds``, in seed order."""
+    work = batches([draw(s) for s in seeds])
+    runs = []
+    if jobs <= 1:
+        for chunk in work:
+            runs += _simulate(chunk)
+            if progress:
+                progress(len(chunk))
+    else:
+        with ProcessPoolExecutor(jobs) as pool:
+            futures = [pool.submit(_simulate, chunk) for chunk in work]
+            try:
+                for fut, chunk in zip(futures, work):
+                    runs += fut.result()
+                    if progress:
+                        progress(len(chunk))
+            except BaseException:
+                for fut in futures:
+                    fut.cancel()
+                raise
+    return sorted(runs, key=lambda r: r["seed"])
+
+
+def summarize(runs: list) -> dict:
+    free = [r for r in runs if not r["faults"]]
+    free_600 = [r for r in free if r["duration"] == 600.0]
+    hours = sum(r["duration"] if not r["faults"] else r["faults"][0]["onset"] for r in runs) / 3600.0
+    before = sum(len(r["reconfigured_before_fault"]) > 0 for r in runs)
+    faulty = [r for r in runs if r["faults"]]
+    visible = [r for r in faulty if r["fault_effect_peak"] > VISIBLE_TORQUE]
+    hidden = [r for r in faulty if r not in visible]
+    unexplained = [r for r in runs if not r["pointing_kept"] and r["momentum_said"] is None]
+    ident = [r["identification"] for r in faulty if "identification" in r]
+    right = [i for i in ident if i["kind_right"]]
+    delays = np.array([r["delay_s"] for r in faulty if r["delay_s"] is not None])
+    return {
+        "runs": len(runs), "hours": sum(r["duration"] for r in runs) / 3600.0,
+        "reconfigured_fault_free_600s": rate(bool(r["decisions"]) for r in free_600),
+        "reconfigured_fault_free_any": rate(bool(r["decisions"]) for r in free),
+        "fault_free_hours": hours, "runs_reconfigured_before_fault": before,
+        "reconfigurations_per_100h": 100.0 * before / hours if hours else None,
+        "acted_right": rate(r["acted_right"] for r in visible),
+        "physically_hidden": {"runs": len(hidden), "acted": sum(r["action"] is not None for r in hidden),
+                              "healthy_acted": sum(bool(r["healthy_acted"]) for r in hidden)},
+        "healthy_acted": rate(bool(r["healthy_acted"]) for r in runs if r["faults"]),
+        "pointing_kept": rate(r["pointing_kept"] for r in runs),
+        "pointing_kept_faulty": rate(r["pointing_kept"] for r in faulty),
+        "pointing_lost_said": rate(not r["pointing_kept"] and r["momentum_said"] is not None for r in runs),
+        "pointing_lost_unexplained": rate(bool(r in unexplained) for r in runs),
+        "kind_right": rate(i["kind_right"] for i in ident),
+        "kind_right_by_action": {a: rate(r["identification"]["kind_right"] for r in faulty
+                                         if "identification" in r and r["action"] == a) for a in ACTED},
+        "size_right": rate(i["size_right"] for i in right),
+        "covered": rate(i["covered"] for i in right),
+        "delay_s": ({"median": float(np.median(delays)), "p90": float(np.percentile(delays, 90)),
+                     "max": float(delays.max())} if delays.size else None),
+        "unknown": sum(i["kind"] == UNKNOWN for i in ident),
+    }
+
+
+VISIBLE_TORQUE = 2e-4   # [N m] a fault effect well above every residual bound: certainly visible
+
+
+def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path = "reports/service", jobs: int = 2,
+                  progress=None) -> dict:
+    seed_base = SEED_BASES[seeds]
+    t0 = time.monotonic()
+    results = run_service(range(seed_base, seed_base + runs), jobs, progress)
+    report = {"schema": "rw_fdi_ros/service_bench/1", "seconds": time.monotonic() - t0,
+              "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,
+              "seeds": [seed_base, seed_base + runs - 1], "figures": summarize(results), "runs": results}
+    return write_report(report, out, "service", format_service)
+
+
+def format_service(report: dict) -> str:
+    f = report["figures"]
+    lines = ["# FDIR in service (`rw-fdi bench service`)", "",
+             f"Measured {report['date']}, {report['seed_set']} seeds {report['seeds'][0]:,}-{report['seeds'][1]:,} "
+             f"({f['runs']} runs, {f['hours']:.0f} h of service); {report['seconds'] / 60:.0f} min on this machine. "
+             "95 % Wilson intervals. The envelope: tools/benches/service_bench.py.", "",
+             "| figure | measured | goal |", "|---|---|---|",
+             f"| reconfigurations without a fault, 600-s runs | {format_rate(f['reconfigured_fault_free_600s'])} | "
+             "<= 0.5 % |",
+             f"| reconfigurations without a fault, per 100 h | {f['reconfigurations_per_100h']:.2f} "
+             f"({f['runs_reconfigured_before_fault']} in {f['fault_free_hours']:.0f} h) | <= 1 |",
+             f"| the faulty wheel and no other acted on (visible faults) | {format_rate(f['acted_right'])} | >= 99 % |",
+             f"| pointing kept, every run | {format_rate(f['pointing_kept'])} | >= 99 % |",
+             f"| pointing lost where FDIR said the momentum could not allow it | "
+             f"{format_rate(f['pointing_lost_said'])} | said |",
+             f"| pointing lost, unexplained | {format_rate(f['pointing_lost_unexplained'])} | 0 |",
+             f"| identification: kind right | {format_rate(f['kind_right'])} | >= 95 % |",
+             f"| identification: size within tolerance | {format_rate(f['size_right'])} | >= 90 % |",
+             f"| identification: 95 % interval covers the truth | {format_rate(f['covered'])} | >= 90 % |"]
+    for a, r in f["kind_right_by_action"].items():
+        lines.append(f"| kind right, wheel {a.replace('_', ' ')} | {format_rate(r)} | >= 95 % |")
+    d = f["delay_s"]
+    if d:
+        lines += ["", f"Onset to decision: median {d['median']:.0f} s, p90 {d['p90']:.0f} s, max {d['max']:.0f} s "
+                  "(ramps included)."]
+    h = f["physically_hidden"]
+    lines += [f"Faults the physics hides (no visible torque effect, never acted on): {h['runs']} runs."]
+    return "\n".join(lines) + "\n"

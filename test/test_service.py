@@ -1,0 +1,65 @@
+"""A net under FDIR in service (issue 34): fixed in-service cases on the core loop, every capability at once,
+so that a change to one capability cannot silently break another (rw-fdi bench service measures the rates)."""
+import numpy as np
+
+from rw_fdi_ros.core.calibration import UnitCalibration
+from rw_fdi_ros.tools.benches import service_bench as sb
+
+MANOEUVRES = (100.0, 200.0)
+
+
+def _runs(draws):
+    return sb._simulate(list(draws))
+
+
+def test_calibrated_observers_leave_the_standby_wheel_alone_and_learn_it_once_it_runs():
+    """Wheel units calibrated 150 s, manoeuvres all along, no fault: the standby wheel s (at rest, unpowered:
+    residual 0, bound 0 against a band below 0) was given up at 3 s in every run; now nothing is decided.
+    A calibration learns nothing from a wheel at rest and unpowered, and its window waits for it to run."""
+    runs = _runs([sb.Draw(92_000_001, 600.0, True, False, MANOEUVRES, 5.0, ())])
+    assert runs[0]["decisions"] == [] and runs[0]["pointing_kept"]
+    c = UnitCalibration(3)
+    assert c.update(1e-3, np.zeros(6)) == (0.0, 0.0) and c.n == 0 and not c.frozen
+    for _ in range(3):
+        c.update(1e-4, [1e-3, 1e-3, 1e-3, 1e-3, 0.0, 0.0])
+    assert c.frozen and c.n == 3
+
+
+def test_a_fault_on_a_datasheet_wheel_then_slews_keeps_the_pointing_and_is_identified():
+    """40 % current loss on x at 250 s, 5-deg slews every 100-200 s before and after: x is kept in use beside
+    s (giving it up would leave y, z, s unable to slew from these speeds), the pointing is kept at every
+    judged sample, no healthy wheel is touched and the fault is named with its size."""
+    fault = {"kind": "current_limiter", "wheel": "x", "onset": 250.0, "value": 0.6, "ramp": 0.0}
+    run = _runs([sb.Draw(92_000_002, 600.0, False, False, MANOEUVRES, 5.0, (fault,))])[0]
+    assert [(w, a) for _, w, a, _ in run["decisions"]] == [("x", "kept_in_use"), ("s", "in_use")]
+    assert run["acted_right"] and run["pointing_kept"] and run["worst_deg"] < 0.2
+    ident = run["identification"]
+    assert ident["kind"] == "current_loss" and ident["size_right"] and ident["covered"], ident
+
+
+def test_a_ramping_fault_on_a_calibrated_unit_is_named_once_it_stops_growing():
+    """+100 C on z of a wheel unit, ramping over 150 s from 200 s, with slews: z acted on, nothing else; the
+    samples since the onset fit no one temperature, the last RECENT ones do."""
+    fault = {"kind": "temperature", "wheel": "z", "onset": 200.0, "value": 123.0, "ramp": 150.0}
+    run = _runs([sb.Draw(92_000_003, 600.0, True, False, MANOEUVRES, 3.0, (fault,))])[0]
+    assert run["acted_right"] and run["pointing_kept"], run
+    ident = run["identification"]
+    assert ident["kind"] == "temperature" and ident["size_right"], ident
+
+
+def test_the_in_service_family_draws_every_case_from_its_seed():
+    """The draws are data: the same seed the same run, and the family holds what it claims."""
+    draws = [sb.draw(s) for s in range(sb.SEED_BASES["net"], sb.SEED_BASES["net"] + 400)]
+    assert sb.draw(sb.SEED_BASES["net"]) == draws[0]
+    faults = [f for d in draws for f in d.faults]
+    assert {f["kind"] for f in faults} == set(sb.FAULT_RANGES) and {f["wheel"] for f in faults} >= {"x", "y", "z", "s"}
+    assert any(f["ramp"] for f in faults) and any(not f["ramp"] for f in faults)
+    assert any(d.units for d in draws) and any(not d.units for d in draws) and any(d.orbit for d in draws)
+    assert {d.duration for d in draws} == {dur for dur, _ in sb.DURATIONS}
+    assert any(len(d.faults) == 2 for d in draws) and any(not d.faults for d in draws)
+    for d in draws:
+        for f in d.faults:
+            low, high = sb.FAULT_RANGES[f["kind"]]
+            assert low <= f["value"] <= high and f["onset"] + 240.0 <= d.duration + 1e-9
+        s = sb.scenario(d)
+        assert s.duration == d.duration and len(s.faults) == len(d.faults)
