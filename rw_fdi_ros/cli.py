@@ -262,7 +262,7 @@ def _cmd_bench(args) -> int:
         from tqdm import tqdm
         with tqdm(total=args.service_runs, desc="service bench (core loop)", unit="run", file=sys.stderr) as bar:
             report = bench_service(runs=args.service_runs, seeds=args.seed_set, out=args.out or "reports/service",
-                                   jobs=args.jobs or 2, progress=bar.update)
+                                   jobs=args.jobs or 2, progress=bar.update, max_hours=args.max_hours)
     elif args.what == "identification":
         from .tools.benches.identification_bench import bench_identification
         default_out = "reports/identification_units" if args.units else "reports/identification"
@@ -479,6 +479,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "without a fault, the right wheel acted on, pointing kept, identification; core loop)")
     b.add_argument("--service-runs", type=COUNT, default=1000,
                    help="service: in-service runs, each drawn from its seed (default 1000)")
+    b.add_argument("--max-hours", type=number(float, 0, 6, low_open=True), default=None,
+                   help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h)")
     b.add_argument("--day-hours", type=number(float, 0, 240, low_open=True), default=24.0,
                    help="dumping: the length of the day in orbit [h] (default 24)")
     b.add_argument("--orbit-runs", type=COUNT, default=20,

@@ -51,7 +51,8 @@ finds the onset in the samples before the alarm) and are never forgotten: the
 few seconds after a fault, while the controller moves the command, are what
 tells a current loss from a bus drop; a window of the last 300 samples forgot
 them and turned 2.5 % of 40 % current losses "unknown" by the end of the run.
-The estimate is refined on every sample.
+The estimate is refined on every sample. Only where every sample since the onset fits no one size (a
+fault still ramping over part of them) do the last ``RECENT`` decide.
 """
 from __future__ import annotations
 

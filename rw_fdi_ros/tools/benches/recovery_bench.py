@@ -36,6 +36,7 @@ POINTING_DEG = 0.2
 RECOVERY_S = 60.0
 WHEELS = WHEEL_SETS["orthogonal_skew"]
 BATCH = 50
+ACTED = ("out_of_use", "held", "kept_in_use")   # what FDIR does with a wheel it confirmed faulty
 
 
 @dataclass(frozen=True)
@@ -97,10 +98,10 @@ def run_figures(traj, b: int, scenario: Scenario) -> dict:
                recovered=recover <= RECOVERY_S, reconfigured=lost in given_up,
                kept=any(w == lost and a == "kept_in_use" for _, w, a in decisions),
                held=any(w == lost and a == "held" for _, w, a in decisions),
-               healthy_given_up=[w for _, w, a in decisions if a in ("out_of_use", "held") and w != lost
+               healthy_given_up=[w for _, w, a in decisions if a in ACTED and w != lost
                                  and not (len(scenario.faults) > 1 and w == "s")],
                reconfigured_s=next((t - fault.onset for t, w, a in decisions
-                                    if w == lost and a in ("out_of_use", "held")),
+                                    if w == lost and a in ACTED),
                                    None))
     if len(scenario.faults) > 1:   # the later fault on s: confirmed (kept in use: no wheel is left)
         out["second_detected"] = any(w == "s" for _, w, a in decisions if a in ("kept_in_use", "held", "out_of_use"))
@@ -166,19 +167,21 @@ def format_recovery(report: dict) -> str:
              f"{report['seconds'] / 60:.0f} min on this machine. Wheel set {report['wheel_set']}; the core loop with "
              "the FDI verdict and FDIR in it. Recovered: within 0.2 deg on every axis from at most 60 s after the "
              "onset to the end of the 400-s run. Holdable: at the onset, the wheels in use after the reconfiguration "
-             "can hold the spacecraft's momentum within 45 rad/s. Given up: 0 V from the decision on. Held: "
-             "confirmed, relieved of control and held at its speed (a momentum store), because the wheels left "
-             "could not take its momentum. 95 % Wilson intervals.", "",
-             "| case | recovered, all | holdable | recovered, holdable | given up | held | healthy wheel given up "
-             "| peak error [deg] med/p90/max | time to recover [s] med/p90/max | onset to decision [s] |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "can hold the spacecraft's momentum within 45 rad/s. Given up: 0 V from the decision on. Kept: in "
+             "use beside s, all four sharing the work (the three left could not hold the momentum and still slew; "
+             "it gives at least half its torque). Held: confirmed, relieved of control and held at its speed (a "
+             "momentum store): it gives less than half its torque. 95 % Wilson intervals.", "",
+             "| case | recovered, all | holdable | recovered, holdable | given up | kept beside s | held "
+             "| healthy wheel given up | peak error [deg] med/p90/max | time to recover [s] med/p90/max "
+             "| onset to decision [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, c in report["cells"].items():
         f = c["figures"]
         if c["cell"]["kind"] is None:
             continue
         lines.append(f"| {name} | {format_rate(f['recovered'])} | {format_rate(f['holdable'])} | "
                      f"{format_rate(f['recovered_holdable'])} | {format_rate(f['reconfigured'])} | "
-                     f"{format_rate(f['held'])} | "
+                     f"{format_rate(f['kept'])} | {format_rate(f['held'])} | "
                      f"{format_rate(f['healthy_given_up'])} | {_stat(f['peak_deg'])} | {_stat(f['recover_s'])} | "
                      f"{_stat(f['reconfigured_s'])} |")
     for name, c in report["cells"].items():
@@ -206,7 +209,7 @@ def plot_before_after(path: Path, fdir: Fdir):
     scenario = load_scenario("fdir_bus_x")
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.6), sharey=True)
     for ax, (label, f) in zip(axes, (("before: the faulty wheel x stays in use", None),
-                                     ("after: x given up, s takes over", fdir))):
+                                     ("after: FDIR (x held, s brought in)", fdir))):
         traj = simulate([scenario], fdir=f)
         for i, a in enumerate("xyz"):
             ax.semilogy(traj.time, np.maximum(np.degrees(np.abs(traj.error[:, 0, i])), 1e-5), label=a)
