@@ -150,7 +150,7 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
     error = np.degrees(np.abs(traj.error[:, b])).max(axis=1)
     bad = judged & (error > POINTING_DEG)
     out = {"seed": d.seed, "duration": d.duration, "units": d.units, "orbit": d.orbit, "faults": list(d.faults),
-           "decisions": decisions, "pointing_kept": not bad.any(),
+           "decisions": decisions, "pointing_kept": not bool(bad.any()),
            "worst_deg": float(error[judged].max(initial=0.0)),
            "first_lost_s": float(traj.time[np.argmax(bad)]) if bad.any() else None,
            "peak_wheel_speed": float(np.abs(traj.wheel_speed[:, b]).max())}
@@ -164,7 +164,7 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
         after = traj.time >= f0["onset"]
         i = names.index(f0["wheel"])
         out["fault_effect_peak"] = float(np.abs(traj.fault_effect[after, b, i]).max(initial=0.0))
-        out["acted_right"] = f0["wheel"] in acted and not (acted - faulty)
+        out["acted_right"] = bool(f0["wheel"] in acted and not (acted - faulty))
         out["healthy_acted"] = sorted(acted - faulty)
         out["delay_s"] = next((t - f0["onset"] for t, w, a, _ in decisions if w == f0["wheel"] and a in ACTED), None)
         out["action"] = next((a for _, w, a, _ in decisions if w == f0["wheel"] and a in ACTED), None)
@@ -176,9 +176,9 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
                    "message": found.message() if found else "never alarmed"}
             row["kind_right"] = row["kind"] == truth
             if row["kind_right"]:
-                row.update(size=found.size, low=found.low, high=found.high,
-                           size_right=abs(found.size - f0["value"]) <= size_tolerance(f0["kind"], f0["value"]),
-                           covered=found.low <= f0["value"] <= found.high)
+                row.update(size=float(found.size), low=float(found.low), high=float(found.high),
+                           size_right=bool(abs(found.size - f0["value"]) <= size_tolerance(f0["kind"], f0["value"])),
+                           covered=bool(found.low <= f0["value"] <= found.high))
             out["identification"] = row
     return out
 
