@@ -48,6 +48,7 @@ command the same wheels.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -160,7 +161,6 @@ class DeliveryLog:
     wheel allocation node keep one alike)."""
 
     def __init__(self, samples: int = DELIVERY_SAMPLES):
-        from collections import deque
         self.rows = deque(maxlen=samples)
 
     def add(self, tcv, wheel_speed, reaction_torque):

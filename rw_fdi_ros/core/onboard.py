@@ -13,9 +13,9 @@ isolation node's FaultIdentifier names each alarmed wheel's fault as well.
 """
 from __future__ import annotations
 
-import numpy as np
-
 from dataclasses import fields
+
+import numpy as np
 
 from .calibration import UnitCalibration, regressors
 from .detection import SignedResidual, ThresholdCurves
