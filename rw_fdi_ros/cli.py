@@ -260,9 +260,11 @@ def _cmd_bench(args) -> int:
     elif args.what == "service":
         from .tools.benches.service_bench import bench_service
         from tqdm import tqdm
-        with tqdm(total=args.service_runs, desc="service bench (core loop)", unit="run", file=sys.stderr) as bar:
+        with tqdm(total=args.service_runs + args.fault_free_runs, desc="service bench (core loop)", unit="run",
+                  file=sys.stderr) as bar:
             report = bench_service(runs=args.service_runs, seeds=args.seed_set, out=args.out or "reports/service",
-                                   jobs=args.jobs or 2, progress=bar.update, max_hours=args.max_hours)
+                                   jobs=args.jobs or 2, progress=bar.update, max_hours=args.max_hours,
+                                   fault_free_runs=args.fault_free_runs)
     elif args.what == "identification":
         from .tools.benches.identification_bench import bench_identification
         default_out = "reports/identification_units" if args.units else "reports/identification"
@@ -486,7 +488,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--orbit-runs", type=COUNT, default=20,
                    help="dumping: 6-hour runs of operations in orbit with dumping (default 20: 120 simulated hours)")
     b.add_argument("--hours", default="1,6", help="memory: run lengths in hours, comma-separated (default 1,6)")
-    b.add_argument("--fault-free-runs", type=COUNT, default=1000, help="detection, units: fault-free runs")
+    b.add_argument("--fault-free-runs", type=COUNT, default=1000,
+                   help="detection, units: fault-free runs; service: fault-free 600-s runs of the family (default 1000)")
     b.add_argument("--runs-per-cell", type=COUNT, default=None,
                    help="detection: runs per fault or ripple case (default 200); identification: per grid size "
                         "(default 100); recovery: per fault case (default 100)")

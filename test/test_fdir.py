@@ -173,6 +173,27 @@ def test_a_wheel_the_others_could_not_replace_is_kept_beside_the_spare_or_held()
     assert d.due(10.9) == [] and d.due(11.0) == ["a"] and d.due(12.0) == []
 
 
+def test_a_kept_wheel_that_gives_too_little_is_held_and_a_wheel_past_its_limit_is_said():
+    """After a reconfiguration the wheels are watched: x, kept beside s, is held once it gives under half its
+    torque (a bus ramping down), not while it gives more or nothing is asked of it; a wheel in use past the
+    holdable speed is said once, with the momentum as the reason; before any reconfiguration nothing is."""
+    assert Reconfiguration(SKEW).review(1.0, [10.0, 10.0, 46.0, 0.0], lambda w: 0.1) == []
+    r = Reconfiguration(SKEW)
+    speeds = [27.5, 25.0, 24.0, 0.0]
+    r.give_up("x", 5.0, "confirmed", speeds)
+    assert r.beside == {"x": "s"}
+    assert r.review(6.0, speeds, lambda w: 0.8) == [] and r.review(6.1, speeds, lambda w: float("nan")) == []
+    held = r.review(7.0, speeds, lambda w: 0.3)
+    assert [(d.wheel, d.action) for d in held] == [("x", "held")] and "30.0 %" in held[0].reason
+    assert r.held == {"x": 27.5} and r.ordered_in_use() == ("y", "z", "s") and "x" in r.settled and not r.kept
+    assert r.review(7.1, speeds, lambda w: 0.1) == []
+    said = r.review(8.0, [20.0, 25.0, 24.0, -45.5], lambda w: 0.1)
+    assert [(d.wheel, d.action) for d in said] == [("s", "at_limit")] and "dumped" in said[0].reason
+    assert "at its speed limit" in said[0].message()
+    assert r.review(8.1, [20.0, 25.0, 24.0, -46.0], lambda w: 0.1) == []   # said once
+    assert r.review(8.2, [46.0, 25.0, 24.0, 0.0], lambda w: 0.1) == []     # a held wheel is not in use
+
+
 def test_the_loop_reconfigures_on_a_confirmed_failure_and_points_again():
     """40 % current loss on x at 150 s: the FDI confirms it; s could not take x's momentum and still slew, so
     x stays in use beside s (all four share the work) and the pointing error is back within 0.2 deg within

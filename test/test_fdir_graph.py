@@ -1,9 +1,11 @@
 """The graph closes the loop as the core loop does: same verdict, same reconfiguration, same run.
 
-One run of the FDIR scenario shortened (bus 4.5 V on x at 60 s, x spinning faster than s could take
-over, +150 C on the redundant wheel s at 130 s) through the live graph (plant, controllers, wheel
-allocation with FDIR, every observer, isolation, recorder) and through closed_loop.simulate with the
-FDI's verdict in the loop. x, giving a fifth of its torque, is held rather than kept beside s (fdir.py).
+One run of the FDIR scenario shortened (bus ramping to 4.5 V over 40 s on x from 60 s, x spinning faster
+than s could take over, +150 C on the redundant wheel s at 130 s) through the live graph (plant,
+controllers, wheel allocation with FDIR, every observer, isolation, recorder) and through
+closed_loop.simulate with the FDI's verdict in the loop. x, confirmed while it still gives over half its
+torque, is kept beside s; as the bus goes on down it gives less and is held (fdir.Reconfiguration.review,
+on the allocation node's own record of what the wheels gave).
 The bag holds every decision on /fdir/wheels; the wheel held gets the
 speed-hold command of its own speed from the decision on; the attitude is the core loop's. (A wheel
 given up, 0 V: test_launch_file.py; an operator's parameter: test_wheel_allocation_node.py.)
@@ -25,7 +27,7 @@ duration: 180.0
 seed: 21000000
 initial: {wheel_speed: [30.0, 19.0, 17.0]}
 faults:
-  - {kind: bus_voltage, wheel: x, onset: 60.0, value: 4.5}
+  - {kind: bus_voltage, wheel: x, onset: 60.0, value: 4.5, ramp: 40.0}
   - {kind: temperature, wheel: s, onset: 130.0, value: 173.0}
 """
 
@@ -45,7 +47,8 @@ def test_the_graph_reconfigures_as_the_core_loop_does(run):
     outcome, traj = run
     summary = outcome.summary
     core = [(d.time, d.wheel, d.action, d.reason) for d in traj.decisions[0]]
-    assert [(w, a) for _, w, a, _ in core] == [("x", "held"), ("s", "in_use"), ("s", "kept_in_use")]
+    assert [(w, a) for _, w, a, _ in core] == [("x", "kept_in_use"), ("s", "in_use"), ("x", "held"),
+                                               ("s", "kept_in_use")]
     state = {"held": "held", "in_use": "in_use", "kept_in_use": "kept_in_use"}
     graph = [(d["time"], d["wheel"], d["state"], d["reason"]) for d in summary["reconfiguration"]]
     assert sorted(graph) == sorted((t, w, state[a], r) for t, w, a, r in core)
@@ -54,7 +57,7 @@ def test_the_graph_reconfigures_as_the_core_loop_does(run):
     np.testing.assert_allclose(attitude, traj.attitude[:, 0], rtol=0, atol=1e-12)   # the same run
     t_cmd, _, _, command = data.joint_states(T.WHEEL_COMMAND)
     t_w, _, speed, _ = data.joint_states(T.WHEELS)
-    held_at = core[0][0]
+    held_at = core[2][0]
     reference = float(traj.wheel_speed[np.searchsorted(traj.time, held_at - 1e-9), 0, 0])
     after = t_cmd >= held_at
     assert np.array_equal(t_w[np.searchsorted(t_w, t_cmd[after])], t_cmd[after])
@@ -65,7 +68,8 @@ def test_the_graph_reconfigures_as_the_core_loop_does(run):
     verdict = summary["fdi"]["verdict"]
     assert verdict["x"] and verdict["s"] and not verdict["y"] and not verdict["z"]
     found = summary["fdi"]["identification"]["x"]   # held, x stays driven: identified on all its samples
-    assert found["fault_kind"] == "bus_voltage" and "switched off" not in found["message"], found
+    # held at one speed, a bus drop caps the current as a limiter does: a fault of x's driver, either way
+    assert found["fault_kind"] in ("bus_voltage", "current_loss") and "switched off" not in found["message"], found
 
 
 ORBIT = """name: fdir_orbit

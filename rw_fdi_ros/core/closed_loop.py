@@ -135,17 +135,25 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
 
 
 def _fdir_step(onboard, reconfig, delays, allocator, plant, sample, delivery):
-    """Feed the FDI this sample; on a confirmed failure decide the reconfiguration, and apply the
-    decisions due now (fdir.DecisionDelay) to the allocation before the next command."""
+    """Feed the FDI this sample; on a confirmed failure decide the reconfiguration, apply the decisions due
+    now (fdir.DecisionDelay) and watch the wheels after a reconfiguration (fdir.Reconfiguration.review), to the
+    allocation before the next command."""
     stamp = int(round(sample.time * 1e9))
     confirmed = onboard.add(stamp, sample.tcv, sample.reaction_torque, sample.wheel_speed)
     for b, (r, delay) in enumerate(zip(reconfig, delays)):
         if confirmed:
             delay.confirm(confirmed[b], sample.time, r.settled)
+        changed = False
+        momentum = plant.inertia * sample.body_rate[b]
         for wheel, reason in delay.due(sample.time):
-            if r.give_up(wheel, sample.time, reason, sample.wheel_speed[b], plant.inertia * sample.body_rate[b],
-                         delivered=delivery.share(r.wheels.index(wheel), b)):
-                allocator.use(r.ordered_in_use(), b, r.held)
+            changed |= bool(r.give_up(wheel, sample.time, reason, sample.wheel_speed[b], momentum,
+                                      delivered=delivery.share(r.wheels.index(wheel), b)))
+        if r.decisions:   # after a reconfiguration the wheels are watched at every sample
+            on_fdi = stamp % onboard.fdi_period_ns == 0   # a kept wheel's share is judged once an FDI period
+            share = (lambda w: delivery.share(r.wheels.index(w), b)) if on_fdi else None
+            changed |= any(d.action != "at_limit" for d in r.review(sample.time, sample.wheel_speed[b], share))
+        if changed:
+            allocator.use(r.ordered_in_use(), b, r.held)
 
 
 def step_metrics(traj: Trajectory, start: float = 0.0, band: float = 0.05, floor: float = np.deg2rad(0.01)):

@@ -64,7 +64,7 @@ DECISION_DELAY = 1.0   # [s] from the FDI sample a decision is made on to the fi
 # [rad/s] the speed a wheel can hold and still be judged: the FDI's envelope, just under the 47.3 rad/s at which
 # friction takes the whole 5 V command (isolation.WHEEL_SPEED_ENVELOPE); what a reconfiguration may ask
 HOLDABLE_SPEED = WHEEL_SPEED_ENVELOPE
-ACTIONS = ("out_of_use", "in_use", "kept_in_use", "held")
+ACTIONS = ("out_of_use", "in_use", "kept_in_use", "held", "at_limit")
 # [rad/s] body rate per axis of Table 2.3's largest set-point change (5 deg) under the PID: its peak,
 # 0.45-0.48 deg/s, measured on a step of 5 deg on every axis (the wheels' speeds then move by up to 22 rad/s)
 SLEW_RATE = np.deg2rad(0.5)
@@ -91,7 +91,8 @@ class Decision:
 
     def message(self) -> str:
         what = {"out_of_use": "taken out of use", "in_use": "brought into use",
-                "kept_in_use": "kept in use", "held": "held at its speed"}[self.action]
+                "kept_in_use": "kept in use", "held": "held at its speed",
+                "at_limit": "at its speed limit"}[self.action]
         return f"wheel {self.wheel} {what} at {self.time:g} s: {self.reason}"
 
 
@@ -184,6 +185,8 @@ class Reconfiguration:
         self.spares = list(wheels.standby)
         self.given_up = []
         self.kept = set()      # wheels confirmed faulty but kept (no replacement): said once
+        self.beside = {}       # kept wheel -> the spare brought in beside it (watched: review)
+        self.at_limit = set()  # wheels in use said beyond the holdable speed after a reconfiguration (review)
         self.held = {}         # wheel -> the speed [rad/s] it is held at (out of control, a momentum store)
         self.decisions = []
 
@@ -219,6 +222,7 @@ class Reconfiguration:
                 self.spares.remove(spare)
                 self.in_use = self.in_use + [spare]
                 self.kept.add(wheel)
+                self.beside[wheel] = spare
                 out = [Decision(t, wheel, "kept_in_use", f"{reason}; kept in use beside wheel {spare}: were it "
                                                          f"given up, {short}"),
                        Decision(t, spare, "in_use", f"shares the work of wheel {wheel}")]
@@ -237,11 +241,54 @@ class Reconfiguration:
                 return self._decided(out, spare, wheel, None)
             if short:
                 short += ": pointing is lost until momentum is dumped"
+            self.beside.pop(wheel, None)   # an operator's command on a wheel kept beside the spare
             self.given_up.append(wheel)
             return self._decided([Decision(t, wheel, "out_of_use", reason)], spare, wheel, short)
         self.held.pop(wheel, None)   # an operator overrules a wheel FDIR held
+        self.beside.pop(wheel, None)
         self.given_up.append(wheel)
         return self._decided([Decision(t, wheel, "out_of_use", reason)], None, wheel, None)
+
+    def review(self, t: float, wheel_speed, share=None) -> list:
+        """What the wheels do after a reconfiguration, watched at every sample; returns the new decisions.
+
+        * A wheel kept in use beside a spare that now gives under KEEPABLE_SHARE of its motor torque
+          (``share(wheel)``: fdir.DeliveryLog.share over the last second, given on the FDI's stamps: once a
+          period, on the samples of that period) is held. A fault that grows after
+          the decision (a bus ramping down while the wheel spins above what its bus can drive) turns a wheel
+          worth keeping into one that takes a share of the work it cannot give, leaving the controllers about
+          its axis a fraction of their gain: it is held, as it would have been had it been that weak when
+          confirmed (while the wheels left span the body: not once the spare beside it failed too).
+        * A wheel in use beyond ``holdable`` (``wheel_speed`` (N,) [rad/s]) once FDIR has acted is said, once:
+          the wheels left cannot hold the momentum the reconfiguration left them (a held wheel that sheds what
+          its fault does not let it keep), and the pointing is lost until momentum is dumped.
+        """
+        out = []
+        for wheel in [w for w in self.wheels.names if w in self.beside and share is not None]:
+            given = share(wheel)
+            rest = [w for w in self.in_use if w != wheel]
+            if not given < KEEPABLE_SHARE or not self.wheels.spans(rest):   # NaN: nothing asked of it; or the
+                continue                                                     # spare beside it failed too
+            del self.beside[wheel]
+            self.kept.discard(wheel)
+            self.in_use = rest
+            speed = float(wheel_speed[self.wheels.index(wheel)])
+            self.held[wheel] = speed
+            out.append(Decision(t, wheel, "held", f"gives {100 * max(given, 0.0):.1f} % of its motor torque over the "
+                                                  f"last second, under the {100 * KEEPABLE_SHARE:.0f} % a wheel kept "
+                                                  f"in use must give; relieved of control and held at {speed:.1f} "
+                                                  "rad/s as a momentum store"))
+        if self.given_up or self.held or self.kept:
+            for wheel in self.in_use:
+                speed = float(wheel_speed[self.wheels.index(wheel)])
+                if abs(speed) > self.holdable and wheel not in self.at_limit:
+                    self.at_limit.add(wheel)
+                    out.append(Decision(t, wheel, "at_limit", f"at {speed:.1f} rad/s, beyond the {self.holdable:g} rad/s "
+                                                          "a wheel in use can hold with torque to spare: the wheels "
+                                                          "in use cannot hold the momentum left them; pointing is "
+                                                          "lost until momentum is dumped"))
+        self.decisions += out
+        return out
 
     def _decided(self, out: list, spare, wheel: str, short) -> list:
         if spare is not None:

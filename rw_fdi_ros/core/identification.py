@@ -392,9 +392,12 @@ class FaultIdentifier:
     # fit no one size (steps and ramps of 50-300 s in service, rw-fdi bench service)
     RECENT = 90
 
-    def __init__(self, axes=("x", "y", "z"), calibration_samples: int = 0):
+    def __init__(self, axes=("x", "y", "z"), calibration_samples: int = 0, lazy: bool = False):
         self.axes = tuple(axes)
         self.calibration_samples = int(calibration_samples)
+        # lazy: decide only when asked (identifications()), for a reader that wants the last answer of a run
+        # (the core loop's onboard verdict): the same answers, without the grid fits of every sample between
+        self.lazy = bool(lazy)
         self.reset()
 
     def reset(self):
@@ -410,6 +413,7 @@ class FaultIdentifier:
         self.sums = {a: None for a in self.axes}     # axis -> ProfileSums once alarmed
         self.recent = {a: None for a in self.axes}   # axis -> (ProfileSums, rows) of the last RECENT samples
         self.latest = {a: None for a in self.axes}
+        self.stale = set()   # lazy: axes whose sums moved since their latest answer
         # (row, model error, calibration regressors) of the samples before an alarm
         self.backlog = {a: deque(maxlen=self.BACKLOG) for a in self.axes}
 
@@ -442,12 +446,28 @@ class FaultIdentifier:
                 # its driver off (given up by FDIR): a bus or current fault no longer shows, the spin-down
                 # would dilute the fit; the identification made while it was driven holds, and says so
                 if self.sums[a].n and not (self.latest.get(a) and self.latest[a].unpowered):
+                    self._resolve(a)
                     self.latest[a] = replace(self.latest.get(a) or decide(self.sums[a]), unpowered=True)
                 continue
             self.sums[a].add(row)
             self._slide(a, row)
-            self.latest[a] = self._decide(a)
+            if self.lazy:
+                self.stale.add(a)
+            else:
+                self.latest[a] = self._decide(a)
         return dict(self.latest)
+
+    def identifications(self) -> dict:
+        """axis -> the Identification of the samples so far (None for a wheel never alarmed); what update
+        returns, the lazy identifier's decided now."""
+        for a in list(self.stale):
+            self._resolve(a)
+        return dict(self.latest)
+
+    def _resolve(self, a):
+        if a in self.stale:
+            self.stale.discard(a)
+            self.latest[a] = self._decide(a)
 
     def _slide(self, a, row):
         """The last RECENT samples in a moving window of their own (a fault that ramps)."""

@@ -30,10 +30,11 @@ class OnboardVerdict:
     def __init__(self, names, curves: ThresholdCurves, batch: int, fdi_period: float = 1.0,
                  calibration_samples: int = 0, persistence: int | None = None, identification: bool = False):
         self.names = tuple(names)
+        self.fdi_period_ns = int(round(fdi_period * 1e9))
         self.sampler = TelemetrySampler(fdi_period, "mean", identification=identification)
-        self.identifiers = ([FaultIdentifier(self.names, calibration_samples) for _ in range(batch)]
+        # lazy: FDIR does not act on the identification; the run's answer is read at its end (identified)
+        self.identifiers = ([FaultIdentifier(self.names, calibration_samples, lazy=True) for _ in range(batch)]
                             if identification else None)
-        self.identified = [{} for _ in range(batch)]   # per run: wheel -> the latest Identification (or None)
         self.calibration_samples = calibration_samples
         self.filters = [[SignedResidual(calibration=UnitCalibration(calibration_samples) if calibration_samples
                                         else None) for _ in self.names] for _ in range(batch)]
@@ -56,10 +57,17 @@ class OnboardVerdict:
             residual, bound = np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
             rows = verdict.update(channel.update(stamp_ns, residual, bound), dict(zip(self.names, judged[b])))
             if self.identifiers is not None:
-                self.identified[b] = self.identifiers[b].update(_run_of(sample, b),
-                                                                {a: row[2] for a, row in rows.items()})
+                self.identifiers[b].update(_run_of(sample, b), {a: row[2] for a, row in rows.items()})
             out.append({a: t for a, t in verdict.confirmed.items() if t is not None})
         return out
+
+    @property
+    def identified(self) -> list:
+        """Per run: wheel -> its Identification on the samples so far (None: never alarmed); [] per run
+        without identification."""
+        if self.identifiers is None:
+            return [{} for _ in self.verdicts]
+        return [i.identifications() for i in self.identifiers]
 
 
 def _run_of(sample, b: int):

@@ -201,7 +201,8 @@ class WheelAllocationNode(GraphNode):
                 return
             t = stamp_seconds(stamp)
             due = self.delay.due(t) + [(j.removeprefix("reaction_wheel_"), OPERATOR) for j in self.operator]
-            if (due or self.reconfiguration.held) and any(x is None for x in self.state.get(stamp, (None,))):
+            watched = bool(self.reconfiguration.decisions)   # after a reconfiguration: review on this step's state
+            if (due or watched) and any(x is None for x in self.state.get(stamp, (None,))):
                 self.delay.pending[:0] = [(t, w) for w in due if w[1] != OPERATOR]
                 return   # the momentum check and a held wheel read this step's state: it comes with the attitude
             self.operator = []
@@ -215,10 +216,14 @@ class WheelAllocationNode(GraphNode):
                 decisions += self.reconfiguration.give_up(
                     wheel, t, reason, speeds, INERTIA * rate, force=reason == OPERATOR,
                     delivered=self.delivery.share(self.wheels.index(wheel)))
-            if decisions:
+            if self.reconfiguration.decisions and speeds is not None:
+                on_fdi = stamp % self.fdi_period_ns == 0   # a kept wheel's share is judged once an FDI period
+                decisions += self.reconfiguration.review(
+                    t, speeds, (lambda w: self.delivery.share(self.wheels.index(w))) if on_fdi else None)
+            if any(d.action != "at_limit" for d in decisions):
                 self.allocator.use(self.reconfiguration.ordered_in_use(), held=self.reconfiguration.held)
-                for d in decisions:
-                    self.get_logger().warning(d.message())
+            for d in decisions:
+                self.get_logger().warning(d.message())
             if decisions or not self.said_start:
                 self.said_start = True
                 self._publish_wheels(stamp)

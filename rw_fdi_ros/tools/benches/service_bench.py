@@ -48,6 +48,8 @@ from .detection_bench import format_rate, rate, write_report
 from ..evaluation.screen import load_fdi
 
 SEED_BASES = {"tuning": 90_000_000, "evaluation": 91_000_000, "net": 92_000_000}
+FAULT_FREE_SEEDS = 500_000   # the fault-free runs' seeds: the set's base plus this
+FAULT_FREE_S = 600.0
 WHEELS = WHEEL_SETS["orthogonal_skew"]
 POINTING_DEG = 0.2
 SETTLE_S = 60.0          # [s] after an onset and after a set-point change, not judged
@@ -73,14 +75,18 @@ class Draw:
     interval_s: tuple
     size_deg: float
     faults: tuple    # ({kind, wheel, onset, value, ramp}, ...)
+    fault_free: bool = False   # drawn as one of the fault-free 600-s runs (draw(fault_free=True))
 
 
-def draw(seed: int, max_duration: float | None = None) -> Draw:
+def draw(seed: int, max_duration: float | None = None, fault_free: bool = False) -> Draw:
     """The in-service run of ``seed`` (module docstring); ``max_duration`` [s] shortens the longer ones (the
-    rest of the draw unchanged)."""
+    rest of the draw unchanged); ``fault_free``: a 600-s run of the family without a fault (the false
+    reconfiguration figure needs a thousand of them)."""
     rng = np.random.default_rng([int(seed), 34])
     durations, shares = zip(*DURATIONS)
     duration = float(rng.choice(durations, p=shares))
+    if fault_free:
+        duration = FAULT_FREE_S
     if max_duration is not None:
         duration = min(duration, float(max_duration))
     units = bool(rng.random() < 0.5)
@@ -89,7 +95,7 @@ def draw(seed: int, max_duration: float | None = None) -> Draw:
     interval = (round(low, 1), round(float(min(900.0, low + rng.uniform(0.0, 600.0))), 1))
     size = round(float(rng.uniform(1.0, 5.0)), 2)
     faults = []
-    if rng.random() < 2.0 / 3.0:
+    if rng.random() < 2.0 / 3.0 and not fault_free:
         earliest = CALIBRATION_S + 5.0 if units else 20.0
         if units and rng.random() < 0.15:   # right after the calibration
             onset = rng.uniform(earliest, earliest + 20.0)
@@ -101,7 +107,7 @@ def draw(seed: int, max_duration: float | None = None) -> Draw:
             others = [w for w in WHEELS.names if w != wheel]
             second = rng.uniform(onset + 100.0, min(onset + 600.0, duration - 240.0))
             faults.append(_fault(rng, str(rng.choice(others)), second))
-    return Draw(int(seed), duration, units, orbit, interval, size, tuple(faults))
+    return Draw(int(seed), duration, units, orbit, interval, size, tuple(faults), bool(fault_free))
 
 
 def _fault(rng, wheel: str, onset: float) -> dict:
@@ -150,13 +156,19 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
     judged = judged_mask(traj.time, scenario_, start)
     error = np.degrees(np.abs(traj.error[:, b])).max(axis=1)
     bad = judged & (error > POINTING_DEG)
-    out = {"seed": d.seed, "duration": d.duration, "units": d.units, "orbit": d.orbit, "faults": list(d.faults),
+    out = {"seed": d.seed, "fault_free_family": d.fault_free, "duration": d.duration, "units": d.units, "orbit": d.orbit, "faults": list(d.faults),
            "decisions": decisions, "pointing_kept": not bool(bad.any()),
            "worst_deg": float(error[judged].max(initial=0.0)),
            "first_lost_s": float(traj.time[np.argmax(bad)]) if bad.any() else None,
            "peak_wheel_speed": float(np.abs(traj.wheel_speed[:, b]).max())}
     said = [x for x in decisions if any(m in x[3] for m in MOMENTUM_REASONS)]
-    out["momentum_said"] = said[0][3] if said else None
+    lost = out["first_lost_s"]
+    # said when it happens: before the first judged sample it is lost at, or within the settling time of it
+    # (a loss that begins inside a slew is first judged up to SETTLE_S later)
+    in_time = [x for x in said if lost is None or x[0] <= lost + SETTLE_S]
+    out["momentum_said"] = in_time[0][3] if in_time else None
+    out["momentum_said_s"] = in_time[0][0] if in_time else None
+    out["at_limit"] = [x[1] for x in decisions if x[2] == "at_limit"]
     out["reconfigured_before_fault"] = [x for x in decisions if first is None or x[0] < first]
     acted = {w for _, w, a, _ in decisions if a in ACTED}
     faulty = {f["wheel"] for f in d.faults}
@@ -203,9 +215,10 @@ def batches(draws: list, size: int = BATCH) -> list:
     return out
 
 
-def run_service(seeds, jobs: int = 2, progress=None, max_duration: float | None = None) -> list:
-    """Figures of the in-service runs of ``seeds``, in seed order."""
-    work = batches([draw(s, max_duration) for s in seeds])
+def run_service(seeds, jobs: int = 2, progress=None, max_duration: float | None = None, fault_free_seeds=()) -> list:
+    """Figures of the in-service runs of ``seeds`` and of the fault-free 600-s runs of ``fault_free_seeds``,
+    in seed order."""
+    work = batches([draw(s, max_duration) for s in seeds] + [draw(s, fault_free=True) for s in fault_free_seeds])
     runs = []
     if jobs <= 1:
         for chunk in work:
@@ -227,19 +240,25 @@ def run_service(seeds, jobs: int = 2, progress=None, max_duration: float | None 
     return sorted(runs, key=lambda r: r["seed"])
 
 
-def summarize(runs: list) -> dict:
-    free = [r for r in runs if not r["faults"]]
-    free_600 = [r for r in free if r["duration"] == 600.0]
-    hours = sum(r["duration"] if not r["faults"] else r["faults"][0]["onset"] for r in runs) / 3600.0
-    before = sum(len(r["reconfigured_before_fault"]) > 0 for r in runs)
+def summarize(all_runs: list) -> dict:
+    """The figures (module docstring): the fault-free ones on the family's runs and the fault-free 600-s runs
+    together, the others on the family's runs."""
+    runs = [r for r in all_runs if not r.get("fault_free_family")]
+    free = [r for r in all_runs if not r["faults"]]
+    free_600 = [r for r in free if r["duration"] == FAULT_FREE_S]
+    hours = sum(r["duration"] if not r["faults"] else r["faults"][0]["onset"] for r in all_runs) / 3600.0
+    before = sum(len(r["reconfigured_before_fault"]) > 0 for r in all_runs)
     faulty = [r for r in runs if r["faults"]]
     visible = [r for r in faulty if r["fault_effect_peak"] > VISIBLE_TORQUE]
     hidden = [r for r in faulty if r["fault_effect_peak"] <= VISIBLE_TORQUE]
     ident = [r["identification"] for r in faulty if "identification" in r]
     right = [i for i in ident if i["kind_right"]]
     delays = np.array([r["delay_s"] for r in faulty if r["delay_s"] is not None])
+    said = [r for r in runs if r["at_limit"]]
     return {
         "runs": len(runs), "hours": sum(r["duration"] for r in runs) / 3600.0,
+        "fault_free_runs": len(all_runs) - len(runs),
+        "at_limit_said": {"runs": len(said), "pointing_kept": sum(r["pointing_kept"] for r in said)},
         "reconfigured_fault_free_600s": rate(bool(r["decisions"]) for r in free_600),
         "reconfigured_fault_free_any": rate(bool(r["decisions"]) for r in free),
         "fault_free_hours": hours, "runs_reconfigured_before_fault": before,
@@ -265,14 +284,20 @@ def summarize(runs: list) -> dict:
 
 
 def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path = "reports/service", jobs: int = 2,
-                  progress=None, max_hours: float | None = None) -> dict:
+                  progress=None, max_hours: float | None = None, fault_free_runs: int = 1000) -> dict:
+    """``runs`` of the in-service family and ``fault_free_runs`` fault-free 600-s runs of it, on the seeds of
+    ``seeds`` (SEED_BASES; the fault-free ones from FAULT_FREE_SEEDS above); the report in ``out``."""
     seed_base = SEED_BASES[seeds]
     t0 = time.monotonic()
     max_duration = None if max_hours is None else 3600.0 * max_hours
-    results = run_service(range(seed_base, seed_base + runs), jobs, progress, max_duration)
-    report = {"schema": "rw_fdi_ros/service_bench/1", "seconds": time.monotonic() - t0, "max_hours": max_hours,
+    free_base = seed_base + FAULT_FREE_SEEDS
+    results = run_service(range(seed_base, seed_base + runs), jobs, progress, max_duration,
+                          range(free_base, free_base + fault_free_runs))
+    report = {"schema": "rw_fdi_ros/service_bench/2", "seconds": time.monotonic() - t0, "max_hours": max_hours,
               "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,
-              "seeds": [seed_base, seed_base + runs - 1], "figures": summarize(results), "runs": results}
+              "seeds": [seed_base, seed_base + runs - 1],
+              "fault_free_seeds": [free_base, free_base + fault_free_runs - 1] if fault_free_runs else None,
+              "figures": summarize(results), "runs": results}
     return write_report(report, out, "service", format_service)
 
 
@@ -280,7 +305,10 @@ def format_service(report: dict) -> str:
     f = report["figures"]
     lines = ["# FDIR in service (`rw-fdi bench service`)", "",
              f"Measured {report['date']}, {report['seed_set']} seeds {report['seeds'][0]:,}-{report['seeds'][1]:,} "
-             f"({f['runs']} runs, {f['hours']:.0f} h of service); {report['seconds'] / 60:.0f} min on this machine. "
+             f"({f['runs']} runs, {f['hours']:.0f} h of service)"
+             + (f" and fault-free 600-s runs {report['fault_free_seeds'][0]:,}-{report['fault_free_seeds'][1]:,}"
+                if report.get("fault_free_seeds") else "")
+             + f"; {report['seconds'] / 60:.0f} min on this machine. "
              "95 % Wilson intervals. The envelope: tools/benches/service_bench.py"
              + (f"; runs longer than {report['max_hours']:g} h shortened to it (--max-hours)."
                 if report.get("max_hours") else "."), "",
@@ -303,6 +331,9 @@ def format_service(report: dict) -> str:
     if d:
         lines += ["", f"Onset to decision: median {d['median']:.0f} s, p90 {d['p90']:.0f} s, max {d['max']:.0f} s "
                   "(ramps included)."]
+    a = f["at_limit_said"]
+    lines += [f"A wheel in use said past its holdable speed after a reconfiguration: {a['runs']} runs, the pointing "
+              f"kept in {a['pointing_kept']} of them (the warning came; the slews then allowed it)."]
     h = f["physically_hidden"]
     lines += [f"Faults the physics hides (no visible torque effect, never acted on): {h['runs']} runs."]
     return "\n".join(lines) + "\n"
