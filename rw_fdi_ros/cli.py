@@ -265,6 +265,11 @@ def _cmd_bench(args) -> int:
             report = bench_service(runs=args.service_runs, seeds=args.seed_set, out=args.out or "reports/service",
                                    jobs=args.jobs or 2, progress=bar.update, max_hours=args.max_hours,
                                    fault_free_runs=args.fault_free_runs)
+    elif args.what == "figures":
+        from .tools.benches.figures_check import check_figures
+        report = check_figures(benches=args.only.split(",") if args.only else None,
+                               progress=lambda name: print(f"figures: re-measuring {name} ...", file=sys.stderr,
+                                                           flush=True))
     elif args.what == "identification":
         from .tools.benches.identification_bench import bench_identification
         default_out = "reports/identification_units" if args.units else "reports/identification"
@@ -460,7 +465,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks that print figures")
     b.add_argument("what", choices=["graph", "fdi", "study", "detection", "identification", "units", "memory",
-                                    "operations", "recovery", "dumping", "service"],
+                                    "operations", "recovery", "dumping", "service", "figures"],
                    help="graph: real-time factor of a recorded fault-free run; fdi: observer step times, "
                         "node callback times and memory; study: record and replay throughput and the "
                         "thesis-scale reproduce time they give; detection: false-alarm and detection rates "
@@ -478,7 +483,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "during a dump (core loop); service: FDIR in service, every capability at once (units "
                         "and datasheet wheels, manoeuvres before and after faults of every kind, size, wheel, "
                         "onset and ramp, second faults, orbit with dumping, 600 s to 6 h; reconfigurations "
-                        "without a fault, the right wheel acted on, pointing kept, identification; core loop)")
+                        "without a fault, the right wheel acted on, pointing kept, identification; core loop); "
+                        "figures: every figure of the README's table re-measured at small n (about 12 min), "
+                        "printed beside the README's and the record's, flagged where the two disagree beyond chance")
     b.add_argument("--service-runs", type=COUNT, default=1000,
                    help="service: in-service runs, each drawn from its seed (default 1000)")
     b.add_argument("--max-hours", type=number(float, 0, 6, low_open=True), default=None,
@@ -509,6 +516,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--jobs", type=COUNT, default=None, help="study, service: processes at a time (default: 2)")
     b.add_argument("--duration", type=number(float, 0, low_open=True), default=400.0)
     b.add_argument("--seed", type=SEED, default=1)
+    b.add_argument("--only", default=None,
+                   help="figures: the benches to re-measure, comma-separated (detection, operations, "
+                        "identification_units, recovery, service, dumping, reproduce, graph, study; default all)")
     b.add_argument("--json", action="store_true")
     b.set_defaults(func=_cmd_bench)
 

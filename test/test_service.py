@@ -47,6 +47,17 @@ def test_a_ramping_fault_on_a_calibrated_unit_is_named_once_it_stops_growing():
     assert ident["kind"] == "temperature" and ident["size_right"], ident
 
 
+def test_a_kept_wheel_whose_bus_goes_on_falling_is_held_and_the_pointing_kept():
+    """A bus ramping to 4.15 V over 200 s on x of a datasheet wheel, with slews: x is confirmed while it still
+    gives over half its torque and kept beside s; as the bus goes on down it is held (watched once an FDI
+    period: fdir.Reconfiguration.review). Kept to the end, such a run lost 34 deg (seed 91,000,164)."""
+    fault = {"kind": "bus_voltage", "wheel": "x", "onset": 225.0, "value": 4.15, "ramp": 200.0}
+    run = _runs([sb.Draw(92_000_004, 600.0, False, False, (150.0, 450.0), 1.5, (fault,))])[0]
+    assert [(w, a) for _, w, a, _ in run["decisions"]] == [("x", "kept_in_use"), ("s", "in_use"), ("x", "held")]
+    assert "under the 50 %" in run["decisions"][2][3]
+    assert run["acted_right"] and run["pointing_kept"], run
+
+
 def test_the_in_service_family_draws_every_case_from_its_seed():
     """The draws are data: the same seed the same run, and the family holds what it claims."""
     draws = [sb.draw(s) for s in range(sb.SEED_BASES["net"], sb.SEED_BASES["net"] + 400)]

@@ -1,0 +1,219 @@
+"""`rw-fdi bench figures`: every figure of the README's table re-measured at small n, beside the README's.
+
+A figure of record holds only while nothing it depends on has changed. This command runs each bench behind
+the README's table at a small sample (SMALL: about 12 minutes on 2 cores in all), on the benches' own seeds
+of record, and prints every figure beside the README's row and the report of record it quotes
+(``reports/``). A rate is flagged when its small-n 95 % interval and the record's do not meet: the two
+samples disagree beyond chance, so something the figure depends on changed. A value (a wheel speed, a time
+of loss) is flagged outside its stated tolerance of the record. Small n cannot confirm a record (0 of 40
+says little); it catches a figure that has moved.
+"""
+from __future__ import annotations
+
+import importlib
+import json
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .detection_bench import format_rate, rate
+
+# the small samples: (bench, its keyword arguments); each ~0.5-5 min on 2 cores
+SMALL = {
+    "detection": {"fault_free_runs": 60, "runs_per_cell": 20},
+    "operations": {"fault_free_runs": 60, "runs_per_cell": 20, "hours_runs": 2},
+    "identification_units": {"runs_per_cell": 20, "units": True, "thesis_runs": 20, "bus_thesis_runs": 34},
+    "recovery": {"runs_per_cell": 6, "fault_free_runs": 60},
+    "service": {"runs": 40, "fault_free_runs": 60, "max_hours": 1.0},
+    "dumping": {"operations_runs": 2, "runs_per_cell": 15},
+    "reproduce": {"scale_name": "small"},
+    "graph": {},
+    "study": {"runs": 2},
+}
+RECORDS = {"detection": "reports/detection/detection.json", "operations": "reports/operations/operations.json",
+           "identification_units": "reports/identification_units/identification.json",
+           "recovery": "reports/recovery/recovery.json", "service": "reports/service/service.json",
+           "dumping": "reports/dumping/dumping.json"}
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One figure of a README row: ``extract(report)`` gives a rate {k, n} or a value, alike from the small
+    run's report and the record's; a value may differ by ``tolerance`` (absolute, in its unit)."""
+
+    row: str          # the start of the README row's first column
+    label: str
+    bench: str
+    extract: object
+    tolerance: float | None = None
+    unit: str = ""
+
+
+def _cell(name, observer, figure, key="observers"):
+    return lambda r: r["cells"][name][key][observer][figure]
+
+
+def _summed(names, figure):
+    def extract(r):
+        cells = [r["cells"][n]["figures"][figure] for n in names if n in r["cells"]]
+        return rate(x for c in cells for x in [True] * c["k"] + [False] * (c["n"] - c["k"]))
+    return extract
+
+
+SINGLE_FAULTS = [f"{kind}, wheels {speeds} rad/s" for speeds in ("20-30", "10-22")
+                 for kind in ("bus 4 V", "bus 5.5 V", "current loss 40 %", "temperature +150 C", "current loss 10 %",
+                              "temperature +30 C")]
+FIGURES = [
+    Figure("false alarms, fault-free, datasheet", "false alarms, the decision observer", "detection",
+           lambda r: r["cells"]["fault_free"]["methods"]["speed_aware"]["model"]["false_alarm"]),
+    Figure("false alarms in operations", "400-s runs alarmed (/diagnostics)", "operations",
+           _cell("fault-free operations", "verdict", "false_alarm")),
+    Figure("false alarms in operations", "2-h runs alarmed", "operations",
+           _cell("continuous operations, 2 h runs", "verdict", "false_alarm")),
+    Figure("detected, 10 % current loss", "current loss 10 % detected", "operations",
+           _cell("current loss 10 %", "verdict", "detected")),
+    Figure("detected, 10 % current loss", "temperature +30 C detected", "operations",
+           _cell("temperature +30 C", "verdict", "detected")),
+    Figure("bus drops that tumble", "bus 4.6 V: right wheel", "operations", _cell("bus 4.6 V", "verdict", "correct")),
+    Figure("bus drops that tumble", "bus 5.0 V: right wheel", "operations", _cell("bus 5.0 V", "verdict", "correct")),
+    *[Figure("fault kind right, varied wheel units", f"kind right: {cell}", "identification_units",
+             lambda r, c=cell: r["cells"][c]["kind_right_observable"])
+      for cell in ("current loss 8-45 %", "temperature +25 to +150 C", "bus 4.0-5.5 V")],
+    Figure("single faults on an active wheel recovered", "recovered, 12 single-fault cells", "recovery",
+           _summed(SINGLE_FAULTS, "recovered")),
+    Figure("single faults on an active wheel recovered", "a healthy wheel acted on", "recovery",
+           _summed(SINGLE_FAULTS, "healthy_given_up")),
+    Figure("**in service**", "pointing kept", "service", lambda r: r["figures"]["pointing_kept"]),
+    Figure("**in service**", "the faulty wheel and no other acted on", "service",
+           lambda r: r["figures"]["acted_right"]),
+    Figure("**in service**", "kind identified", "service", lambda r: r["figures"]["kind_right"]),
+    Figure("**in service**", "reconfigurations without a fault, 600-s runs", "service",
+           lambda r: r["figures"]["reconfigured_fault_free_600s"]),
+    Figure("reconfigurations in fault-free operations", "reconfigured", "recovery",
+           lambda r: r["cells"]["fault-free operations"]["figures"]["reconfigured"]),
+    Figure("a day in orbit", "with dumping: largest pointing error", "dumping",
+           lambda r: r["day"]["with_dumping"]["max_pointing_error_deg"], 0.02, "deg"),
+    Figure("a day in orbit", "with dumping: largest wheel speed", "dumping",
+           lambda r: r["day"]["with_dumping"]["max_abs_wheel_speed"], 3.0, "rad/s"),
+    Figure("a day in orbit", "rods off: pointing lost after", "dumping",
+           lambda r: r["day"]["rods_off"]["first_pointing_loss_s"] / 3600.0, 1.0, "h"),
+    Figure("false alarms through momentum dumping", "6-h runs in orbit alarmed", "dumping",
+           _cell("operations in orbit with dumping, 6-h runs", "verdict", "false_alarm")),
+    Figure("detected, 10 % current loss and +30 C with the onset inside a dump", "current loss 10 % in a dump",
+           "dumping", _cell("current loss 10 % during a dump", "verdict", "detected")),
+    Figure("detected, 10 % current loss and +30 C with the onset inside a dump", "temperature +30 C in a dump",
+           "dumping", _cell("temperature +30 C during a dump", "verdict", "detected")),
+    Figure("the thesis-scale study", "graph sample: bags identical to the core engine's (small scale)",
+           "reproduce", lambda r: r["engines"]["graph_sample"]),
+    Figure("the recorded graph", "real time, composed", "graph",
+           lambda r: r["groupings"][next(iter(r["groupings"]))]["real_time_factor"], None, "x"),
+    Figure("the recorded graph", "real time, one node per process", "graph",
+           lambda r: r["groupings"]["none"]["real_time_factor"], None, "x"),
+    *[Figure("judging a recorded bag", f"judging a bag: {how}", "study",
+             lambda r, how=how: next(v for k, v in r["judge_s_per_bag"].items() if k.startswith(how)), None, "s")
+      for how in ("core engine", "replay through the FDI graph")],
+]
+
+
+def readme_rows(readme: str | Path = "README.md") -> dict:
+    """The README's figures table: first column -> figure column."""
+    rows = {}
+    for line in Path(readme).read_text().splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("| ") and len(cells) >= 3 and not set(cells[0]) <= {"-"}:
+            rows[cells[0]] = cells[1]
+    return rows
+
+
+# bench -> (its module, function, the report file it writes in ``out``: None for one that returns it only)
+BENCH_FUNCTIONS = {
+    "detection": (".detection_bench", "bench_detection", "detection.json"),
+    "operations": (".operations_bench", "bench_operations", "operations.json"),
+    "identification_units": (".identification_bench", "bench_identification", "identification.json"),
+    "recovery": (".recovery_bench", "bench_recovery", "recovery.json"),
+    "service": (".service_bench", "bench_service", "service.json"),
+    "dumping": (".dumping_bench", "bench_dumping", "dumping.json"),
+    "reproduce": ("..evaluation.reproduce", "reproduce", None),
+    "graph": (".bench", "bench_graph", None),
+    "study": (".bench", "bench_study", None),
+}
+
+
+def _run_bench(name: str, out: Path) -> dict:
+    """The small run of bench ``name``: its report as its JSON holds it (or as it returns it)."""
+    module, function, report = BENCH_FUNCTIONS[name]
+    bench = getattr(importlib.import_module(module, __package__), function)
+    if name in ("graph", "study"):   # their figures are timings: no report directory
+        return bench(**SMALL[name])
+    result = bench(out=out, **SMALL[name])
+    return result if report is None else json.loads((out / report).read_text())
+
+
+def _graph_sample(x) -> dict:
+    return {"k": x["identical_bags"], "n": x["runs"]}
+
+
+def _compare(figure: Figure, small, record) -> tuple:
+    """(the small-n text, the record's text, flagged)."""
+    if figure.bench == "reproduce":
+        small = _graph_sample(small)
+        return f"{small['k']} of {small['n']}", "", small["k"] != small["n"]
+    if isinstance(small, dict):   # a rate
+        small = small if "ci95" in small else rate([True] * small["k"] + [False] * (small["n"] - small["k"]))
+        if record is None:
+            return format_rate(small), "-", False
+        lo, hi = small["ci95"]
+        rlo, rhi = record["ci95"]
+        return format_rate(small), format_rate(record), bool(hi < rlo - 1e-12 or lo > rhi + 1e-12)
+    if record is None or figure.tolerance is None:
+        return f"{small:.3g} {figure.unit}", "-" if record is None else f"{record:.3g} {figure.unit}", False
+    return (f"{small:.3g} {figure.unit}", f"{record:.3g} {figure.unit} (+-{figure.tolerance:g})",
+            abs(small - record) > figure.tolerance)
+
+
+def check_figures(readme: str | Path = "README.md", benches=None, progress=None, work: Path | None = None) -> dict:
+    """Run the small benches (``benches``: a subset of SMALL's names) and compare every figure of FIGURES."""
+    names = [b for b in SMALL if benches is None or b in benches]
+    unknown = sorted(set(benches or ()) - set(SMALL))
+    if unknown:
+        raise ValueError(f"unknown bench(es) {', '.join(unknown)}; the table's: {', '.join(SMALL)}")
+    rows = readme_rows(readme)
+    work = Path(work or tempfile.mkdtemp(prefix="rw_fdi_figures_"))
+    results, seconds = {}, {}
+    for name in names:
+        if progress:
+            progress(name)
+        t0 = time.monotonic()
+        results[name] = _run_bench(name, work / name)
+        seconds[name] = time.monotonic() - t0
+    records = {n: json.loads(Path(p).read_text()) for n, p in RECORDS.items() if n in names and Path(p).is_file()}
+    lines, flagged = [], 0
+    for figure in FIGURES:
+        if figure.bench not in results:
+            continue
+        row = next((text for key, text in rows.items() if key.startswith(figure.row)), None)
+        record = figure.extract(records[figure.bench]) if figure.bench in records else None
+        small, recorded, flag = _compare(figure, figure.extract(results[figure.bench]), record)
+        flagged += flag
+        lines.append({"row": figure.row, "figure": figure.label, "small": small, "record": recorded,
+                      "readme": row or "(row not found)", "flagged": flag})
+    return {"work": str(work), "seconds": seconds, "figures": lines, "flagged": flagged,
+            "ok": flagged == 0, "text": format_check(lines, seconds)}
+
+
+def format_check(lines: list, seconds: dict) -> str:
+    out = [f"Every figure of the README's table at small n ({sum(seconds.values()) / 60:.1f} min: "
+           + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items()) + ")", ""]
+    row = None
+    for x in lines:
+        if x["row"] != row:
+            row = x["row"]
+            out.append(f"{row.strip('*')}\n    README: {x['readme']}")
+        mark = "  << OUTSIDE" if x["flagged"] else ""
+        out.append(f"    {x['figure']:48s} {x['small']:34s} record {x['record']}{mark}")
+    flagged = sum(x["flagged"] for x in lines)
+    out += ["", f"{flagged} figure(s) outside the record's interval" if flagged else
+            "every figure within its record's interval (the small and the record's 95 % intervals meet)"]
+    return "\n".join(out) + "\n"
+

@@ -1,0 +1,34 @@
+"""`rw-fdi bench figures` reads what it claims: every figure finds its README row and its record, every row
+of the README's table is re-measured, and a small sample is flagged exactly where it disagrees beyond chance."""
+import json
+from pathlib import Path
+
+from rw_fdi_ros.tools.benches import figures_check as fc
+from rw_fdi_ros.tools.benches.detection_bench import rate
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_every_row_of_the_readme_table_is_re_measured_and_every_figure_reads_its_record():
+    rows = fc.readme_rows(ROOT / "README.md")
+    table = [k for k in rows if k != "what"]
+    assert len(table) >= 10
+    for key in table:
+        assert any(key.startswith(f.row) for f in fc.FIGURES), f"README row not re-measured: {key}"
+    assert set(fc.BENCH_FUNCTIONS) == set(fc.SMALL) == {f.bench for f in fc.FIGURES}
+    for f in fc.FIGURES:
+        if f.bench in fc.RECORDS:
+            value = f.extract(json.loads((ROOT / fc.RECORDS[f.bench]).read_text()))
+            assert ("k" in value and "n" in value) if isinstance(value, dict) else value == value, f.label
+
+
+def test_a_small_sample_is_flagged_where_its_interval_misses_the_records():
+    figure = fc.Figure("x", "a rate", "service", lambda r: r)
+    record = rate([True] * 985 + [False] * 15)          # 98.5 % [97.5, 99.1]
+    assert not fc._compare(figure, rate([True] * 19 + [False]), record)[2]      # 95 % of 20: could be
+    assert fc._compare(figure, rate([True] * 12 + [False] * 8), record)[2]      # 60 % of 20: cannot
+    value = fc.Figure("x", "a value", "dumping", lambda r: r, 1.0, "h")
+    assert not fc._compare(value, 13.9, 13.7)[2] and fc._compare(value, 15.0, 13.7)[2]
+    sample = fc.Figure("x", "bags", "reproduce", lambda r: r)
+    assert fc._compare(sample, {"identical_bags": 5, "runs": 6}, None)[2]
+    assert not fc._compare(sample, {"identical_bags": 6, "runs": 6}, None)[2]
