@@ -26,7 +26,8 @@ SMALL = {
     "identification_units": {"runs_per_cell": 20, "units": True, "thesis_runs": 20, "bus_thesis_runs": 34},
     "recovery": {"runs_per_cell": 6, "fault_free_runs": 60},
     "service": {"runs": 40, "fault_free_runs": 60, "max_hours": 1.0},
-    "dumping": {"operations_runs": 2, "runs_per_cell": 15},
+    # 16 h of the day in orbit hold both dumps and the rods-off loss (13.7 h); one 6-h run per orbit cell
+    "dumping": {"hours": 16.0, "operations_runs": 1, "runs_per_cell": 15},
     "reproduce": {"scale_name": "small"},
     "graph": {},
     "study": {"runs": 2},
