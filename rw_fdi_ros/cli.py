@@ -267,9 +267,11 @@ def _cmd_bench(args) -> int:
                                    fault_free_runs=args.fault_free_runs)
     elif args.what == "figures":
         from .tools.benches.figures_check import check_figures
-        report = check_figures(benches=args.only.split(",") if args.only else None,
-                               progress=lambda name: print(f"figures: re-measuring {name} ...", file=sys.stderr,
-                                                           flush=True))
+        def said(name, lines):   # each bench's figures as soon as they are in: the whole takes minutes
+            print(f"figures: re-measuring {name} ..." if lines is None else "\n".join(
+                f"figures: {x['figure']}: {x['small']} (record {x['record']})" + ("  << OUTSIDE" if x["flagged"] else "")
+                for x in lines), file=sys.stderr, flush=True)
+        report = check_figures(benches=args.only.split(",") if args.only else None, progress=said)
     elif args.what == "identification":
         from .tools.benches.identification_bench import bench_identification
         default_out = "reports/identification_units" if args.units else "reports/identification"

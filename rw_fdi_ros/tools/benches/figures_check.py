@@ -173,32 +173,41 @@ def _compare(figure: Figure, small, record) -> tuple:
             abs(small - record) > figure.tolerance)
 
 
+def figures_of(name: str, result: dict, rows: dict, record: dict | None) -> list:
+    """The figures of bench ``name`` from its small run's ``result``, beside the README's ``rows`` and its
+    ``record`` report."""
+    lines = []
+    for figure in (f for f in FIGURES if f.bench == name):
+        row = next((text for key, text in rows.items() if key.startswith(figure.row)), None)
+        small, recorded, flag = _compare(figure, figure.extract(result),
+                                         None if record is None else figure.extract(record))
+        lines.append({"row": figure.row, "figure": figure.label, "small": small, "record": recorded,
+                      "readme": row or "(row not found)", "flagged": flag})
+    return lines
+
+
 def check_figures(readme: str | Path = "README.md", benches=None, progress=None, work: Path | None = None) -> dict:
-    """Run the small benches (``benches``: a subset of SMALL's names) and compare every figure of FIGURES."""
+    """Run the small benches (``benches``: a subset of SMALL's names) and compare every figure of FIGURES;
+    ``progress(name, lines)`` before each bench (lines None) and after it (its figures)."""
     names = [b for b in SMALL if benches is None or b in benches]
     unknown = sorted(set(benches or ()) - set(SMALL))
     if unknown:
         raise ValueError(f"unknown bench(es) {', '.join(unknown)}; the table's: {', '.join(SMALL)}")
     rows = readme_rows(readme)
     work = Path(work or tempfile.mkdtemp(prefix="rw_fdi_figures_"))
-    results, seconds = {}, {}
+    lines, seconds = [], {}
     for name in names:
         if progress:
-            progress(name)
+            progress(name, None)
         t0 = time.monotonic()
-        results[name] = _run_bench(name, work / name)
+        result = _run_bench(name, work / name)
         seconds[name] = time.monotonic() - t0
-    records = {n: json.loads(Path(p).read_text()) for n, p in RECORDS.items() if n in names and Path(p).is_file()}
-    lines, flagged = [], 0
-    for figure in FIGURES:
-        if figure.bench not in results:
-            continue
-        row = next((text for key, text in rows.items() if key.startswith(figure.row)), None)
-        record = figure.extract(records[figure.bench]) if figure.bench in records else None
-        small, recorded, flag = _compare(figure, figure.extract(results[figure.bench]), record)
-        flagged += flag
-        lines.append({"row": figure.row, "figure": figure.label, "small": small, "record": recorded,
-                      "readme": row or "(row not found)", "flagged": flag})
+        path = Path(RECORDS[name]) if name in RECORDS else None
+        record = json.loads(path.read_text()) if path is not None and path.is_file() else None
+        lines += figures_of(name, result, rows, record)
+        if progress:
+            progress(name, [x for x in lines if any(f.bench == name and f.label == x["figure"] for f in FIGURES)])
+    flagged = sum(x["flagged"] for x in lines)
     return {"work": str(work), "seconds": seconds, "figures": lines, "flagged": flagged,
             "ok": flagged == 0, "text": format_check(lines, seconds)}
 
