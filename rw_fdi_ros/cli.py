@@ -269,8 +269,8 @@ def _cmd_bench(args) -> int:
         from .tools.benches.figures_check import check_figures
         def said(name, lines):   # each bench's figures as soon as they are in: the whole takes minutes
             print(f"figures: re-measuring {name} ..." if lines is None else "\n".join(
-                f"figures: {x['figure']}: {x['small']} (record {x['record']})" + ("  << OUTSIDE" if x["flagged"] else "")
-                for x in lines), file=sys.stderr, flush=True)
+                f"figures: {x['figure']}: {x['small']} (record {x['record']})"
+                + ("  << OUTSIDE" if x["flagged"] else "") for x in lines), file=sys.stderr, flush=True)
         report = check_figures(benches=args.only.split(",") if args.only else None, progress=said)
     elif args.what == "identification":
         from .tools.benches.identification_bench import bench_identification
@@ -498,7 +498,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="dumping: 6-hour runs of operations in orbit with dumping (default 20: 120 simulated hours)")
     b.add_argument("--hours", default="1,6", help="memory: run lengths in hours, comma-separated (default 1,6)")
     b.add_argument("--fault-free-runs", type=COUNT, default=1000,
-                   help="detection, units: fault-free runs; service: fault-free 600-s runs of the family (default 1000)")
+                   help="detection, units: fault-free runs; service: fault-free 600-s runs of the family "
+                        "(default 1000)")
     b.add_argument("--runs-per-cell", type=COUNT, default=None,
                    help="detection: runs per fault or ripple case (default 200); identification: per grid size "
                         "(default 100); recovery: per fault case (default 100)")

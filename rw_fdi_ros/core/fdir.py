@@ -37,6 +37,11 @@ is that decision, made the way flight FDIR makes it:
   up to 6 rad/s, wheel.bus_fault_visible_above; a current loss or a hotter
   bearing: all of it), so the wheels in use only take the rest.
 
+After a reconfiguration the wheels are watched (:meth:`Reconfiguration.review`):
+a wheel kept beside the spare is held once it gives under half its torque (a
+fault that grows after the decision), and a wheel in use past the holdable
+speed is said at once (``at_limit``: the momentum left cannot be held).
+
 Every decision is a :class:`Decision` (time, wheel, action, reason), which
 the graph publishes and records.
 
@@ -283,10 +288,10 @@ class Reconfiguration:
                 speed = float(wheel_speed[self.wheels.index(wheel)])
                 if abs(speed) > self.holdable and wheel not in self.at_limit:
                     self.at_limit.add(wheel)
-                    out.append(Decision(t, wheel, "at_limit", f"at {speed:.1f} rad/s, beyond the {self.holdable:g} rad/s "
-                                                          "a wheel in use can hold with torque to spare: the wheels "
-                                                          "in use cannot hold the momentum left them; pointing is "
-                                                          "lost until momentum is dumped"))
+                    out.append(Decision(t, wheel, "at_limit", f"at {speed:.1f} rad/s, beyond the {self.holdable:g} "
+                                                              "rad/s a wheel in use can hold with torque to spare: the "
+                                                              "wheels in use cannot hold the momentum left them; "
+                                                              "pointing is lost until momentum is dumped"))
         self.decisions += out
         return out
 

@@ -156,7 +156,8 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
     judged = judged_mask(traj.time, scenario_, start)
     error = np.degrees(np.abs(traj.error[:, b])).max(axis=1)
     bad = judged & (error > POINTING_DEG)
-    out = {"seed": d.seed, "fault_free_family": d.fault_free, "duration": d.duration, "units": d.units, "orbit": d.orbit, "faults": list(d.faults),
+    out = {"seed": d.seed, "fault_free_family": d.fault_free, "duration": d.duration, "units": d.units,
+           "orbit": d.orbit, "faults": list(d.faults),
            "decisions": decisions, "pointing_kept": not bool(bad.any()),
            "worst_deg": float(error[judged].max(initial=0.0)),
            "first_lost_s": float(traj.time[np.argmax(bad)]) if bad.any() else None,
