@@ -189,9 +189,23 @@ def test_a_kept_wheel_that_gives_too_little_is_held_and_a_wheel_past_its_limit_i
     assert r.review(7.1, speeds, lambda w: 0.1) == []
     said = r.review(8.0, [20.0, 25.0, 24.0, -45.5], lambda w: 0.1)
     assert [(d.wheel, d.action) for d in said] == [("s", "at_limit")] and "dumped" in said[0].reason
-    assert "at its speed limit" in said[0].message()
+    assert "at its limit" in said[0].message()
     assert r.review(8.1, [20.0, 25.0, 24.0, -46.0], lambda w: 0.1) == []   # said once
     assert r.review(8.2, [46.0, 25.0, 24.0, 0.0], lambda w: 0.1) == []     # a held wheel is not in use
+
+
+def test_a_kept_wheel_that_gives_too_little_with_no_wheel_left_is_said_once():
+    """x kept beside s, then y held (no spare left): x giving under half its torque cannot be held too (z and s
+    alone do not span the body), so it is said, once, with the pointing lost about its axis as the reason."""
+    r = Reconfiguration(SKEW)
+    r.give_up("x", 5.0, "confirmed", [27.5, 25.0, 24.0, 0.0])
+    r.give_up("y", 8.0, "confirmed", [27.5, 25.0, 24.0, 30.0])
+    assert r.ordered_in_use() == ("x", "z", "s")
+    assert r.review(9.0, [27.5, 25.0, 24.0, 30.0], lambda w: 0.8) == []
+    said = r.review(10.0, [27.5, 25.0, 24.0, 30.0], lambda w: 0.3 if w == "x" else 1.0)
+    assert [(d.wheel, d.action) for d in said] == [("x", "at_limit")]
+    assert "30.0 %" in said[0].reason and "no wheel is left" in said[0].reason and "pointing is lost" in said[0].reason
+    assert r.ordered_in_use() == ("x", "z", "s") and r.review(11.0, [27.5, 25.0, 24.0, 30.0], lambda w: 0.1) == []
 
 
 def test_the_loop_reconfigures_on_a_confirmed_failure_and_points_again():

@@ -162,11 +162,16 @@ def test_the_identifier_learns_the_unit_before_the_alarm():
     (idf.Identification("temperature", 215.0, 200.0, 215.0), "temperature >= 200 C"),
     (idf.Identification("bus_voltage", 2.0, 1.5, 2.6), "bus voltage <= 2.60 V"),
     (idf.Identification("unknown", samples=40, explained=0.5, best_guess="bus_voltage"),
-     "unknown fault (closest: bus voltage, explains 50 %)")])
+     "unknown fault (closest: bus voltage, explains 50 %)"),
+    (idf.Identification("bus_voltage", 4.61, 4.58, 4.64, ramp_s=200.0, growing=True),
+     "bus voltage 4.61 V [4.58, 4.64] (still growing)"),
+    (idf.Identification("current_loss", 0.6, 0.59, 0.61, ramp_s=110.0), "current loss, limiter 0.60 [0.59, 0.61] "
+     "(grew over ~110 s)")])
 def test_messages_read_at_a_glance(found, text):
     assert found.message() == text
     assert set(found.values()) == {"fault_kind", "fault_size", "fault_size_low", "fault_size_high", "fault_unit",
-                                   "fault_size_unit_limited"}
+                                   "fault_size_unit_limited", "fault_growing", "fault_ramp_s",
+                                   "fault_size_at_s"}
 
 
 def test_screen_identifies_the_thesis_faults_with_the_node_code():
@@ -205,3 +210,35 @@ def test_a_calibration_a_fault_interrupted_learns_no_more_after_a_reset():
     assert not calibration.frozen and calibration.n == 55   # the samples before the first alarm only
     assert out["x"].unit == "type"
     assert out["x"].best_guess == "current_loss" and out["x"].low <= 0.8 <= out["x"].high, out["x"]
+
+
+def ramp_rows(kind, value, ramp_s, n, seed=7):
+    """wheel_rows of a fault moving linearly from nominal to ``value`` over ``ramp_s`` 1-s samples from the first."""
+    nominal = {"bus_voltage": 8.0, "current_limiter": 1.0, "temperature": 23.0}[kind]
+    path = nominal + np.minimum(np.arange(n) / ramp_s, 1.0) * (value - nominal)
+    return wheel_rows(kind, path, n=n, seed=seed, noise=0.3 * idf.SIGMA_FLOOR), path
+
+
+def test_a_ramp_between_the_grid_ramps_is_named_with_its_size_and_its_ramp():
+    """A bus sagging to 4.4 V over 100 s (between the grid's 90- and 120-s ramps), then 200 s at 4.4 V: fitted
+    as one size the ramp's samples fit none (a step explains less), the ramps name it, the interval covers
+    4.4 V and the message says how long it grew."""
+    rows, _ = ramp_rows("bus_voltage", 4.4, 100.0, 300)
+    sums = idf.ProfileSums()
+    for t, row in enumerate(zip(*rows)):
+        sums.add(row, float(t))
+    found = idf.decide(sums)
+    assert found.kind == "bus_voltage" and found.low <= 4.4 <= found.high, found
+    assert abs(found.size - 4.4) <= 0.05 and not found.growing and 60.0 <= found.ramp_s <= 160.0
+    step_only = sums.rss()[0]
+    assert step_only.min() > 10.0 * min(found.rss.values())
+    assert "(grew over ~" in found.message()
+
+
+def test_a_fault_still_growing_is_given_its_size_now_and_said_growing():
+    """A current loss ramping to a limiter share of 0.5 over 300 s, seen for 150 s: now at 0.75, still growing."""
+    rows, path = ramp_rows("current_limiter", 0.5, 300.0, 150)
+    found = idf.identify(*rows)
+    assert found.kind == "current_loss" and found.growing and found.message().endswith("(still growing)")
+    assert abs(found.size - path[-1]) <= 0.02 and found.low <= path[-1] <= found.high, (found, path[-1])
+    assert found.at_s == 149.0

@@ -39,7 +39,7 @@ def test_a_fault_on_a_datasheet_wheel_then_slews_keeps_the_pointing_and_is_ident
 
 def test_a_ramping_fault_on_a_calibrated_unit_is_named_once_it_stops_growing():
     """+100 C on z of a wheel unit, ramping over 150 s from 200 s, with slews: z acted on, nothing else; the
-    samples since the onset fit no one temperature, the last RECENT ones do."""
+    samples since the onset fit no one temperature, the ramps (identification.RAMP_LENGTH) do."""
     fault = {"kind": "temperature", "wheel": "z", "onset": 200.0, "value": 123.0, "ramp": 150.0}
     run = _runs([sb.Draw(92_000_003, 600.0, True, False, MANOEUVRES, 3.0, (fault,))])[0]
     assert run["acted_right"] and run["pointing_kept"], run

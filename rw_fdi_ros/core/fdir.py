@@ -39,8 +39,9 @@ is that decision, made the way flight FDIR makes it:
 
 After a reconfiguration the wheels are watched (:meth:`Reconfiguration.review`):
 a wheel kept beside the spare is held once it gives under half its torque (a
-fault that grows after the decision), and a wheel in use past the holdable
-speed is said at once (``at_limit``: the momentum left cannot be held).
+fault that grows after the decision), or said at once where no wheel is left
+to take its share, and a wheel in use past the holdable speed is said at once
+(``at_limit``: the torque, or the momentum, left cannot keep the pointing).
 
 Every decision is a :class:`Decision` (time, wheel, action, reason), which
 the graph publishes and records.
@@ -97,7 +98,7 @@ class Decision:
     def message(self) -> str:
         what = {"out_of_use": "taken out of use", "in_use": "brought into use",
                 "kept_in_use": "kept in use", "held": "held at its speed",
-                "at_limit": "at its speed limit"}[self.action]
+                "at_limit": "at its limit"}[self.action]
         return f"wheel {self.wheel} {what} at {self.time:g} s: {self.reason}"
 
 
@@ -191,7 +192,7 @@ class Reconfiguration:
         self.given_up = []
         self.kept = set()      # wheels confirmed faulty but kept (no replacement): said once
         self.beside = {}       # kept wheel -> the spare brought in beside it (watched: review)
-        self.at_limit = set()  # wheels in use said beyond the holdable speed after a reconfiguration (review)
+        self.at_limit = set()  # wheels in use said at their limit after a reconfiguration: speed or torque (review)
         self.held = {}         # wheel -> the speed [rad/s] it is held at (out of control, a momentum store)
         self.decisions = []
 
@@ -263,26 +264,34 @@ class Reconfiguration:
           the decision (a bus ramping down while the wheel spins above what its bus can drive) turns a wheel
           worth keeping into one that takes a share of the work it cannot give, leaving the controllers about
           its axis a fraction of their gain: it is held, as it would have been had it been that weak when
-          confirmed (while the wheels left span the body: not once the spare beside it failed too).
+          confirmed (while the wheels left span the body). Where they do not (the spare beside it failed too,
+          or it was kept for want of a wheel), it is said, once: the pointing is lost about its axis.
         * A wheel in use beyond ``holdable`` (``wheel_speed`` (N,) [rad/s]) once FDIR has acted is said, once:
           the wheels left cannot hold the momentum the reconfiguration left them (a held wheel that sheds what
           its fault does not let it keep), and the pointing is lost until momentum is dumped.
         """
         out = []
-        for wheel in [w for w in self.wheels.names if w in self.beside and share is not None]:
+        for wheel in [w for w in self.wheels.names if w in self.kept and w in self.in_use and share is not None]:
             given = share(wheel)
+            if not given < KEEPABLE_SHARE:        # NaN: nothing asked of it
+                continue
             rest = [w for w in self.in_use if w != wheel]
-            if not given < KEEPABLE_SHARE or not self.wheels.spans(rest):   # NaN: nothing asked of it; or the
-                continue                                                     # spare beside it failed too
-            del self.beside[wheel]
-            self.kept.discard(wheel)
-            self.in_use = rest
-            speed = float(wheel_speed[self.wheels.index(wheel)])
-            self.held[wheel] = speed
-            out.append(Decision(t, wheel, "held", f"gives {100 * max(given, 0.0):.1f} % of its motor torque over the "
-                                                  f"last second, under the {100 * KEEPABLE_SHARE:.0f} % a wheel kept "
-                                                  f"in use must give; relieved of control and held at {speed:.1f} "
-                                                  "rad/s as a momentum store"))
+            if wheel in self.beside and self.wheels.spans(rest):
+                del self.beside[wheel]
+                self.kept.discard(wheel)
+                self.in_use = rest
+                speed = float(wheel_speed[self.wheels.index(wheel)])
+                self.held[wheel] = speed
+                out.append(Decision(t, wheel, "held", f"gives {100 * max(given, 0.0):.1f} % of its motor torque over "
+                                                      f"the last second, under the {100 * KEEPABLE_SHARE:.0f} % a "
+                                                      f"wheel kept in use must give; relieved of control and held at "
+                                                      f"{speed:.1f} rad/s as a momentum store"))
+            elif wheel not in self.at_limit:       # no wheel left to take its share: said, once
+                self.at_limit.add(wheel)
+                out.append(Decision(t, wheel, "at_limit", f"gives {100 * max(given, 0.0):.1f} % of its motor torque "
+                                                          "over the last second and no wheel is left to take its "
+                                                          "share: pointing is lost about its axis while its fault "
+                                                          "lasts"))
         if self.given_up or self.held or self.kept:
             for wheel in self.in_use:
                 speed = float(wheel_speed[self.wheels.index(wheel)])

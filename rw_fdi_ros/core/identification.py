@@ -51,8 +51,13 @@ finds the onset in the samples before the alarm) and are never forgotten: the
 few seconds after a fault, while the controller moves the command, are what
 tells a current loss from a bus drop; a window of the last 300 samples forgot
 them and turned 2.5 % of 40 % current losses "unknown" by the end of the run.
-The estimate is refined on every sample. Only where every sample since the onset fits no one size (a
-fault still ramping over part of them) do the last ``RECENT`` decide.
+The estimate is refined on every sample.
+
+A fault may grow to its size as a ramp (a bus or a temperature drifting, a driver degrading), so every family
+is also fitted with theta moving linearly from theta_0 over each ramp of a grid (RAMP_SHARE, RAMP_LENGTH; the
+step is one of them), and RSS_h(theta) is the least over the ramps. The size reported is theta at the last
+sample, and says whether the fault was still growing then. Fitted as a step, a bus ramping to 4.4 V over 110 s
+was "unknown" (explains 49 %) and a finished ramp's size the mean of its way; with the ramps, 4.36 V.
 """
 from __future__ import annotations
 
@@ -91,7 +96,8 @@ def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams()
     return params.torque_constant * wm.motor_current(u, w, grid, 1.0, params)
 
 
-def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, scales=None, free_motor_torque=None):
+def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, scales=None, free_motor_torque=None,
+                       fraction=None):
     """Predicted reaction torque of every grid point of every family, (sum of grid sizes, n), families
     in KINDS order, for n FDI samples of one wheel.
 
@@ -99,23 +105,33 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
     wheel's tau_m and tau_f and of Omega; ``bus_torque``: (n, len(BUS_VOLTAGE_GRID)); ``scales``:
     the unit's (1 + d_kt, 1 + d_Gd, 1 + b_v, 1 + b_c) (None: the datasheet wheel), whose driver gain
     acts on ``free_motor_torque`` (tau_m where the bridge does not clip; default tau_m).
+
+    ``fraction`` (H,), for one sample (n = 1): how far each of H ramps has come towards the grid value,
+    theta = theta_0 + phi (theta_grid - theta_0); then (H, sum of grid sizes). The bus family's torque at a
+    voltage between two grid points is interpolated (the grid is 0.01 V).
     """
     tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
-    bus = np.atleast_2d(np.asarray(bus_torque, float)).T
-    tv = _VISCOUS_GRID   # eq. 2.15 is the same law for every wheel of the type: once, not per sample
+    bus = np.atleast_2d(np.asarray(bus_torque, float)).T          # (len(BUS_VOLTAGE_GRID), n)
+    if fraction is None:      # grid points down axis 0, samples along axis 1
+        limiter, tv = CURRENT_LIMITER_GRID[:, None], _VISCOUS_GRID[:, None]
+    else:                     # ramps down axis 0, grid points along axis 1, the one sample along axis 2
+        phi = np.asarray(fraction, float)[:, None]
+        limiter = (1.0 + phi * (CURRENT_LIMITER_GRID - 1.0))[..., None]
+        tv = wm.viscous_coefficient(TEMPERATURE_GRID[0] + phi * (TEMPERATURE_GRID - TEMPERATURE_GRID[0]))[..., None]
+        volts = BUS_VOLTAGE_GRID[0] + phi * (BUS_VOLTAGE_GRID - BUS_VOLTAGE_GRID[0])
+        bus = np.interp(volts, BUS_VOLTAGE_GRID[::-1], bus[::-1, 0])[..., None]
     viscous = _VISCOUS_NOMINAL * w
     coulomb = tf - viscous
     if scales is None:
-        return np.concatenate([-CURRENT_LIMITER_GRID[:, None] * tm[None] + tf[None],
-                               -tm[None] + tv[:, None] * w[None] + coulomb[None],
-                               -bus + tf[None]])
-    kt, gd, sv, sc = (float(x) for x in scales)
-    free = _free(tm, free_motor_torque)
-    motor = kt * (tm + (gd - 1.0) * free)          # the unit's k_t clip((1 + d_Gd) G_d u, I_max), first order
-    friction = sv * viscous + sc * coulomb
-    return np.concatenate([-CURRENT_LIMITER_GRID[:, None] * motor[None] + friction[None],
-                           -motor[None] + sv * tv[:, None] * w[None] + sc * coulomb[None],
-                           -kt * (bus + (gd - 1.0) * _bus_free(tm, free, bus)) + friction[None]])
+        out = np.concatenate([-limiter * tm + tf, -tm + tv * w + coulomb, -bus + tf], axis=-2)
+    else:
+        kt, gd, sv, sc = (float(x) for x in scales)
+        free = _free(tm, free_motor_torque)
+        motor = kt * (tm + (gd - 1.0) * free)          # the unit's k_t clip((1 + d_Gd) G_d u, I_max), first order
+        friction = sv * viscous + sc * coulomb
+        out = np.concatenate([-limiter * motor + friction, -motor + sv * tv * w + sc * coulomb,
+                              -kt * (bus + (gd - 1.0) * _bus_free(tm, free, bus)) + friction], axis=-2)
+    return out if fraction is None else out[..., 0]
 
 
 def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, free_motor_torque=None):
@@ -142,7 +158,7 @@ def _free(tm, free_motor_torque):
 def _bus_free(tm, free, bus):
     """The bus family's unclipped motor torque: the 8 V wheel's where the bus at V clips no more than 8 V
     does (equal torques), else 0."""
-    return np.where(np.abs(bus - tm[None]) <= 1e-12 + 1e-9 * np.abs(tm[None]), free[None], 0.0)
+    return np.where(np.abs(bus - tm) <= 1e-12 + 1e-9 * np.abs(tm), free, 0.0)
 
 
 _VISCOUS_GRID = wm.viscous_coefficient(TEMPERATURE_GRID)
@@ -153,15 +169,35 @@ _SLICES = dict(zip(KINDS, np.split(np.arange(sum(map(len, GRIDS.values()))),
                                    np.cumsum([len(GRIDS[k]) for k in KINDS])[:-1])))
 
 
+# The ways a fault may have grown (steps, and ramps of 50-300 s in service: rw-fdi bench service). A ramp is
+# (a, D): the share of its way it had come at the first sample counted (a slow ramp's alarm lags its onset by
+# more than the samples kept before an alarm) and the seconds from that sample to its end, so at ``elapsed``
+# seconds from the first sample phi = a + (1 - a) min(elapsed / D, 1). The step (phi = 1 throughout) is first.
+RAMP_START_SHARES = (0.0, 0.2, 0.4, 0.55, 0.7, 0.8, 0.9, 0.95)
+RAMP_SECONDS = (10.0, 20.0, 30.0, 45.0, 60.0, 90.0, 120.0, 160.0, 200.0, 250.0, 300.0, 400.0)
+RAMP_SHARE = np.array([1.0] + [a for a in RAMP_START_SHARES for _ in RAMP_SECONDS])
+RAMP_LENGTH = np.array([0.0] + [d for _ in RAMP_START_SHARES for d in RAMP_SECONDS])
+RAMP_NOTED_S = 30.0   # [s] a shorter ramp is reported as the step it all but is
+
+
+def ramp_fractions(elapsed: float) -> np.ndarray:
+    """phi of every ramp (RAMP_SHARE, RAMP_LENGTH) at ``elapsed`` seconds from the first sample counted."""
+    grown = np.clip(float(elapsed) / np.maximum(RAMP_LENGTH, 1e-9), 0.0, 1.0)
+    return np.where(RAMP_LENGTH > 0.0, RAMP_SHARE + (1.0 - RAMP_SHARE) * grown, 1.0)
+
+
 class ProfileSums:
-    """Running sums that give RSS(theta) of every grid point with the ripple (and the unit's
+    """Running sums that give RSS(theta) of every grid point of every ramp with the ripple (and the unit's
     uncertainty) projected out:
 
-        RSS = sum e^2 - c^T (G + Pi)^-1 c,  e = r - r^(theta),  c = sum e x,  G = sum x x^T,
+        RSS = sum e^2 - c^T (G + Pi)^-1 c,  e = r - r^(theta(t)),  c = sum e x,  G = sum x x^T,
         x = (Im p, Re p[, dr^/db(theta)]),  Pi = the unit's prior information (0 on the ripple)
 
-    A sample costs O(grid) and the memory does not grow with the samples. ``unit``: what is known of
-    the wheel's unit (calibration.UnitShares); None for the datasheet wheel.
+    theta(t) is the grid value throughout for the step and theta_0 + phi(t) (theta - theta_0) for a ramp
+    (RAMP_SHARE, RAMP_LENGTH). A sample costs O(grid) once every ramp is over (O(ramps x grid) before) and the
+    memory does not grow with the samples; the unit's directions are taken at the grid value for a ramp too (a
+    difference of second order). ``unit``: what is known of the wheel's unit (calibration.UnitShares); None for
+    the datasheet wheel.
     """
 
     def __init__(self, unit: UnitShares | None = None):
@@ -172,47 +208,70 @@ class ProfileSums:
         self.cross = np.zeros((_SIZE, width))
         # the ripple's Gram is the same for every grid point; the unit's directions are not
         self.gram = np.zeros((2, 2)) if unit is None else np.zeros((_SIZE, width, width))
+        # each ramp's sums less the step's: nothing once the ramp is over
+        self.ramp_sq = np.zeros((len(RAMP_LENGTH), _SIZE))
+        self.ramp_cross = np.zeros((len(RAMP_LENGTH), _SIZE, width))
         self.n = 0
+        self.start = None     # [s] the first sample's time
+        self.elapsed = 0.0    # [s] from the first sample to the last
 
-    def add(self, row, weight: float = 1.0):
+    def add(self, row, time: float | None = None):
         """``row``: (reaction torque, motor torque, friction torque, wheel speed, bus torques, phasor[, free
-        motor torque]); ``weight`` -1 takes a sample added before out again (a moving window)."""
+        motor torque]); ``time`` [s]: the sample's (default: its index, 1 s samples)."""
         r, tm, tf, w, bus, p, *rest = row
         free = rest[0] if rest else None
+        time = float(self.n if time is None else time)
+        self.start = time if self.start is None else self.start
+        self.elapsed = time - self.start
         e = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free)[:, 0]
         ripple = np.array([np.imag(p), np.real(p)])
         if self.unit is None:
-            self.cross += weight * e[:, None] * ripple[None, :]
-            self.gram += weight * np.outer(ripple, ripple)
+            x = ripple[None, :]
+            self.gram += np.outer(ripple, ripple)
         else:
             x = np.empty((_SIZE, 6))
             x[:, :2] = ripple
             x[:, 2:] = unit_sensitivities(tm, tf, w, bus[None, :], free)[:, 0]
-            self.cross += weight * e[:, None] * x
-            self.gram += weight * (x[:, :, None] * x[:, None, :])
-        self.sq += weight * e * e
-        self.n += int(weight)
+            self.gram += x[:, :, None] * x[:, None, :]
+        self.cross += e[:, None] * x
+        self.sq += e * e
+        phi = ramp_fractions(self.elapsed)
+        growing = np.nonzero(phi < 1.0)[0]
+        if growing.size:
+            e_ramp = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free, fraction=phi[growing])
+            self.ramp_sq[growing] += e_ramp * e_ramp - e * e
+            self.ramp_cross[growing] += (e_ramp - e)[:, :, None] * x[None]
+        self.n += 1
 
     def _ripple_usable(self, gram) -> bool:
         return self.n > 2 and bool(np.all(np.isfinite(gram))) and np.linalg.cond(gram) <= 1e12
 
     def rss(self, noise_variance: float | None = None) -> np.ndarray:
-        """RSS of every grid point, the ripple projected out; with ``noise_variance`` (c s^2) and a unit,
-        the unit's uncertainty too (penalised by its prior), else the unit taken at its mean."""
+        """RSS of every ramp and grid point, (ramps, grid), the ripple projected out; with ``noise_variance``
+        (c s^2) and a unit, the unit's uncertainty too (penalised by its prior), else the unit taken at its
+        mean."""
+        sq = self.sq[None] + self.ramp_sq
+        cross = self.cross[None] + self.ramp_cross                       # (ramps, grid, width)
         ripple_gram = self.gram if self.unit is None else self.gram[0, :2, :2]
         ripple = self._ripple_usable(ripple_gram)
         if noise_variance is None or self.unit is None:
             if not ripple:
-                return np.maximum(self.sq, 0.0)
-            solved = np.linalg.solve(ripple_gram, self.cross[:, :2].T)          # (2, size)
-            return np.maximum(self.sq - np.einsum("ij,ji->i", self.cross[:, :2], solved), 0.0)
+                return np.maximum(sq, 0.0)
+            solved = np.linalg.solve(ripple_gram, cross[..., :2].reshape(-1, 2).T).T.reshape(cross[..., :2].shape)
+            return np.maximum(sq - np.einsum("hij,hij->hi", cross[..., :2], solved), 0.0)
         keep = slice(0, 6) if ripple else slice(2, 6)
         penalty = np.zeros((6, 6))
         penalty[2:, 2:] = noise_variance * np.linalg.inv(self.unit.covariance + 1e-12 * np.eye(4))
-        lhs = (self.gram + penalty)[:, keep, keep]
-        c = self.cross[:, keep]
-        solved = np.linalg.solve(lhs, c[:, :, None])[:, :, 0]
-        return np.maximum(self.sq - np.einsum("ij,ij->i", c, solved), 0.0)
+        lhs = (self.gram + penalty)[:, keep, keep]                      # (grid, k, k): one for every ramp
+        c = cross[..., keep]
+        solved = np.linalg.solve(lhs, np.moveaxis(c, 0, -1))            # (grid, k, ramps)
+        return np.maximum(sq - np.einsum("hik,ikh->hi", c, solved), 0.0)
+
+    def sizes_now(self, kind: str) -> np.ndarray:
+        """theta at the last sample of every ramp and grid point of ``kind``'s family, (ramps, grid)."""
+        grid = GRIDS[kind]
+        phi = ramp_fractions(self.elapsed)[:, None]
+        return grid[0] + phi * (grid[None] - grid[0])
 
 
 @dataclass
@@ -231,7 +290,9 @@ class Identification:
     unit: str = "datasheet"      # the wheel the families scale: 'datasheet', 'calibrated' or 'type' (still learning)
     unit_limited: bool = False   # what is not known of the unit at least doubles the interval
     unpowered: bool = False      # its driver is off (given up by FDIR): identified from the samples before
-    recent: int = 0              # > 0: identified on the last ``recent`` samples (the fault grew before them)
+    ramp_s: float = 0.0          # [s] how long the fault took to grow to its size (0: a step)
+    growing: bool = False        # it was still growing at the last sample: the size is the size then
+    at_s: float = float("nan")   # [s] the time of the last sample (the stamp the size is the fault's at)
 
     @property
     def bound_only(self) -> str:
@@ -250,8 +311,10 @@ class Identification:
         if self.unit_limited:
             why = (" (wide: the unit is not calibrated yet)" if self.unit == "type"
                    else " (wide: what the calibration does not know of the unit)")
-        if self.recent:
-            why += f" (on the last {self.recent} samples: it grew before them)"
+        if self.growing:
+            why += " (still growing)"
+        elif self.ramp_s >= RAMP_NOTED_S:
+            why += f" (grew over ~{self.ramp_s:.0f} s)"
         if self.unpowered and (self.kind != UNKNOWN or self.samples >= MIN_SAMPLES):
             why += f" (from the {self.samples} samples before its driver was switched off)"
         if self.kind == UNKNOWN:
@@ -279,11 +342,14 @@ class Identification:
             return "nan" if not np.isfinite(v) else f"{v:.6g}"
         return {"fault_kind": self.kind, "fault_size": num(self.size), "fault_size_low": num(self.low),
                 "fault_size_high": num(self.high), "fault_unit": self.unit,
-                "fault_size_unit_limited": "true" if self.unit_limited else "false"}
+                "fault_size_unit_limited": "true" if self.unit_limited else "false",
+                "fault_growing": "true" if self.growing else "false", "fault_ramp_s": num(self.ramp_s),
+                "fault_size_at_s": num(self.at_s)}
 
 
 def decide(sums: ProfileSums) -> Identification:
-    """Kind and size from the profile sums of one wheel's samples (module docstring)."""
+    """Kind and size from the profile sums of one wheel's samples (module docstring); the size is the fault's
+    at the last sample (a ramp may still be growing)."""
     n = sums.n
     if n < MIN_SAMPLES:
         return Identification(UNKNOWN, samples=n)
@@ -299,42 +365,63 @@ def decide(sums: ProfileSums) -> Identification:
         rss_all = sums.rss(CORRELATION * s2)
     if not np.all(np.isfinite(rss_all)):
         return Identification(UNKNOWN, samples=n)
-    fits = {k: rss_all[_SLICES[k]] for k in KINDS}
-    nominal = fits["current_loss"][0]                       # grid[0] of every family is the healthy wheel
+    fits = {k: rss_all[:, _SLICES[k]] for k in KINDS}
+    nominal = fits["current_loss"][0, 0]          # grid[0] of every family is the healthy wheel, whatever the ramp
     best = min(KINDS, key=lambda k: fits[k].min())
-    grid, rss = GRIDS[best], fits[best]
-    rss_min = float(rss.min())
+    rss = fits[best]
+    ramp, point = np.unravel_index(int(rss.argmin()), rss.shape)
+    rss_min = float(rss[ramp, point])
     explained = 1.0 - rss_min / nominal if nominal > 0 else 0.0
     margin = min((fits[k].min() - rss_min) / s2 for k in KINDS if k != best)
-    low, high = _interval(grid, rss, s2)
-    size = float(grid[rss.argmin()])
-    out = Identification(best, size, low, high, n, float(explained), best, {k: float(fits[k].min()) for k in KINDS})
-    out.healthy = size == grid[0]
+    now, step = sums.sizes_now(best), abs(GRIDS[best][1] - GRIDS[best][0])
+    low, high = _interval(now, rss, s2, step)
+    out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best,
+                         {k: float(fits[k].min()) for k in KINDS})
+    out.healthy = point == 0
+    out.at_s = float(sums.start + sums.elapsed)
+    phi = ramp_fractions(sums.elapsed)[ramp]
+    out.growing = bool(phi < 1.0)
+    if RAMP_LENGTH[ramp] > 0.0:
+        out.ramp_s = float(RAMP_LENGTH[ramp] / (1.0 - RAMP_SHARE[ramp]))
     if sums.unit is not None:
         out.unit = sums.unit.source
-        alone = _interval(grid, known[_SLICES[best]], s2)   # were the unit known exactly
-        out.unit_limited = (high - low) > 2.0 * (alone[1] - alone[0])
+        # the interval were the unit known exactly, both without the ramps' neighbours (they are the same)
+        alone = _interval(now, known[:, _SLICES[best]], s2, step, neighbours=False)
+        held = _interval(now, rss, s2, step, neighbours=False)
+        out.unit_limited = (held[1] - held[0]) > 2.0 * (alone[1] - alone[0])
     if explained < EXPLAINED or margin < DECISIVE or out.healthy:
         out.kind = UNKNOWN
     return out
 
 
-def _interval(grid, rss, s2) -> tuple:
-    """{theta : RSS(theta) - RSS_min <= chi2_1(0.95) s^2 c}, never narrower than the grid's own
-    resolution (half a step either side)."""
-    inside = np.nonzero(rss - rss.min() <= CHI2_95 * s2 * CORRELATION)[0]
-    step = abs(grid[1] - grid[0])
-    ends = sorted((float(grid[inside.min()]), float(grid[inside.max()])))
-    return max(ends[0] - step / 2, min(grid[0], grid[-1])), min(ends[1] + step / 2, max(grid[0], grid[-1]))
+def _interval(sizes, rss, s2, step, neighbours: bool = True) -> tuple:
+    """{theta : RSS(theta) - RSS_min <= chi2_1(0.95) s^2 c} over every ramp (``sizes``: theta at the last sample
+    of each ramp and grid point), widened to the best size of each ramp next to the best one on the ramps'
+    grid (the fault's own ramp lies between grid ramps, and a neighbour's size is as near it as the best's),
+    never narrower than the grid's own resolution (half a ``step`` either side) nor outside the grid."""
+    inside = rss - rss.min() <= CHI2_95 * s2 * CORRELATION
+    best = int(rss.min(axis=1).argmin())
+    if best and neighbours:
+        share, length = divmod(best - 1, len(RAMP_SECONDS))
+        for i in range(max(share - 1, 0), min(share + 2, len(RAMP_START_SHARES))):
+            for j in range(max(length - 1, 0), min(length + 2, len(RAMP_SECONDS))):
+                h = 1 + i * len(RAMP_SECONDS) + j
+                inside[h, rss[h].argmin()] = True
+    ends = float(sizes[inside].min()), float(sizes[inside].max())
+    bounds = float(sizes.min()), float(sizes.max())
+    return max(ends[0] - step / 2, bounds[0]), min(ends[1] + step / 2, bounds[1])
 
 
 def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor,
-             unit: UnitShares | None = None, free_motor_torque=None) -> Identification:
-    """Kind and size of one wheel's fault from its n FDI samples since the alarm (whole arrays)."""
+             unit: UnitShares | None = None, free_motor_torque=None, times=None) -> Identification:
+    """Kind and size of one wheel's fault from its n FDI samples since the onset (whole arrays; ``times`` [s]
+    default: 1 s apart)."""
     sums = ProfileSums(unit)
     free = [None] * len(reaction_torque) if free_motor_torque is None else free_motor_torque
-    for row in zip(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor, free):
-        sums.add(row)
+    times = range(len(reaction_torque)) if times is None else times
+    for *row, t in zip(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor, free,
+                       times):
+        sums.add(tuple(row), t)
     return decide(sums)
 
 
@@ -388,10 +475,6 @@ class FaultIdentifier:
     a wheel's fault is identified on the unit known at its first alarm."""
 
     BACKLOG = 60   # FDI samples: the 40-sample window and the persistence the alarm lags by, and a margin
-    # FDI samples of the moving window a fault that ramps is identified on once the samples since its onset
-    # fit no one size (steps and ramps of 50-300 s in service, rw-fdi bench service)
-    RECENT = 90
-
     def __init__(self, axes=("x", "y", "z"), calibration_samples: int = 0, lazy: bool = False):
         self.axes = tuple(axes)
         self.calibration_samples = int(calibration_samples)
@@ -405,21 +488,24 @@ class FaultIdentifier:
         self.calibrations = ({a: UnitCalibration(self.calibration_samples) for a in self.axes}
                              if self.calibration_samples else None)
         self.faulted = {a: False for a in self.axes}   # alarmed once this run: its calibration learns no more
+        self.samples = 0
         self.clear()
 
     def clear(self):
         """Forget every wheel's fault (an operator's reset); the units learnt stay, and a calibration a
         fault interrupted does not learn again (the wheel may still be faulty)."""
         self.sums = {a: None for a in self.axes}     # axis -> ProfileSums once alarmed
-        self.recent = {a: None for a in self.axes}   # axis -> (ProfileSums, rows) of the last RECENT samples
         self.latest = {a: None for a in self.axes}
         self.stale = set()   # lazy: axes whose sums moved since their latest answer
-        # (row, model error, calibration regressors) of the samples before an alarm
+        # (row, model error, calibration regressors, time) of the samples before an alarm
         self.backlog = {a: deque(maxlen=self.BACKLOG) for a in self.axes}
 
     def update(self, sample, alarmed: dict) -> dict:
         """``sample``: a telemetry.FdiSample with the identification terms; ``alarmed``: axis -> bool.
         Returns axis -> Identification (None for a wheel never alarmed)."""
+        stamp = getattr(sample, "stamp_ns", None)
+        time = self.samples if stamp is None else 1e-9 * stamp     # [s] (1 s samples where it has no stamp)
+        self.samples += 1
         for i, a in enumerate(self.axes):
             calibration = None if self.calibrations is None else self.calibrations[a]
             free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
@@ -436,10 +522,10 @@ class FaultIdentifier:
                     if not calibration.frozen and not self.faulted[a]:   # learns while its wheel is healthy
                         calibration.update(error, x)
                 if not alarmed.get(a):
-                    self.backlog[a].append((row, error, x))
+                    self.backlog[a].append((row, error, x, time))
                     continue
                 self.sums[a] = ProfileSums(None if calibration is None else calibration.unit())
-                self._add_since_onset(a, list(self.backlog[a]) + [(row, error, x)], calibration)
+                self._add_since_onset(a, list(self.backlog[a]) + [(row, error, x, time)], calibration)
                 self.backlog[a].clear()
             tcv = getattr(sample, "tcv", None)
             if tcv is not None and float(tcv[i]) == 0.0:
@@ -449,8 +535,7 @@ class FaultIdentifier:
                     self._resolve(a)
                     self.latest[a] = replace(self.latest.get(a) or decide(self.sums[a]), unpowered=True)
                 continue
-            self.sums[a].add(row)
-            self._slide(a, row)
+            self.sums[a].add(row, time)
             if self.lazy:
                 self.stale.add(a)
             else:
@@ -469,36 +554,17 @@ class FaultIdentifier:
             self.stale.discard(a)
             self.latest[a] = self._decide(a)
 
-    def _slide(self, a, row):
-        """The last RECENT samples in a moving window of their own (a fault that ramps)."""
-        if self.recent[a] is None:
-            self.recent[a] = (ProfileSums(self.sums[a].unit), deque())
-        sums, rows = self.recent[a]
-        sums.add(row)
-        rows.append(row)
-        if len(rows) > self.RECENT:
-            sums.add(rows.popleft(), -1.0)
-
     def _decide(self, a) -> Identification:
-        """Every sample since the onset; where they fit no one fault (a ramp still growing for part of them),
-        the last RECENT samples, once the window is full."""
-        found = decide(self.sums[a])
-        sums, rows = self.recent[a]
-        if found.kind == UNKNOWN and found.samples >= MIN_SAMPLES and len(rows) >= self.RECENT:
-            window = decide(sums)
-            if window.kind != UNKNOWN:
-                return replace(window, samples=found.samples, recent=len(rows))
-        return found
+        return decide(self.sums[a])
 
     def _add_since_onset(self, a, past, calibration):
         """Add the kept samples after the onset (the last of ``past`` is the alarm's own, added after)."""
-        if any(not np.isfinite(e) for _, e, _ in past):   # telemetry without the nominal model: from the alarm
+        if any(not np.isfinite(e) for _, e, _, _ in past):   # telemetry without the nominal model: from the alarm
             return
         # each sample's model error on the unit known now (those of the learning window were not
         # corrected when they came; a calibration still learning gives its posterior so far)
         mean = None if calibration is None else calibration.so_far().mean[:PHYSICAL]
-        errors = [e if mean is None else e - float(z[:PHYSICAL] @ mean) for _, e, z in past]
-        onset = onset_index(errors, [r[5] for r, _, _ in past])
-        for earlier, _, _ in past[onset + 1:-1]:
-            self.sums[a].add(earlier)
-            self._slide(a, earlier)
+        errors = [e if mean is None else e - float(z[:PHYSICAL] @ mean) for _, e, z, _ in past]
+        onset = onset_index(errors, [r[5] for r, _, _, _ in past])
+        for earlier, _, _, time in past[onset + 1:-1]:
+            self.sums[a].add(earlier, time)

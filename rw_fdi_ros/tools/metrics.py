@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.plant_choices import FDI_PERIOD
 from ..core.scenario import AXES, Scenario
 from ..nodes import topics as T
 
@@ -258,6 +259,25 @@ def size_tolerance(kind: str, value: float, strict_bus: bool = False) -> float:
     return min(0.1, 0.1 * abs(value)) if strict_bus and kind == "bus_voltage" else 0.1 * abs(value)
 
 
+def size_at(fault, at_s: float) -> float:
+    """The truth an identified size is judged against: the fault's value at the identification's last sample
+    (``at_s``, its stamp; the middle of that FDI period), a ramp's value then where it was still growing or its
+    wheel's driver was switched off before it ended; the final value where the time is not known."""
+    if not np.isfinite(at_s):
+        return float(fault.value)
+    return float(fault.value_at(float(at_s) - 0.5 * FDI_PERIOD))
+
+
+def judge_size(fault, size: float, low: float, high: float, at_s: float = float("nan"),
+               strict_bus: bool = False) -> dict:
+    """size_error (estimate - truth, in the kind's unit), size_right (within :func:`size_tolerance`), covered
+    (truth inside [low, high]) of an identification of the right kind (truth: :func:`size_at`)."""
+    truth = size_at(fault, at_s)
+    return {"size": float(size), "truth": truth, "size_error": float(size) - truth,
+            "size_right": bool(abs(size - truth) <= size_tolerance(fault.kind, truth, strict_bus)),
+            "covered": bool(low <= truth <= high)}
+
+
 def judge_identification(run: RunEval, strict_bus: bool = False) -> dict:
     """Per faulty wheel with one fault: the last identification against the truth.
 
@@ -277,9 +297,7 @@ def judge_identification(run: RunEval, strict_bus: bool = False) -> dict:
                "kind_right": kind == truth}
         if row["kind_right"]:
             size, low, high = (float(found[k]) for k in ("fault_size", "fault_size_low", "fault_size_high"))
-            row.update(size=size, size_error=size - f.value,
-                       size_right=abs(size - f.value) <= size_tolerance(f.kind, f.value, strict_bus),
-                       covered=low <= f.value <= high)
+            row.update(judge_size(f, size, low, high, float(found.get("fault_size_at_s", "nan")), strict_bus))
         out[a] = row
     return out
 

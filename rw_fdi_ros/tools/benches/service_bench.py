@@ -43,7 +43,7 @@ from ...core.closed_loop import Fdir, simulate
 from ...core.identification import UNKNOWN
 from ...core.scenario import Scenario, parse_scenario
 from ...core.wheel_set import WHEEL_SETS
-from ..metrics import IDENTIFIED_KIND, size_tolerance
+from ..metrics import IDENTIFIED_KIND, judge_size
 from .detection_bench import format_rate, rate, write_report
 from ..evaluation.screen import load_fdi
 
@@ -138,10 +138,11 @@ def fdir_for(units: bool) -> Fdir:
 
 
 def judged_mask(time, scenario_: Scenario, start: float) -> np.ndarray:
-    """The samples the pointing is judged at: from ``start`` on, not within SETTLE_S after a set-point change."""
+    """The samples the pointing is judged at: from ``start`` on, not within SETTLE_S after a set-point change
+    nor after a fault's onset (a second fault has the 60 s the first has)."""
     times, _ = scenario_.setpoint_schedule()
     ok = time >= start
-    for t in times:
+    for t in [*times, *(f.onset for f in scenario_.faults)]:
         if t > 0.0:
             ok &= ~((time >= t) & (time < t + SETTLE_S))
     return ok
@@ -190,9 +191,8 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
                    "message": found.message() if found else "never alarmed"}
             row["kind_right"] = row["kind"] == truth
             if row["kind_right"]:
-                row.update(size=float(found.size), low=float(found.low), high=float(found.high),
-                           size_right=bool(abs(found.size - f0["value"]) <= size_tolerance(f0["kind"], f0["value"])),
-                           covered=bool(found.low <= f0["value"] <= found.high))
+                row.update(judge_size(scenario_.faults[0], found.size, found.low, found.high, found.at_s),
+                           low=float(found.low), high=float(found.high), growing=found.growing)
             out["identification"] = row
     return out
 
