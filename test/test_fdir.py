@@ -1,11 +1,14 @@
 """The redundant wheel: wheel sets, minimum-norm allocation, the N-wheel plant and the FDIR decision."""
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from rw_fdi_ros.core.allocation import TorqueAllocator, distribution, limited
 from rw_fdi_ros.core.closed_loop import Fdir, simulate
 from rw_fdi_ros.core.detection import ThresholdCurves
-from rw_fdi_ros.core.fdir import DecisionDelay, Reconfiguration, held_speeds, momentum_shortfall, slew_excursion
+from rw_fdi_ros.core.fdir import (SATURATED_S, DecisionDelay, DeliveryLog, Reconfiguration, held_speeds,
+                                  momentum_shortfall, slew_excursion)
 from rw_fdi_ros.core.plant import Plant
 from rw_fdi_ros.core.scenario import Fault, Scenario, ScenarioError, parse_scenario
 from rw_fdi_ros.core.wheel import WheelParams
@@ -173,25 +176,31 @@ def test_a_wheel_the_others_could_not_replace_is_kept_beside_the_spare_or_held()
     assert d.due(10.9) == [] and d.due(11.0) == ["a"] and d.due(12.0) == []
 
 
+def gave(share, saturated=()):
+    """A stand-in for fdir.Delivered: the share each wheel gave, and which were commanded at the limit."""
+    return SimpleNamespace(share=share, saturated=lambda w: w in saturated)
+
+
 def test_a_kept_wheel_that_gives_too_little_is_held_and_a_wheel_past_its_limit_is_said():
     """After a reconfiguration the wheels are watched: x, kept beside s, is held once it gives under half its
     torque (a bus ramping down), not while it gives more or nothing is asked of it; a wheel in use past the
     holdable speed is said once, with the momentum as the reason; before any reconfiguration nothing is."""
-    assert Reconfiguration(SKEW).review(1.0, [10.0, 10.0, 46.0, 0.0], lambda w: 0.1) == []
+    assert Reconfiguration(SKEW).review(1.0, [10.0, 10.0, 46.0, 0.0], gave(lambda w: 0.1)) == []
     r = Reconfiguration(SKEW)
     speeds = [27.5, 25.0, 24.0, 0.0]
     r.give_up("x", 5.0, "confirmed", speeds)
     assert r.beside == {"x": "s"}
-    assert r.review(6.0, speeds, lambda w: 0.8) == [] and r.review(6.1, speeds, lambda w: float("nan")) == []
-    held = r.review(7.0, speeds, lambda w: 0.3)
+    assert r.review(6.0, speeds, gave(lambda w: 0.8)) == []
+    assert r.review(6.1, speeds, gave(lambda w: float("nan"))) == []
+    held = r.review(7.0, speeds, gave(lambda w: 0.3))
     assert [(d.wheel, d.action) for d in held] == [("x", "held")] and "30.0 %" in held[0].reason
     assert r.held == {"x": 27.5} and r.ordered_in_use() == ("y", "z", "s") and "x" in r.settled and not r.kept
-    assert r.review(7.1, speeds, lambda w: 0.1) == []
-    said = r.review(8.0, [20.0, 25.0, 24.0, -45.5], lambda w: 0.1)
+    assert r.review(7.1, speeds, gave(lambda w: 0.1)) == []
+    said = r.review(8.0, [20.0, 25.0, 24.0, -45.5], gave(lambda w: 0.1))
     assert [(d.wheel, d.action) for d in said] == [("s", "at_limit")] and "dumped" in said[0].reason
     assert "at its limit" in said[0].message()
-    assert r.review(8.1, [20.0, 25.0, 24.0, -46.0], lambda w: 0.1) == []   # said once
-    assert r.review(8.2, [46.0, 25.0, 24.0, 0.0], lambda w: 0.1) == []     # a held wheel is not in use
+    assert r.review(8.1, [20.0, 25.0, 24.0, -46.0], gave(lambda w: 0.1)) == []   # said once
+    assert r.review(8.2, [46.0, 25.0, 24.0, 0.0], gave(lambda w: 0.1)) == []     # a held wheel is not in use
 
 
 def test_a_kept_wheel_that_gives_too_little_with_no_wheel_left_is_said_once():
@@ -201,11 +210,33 @@ def test_a_kept_wheel_that_gives_too_little_with_no_wheel_left_is_said_once():
     r.give_up("x", 5.0, "confirmed", [27.5, 25.0, 24.0, 0.0])
     r.give_up("y", 8.0, "confirmed", [27.5, 25.0, 24.0, 30.0])
     assert r.ordered_in_use() == ("x", "z", "s")
-    assert r.review(9.0, [27.5, 25.0, 24.0, 30.0], lambda w: 0.8) == []
-    said = r.review(10.0, [27.5, 25.0, 24.0, 30.0], lambda w: 0.3 if w == "x" else 1.0)
+    assert r.review(9.0, [27.5, 25.0, 24.0, 30.0], gave(lambda w: 0.8)) == []
+    said = r.review(10.0, [27.5, 25.0, 24.0, 30.0], gave(lambda w: 0.3 if w == "x" else 1.0))
     assert [(d.wheel, d.action) for d in said] == [("x", "at_limit")]
     assert "30.0 %" in said[0].reason and "no wheel is left" in said[0].reason and "pointing is lost" in said[0].reason
-    assert r.ordered_in_use() == ("x", "z", "s") and r.review(11.0, [27.5, 25.0, 24.0, 30.0], lambda w: 0.1) == []
+    assert r.ordered_in_use() == ("x", "z", "s") and r.review(11.0, [27.5, 25.0, 24.0, 30.0], gave(lambda w: 0.1)) == []
+
+
+def test_a_wheel_in_use_commanded_at_the_limit_for_long_after_a_reconfiguration_is_said_once():
+    """A wheel whose friction takes the whole 5 V under the holdable speed (a unit) gives all it can: after a
+    reconfiguration, s at the limit for SATURATED_S of FDI stamps is said, once; a shorter saturation (a slew's
+    start) is not, and the count starts again when the command comes off the limit."""
+    r = Reconfiguration(SKEW)
+    r.give_up("x", 5.0, "confirmed", [27.5, 25.0, 24.0, 0.0])
+    speeds = [27.5, 25.0, 24.0, 40.4]
+    at_limit = gave(lambda w: 1.0, saturated={"s"})
+    assert all(r.review(t, speeds, at_limit) == [] for t in np.arange(10.0, 10.0 + SATURATED_S))
+    assert r.review(40.5, speeds, gave(lambda w: 1.0)) == []                   # off the limit: counted afresh
+    assert all(r.review(t, speeds, at_limit) == [] for t in np.arange(41.0, 41.0 + SATURATED_S))
+    said = r.review(41.0 + SATURATED_S, speeds, at_limit)
+    assert [(d.wheel, d.action) for d in said] == [("s", "at_limit")] and "40.4 rad/s" in said[0].reason
+    assert "pointing is lost" in said[0].reason and r.review(100.0, speeds, at_limit) == []
+    assert r.review(101.0, speeds, None) == []                                 # between FDI stamps: not judged
+    log = DeliveryLog()
+    for u in [[5.0, 1.0, 0.0, -5.0]] * 9 + [[5.0, 1.0, 0.0, -4.9]]:
+        log.add(u, [30.0, 0.0, 0.0, 40.0], [0.0, 0.0, 0.0, 0.0])
+    delivered = log.of(SKEW.names)
+    assert delivered.saturated("x") and not delivered.saturated("y") and not delivered.saturated("s")
 
 
 def test_the_loop_reconfigures_on_a_confirmed_failure_and_points_again():

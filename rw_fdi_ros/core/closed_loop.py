@@ -150,8 +150,8 @@ def _fdir_step(onboard, reconfig, delays, allocator, plant, sample, delivery):
                                       delivered=delivery.share(r.wheels.index(wheel), b)))
         if r.decisions:   # after a reconfiguration the wheels are watched at every sample
             on_fdi = stamp % onboard.fdi_period_ns == 0   # a kept wheel's share is judged once an FDI period
-            share = (lambda w: delivery.share(r.wheels.index(w), b)) if on_fdi else None
-            changed |= any(d.action != "at_limit" for d in r.review(sample.time, sample.wheel_speed[b], share))
+            delivered = delivery.of(r.wheels.names, b) if on_fdi else None
+            changed |= any(d.action != "at_limit" for d in r.review(sample.time, sample.wheel_speed[b], delivered))
         if changed:
             allocator.use(r.ordered_in_use(), b, r.held)
 

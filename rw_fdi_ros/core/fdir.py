@@ -79,6 +79,10 @@ SLEW_RATE = np.deg2rad(0.5)
 # leave the controllers a fifth of their gain about its axis, and is held instead
 KEEPABLE_SHARE = 0.5
 DELIVERY_SAMPLES = 10   # control samples (one FDI period) the share is measured over before a decision
+# [s] a wheel in use after a reconfiguration commanded at the voltage limit for this long gives all it can and is
+# still short: the wheels in use cannot take the momentum (a slew's start saturates a command for seconds; a
+# unit whose friction takes the whole 5 V under the holdable speed stays there for minutes)
+SATURATED_S = 30.0
 
 
 def confirmed_reason(first_alarm: float) -> str:
@@ -179,6 +183,29 @@ class DeliveryLog:
         u, w, r = (np.array([row[k][b, wheel_index] for row in self.rows]) for k in range(3))
         return delivered_share(u, w, r)
 
+    def saturated(self, wheel_index: int, b: int = 0, limit: float = WheelParams().command_limit) -> bool:
+        """Whether every command of the samples kept was at the voltage ``limit`` [V]."""
+        return bool(self.rows) and all(abs(row[0][b, wheel_index]) >= limit - 1e-9 for row in self.rows)
+
+    def of(self, names, b: int = 0) -> "Delivered":
+        """Run ``b``'s wheels by name (what :meth:`Reconfiguration.review` reads)."""
+        return Delivered(self, tuple(names), b)
+
+
+@dataclass(frozen=True)
+class Delivered:
+    """What one run's wheels gave over the samples a DeliveryLog keeps (the last FDI period), by wheel name."""
+
+    log: DeliveryLog
+    names: tuple
+    b: int = 0
+
+    def share(self, wheel: str) -> float:
+        return self.log.share(self.names.index(wheel), self.b)
+
+    def saturated(self, wheel: str) -> bool:
+        return self.log.saturated(self.names.index(wheel), self.b)
+
 
 class Reconfiguration:
     """Which wheels of ``wheels`` are in use, and the decisions that made it so."""
@@ -193,6 +220,7 @@ class Reconfiguration:
         self.kept = set()      # wheels confirmed faulty but kept (no replacement): said once
         self.beside = {}       # kept wheel -> the spare brought in beside it (watched: review)
         self.at_limit = set()  # wheels in use said at their limit after a reconfiguration: speed or torque (review)
+        self.saturated_since = {}   # wheel in use -> since when [s] its command has been at the limit (review)
         self.held = {}         # wheel -> the speed [rad/s] it is held at (out of control, a momentum store)
         self.decisions = []
 
@@ -255,24 +283,25 @@ class Reconfiguration:
         self.given_up.append(wheel)
         return self._decided([Decision(t, wheel, "out_of_use", reason)], None, wheel, None)
 
-    def review(self, t: float, wheel_speed, share=None) -> list:
+    def review(self, t: float, wheel_speed, delivered: Delivered | None = None) -> list:
         """What the wheels do after a reconfiguration, watched at every sample; returns the new decisions.
 
         * A wheel kept in use beside a spare that now gives under KEEPABLE_SHARE of its motor torque
-          (``share(wheel)``: fdir.DeliveryLog.share over the last second, given on the FDI's stamps: once a
+          (``delivered``: what the wheels gave over the last second, given on the FDI's stamps: once a
           period, on the samples of that period) is held. A fault that grows after
           the decision (a bus ramping down while the wheel spins above what its bus can drive) turns a wheel
           worth keeping into one that takes a share of the work it cannot give, leaving the controllers about
           its axis a fraction of their gain: it is held, as it would have been had it been that weak when
           confirmed (while the wheels left span the body). Where they do not (the spare beside it failed too,
           or it was kept for want of a wheel), it is said, once: the pointing is lost about its axis.
-        * A wheel in use beyond ``holdable`` (``wheel_speed`` (N,) [rad/s]) once FDIR has acted is said, once:
-          the wheels left cannot hold the momentum the reconfiguration left them (a held wheel that sheds what
-          its fault does not let it keep), and the pointing is lost until momentum is dumped.
+        * A wheel in use beyond ``holdable`` (``wheel_speed`` (N,) [rad/s]) once FDIR has acted, or commanded at
+          the voltage limit for SATURATED_S (a unit whose friction takes the whole command below ``holdable``),
+          is said, once: the wheels left cannot hold the momentum the reconfiguration left them (a held wheel
+          that sheds what its fault does not let it keep), and the pointing is lost until momentum is dumped.
         """
         out = []
-        for wheel in [w for w in self.wheels.names if w in self.kept and w in self.in_use and share is not None]:
-            given = share(wheel)
+        for wheel in [w for w in self.wheels.names if w in self.kept and w in self.in_use and delivered is not None]:
+            given = delivered.share(wheel)
             if not given < KEEPABLE_SHARE:        # NaN: nothing asked of it
                 continue
             rest = [w for w in self.in_use if w != wheel]
@@ -301,6 +330,18 @@ class Reconfiguration:
                                                               "rad/s a wheel in use can hold with torque to spare: the "
                                                               "wheels in use cannot hold the momentum left them; "
                                                               "pointing is lost until momentum is dumped"))
+        for wheel in self.in_use if delivered is not None else ():
+            if not delivered.saturated(wheel):
+                self.saturated_since.pop(wheel, None)
+                continue
+            since = self.saturated_since.setdefault(wheel, t)
+            if t - since >= SATURATED_S and wheel not in self.at_limit:
+                self.at_limit.add(wheel)
+                speed = float(wheel_speed[self.wheels.index(wheel)])
+                out.append(Decision(t, wheel, "at_limit", f"commanded at the voltage limit for {t - since:.0f} s at "
+                                                          f"{speed:.1f} rad/s: it gives all it can, and the wheels "
+                                                          "in use cannot hold the momentum left them; pointing is "
+                                                          "lost until momentum is dumped"))
         self.decisions += out
         return out
 

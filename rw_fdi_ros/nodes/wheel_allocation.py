@@ -218,8 +218,8 @@ class WheelAllocationNode(GraphNode):
                     delivered=self.delivery.share(self.wheels.index(wheel)))
             if self.reconfiguration.decisions and speeds is not None:
                 on_fdi = stamp % self.fdi_period_ns == 0   # a kept wheel's share is judged once an FDI period
-                decisions += self.reconfiguration.review(
-                    t, speeds, (lambda w: self.delivery.share(self.wheels.index(w))) if on_fdi else None)
+                decisions += self.reconfiguration.review(t, speeds, self.delivery.of(self.wheels.names) if on_fdi
+                                                         else None)
             if any(d.action != "at_limit" for d in decisions):
                 self.allocator.use(self.reconfiguration.ordered_in_use(), held=self.reconfiguration.held)
             for d in decisions:

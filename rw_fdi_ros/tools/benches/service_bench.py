@@ -40,6 +40,7 @@ import yaml
 
 from ...core.calibration import calibration_samples
 from ...core.closed_loop import Fdir, simulate
+from ...core.fdir import SATURATED_S
 from ...core.identification import UNKNOWN
 from ...core.scenario import Scenario, parse_scenario
 from ...core.wheel_set import WHEEL_SETS
@@ -241,6 +242,17 @@ def run_service(seeds, jobs: int = 2, progress=None, max_duration: float | None 
     return sorted(runs, key=lambda r: r["seed"])
 
 
+GROWTHS = ("step", "temperature ramp", "current or bus ramp")
+
+
+def _growth(fault: dict) -> str:
+    """How a fault grew, as the identification figures are split: a step, or a ramp of the friction law or of
+    the motor current (current loss, bus drop: alike at one speed)."""
+    if not fault["ramp"]:
+        return "step"
+    return "temperature ramp" if fault["kind"] == "temperature" else "current or bus ramp"
+
+
 def summarize(all_runs: list) -> dict:
     """The figures (module docstring): the fault-free ones on the family's runs and the fault-free 600-s runs
     together, the others on the family's runs."""
@@ -275,6 +287,11 @@ def summarize(all_runs: list) -> dict:
         "kind_right": rate(i["kind_right"] for i in ident),
         "kind_right_by_action": {a: rate(r["identification"]["kind_right"] for r in faulty
                                          if "identification" in r and r["action"] == a) for a in ACTED},
+        "kind_right_by_growth": {g: rate(r["identification"]["kind_right"] for r in faulty
+                                         if "identification" in r and _growth(r["faults"][0]) == g) for g in GROWTHS},
+        "covered_by_growth": {g: rate(r["identification"]["covered"] for r in faulty if "identification" in r
+                                      and r["identification"]["kind_right"] and _growth(r["faults"][0]) == g)
+                              for g in GROWTHS},
         "size_right": rate(i["size_right"] for i in right),
         "covered": rate(i["covered"] for i in right),
         "delay_s": ({"median": float(np.median(delays)), "p90": float(np.percentile(delays, 90)),
@@ -328,12 +345,16 @@ def format_service(report: dict) -> str:
              f"| identification: 95 % interval covers the truth | {format_rate(f['covered'])} | >= 90 % |"]
     for a, r in f["kind_right_by_action"].items():
         lines.append(f"| kind right, wheel {a.replace('_', ' ')} | {format_rate(r)} | >= 95 % |")
+    for g, r in f.get("kind_right_by_growth", {}).items():
+        lines.append(f"| kind right / interval covers, {g}s | {format_rate(r)} / "
+                     f"{format_rate(f['covered_by_growth'][g])} | >= 95 % / >= 90 % |")
     d = f["delay_s"]
     if d:
         lines += ["", f"Onset to decision: median {d['median']:.0f} s, p90 {d['p90']:.0f} s, max {d['max']:.0f} s "
                   "(ramps included)."]
     a = f["at_limit_said"]
-    lines += [f"A wheel in use said past its holdable speed after a reconfiguration: {a['runs']} runs, the pointing "
+    lines += [f"A wheel in use said at its limit after a reconfiguration (past the holdable speed, at the voltage "
+              f"limit for {SATURATED_S:.0f} s, or short of torque with no wheel left): {a['runs']} runs, the pointing "
               f"kept in {a['pointing_kept']} of them (the warning came; the slews then allowed it)."]
     h = f["physically_hidden"]
     lines += [f"Faults the physics hides (no visible torque effect, never acted on): {h['runs']} runs."]
