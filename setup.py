@@ -30,8 +30,15 @@ setup(
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/launch", glob("launch/*.py")),
     ] + config_files(),
-    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "rosbags", "mcap", "sgp4", "ppigrf"],
-    extras_require={"test": ["pytest"]},   # `colcon test` runs pytest when the package asks for it
+    # what the nodes and every `rw-fdi` command import (the ROS 2 packages come from the ROS install, or the
+    # ros-kilted-* wheels of requirements.txt); the groups below are for what only some work needs
+    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "rosbags", "mcap", "mcap-ros2-support", "sgp4",
+                      "ppigrf", "matplotlib", "tqdm", "jsonschema"],
+    extras_require={
+        "train": ["torch==2.13.0"],              # rw-fdi train, reproduce: the Elman observers' training
+        "cluster": ["dask", "distributed"],      # --scheduler: campaigns, evaluate and reproduce on a Dask cluster
+        "test": ["pytest", "hypothesis"],        # `colcon test` runs pytest when the package asks for it
+    },
     zip_safe=True,
     maintainer="rw_fdi_ros developers",
     maintainer_email="dev@rw-fdi.local",

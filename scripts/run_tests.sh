@@ -3,6 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_venv.sh
+bash scripts/setup_basilisk.sh   # test/test_basilisk.py's reference
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_LOG_DIR="$(mktemp -d /tmp/rw_fdi_test_roslog.XXXXXX)"
 exec .venv/bin/python -m pytest -q -p no:cacheprovider --durations=12 "$@" test

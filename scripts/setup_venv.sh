@@ -1,22 +1,10 @@
 #!/usr/bin/env bash
 # Create or reuse .venv/ and install what rw_fdi_ros needs; a no-op when nothing changed.
+# (The tests' Basilisk cross-check has an environment of its own: scripts/setup_basilisk.sh.)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 unset _ROS_WHEELS_BOOTSTRAP_COMPLETE   # a parent venv's ROS bootstrap must not leak into ours
 PY=${PYTHON:-python3}
-
-# Basilisk (AVS Lab), the reference our plant is checked against (test/test_basilisk.py), in an
-# environment of its own: its pins (matplotlib, tqdm) clash with ours.
-BSK=bsk==2.12.1
-if [ ! -x .venv-bsk/bin/python ] || [ "$(cat .venv-bsk/.installed 2>/dev/null)" != "$BSK" ]; then
-  echo "setting up .venv-bsk ($BSK, about 600 MB) ..." >&2
-  rm -rf .venv-bsk
-  "$PY" -m venv .venv-bsk
-  .venv-bsk/bin/python -m pip install -q "$BSK" 2>&1 | grep -v "^WARNING: Location" >&2 || true
-  .venv-bsk/bin/python -c "from Basilisk.simulation import reactionWheelStateEffector" \
-    || { echo "setup: Basilisk import failed" >&2; exit 1; }
-  echo "$BSK" > .venv-bsk/.installed
-fi
 
 stamp=.venv/.rw_fdi_installed
 want=$(cat requirements.txt setup.py | sha256sum | cut -d' ' -f1)

@@ -1,6 +1,6 @@
 """Our plant against Basilisk (AVS Lab), the same spacecraft and wheels under one motor-torque profile.
 
-Basilisk runs in its own environment (.venv-bsk, made by scripts/setup_venv.sh:
+Basilisk runs in its own environment (.venv-bsk, made by scripts/setup_basilisk.sh:
 its pins clash with ours) through test/basilisk/bsk_run.py; our side is
 core.plant.Plant with torque noise and disturbance off, driven by the command
 voltage that gives the same motor torque (tcv = tau_m / (G_d k_t), far from
@@ -51,7 +51,7 @@ def basilisk(tmp_path, coulomb, use_rw_friction=None, wheels=None):
         spec["spin_axes"] = wheels.matrix.T.tolist()
     spec_path, out = tmp_path / "spec.json", tmp_path / "bsk.npz"
     spec_path.write_text(json.dumps(spec))
-    assert BSK_PYTHON.exists(), "Basilisk environment missing: run scripts/setup_venv.sh"
+    assert BSK_PYTHON.exists(), "Basilisk environment missing: run scripts/setup_basilisk.sh"
     subprocess.run([str(BSK_PYTHON), str(ROOT / "test" / "basilisk" / "bsk_run.py"), str(spec_path), str(out)],
                    check=True, timeout=300, capture_output=True)
     d = np.load(out)

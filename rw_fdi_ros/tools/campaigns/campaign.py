@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...core.scenario import load_scenario
+from ...extras import require
 from ...storage.bag import bag_is_complete
 from .engine import batches, check_engine, record_batch
 from .run import bag_name, resolve_scenario, run_scenario, short_step_topics
@@ -60,8 +61,7 @@ class DaskExecutor:
     own ROS_DOMAIN_ID (leased per machine), so runs on one worker or many never meet."""
 
     def __init__(self, address):
-        from distributed import Client
-        self.client = address if hasattr(address, "submit") else Client(address)
+        self.client = address if hasattr(address, "submit") else require("distributed", "cluster").Client(address)
 
     def map_unordered(self, fn, items, processes: bool = False):
         """``processes`` is ignored: the workers are processes already."""

@@ -26,6 +26,7 @@ import numpy as np
 from ...core.detection import FALSE_ALARM_RATE
 from ...core.elman import HIDDEN, SETTLE_STEPS, ElmanWeights
 from ...core.scenario import AXES
+from ...extras import require
 from ...paths import shown_path
 
 MODES = ("teacher", "recall")
@@ -37,7 +38,7 @@ THESIS_EPOCHS = 300
 
 
 def _torch():
-    import torch
+    torch = require("torch", "train")
     torch.set_num_threads(1)   # tiny matrices: threads only add overhead on 2 cores
     return torch
 
