@@ -194,6 +194,11 @@ def parse_seeds(text: str, option: str) -> range:
         raise ValueError(f"{option} must be A..B or A with whole numbers, got {text!r}") from None
     if b < a:
         raise ValueError(f"{option} {text}: the last seed is below the first")
+    if a < 0 or b > SEED_MAX:
+        raise ValueError(f"{option} {text}: seeds are whole numbers in [0, {SEED_MAX}]")
+    if b - a + 1 > SEEDS_MAX:
+        raise ValueError(f"{option} {text}: {b - a + 1:,} runs; one command takes at most {SEEDS_MAX:,} (split the "
+                         "range)")
     return range(a, b + 1)
 
 
@@ -336,19 +341,21 @@ def number(kind=float, low=None, high=None, low_open=False):
     return parse
 
 
-COUNT = number(int, 1)            # runs, jobs, epochs, persistence: at least one
-SEED = number(int, 0, 2**63 - 1)  # numpy's seeds: non-negative
+COUNT = number(int, 1)            # runs, jobs, epochs: at least one
+SEED_MAX = 2**63 - 1              # numpy's seeds: non-negative
+SEED = number(int, 0, SEED_MAX)
+SEEDS_MAX = 1_000_000             # runs of one seed range: days on one machine already
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .core.detection import FALSE_ALARM_RATE, METHODS
+    from .core.detection import FALSE_ALARM_RATE, METHODS, PERSISTENCE_MAX
     p = argparse.ArgumentParser(prog="rw-fdi", description="Reaction-wheel FDI on a ROS 2 node graph.")
     sub = p.add_subparsers(dest="command", required=True)
     # options several commands share, each defined once (argparse parents)
     models = argparse.ArgumentParser(add_help=False)
     models.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
     persistence = argparse.ArgumentParser(add_help=False)
-    persistence.add_argument("--persistence", type=COUNT, default=None,
+    persistence.add_argument("--persistence", type=number(int, 1, PERSISTENCE_MAX), default=None,
                              help="samples above the threshold before an alarm (P; default: the threshold file's; "
                                   "fit-thresholds fits for 3 speed_aware, 5 thesis and writes it in the file)")
     fdi_files = argparse.ArgumentParser(add_help=False, parents=[models, persistence])

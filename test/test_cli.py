@@ -35,7 +35,7 @@ def test_the_shared_defaults_are_what_they_were():
     assert parse(["bench", "study", "--jobs", "3"]).jobs == 3
 
 
-BAD = {"--persistence": ["-2", "0", "x"], "--jobs": ["0", "-1"], "--seed": ["-1", "1.5"],
+BAD = {"--persistence": ["-2", "0", "x", "1001"], "--jobs": ["0", "-1"], "--seed": ["-1", "1.5"],
        "--unit-calibration": ["-1", "nan", "inf"], "--false-alarm-rate": ["0", "1.5", "nan"],
        "--runs": ["0"], "--epochs": ["0"], "--command-timeout": ["0", "-3"], "--duration": ["0", "-inf"],
        "--fault-free-runs": ["0"], "--seed-start": ["-5"]}
@@ -65,3 +65,16 @@ def test_every_numeric_option_is_range_checked_before_anything_starts(capsys):
             err = capsys.readouterr().err.strip().splitlines()[-1]
             assert err.startswith(f"rw-fdi {command}: error: argument {option}"), err
     assert build_parser().parse_args(["run", "--scenario", "s", "--persistence", "3", "--seed", "0"]).persistence == 3
+
+
+@pytest.mark.parametrize("text, said", [
+    ("1..100000000000", "100,000,000,000 runs; one command takes at most 1,000,000"),
+    ("-5..3", "seeds are whole numbers in [0, "), ("9..3", "the last seed is below the first"),
+    ("a..b", "must be A..B or A with whole numbers")])
+def test_a_seed_range_is_bounded_before_anything_starts(text, said):
+    """`screen --seeds 1..100000000000` started without a word (issue 39): the same bounds for every command."""
+    from rw_fdi_ros.cli import parse_seeds
+    with pytest.raises(ValueError, match=".*") as err:
+        parse_seeds(text, "--seeds")
+    assert said in str(err.value) and "\n" not in str(err.value)
+    assert parse_seeds("3..5", "--seeds") == range(3, 6)

@@ -54,6 +54,10 @@ def test_effective_text_records_the_seed():
     ("speed: 3", "unknown field"),
     ("faults: [1, 2", "not valid YAML"),
     ("- a\n- b", "YAML mapping"),
+    ("setpoints: [{time: 1, change_deg: [1e12, 0, 0]}]", "change_deg[0]: 1000000000000.0 is outside [-180.0, 180.0]"),
+    ("initial: {wheel_speed: [1e6, 0, 0]}", "initial.wheel_speed[0]: 1000000.0 is outside [-690.0, 690.0]"),
+    ("initial: {body_rate: [0, 2.0, 0]}", "initial.body_rate[1]: 2.0 is outside [-1.0, 1.0]"),
+    ("initial: {attitude_deg: [0, 0, -200]}", "initial.attitude_deg[2]: -200 is outside"),
 ])
 def test_malformed_scenarios_give_one_line_errors(text, words):
     with pytest.raises(ScenarioError) as err:

@@ -47,6 +47,7 @@ CALIBRATION_SIGMAS = 3.0      # z: a calibrated correction's own uncertainty u_k
 # <= 5 % (config/fdi/defaults_report.md: 15 / 10 / 10 / 5 / 5 % for P = 1 / 2 / 3 / 5 / 8); it costs
 # P - 1 seconds of detection delay.
 PERSISTENCE = 5
+PERSISTENCE_MAX = 1000        # [FDI samples] the most any command or node takes: over 16 min of waiting
 
 
 class ThresholdError(ValueError):

@@ -293,11 +293,21 @@ def _fault(where, raw, duration, names=AXES):
                  ramp=_num(f"{where}.ramp", raw.get("ramp", 0.0), 0.0, None))
 
 
-def _vector(where, raw, lengths=(3,)):
+def _vector(where, raw, lengths=(3,), lo=None, hi=None):
     if not isinstance(raw, (list, tuple)) or len(raw) not in lengths:
         what = "3 numbers (x, y, z)" if set(lengths) == {3} else f"3 numbers (x, y, z) or {max(lengths)} (every wheel)"
         raise ScenarioError(f"{where}: expected a list of {what}")
-    return tuple(_num(f"{where}[{i}]", v) for i, v in enumerate(raw))
+    return tuple(_num(f"{where}[{i}]", v, lo, hi) for i, v in enumerate(raw))
+
+
+# What a scenario may ask of the spacecraft, checked before anything runs (every command parses scenarios here):
+# a set-point change or an initial attitude of at most half a turn per axis (the manoeuvres' size_deg alike), a
+# body rate the controllers are meant for, and no wheel beyond its speed limiter's threshold (Table 2.2's w_s),
+# where the wheel model ends.
+ANGLE_LIMIT_DEG = 180.0
+BODY_RATE_LIMIT = 1.0                                       # [rad/s]
+WHEEL_SPEED_LIMIT = WheelParams().overspeed_threshold      # [rad/s]
+INITIAL_LIMITS = {"attitude_deg": ANGLE_LIMIT_DEG, "body_rate": BODY_RATE_LIMIT, "wheel_speed": WHEEL_SPEED_LIMIT}
 
 
 # A scenario is a few KB written by hand (the largest recorded one, with every unit's scale, under 2 KB);
@@ -350,14 +360,17 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
             raise ScenarioError(f"{where}: expected a mapping with time and change_deg")
         change = sp.get("change_deg", "random")
         setpoints.append(SetpointChange(_num(f"{where}.time", sp["time"], 0.0, duration),
-                                        None if change == "random" else _vector(f"{where}.change_deg", change)))
+                                        None if change == "random" else _vector(f"{where}.change_deg", change,
+                                                                                  lo=-ANGLE_LIMIT_DEG,
+                                                                                  hi=ANGLE_LIMIT_DEG)))
     initial_raw = raw.get("initial") or {}
     if not isinstance(initial_raw, dict):
         raise ScenarioError(f"{origin}: initial must be a mapping")
     bad = set(initial_raw) - {"attitude_deg", "body_rate", "wheel_speed"}
     if bad:
         raise ScenarioError(f"{origin}: initial: unknown field(s) {sorted(bad)}")
-    initial = {k: _vector(f"{origin}: initial.{k}", v) for k, v in initial_raw.items()}
+    initial = {k: _vector(f"{origin}: initial.{k}", v, lo=-INITIAL_LIMITS[k], hi=INITIAL_LIMITS[k])
+               for k, v in initial_raw.items()}
     plant = raw.get("plant") or {}
     if not isinstance(plant, dict) or set(plant) - PLANT_KEYS:
         raise ScenarioError(f"{origin}: plant may set only {sorted(PLANT_KEYS)}")
@@ -407,7 +420,8 @@ def _manoeuvres(where, raw, duration) -> Manoeuvres | None:
         raise ScenarioError(f"{where}: a mapping of interval_s, size_deg and start_s")
     default = Manoeuvres()
     return Manoeuvres(interval_s=_range(f"{where}.interval_s", raw.get("interval_s", default.interval_s), 1.0, 1e6),
-                      size_deg=_range(f"{where}.size_deg", raw.get("size_deg", default.size_deg), -180.0, 180.0),
+                      size_deg=_range(f"{where}.size_deg", raw.get("size_deg", default.size_deg), -ANGLE_LIMIT_DEG,
+                                      ANGLE_LIMIT_DEG),
                       start_s=_num(f"{where}.start_s", raw.get("start_s", 0.0), 0.0, duration))
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from ..core.detection import PERSISTENCE_MAX
 from ..core.scenario import FAULT_LIMITS
 
 BIG = 1e9               # "no upper bound" for a float, kept finite for the descriptor
@@ -17,7 +18,7 @@ TIMEOUT = (0.01, BIG)   # wall seconds: a timeout of 0 would fire at once
 
 # name -> (low, high), inclusive
 RANGES = {
-    "persistence": (0, COUNT_MAX),                    # 0: the threshold file's
+    "persistence": (0, PERSISTENCE_MAX),              # 0: the threshold file's
     "unit_calibration_time": (0.0, BIG),
     "input_timeout": TIMEOUT,
     "min_subscribers": (0, COUNT_MAX),

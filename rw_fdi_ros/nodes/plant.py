@@ -83,6 +83,10 @@ class PlantNode(GraphNode):
         for name in self.names:  # live fault injection: setting one injects from the current sim time
             for kind in FAULT_KINDS:
                 self.declare_parameter(f"fault.{name}.{kind}", NOMINAL_VALUES[kind])
+        stray = sorted(n for n in self._parameter_overrides if n.startswith("fault.") and not self.has_parameter(n))
+        if stray:   # a wheel the set does not have, or a kind there is not: never silently ignored
+            raise NodeError(f"parameter {stray[0]}: no such fault; wheel set {self.wheels.name} has wheels "
+                            f"{', '.join(self.names)} and the kinds {', '.join(FAULT_KINDS)}", EXIT_BAD_INPUT)
         self.add_on_set_parameters_callback(self._on_parameters)
         if self.param("seed") >= 0:
             scenario = scenario.with_seed(self.param("seed"))
