@@ -86,6 +86,7 @@ def _executor(args):
 
 
 def _cmd_evaluate(args) -> int:
+    writable_dir(args.report, "--report")   # a file in the way is said before any bag is read
     from .tools.evaluation.evaluate import evaluate, main_summary
     report = evaluate(args.bags, args.report, models=args.models, thresholds=args.thresholds,
                       persistence=args.persistence, executor=_executor(args), unit_calibration=args.unit_calibration,
@@ -567,6 +568,10 @@ def main(argv=None) -> int:
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except OSError as exc:   # a file that exists, cannot be written, is a directory: the system's words, one line
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"rw-fdi: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

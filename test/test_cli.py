@@ -78,3 +78,13 @@ def test_a_seed_range_is_bounded_before_anything_starts(text, said):
         parse_seeds(text, "--seeds")
     assert said in str(err.value) and "\n" not in str(err.value)
     assert parse_seeds("3..5", "--seeds") == range(3, 6)
+
+
+def test_a_scheduler_that_does_not_answer_is_one_line(monkeypatch):
+    """`campaign --scheduler tcp://127.0.0.1:1` ended in a 58-line traceback after 30 s (issue 39)."""
+    from rw_fdi_ros.tools.campaigns.campaign import DaskExecutor
+    monkeypatch.setattr(DaskExecutor, "CONNECT_S", 1.0)
+    with pytest.raises(RuntimeError) as err:
+        DaskExecutor("tcp://127.0.0.1:1")
+    said = str(err.value)
+    assert said.startswith("--scheduler tcp://127.0.0.1:1: no Dask scheduler answered within 1 s") and "\n" not in said

@@ -142,3 +142,18 @@ def test_operations_draw_manoeuvres_at_random_times_without_moving_the_rest_of_t
 def test_bad_manoeuvres_are_one_line_errors(manoeuvres, message):
     with pytest.raises(ScenarioError, match=message):
         parse_scenario(f"name: m\nmanoeuvres: {manoeuvres}\n", origin="m.yaml")
+
+
+def test_a_report_path_taken_by_a_file_is_one_line(tmp_path):
+    """`evaluate --report <an existing file>` ended in FileExistsError (issue 39); any other OSError a command
+    meets is one line too (cli.main)."""
+    from rw_fdi_ros.cli import main
+    blocker = tmp_path / "report"
+    blocker.write_text("")
+    (tmp_path / "bags").mkdir()
+    import contextlib
+    import io
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["evaluate", "--bags", str(tmp_path / "bags"), "--report", str(blocker), "--engine", "core"])
+    assert code == 2 and err.getvalue().strip() == f"rw-fdi: error: --report {blocker}: cannot create it (File exists)"

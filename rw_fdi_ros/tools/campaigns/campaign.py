@@ -60,8 +60,19 @@ class DaskExecutor:
     """Submits each run to a dask.distributed cluster; every worker runs whole graphs, each run in its
     own ROS_DOMAIN_ID (leased per machine), so runs on one worker or many never meet."""
 
+    CONNECT_S = 10.0   # [s] a scheduler that does not answer by then is said at once, not after a traceback
+
     def __init__(self, address):
-        self.client = address if hasattr(address, "submit") else require("distributed", "cluster").Client(address)
+        if hasattr(address, "submit"):
+            self.client = address
+            return
+        client = require("distributed", "cluster").Client
+        try:
+            self.client = client(address, timeout=self.CONNECT_S)
+        except (OSError, TimeoutError, ValueError) as exc:   # refused, unreachable, or not an address
+            raise RuntimeError(f"--scheduler {address}: no Dask scheduler answered within {self.CONNECT_S:g} s "
+                               f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no reason'})"
+                               [:300]) from None
 
     def map_unordered(self, fn, items, processes: bool = False):
         """``processes`` is ignored: the workers are processes already."""
