@@ -71,7 +71,8 @@ def ros_environment(domain_id: int, log_dir: Path) -> dict:
     """Environment for node processes: loopback-only discovery on a private domain."""
     env = dict(os.environ)
     env.update(ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-               ROS_LOG_DIR=str(log_dir), RMW_IMPLEMENTATION="rmw_fastrtps_cpp", PYTHONUNBUFFERED="1")
+               ROS_LOG_DIR=str(log_dir), RMW_IMPLEMENTATION="rmw_fastrtps_cpp", PYTHONUNBUFFERED="1",
+               RW_FDI_PARENT_PID=str(os.getpid()))   # the nodes end with us (runtime.die_with_parent)
     if fastdds_profiles():
         env["FASTDDS_DEFAULT_PROFILES_FILE"] = fastdds_profiles()
     env.pop("ROS_LOCALHOST_ONLY", None)   # ignored by kilted; do not pretend it helps

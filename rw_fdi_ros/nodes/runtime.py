@@ -143,6 +143,22 @@ def spin_node(factory, args=None) -> int:
     return spin_nodes([factory], args)
 
 
+def die_with_parent():
+    """A node process our launcher started ends with it: killed with -9, `rw-fdi` can stop nothing itself, so
+    the kernel sends the SIGINT the launcher would have (Linux prctl PR_SET_PDEATHSIG: the recorder still closes
+    its bag). ``RW_FDI_PARENT_PID`` (launcher.ros_environment) names the parent; a launcher gone before this ran
+    is seen at once. Nodes started otherwise (ros2 launch, ros2 run) are left to their own launcher."""
+    parent = os.environ.get("RW_FDI_PARENT_PID")
+    if not parent or not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+    PR_SET_PDEATHSIG = 1
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGINT))
+    if os.getppid() != int(parent):
+        os.kill(os.getpid(), signal.SIGINT)
+
+
 def spin_nodes(factories, args=None) -> int:
     """Create the nodes (one each of ``factories``: callables returning a GraphNode), spin them in one
     executor until every one has finished, one fails, or a signal arrives; the exit code (the first
@@ -154,6 +170,7 @@ def spin_nodes(factories, args=None) -> int:
     # `kill -USR1 <pid>` (the launcher does, on a node that does not end) writes where it is to its log
     faulthandler.register(signal.SIGUSR1, all_threads=True)
     rclpy.init(args=args)
+    die_with_parent()   # after init: the SIGINT it may send is rclpy's to handle
     nodes, closed = [], set()
     name = getattr(factories[0], "node_name", "node") if factories else "node"
     failed = None   # (name, code, message) of the first node that failed
