@@ -24,8 +24,8 @@ def processes_of(parent: int) -> list:
 
 def test_kill_9_of_rw_fdi_leaves_no_process_of_its_run_after_2_s(tmp_path):
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    run = subprocess.Popen([str(Path(sys.executable).parent / "rw-fdi"), "run", "--scenario", "operations_hours", "--no-fdi",
-                            "--out", str(tmp_path / "bags")], env=env, stdout=subprocess.DEVNULL,
+    run = subprocess.Popen([str(Path(sys.executable).parent / "rw-fdi"), "run", "--scenario", "operations_hours",
+                            "--no-fdi", "--out", str(tmp_path / "bags")], env=env, stdout=subprocess.DEVNULL,
                            stderr=subprocess.DEVNULL, start_new_session=True)
     try:
         deadline = time.monotonic() + 60.0
