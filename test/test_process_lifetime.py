@@ -50,3 +50,58 @@ def test_kill_9_of_rw_fdi_leaves_no_process_of_its_run_after_2_s(tmp_path):
                 pass
         if run.poll() is None:
             run.kill()
+
+
+def sockets_of(pids) -> list:
+    """(pid, local address, port) of every UDP/TCP socket of ``pids`` (ss -tuanp)."""
+    out = subprocess.run(["ss", "-tuanp"], capture_output=True, text=True, check=True).stdout
+    found = []
+    for line in out.splitlines()[1:]:
+        for pid in pids:
+            if f"pid={pid}," in line:
+                address, _, port = line.split()[4].rpartition(":")
+                found.append((pid, address.strip("[]"), int(port)))
+    return found
+
+
+def dds_listening_ports(domain: int, participants: int = 120) -> set:
+    """The ports RTPS listens on in ``domain`` (RTPS 2.2 sec. 9.6.1.1: PB 7400, DG 250, PG 2, d0..d3 0, 10, 1,
+    11): discovery multicast and unicast and user unicast and multicast of every participant."""
+    base = 7400 + 250 * domain
+    return {base, base + 1} | {base + offset + 2 * p for p in range(participants) for offset in (10, 11)}
+
+
+def test_the_graph_listens_on_loopback_only(tmp_path):
+    """config/fastdds.xml: shared memory and UDP on the loopback interface (issue 39). Every port DDS listens on
+    is bound to 127.0.0.1; what is left elsewhere is at most the two send sockets kilted's rmw_fastrtps adds of
+    its own in LOCALHOST discovery (an unrestricted UDP transport it appends, sending to 127.0.0.1 only)."""
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    run = subprocess.Popen([str(Path(sys.executable).parent / "rw-fdi"), "run", "--scenario", "operations_hours",
+                            "--no-fdi", "--out", str(tmp_path / "bags")], env=env, stdout=subprocess.DEVNULL,
+                           stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60.0
+        while not list((tmp_path / "bags").rglob("*.mcap")) and time.monotonic() < deadline and run.poll() is None:
+            time.sleep(0.1)
+        time.sleep(2.0)
+        pids = processes_of(run.pid)
+        assert pids, "the graph did not start"
+        domain = int(dict(line.split("=", 1) for line in Path(f"/proc/{pids[0]}/environ").read_bytes()
+                          .decode(errors="replace").split("\0") if "=" in line)["ROS_DOMAIN_ID"])
+        sockets = sockets_of(pids)
+        listening = dds_listening_ports(domain)
+        dds = [s for s in sockets if s[2] in listening]
+        assert dds and all(address == "127.0.0.1" for _, address, _ in dds), dds
+        elsewhere = [s for s in sockets if s[1] != "127.0.0.1"]
+        assert len(elsewhere) <= 2 * len(pids), elsewhere
+    finally:
+        run.send_signal(signal.SIGTERM)
+        try:
+            run.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            run.kill()
+        for pid in processes_of(run.pid):
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
