@@ -301,12 +301,14 @@ def _cmd_bag(args) -> int:
     info = bag_info(args.bag)
     state = "complete" if info.complete else f"incomplete: {info.note}"
     print(f"{info.path}: {state}")
+    if info.damaged:   # what was still read is listed below; the tools that train, fit and judge skip it
+        print(f"rw-fdi: error: {info.path}: {info.damage()}", file=sys.stderr)
     for topic in sorted(info.counts):
         first, last = info.span[topic]
         print(f"  {topic:28s} {info.types[topic]:38s} {info.counts[topic]:7d} msgs  "
               f"{first * 1e-9:8.1f} .. {last * 1e-9:8.1f} s")
     if T.SCENARIO not in info.counts:
-        return 0
+        return 1 if info.damaged else 0
     if T.ATTITUDE in info.counts:
         print(format_summary(run_summary(args.bag)))
         if T.PLANT_DONE not in info.counts:   # what a script checks after a launch that ended early
@@ -319,7 +321,7 @@ def _cmd_bag(args) -> int:
         print(f"fault detection and isolation:\n{format_verdict(verdict)}")
         if args.figure:
             print(f"  figure: {plot_residuals(data, Path(args.figure))}")
-    return 0
+    return 1 if info.damaged else 0
 
 
 def number(kind=float, low=None, high=None, low_open=False):

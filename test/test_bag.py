@@ -179,3 +179,67 @@ def test_time_order_is_the_sorted_bag(tmp_path, complete):
     assert [(t, topic) for t, topic, _ in got] == [(t, topic) for t, topic, _ in want]
     assert [bytes(r) for _, _, r in got] == [bytes(r) for _, _, r in want]
     assert len(got) == (91 if complete else len(rows))
+
+
+def _damage_message(path, k):
+    """Overwrite 8 bytes of message k's data inside its chunk (the file's structure left whole)."""
+    f = next(path.glob("*.mcap"))
+    blob = bytearray(f.read_bytes())
+    raw = bytes(typestore().serialize_cdr(vec(k * 10**8, float(k)), "geometry_msgs/msg/Vector3Stamped"))
+    at = blob.find(raw)
+    assert at > 0
+    blob[at + len(raw) - 8:at + len(raw)] = b"\xde\xad\xbe\xef" * 2
+    f.write_bytes(bytes(blob))
+
+
+def test_a_chunk_that_fails_its_crc_is_skipped_counted_and_refused_where_data_must_be_intact(tmp_path):
+    """4 KB of random bytes in the middle of a bag read as `complete` and its messages went into training (issue
+    39): each chunk is checked against its CRC; a damaged one is skipped and said, the rest read, and the tools
+    that train, fit and judge (intact=True) refuse the bag by name."""
+    write(tmp_path / "d", 100)
+    _damage_message(tmp_path / "d", 50)
+    assert bag_is_complete(tmp_path / "d")          # the quick check sees the footer and metadata only
+    data = read_bag(tmp_path / "d")
+    assert not data.complete and data.note.startswith("damaged: 1 chunk(s) fail their CRC"), data.note
+    assert 80 <= len(data.topic("/a")) < 100 and 50 * 10**8 not in [t for t, _ in data.topic("/a")]
+    with pytest.raises(BagError, match=r"d: damaged: 1 chunk\(s\)"):
+        read_bag(tmp_path / "d", intact=True)
+    from rw_fdi_ros.storage.bag import read_series
+    with pytest.raises(BagError, match="damaged"):
+        read_series(tmp_path / "d", ["/a"], intact=True)
+    from rw_fdi_ros.tools.design.samples import load_samples
+    skipped = []
+    assert load_samples(tmp_path, on_skip=skipped.append) == [] and len(skipped) == 1 and "damaged" in skipped[0]
+
+
+@pytest.mark.parametrize("damage, said", [
+    (lambda b: (b / "metadata.yaml").unlink(), "metadata.yaml missing"),
+    (lambda b: (b / "metadata.yaml").write_text("rosbag2_bagfile_information: [1, 2"), "unreadable metadata"),
+    (lambda b: (b / "metadata.yaml").write_text((b / "metadata.yaml").read_text().replace("message_count: 100",
+                                                                                        "message_count: 90")),
+     "metadata.yaml counts 90 messages, the file holds 100")])
+def test_a_bag_whose_metadata_is_missing_broken_or_wrong_is_not_complete(tmp_path, damage, said):
+    write(tmp_path / "m", 100)
+    damage(tmp_path / "m")
+    data = read_bag(tmp_path / "m")
+    assert not data.complete and said in data.note and len(data.topic("/a")) == 100, data.note
+
+
+def test_a_bag_without_a_message_is_not_complete(tmp_path):
+    """A recorder closed before any message: footer and metadata, and nothing to judge."""
+    w = BagWriter(tmp_path / "e", 10**9)
+    w.add_topic("/a", "geometry_msgs/msg/Vector3Stamped")
+    w.close()
+    data = read_bag(tmp_path / "e")
+    assert not data.complete and data.note == "no messages"
+
+
+def test_rw_fdi_bag_says_a_damaged_bag_is_damaged_and_fails(tmp_path, capsys):
+    """`rw-fdi bag` on 4 KB of random bytes in a bag said `complete`, exit 0 (issue 39)."""
+    from rw_fdi_ros.cli import main
+    write(tmp_path / "d", 100)
+    _damage_message(tmp_path / "d", 30)
+    assert main(["bag", str(tmp_path / "d")]) == 1
+    out, err = capsys.readouterr()
+    assert "incomplete: damaged: 1 chunk(s)" in out and "/a" in out
+    assert err.strip().startswith("rw-fdi: error:") and "messages read" in err and "\n" not in err.strip()

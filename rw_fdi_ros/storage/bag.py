@@ -6,7 +6,12 @@ then has no summary, footer or metadata.yaml.
 
 Reading never needs the summary: :func:`iter_messages` streams the .mcap
 records front to back (mcap's StreamReader) and stops cleanly at a truncated
-tail, reporting what it read. So a bag of a killed recorder is readable up
+tail, reporting what it read. Every chunk is checked against its CRC as it
+is read: a damaged one is skipped and counted (``BagInfo.damaged``), the
+rest read; a bag is complete only with its footer, a readable metadata.yaml
+that counts what the file holds, and at least one message. The tools that
+train, fit or judge read with ``intact=True``: a damaged bag is a BagError
+naming it, which they skip and count. So a bag of a killed recorder is readable up
 to its last flushed chunk. Memory stays bounded by design: the tools that
 summarise a run read it as a stream into numbers (:func:`read_series`: a
 Vector3Stamped row costs 32 bytes, not a message object) or counts
@@ -112,6 +117,15 @@ class BagInfo:
     span: dict = field(default_factory=dict)       # topic -> [first, last] log time [ns]
     complete: bool = False
     note: str = ""
+    damaged: int = 0      # chunks that failed their CRC or did not decode: their messages skipped
+    messages: int = 0     # messages in the file, every topic
+
+    def damage(self) -> str:
+        """'' for an undamaged file, else what is damaged and what was still read (one line)."""
+        if not self.damaged:
+            return ""
+        return (f"damaged: {self.damaged} chunk(s) fail their CRC or do not decode (their messages skipped); "
+                f"{sum(self.counts.values())} messages read")
 
 
 def iter_messages(path, topics=None, info: BagInfo | None = None):
@@ -121,8 +135,8 @@ def iter_messages(path, topics=None, info: BagInfo | None = None):
     pass (counts and spans of the wanted topics only); a truncated tail ends the stream with
     ``info.note`` saying so. A file without a single channel raises BagError, at the end."""
     from mcap.exceptions import McapError
-    from mcap.records import Channel, Footer, Message, Schema
-    from mcap.stream_reader import StreamReader
+    from mcap.records import Channel, Chunk, Footer, Message, Schema
+    from mcap.stream_reader import StreamReader, breakup_chunk
 
     path = Path(path)
     info = info if info is not None else BagInfo(path=path)
@@ -130,29 +144,63 @@ def iter_messages(path, topics=None, info: BagInfo | None = None):
     wanted = set(topics) if topics else None
     with open(mcap_file(path), "rb") as fh:
         try:
-            for rec in StreamReader(fh).records:
-                if isinstance(rec, Message):
-                    topic = channels.get(rec.channel_id)
-                    if topic is None or (wanted and topic not in wanted):
+            for outer in StreamReader(fh, emit_chunks=True).records:
+                records = [outer]
+                if isinstance(outer, Chunk):
+                    try:
+                        records = breakup_chunk(outer, validate_crc=True)
+                    except Exception:   # noqa: BLE001 -- bad CRC, bad compression, bad records: damaged, counted
+                        info.damaged += 1
                         continue
-                    info.counts[topic] = info.counts.get(topic, 0) + 1
-                    span = info.span.setdefault(topic, [rec.log_time, rec.log_time])
-                    span[0], span[1] = min(span[0], rec.log_time), max(span[1], rec.log_time)
-                    yield topic, rec.log_time, rec.data
-                elif isinstance(rec, Schema):
-                    schemas[rec.id] = rec.name
-                elif isinstance(rec, Channel):
-                    channels[rec.id] = rec.topic
-                    info.types[rec.topic] = schemas.get(rec.schema_id, "")
-                elif isinstance(rec, Footer):
-                    info.complete = True
+                for rec in records:
+                    if isinstance(rec, Message):
+                        info.messages += 1
+                        topic = channels.get(rec.channel_id)
+                        if topic is None or (wanted and topic not in wanted):
+                            continue
+                        info.counts[topic] = info.counts.get(topic, 0) + 1
+                        span = info.span.setdefault(topic, [rec.log_time, rec.log_time])
+                        span[0], span[1] = min(span[0], rec.log_time), max(span[1], rec.log_time)
+                        yield topic, rec.log_time, rec.data
+                    elif isinstance(rec, Schema):
+                        schemas[rec.id] = rec.name
+                    elif isinstance(rec, Channel):
+                        channels[rec.id] = rec.topic
+                        info.types[rec.topic] = schemas.get(rec.schema_id, "")
+                    elif isinstance(rec, Footer):
+                        info.complete = True
         except (McapError, EOFError, struct.error, ValueError) as exc:
             info.note = f"truncated ({type(exc).__name__}); read up to the last complete chunk"
     if not channels:
-        raise BagError(f"{path}: no readable messages ({info.note or 'empty file'})")
-    if info.complete and path.is_dir() and not (path / "metadata.yaml").exists():
+        raise BagError(f"{path}: no readable messages ({info.damage() or info.note or 'empty file'})")
+    trouble = info.damage() or _metadata_trouble(path, info) if info.complete else info.damage()
+    if trouble:
         info.complete = False
-        info.note = "metadata.yaml missing"
+        info.note = "; ".join(x for x in (trouble, info.note) if x)
+
+
+def _metadata_trouble(path: Path, info: BagInfo) -> str:
+    """Why a file with its footer is still not a complete bag ('' when it is): no message at all, or a
+    metadata.yaml missing, unreadable, or counting other messages than the file holds."""
+    if not info.messages:
+        return "no messages"
+    if not path.is_dir():
+        return ""
+    if not (path / "metadata.yaml").exists():
+        return "metadata.yaml missing"
+    try:
+        counted = sum(message_counts(path).values())
+    except BagError as exc:
+        return str(exc).split(": ", 1)[-1]
+    if counted != info.messages:
+        return f"metadata.yaml counts {counted} messages, the file holds {info.messages}"
+    return ""
+
+
+def check_intact(info: BagInfo):
+    """A BagError naming the bag where a chunk was damaged (what trains, fits or judges must not read it)."""
+    if info.damaged:
+        raise BagError(f"{info.path}: {info.damage()}")
 
 
 def bag_info(path, topics=None) -> BagInfo:
@@ -163,17 +211,19 @@ def bag_info(path, topics=None) -> BagInfo:
     return info
 
 
-def read_bag(path, topics=None, raw: bool = False) -> BagData:
+def read_bag(path, topics=None, raw: bool = False, intact: bool = False) -> BagData:
     """Every message of a bag (or of the given topics), decoded, tolerant of a truncated or summary-less file.
 
     Memory grows with what is read: ask for the topics you need (or use :func:`read_series`).
-    ``raw=True`` keeps the CDR bytes instead of decoding (what a player republishes)."""
+    ``raw=True`` keeps the CDR bytes instead of decoding (what a player republishes); ``intact``: a damaged
+    chunk is a BagError, not a skip."""
     info = BagInfo(path=Path(path))
     data = BagData(path=info.path, types=info.types)
-    store = typestore()
     for topic, log_time, raw_msg in iter_messages(path, topics, info):
-        msg = bytes(raw_msg) if raw else store.deserialize_cdr(raw_msg, info.types[topic])
+        msg = bytes(raw_msg) if raw else _decode(raw_msg, info.types[topic], path, topic)
         data.messages.setdefault(topic, []).append((log_time, msg))
+    if intact:
+        check_intact(info)
     data.complete, data.note = info.complete, info.note
     for rows in data.messages.values():
         rows.sort(key=lambda r: r[0])
@@ -294,13 +344,22 @@ class BagSeries:
         return msg.data if msg is not None else None
 
 
-def read_series(path, topics) -> BagSeries:
+def _decode(raw, kind: str, path, topic: str):
+    """A message decoded, or a BagError naming the bag and topic (bytes that pass the CRC and still do not
+    decode: a file written wrong)."""
+    try:
+        return typestore().deserialize_cdr(raw, kind)
+    except Exception as exc:   # noqa: BLE001 -- rosbags' SerdeError and the struct errors under it
+        raise BagError(f"{path}: a {topic} message does not decode as {kind} ({type(exc).__name__})") from None
+
+
+def read_series(path, topics, intact: bool = False) -> BagSeries:
     """The given topics of a bag as a stream into numbers (Vector3Stamped, JointState) or their first
-    and last messages (the rest): memory grows only with the numbers kept, 8 bytes each."""
+    and last messages (the rest): memory grows only with the numbers kept, 8 bytes each. ``intact``: a
+    damaged chunk is a BagError, not a skip."""
     from .cdr import read_joint_state_cdr, read_vector_cdr
     info = BagInfo(path=Path(path))
     out = BagSeries(path=info.path, info=info)
-    store = typestore()
     for topic, _, raw in iter_messages(path, topics, info):
         kind = info.types[topic]
         if kind == _VECTOR3_STAMPED:
@@ -310,10 +369,12 @@ def read_series(path, topics) -> BagSeries:
             stamp, *fields = read_joint_state_cdr(raw)
             out.rows.setdefault(topic, _Rows(topic)).add(stamp, fields)
         else:
-            msg = store.deserialize_cdr(raw, kind)
+            msg = _decode(raw, kind, path, topic)
             pair = out.first_last.setdefault(topic, [msg, msg])
             if _stamp_of(msg) >= _stamp_of(pair[1]):
                 pair[1] = msg
+    if intact:
+        check_intact(info)
     return out
 
 

@@ -116,7 +116,7 @@ def load_samples(root, period: float = 1.0, complete_only: bool = True, on_skip=
         try:
             if complete_only and not bag_is_complete(bag):
                 raise BagError(f"{bag}: incomplete bag (no metadata.yaml or MCAP footer)")
-            data = read_bag(bag, topics=[FDI_TELEMETRY, "/scenario"])
+            data = read_bag(bag, topics=[FDI_TELEMETRY, "/scenario"], intact=True)
             out.append(fdi_samples(data, period, sampling, speed_aware=sampling == "mean"))
         except BagError as exc:
             if on_skip is None:

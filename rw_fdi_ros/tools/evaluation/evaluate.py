@@ -50,7 +50,7 @@ def _check_bag(bag: Path, curves: dict):
     if not bag_is_complete(bag):
         data = read_bag(bag, topics=["/scenario"])
         raise BagError(f"{bag.name}: incomplete bag ({data.note or 'no metadata.yaml'})")
-    data = read_series(bag, topics=["/scenario", T.FAULT_EFFECT, T.ATTITUDE, T.PLANT_DONE])
+    data = read_series(bag, topics=["/scenario", T.FAULT_EFFECT, T.ATTITUDE, T.PLANT_DONE], intact=True)
     scenario = scenario_of(data)
     if data.last(T.PLANT_DONE) is None:   # read from the file: no replay (and no timeout) spent on it
         end = data.info.span.get(T.ATTITUDE, [0, 0])[1] * 1e-9
@@ -109,7 +109,7 @@ def judge_bags(chunk) -> list:
         try:
             scenario, peak = _check_bag(bag, curves)
             choices = PlantChoices.of_recording(scenario.plant)
-            data = read_bag(bag, topics=[T.FDI_TELEMETRY, T.SCENARIO])
+            data = read_bag(bag, topics=[T.FDI_TELEMETRY, T.SCENARIO], intact=True)
             samples = fdi_samples(data, choices.fdi_period, choices.fdi_sampling, speed_aware=True,
                                   identification=True)
             out.append((bag, judge_run(scenario, samples, peak, weights, curves, persistence, identification=True,
