@@ -143,7 +143,14 @@ def _cmd_fit(args) -> int:
     if args.simulate:
         samples, plant = _simulated_fitting_runs(args.simulate, seeds)
     else:
-        samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
+        skipped = []
+        samples = load_samples(args.bags, on_skip=skipped.append, fault_free=True)
+        for reason in skipped:
+            print(f"skipped: {reason}", file=sys.stderr)
+        if skipped:
+            print(f"skipped {len(skipped)} of {len(skipped) + len(samples)} bags", file=sys.stderr)
+        if not samples:
+            raise ValueError(f"--bags {args.bags}: no fault-free bag to fit on")
     result = fit_thresholds(samples, models, args.out, model_ref=shown_path(models_dir, args.out),
                             false_alarm_rate=args.false_alarm_rate, persistence=args.persistence,
                             unit_calibration=args.unit_calibration, plant=plant)

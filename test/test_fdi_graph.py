@@ -408,3 +408,25 @@ def test_fdi_configurations_that_cannot_judge_the_run_are_refused_before_any_nod
                        "--thresholds", str(thesis), "--out", str(tmp_path)),
                    "thresholds_elman.json: the curves cover 0-2 s but the run lasts 400 s")
     assert not list(tmp_path.glob("current_0p6_x*"))   # refused before the graph: no bag begun
+
+
+def test_fit_thresholds_fits_on_fault_free_bags_only_and_on_enough_of_them(runs, tmp_path, capsys):
+    """`fit-thresholds --bags` fitted a 0.001 band on one fdir_bus_x bag without a word (issue 39): a bag whose
+    scenario has a fault is skipped by name and counted; one fault-free run cannot promise 0.001 (the band says
+    how many runs it needs); a damaged bag is skipped."""
+    import shutil
+
+    from rw_fdi_ros.cli import main
+    bags = tmp_path / "bags"
+    bags.mkdir()
+    for case in ("fault_free", "current_0p6_x"):
+        shutil.copytree(runs[case].bag, bags / case)
+    code = main(["fit-thresholds", "--bags", str(bags), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and not (tmp_path / "out" / "thresholds_model.json").exists()
+    assert "skipped: " in err and "current_0p6_x: records 1 fault(s) (current_limiter from" in err
+    assert "skipped 1 of 2 bags" in err
+    assert "1 fitting run(s) cannot promise a per-run false-alarm rate of 0.001: a band needs at least" in err
+    shutil.rmtree(bags / "fault_free")
+    assert main(["fit-thresholds", "--bags", str(bags), "--out", str(tmp_path / "out")]) == 2
+    assert "no fault-free bag to fit on" in capsys.readouterr().err

@@ -144,3 +144,15 @@ def test_ripple_reach_bounds_every_monotone_gain_and_no_less():
         assert max(steps) == pytest.approx(reach, rel=1e-12)
     p = np.exp(1j * np.linspace(0, 2 * np.pi, 40, endpoint=False))   # a full turn: the sum cancels
     assert abs(p.sum()) < 1e-12 and ripple_reach(p) > 10.0
+
+
+def test_a_band_is_fitted_only_from_enough_runs_for_the_rate_it_promises():
+    """One or two runs cannot carry a 1e-3 band (issue 39): the Gumbel tail reaches at most EXTRAPOLATION times
+    beyond 1/n, so 1e-3 per run needs 60 runs for an Elman band (half of alpha) and 30 for the model's."""
+    from rw_fdi_ros.core.detection import ThresholdError, fitting_runs_needed
+    assert fitting_runs_needed(1e-3, share=0.5) == 60 and fitting_runs_needed(1e-3) == 30
+    assert fitting_runs_needed(0.5) == 20   # never fewer than MIN_FIT_RUNS
+    stats = np.random.default_rng(3).gumbel(2e-4, 3e-5, size=(29, 3))
+    with pytest.raises(ThresholdError, match=r"29 fitting run\(s\) cannot promise .* at least 30 fault-free runs"):
+        fit_band(stats, false_alarm_rate=1e-3)
+    assert set(fit_band(np.vstack([stats, stats[:1]]), false_alarm_rate=1e-3)) == {"x", "y", "z"}

@@ -74,7 +74,7 @@ def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, he
     stages["campaigns_s"] = time.monotonic() - t0
 
     skipped = []
-    recorded = load_samples(work / "fit", on_skip=skipped.append)
+    recorded = load_samples(work / "fit", on_skip=skipped.append, fault_free=True)
     recorded.sort(key=lambda s: s.seed)
     train, fit = recorded[:train_runs], recorded[train_runs:train_runs + fit_runs]
     heldout = load_samples(work / "heldout", on_skip=skipped.append)[:heldout_runs]

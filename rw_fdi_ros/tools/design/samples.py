@@ -8,7 +8,7 @@ import numpy as np
 
 from ...core.telemetry import sample_telemetry
 from ...nodes.convert import fdi_sample_of
-from ...nodes.topics import AXES, FDI_TELEMETRY
+from ...nodes.topics import AXES, FAULT_EFFECT, FDI_TELEMETRY
 from ...storage.bag import BagError, bag_is_complete, read_bag
 
 
@@ -109,14 +109,42 @@ def bag_dirs(root) -> list:
     return dirs
 
 
-def load_samples(root, period: float = 1.0, complete_only: bool = True, on_skip=None, sampling: str = "mean") -> list:
-    """FDI samples of every bag under ``root``; unreadable or incomplete bags are reported and skipped."""
+def _refuse_faulty(bag, data):
+    """A BagError where a bag is not a fault-free run: its scenario's faults (the ground truth), or a wheel
+    whose recorded fault effect is not zero (a fault injected live, fault.<wheel>.<kind>)."""
+    from ...core.scenario import ScenarioError, parse_scenario
+    text = data.scenario_text
+    if text is None:
+        raise BagError(f"{bag}: no /scenario recorded: cannot tell it is fault-free")
+    try:
+        faults = parse_scenario(text, origin=str(bag)).faults
+    except ScenarioError as exc:
+        raise BagError(f"{bag}: its recorded scenario does not parse ({exc})") from None
+    if faults:
+        first = faults[0]
+        raise BagError(f"{bag}: records {len(faults)} fault(s) ({first.kind} from {first.onset:g} s, ...): thresholds "
+                       "are fitted on fault-free runs")
+    if data.topic(FAULT_EFFECT):
+        _, effect = data.wheel_values(FAULT_EFFECT)
+        if effect.size and np.any(effect != 0.0):
+            raise BagError(f"{bag}: a fault was injected while it ran (fault effect up to "
+                           f"{float(np.abs(effect).max()):.2g} N m): thresholds are fitted on fault-free runs")
+
+
+def load_samples(root, period: float = 1.0, complete_only: bool = True, on_skip=None, sampling: str = "mean",
+                 fault_free: bool = False) -> list:
+    """FDI samples of every bag under ``root``; unreadable, damaged or incomplete bags are reported and skipped,
+    and with ``fault_free`` (what thresholds are fitted on) so is a bag whose scenario has a fault or whose wheels
+    show a fault's effect (one injected while it ran)."""
     out = []
     for bag in bag_dirs(root):
         try:
             if complete_only and not bag_is_complete(bag):
                 raise BagError(f"{bag}: incomplete bag (no metadata.yaml or MCAP footer)")
-            data = read_bag(bag, topics=[FDI_TELEMETRY, "/scenario"], intact=True)
+            topics = [FDI_TELEMETRY, "/scenario"] + ([FAULT_EFFECT] if fault_free else [])
+            data = read_bag(bag, topics=topics, intact=True)
+            if fault_free:
+                _refuse_faulty(bag, data)
             out.append(fdi_samples(data, period, sampling, speed_aware=sampling == "mean"))
         except BagError as exc:
             if on_skip is None:
