@@ -107,11 +107,25 @@ def _cmd_reproduce(args) -> int:
     return 0
 
 
+def _fault_free_samples(bags, load_samples) -> list:
+    """FDI samples of the fault-free bags under ``bags`` (what trains and fits): each bag skipped said by name,
+    their count, and an error where none is left."""
+    skipped = []
+    samples = load_samples(bags, on_skip=skipped.append, fault_free=True)
+    for reason in skipped:
+        print(f"skipped: {reason}", file=sys.stderr)
+    if skipped:
+        print(f"skipped {len(skipped)} of {len(skipped) + len(samples)} bags", file=sys.stderr)
+    if not samples:
+        raise ValueError(f"--bags {bags}: no fault-free bag to learn from")
+    return samples
+
+
 def _cmd_train(args) -> int:
     from .tools.design.offline import plant_conditions
     from .tools.design.samples import load_samples
     from .tools.design.train import EPOCHS, THESIS_EPOCHS, train_models
-    samples = load_samples(args.bags, on_skip=lambda m: print(f"skipped: {m}", file=sys.stderr))
+    samples = _fault_free_samples(args.bags, load_samples)
     if args.runs:
         samples = samples[:args.runs]
     speed_aware = args.fdi_method == "speed_aware"
@@ -143,14 +157,7 @@ def _cmd_fit(args) -> int:
     if args.simulate:
         samples, plant = _simulated_fitting_runs(args.simulate, seeds)
     else:
-        skipped = []
-        samples = load_samples(args.bags, on_skip=skipped.append, fault_free=True)
-        for reason in skipped:
-            print(f"skipped: {reason}", file=sys.stderr)
-        if skipped:
-            print(f"skipped {len(skipped)} of {len(skipped) + len(samples)} bags", file=sys.stderr)
-        if not samples:
-            raise ValueError(f"--bags {args.bags}: no fault-free bag to fit on")
+        samples = _fault_free_samples(args.bags, load_samples)
     result = fit_thresholds(samples, models, args.out, model_ref=shown_path(models_dir, args.out),
                             false_alarm_rate=args.false_alarm_rate, persistence=args.persistence,
                             unit_calibration=args.unit_calibration, plant=plant)

@@ -429,4 +429,4 @@ def test_fit_thresholds_fits_on_fault_free_bags_only_and_on_enough_of_them(runs,
     assert "1 fitting run(s) cannot promise a per-run false-alarm rate of 0.001: a band needs at least" in err
     shutil.rmtree(bags / "fault_free")
     assert main(["fit-thresholds", "--bags", str(bags), "--out", str(tmp_path / "out")]) == 2
-    assert "no fault-free bag to fit on" in capsys.readouterr().err
+    assert "no fault-free bag to learn from" in capsys.readouterr().err
