@@ -151,7 +151,7 @@ def test_a_band_is_fitted_only_from_enough_runs_for_the_rate_it_promises():
     beyond 1/n, so 1e-3 per run needs 60 runs for an Elman band (half of alpha) and 30 for the model's."""
     from rw_fdi_ros.core.detection import ThresholdError, fitting_runs_needed
     assert fitting_runs_needed(1e-3, share=0.5) == 60 and fitting_runs_needed(1e-3) == 30
-    assert fitting_runs_needed(0.5) == 20   # never fewer than MIN_FIT_RUNS
+    assert fitting_runs_needed(0.5) == 10   # never fewer than MIN_FIT_RUNS
     stats = np.random.default_rng(3).gumbel(2e-4, 3e-5, size=(29, 3))
     with pytest.raises(ThresholdError, match=r"29 fitting run\(s\) cannot promise .* at least 30 fault-free runs"):
         fit_band(stats, false_alarm_rate=1e-3)

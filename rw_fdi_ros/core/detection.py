@@ -178,16 +178,23 @@ def gumbel_quantile(mu: float, beta: float, probability: float) -> float:
 
 
 # A band's Gumbel tail fit reaches at most this far beyond the level its runs show themselves (1/n of n runs),
-# and is never fitted on fewer than MIN_FIT_RUNS: 1e-3 per run then needs 60 runs for an Elman band (half of
-# alpha over three axes), 30 for the model observer's; the shipped bands are fitted on 100.
+# and is never fitted on fewer than MIN_FIT_RUNS (the upper half it fits: 5 maxima): 1e-3 per run then needs 60
+# runs for an Elman band (half of alpha over three axes), 30 for the model observer's; the shipped bands are fitted
+# on 100.
 EXTRAPOLATION = 100.0
-MIN_FIT_RUNS = 20
+MIN_FIT_RUNS = 10
 
 
 def fitting_runs_needed(false_alarm_rate: float, share: float = 1.0, axes: int = 3) -> int:
     """Fault-free runs a band for per-run ``false_alarm_rate`` needs (its per-axis level alpha = share x rate /
     axes at most EXTRAPOLATION times beyond 1/n), never fewer than MIN_FIT_RUNS."""
     return max(MIN_FIT_RUNS, math.ceil(axes / (share * false_alarm_rate * EXTRAPOLATION)))
+
+
+def rate_carried(runs: int, share: float = 0.5, axes: int = 3) -> float:
+    """The smallest per-run false-alarm rate ``runs`` fitting runs can carry (:func:`fitting_runs_needed` the other
+    way round; share 0.5: an Elman band's, the most demanding)."""
+    return axes / (share * max(runs, 1) * EXTRAPOLATION)
 
 
 def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", "y", "z"), share: float = 1.0) -> dict:
@@ -206,7 +213,7 @@ def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", 
     if len(s) < needed:
         raise ThresholdError(f"{len(s)} fitting run(s) cannot promise a per-run false-alarm rate of "
                              f"{false_alarm_rate:g}: a band needs at least {needed} fault-free runs (or ask for a "
-                             f"rate of {len(axes) / (share * max(len(s), 1) * EXTRAPOLATION):.2g} or more)")
+                             f"rate of {rate_carried(len(s), share, len(axes)):.2g} or more)")
     per_axis = share * false_alarm_rate / len(axes)
     out = {}
     for i, a in enumerate(axes):

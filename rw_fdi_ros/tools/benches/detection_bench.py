@@ -72,21 +72,24 @@ def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE
 def screen_cells(sizes, chunk_job, desc: str, jobs: int = 2, chunk: int = 50) -> dict:
     """cell index -> results of ``chunk_job(cell_index, range)`` merged over chunks of ``chunk`` runs,
     ``jobs`` processes (CPU-bound numpy and Python: one per core). chunk_job returns name -> [RunEval]."""
-    from concurrent.futures import ProcessPoolExecutor, as_completed
     from tqdm import tqdm
+    from ..campaigns.campaign import LocalExecutor, apply
     bar = tqdm(total=sum(sizes), desc=desc, unit="run", file=sys.stderr, mininterval=2.0)
     judged = {i: {} for i in range(len(sizes))}
-    with ProcessPoolExecutor(jobs) as pool:
-        futures = {pool.submit(chunk_job, i, range(start, min(start + chunk, n))): (i, min(chunk, n - start))
-                   for i, n in enumerate(sizes) for start in range(0, n, chunk)}
-        for f in as_completed(futures):
-            i, n = futures[f]
-            for name, runs in f.result().items():
-                judged[i].setdefault(name, []).extend(runs)
-            bar.update(n)
+    calls = [(_cell_chunk, chunk_job, i, range(start, min(start + chunk, n)))
+             for i, n in enumerate(sizes) for start in range(0, n, chunk)]
+    # the campaigns' executor: SIGTERM or Ctrl-C drops the queued chunks and ends the workers at once
+    for i, seeds, out in LocalExecutor(jobs).map_unordered(apply, calls, processes=True):
+        for name, runs in out.items():
+            judged[i].setdefault(name, []).extend(runs)
+        bar.update(len(seeds))
     bar.close()
     return {i: {name: sorted(runs, key=lambda r: r.seed) for name, runs in by_name.items()}
             for i, by_name in judged.items()}
+
+
+def _cell_chunk(chunk_job, i: int, seeds) -> tuple:
+    return i, seeds, chunk_job(i, seeds)
 
 
 class SpeedAwareChunk:

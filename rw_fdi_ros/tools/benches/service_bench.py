@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,6 +43,7 @@ from ...core.fdir import SATURATED_S
 from ...core.identification import UNKNOWN
 from ...core.scenario import Scenario, parse_scenario
 from ...core.wheel_set import WHEEL_SETS
+from ..campaigns.campaign import LocalExecutor
 from ..metrics import IDENTIFIED_KIND, judge_size
 from .detection_bench import format_rate, rate, write_report
 from ..evaluation.screen import load_fdi
@@ -227,18 +227,11 @@ def run_service(seeds, jobs: int = 2, progress=None, max_duration: float | None 
             runs += _simulate(chunk)
             if progress:
                 progress(len(chunk))
-    else:
-        with ProcessPoolExecutor(jobs) as pool:
-            futures = [pool.submit(_simulate, chunk) for chunk in work]
-            try:
-                for fut, chunk in zip(futures, work):
-                    runs += fut.result()
-                    if progress:
-                        progress(len(chunk))
-            except BaseException:
-                for fut in futures:
-                    fut.cancel()
-                raise
+    else:   # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
+        for out in LocalExecutor(jobs).map_unordered(_simulate, work, processes=True):
+            runs += out
+            if progress:
+                progress(len(out))
     return sorted(runs, key=lambda r: r["seed"])
 
 

@@ -46,14 +46,33 @@ class LocalExecutor:
             pool = ProcessPoolExecutor(self.jobs, mp_context=multiprocessing.get_context("fork"))
         else:
             pool = ThreadPoolExecutor(self.jobs)
+        done = False
         try:
             futures = [pool.submit(fn, item) for item in items]
             for fut in as_completed(futures):
                 yield fut.result()
+            done = True
         finally:
-            # interrupted (Ctrl-C, SIGTERM) or abandoned: the queued calls are dropped and only the running
-            # ones finish; a plain `with` would run every queued run of the campaign before exiting
+            # interrupted (Ctrl-C, SIGTERM) or abandoned: the queued calls are dropped; a plain `with` would run
+            # every queued run before exiting. Worker processes compute only (the core loop, a bench's
+            # chunk): they are ended at once. Threads each supervise a graph, which ends with its run.
+            if not done and processes:
+                _end_workers(pool)
             pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _end_workers(pool: ProcessPoolExecutor):
+    """SIGKILL to a process pool's workers (Python 3.14's kill_workers; 3.11 has no API): forked, they inherit
+    the command's SIGTERM handler, which would only interrupt the call in hand and take the next one."""
+    for process in list(getattr(pool, "_processes", {}).values()):
+        if process.is_alive():
+            process.kill()
+
+
+def apply(call):
+    """``call`` = (function, *arguments): the function applied, for an executor's map over varied calls."""
+    fn, *args = call
+    return fn(*args)
 
 
 class DaskExecutor:
