@@ -32,3 +32,19 @@ def test_a_small_sample_is_flagged_where_its_interval_misses_the_records():
     sample = fc.Figure("x", "bags", "reproduce", lambda r: r)
     assert fc._compare(sample, {"identical_bags": 5, "runs": 6}, None)[2]
     assert not fc._compare(sample, {"identical_bags": 6, "runs": 6}, None)[2]
+
+
+def test_a_report_with_runs_writes_them_as_a_table_one_row_a_run(tmp_path):
+    """Per-run results go elsewhere (issue 38): pandas or polars read <name>_runs.csv."""
+    import csv
+
+    from rw_fdi_ros.tools.benches.detection_bench import write_report
+    runs = [{"seed": 1, "pointing_kept": True, "faults": [{"kind": "bus_voltage"}],
+             "identification": {"kind": "bus_voltage", "covered": True}},
+            {"seed": 2, "pointing_kept": False, "faults": [], "delay_s": 3.5}]
+    write_report({"runs": runs}, tmp_path, "demo", lambda r: "demo\n")
+    with open(tmp_path / "demo_runs.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["seed"] for r in rows] == ["1", "2"]
+    assert rows[0]["identification.kind"] == "bus_voltage" and rows[1]["identification.kind"] == ""
+    assert rows[1]["delay_s"] == "3.5" and rows[0]["faults"] == '[{"kind": "bus_voltage"}]'

@@ -194,15 +194,44 @@ def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: 
 
 
 def write_report(report: dict, out, name: str, formatter) -> dict:
-    """``report`` as <out>/<name>.json and its text (``formatter``) as <out>/<name>.md; the report with
-    its text, ok, as the bench commands return it."""
+    """``report`` as <out>/<name>.json and its text (``formatter``) as <out>/<name>.md, and where it keeps its
+    runs (a list of dicts under "runs") a table of them, one row a run (<out>/<name>_runs.csv:
+    :func:`write_runs_table`); the report with its text, ok, as the bench commands return it."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     (out / f"{name}.json").write_text(json.dumps(report, indent=1))
+    runs = report.get("runs")
+    if isinstance(runs, list) and runs and all(isinstance(r, dict) for r in runs):
+        write_runs_table(runs, out / f"{name}_runs.csv")
     report["text"] = formatter(report)
     (out / f"{name}.md").write_text(report["text"])
     report["ok"] = True
     return report
+
+
+def runs_table(runs: list) -> tuple:
+    """(columns, rows) of per-run dicts as a flat table: nested dicts flattened with dots (identification.kind),
+    lists as JSON text, every run's keys in the order they first come."""
+    def flat(d, prefix=""):
+        for k, v in d.items():
+            if isinstance(v, dict):
+                yield from flat(v, f"{prefix}{k}.")
+            else:
+                yield f"{prefix}{k}", json.dumps(v) if isinstance(v, (list, tuple)) else v
+    rows = [dict(flat(r)) for r in runs]
+    columns = list(dict.fromkeys(k for row in rows for k in row))
+    return columns, [[row.get(c, "") for c in columns] for row in rows]
+
+
+def write_runs_table(runs: list, path) -> Path:
+    """The runs as CSV (pandas.read_csv, polars.read_csv): one row a run, :func:`runs_table`'s columns."""
+    import csv
+    columns, rows = runs_table(runs)
+    with open(path, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(columns)
+        writer.writerows(rows)
+    return Path(path)
 
 
 def format_rate(r: dict) -> str:
