@@ -22,16 +22,22 @@ def processes_of(parent: int) -> list:
     return out
 
 
-def test_kill_9_of_rw_fdi_leaves_no_process_of_its_run_after_2_s(tmp_path):
+def recording_run(tmp_path, settle: float):
+    """`rw-fdi run` of a long scenario, returned ``settle`` seconds after its bag appeared (it records)."""
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     run = subprocess.Popen([str(Path(sys.executable).parent / "rw-fdi"), "run", "--scenario", "operations_hours",
                             "--no-fdi", "--out", str(tmp_path / "bags")], env=env, stdout=subprocess.DEVNULL,
                            stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.monotonic() + 60.0
+    while not list((tmp_path / "bags").rglob("*.mcap")) and time.monotonic() < deadline and run.poll() is None:
+        time.sleep(0.1)
+    time.sleep(settle)
+    return run
+
+
+def test_kill_9_of_rw_fdi_leaves_no_process_of_its_run_after_2_s(tmp_path):
+    run = recording_run(tmp_path, settle=3.0)   # killed while it records
     try:
-        deadline = time.monotonic() + 60.0
-        while not list((tmp_path / "bags").rglob("*.mcap")) and time.monotonic() < deadline and run.poll() is None:
-            time.sleep(0.1)
-        time.sleep(3.0)   # killed while it records
         nodes = processes_of(run.pid)
         assert nodes, "the graph did not start"
         run.kill()
@@ -75,15 +81,8 @@ def test_the_graph_listens_on_loopback_only(tmp_path):
     """config/fastdds.xml: shared memory and UDP on the loopback interface (issue 39). Every port DDS listens on
     is bound to 127.0.0.1; what is left elsewhere is at most the two send sockets kilted's rmw_fastrtps adds of
     its own in LOCALHOST discovery (an unrestricted UDP transport it appends, sending to 127.0.0.1 only)."""
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    run = subprocess.Popen([str(Path(sys.executable).parent / "rw-fdi"), "run", "--scenario", "operations_hours",
-                            "--no-fdi", "--out", str(tmp_path / "bags")], env=env, stdout=subprocess.DEVNULL,
-                           stderr=subprocess.DEVNULL, start_new_session=True)
+    run = recording_run(tmp_path, settle=2.0)
     try:
-        deadline = time.monotonic() + 60.0
-        while not list((tmp_path / "bags").rglob("*.mcap")) and time.monotonic() < deadline and run.poll() is None:
-            time.sleep(0.1)
-        time.sleep(2.0)
         pids = processes_of(run.pid)
         assert pids, "the graph did not start"
         domain = int(dict(line.split("=", 1) for line in Path(f"/proc/{pids[0]}/environ").read_bytes()
