@@ -173,7 +173,7 @@ def iter_messages(path, topics=None, info: BagInfo | None = None):
             info.note = f"truncated ({type(exc).__name__}); read up to the last complete chunk"
     if not channels:
         raise BagError(f"{path}: no readable messages ({info.damage() or info.note or 'empty file'})")
-    trouble = info.damage() or _metadata_trouble(path, info) if info.complete else info.damage()
+    trouble = info.damage() or (_metadata_trouble(path, info) if info.complete else "")
     if trouble:
         info.complete = False
         info.note = "; ".join(x for x in (trouble, info.note) if x)
