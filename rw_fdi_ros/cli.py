@@ -108,10 +108,11 @@ def _cmd_reproduce(args) -> int:
 
 
 def _fault_free_samples(bags, load_samples) -> list:
-    """FDI samples of the fault-free bags under ``bags`` (what trains and fits): each bag skipped said by name,
-    their count, and an error where none is left."""
+    """FDI samples of the fault-free bags under ``bags`` recorded under one plant (what trains and fits): each
+    bag skipped said by name, their count, and an error where none is left."""
+    from .tools.design.offline import under_one_plant
     skipped = []
-    samples = load_samples(bags, on_skip=skipped.append, fault_free=True)
+    samples = under_one_plant(load_samples(bags, on_skip=skipped.append, fault_free=True), skipped.append)
     for reason in skipped:
         print(f"skipped: {reason}", file=sys.stderr)
     if skipped:

@@ -81,3 +81,32 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
     running = PlantChoices(**{k: isolation.parameters[k] for k in DEFAULT.as_dict()})
     assert running.emf_limit == "pwm_saturation" and running.wheel_momentum_coupling is False
     assert curves.plant == PlantChoices(**plant_conditions([bag])) == PlantChoices(**simulated) == running
+
+
+def _scenario_bag(path, plant: str):
+    """A bag holding only what the plant node records first: its /scenario, under ``plant``."""
+    from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
+
+    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.storage.writer import BagWriter
+    ref = path.with_suffix(".yaml")
+    ref.write_text(f"name: quiet\nduration: 10.0\nseed: 4\nplant: {plant}\nfaults: []\n")
+    scenario = load_scenario(str(ref))
+    writer = BagWriter(path)
+    writer.add_topic(T.SCENARIO, "std_msgs/msg/String")
+    writer.write_message(T.SCENARIO, 0, String(data=scenario.effective_text(scenario.plant_choices().scenario_dict())))
+    writer.close()
+    return path
+
+
+def test_a_bag_recorded_under_other_plant_choices_is_skipped_by_name(tmp_path):
+    """Training and fitting keep the plant most bags share and name each other bag."""
+    from rw_fdi_ros.tools.design.offline import under_one_plant
+    usual = [_scenario_bag(tmp_path / f"usual{i}", "{}") for i in range(2)]
+    odd = _scenario_bag(tmp_path / "odd", "{emf_limit: pwm_saturation}")
+    skipped = []
+    kept = under_one_plant([usual[0], odd, usual[1]], skipped.append)
+    assert kept == usual
+    assert len(skipped) == 1 and str(odd) in skipped[0] and "pwm_saturation" in skipped[0]
+    assert under_one_plant(usual, skipped.append) == usual and len(skipped) == 1

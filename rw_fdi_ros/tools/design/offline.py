@@ -92,19 +92,35 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     return ObserverRun(samples.time, r, est, residual, bound, method, wheels)
 
 
-def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
-    """The plant choices the bags were recorded under (FdiSamples or bag paths), as a mapping;
-    they must all agree."""
+def _plant_of(sample, sampling: str = FDI_SAMPLING):
+    """The PlantChoices a bag (or FdiSamples read from one) was recorded under."""
     import yaml
     from ...core.plant_choices import PlantChoices
     from ...storage.bag import read_bag
-    seen = set()
-    for s in samples_list:
-        text = read_bag(getattr(s, "bag", s), topics=["/scenario"]).scenario_text or ""
-        seen.add(PlantChoices.of_recording((yaml.safe_load(text) or {}).get("plant"), sampling))
+    text = read_bag(getattr(sample, "bag", sample), topics=["/scenario"]).scenario_text or ""
+    return PlantChoices.of_recording((yaml.safe_load(text) or {}).get("plant"), sampling)
+
+
+def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
+    """The plant choices the bags were recorded under (FdiSamples or bag paths), as a mapping;
+    they must all agree."""
+    seen = {_plant_of(s, sampling) for s in samples_list}
     if len(seen) != 1:
         raise ThresholdError(f"bags recorded under different plant choices: {sorted(map(str, seen))}")
     return seen.pop().as_dict()
+
+
+def under_one_plant(samples_list, on_skip, sampling: str = FDI_SAMPLING) -> list:
+    """The samples recorded under the plant choices most of them share; each other one is passed to
+    ``on_skip`` with its reason (a model or band learnt from a mix would fit no plant)."""
+    plants = [_plant_of(s, sampling) for s in samples_list]
+    if len(set(plants)) <= 1:
+        return list(samples_list)
+    kept = max(set(plants), key=lambda p: (plants.count(p), -plants.index(p)))
+    for s, p in zip(samples_list, plants):
+        if p != kept:
+            on_skip(f"{getattr(s, 'bag', s)}: recorded under the plant choices {p}, the others under {kept}")
+    return [s for s, p in zip(samples_list, plants) if p == kept]
 
 
 def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", window: int = WINDOW,
