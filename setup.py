@@ -6,7 +6,7 @@ from setuptools import find_packages, setup
 
 PACKAGE = "rw_fdi_ros"
 NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "model_observer", "isolation",
-         "wheel_allocation", "player", "composed", "momentum_dumping"]   # rw_fdi_ros/nodes/entry.py: the same list
+         "wheel_allocation", "player", "composed", "momentum_dumping"]   # rw_fdi_ros/graph/entry.py: the same list
 
 
 
@@ -45,7 +45,7 @@ setup(
     description="Reaction-wheel FDI as a ROS 2 node graph",
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [f"{n} = {PACKAGE}.nodes.entry:{n}" for n in NODES]
+        "console_scripts": [f"{n} = {PACKAGE}.graph.entry:{n}" for n in NODES]
         + ["rw-fdi = rw_fdi_ros.cli:main"],
     },
 )

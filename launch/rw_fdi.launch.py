@@ -14,7 +14,7 @@ The launch ends by itself: every node ends with the run, and then the launch
 exits 0. A node that exits non-zero ends the run: launch shuts every other node
 down (SIGINT, so the recorder closes a readable bag) and ``ros2 launch`` exits 1
 naming the node ("Caught exception in launch ...: <node> exited with code N").
-test/test_ros2_launch.py runs this file under the real launch and launch_ros.
+test/test_launch_file.py runs this file under the real launch and launch_ros.
 
     ros2 launch rw_fdi_ros rw_fdi.launch.py scenario:=bus_5v5_x seed:=3 bag:=bags/demo
 """

@@ -310,7 +310,7 @@ def _cmd_bench(args) -> int:
 def _cmd_bag(args) -> int:
     """Topics, counts and spans of a bag, its run summary and, where it holds FDI outputs, the FDI
     verdict: each a stream over the file, so memory does not grow with the run's length."""
-    from .nodes import topics as T
+    from .graph import topics as T
     from .storage.bag import bag_info, read_series
     from .tools.campaigns.summary import format_summary, run_summary
     info = bag_info(args.bag)
@@ -330,7 +330,7 @@ def _cmd_bag(args) -> int:
             print(f"  run interrupted: no {T.PLANT_DONE} (the plant did not reach the run's end)")
     if T.fdi_output_topics("elman")["alarm"] in info.counts:
         from .tools.campaigns.fdi import fdi_verdict, format_verdict, plot_residuals, verdict_topics
-        from .tools.metrics import health_from_bag
+        from .tools.bag_series import health_from_bag
         data = read_series(args.bag, verdict_topics())
         verdict = {**fdi_verdict(data), "health": health_from_bag(args.bag)}
         print(f"fault detection and isolation:\n{format_verdict(verdict)}")

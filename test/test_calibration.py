@@ -5,7 +5,7 @@ import pytest
 
 from rw_fdi_ros.core.calibration import (UnitCalibration, calibration_samples, prior_variances, regressors,
                                          tolerances)
-from rw_fdi_ros.core.detection import ThresholdCurves, ThresholdError
+from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
 
 
 def synthetic(n, b, noise, seed=0):

@@ -4,7 +4,7 @@ import pytest
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.serialization import deserialize_message, serialize_message
 
-from rw_fdi_ros.nodes.convert import vector_msg
+from rw_fdi_ros.graph.convert import vector_msg
 from rw_fdi_ros.storage.cdr import header_stamp_ns, read_vector_cdr, vector_cdr
 
 
@@ -55,7 +55,7 @@ def test_fdi_telemetry_report_gives_back_the_very_sample():
     from rclpy.serialization import deserialize_message as des, serialize_message as ser
     from diagnostic_msgs.msg import DiagnosticArray
     from rw_fdi_ros.core.telemetry import TelemetrySampler
-    from rw_fdi_ros.nodes.convert import fdi_sample_of, fdi_telemetry_msg
+    from rw_fdi_ros.graph.convert import fdi_sample_of, fdi_telemetry_msg
     rng = np.random.default_rng(1)
     sampler = TelemetrySampler(1.0, identification=True)
     rows = [sampler.add(k * 100_000_000, rng.uniform(-5, 5, 3), rng.normal(0, 1e-2, 3), rng.uniform(20, 30, 3))

@@ -4,8 +4,10 @@ import json
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.detection import (AlarmRule, ResidualFilter, ThresholdCurves, ThresholdError, alarm_series,
-                                       fit_threshold_curve, residual_series)
+from rw_fdi_ros.core.detection import AlarmRule, alarm_series
+from rw_fdi_ros.core.residuals import ResidualFilter, residual_series
+from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
+from rw_fdi_ros.core.threshold_fit import fit_threshold_curve
 
 
 def test_residual_is_a_causal_moving_average_of_the_absolute_error():

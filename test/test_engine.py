@@ -68,7 +68,7 @@ def test_the_engines_record_the_same_bags(recorded, name):
 def test_in_orbit_the_bags_hold_the_magnetometer_and_the_rods(recorded):
     """Once a second the plant's magnetometer reading and the momentum-dumping node's dipole for the same
     stamp, the rods on (the wheels start above the dump start)."""
-    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.bag import read_bag
     _, out = recorded
     bag = out["orbit"]["graph"][0]

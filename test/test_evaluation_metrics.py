@@ -9,11 +9,11 @@ from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as Header
 from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
 from rw_fdi_ros.core.sampling import FdiSampler, sample_series
-from rw_fdi_ros.nodes import topics as T
+from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.bag import read_bag, read_series
 from rw_fdi_ros.storage.writer import BagWriter
-from rw_fdi_ros.tools.metrics import (RunEval, aggregate, judge, observers_of_runs, scenario_of,
-                                                series_from_bag)
+from rw_fdi_ros.tools.metrics import RunEval, aggregate, judge, observers_of_runs
+from rw_fdi_ros.tools.bag_series import scenario_of, series_from_bag
 
 N = 101   # samples 0..100 s
 AXES = "xyz"
@@ -213,10 +213,12 @@ def test_fdi_sampler_mean_and_instant():
 
 
 def test_the_verdict_code_needs_no_ros():
-    """tools/metrics.py says "no ROS": importing it (and the topic table it reads) loads no rclpy."""
+    """tools/metrics.py and bag_series.py say "no ROS": importing them (and the topic table they read) loads
+    no rclpy."""
     import subprocess
     import sys
-    probe = "import sys, rw_fdi_ros.tools.metrics, rw_fdi_ros.nodes.topics; print('rclpy' in sys.modules)"
+    probe = ("import sys, rw_fdi_ros.tools.metrics, rw_fdi_ros.tools.bag_series, rw_fdi_ros.graph.topics; "
+             "print('rclpy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0 and out.stdout.strip() == "False", out.stderr
 

@@ -6,7 +6,7 @@ import pytest
 
 from rw_fdi_ros.core.allocation import TorqueAllocator, distribution, limited
 from rw_fdi_ros.core.closed_loop import Fdir, simulate
-from rw_fdi_ros.core.detection import ThresholdCurves
+from rw_fdi_ros.core.threshold_file import ThresholdCurves
 from rw_fdi_ros.core.fdir import (SATURATED_S, DecisionDelay, DeliveryLog, Reconfiguration, held_speeds,
                                   momentum_shortfall, slew_excursion)
 from rw_fdi_ros.core.plant import Plant

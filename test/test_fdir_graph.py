@@ -15,9 +15,9 @@ import pytest
 
 from rw_fdi_ros.core.allocation import hold_command
 from rw_fdi_ros.core.closed_loop import Fdir, simulate
-from rw_fdi_ros.core.detection import ThresholdCurves
+from rw_fdi_ros.core.threshold_file import ThresholdCurves
 from rw_fdi_ros.core.scenario import load_scenario
-from rw_fdi_ros.nodes import topics as T
+from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.paths import fdi_dir
 from rw_fdi_ros.storage.bag import read_bag
 from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi

@@ -4,7 +4,7 @@ import json
 from pathlib import Path
 
 from rw_fdi_ros.tools.benches import figures_check as fc
-from rw_fdi_ros.tools.benches.detection_bench import rate
+from rw_fdi_ros.tools.benches.kit import rate
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -38,7 +38,7 @@ def test_a_report_with_runs_writes_them_as_a_table_one_row_a_run(tmp_path):
     """Per-run results go elsewhere (issue 38): pandas or polars read <name>_runs.csv."""
     import csv
 
-    from rw_fdi_ros.tools.benches.detection_bench import write_report
+    from rw_fdi_ros.tools.benches.kit import write_report
     runs = [{"seed": 1, "pointing_kept": True, "faults": [{"kind": "bus_voltage"}],
              "identification": {"kind": "bus_voltage", "covered": True}},
             {"seed": 2, "pointing_kept": False, "faults": [], "delay_s": 3.5}]

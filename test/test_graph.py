@@ -17,7 +17,7 @@ import pytest
 
 from rw_fdi_ros.launch.graph import graph_nodes
 from rw_fdi_ros.launch.launcher import DomainLease, GraphProcesses
-from rw_fdi_ros.nodes import topics as T
+from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.bag import read_bag
 from rw_fdi_ros.tools.campaigns.run import resolve_scenario, run_scenario
 

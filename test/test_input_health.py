@@ -2,7 +2,7 @@
 handling of a sample it cannot judge (core/isolation.py): closed-form cases."""
 import math
 
-from rw_fdi_ros.core.detection import ThresholdCurves
+from rw_fdi_ros.core.threshold_file import ThresholdCurves
 from rw_fdi_ros.core.input_health import NEW_RUN, NEXT, OUT_OF_ORDER, STALE, WARN, InputMonitor, stamp_order
 from rw_fdi_ros.core.isolation import ObserverChannel
 

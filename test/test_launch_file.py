@@ -116,7 +116,7 @@ def launch_fault(ws: Path, work: Path, duration: float, *arguments, bag_name: st
 
 
 def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_verdict(colcon_workspace, tmp_path):
-    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.bag import bag_info, read_series
     from rw_fdi_ros.tools.campaigns.fdi import fdi_verdict, verdict_topics
     launch, scenario, bag = launch_fault(colcon_workspace, tmp_path, 90)
@@ -165,7 +165,7 @@ def test_ros2_launch_in_orbit_runs_the_momentum_dumping_node(colcon_workspace, t
     """In orbit with magnetorquers the launch file starts the momentum-dumping node too (its own process
     with compose:=none, a params file from launch_ros): it answers every magnetometer reading, the rods
     dump (the wheels start above the dump start), and everything ends by itself."""
-    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.bag import bag_info, read_bag
     scenario = tmp_path / "orbit.yaml"
     scenario.write_text(ORBIT)
@@ -184,7 +184,7 @@ def test_ros2_launch_in_orbit_runs_the_momentum_dumping_node(colcon_workspace, t
 
 
 def test_a_node_killed_mid_run_ends_the_launch_with_a_failure_and_a_readable_bag(colcon_workspace, tmp_path):
-    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.bag import bag_info
     launch, _, bag = launch_fault(colcon_workspace, tmp_path, 2000, "compose:=none")
     try:

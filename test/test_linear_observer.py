@@ -60,7 +60,7 @@ def test_the_speed_aware_model_error_term_covers_held_out_runs():
     from rw_fdi_ros.core.scenario import AXES, load_scenario
     from rw_fdi_ros.tools.evaluation.screen import simulated_runs
     runs = [s for _, s, _ in simulated_runs([load_scenario("fault_free").with_seed(k) for k in range(5000, 5010)])]
-    from rw_fdi_ros.core.detection import demand_ratio
+    from rw_fdi_ros.core.residuals import demand_ratio
     for i, a in enumerate(AXES):
         ratios = [demand_ratio(s.reaction_torque[:, i], estimate_series(s.tcv, s.reaction_torque)[:, i],
                                s.ripple_phasor[:, i]) for s in runs]

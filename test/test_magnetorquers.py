@@ -108,7 +108,7 @@ def test_after_a_reconfiguration_the_rods_dump_the_wheels_in_use():
     beside it; from then on the dipole is the law's for the momentum of all four wheels in use, and the
     pointing comes back within 0.2 deg."""
     from rw_fdi_ros.core.closed_loop import Fdir
-    from rw_fdi_ros.core.detection import ThresholdCurves
+    from rw_fdi_ros.core.threshold_file import ThresholdCurves
     from rw_fdi_ros.paths import fdi_dir
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     scenario = parse_scenario(_orbit().replace("duration: 600.0", "duration: 300.0")

@@ -81,15 +81,15 @@ def test_the_table_check_would_see_a_missing_row():
 
 def test_every_numeric_parameter_has_a_range_and_the_table_states_it():
     """Issue 26: `--persistence -2` made every wheel alarm with nothing said; every numeric node parameter
-    is now range-checked at declaration (nodes/parameters.py) and docs/graph.md says the range."""
-    from rw_fdi_ros.nodes.parameters import range_of, range_text
+    is now range-checked at declaration (graph/parameters.py) and docs/graph.md says the range."""
+    from rw_fdi_ros.graph.parameters import range_of, range_text
     numeric = 0
     for node, name, kind, _, _, description in documented_rows():
         name = name.strip("`")
         if kind in ("int", "double"):
             numeric += 1
             limits = range_of(node, "fault.x.bus_voltage" if name.startswith("fault.") else name)
-            assert limits is not None, f"{node}.{name}: numeric without a range (nodes/parameters.py)"
+            assert limits is not None, f"{node}.{name}: numeric without a range (graph/parameters.py)"
             assert name.startswith("fault.") or range_text(limits) in description, (node, name, description)
     assert numeric >= 40
 

@@ -1,9 +1,9 @@
-"""A node's end: the work first, then a watched teardown (nodes/runtime.py).
+"""A node's end: the work first, then a watched teardown (graph/runtime.py).
 
 A DDS teardown that never returns (the one-in-twelve "recorder did not finish" of issue 25 left a
 complete bag and empty logs) ends the process by SIGALRM after TEARDOWN_TIMEOUT, with every thread's
 stack in its log; the launcher reads that exit as done, with a note. A node interrupted while it is
-still importing ends quietly (nodes/entry.py), as `ros2 launch` shutting down makes them.
+still importing ends quietly (graph/entry.py), as `ros2 launch` shutting down makes them.
 """
 import signal
 import subprocess
@@ -18,7 +18,7 @@ TEARDOWN_TIMEOUT = 3   # the test's own (RW_FDI_TEARDOWN_TIMEOUT), not the nodes
 
 HANGING_TEARDOWN = """
 import sys, time, rclpy
-from rw_fdi_ros.nodes import runtime
+from rw_fdi_ros.graph import runtime
 class Node:
     def destroy_node(self):
         print("destroying", flush=True)
@@ -43,7 +43,7 @@ def test_a_teardown_that_never_returns_ends_by_its_watchdog_with_the_stack_in_th
 
 SLOW_IMPORT = """
 import time
-from rw_fdi_ros.nodes import entry
+from rw_fdi_ros.graph import entry
 def slow_import(name):   # a node module still importing its numerics
     print("importing", name, flush=True)
     time.sleep(60)

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.detection import ThresholdCurves, ThresholdError
+from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
 from rw_fdi_ros.core.plant_choices import DEFAULT, PlantChoices
 from rw_fdi_ros.core.scenario import ScenarioError, parse_scenario
 
@@ -47,7 +47,7 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
     from rw_fdi_ros.cli import _simulated_fitting_runs
     from rw_fdi_ros.core.scenario import load_scenario
     from rw_fdi_ros.launch.graph import graph_nodes
-    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.writer import BagWriter
     from rw_fdi_ros.tools.evaluation.evaluate import _check_bag
     from rw_fdi_ros.tools.design.offline import plant_conditions
@@ -88,7 +88,7 @@ def _scenario_bag(path, plant: str):
     from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
     from rw_fdi_ros.core.scenario import load_scenario
-    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.writer import BagWriter
     ref = path.with_suffix(".yaml")
     ref.write_text(f"name: quiet\nduration: 10.0\nseed: 4\nplant: {plant}\nfaults: []\n")

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from rw_fdi_ros.core.scenario import AXES
-from rw_fdi_ros.nodes import topics as T
+from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.bag import BagError, read_bag
 from rw_fdi_ros.storage.writer import BagWriter
 from rw_fdi_ros.tools.campaigns.campaign import DaskExecutor, LocalExecutor, run_campaign

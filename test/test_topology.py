@@ -1,4 +1,4 @@
-"""Who reads what is one table (nodes/topics.py), and every node's reader counts come from it.
+"""Who reads what is one table (graph/topics.py), and every node's reader counts come from it.
 
 A publisher holds its first messages until its topic's readers are matched (DDS drops what goes out
 before), so a count too high stalls a run and one too low loses its start. No ROS graph runs here:
@@ -11,7 +11,7 @@ import pytest
 
 from rw_fdi_ros.core.plant_choices import DEFAULT
 from rw_fdi_ros.launch.graph import NodeSpec, graph_nodes, with_reader_counts
-from rw_fdi_ros.nodes import topics as T
+from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.tools.campaigns.replay import replay_nodes
 from rw_fdi_ros.tools.campaigns.run import resolve_scenario
 
@@ -94,7 +94,7 @@ def test_the_thesis_method_runs_its_two_observers():
 
 
 def test_a_node_the_table_does_not_know_is_an_error_not_a_stall():
-    with pytest.raises(ValueError, match="monitor reads is not in nodes/topics.py READS"):
+    with pytest.raises(ValueError, match="monitor reads is not in graph/topics.py READS"):
         with_reader_counts(run_graph(True, False) + [NodeSpec("monitor", "monitor")])
 
 
@@ -107,7 +107,7 @@ def test_one_count_for_topics_with_different_readers_is_refused(monkeypatch):
 
 
 def test_graph_building_tools_import_no_rclpy():
-    code = ("import sys, rw_fdi_ros.nodes.topics, rw_fdi_ros.launch.graph, rw_fdi_ros.tools.campaigns.replay\n"
+    code = ("import sys, rw_fdi_ros.graph.topics, rw_fdi_ros.launch.graph, rw_fdi_ros.tools.campaigns.replay\n"
             "assert 'rclpy' not in sys.modules, 'rclpy imported'")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr

@@ -90,7 +90,7 @@ def test_bad_wheel_specs_are_one_line_errors(wheels, words):
 
 
 def test_a_run_records_its_units_in_the_scenario_and_the_ground_truth(tmp_path):
-    from rw_fdi_ros.nodes import topics as T
+    from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.bag import read_bag
     from rw_fdi_ros.tools.campaigns.run import run_scenario
     path = tmp_path / "varied.yaml"

@@ -25,7 +25,7 @@ from .wheel import WheelParams
 class Fdir:
     """What the loop's FDIR decides on: the model observer's bands, its unit calibration [FDI samples]."""
 
-    curves: object                 # detection.ThresholdCurves of the model observer
+    curves: object                 # threshold_file.ThresholdCurves of the model observer
     calibration_samples: int = 0
     fdi_period: float = 1.0
     identification: bool = False   # also identify each alarmed wheel's fault (the isolation node's code)

@@ -57,7 +57,7 @@ class ElmanWeights:
     tcv_scale: float = 5.0      # [V] normalises u into [-1, 1] (the +-5 V command range)
     torque_scale: float = 0.03  # [N m] normalises r into [-1, 1] (largest |r| in training)
     speed_scale: float = 0.0    # [rad/s] normalises Omega; 0: no speed input (the thesis' network)
-    # kappa: the network's fault-free error bound per unit of mean |r| (detection.SignedResidual)
+    # kappa: the network's fault-free error bound per unit of mean |r| (residuals.SignedResidual)
     uncertainty_gain: float = 0.0
 
     @property

@@ -10,7 +10,8 @@ import math
 
 import numpy as np
 
-from .detection import AlarmRule, ThresholdCurves
+from .detection import AlarmRule
+from .threshold_file import ThresholdCurves
 
 AXES = ("x", "y", "z")
 # The observer whose alarms make the wheel's /diagnostics status and start fault identification, per

@@ -15,9 +15,9 @@ from scipy import signal
 
 from .wheel import LinearWheel, linearised_wheel
 
-# kappa per wheel of the speed-aware residual bound (detection.SignedResidual): the linearised model
+# kappa per wheel of the speed-aware residual bound (residuals.SignedResidual): the linearised model
 # knows no speed, back-EMF or friction law, so its error grows with the torque the wheel is asked for
-# (up to 8e-4 N m in the first slew, 1e-5 N m while holding). detection.demand_gain of this observer
+# (up to 8e-4 N m in the first slew, 1e-5 N m while holding). residuals.demand_gain of this observer
 # on the fault-free runs 1000-1139 (the shipped Elman network's training and fitting seeds) gave
 # 0.3426 / 0.2159 / 0.4371, rounded up here; test_linear_observer checks held-out runs stay inside.
 UNCERTAINTY_GAIN = {"x": 0.343, "y": 0.216, "z": 0.438}

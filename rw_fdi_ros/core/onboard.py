@@ -4,11 +4,11 @@ The graph's model observer node and isolation node make the verdict from
 the plant's FDI telemetry; :class:`OnboardVerdict` steps the same pieces in
 the same order for a batch of runs, one FDI sample at a time:
 TelemetrySampler (telemetry.py) -> the nominal model's SignedResidual per
-wheel, learning the wheel's unit when calibrating (detection.py,
+wheel, learning the wheel's unit when calibrating (residuals.py,
 calibration.py) -> ObserverChannel against the model observer's bands ->
 LatchedVerdict with the operating envelope (isolation.py). The verdict is
 per wheel of the set, the redundant one included (its band: the widest of
-its type's, detection.ThresholdCurves.at). With ``identification`` the
+its type's, threshold_file.ThresholdCurves.at). With ``identification`` the
 isolation node's FaultIdentifier names each alarmed wheel's fault as well.
 """
 from __future__ import annotations
@@ -18,7 +18,8 @@ from dataclasses import fields
 import numpy as np
 
 from .calibration import UnitCalibration, regressors
-from .detection import SignedResidual, ThresholdCurves
+from .residuals import SignedResidual
+from .threshold_file import ThresholdCurves
 from .identification import FaultIdentifier
 from .isolation import LatchedVerdict, ObserverChannel, in_envelope
 from .telemetry import TelemetrySampler

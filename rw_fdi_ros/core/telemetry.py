@@ -13,7 +13,7 @@ the thesis' observers had to guess become known:
   aliases to almost zero frequency and no moving average removes it. The mean
   phasor p = mean(tau_m e^{i N theta}) bounds what it can add to any window mean:
       |mean(ripple)| <= (B/2) g_max |mean(p)|       for a constant gain up to g_max
-  (detection.ripple_reach widens it to any gain that changes monotonically in the window)
+  (residuals.ripple_reach widens it to any gain that changes monotonically in the window)
 
 :class:`TelemetrySampler` feeds on the control-rate signals and returns one
 :class:`FdiSample` per FDI period (means over (t - T, t], core/sampling.py).

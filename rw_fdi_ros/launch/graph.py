@@ -16,7 +16,7 @@ from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.scenario import AXES, Scenario
 from ..core.wheel_set import joint_name, wheel_set
-from ..nodes import topics as T
+from ..graph import topics as T
 
 CONTROL_PERIOD = DEFAULT.control_period
 
@@ -150,7 +150,7 @@ def checked_strings(nodes):
 
 def with_reader_counts(nodes):
     """``nodes``, each told how many readers of its topics to wait for: what the others read
-    (nodes/topics.py READS), so a node added to the graph is waited for. Call it on the finished list."""
+    (graph/topics.py READS), so a node added to the graph is waited for. Call it on the finished list."""
     for node in nodes:
         node.parameters.update(T.reader_counts(node, nodes))
     return nodes

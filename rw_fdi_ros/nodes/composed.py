@@ -16,7 +16,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-from .runtime import EXIT_BAD_INPUT, exit_watched, spin_nodes
+from ..graph.runtime import EXIT_BAD_INPUT, exit_watched, spin_nodes
 
 USAGE = "usage: composed NAME=EXECUTABLE [NAME=EXECUTABLE ...] [--ros-args ...]"
 
@@ -24,7 +24,7 @@ USAGE = "usage: composed NAME=EXECUTABLE [NAME=EXECUTABLE ...] [--ros-args ...]"
 def node_factory(spec: str):
     """The factory of one NAME=EXECUTABLE: makes the executable's node under NAME. ValueError (one line)
     for a malformed spec or an executable that is not one of the package's nodes."""
-    from .entry import NODES
+    from ..graph.entry import NODES
     name, sep, executable = spec.partition("=")
     if not sep or not name or not executable:
         raise ValueError(f"{spec!r} is not NAME=EXECUTABLE")

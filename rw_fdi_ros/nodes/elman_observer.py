@@ -10,12 +10,12 @@ and publishes the estimate, the residual and the ripple bound: the signed
 """
 from __future__ import annotations
 
-from ..core.detection import ResidualFilter
+from ..core.residuals import ResidualFilter
 from ..core.elman import REGENERATE, ElmanObserver, ElmanWeights, ModelError, network_wheel, standby
 from ..paths import fdi_dir
-from . import topics as T
-from .observer_node import ObserverNode
-from .runtime import EXIT_BAD_INPUT, NodeError, main_for
+from ..graph import topics as T
+from ..graph.observer_node import ObserverNode
+from ..graph.runtime import EXIT_BAD_INPUT, NodeError, main_for
 
 
 class ElmanObserverNode(ObserverNode):

@@ -43,7 +43,8 @@ from sensor_msgs.msg import JointState
 
 import numpy as np
 
-from ..core.detection import METHODS, ThresholdCurves, ThresholdError, observers_of
+from ..core.detection import METHODS, observers_of
+from ..core.threshold_file import ThresholdCurves, ThresholdError
 from ..core.calibration import calibration_samples
 from ..core.identification import FaultIdentifier
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
@@ -53,11 +54,11 @@ from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, P
 from ..core.wheel_set import joint_name, wheel_set
 from ..paths import thresholds_dir
 from ..storage.cdr import joint_state_cdr
-from . import topics as T
-from .convert import fdi_sample_of, time_msg
-from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
-from .gate import GatedPublisher
-from .sync import StampSync
+from ..graph import topics as T
+from ..graph.convert import fdi_sample_of, time_msg
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from ..graph.gate import GatedPublisher
+from ..graph.sync import StampSync
 
 
 def default_thresholds(observer: str, method: str = "speed_aware", unit_calibration_time: float = 0.0) -> str:
@@ -80,7 +81,7 @@ def _status(name, axis, residual, threshold, alarm, first, extra=(), identificat
         s.message += f"; {note.message}"
         level = level if level == ERROR else max(level, note.level)
     s.level = bytes([level])   # rclpy's DiagnosticStatus.level is a byte
-    # what the FDI says of itself, as values a tool reads (metrics.health_from_bag), not only as words
+    # what the FDI says of itself, as values a tool reads (bag_series.health_from_bag), not only as words
     extra = [*extra, *([KeyValue(key="judged", value="false")] if unjudged else []),
              *([KeyValue(key="input", value=note.message)] if note is not None else [])]
     if identification is not None:
@@ -381,7 +382,7 @@ class IsolationNode(GraphNode):
             self.finish()
 
     def timing(self):
-        from .timing import summary
+        from ..graph.timing import summary
         return summary(callback=self.compute, callback_cpu=self.compute_cpu)
 
 

@@ -13,8 +13,8 @@ the back-EMF: it is the thesis' baseline beside the Elman and model observers.
 from __future__ import annotations
 
 from ..core.linear_observer import LinearObserver, uncertainty_gain
-from .observer_node import WheelsObserverNode
-from .runtime import main_for
+from ..graph.observer_node import WheelsObserverNode
+from ..graph.runtime import main_for
 
 
 class LinearObserverNode(WheelsObserverNode):

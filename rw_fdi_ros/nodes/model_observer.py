@@ -11,8 +11,8 @@ wheel speed.
 """
 from __future__ import annotations
 
-from .observer_node import WheelsObserverNode
-from .runtime import main_for
+from ..graph.observer_node import WheelsObserverNode
+from ..graph.runtime import main_for
 
 
 class ModelObserverNode(WheelsObserverNode):

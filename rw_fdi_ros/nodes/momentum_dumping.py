@@ -18,13 +18,13 @@ from ..core.environment import MAGNETOMETER_PERIOD
 from ..core.magnetorquers import Dumper, MomentumDumping
 from ..core.wheel import WheelParams
 from ..core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, joint_name, wheel_set
-from . import topics as T
+from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, vector_cdr
-from .convert import stamp_ns
-from .gate import GatedPublisher
-from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from ..graph.convert import stamp_ns
+from ..graph.gate import GatedPublisher
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 
-IN_USE_STATES = ("in_use", "kept_in_use")   # wheel_allocation.wheel_states_msg's states the controller moves
+IN_USE_STATES = ("in_use", "kept_in_use")   # convert.wheel_states_msg's states the controller moves
 
 
 class MomentumDumpingNode(GraphNode):

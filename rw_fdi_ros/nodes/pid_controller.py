@@ -14,10 +14,10 @@ from sensor_msgs.msg import JointState
 from ..core.pid import PidController, design_gains
 from ..core.scenario import AXES, setpoint_at
 from ..core.spacecraft import INERTIA
-from . import topics as T
+from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, vector_cdr
-from .gate import GatedPublisher
-from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from ..graph.gate import GatedPublisher
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 
 
 class PidControllerNode(GraphNode):

@@ -29,11 +29,11 @@ from ..core.plant import Plant
 from ..core.scenario import FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
 from ..core.wheel_set import joint_name
 from ..core.wheel import WheelParams
-from . import topics as T
+from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, read_vector_cdr
-from .convert import step_stamp_ns
-from .plant_report import PlantReport, run_units
-from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for, wall_time
+from ..graph.convert import step_stamp_ns
+from ..graph.plant_report import PlantReport, run_units
+from ..graph.runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for, wall_time
 
 
 class PlantNode(GraphNode):
@@ -252,7 +252,7 @@ class PlantNode(GraphNode):
             self.finish()
 
     def timing(self):
-        from .timing import summary
+        from ..graph.timing import summary
         phases = {}
         if self.t_first is not None:
             phases["discovery_s"] = self.t_first - self.t_created   # node up -> every reader matched

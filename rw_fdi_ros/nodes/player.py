@@ -24,9 +24,9 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import String
 
 from ..storage.bag import BagError, BagInfo, iter_messages, iter_time_order
-from . import topics as T
-from .convert import stamp_ns
-from .runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for
+from ..graph import topics as T
+from ..graph.convert import stamp_ns
+from ..graph.runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for
 
 PLANT_OUTPUTS = [T.CLOCK, T.ATTITUDE, T.WHEELS, T.FAULT_EFFECT, T.FDI_TELEMETRY, T.FAULT_TRUTH,
                  T.SCENARIO, T.PLANT_DONE]

@@ -25,10 +25,10 @@ from std_msgs.msg import String
 from ..storage.bag import BagError
 from ..storage.writer import BagWriter
 from ..storage.cdr import header_stamp_ns
-from . import topics as T
+from ..graph import topics as T
 from ..core.wheel_set import DEFAULT_WHEEL_SET
 from ..core.environment import MAGNETOMETER_PERIOD
-from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
 
 
 class RecorderNode(GraphNode):

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
@@ -41,36 +41,12 @@ from ..core.scenario import AXES
 from ..core.spacecraft import INERTIA
 from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr, read_joint_state_cdr, read_vector_cdr
-from . import topics as T
-from .convert import stamp_ns, time_msg
-from .gate import GatedPublisher
-from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from ..graph import topics as T
+from ..graph.convert import stamp_ns, wheel_states_msg
+from ..graph.gate import GatedPublisher
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 
 OPERATOR = "operator command"
-STATES = {"in_use": DiagnosticStatus.OK, "standby": DiagnosticStatus.OK, "kept_in_use": DiagnosticStatus.WARN,
-          "held": DiagnosticStatus.WARN, "given_up": DiagnosticStatus.ERROR}
-
-
-def wheel_states_msg(stamp: int, reconfiguration: Reconfiguration, names) -> DiagnosticArray:
-    """/fdir/wheels: one status per wheel of the set (in use, standby, kept in use, held, given up and why)
-    as ``reconfiguration`` (core/fdir.py) stands at ``stamp``; the core-loop engine writes the same."""
-    r = reconfiguration
-    msg = DiagnosticArray()
-    msg.header.stamp = time_msg(stamp)
-    last = {d.wheel: d for d in r.decisions}
-    for name in names:
-        state = ("given_up" if name in r.given_up else "kept_in_use" if name in r.kept else
-                 "held" if name in r.held else "in_use" if name in r.in_use else "standby")
-        d = last.get(name)
-        status = DiagnosticStatus(level=STATES[state], name=f"fdir: reaction wheel {name}",
-                                  hardware_id=joint_name(name), message=state.replace("_", " ") + (
-                                      f" since {d.time:g} s: {d.reason}" if d else ""))
-        status.values = [KeyValue(key="state", value=state)] + (
-            [KeyValue(key="since", value=f"{d.time:g}"), KeyValue(key="reason", value=d.reason)] if d else [])
-        msg.status.append(status)
-    return msg
-
-
 class WheelAllocationNode(GraphNode):
     node_name = "wheel_allocation"
 

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from ..core.plant_choices import FDI_PERIOD
-from ..core.scenario import AXES, Scenario
-from ..nodes import topics as T
+from ..core.scenario import AXES
+from ..graph import topics as T
 
 OBSERVERS = T.OBSERVERS
 DISTURBANCE_KINDS = ("ripple_gain",)   # changes that must not alarm
@@ -68,63 +68,6 @@ class RunEval:
         return "multiple" if len(self.faulty_axes) > 1 else "single"
 
 
-def fdi_output_topics() -> list:
-    """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more)."""
-    from ..core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
-    rows = [T.residual_topic(obs, a) for obs in OBSERVERS for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
-    return rows + [t for obs in OBSERVERS for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
-        T.IDENTIFICATION, T.SCENARIO]
-
-
-def wheels_of_bag(data) -> tuple:
-    """The wheel names of a recorded run: its /scenario's wheel set (a bag from before the redundant wheel:
-    the three axis wheels)."""
-    import yaml
-    from ..core.plant_choices import PlantChoices
-    from ..core.wheel_set import wheel_set
-    recorded = (yaml.safe_load(data.scenario_text or "") or {}).get("plant") if data.scenario_text else None
-    return wheel_set(PlantChoices.from_recorded(recorded).wheel_set).names
-
-
-def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
-    """(time [s], values (n, wheels)) of one observer's ``topic`` (residual_topic, bound_topic, estimate_topic):
-    the Elman nodes' per-wheel topics, each carrying its own wheel (or, recorded before the redundant
-    wheel, its own axis' component), joined into one."""
-    axes = T.observer_axes(observer)
-    if axes == (None,):
-        return data.wheel_values(topic(observer))
-    wheels = wheels or wheels_of_bag(data)
-    cols = [data.wheel_values(topic(observer, a)) for a in wheels]
-    n = min(len(t) for t, _ in cols)
-    values = (np.stack([v[:n, i if v.shape[1] == 3 and len(wheels) == 3 else 0] for i, (_, v) in enumerate(cols)],
-                       axis=1) if n else np.zeros((0, len(wheels))))
-    return cols[0][0][:n], values
-
-
-def observers_in_bag(data) -> list:
-    """The observer slots whose decisions a bag holds (the method's: core/detection.observers_of)."""
-    return [obs for obs in OBSERVERS if len(data.wheel_values(T.fdi_output_topics(obs)["alarm"])[0])]
-
-
-def series_from_bag(data) -> dict:
-    """observer -> Series from a bag holding the isolation node's outputs and the residuals (the
-    observers the run had)."""
-    out = {}
-    for obs in observers_in_bag(data):
-        topics = T.fdi_output_topics(obs)
-        t, alarm = data.wheel_values(topics["alarm"])
-        t_c, thr = data.wheel_values(topics["threshold"])
-        t_r, res = observer_vectors(data, obs)
-        n = min(len(t), len(t_c), len(t_r))
-        if n == 0:
-            raise ValueError(f"{data.path}: no {obs} FDI outputs")
-        # the alarm compares the residual's magnitude (the speed-aware residual is signed)
-        out[obs] = Series(t[:n], np.abs(res[:n]), thr[:n], alarm[:n] > 0.5)
-    if not out:
-        raise ValueError(f"{data.path}: no FDI outputs")
-    return out
-
-
 def observers_of_runs(runs) -> list:
     """The observer slots every one of ``runs`` was judged by, in slot order, then ``verdict`` (what
     /diagnostics says) where the runs hold it."""
@@ -132,65 +75,6 @@ def observers_of_runs(runs) -> list:
 
 
 VERDICT = "verdict"   # the series of /diagnostics' verdict beside the observers' (offline.verdict_series)
-
-
-def identification_from_bag(data) -> dict:
-    """axis -> the last /fdi/identification status of that wheel as a dict (message + values);
-    wheels never alarmed (or a bag without the topic) are left out."""
-    last = data.last(T.IDENTIFICATION)
-    if last is None:
-        return {}
-    out = {}
-    for status in last.status:
-        values = {kv.key: kv.value for kv in status.values}
-        if values.get("fault_kind", "none") != "none":
-            out[status.hardware_id.rsplit("_", 1)[-1]] = {"message": status.message, **values}
-    return out
-
-
-def health_topics() -> list:
-    """The statuses :func:`fdi_health` reads: /diagnostics and each observer's status."""
-    return [T.DIAGNOSTICS] + [T.fdi_output_topics(obs)["status"] for obs in T.OBSERVERS]
-
-
-def diagnostics_alarms(path):
-    """(time [s] (n,), faulty (n, wheels) flags) of a bag's /diagnostics: a wheel whose status is ERROR (the
-    verdict users read: the decision observer's alarm, latched), streamed; empty arrays without it. The
-    wheels are those of the first message, in its order (the wheel set's)."""
-    from ..storage.bag import iter_messages, typestore
-    store, times, rows, joints = typestore(), [], [], None
-    for _, _, raw in iter_messages(path, [T.DIAGNOSTICS]):
-        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
-        levels = {s.hardware_id: s.level for s in msg.status}
-        joints = joints or [s.hardware_id for s in msg.status]
-        wheels = [levels.get(j) for j in joints]
-        if None in wheels:
-            continue
-        times.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
-        rows.append([level == 2 for level in wheels])   # DiagnosticStatus.ERROR
-    order = np.argsort(times, kind="stable")
-    return np.asarray(times, float)[order], np.asarray(rows, bool).reshape(len(times), len(joints or ()))[order]
-
-
-def health_from_bag(path) -> dict:
-    """What the FDI said about itself over a run, streamed from its statuses (memory does not grow):
-    per status topic and wheel, the samples it could not judge (STALE) and those whose input stream
-    had trouble (WARN: gaps, dropped duplicates or late samples), each with the first time and message.
-    A wheel with neither is left out."""
-    from ..storage.bag import iter_messages, typestore
-    store, out = typestore(), {}
-    for topic, _, raw in iter_messages(path, health_topics()):
-        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
-        t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-        for s in msg.status:
-            values = {kv.key: kv.value for kv in s.values}   # the isolation node's judged / input values
-            kinds = (["cannot_judge"] if values.get("judged") == "false" else []) + \
-                (["input_trouble"] if "input" in values else [])
-            for kind in kinds:
-                row = out.setdefault(topic, {}).setdefault(s.hardware_id.rsplit("_", 1)[-1], {})
-                seen = row.setdefault(kind, {"samples": 0, "first_s": t, "message": s.message})
-                seen["samples"] += 1
-    return out
 
 
 def health_rows(runs) -> list:
@@ -454,8 +338,3 @@ def _stats(values):
             "values": [float(v) for v in a]}
 
 
-def scenario_of(data) -> Scenario:
-    from ..core.scenario import parse_scenario
-    if not data.scenario_text:
-        raise ValueError(f"{data.path}: no /scenario message (no ground truth)")
-    return parse_scenario(data.scenario_text, origin=f"{data.path}:/scenario")

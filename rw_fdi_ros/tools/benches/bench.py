@@ -88,7 +88,7 @@ def _step_times(fn, n=20000):
 def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     """Compute time of one FDI step per observer, callback times in the live nodes, node memory."""
     import numpy as np
-    from ...core.detection import SignedResidual
+    from ...core.residuals import SignedResidual
     from ...core.elman import ElmanObserver
     from ...core.linear_observer import LinearObserver
     from ...core.telemetry import TelemetrySampler

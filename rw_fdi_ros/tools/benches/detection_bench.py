@@ -14,31 +14,13 @@ end in >= 99 % of detections.
 """
 from __future__ import annotations
 
-import json
-import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 
-from ...core.scenario import Fault, Scenario
-from ..metrics import alarm_before_onset, judge, observable, observable_level
+from ..metrics import observable_level
 from ..evaluation.screen import load_fdi, screen_sets
-
-SEED_BASE = 10_000_000
-ONSET_RANGE = (60.0, 300.0)
-
-
-@dataclass(frozen=True)
-class Cell:
-    name: str
-    kind: str | None          # None: fault-free
-    value: float = 0.0
-    ramp: float = 0.0
-    disturbance: bool = False  # a change that must not alarm (ripple)
-    thesis_size: bool = False  # one of the thesis' headline sizes (Table 4.2)
-    target_detection: bool = False  # the small sizes with a detection target
+from .kit import ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, format_rate, screen_cells, write_report
 
 
 CELLS = (
@@ -52,94 +34,6 @@ CELLS = (
     Cell("bus 5.5 V (2.5 V off)", "bus_voltage", 5.5, thesis_size=True),
     Cell("current loss 35 % ramped over 60 s", "current_limiter", 0.65, ramp=60.0),
 )
-
-
-def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE, onset_range=ONSET_RANGE,
-                   wheels: dict | None = None) -> list:
-    """``runs`` scenarios of one cell: seeds seed_base + 100,000 index + n, fault on wheel seed mod 3
-    with an onset drawn from the seed in ``onset_range``; ``wheels``: the scenario's unit variation."""
-    out = []
-    for n in range(runs):
-        seed = seed_base + 100_000 * index + n
-        faults = ()
-        if cell.kind is not None:
-            onset = float(np.round(np.random.default_rng(seed).uniform(*onset_range), 1))
-            faults = (Fault(cell.kind, seed % 3, onset, cell.value, cell.ramp),)
-        out.append(Scenario(cell.name, duration=400.0, seed=seed, faults=faults, wheels=dict(wheels or {})))
-    return out
-
-
-def screen_cells(sizes, chunk_job, desc: str, jobs: int = 2, chunk: int = 50) -> dict:
-    """cell index -> results of ``chunk_job(cell_index, range)`` merged over chunks of ``chunk`` runs,
-    ``jobs`` processes (CPU-bound numpy and Python: one per core). chunk_job returns name -> [RunEval]."""
-    from tqdm import tqdm
-    from ..campaigns.campaign import LocalExecutor, apply
-    bar = tqdm(total=sum(sizes), desc=desc, unit="run", file=sys.stderr, mininterval=2.0)
-    judged = {i: {} for i in range(len(sizes))}
-    calls = [(_cell_chunk, chunk_job, i, range(start, min(start + chunk, n)))
-             for i, n in enumerate(sizes) for start in range(0, n, chunk)]
-    # the campaigns' executor: SIGTERM or Ctrl-C drops the queued chunks and ends the workers at once
-    for i, seeds, out in LocalExecutor(jobs).map_unordered(apply, calls, processes=True):
-        for name, runs in out.items():
-            judged[i].setdefault(name, []).extend(runs)
-        bar.update(len(seeds))
-    bar.close()
-    return {i: {name: sorted(runs, key=lambda r: r.seed) for name, runs in by_name.items()}
-            for i, by_name in judged.items()}
-
-
-def _cell_chunk(chunk_job, i: int, seeds) -> tuple:
-    return i, seeds, chunk_job(i, seeds)
-
-
-class SpeedAwareChunk:
-    """A picklable chunk job for :func:`screen_cells`: the runs ``seeds`` of cell ``cell_index`` as
-    ``scenarios(cell_index, seeds, seed_base)`` (a module-level function) makes them, judged by the shipped
-    speed-aware FDI; with ``on_run`` (a picklable callable returning objects with a ``seed``) also what
-    it says of each run's trajectory, under the name "runs"."""
-
-    def __init__(self, scenarios, seed_base: int, on_run=None):
-        self.scenarios, self.seed_base, self.on_run = scenarios, seed_base, on_run
-
-    def __call__(self, cell_index: int, seeds):
-        seen = []
-        hook = None if self.on_run is None else (lambda sc, traj, b: seen.append(self.on_run(sc, traj, b)))
-        out = screen_sets(self.scenarios(cell_index, seeds, self.seed_base),
-                          {"speed_aware": load_fdi(method="speed_aware")}, on_run=hook)
-        return {**out, "runs": seen} if self.on_run is not None else out
-
-
-def wilson(k: int, n: int, z: float = 1.96):
-    """95 % Wilson score interval of k successes in n trials."""
-    if n == 0:
-        return (float("nan"), float("nan"))
-    p = k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (max(0.0, centre - half), min(1.0, centre + half))
-
-
-def rate(flags) -> dict:
-    flags = [bool(f) for f in flags]
-    k, n = sum(flags), len(flags)
-    lo, hi = wilson(k, n)
-    return {"k": k, "n": n, "rate": k / n if n else None, "ci95": [lo, hi]}
-
-
-def cell_figures(runs, observer: str, observable_level: dict) -> dict:
-    verdicts = [judge(r, observer) for r in runs]
-    if runs and runs[0].category in ("fault_free", "disturbance"):
-        return {"false_alarm": rate(v["false_alarm"] for v in verdicts)}
-    figs = [f for v in verdicts for f in v["axes"].values()]
-    det = [f for f in figs if f["detected"]]
-    seen = [v["correct"] for r, v in zip(runs, verdicts) if observable(r, observable_level)]
-    delays = np.array([f["delay"] for f in det]) if det else np.zeros(0)
-    early = [alarm_before_onset(r, observer) for r in runs]
-    return {"correct": rate(v["correct"] for v in verdicts), "correct_observable": rate(seen),
-            "detected": rate(f["detected"] for f in figs), "held_to_end": rate(f["held_to_end"] for f in det),
-            "alarm_before_onset": rate(early),
-            "delay_s": {"median": float(np.median(delays)) if delays.size else None,
-                        "p90": float(np.percentile(delays, 90)) if delays.size else None}}
 
 
 def _fdi_sets():
@@ -191,55 +85,6 @@ def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: 
                          for name, (_, curves) in sets.items()},
               "cells": results}
     return write_report(report, out, "detection", format_detection)
-
-
-def write_report(report: dict, out, name: str, formatter) -> dict:
-    """``report`` as <out>/<name>.json and its text (``formatter``) as <out>/<name>.md, and where it keeps its
-    runs (a list of dicts under "runs") a table of them, one row a run (<out>/<name>_runs.csv:
-    :func:`write_runs_table`); the report with its text, ok, as the bench commands return it."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / f"{name}.json").write_text(json.dumps(report, indent=1))
-    runs = report.get("runs")
-    if isinstance(runs, list) and runs and all(isinstance(r, dict) for r in runs):
-        write_runs_table(runs, out / f"{name}_runs.csv")
-    report["text"] = formatter(report)
-    (out / f"{name}.md").write_text(report["text"])
-    report["ok"] = True
-    return report
-
-
-def runs_table(runs: list) -> tuple:
-    """(columns, rows) of per-run dicts as a flat table: nested dicts flattened with dots (identification.kind),
-    lists as JSON text, every run's keys in the order they first come."""
-    def flat(d, prefix=""):
-        for k, v in d.items():
-            if isinstance(v, dict):
-                yield from flat(v, f"{prefix}{k}.")
-            else:
-                yield f"{prefix}{k}", json.dumps(v) if isinstance(v, (list, tuple)) else v
-    rows = [dict(flat(r)) for r in runs]
-    columns = list(dict.fromkeys(k for row in rows for k in row))
-    return columns, [[row.get(c, "") for c in columns] for row in rows]
-
-
-def write_runs_table(runs: list, path) -> Path:
-    """The runs as CSV (pandas.read_csv, polars.read_csv): one row a run, :func:`runs_table`'s columns."""
-    import csv
-    columns, rows = runs_table(runs)
-    with open(path, "w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(columns)
-        writer.writerows(rows)
-    return Path(path)
-
-
-def format_rate(r: dict) -> str:
-    """'12.5 % [8.6, 17.8] (n=200)': a rate with its 95 % interval and sample size."""
-    if not r or r["n"] == 0:
-        return "-"
-    lo, hi = r["ci95"]
-    return f"{r['rate'] * 100:.1f} % [{lo * 100:.1f}, {hi * 100:.1f}] (n={r['n']})"
 
 
 def _method_label(method: str) -> str:

@@ -29,7 +29,7 @@ from ...core.plant_choices import DEFAULT
 from ...core.magnetorquers import DumpLog, MomentumDumping
 from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.wheel import WheelParams
-from .detection_bench import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
+from .kit import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
 from ..metrics import observable_level
 from ..evaluation.screen import load_fdi
 

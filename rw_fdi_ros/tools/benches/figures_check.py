@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .detection_bench import format_rate, rate
+from .kit import format_rate, rate
 
 # the small samples: (bench, its keyword arguments); each ~0.5-5 min on 2 cores
 SMALL = {

@@ -33,7 +33,7 @@ from ...core.calibration import calibration_samples
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault, Scenario
-from .detection_bench import Cell, cell_scenarios, format_rate, rate, screen_cells
+from .kit import Cell, cell_scenarios, format_rate, rate, screen_cells
 from ..metrics import judge_identification
 from ..evaluation.screen import load_fdi, screen_sets
 

@@ -48,7 +48,7 @@ def peak_memory(argv: list, env=None) -> dict:
 def bench_memory(hours=(1.0, 6.0), seed: int = 7, out: str | Path = "reports/memory", work=None) -> dict:
     """Peak memory of the run summary, `rw-fdi bag` and evaluation for fault-free runs of ``hours``;
     the figures to ``out``/memory.md and .json, the bags (about 125 MB per hour) in ``work``."""
-    from .detection_bench import write_report
+    from .kit import write_report
     work = Path(work or tempfile.mkdtemp(prefix="rw_fdi_memory_"))
     work.mkdir(parents=True, exist_ok=True)
     rows = []

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.scenario import Fault, Manoeuvres, Scenario
-from .detection_bench import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
+from .kit import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
 from ..metrics import observable_level
 from ..evaluation.screen import load_fdi
 

@@ -28,7 +28,7 @@ from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import held_speeds
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.wheel_set import WHEEL_SETS
-from .detection_bench import format_rate, rate, write_report
+from .kit import format_rate, rate, write_report
 from ..evaluation.screen import load_fdi
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}

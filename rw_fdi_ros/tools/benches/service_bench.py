@@ -45,7 +45,7 @@ from ...core.scenario import Scenario, parse_scenario
 from ...core.wheel_set import WHEEL_SETS
 from ..campaigns.campaign import LocalExecutor
 from ..metrics import IDENTIFIED_KIND, judge_size
-from .detection_bench import format_rate, rate, write_report
+from .kit import format_rate, rate, write_report
 from ..evaluation.screen import load_fdi
 
 SEED_BASES = {"tuning": 90_000_000, "evaluation": 91_000_000, "net": 92_000_000}

@@ -24,8 +24,8 @@ from pathlib import Path
 
 from ...core.calibration import calibration_samples
 from ...core.plant_choices import FDI_PERIOD
-from .detection_bench import (CELLS, cell_results, cell_scenarios, cell_sizes, format_rate, observable_levels,
-                              screen_cells, write_report)
+from .detection_bench import CELLS, cell_results, cell_sizes, observable_levels
+from .kit import cell_scenarios, format_rate, screen_cells, write_report
 from ..evaluation.screen import load_fdi, screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands

@@ -4,7 +4,7 @@ The core closed loop (core/closed_loop.simulate: the plant, PID and
 allocation code the nodes run) simulates a batch of runs at once; for each
 run the messages the graph's nodes would publish are made by the nodes' own
 code (nodes/plant_report.PlantReport for the plant, the controllers' and the
-allocation's CDR, wheel_allocation.wheel_states_msg) and written through the
+allocation's CDR, convert.wheel_states_msg) and written through the
 project's bag writer with the stamps the graph's recorder gives them. A bag
 says which engine recorded it (custom_data ``engine``). The bags equal the
 graph's topic for topic, message for message (test/test_engine.py); the
@@ -38,10 +38,10 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     from ...core.environment import magnetometer_steps
     from ...core.fdir import Reconfiguration
     from ...core.wheel_set import joint_name, wheel_set
-    from ...nodes import topics as T
-    from ...nodes.convert import step_stamp_ns
-    from ...nodes.plant_report import PlantReport, run_units
-    from ...nodes.wheel_allocation import wheel_states_msg
+    from ...graph import topics as T
+    from ...graph.convert import step_stamp_ns
+    from ...graph.plant_report import PlantReport, run_units
+    from ...graph.convert import wheel_states_msg
     from ...storage.cdr import joint_state_cdr, vector_cdr
     from ...storage.writer import BagWriter
     wheels = wheel_set(choices.wheel_set)

@@ -8,9 +8,9 @@ import numpy as np
 
 
 from ...core.scenario import AXES, parse_scenario
-from ...nodes import topics as T
+from ...graph import topics as T
 from ...storage.bag import read_series
-from .. import metrics
+from .. import bag_series, metrics
 from .run import RunOutcome, run_scenario
 
 
@@ -19,7 +19,8 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
     """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError.
 
     ``plant``: the run's PlantChoices (default: the defaults); ``method``: the FDI method."""
-    from ...core.detection import ThresholdCurves, ThresholdError, observers_of
+    from ...core.threshold_file import ThresholdCurves, ThresholdError
+    from ...core.detection import observers_of
     from ...core.elman import REGENERATE, ElmanWeights, ModelError
     from ...core.plant_choices import DEFAULT
     from ...paths import fdi_dir, thresholds_dir
@@ -60,7 +61,7 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=No
         try:
             data = read_series(outcome.bag, verdict_topics())
             outcome.summary = {**(outcome.summary or {}), "fdi": {**fdi_verdict(data),
-                                                                  "health": metrics.health_from_bag(outcome.bag)}}
+                                                                  "health": bag_series.health_from_bag(outcome.bag)}}
             if figure:
                 figure = outcome.bag.parent / f"{outcome.bag.name}_fdi.png"
                 outcome.summary["figure"] = str(plot_residuals(data, figure))
@@ -74,7 +75,7 @@ def verdict_topics() -> list:
     """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag."""
     from ...core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
     bounds = [T.bound_topic(obs, a) for obs in T.OBSERVERS for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
-    return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, T.DIPOLE_COMMAND, *metrics.fdi_output_topics(), *bounds]
+    return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, T.DIPOLE_COMMAND, *bag_series.fdi_output_topics(), *bounds]
 
 
 def fdi_verdict(data) -> dict:
@@ -85,7 +86,7 @@ def fdi_verdict(data) -> dict:
     scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
     wheels = scenario.wheel_set(recorded=True).names
     out = {"truth": {a: [f.as_dict(wheels) for f in scenario.faults if wheels[f.wheel] == a] for a in wheels},
-           "observers": metrics.observers_in_bag(data)}
+           "observers": bag_series.observers_in_bag(data)}
     for obs in out["observers"]:
         t, alarm = data.wheel_values(T.fdi_output_topics(obs)["alarm"])
         out[obs] = {a: metrics.alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(wheels)}
@@ -94,12 +95,12 @@ def fdi_verdict(data) -> dict:
         if bound.size and np.any(bound != 0):   # speed-aware without a model slot: an older bag
             out["note"] = ("recorded before the observers had three slots: its linear observer is the model "
                            "observer (the nominal wheel model), not the Luenberger observer")
-    t_diag, faulty = metrics.diagnostics_alarms(data.path)
+    t_diag, faulty = bag_series.diagnostics_alarms(data.path)
     if len(t_diag):   # what /diagnostics said: the decision observer's alarm, latched
         out["verdict"] = {a: metrics.alarm_intervals(t_diag, faulty[:, i]) for i, a in enumerate(wheels)}
-    out["identification"] = metrics.identification_from_bag(data)
+    out["identification"] = bag_series.identification_from_bag(data)
     try:
-        series = metrics.series_from_bag(data)
+        series = bag_series.series_from_bag(data)
     except ValueError:   # no FDI outputs (a run stopped before the first sample): intervals only
         return out
     if len(t_diag):
@@ -224,8 +225,8 @@ def _plot_residuals(data, path: Path) -> Path:
     chain = fig.add_subplot(grid[-1, :], sharex=axes[0, 0])
     for row, obs in enumerate(observers):
         t_c, thr = data.wheel_values(T.fdi_output_topics(obs)["threshold"])
-        t_r, res = metrics.observer_vectors(data, obs, wheels=tuple(wheels))
-        _, bound = metrics.observer_vectors(data, obs, T.bound_topic, wheels=tuple(wheels))
+        t_r, res = bag_series.observer_vectors(data, obs, wheels=tuple(wheels))
+        _, bound = bag_series.observer_vectors(data, obs, T.bound_topic, wheels=tuple(wheels))
         for i, a in enumerate(wheels):
             ax = axes[row, i]
             speed_aware = bound.size and np.any(bound[:, i] != 0.0)

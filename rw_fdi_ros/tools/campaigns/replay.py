@@ -17,7 +17,7 @@ from ...core.plant_choices import PlantChoices
 from ...launch.graph import NodeSpec, fdi_method, fdi_nodes, with_reader_counts
 from ...launch.graph import DEFAULT_GROUPING
 from ...launch.launcher import DomainLease, GraphProcesses, cleanup
-from ...nodes import topics as T
+from ...graph import topics as T
 from ...storage.bag import BagError, bag_is_complete, read_bag
 from ..design.offline import plant_conditions
 from .run import RunOutcome

@@ -9,7 +9,7 @@ from pathlib import Path
 from ...core.scenario import Scenario, load_scenario
 from ...launch.graph import DEFAULT_GROUPING, graph_nodes
 from ...launch.launcher import DomainLease, GraphProcesses, cleanup
-from ...nodes import topics as T
+from ...graph import topics as T
 from ...storage.bag import BagError, message_counts
 from .summary import run_summary
 

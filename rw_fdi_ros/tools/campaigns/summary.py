@@ -8,7 +8,7 @@ import numpy as np
 from ...core.scenario import AXES, parse_scenario, setpoint_at
 from ...core.environment import MAGNETOMETER_PERIOD
 from ...core.magnetorquers import DumpLog
-from ...nodes.topics import ATTITUDE, DIPOLE_COMMAND, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
+from ...graph.topics import ATTITUDE, DIPOLE_COMMAND, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
 
 # what run_summary reads of a bag
 SUMMARY_TOPICS = [SCENARIO, ATTITUDE, FAULT_EFFECT, FDIR_WHEELS, DIPOLE_COMMAND]

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, ThresholdCurves, observers_of
+from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, observers_of
+from ...core.threshold_file import ThresholdCurves
 from ...core.scenario import AXES
 from ..campaigns.campaign import run_campaign
 from .offline import decisions, fdi_method_of, fit_thresholds, load_models, observe, plant_conditions

@@ -13,9 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.detection import (FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, WINDOW, ThresholdCurves,
-                              ThresholdError, fit_band, observers_of, residual_series, run_statistic,
-                              signed_residual_series)
+from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, WINDOW, observers_of
+from ...core.threshold_file import ThresholdCurves, ThresholdError
+from ...core.threshold_fit import fit_band, run_statistic
+from ...core.residuals import residual_series, signed_residual_series
 from ...core.calibration import calibration_samples, regressors
 from ...core.elman import ElmanWeights, ModelError, network_wheel, recall_series
 from ...core.linear_observer import estimate_series, uncertainty_gain
@@ -131,7 +132,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     designed per-run ``false_alarm_rate`` at persistence P, returns the bands.
     ``unit_calibration`` [s]: bands for observers that learn their wheel first; ``plant``: the plant
     choices of runs that are not bags (default: read from the bags)."""
-    from ...core.detection import fit_threshold_curve
+    from ...core.threshold_fit import fit_threshold_curve
     lengths = sorted({len(s.time) for s in samples_list})
     if len(lengths) > 1:   # the curves would end with the shortest run: a longer run could not be judged
         short = min(samples_list, key=lambda s: len(s.time))
@@ -157,7 +158,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
             cols = axis_columns
             stats = np.array([run_statistic(np.abs(run.residual[obs][:, cols]) - run.bound[obs][:, cols], p)
                               for run in runs])
-            # the Elman and Luenberger bounds spent half of alpha on kappa (detection.demand_gain)
+            # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain)
             share = 1.0 if obs == "model" else 0.5
             bands = fit_band(stats, false_alarm_rate, share=share)
             ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in AXES},

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from ...core.telemetry import sample_telemetry
-from ...nodes.convert import fdi_sample_of
-from ...nodes.topics import AXES, FAULT_EFFECT, FDI_TELEMETRY
+from ...graph.convert import fdi_sample_of
+from ...graph.topics import AXES, FAULT_EFFECT, FDI_TELEMETRY
 from ...storage.bag import BagError, bag_is_complete, read_bag
 
 

@@ -113,9 +113,9 @@ def _train_one(args):
 
 
 def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE) -> float:
-    """kappa of an Elman network (core/detection.demand_gain over ``samples``): it models slews less well
+    """kappa of an Elman network (core/residuals.demand_gain over ``samples``): it models slews less well
     than holding, and its first seconds start from a zero state."""
-    from ...core.detection import demand_gain, demand_ratio
+    from ...core.residuals import demand_gain, demand_ratio
     from ...core.elman import recall_series
     ratios = [demand_ratio(s.reaction_torque[:, axis],
                            recall_series(weights, s.tcv[:, axis], s.reaction_torque[0, axis], s.wheel_speed[:, axis]),

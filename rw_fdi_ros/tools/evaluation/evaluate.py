@@ -17,16 +17,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.detection import ThresholdCurves, ThresholdError, observers_of
+from ...core.threshold_file import ThresholdCurves, ThresholdError
+from ...core.detection import observers_of
 from ...core.elman import ModelError
-from ...nodes import topics as T
+from ...graph import topics as T
 from ...paths import config_dir, thresholds_dir
 from ...storage.bag import BagError, bag_is_complete, read_bag, read_series
 from ..campaigns.campaign import LocalExecutor, _progress
 from ..campaigns.run import short_step_topics
 from ...paths import shown_path
-from ..metrics import (RunEval, aggregate, observable_level, fdi_output_topics, health_from_bag, health_rows,
-                      identification_figures, identification_from_bag, scenario_of, series_from_bag)
+from ..metrics import RunEval, aggregate, observable_level, health_rows, identification_figures
+from ..bag_series import fdi_output_topics, health_from_bag, identification_from_bag, scenario_of, series_from_bag
 from ...core.plant_choices import PlantChoices
 from ..design.offline import fdi_method_of, load_models, model_card
 from ..campaigns.replay import replay_bags, replay_finished

@@ -192,7 +192,8 @@ def graph_check(out: Path, jobs, sample: int, executor, models: Path, persistenc
 def reproduce(out, scale_name: str = "small", executor=None, persistence: int | None = None, engine: str = "core",
               graph_sample: int = 1) -> dict:
     from .evaluate import evaluate
-    from ...core.detection import FALSE_ALARM_RATE, rate_carried
+    from ...core.detection import FALSE_ALARM_RATE
+    from ...core.threshold_fit import rate_carried
     from ..design.offline import fit_thresholds, load_models, plant_conditions
     from ..design.samples import load_samples
     from ..design.train import train_models

@@ -13,9 +13,10 @@ import numpy as np
 
 from ...core.calibration import calibration_samples
 from ...core.closed_loop import simulate
-from ...core.detection import ThresholdCurves, observers_of
+from ...core.threshold_file import ThresholdCurves
+from ...core.detection import observers_of
 from ...core.isolation import in_envelope
-from ...nodes.topics import DIAGNOSTICS
+from ...graph.topics import DIAGNOSTICS
 from ...core.wheel import WheelParams
 from ...paths import fdi_dir, thresholds_dir
 from ..metrics import VERDICT, RunEval, judge, observers_of_runs

@@ -20,7 +20,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 
 from ..core.calibration import UnitCalibration, calibration_samples, regressors
-from ..core.detection import METHODS, WINDOW, ResidualFilter, SignedResidual
+from ..core.detection import METHODS, WINDOW
+from ..core.residuals import ResidualFilter, SignedResidual
 from ..core.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
 from ..core.sampling import SAMPLINGS
 from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
@@ -167,7 +168,7 @@ class WheelsObserverNode(ObserverNode):
     slot = ""
 
     def uncertainty_gain(self, wheel: str) -> float:
-        """kappa of a wheel (detection.SignedResidual): the observer's model error term; 0 by default."""
+        """kappa of a wheel (residuals.SignedResidual): the observer's model error term; 0 by default."""
         return 0.0
     needs_speed = False                   # it reads the wheel speed: speed_aware only
 

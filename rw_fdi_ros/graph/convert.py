@@ -6,7 +6,11 @@ what is built here are the message objects of the slower topics.
 from __future__ import annotations
 
 from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
+
+from ..core.fdir import Reconfiguration
+from ..core.wheel_set import joint_name
 
 
 def time_msg(stamp_ns: int) -> Time:
@@ -55,3 +59,27 @@ def fdi_sample_of(msg, axes, identification: bool = True):
     except KeyError as exc:
         raise ValueError(f"FDI telemetry without wheel {exc}") from None
     return sample_from_report(stamp_ns(msg.header.stamp), wheels, identification)
+
+
+STATES = {"in_use": DiagnosticStatus.OK, "standby": DiagnosticStatus.OK, "kept_in_use": DiagnosticStatus.WARN,
+          "held": DiagnosticStatus.WARN, "given_up": DiagnosticStatus.ERROR}
+
+
+def wheel_states_msg(stamp: int, reconfiguration: Reconfiguration, names) -> DiagnosticArray:
+    """/fdir/wheels: one status per wheel of the set (in use, standby, kept in use, held, given up and why)
+    as ``reconfiguration`` (core/fdir.py) stands at ``stamp``; the core-loop engine writes the same."""
+    r = reconfiguration
+    msg = DiagnosticArray()
+    msg.header.stamp = time_msg(stamp)
+    last = {d.wheel: d for d in r.decisions}
+    for name in names:
+        state = ("given_up" if name in r.given_up else "kept_in_use" if name in r.kept else
+                 "held" if name in r.held else "in_use" if name in r.in_use else "standby")
+        d = last.get(name)
+        status = DiagnosticStatus(level=STATES[state], name=f"fdir: reaction wheel {name}",
+                                  hardware_id=joint_name(name), message=state.replace("_", " ") + (
+                                      f" since {d.time:g} s: {d.reason}" if d else ""))
+        status.values = [KeyValue(key="state", value=state)] + (
+            [KeyValue(key="since", value=f"{d.time:g}"), KeyValue(key="reason", value=d.reason)] if d else [])
+        msg.status.append(status)
+    return msg

@@ -188,7 +188,7 @@ def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method
 
 # -- who reads what ----------------------------------------------------------------------------------
 # A node holds its first messages until its topic's readers are matched (DDS drops what goes out before;
-# nodes/gate.py), so how many readers each topic has in a graph is derived here, from what each node
+# graph/gate.py), so how many readers each topic has in a graph is derived here, from what each node
 # subscribes to, and handed to the publishers as parameters (launch/graph.py): a node added to READS is
 # waited for, and a node missing from it is an error, not a silent stall. Parameters (NodeSpec.parameters)
 # are read with the nodes' own defaults.
@@ -266,7 +266,7 @@ WAITS = {
 def reads(node) -> list:
     """The topics ``node`` (anything with ``executable`` and ``parameters``: launch.graph.NodeSpec) reads."""
     if node.executable not in READS:
-        raise ValueError(f"node {node.name}: what {node.executable} reads is not in nodes/topics.py READS, "
+        raise ValueError(f"node {node.name}: what {node.executable} reads is not in graph/topics.py READS, "
                          "so nothing would wait for it")
     return READS[node.executable](node.parameters)
 

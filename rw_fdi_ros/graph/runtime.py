@@ -44,7 +44,7 @@ class GraphNode(Node):
         self.exit_message = ""
 
     def declare_parameter(self, name, value=None, descriptor=None, ignore_override=False):
-        """rclpy's, with the parameter's range (nodes/parameters.py) in its descriptor: a value out of it,
+        """rclpy's, with the parameter's range (graph/parameters.py) in its descriptor: a value out of it,
         or a non-finite float, ends the node with one line naming the parameter before it starts."""
         from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
         from .parameters import descriptor as ranged, finite

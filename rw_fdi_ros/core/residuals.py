@@ -1,0 +1,155 @@
+"""The residual r_k of an observer's estimate (thesis 3.2, 4.3.3; docs/fdi.md): the thesis' moving mean of
+|r - r^|, and ours, signed, with the ripple's aliased reach and the model's error as its bound."""
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from .detection import FALSE_ALARM_RATE, WINDOW
+from .threshold_fit import gumbel_fit, gumbel_quantile
+
+# Ripple gains up to g_max are a disturbance the bound covers (a +60 % ripple must not alarm; thesis 5.3).
+RIPPLE_GAIN_MAX = 2.0
+CALIBRATION_SIGMAS = 3.0      # z: a calibrated correction's own uncertainty u_k enters the bound as z u_k
+class ResidualFilter:
+    """The same moving average, one sample at a time (the observer nodes)."""
+
+    def __init__(self, window: int = WINDOW):
+        self.buffer = deque(maxlen=window)
+        self.total = 0.0
+
+    def update(self, actual, estimate):
+        err = abs(float(actual) - float(estimate))
+        if len(self.buffer) == self.buffer.maxlen:
+            self.total -= self.buffer[0]
+        self.buffer.append(err)
+        self.total += err
+        return self.total / len(self.buffer)
+
+
+class SignedResidual:
+    """Speed-aware residual of one wheel: signed moving mean of r - r^ and what it may hold unfaulted.
+
+    ``update(actual, estimate, ripple_phasor[, regressors])`` -> (residual, bound) with
+    bound = (B/2) g_max reach(p) / n + kappa mean(|r|) + z mean(u): the aliased ripple's largest
+    contribution for any gain up to g_max that is constant or monotone over the window
+    (:func:`ripple_reach`; ripple_phasor: the FDI sample's mean of tau_m e^{i N theta}, telemetry.py)
+    plus the observer's own model error, which grows with the torque the wheel is asked for
+    (``uncertainty_gain`` kappa: 0 for the nominal wheel model, measured on the training runs
+    for an Elman network, tools/design/train.py), plus, with a ``calibration`` to the wheel's own unit
+    (core/calibration.py), the uncertainty u of its correction to the estimate.
+    """
+
+    def __init__(self, window: int = WINDOW, share: float | None = None, ripple_gain_max: float = RIPPLE_GAIN_MAX,
+                 uncertainty_gain: float = 0.0, calibration=None):
+        self.errors = deque(maxlen=window)
+        self.phasors = deque(maxlen=window)
+        self.torques = deque(maxlen=window)
+        self.spreads = deque(maxlen=window)
+        self.scale = (ripple_share() if share is None else share) * ripple_gain_max
+        self.kappa = float(uncertainty_gain)
+        self.calibration = calibration   # core.calibration.UnitCalibration, or None (the datasheet wheel)
+        self.estimate = None             # the last estimate, calibrated: what the node publishes
+
+    def update(self, actual, estimate, ripple_phasor, regressors=None):
+        """(residual, bound) after this sample; ``regressors``: calibration.regressors of the sample,
+        needed with a calibration (which corrects the estimate and widens the bound by z u_k)."""
+        actual, estimate, spread = float(actual), float(estimate), 0.0
+        if self.calibration is not None:
+            correction, uncertainty = self.calibration.update(actual - estimate, regressors)
+            estimate += correction
+            spread = CALIBRATION_SIGMAS * uncertainty
+        self.estimate = estimate
+        self.errors.append(actual - estimate)
+        self.phasors.append(complex(ripple_phasor))
+        self.torques.append(abs(actual))
+        self.spreads.append(spread)
+        n = len(self.errors)
+        # sums over a deque of <= 40 values: exact, and no drift from running totals
+        bound = (self.scale * ripple_reach(self.phasors) / n + self.kappa * sum(self.torques) / n
+                 + sum(self.spreads) / n)
+        return sum(self.errors) / n, bound
+
+
+def ripple_reach(phasors) -> float:
+    """max_j max(|S_j|, |S_n - S_j|), S_j = p_1 + ... + p_j (S_0 = 0): the largest |sum g_k p_k| over
+    every ripple gain g_k in [0, 1] that is monotone across the window.
+
+    By Abel summation, sum g_k p_k = sum_j (g_j - g_j-1) (S_n - S_j-1) for a non-decreasing g
+    (weights >= 0 that add up to g_n <= 1), and likewise with the head sums S_j for a
+    non-increasing one. A constant gain gives |S_n|; a ripple that steps up inside the window
+    (a bearing wearing) can reach further: with |S_n| alone, +100 % ripple from t = 248 s gave
+    a residual of 7.2e-4 N m against a bound of 4.5e-4 at t = 277 s (seed 10200092).
+    """
+    partial = np.concatenate([[0.0], np.cumsum(np.fromiter(phasors, complex))])
+    return float(np.maximum(np.abs(partial), np.abs(partial[-1] - partial)).max())
+
+
+def ripple_share(params=None) -> float:
+    """(B/2): the ripple amplitude per unit motor torque at ripple gain 1 (wheel.torque_ripple)."""
+    from .wheel import WheelParams
+    p = params or WheelParams()
+    return p.ripple_amplitude_share * p.ripple_coefficient
+
+
+def residual_series(actual, estimate, window: int = WINDOW):
+    """Residuals of whole series (time first, one column per axis) through :class:`ResidualFilter`."""
+    actual, estimate = np.atleast_2d(np.asarray(actual, float).T).T, np.atleast_2d(np.asarray(estimate, float).T).T
+    out = np.empty(actual.shape)
+    for j in range(actual.shape[1]):
+        f = ResidualFilter(window)
+        out[:, j] = [f.update(a, e) for a, e in zip(actual[:, j], estimate[:, j])]
+    return out
+
+
+def window_mean(values, window: int = WINDOW):
+    """Moving mean over the last ``window`` samples (time first); the first W-1 average what exists."""
+    v = np.asarray(values, float)
+    c = np.cumsum(v, axis=0)
+    n = np.minimum(np.arange(1, len(v) + 1), window).reshape((-1,) + (1,) * (v.ndim - 1))
+    lagged = np.concatenate([np.zeros((window,) + v.shape[1:]), c[:-window]]) if len(v) > window else np.zeros_like(c)
+    return (c - lagged[:len(v)]) / n
+
+
+def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW, uncertainty_gains=(0.0, 0.0, 0.0),
+                           regressors=None, calibration_samples: int = 0):
+    """(residuals, bounds) of whole series (time first, one column per axis) through :class:`SignedResidual`;
+    with ``calibration_samples`` > 0 each wheel learns its unit from its first samples (``regressors``:
+    (n, axes, 6), calibration.regressors)."""
+    from .calibration import UnitCalibration
+    actual, estimate, phasor = (np.asarray(x) for x in (actual, estimate, ripple_phasor))
+    res, bound = np.empty(actual.shape), np.empty(actual.shape)
+    for j in range(actual.shape[1]):
+        f = SignedResidual(window, uncertainty_gain=uncertainty_gains[j],
+                           calibration=UnitCalibration(calibration_samples) if calibration_samples else None)
+        x = regressors[:, j] if calibration_samples else [None] * len(actual)
+        rows = [f.update(a, e, p, r) for a, e, p, r in zip(actual[:, j], estimate[:, j], phasor[:, j], x)]
+        res[:, j], bound[:, j] = [r[0] for r in rows], [r[1] for r in rows]
+    return res, bound
+
+
+def demand_ratio(actual, estimate, ripple_phasor, active: float = 1e-3) -> float | None:
+    """One fault-free run of one wheel: the largest (|residual| - ripple bound) / mean(|r|) over the
+    samples where mean(|r|) > ``active`` N m (a manoeuvre), i.e. how much the observer erred per unit of
+    the torque it was asked for (series (n,) of r, r^ and the ripple phasor); None: no manoeuvre."""
+    r = np.asarray(actual, float)[:, None]
+    res, bound = signed_residual_series(r, np.asarray(estimate, float)[:, None],
+                                        np.asarray(ripple_phasor)[:, None])
+    demand = window_mean(np.abs(r))
+    busy = demand > active
+    return float(((np.abs(res) - bound)[busy] / demand[busy]).max()) if busy.any() else None
+
+
+def demand_gain(ratios, false_alarm_rate: float = FALSE_ALARM_RATE) -> float:
+    """kappa of :class:`SignedResidual`'s bound from the runs' :func:`demand_ratio`: the (1 - alpha / 6)
+    quantile of a Gumbel law fitted to them (:func:`gumbel_fit`), never below the largest (twice the
+    largest for fewer than 4 runs: too few for a tail). An observer whose error grows with the torque
+    demand gets a bound that does too; alpha / 6: half the designed per-run false-alarm rate over three
+    axes, the band c (:func:`fit_band`) gets the other half."""
+    ratios = list(ratios)
+    if len(ratios) < 4:
+        kappa = 2.0 * max(ratios, default=0.0)
+    else:
+        kappa = max(gumbel_quantile(*gumbel_fit(ratios), 1.0 - false_alarm_rate / 6.0), max(ratios))
+    return max(kappa, 0.0)
