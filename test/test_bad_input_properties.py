@@ -7,7 +7,7 @@ import time
 import yaml
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from rw_fdi_ros.cli import parse_seeds
+from rw_fdi_ros.cli.options import parse_seeds
 from rw_fdi_ros.core.scenario import Scenario, ScenarioError, parse_scenario
 
 FIELDS = ["name", "description", "duration", "seed", "faults", "setpoints", "initial", "plant", "wheels"]

@@ -1,20 +1,45 @@
-"""The options several `rw-fdi` commands share are defined once (argparse parents): same action, same default."""
+"""The options several `rw-fdi` commands share are defined once (argparse parents): same action, same default;
+each bench takes only the options it reads."""
 import argparse
 
 import pytest
 
-from rw_fdi_ros.cli import build_parser
+from rw_fdi_ros.cli import VERBS, build_parser
 from rw_fdi_ros.core.detection import FALSE_ALARM_RATE
 
 SHARED = {"--persistence": ["run", "evaluate", "screen", "fit-thresholds", "reproduce"],
           "--models": ["run", "evaluate", "screen", "fit-thresholds"],
-          "--jobs": ["campaign", "evaluate", "reproduce", "defaults"],   # bench's --jobs is its study's own
+          "--jobs": ["campaign", "evaluate", "reproduce", "defaults"],   # the benches' --jobs is theirs
           "--false-alarm-rate": ["fit-thresholds", "defaults"]}
 
 
-def commands() -> dict:
-    parser = build_parser()
+# the options several benches share, and the benches that read each
+BENCH_SHARED = {"--out": ["detection", "identification", "units", "memory", "operations", "recovery", "dumping",
+                          "service"],
+                "--seed-set": ["operations", "recovery", "service"],
+                "--fault-free-runs": ["detection", "units", "operations", "recovery", "service"],
+                "--runs-per-cell": ["detection", "identification", "units", "operations", "recovery", "dumping"],
+                "--seed": ["graph", "fdi", "study", "memory", "dumping"],
+                "--duration": ["graph", "fdi", "study"],
+                "--jobs": ["study", "service"]}
+
+
+def subcommands(parser) -> dict:
     return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+
+
+def commands() -> dict:
+    """Every command's parser by its words: the verbs ("run") and the benches ("bench detection")."""
+    out = {}
+    for name, parser in subcommands(build_parser()).items():
+        out[name] = parser
+        if name == "bench":
+            out.update({f"bench {b}": p for b, p in subcommands(parser).items()})
+    return out
+
+
+def takes(parser, option) -> bool:
+    return any(option in a.option_strings for a in parser._actions)
 
 
 @pytest.mark.parametrize("option", sorted(SHARED))
@@ -22,8 +47,39 @@ def test_a_shared_option_is_one_definition(option):
     subs = commands()
     actions = {id(a) for c in SHARED[option] for a in subs[c]._actions if option in a.option_strings}
     assert len(actions) == 1
-    given = [c for c, p in subs.items() if c != "bench" and any(option in a.option_strings for a in p._actions)]
+    given = [c for c, p in subs.items() if not c.startswith("bench") and takes(p, option)]
     assert sorted(given) == sorted(SHARED[option])
+
+
+@pytest.mark.parametrize("option", sorted(BENCH_SHARED))
+def test_a_bench_option_is_one_definition_given_to_the_benches_that_read_it(option):
+    subs = commands()
+    actions = {id(a) for b in BENCH_SHARED[option] for a in subs[f"bench {b}"]._actions if option in a.option_strings}
+    assert len(actions) == 1
+    given = [c.split()[1] for c, p in subs.items() if c.startswith("bench ") and takes(p, option)]
+    assert sorted(given) == sorted(BENCH_SHARED[option])
+
+
+@pytest.mark.parametrize("argv, flag", [(["bench", "detection", "--hours", "3"], "--hours 3"),
+                                        (["bench", "memory", "--units"], "--units"),
+                                        (["bench", "graph", "--out", "x"], "--out x")])
+def test_a_flag_a_bench_does_not_take_is_an_error(argv, flag, capsys):
+    """`bench detection --hours 3` ran the detection bench and ignored --hours: now argparse refuses it."""
+    with pytest.raises(SystemExit) as exc:
+        build_parser().parse_args(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == f"rw-fdi: error: unrecognized arguments: {flag}"
+    assert sum("error" in line for line in err) == 1
+
+
+def test_every_verb_module_has_add_arguments_and_main():
+    names = [verb.NAME for verb in VERBS]
+    assert len(set(names)) == len(names) == len(subcommands(build_parser()))
+    for verb in VERBS:
+        assert isinstance(verb.HELP, str) and verb.HELP and isinstance(verb.PARENTS, tuple), verb.__name__
+        assert callable(verb.add_arguments) and callable(verb.main), verb.__name__
+        assert verb.__doc__ and verb.__doc__.strip(), verb.__name__
 
 
 def test_the_shared_defaults_are_what_they_were():
@@ -33,16 +89,19 @@ def test_the_shared_defaults_are_what_they_were():
     assert parse(["reproduce", "--out", "x", "--persistence", "4"]).persistence == 4
     assert parse(["fit-thresholds", "--out", "x"]).persistence is None
     assert parse(["bench", "study", "--jobs", "3"]).jobs == 3
+    assert parse(["bench", "dumping"]).seed == 1 and parse(["bench", "service"]).fault_free_runs == 1000
+    assert parse(["bench", "detection"]).runs_per_cell is None and parse(["bench", "detection"]).out is None
 
 
 BAD = {"--persistence": ["-2", "0", "x", "1001"], "--jobs": ["0", "-1"], "--seed": ["-1", "1.5"],
        "--unit-calibration": ["-1", "nan", "inf"], "--false-alarm-rate": ["0", "1.5", "nan"],
        "--runs": ["0"], "--epochs": ["0"], "--command-timeout": ["0", "-3"], "--duration": ["0", "-inf"],
-       "--fault-free-runs": ["0"], "--seed-start": ["-5"]}
+       "--fault-free-runs": ["0"], "--seed-start": ["-5"], "--runs-per-cell": ["0"], "--service-runs": ["0"],
+       "--max-hours": ["0", "6.5"], "--day-hours": ["0", "241"], "--graph-sample": ["-1"]}
 
 
 def numeric_options():
-    """(command, option, action) of every option that takes a number (int or float type)."""
+    """(command, option, action) of every option that takes a number (int or float type), the benches' too."""
     for name, parser in commands().items():
         for action in parser._actions:
             kind = getattr(action.type, "__name__", "")
@@ -52,7 +111,7 @@ def numeric_options():
 
 def test_every_numeric_option_is_range_checked_before_anything_starts(capsys):
     """`--persistence -2` made every wheel alarm from t = 0 with nothing said (issue 26): every numeric
-    option now goes through cli.number, and a value out of its range is one line and exit 2."""
+    option now goes through cli.options.number, and a value out of its range is one line and exit 2."""
     options = list(numeric_options())
     assert len(options) >= 20
     plain = [(c, o) for c, o, a in options if a.type in (int, float)]
@@ -60,7 +119,7 @@ def test_every_numeric_option_is_range_checked_before_anything_starts(capsys):
     for command, option, _ in options:
         for bad in BAD.get(option, []):
             with pytest.raises(SystemExit) as exc:
-                build_parser().parse_args([command, option, bad])
+                build_parser().parse_args([*command.split(), option, bad])
             assert exc.value.code == 2
             err = capsys.readouterr().err.strip().splitlines()[-1]
             assert err.startswith(f"rw-fdi {command}: error: argument {option}"), err
@@ -73,7 +132,7 @@ def test_every_numeric_option_is_range_checked_before_anything_starts(capsys):
     ("a..b", "must be A..B or A with whole numbers")])
 def test_a_seed_range_is_bounded_before_anything_starts(text, said):
     """`screen --seeds 1..100000000000` started without a word (issue 39): the same bounds for every command."""
-    from rw_fdi_ros.cli import parse_seeds
+    from rw_fdi_ros.cli.options import parse_seeds
     with pytest.raises(ValueError, match=".*") as err:
         parse_seeds(text, "--seeds")
     assert said in str(err.value) and "\n" not in str(err.value)

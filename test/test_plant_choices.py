@@ -44,7 +44,7 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
     from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as Header
     from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
-    from rw_fdi_ros.cli import _simulated_fitting_runs
+    from rw_fdi_ros.cli.verbs.fit_thresholds import _simulated_fitting_runs
     from rw_fdi_ros.core.scenario import load_scenario
     from rw_fdi_ros.launch.graph import graph_nodes
     from rw_fdi_ros.graph import topics as T

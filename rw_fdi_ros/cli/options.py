@@ -1,0 +1,120 @@
+"""What several `rw-fdi` commands share, each defined once: the range-checked number types, seed ranges, the
+output check, the executor, the options given as argparse parents, and the fault-free samples they learn from."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+
+def number(kind=float, low=None, high=None, low_open=False):
+    """An argparse type: ``kind`` (int or float), finite, within [low, high] (``low_open``: > low).
+    argparse turns its ValueError into one line naming the option, before anything starts."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {'an integer' if kind is int else 'a number'}")
+        if kind is float and not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+        below = low is not None and (value <= low if low_open else value < low)
+        if below or (high is not None and value > high):
+            bounds = ([f"{'>' if low_open else '>='} {low}"] if low is not None else []) + \
+                ([f"<= {high}"] if high is not None else [])
+            raise argparse.ArgumentTypeError(f"{text} is out of range: must be {' and '.join(bounds)}")
+        return value
+    parse.__name__ = kind.__name__   # argparse names the type in its message
+    return parse
+
+
+COUNT = number(int, 1)            # runs, jobs, epochs: at least one
+SEED_MAX = 2**63 - 1              # numpy's seeds: non-negative
+SEED = number(int, 0, SEED_MAX)
+SEEDS_MAX = 1_000_000             # runs of one seed range: days on one machine already
+
+
+def parse_seeds(text: str, option: str) -> range:
+    """'A..B' (inclusive) or 'A' -> range; a one-line ValueError naming the option otherwise."""
+    first, sep, last = text.partition("..")
+    try:
+        a, b = int(first), int(last if sep else first)
+    except ValueError:
+        raise ValueError(f"{option} must be A..B or A with whole numbers, got {text!r}") from None
+    if b < a:
+        raise ValueError(f"{option} {text}: the last seed is below the first")
+    if a < 0 or b > SEED_MAX:
+        raise ValueError(f"{option} {text}: seeds are whole numbers in [0, {SEED_MAX}]")
+    if b - a + 1 > SEEDS_MAX:
+        raise ValueError(f"{option} {text}: {b - a + 1:,} runs; one command takes at most {SEEDS_MAX:,} (split the "
+                         "range)")
+    return range(a, b + 1)
+
+
+def writable_dir(path: str, option: str) -> Path:
+    """``path`` made (with its parents) and writable, or a one-line ValueError naming the option: an
+    output that cannot be written fails before any node starts, not inside the recorder."""
+    import os
+    folder = Path(path)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: cannot create it ({exc.strerror or exc})") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"{option} {path}: not writable")
+    return folder
+
+
+def executor(args):
+    """Where a command's runs go: --jobs processes here, or the Dask cluster of --scheduler."""
+    from ..tools.campaigns.campaign import make_executor
+    return make_executor(getattr(args, "jobs", None), getattr(args, "scheduler", None))
+
+
+def parents() -> dict:
+    """The options several commands share, each defined once as an argparse parent, by name: a command
+    lists the names it takes (its PARENTS)."""
+    from ..core.detection import FALSE_ALARM_RATE, METHODS, PERSISTENCE_MAX
+    models = argparse.ArgumentParser(add_help=False)
+    models.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
+    persistence = argparse.ArgumentParser(add_help=False)
+    persistence.add_argument("--persistence", type=number(int, 1, PERSISTENCE_MAX), default=None,
+                             help="samples above the threshold before an alarm (P; default: the threshold file's; "
+                                  "fit-thresholds fits for 3 speed_aware, 5 thesis and writes it in the file)")
+    fdi_files = argparse.ArgumentParser(add_help=False, parents=[models, persistence])
+    fdi_files.add_argument("--thresholds", default=None, help="threshold directory (default: config/fdi)")
+    false_alarms = argparse.ArgumentParser(add_help=False)
+    false_alarms.add_argument("--false-alarm-rate", type=number(float, 0, 1, low_open=True),
+                              default=FALSE_ALARM_RATE,
+                              help="designed per-run false-alarm probability (speed_aware; default %(default)g)")
+    unit = argparse.ArgumentParser(add_help=False)
+    unit.add_argument("--unit-calibration", type=number(float, 0), default=0.0, metavar="SECONDS",
+                      help="the observers learn each wheel's own unit from the first SECONDS of a run, assumed "
+                           "healthy (core/calibration.py; speed_aware only; default 0: the datasheet wheel; "
+                           "shipped thresholds for 150)")
+    method = argparse.ArgumentParser(add_help=False)
+    method.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),
+                        help="speed_aware (ours: wheel speed, signed residual, designed false-alarm rate) or "
+                             "thesis (2-input Elman, |r - r^|, mean + 3 sigma curves); without --models it "
+                             "picks config/fdi or config/fdi/thesis")
+    jobs = argparse.ArgumentParser(add_help=False)
+    jobs.add_argument("--jobs", type=COUNT, default=None, help="graphs at once (default: 2 on 2 cores)")
+    cluster = argparse.ArgumentParser(add_help=False, parents=[jobs])
+    cluster.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
+    return dict(models=models, persistence=persistence, fdi_files=fdi_files, false_alarms=false_alarms, unit=unit,
+                method=method, jobs=jobs, cluster=cluster)
+
+
+def fault_free_samples(bags, load_samples) -> list:
+    """FDI samples of the fault-free bags under ``bags`` recorded under one plant (what trains and fits): each
+    bag skipped said by name, their count, and an error where none is left."""
+    from ..tools.design.offline import under_one_plant
+    skipped = []
+    samples = under_one_plant(load_samples(bags, on_skip=skipped.append, fault_free=True), skipped.append)
+    for reason in skipped:
+        print(f"skipped: {reason}", file=sys.stderr)
+    if skipped:
+        print(f"skipped {len(skipped)} of {len(skipped) + len(samples)} bags", file=sys.stderr)
+    if not samples:
+        raise ValueError(f"--bags {bags}: no fault-free bag to learn from")
+    return samples

@@ -1,0 +1,45 @@
+"""`rw-fdi bag`: what a bag holds (also a truncated one), its run summary and FDI verdict, read as a stream."""
+import sys
+from pathlib import Path
+
+NAME = "bag"
+HELP = ("what a bag holds (also a truncated one), its run summary and FDI verdict; read as a stream (memory does "
+        "not grow with the run)")
+PARENTS = ()
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("bag")
+    parser.add_argument("--figure", default=None, metavar="PNG", help="also draw the residuals against the thresholds")
+
+
+def main(args) -> int:
+    """Topics, counts and spans of a bag, its run summary and, where it holds FDI outputs, the FDI
+    verdict: each a stream over the file, so memory does not grow with the run's length."""
+    from ...graph import topics as T
+    from ...storage.bag import bag_info, read_series
+    from ...tools.campaigns.summary import format_summary, run_summary
+    info = bag_info(args.bag)
+    state = "complete" if info.complete else f"incomplete: {info.note}"
+    print(f"{info.path}: {state}")
+    if info.damaged:   # what was still read is listed below; the tools that train, fit and judge skip it
+        print(f"rw-fdi: error: {info.path}: {info.damage()}", file=sys.stderr)
+    for topic in sorted(info.counts):
+        first, last = info.span[topic]
+        print(f"  {topic:28s} {info.types[topic]:38s} {info.counts[topic]:7d} msgs  "
+              f"{first * 1e-9:8.1f} .. {last * 1e-9:8.1f} s")
+    if T.SCENARIO not in info.counts:
+        return 1 if info.damaged else 0
+    if T.ATTITUDE in info.counts:
+        print(format_summary(run_summary(args.bag)))
+        if T.PLANT_DONE not in info.counts:   # what a script checks after a launch that ended early
+            print(f"  run interrupted: no {T.PLANT_DONE} (the plant did not reach the run's end)")
+    if T.fdi_output_topics("elman")["alarm"] in info.counts:
+        from ...tools.bag_series import health_from_bag
+        from ...tools.campaigns.fdi import fdi_verdict, format_verdict, plot_residuals, verdict_topics
+        data = read_series(args.bag, verdict_topics())
+        verdict = {**fdi_verdict(data), "health": health_from_bag(args.bag)}
+        print(f"fault detection and isolation:\n{format_verdict(verdict)}")
+        if args.figure:
+            print(f"  figure: {plot_residuals(data, Path(args.figure))}")
+    return 1 if info.damaged else 0

@@ -1,0 +1,193 @@
+"""`rw-fdi bench X`: the benchmarks that print figures, one sub-command per bench, each given only the options
+it reads (another is an argparse error, not a flag silently ignored)."""
+import argparse
+import json
+import sys
+
+from ..options import COUNT, SEED, number
+
+NAME = "bench"
+HELP = "benchmarks that print figures"
+PARENTS = ()
+
+
+def _options() -> dict:
+    """Every bench option, each defined once as an argparse parent, by flag: a bench is given the ones it reads."""
+    made = {}
+
+    def option(flag, **kwargs):
+        made[flag] = argparse.ArgumentParser(add_help=False)
+        made[flag].add_argument(flag, **kwargs)
+
+    option("--service-runs", type=COUNT, default=1000,
+           help="service: in-service runs, each drawn from its seed (default 1000)")
+    option("--max-hours", type=number(float, 0, 6, low_open=True), default=None,
+           help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h)")
+    option("--day-hours", type=number(float, 0, 240, low_open=True), default=24.0,
+           help="dumping: the length of the day in orbit [h] (default 24)")
+    option("--orbit-runs", type=COUNT, default=20,
+           help="dumping: 6-hour runs of operations in orbit with dumping (default 20: 120 simulated hours)")
+    option("--hours", default="1,6", help="memory: run lengths in hours, comma-separated (default 1,6)")
+    option("--fault-free-runs", type=COUNT, default=1000,
+           help="detection, units: fault-free runs; service: fault-free 600-s runs of the family (default 1000)")
+    option("--runs-per-cell", type=COUNT, default=None,
+           help="detection: runs per fault or ripple case (default 200); identification: per grid size "
+                "(default 100); recovery: per fault case (default 100)")
+    option("--units", action="store_true",
+           help="identification: on varied wheels, calibrated 150 s, sizes drawn over ranges (default "
+                "200 runs per kind, the bus 340; reports/identification_units)")
+    option("--thesis-runs", type=COUNT, default=None,
+           help="identification: runs per thesis size (default 200; the bus 340, as 6 in 10 are observable)")
+    option("--out", default=None, help="detection / identification / units / memory: report directory "
+                                       "(default reports/<what>)")
+    option("--hours-runs", type=COUNT, default=50,
+           help="operations: 2-hour runs of continuous operations (default 50: 100 simulated hours)")
+    option("--seed-set", default="evaluation", choices=["evaluation", "tuning"],
+           help="operations, recovery, service: the seeds of record (default) or the ones the design "
+                "was chosen on")
+    option("--runs", type=COUNT, default=8, help="study: runs to record and replay")
+    option("--jobs", type=COUNT, default=None, help="study, service: processes at a time (default: 2)")
+    option("--duration", type=number(float, 0, low_open=True), default=400.0)
+    option("--seed", type=SEED, default=1)
+    option("--only", default=None,
+           help="figures: the benches to re-measure, comma-separated (detection, operations, "
+                "identification_units, recovery, service, dumping, reproduce, graph, study; default all)")
+    option("--json", action="store_true")
+    return made
+
+
+def _graph(args) -> dict:
+    from ...tools.benches.bench import bench_graph
+    return bench_graph(duration=args.duration, seed=args.seed)
+
+
+def _fdi(args) -> dict:
+    from ...tools.benches.bench import bench_fdi
+    return bench_fdi(duration=args.duration, seed=args.seed)
+
+
+def _study(args) -> dict:
+    from ...tools.benches.bench import bench_study
+    return bench_study(runs=args.runs, duration=args.duration, seed=args.seed, jobs=args.jobs)
+
+
+def _detection(args) -> dict:
+    from ...tools.benches.detection_bench import bench_detection
+    return bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
+                           out=args.out or "reports/detection")
+
+
+def _identification(args) -> dict:
+    from ...tools.benches.identification_bench import bench_identification
+    default_out = "reports/identification_units" if args.units else "reports/identification"
+    return bench_identification(runs_per_cell=args.runs_per_cell or (200 if args.units else 100),
+                                out=args.out or default_out, units=args.units,
+                                **({"thesis_runs": args.thesis_runs, "bus_thesis_runs": args.thesis_runs * 17 // 10}
+                                   if args.thesis_runs else {}))
+
+
+def _units(args) -> dict:
+    from ...tools.benches.units_bench import bench_units
+    return bench_units(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
+                       out=args.out or "reports/units")
+
+
+def _memory(args) -> dict:
+    from ...tools.benches.memory_bench import bench_memory
+    try:
+        hours = tuple(float(h) for h in args.hours.split(","))
+    except ValueError:
+        raise ValueError(f"--hours: expected numbers like 1,6, got {args.hours!r}") from None
+    if not all(0 < h <= 48 for h in hours):
+        raise ValueError(f"--hours: each length must be in (0, 48] hours, got {args.hours!r}")
+    return bench_memory(hours, seed=args.seed, out=args.out or "reports/memory")
+
+
+def _operations(args) -> dict:
+    from ...tools.benches.operations_bench import bench_operations
+    return bench_operations(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
+                            hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations")
+
+
+def _recovery(args) -> dict:
+    from tqdm import tqdm
+    from ...tools.benches.recovery_bench import CELLS, bench_recovery
+    runs = args.runs_per_cell or 100
+    total = sum(args.fault_free_runs if c.kind is None else runs for c in CELLS)
+    with tqdm(total=total, desc="recovery bench (core loop)", unit="run", file=sys.stderr) as bar:
+        return bench_recovery(runs_per_cell=runs, fault_free_runs=args.fault_free_runs, seeds=args.seed_set,
+                              out=args.out or "reports/recovery", progress=bar.update)
+
+
+def _dumping(args) -> dict:
+    from ...tools.benches.dumping_bench import bench_dumping
+    return bench_dumping(hours=args.day_hours, seed=args.seed, operations_runs=args.orbit_runs,
+                         runs_per_cell=args.runs_per_cell or 100, out=args.out or "reports/dumping")
+
+
+def _service(args) -> dict:
+    from tqdm import tqdm
+    from ...tools.benches.service_bench import bench_service
+    with tqdm(total=args.service_runs + args.fault_free_runs, desc="service bench (core loop)", unit="run",
+              file=sys.stderr) as bar:
+        return bench_service(runs=args.service_runs, seeds=args.seed_set, out=args.out or "reports/service",
+                             jobs=args.jobs or 2, progress=bar.update, max_hours=args.max_hours,
+                             fault_free_runs=args.fault_free_runs)
+
+
+def _figures(args) -> dict:
+    from ...tools.benches.figures_check import check_figures
+
+    def said(name, lines):   # each bench's figures as soon as they are in: the whole takes minutes
+        print(f"figures: re-measuring {name} ..." if lines is None else "\n".join(
+            f"figures: {x['figure']}: {x['small']} (record {x['record']})"
+            + ("  << OUTSIDE" if x["flagged"] else "") for x in lines), file=sys.stderr, flush=True)
+    return check_figures(benches=args.only.split(",") if args.only else None, progress=said)
+
+
+# name, what it measures (its help), the options it reads besides --json, what runs it (its report)
+BENCHES = [
+    ("graph", "real-time factor of a recorded fault-free run", ("--duration", "--seed"), _graph),
+    ("fdi", "observer step times, node callback times and memory", ("--duration", "--seed"), _fdi),
+    ("study", "record and replay throughput and the thesis-scale reproduce time they give",
+     ("--runs", "--duration", "--seed", "--jobs"), _study),
+    ("detection", "false-alarm and detection rates with 95 %% intervals on >= 1000 held-out runs, both FDI methods "
+     "(core loop)", ("--fault-free-runs", "--runs-per-cell", "--out"), _detection),
+    ("identification", "fault kind and size per kind and size, confusion matrix (core loop)",
+     ("--runs-per-cell", "--units", "--thesis-runs", "--out"), _identification),
+    ("units", "the detection cells on wheels drawn around the datasheet and on the datasheet wheel, with and "
+     "without unit calibration (core loop)", ("--fault-free-runs", "--runs-per-cell", "--out"), _units),
+    ("memory", "peak memory of the run summary, `rw-fdi bag` and evaluation for fault-free runs of --hours "
+     "(recorded, minutes)", ("--hours", "--seed", "--out"), _memory),
+    ("operations", "every observer and the /diagnostics verdict in operations (manoeuvres at random times, "
+     "hours-long runs, faults a manoeuvre follows, bus drops that tumble an axis; core loop)",
+     ("--fault-free-runs", "--runs-per-cell", "--hours-runs", "--seed-set", "--out"), _operations),
+    ("recovery", "the redundant wheel taking over from a wheel the FDI confirmed faulty (pointing back within "
+     "0.2 deg, peak error, time to recover; FDI and FDIR in the core loop)",
+     ("--runs-per-cell", "--fault-free-runs", "--seed-set", "--out"), _recovery),
+    ("dumping", "a day in orbit with the magnetorquers dumping and with them off (wheel speed band, pointing, when "
+     "the wheels saturate; a plot), the FDI through hours of dumping and faults during a dump (core loop)",
+     ("--day-hours", "--orbit-runs", "--runs-per-cell", "--seed", "--out"), _dumping),
+    ("service", "FDIR in service, every capability at once (units and datasheet wheels, manoeuvres before and after "
+     "faults of every kind, size, wheel, onset and ramp, second faults, orbit with dumping, 600 s to 6 h; "
+     "reconfigurations without a fault, the right wheel acted on, pointing kept, identification; core loop)",
+     ("--service-runs", "--fault-free-runs", "--max-hours", "--seed-set", "--jobs", "--out"), _service),
+    ("figures", "every figure of the README's table re-measured at small n (about 12 min), printed beside the "
+     "README's and the record's, flagged where the two disagree beyond chance", ("--only",), _figures),
+]
+
+
+def add_arguments(parser) -> None:
+    options = _options()
+    benches = parser.add_subparsers(dest="what", required=True)
+    for name, text, flags, run in BENCHES:
+        # the help is %-formatted by argparse, the description is shown as written
+        bench = benches.add_parser(name, help=text, description=text.replace("%%", "%"),
+                                   parents=[options[f] for f in flags + ("--json",)])
+        bench.set_defaults(bench=run)
+
+
+def main(args) -> int:
+    report = args.bench(args)
+    print(json.dumps({k: v for k, v in report.items() if k != "text"}, indent=2) if args.json else report["text"])
+    return 0 if report["ok"] else 1

@@ -1,0 +1,25 @@
+"""`rw-fdi evaluate`: recorded bags replayed through the observers and isolation, judged in one report."""
+from ..options import executor, writable_dir
+
+NAME = "evaluate"
+HELP = "replay bags through the observers and isolation; write the report"
+PARENTS = ("fdi_files", "cluster", "unit")
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--bags", required=True, help="directory of bags (searched recursively)")
+    parser.add_argument("--report", required=True, help="directory for report.md, report.json, plots, replays")
+    parser.add_argument("--engine", default="graph", choices=["graph", "core"],
+                        help="graph: replay every bag through the FDI graph (the reference); core: the observer and "
+                             "isolation nodes' code on each bag's recorded telemetry, no replay (the same report)")
+
+
+def main(args) -> int:
+    writable_dir(args.report, "--report")   # a file in the way is said before any bag is read
+    from ...tools.evaluation.evaluate import evaluate, main_summary
+    report = evaluate(args.bags, args.report, models=args.models, thresholds=args.thresholds,
+                      persistence=args.persistence, executor=executor(args), unit_calibration=args.unit_calibration,
+                      engine=args.engine)
+    print(main_summary(report))
+    print(f"report: {args.report}/report.md, {args.report}/report.json")
+    return 0 if report["runs"] else 1

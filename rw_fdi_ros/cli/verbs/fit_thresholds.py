@@ -1,0 +1,70 @@
+"""`rw-fdi fit-thresholds`: the observers' thresholds fitted on fault-free runs, recorded bags or runs of the
+core loop (speed_aware: bands for a designed false-alarm rate; thesis: mean + 3 sigma curves)."""
+import sys
+
+from ..options import fault_free_samples, parse_seeds
+
+NAME = "fit-thresholds"
+HELP = ("fit the thresholds of the observers from fault-free bags (speed_aware models: bands for a designed "
+        "false-alarm rate; thesis models: mean + 3 sigma curves)")
+PARENTS = ("models", "false_alarms", "persistence", "unit")
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--bags", default=None, help="directory of fault-free bags")
+    parser.add_argument("--simulate", default=None, metavar="SCENARIO",
+                        help="instead of bags: fault-free runs of SCENARIO by the core loop (rw-fdi screen's, the "
+                             "graph's numbers) over --seeds")
+    parser.add_argument("--seeds", default="60000000..60000299",
+                        help="with --simulate: A..B inclusive (default %(default)s, disjoint from every bench)")
+    parser.add_argument("--out", required=True)
+
+
+def main(args) -> int:
+    # the options first: a bad one answers at once, before torch loads
+    if not 0.0 < args.false_alarm_rate < 1.0:
+        raise ValueError(f"--false-alarm-rate must lie in (0, 1), got {args.false_alarm_rate}")
+    if (args.bags is None) == (args.simulate is None):
+        raise ValueError("give either --bags DIR or --simulate SCENARIO --seeds A..B")
+    seeds = parse_seeds(args.seeds, "--seeds") if args.simulate else None
+    import time
+    from ...paths import config_dir, shown_path
+    from ...tools.design.offline import fdi_method_of, fit_thresholds, load_models
+    from ...tools.design.samples import load_samples
+    models_dir = args.models or str(config_dir() / "fdi")
+    models = load_models(models_dir)
+    t0 = time.monotonic()
+    plant = None
+    if args.simulate:
+        samples, plant = _simulated_fitting_runs(args.simulate, seeds)
+    else:
+        samples = fault_free_samples(args.bags, load_samples)
+    result = fit_thresholds(samples, models, args.out, model_ref=shown_path(models_dir, args.out),
+                            false_alarm_rate=args.false_alarm_rate, persistence=args.persistence,
+                            unit_calibration=args.unit_calibration, plant=plant)
+    print(f"thresholds from {len(samples)} fault-free runs in {time.monotonic() - t0:.0f} s -> {args.out}")
+    speed_aware = fdi_method_of(models) == "speed_aware"
+    for obs, row in result.items():
+        if speed_aware:
+            print(f"  {obs:7s} band c [1e-3 N m] " + "  ".join(f"{a}={v * 1e3:.4f}" for a, v in row.items())
+                  + f"  (per-run false-alarm rate {args.false_alarm_rate:g})")
+        else:
+            print(f"  {obs:7s} reliability " + "  ".join(f"{a}={v * 100:.0f}%" for a, v in row.items()))
+    return 0
+
+
+def _simulated_fitting_runs(ref: str, seeds) -> tuple:
+    """FDI samples of fault-free runs of scenario ``ref`` over ``seeds`` by the core loop (screen), and
+    the plant choices they were made under."""
+    from tqdm import tqdm
+    from ...core.plant_choices import PlantChoices
+    from ...core.scenario import load_scenario
+    from ...tools.evaluation.screen import simulated_runs
+    scenario = load_scenario(ref)
+    if scenario.faults:
+        raise ValueError(f"--simulate {ref}: thresholds are fitted on fault-free runs, this scenario has faults")
+    with tqdm(total=len(seeds), desc="fitting runs (core loop)", unit="run", file=sys.stderr) as bar:
+        samples = [s for _, s, _ in simulated_runs([scenario.with_seed(k) for k in seeds], progress=bar.update)]
+    # what a bag of such a run would record: the same choices the recorded runs' fitting gets
+    plant = PlantChoices.of_recording(scenario.plant_choices().scenario_dict()).as_dict()
+    return samples, plant

@@ -1,0 +1,67 @@
+"""`rw-fdi run`: one scenario through the whole graph, recorded as a bag, with its summary and FDI verdict."""
+import sys
+
+from ..options import SEED, number, writable_dir
+
+NAME = "run"
+HELP = "run one scenario through the whole graph and record a bag"
+PARENTS = ("fdi_files", "method", "unit")
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--scenario", required=True, help="scenario name (see `rw-fdi scenarios`) or YAML file")
+    parser.add_argument("--seed", type=SEED, default=None, help="seed for initial conditions and disturbance")
+    parser.add_argument("--out", default="bags", help="directory for the bag (default: bags/)")
+    parser.add_argument("--emf-limit", default=None, choices=["kf_scaled", "pwm_saturation"],
+                        help="EMF torque-limiting model (physics.md [choice]; default: the scenario's, else kf_scaled)")
+    parser.add_argument("--command-timeout", type=number(float, 0, low_open=True), default=5.0,
+                        help="wall seconds the plant waits for a command")
+    parser.add_argument("--keep-logs", action="store_true", help="keep node logs also after a successful run")
+    parser.add_argument("--no-fdi", dest="fdi", action="store_false",
+                        help="without the observers and isolation (plant, controllers, wheel allocation, recorder "
+                             "only)")
+    parser.add_argument("--no-fdir", dest="fdir", action="store_false",
+                        help="detect, isolate and identify, but keep commanding every wheel in use (no "
+                             "reconfiguration: the FDI alone, as before the redundant wheel)")
+
+
+def main(args) -> int:
+    from ...tools.campaigns.run import resolve_scenario, run_scenario
+    from ...tools.campaigns.summary import format_summary
+    scenario, _ = resolve_scenario(args.scenario, args.seed)   # a bad scenario is the first thing to say
+    writable_dir(args.out, "--out")
+    wheels = scenario.wheel_set()
+    nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
+    if args.fdi:
+        from ...tools.campaigns.fdi import check_fdi_files, format_verdict, run_with_fdi
+        check_fdi_files(args.models, args.thresholds, scenario.plant_choices(emf_limit=args.emf_limit),
+                        args.fdi_method, args.unit_calibration, scenario.duration)
+        nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
+                 f"{wheels.count} Elman observers, linear observer, "
+                 + ("model observer, " if args.fdi_method == "speed_aware" else "") + "isolation, recorder")
+    print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
+          f" ({nodes}; private DDS domain)", flush=True)
+    common = dict(seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs, emf_limit=args.emf_limit,
+                  command_timeout=args.command_timeout)
+    if args.fdi:
+        outcome = run_with_fdi(args.scenario, models=args.models, thresholds=args.thresholds,
+                               persistence=args.persistence, figure=True, method=args.fdi_method,
+                               unit_calibration=args.unit_calibration, fdir=args.fdir, **common)
+    else:
+        outcome = run_scenario(args.scenario, **common)
+    if outcome.summary:
+        print(format_summary(outcome.summary))
+        if "fdi" in outcome.summary:
+            print(f"fault detection and isolation ({args.fdi_method}"
+                  + (f", persistence P = {args.persistence}" if args.persistence else "")
+                  + (f", wheels learnt over the first {args.unit_calibration:g} s" if args.unit_calibration else "")
+                  + "):")
+            print(format_verdict(outcome.summary["fdi"]))
+            print(f"  figure: {outcome.summary.get('figure')}")
+    if not outcome.ok:
+        where = f" (node logs: {outcome.log_dir})" if outcome.log_dir and outcome.log_dir.exists() else ""
+        print(f"rw-fdi: run failed: {outcome.reason}{where}", file=sys.stderr)
+        return 1
+    rtf = outcome.summary["end_time"] / outcome.wall_time if outcome.summary else float("nan")
+    print(f"  wall time {outcome.wall_time:.1f} s ({rtf:.0f}x real time)")
+    return 0
