@@ -16,7 +16,7 @@ from rw_fdi_ros.tools.metrics import RunEval, aggregate, judge, observers_of_run
 from rw_fdi_ros.tools.bag_series import scenario_of, series_from_bag
 
 N = 101   # samples 0..100 s
-AXES = "xyz"
+WHEELS = "xyz"
 
 
 def vec(t, v):
@@ -31,7 +31,7 @@ def make_bag(path, faults, alarms, seed=1, residual_above=None, observers=T.OBSE
     w.add_topic(T.SCENARIO, "std_msgs/msg/String")
     wheels = [obs for obs in observers if obs != "elman"]   # one topic for the three wheels
     for topic in [T.FAULT_EFFECT, *map(T.residual_topic, wheels), T.bound_topic("linear")] + \
-            [T.residual_topic("elman", a) for a in AXES]:
+            [T.residual_topic("elman", a) for a in WHEELS]:
         w.add_topic(topic, vec_t)
     for obs in observers:
         for k in ("threshold", "alarm"):
@@ -39,21 +39,21 @@ def make_bag(path, faults, alarms, seed=1, residual_above=None, observers=T.OBSE
     w.write_message(T.SCENARIO, 0, String(data=yaml.safe_dump({"name": "hand", "seed": seed, "duration": 100,
                                                                  "faults": faults})))
     for t in range(N):
-        alarm = [float(any(s <= t < e for s, e in alarms.get(a, []))) for a in AXES]
+        alarm = [float(any(s <= t < e for s, e in alarms.get(a, []))) for a in WHEELS]
         threshold = [1e-3] * 3
         residual = [2e-3 if f else 0.5e-3 for f in alarm]
         if residual_above:   # residual above the threshold without an alarm (before persistence kicks in)
-            residual = [max(r, residual_above.get(a, 0.0)) for a, r in zip(AXES, residual)]
+            residual = [max(r, residual_above.get(a, 0.0)) for a, r in zip(WHEELS, residual)]
         ns = t * 10**9
         w.write_message(T.FAULT_EFFECT, ns, vec(t, [5e-3 if any(f["wheel"] == a for f in faults) and t >= 50 else 0.0
-                                                    for a in AXES]))
+                                                    for a in WHEELS]))
         for obs in observers:
             w.write_message(T.fdi_output_topics(obs)["threshold"], ns, vec(t, threshold))
             w.write_message(T.fdi_output_topics(obs)["alarm"], ns, vec(t, alarm))
         for obs in wheels:
             w.write_message(T.residual_topic(obs), ns, vec(t, residual))
         w.write_message(T.bound_topic("linear"), ns, vec(t, [linear_bound] * 3))
-        for i, a in enumerate(AXES):
+        for i, a in enumerate(WHEELS):
             own = [0.0, 0.0, 0.0]
             own[i] = residual[i]
             w.write_message(T.residual_topic("elman", a), ns, vec(t, own))
@@ -130,7 +130,7 @@ def test_aggregate_counts_rates_and_seeds(tmp_path):
             run_eval(make_bag(tmp_path / "held2", [], {}, seed=5001)),
             run_eval(make_bag(tmp_path / "rip", [{"kind": "ripple_gain", "wheel": "x", "onset": 50.0, "value": 1.4}],
                               {}, seed=3))]
-    level = {obs: {a: 1e-3 for a in AXES} for obs in T.OBSERVERS}
+    level = {obs: {a: 1e-3 for a in WHEELS} for obs in T.OBSERVERS}
     rep = aggregate(runs, {"elman": [1000], "linear": [1000]}, level)["elman"]
     assert rep["reliability"]["runs"] == 1 and rep["reliability"]["x"] == 1.0
     assert rep["false_alarm_heldout"] == {"rate": 0.5, "n": 2, "seeds": [5000, 5001]}
@@ -148,7 +148,7 @@ def test_false_alarm_before_onset_of_faulty_runs(tmp_path):
     runs = [run_eval(make_bag(tmp_path / "early", FAULT_X, {"y": [(10, 20)], "x": [(62, 1000)]}, seed=7)),
             run_eval(make_bag(tmp_path / "clean", FAULT_X, {"x": [(62, 1000)]}, seed=8)),
             run_eval(make_bag(tmp_path / "late", FAULT_X, {"z": [(80, 90)]}, seed=9))]
-    level = {obs: {a: 1e-3 for a in AXES} for obs in T.OBSERVERS}
+    level = {obs: {a: 1e-3 for a in WHEELS} for obs in T.OBSERVERS}
     rep = aggregate(runs, {"elman": [], "linear": []}, level)["elman"]
     assert rep["false_alarm_before_onset"] == {"rate": pytest.approx(1 / 3), "n": 3, "alarmed_seeds": [7]}
 

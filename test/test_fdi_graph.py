@@ -19,7 +19,8 @@ import pytest
 
 from conftest import CASE_DURATION
 from rw_fdi_ros.core.detection import observers_of
-from rw_fdi_ros.core.scenario import AXES, load_scenario
+from rw_fdi_ros.core.scenario import load_scenario
+from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
 from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.paths import config_dir, fdi_dir
@@ -47,7 +48,7 @@ def test_fault_free_run_raises_no_alarm(runs):
     v = verdict(runs["fault_free"])
     assert v["observers"] == ["elman", "linear", "model"]
     for obs in v["observers"]:
-        assert all(v[obs][a] == [] for a in AXES), (obs, v[obs])
+        assert all(v[obs][a] == [] for a in AXIS_WHEELS), (obs, v[obs])
 
 
 @pytest.mark.parametrize("case", ["bus_5v5_x", "current_0p6_x", "temperature_150_x", "bus_x_current_z"])
@@ -56,14 +57,14 @@ def test_the_luenberger_observer_runs_beside_them_and_blames_no_healthy_wheel(ru
     blaming a healthy wheel (its figures: reports/detection)."""
     v = verdict(runs[case])
     assert "linear" in v["judged"] and not v["judged"]["linear"]["wrong_axes"], v["judged"]["linear"]
-    assert all(v["linear"][a] == [] for a in AXES if not v["truth"][a])
+    assert all(v["linear"][a] == [] for a in AXIS_WHEELS if not v["truth"][a])
 
 
 @pytest.mark.parametrize("observer", ["elman", "model"])
 @pytest.mark.parametrize("case", ["bus_5v5_x", "current_0p6_x", "temperature_150_x", "bus_x_current_z"])
 def test_speed_aware_observers_isolate_the_faulty_wheels(runs, case, observer):
     v = verdict(runs[case])
-    for a in AXES:
+    for a in AXIS_WHEELS:
         faults = v["truth"][a]
         alarms = v[observer][a]
         if faults:
@@ -166,7 +167,7 @@ def test_diagnostics_one_status_per_wheel_stamped_in_sim_time(runs):
     assert len(rows) == end + 1
     log_time, last = rows[-1]
     assert last.header.stamp.sec == end and log_time == end * 10**9
-    assert [s.hardware_id for s in last.status] == [f"reaction_wheel_{a}" for a in (*AXES, "s")]
+    assert [s.hardware_id for s in last.status] == [f"reaction_wheel_{a}" for a in (*AXIS_WHEELS, "s")]
     assert [s.level for s in last.status] == [2, 0, 0, 0]
     values = {kv.key: kv.value for kv in last.status[0].values}
     assert {"residual", "threshold", "margin", "first_alarm"} <= set(values)

@@ -57,11 +57,12 @@ def test_the_speed_aware_model_error_term_covers_held_out_runs():
     """UNCERTAINTY_GAIN (kappa of the speed-aware bound) was fitted on runs 1000-1139; on the held-out
     fault-free runs 5000-5009 no run errs by more per unit of torque demand, on any wheel."""
     from rw_fdi_ros.core.linear_observer import UNCERTAINTY_GAIN, estimate_series
-    from rw_fdi_ros.core.scenario import AXES, load_scenario
+    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
     from rw_fdi_ros.tools.evaluation.screen import simulated_runs
     runs = [s for _, s, _ in simulated_runs([load_scenario("fault_free").with_seed(k) for k in range(5000, 5010)])]
     from rw_fdi_ros.core.residuals import demand_ratio
-    for i, a in enumerate(AXES):
+    for i, a in enumerate(AXIS_WHEELS):
         ratios = [demand_ratio(s.reaction_torque[:, i], estimate_series(s.tcv, s.reaction_torque)[:, i],
                                s.ripple_phasor[:, i]) for s in runs]
         worst = max(x for x in ratios if x is not None)   # None: a run without a manoeuvre on that wheel

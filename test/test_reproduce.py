@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.scenario import AXES
+from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.bag import BagError, read_bag
 from rw_fdi_ros.storage.writer import BagWriter
@@ -34,7 +34,7 @@ def test_plan_puts_faults_on_every_axis(tmp_path):
     assert sum(n for g, _, n, _ in jobs if g == "table42") == 300
     assert sum(n for g, _, n, _ in jobs if g == "grid") == 120
     wheels = {Path(f).stem[-1] for g, f, _, _ in jobs if g in ("table42", "grid")}
-    assert wheels == set(AXES)
+    assert wheels == set(AXIS_WHEELS)
     seeds = [range(s, s + n) for _, _, n, s in jobs]
     flat = [x for r in seeds for x in r]
     assert len(flat) == len(set(flat))            # every run its own seed

@@ -14,7 +14,8 @@ import pytest
 
 from conftest import CASES
 from rw_fdi_ros.core.calibration import calibration_samples
-from rw_fdi_ros.core.scenario import AXES, load_scenario
+from rw_fdi_ros.core.scenario import load_scenario
+from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
 from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
 from rw_fdi_ros.tools.metrics import judge
 from rw_fdi_ros.tools.evaluation.screen import load_fdi, screen_runs
@@ -27,7 +28,7 @@ SEED0 = 20_000_000   # disjoint from every other seed range (docs/fdi.md "Seeds"
 def scenario_files(root):
     out = []
     for i, kind in enumerate(KINDS):
-        faults = "[]" if kind is None else (f"[{{kind: {kind[0]}, wheel: {AXES[i % 3]}, "
+        faults = "[]" if kind is None else (f"[{{kind: {kind[0]}, wheel: {AXIS_WHEELS[i % 3]}, "
                                             f"onset: {30.0 + 3.0 * i:g}, value: {kind[1]}}}]")
         path = root / f"screen_{i:02d}.yaml"
         path.write_text(f"name: screen_{i:02d}\nduration: 130.0\nseed: {SEED0 + i}\nfaults: {faults}\n")
@@ -82,7 +83,7 @@ def test_screen_gives_the_graph_verdicts(both):
             "verdict"]
         for obs in run.series:
             series = run.series[obs]
-            for i, a in enumerate(AXES):
+            for i, a in enumerate(AXIS_WHEELS):
                 flags = series.alarm[:, i]
                 intervals = live[obs][a]
                 assert bool(intervals) == bool(flags.any()), (run.bag, obs, a, intervals)
@@ -90,7 +91,7 @@ def test_screen_gives_the_graph_verdicts(both):
                     assert intervals[0][0] == pytest.approx(float(series.time[flags.argmax()]), abs=1e-9)
                     detections += 1
             verdict = judge(run, obs)
-            assert sorted(verdict["alarmed_axes"]) == sorted(a for a in AXES if live[obs][a])
+            assert sorted(verdict["alarmed_axes"]) == sorted(a for a in AXIS_WHEELS if live[obs][a])
         # fault identification: the isolation node's last word on every alarmed wheel, to the digit
         assert {a: {k: v for k, v in found.items() if k != "message" and k != "samples"}
                 for a, found in live["identification"].items()} == run.identification, run.bag
@@ -105,7 +106,7 @@ def test_calibrated_observers_give_the_screen_verdicts_on_varied_wheels(both):
     for outcome, run in zip(graph, screened):
         assert outcome.ok, outcome.reason
         for obs in run.series:
-            for i, a in enumerate(AXES):
+            for i, a in enumerate(AXIS_WHEELS):
                 flags, intervals = run.series[obs].alarm[:, i], outcome.summary["fdi"][obs][a]
                 assert bool(intervals) == bool(flags.any()), (run.bag, obs, a, intervals)
                 if intervals:
@@ -113,5 +114,5 @@ def test_calibrated_observers_give_the_screen_verdicts_on_varied_wheels(both):
                     alarms += obs not in ("linear", "verdict")
     # the fault-free units stay quiet and the 10 % loss is seen by the calibrated Elman and model observers,
     # on wheel y only (the Luenberger observer's figures are reports/units')
-    assert not any(graph[0].summary["fdi"][obs][a] for obs in run.series for a in AXES)
+    assert not any(graph[0].summary["fdi"][obs][a] for obs in run.series for a in AXIS_WHEELS)
     assert alarms == 2 and all(graph[1].summary["fdi"][obs]["y"] for obs in ("elman", "model"))

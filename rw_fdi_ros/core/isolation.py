@@ -12,8 +12,8 @@ import numpy as np
 
 from .detection import AlarmRule
 from .threshold_file import ThresholdCurves
+from .wheel_set import AXIS_WHEELS
 
-AXES = ("x", "y", "z")
 # The observer whose alarms make the wheel's /diagnostics status and start fault identification, per
 # FDI method. Speed-aware: the nominal wheel model (the physics observer). Its error does not depend on
 # the manoeuvres a network was trained on: in operations (set-point changes at random times, hours of
@@ -57,7 +57,7 @@ class ObserverChannel:
     is False, it would clear an alarm) and the axis is in ``unjudged`` until its next finite sample.
     """
 
-    def __init__(self, observer: str, curves: ThresholdCurves, persistence: int | None = None, wheels=AXES):
+    def __init__(self, observer: str, curves: ThresholdCurves, persistence: int | None = None, wheels=AXIS_WHEELS):
         self.observer = observer
         self.curves = curves
         self.persistence = persistence or curves.persistence
@@ -100,7 +100,7 @@ class LatchedVerdict:
     :meth:`ObserverChannel.update`; a latched row keeps its first alarm time and has ``latched[axis]``
     True while the observer's own alarm is down."""
 
-    def __init__(self, latch: bool = True, wheels=AXES):
+    def __init__(self, latch: bool = True, wheels=AXIS_WHEELS):
         self.latch = latch
         self.wheels = tuple(wheels)
         self.reset()

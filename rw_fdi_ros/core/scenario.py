@@ -18,10 +18,9 @@ from .geomagnetic import IGRF_YEARS
 from .magnetorquers import MomentumDumping
 from .orbit import CircularOrbit, OrbitError, TleOrbit
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
-from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
+from .wheel_set import AXIS_WHEELS, DEFAULT_WHEEL_SET, WHEEL_SETS
 from .wheel import DEFAULT_UNIT_SPREAD, NOMINAL, UNIT_PARAMETERS, WheelParams, unit_wheel
 
-AXES = ("x", "y", "z")
 FAULT_KINDS = ("bus_voltage", "current_limiter", "temperature", "ripple_gain")
 NOMINAL_VALUES = {k: getattr(NOMINAL, k) for k in FAULT_KINDS}
 
@@ -262,7 +261,7 @@ def _num(where, value, lo=None, hi=None):
     return number
 
 
-def _wheel(where, value, names=AXES):
+def _wheel(where, value, names=AXIS_WHEELS):
     """The index of a wheel named in a scenario (one of ``names``, its wheel set's; or its index)."""
     if isinstance(value, str) and value.lower() in names:
         return names.index(value.lower())
@@ -275,7 +274,7 @@ FAULT_LIMITS = {"bus_voltage": (0.0, 40.0), "current_limiter": (0.0, 1.0),
                  "temperature": (-100.0, 400.0), "ripple_gain": (0.0, 10.0)}
 
 
-def _fault(where, raw, duration, names=AXES):
+def _fault(where, raw, duration, names=AXIS_WHEELS):
     if not isinstance(raw, dict):
         raise ScenarioError(f"{where}: expected a mapping with kind, wheel, onset, value")
     unknown = set(raw) - {"kind", "wheel", "onset", "value", "ramp"}

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+BODY_AXES = ("x", "y", "z")   # the body frame's axes: attitude, set-points, the per-axis controllers
 # Thesis Table 2.3: principal inertia diag(17, 15, 22) kg m^2.
 INERTIA = np.array([17.0, 15.0, 22.0])
 # Eq. 2.34: sum of the four worst-case environmental torques [N m].

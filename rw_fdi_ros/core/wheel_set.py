@@ -32,6 +32,8 @@ import numpy as np
 # [choice] the pyramid's spin axes rise 35.26 deg above the x-y plane (tan e = 1/sqrt(2)): then
 # G G^T = (4/3) I, the same torque capability about every body axis with all four wheels in use
 PYRAMID_ELEVATION = float(np.degrees(np.arctan(1.0 / np.sqrt(2.0))))
+# the wheels along the body axes, the thesis' three: what the learned models and thresholds are fitted for
+AXIS_WHEELS = ("x", "y", "z")
 
 
 @dataclass(frozen=True)

@@ -20,17 +20,17 @@ rclpy is imported only for the QoS profiles, on first use.
 from __future__ import annotations
 
 from ..core.detection import OBSERVERS, observers_of
+from ..core.spacecraft import BODY_AXES
 from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set as named_wheel_set
 
 
-AXES = ("x", "y", "z")   # the body axes: attitude joints and controllers
 JOINT_STATE = "sensor_msgs/msg/JointState"
 
 CLOCK = "/clock"
 # JointState attitude_<axis>: position = small-angle attitude [rad], velocity = body rate [rad/s]. The
 # thesis' per-axis angles, not a quaternion: a tumbling axis would wrap, and the controllers need them.
 ATTITUDE = "/attitude"
-ATTITUDE_JOINTS = tuple(f"attitude_{a}" for a in AXES)
+ATTITUDE_JOINTS = tuple(f"attitude_{a}" for a in BODY_AXES)
 # JointState reaction_wheel_<name>: position = rotor angle [rad], velocity = wheel speed Omega [rad/s]
 # (relative to the body, what the tachometer reads), effort = reaction torque along its spin axis [N m]
 WHEELS = "/wheels"
@@ -76,7 +76,7 @@ def tcv_command(axis: str) -> str:
 
 
 # one message each per control step: a whole recorded run has as many of each as it has steps
-STEP_TOPICS = (CLOCK, ATTITUDE, WHEELS, *(tcv_command(a) for a in AXES), WHEEL_COMMAND)
+STEP_TOPICS = (CLOCK, ATTITUDE, WHEELS, *(tcv_command(a) for a in BODY_AXES), WHEEL_COMMAND)
 
 
 def _profiles() -> dict:
@@ -104,7 +104,7 @@ PLANT_ROWS = ((CLOCK, "rosgraph_msgs/msg/Clock", "RELIABLE"), (ATTITUDE, JOINT_S
               (WHEELS, JOINT_STATE, "RELIABLE"), (FAULT_EFFECT, JOINT_STATE, "RELIABLE"),
               (FDI_TELEMETRY, DIAGNOSTICS_TYPE, "RELIABLE"), (FAULT_TRUTH, DIAGNOSTICS_TYPE, "RELIABLE"),
               (SCENARIO, "std_msgs/msg/String", "LATCHED"), (PLANT_DONE, "std_msgs/msg/Header", "LATCHED"),
-              *((tcv_command(a), VECTOR, "RELIABLE") for a in AXES), (WHEEL_COMMAND, JOINT_STATE, "RELIABLE"),
+              *((tcv_command(a), VECTOR, "RELIABLE") for a in BODY_AXES), (WHEEL_COMMAND, JOINT_STATE, "RELIABLE"),
               (FDIR_WHEELS, DIAGNOSTICS_TYPE, "RELIABLE"))
 ORBIT_ROWS = ((MAGNETOMETER, "sensor_msgs/msg/MagneticField", "RELIABLE"),)
 MAGNETORQUER_ROWS = ((DIPOLE_COMMAND, VECTOR, "RELIABLE"),)
@@ -219,7 +219,7 @@ READS = {
     "plant": lambda p: [WHEEL_COMMAND] + ([DIPOLE_COMMAND] if p.get("magnetorquers") else [])
                        + ([RECORDER_READY] if p.get("recorder_ready") else []),
     "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
-    "wheel_allocation": lambda p: [*(tcv_command(a) for a in AXES), ATTITUDE, WHEELS]
+    "wheel_allocation": lambda p: [*(tcv_command(a) for a in BODY_AXES), ATTITUDE, WHEELS]
                                   + ([DIAGNOSTICS] if p.get("fdir", True) else []) + _run_end(p),
     "elman_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "linear_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),

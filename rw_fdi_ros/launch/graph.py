@@ -14,7 +14,8 @@ from ..core.detection import observers_of
 from ..core.elman import network_wheel
 from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
-from ..core.scenario import AXES, Scenario
+from ..core.spacecraft import BODY_AXES
+from ..core.scenario import Scenario
 from ..core.wheel_set import joint_name, wheel_set
 from ..graph import topics as T
 
@@ -86,7 +87,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
         "wheel_set": choices.wheel_set, "magnetic_field": choices.magnetic_field, "command_timeout": command_timeout,
         "recorder_ready": bag is not None, "magnetorquers": scenario.magnetorquers is not None})]
-    for i, axis in enumerate(AXES):
+    for i, axis in enumerate(BODY_AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "joint": T.ATTITUDE_JOINTS[i], "control_period": period, "initial_tcv": float(hold[i]),
             "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]]}))

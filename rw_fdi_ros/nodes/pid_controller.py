@@ -12,7 +12,8 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from ..core.pid import PidController, design_gains
-from ..core.scenario import AXES, setpoint_at
+from ..core.spacecraft import BODY_AXES
+from ..core.scenario import setpoint_at
 from ..core.spacecraft import INERTIA
 from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, vector_cdr
@@ -30,7 +31,7 @@ class PidControllerNode(GraphNode):
             axis = T.axis_of_joint(self.param("joint"), T.ATTITUDE_JOINTS)
         except ValueError as exc:
             raise NodeError(f"parameter joint {exc}", EXIT_BAD_INPUT) from None
-        i = AXES.index(axis)
+        i = BODY_AXES.index(axis)
         design = design_gains(INERTIA[i])
         self.declare_parameter("control_period", 0.1)
         self.declare_parameter("kp", float(design.kp))   # N m / rad   (body torque)

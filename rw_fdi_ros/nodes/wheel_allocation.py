@@ -37,7 +37,7 @@ from sensor_msgs.msg import JointState
 from ..core.allocation import TorqueAllocator
 from ..core.fdir import DecisionDelay, DeliveryLog, Reconfiguration
 from ..core.isolation import stamp_seconds
-from ..core.scenario import AXES
+from ..core.spacecraft import BODY_AXES
 from ..core.spacecraft import INERTIA
 from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr, read_joint_state_cdr, read_vector_cdr
@@ -90,7 +90,7 @@ class WheelAllocationNode(GraphNode):
                                   self.param("min_subscribers"))
         self.pub_fdir = GatedPublisher(self.create_publisher(DiagnosticArray, T.FDIR_WHEELS, T.RELIABLE),
                                        self.param("fdir_readers"))
-        for i, axis in enumerate(AXES):
+        for i, axis in enumerate(BODY_AXES):
             self.create_subscription(Vector3Stamped, T.tcv_command(axis), lambda raw, i=i: self._on_axis(i, raw),
                                      T.RELIABLE, raw=True)
         self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE, raw=True)
@@ -107,7 +107,7 @@ class WheelAllocationNode(GraphNode):
         stamp, values = read_vector_cdr(raw)
         value = float(values[i])
         if not math.isfinite(value):
-            self.fail(f"torque command from axis {AXES[i]} at t={stamp * 1e-9:.1f} s is {value}", EXIT_BAD_INPUT)
+            self.fail(f"torque command from axis {BODY_AXES[i]} at t={stamp * 1e-9:.1f} s is {value}", EXIT_BAD_INPUT)
             return
         self.axis_commands.setdefault(stamp, {})[i] = value
         self._try_command()

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.plant_choices import FDI_PERIOD
-from ..core.scenario import AXES
+from ..core.wheel_set import AXIS_WHEELS
 from ..graph import topics as T
 
 OBSERVERS = T.OBSERVERS
@@ -48,7 +48,7 @@ class RunEval:
     identification: dict = field(default_factory=dict)
     # what the FDI said about itself (health_from_bag): status topic -> wheel -> cannot_judge / input_trouble
     health: dict = field(default_factory=dict)
-    wheels: tuple = AXES   # the run's wheel names (its wheel set's), the order of the series' columns
+    wheels: tuple = AXIS_WHEELS   # the run's wheel names (its wheel set's), the order of the series' columns
 
     @property
     def faulty_axes(self):
@@ -192,7 +192,7 @@ def reliability(runs, curves_seeds, observer: str) -> dict:
     if not fit:
         return {"runs": 0}
     out = {"runs": len(fit), "seeds": [r.seed for r in fit]}
-    for i, a in enumerate(AXES):
+    for i, a in enumerate(AXIS_WHEELS):
         out[a] = float(np.mean([np.all(r.series[observer].residual[:, i] <= r.series[observer].threshold[:, i])
                                 for r in fit]))
     return out
@@ -252,7 +252,7 @@ def observable_level(curves: dict) -> dict:
     wheel shows."""
     judges = [c for obs, c in curves.items() if obs != "linear" or "model" not in curves]
     return {a: max(float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a])) for c in judges)
-            for a in AXES}
+            for a in AXIS_WHEELS}
 
 
 def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(), observers=None) -> dict:

@@ -39,9 +39,9 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     from ...core.fdir import Reconfiguration
     from ...core.wheel_set import joint_name, wheel_set
     from ...graph import topics as T
-    from ...graph.convert import step_stamp_ns
+    from ...core.spacecraft import BODY_AXES
+    from ...graph.convert import step_stamp_ns, wheel_states_msg
     from ...graph.plant_report import PlantReport, run_units
-    from ...graph.convert import wheel_states_msg
     from ...storage.cdr import joint_state_cdr, vector_cdr
     from ...storage.writer import BagWriter
     wheels = wheel_set(choices.wheel_set)
@@ -75,7 +75,7 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
             if magnetometer and rods:
                 write([(T.DIPOLE_COMMAND, vector_cdr(stamp, traj.dipole[k, run]))], stamp)
             command = traj.axis_command[k, run]
-            for i, axis in enumerate(T.AXES):   # each controller's vector holds its own axis only
+            for i, axis in enumerate(BODY_AXES):   # each controller's vector holds its own axis only
                 write([(T.tcv_command(axis), vector_cdr(stamp, [command[i] if j == i else 0.0 for j in range(3)]))],
                       stamp)
             if k == 0:   # the allocation says its wheels' states with its first command (no FDIR: never again)

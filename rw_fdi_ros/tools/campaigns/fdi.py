@@ -7,7 +7,9 @@ from pathlib import Path
 import numpy as np
 
 
-from ...core.scenario import AXES, parse_scenario
+from ...core.scenario import parse_scenario
+from ...core.spacecraft import BODY_AXES
+from ...core.wheel_set import AXIS_WHEELS
 from ...graph import topics as T
 from ...storage.bag import read_series
 from .. import bag_series, metrics
@@ -33,7 +35,7 @@ def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "spe
                              "the observers would spend all of it learning their wheels and judge none of it")
     models = Path(models or fdi_dir(method))
     thresholds = Path(thresholds or thresholds_dir(method, unit_calibration))
-    for a in AXES:
+    for a in AXIS_WHEELS:
         path = models / f"elman_{a}.npz"
         if ElmanWeights.load(path).speed_aware != (method == "speed_aware"):
             raise ModelError(f"{path}: not a network for fdi_method={method!r}; {REGENERATE}")
@@ -268,7 +270,7 @@ def _plot_pointing(data, verdict, ax):
     t, attitude, _, _ = data.joint_states(T.ATTITUDE)
     if len(t):
         error = np.degrees(np.abs(attitude - np.array([setpoint_at(times, values, x) for x in t])))
-        for i, a in enumerate(AXES):
+        for i, a in enumerate(BODY_AXES):
             ax.semilogy(*envelope(t, np.maximum(error[:, i], 1e-5)), label=f"axis {a}", lw=1.0)
     ax.axhline(POINTING_DEG, color="k", ls="--", lw=0.8)
     t_m, dipole = data.vectors(T.DIPOLE_COMMAND)

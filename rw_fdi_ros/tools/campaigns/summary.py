@@ -5,7 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.scenario import AXES, parse_scenario, setpoint_at
+from ...core.spacecraft import BODY_AXES
+from ...core.scenario import parse_scenario, setpoint_at
 from ...core.environment import MAGNETOMETER_PERIOD
 from ...core.magnetorquers import DumpLog
 from ...graph.topics import ATTITUDE, DIPOLE_COMMAND, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
@@ -75,7 +76,7 @@ def run_summary(path) -> dict:
         raise ValueError(f"{info.path}: no {ATTITUDE} messages")
     wheels = scenario.wheel_set(recorded=True).names
     out = {"scenario": scenario.name, "seed": scenario.seed, "end_time": float(last[0]),
-           "final_error_deg": dict(zip(AXES, last[1].round(4).tolist())),
+           "final_error_deg": dict(zip(BODY_AXES, last[1].round(4).tolist())),
            "faults": [f.as_dict(wheels) for f in scenario.faults], "bag": str(info.path),
            "complete": info.complete,
            "reconfiguration": [{"time": t, "wheel": joint.removeprefix("reaction_wheel_"), "state": state,
@@ -85,7 +86,7 @@ def run_summary(path) -> dict:
     if DIPOLE_COMMAND in info.counts:   # a dipole holds until the next reading's
         out["momentum_dumps"] = [[a, min(b + MAGNETOMETER_PERIOD, out["end_time"])] for a, b in dumps.done()]
     if peak is not None:
-        out["peak_error_after_fault_deg"] = dict(zip(AXES, peak.round(4).tolist()))
+        out["peak_error_after_fault_deg"] = dict(zip(BODY_AXES, peak.round(4).tolist()))
         # pointing within the requirement from this time on (never out after the onset: the onset)
         back = onset if outside is None else outside + 0.1
         out["pointing_back_s"] = None if outside is not None and outside >= last[0] else float(back)

@@ -22,7 +22,7 @@ import numpy as np
 
 from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, observers_of
 from ...core.threshold_file import ThresholdCurves
-from ...core.scenario import AXES
+from ...core.wheel_set import AXIS_WHEELS
 from ..campaigns.campaign import run_campaign
 from .offline import decisions, fdi_method_of, fit_thresholds, load_models, observe, plant_conditions
 from .samples import load_samples
@@ -51,7 +51,7 @@ def false_alarm_rates(samples, models, thresholds_dir, persistences=PERSISTENCES
     for p in persistences:
         out[p] = {}
         for obs in curves:
-            alarmed = [any(d[obs][a][1] is not None for a in AXES) for d in (decisions(r, {obs: curves[obs]}, p)
+            alarmed = [any(d[obs][a][1] is not None for a in AXIS_WHEELS) for d in (decisions(r, {obs: curves[obs]}, p)
                                                                               for r in runs)]
             out[p][obs] = float(np.mean(alarmed))
     return out
@@ -150,13 +150,13 @@ def format_report(r: dict) -> str:
              "|---|---|---|---|---|"]
     for obs, row in ours["bands"].items():
         n = ours["nominal_residual"][obs]
-        lines.append(f"| {obs} | " + " | ".join(f"{row[a] * 1e3:.4f}" for a in AXES)
+        lines.append(f"| {obs} | " + " | ".join(f"{row[a] * 1e3:.4f}" for a in AXIS_WHEELS)
                      + f" | {n['mean'] * 1e3:.4f} / {n['p99'] * 1e3:.4f} / {n['max'] * 1e3:.4f} |")
     far = ours["false_alarm_rate_heldout"]
     kappa = ours["train_card"]["axes"]
     lines += ["", "Elman uncertainty gain kappa (bound grows by kappa x mean |r| in manoeuvres; the (1 - alpha/6) "
               "Gumbel quantile of the training and fitting runs' largest error per unit demand): "
-              + ", ".join(f"{a} {kappa[a]['uncertainty_gain']:.3f}" for a in AXES) + ".",
+              + ", ".join(f"{a} {kappa[a]['uncertainty_gain']:.3f}" for a in AXIS_WHEELS) + ".",
               "", "Held-out runs with any alarm: " + ", ".join(f"{o} {v * 100:.0f} %" for o, v in far.items())
               + f" (n = {len(r['heldout_seeds'])}).", "", *([ours["note"], ""] if ours.get("note") else []),
               "## The thesis' method (`config/fdi/thesis`)", "",
@@ -164,14 +164,14 @@ def format_report(r: dict) -> str:
               "| variant | mean [1e-3 N m] | p99 [1e-3 N m] | max [1e-3 N m] | final training MSE x/y/z |",
               "|---|---|---|---|---|"]
     for name, c in th["comparison"].items():
-        losses = "/".join(f"{th['train_cards'][name]['axes'][a]['final_loss']:.1e}" for a in AXES)
+        losses = "/".join(f"{th['train_cards'][name]['axes'][a]['final_loss']:.1e}" for a in AXIS_WHEELS)
         mark = " (shipped)" if name == th["chosen_model"] else ""
         lines.append(f"| {name}{mark} | {c['mean'] * 1e3:.3f} | {c['p99'] * 1e3:.3f} | {c['max'] * 1e3:.3f} "
                      f"| {losses} |")
     lines += ["", f"### Threshold reliability on the {len(r['fit_seeds'])} fitting runs (share under the curve "
               "everywhere)", "", "| observer | x | y | z |", "|---|---|---|---|"]
     for obs, rel in th["reliability"].items():
-        lines.append(f"| {obs} | " + " | ".join(f"{rel[a] * 100:.0f} %" for a in AXES) + " |")
+        lines.append(f"| {obs} | " + " | ".join(f"{rel[a] * 100:.0f} %" for a in AXIS_WHEELS) + " |")
     lines += ["", f"### False-alarm rate on {len(r['heldout_seeds'])} held-out fault-free runs against persistence P",
               "", "| P | elman | linear |", "|---|---|---|"]
     for p, row in th["false_alarm_rate_heldout"].items():

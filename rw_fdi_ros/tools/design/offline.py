@@ -21,14 +21,14 @@ from ...core.calibration import calibration_samples, regressors
 from ...core.elman import ElmanWeights, ModelError, network_wheel, recall_series
 from ...core.linear_observer import estimate_series, uncertainty_gain
 from ...core.plant_choices import FDI_PERIOD, FDI_SAMPLING
-from ...core.scenario import AXES
+from ...core.wheel_set import AXIS_WHEELS
 
 
 
 def load_models(models_dir) -> dict:
     """axis -> ElmanWeights from ``models_dir/elman_<axis>.npz`` (ModelError names the file)."""
     models_dir = Path(models_dir)
-    return {a: ElmanWeights.load(models_dir / f"elman_{a}.npz") for a in AXES}
+    return {a: ElmanWeights.load(models_dir / f"elman_{a}.npz") for a in AXIS_WHEELS}
 
 
 def model_card(models_dir) -> dict:
@@ -48,7 +48,7 @@ class ObserverRun:
     residual: dict      # observer -> (n, 3); signed (speed_aware) or >= 0 (thesis)
     bound: dict         # observer -> (n, 3); 0 for the thesis method
     method: str = "thesis"
-    wheels: tuple = AXES   # the columns' wheel names
+    wheels: tuple = AXIS_WHEELS   # the columns' wheel names
 
 
 def fdi_method_of(models: dict) -> str:
@@ -64,7 +64,7 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     first samples (core/calibration.py)."""
     r = samples.reaction_torque
     method = fdi_method_of(models)
-    wheels = getattr(samples, "wheels", AXES)
+    wheels = getattr(samples, "wheels", AXIS_WHEELS)
     nets = [models[network_wheel(a)] for a in wheels]   # the redundant wheel runs its type's network
     if method == "thesis":
         elman = np.stack([recall_series(m, samples.tcv[:, i], r[0, i], reaction_torque=r[:, i])
@@ -151,7 +151,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
                 "model": "nominal wheel model at the measured speed"}
     # the axis wheels' columns: a standby wheel never used in a fitting run has no residual to fit, and gets
     # the widest band of its type (ThresholdCurves.at)
-    axis_columns = [runs[0].wheels.index(a) for a in AXES] if runs else []
+    axis_columns = [runs[0].wheels.index(a) for a in AXIS_WHEELS] if runs else []
     if runs and runs[0].method == "speed_aware":
         p = persistence or PERSISTENCE_SPEED_AWARE
         for obs in observers_of("speed_aware"):
@@ -161,7 +161,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
             # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain)
             share = 1.0 if obs == "model" else 0.5
             bands = fit_band(stats, false_alarm_rate, share=share)
-            ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in AXES},
+            ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in AXIS_WHEELS},
                             sample_period=FDI_PERIOD, window=window, sigmas=float("nan"), seeds=seeds, plant=plant,
                             model=describe[obs], method="speed_aware", persistence=p,
                             false_alarm_rate=false_alarm_rate, unit_calibration_time=float(unit_calibration),
@@ -170,15 +170,16 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
                                             "alpha_per_axis": share * false_alarm_rate / 3, "axes": bands,
                                          "run_statistic": "max over k of min(|residual| - bound) over P samples"}
                             ).save(out_dir / f"thresholds_{obs}.json")
-            report[obs] = {a: bands[a]["band"] for a in AXES}
+            report[obs] = {a: bands[a]["band"] for a in AXIS_WHEELS}
         return report
     for obs in observers_of("thesis"):
         stack = np.stack([run.residual[obs][:n, axis_columns] for run in runs])          # (runs, n, 3)
-        curves = {a: fit_threshold_curve(stack[:, :, i]) for i, a in enumerate(AXES)}
+        curves = {a: fit_threshold_curve(stack[:, :, i]) for i, a in enumerate(AXIS_WHEELS)}
         ThresholdCurves(observer=obs, curves=curves, sample_period=FDI_PERIOD, window=window, seeds=seeds,
                         plant=plant, model=describe[obs], persistence=persistence or PERSISTENCE).save(
             out_dir / f"thresholds_{obs}.json")
-        report[obs] = {a: float(np.mean(np.all(stack[:, :, i] <= curves[a], axis=1))) for i, a in enumerate(AXES)}
+        report[obs] = {a: float(np.mean(np.all(stack[:, :, i] <= curves[a], axis=1)))
+                       for i, a in enumerate(AXIS_WHEELS)}
     return report
 
 
@@ -199,7 +200,7 @@ def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -
     return out
 
 
-def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True, wheels=AXES):
+def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True, wheels=AXIS_WHEELS):
     """metrics.Series of what /diagnostics says: the decision observer's rows of ``series`` (observer ->
     Series, :func:`fdi_series`) through the isolation node's LatchedVerdict, a wheel outside the operating
     envelope at a sample (``wheel_speed``: (n, 3) of the FDI samples) not judged there."""
@@ -221,7 +222,7 @@ def identification_series(samples, alarm, calibration_samples: int = 0) -> list:
     decision observer, as :func:`fdi_series` gives them), learning the units over the first
     ``calibration_samples`` as the isolation node does."""
     from ...core.identification import FaultIdentifier
-    wheels = getattr(samples, "wheels", AXES)
+    wheels = getattr(samples, "wheels", AXIS_WHEELS)
     identifier = FaultIdentifier(wheels, calibration_samples)
     return [identifier.update(row, {a: bool(alarm[k, i]) for i, a in enumerate(wheels)})
             for k, row in enumerate(samples.rows())]

@@ -8,7 +8,8 @@ import numpy as np
 
 from ...core.telemetry import sample_telemetry
 from ...graph.convert import fdi_sample_of
-from ...graph.topics import AXES, FAULT_EFFECT, FDI_TELEMETRY
+from ...core.wheel_set import AXIS_WHEELS
+from ...graph.topics import FAULT_EFFECT, FDI_TELEMETRY
 from ...storage.bag import BagError, bag_is_complete, read_bag
 
 
@@ -31,7 +32,7 @@ class FdiSamples:
     friction_torque: np.ndarray | None = None
     free_motor_torque: np.ndarray | None = None
     bus_motor_torque: np.ndarray | None = None    # (n, wheels, bus grid)
-    wheels: tuple = AXES
+    wheels: tuple = AXIS_WHEELS
 
     def rows(self):
         """The samples one by one as telemetry.FdiSample (what the nodes see)."""
@@ -45,7 +46,7 @@ class FdiSamples:
 
 def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0,
                         sampling: str = "mean", bag=None, seed=None, identification: bool = False,
-                        wheels=AXES) -> FdiSamples:
+                        wheels=AXIS_WHEELS) -> FdiSamples:
     """Control-rate series (time first) -> FdiSamples through the plant's TelemetrySampler
     (``identification``: with the terms fault identification fits)."""
     rows = sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed, period, sampling,
@@ -53,7 +54,7 @@ def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, perio
     return samples_from_rows(rows, bag, seed, wheels)
 
 
-def samples_from_rows(rows, bag=None, seed=None, wheels=AXES) -> FdiSamples:
+def samples_from_rows(rows, bag=None, seed=None, wheels=AXIS_WHEELS) -> FdiSamples:
     """A list of telemetry.FdiSample -> FdiSamples (arrays over time)."""
     stamps = np.array([row.stamp_ns for row in rows], np.int64)
     def stack(name):

@@ -25,7 +25,7 @@ import numpy as np
 
 from ...core.detection import FALSE_ALARM_RATE
 from ...core.elman import HIDDEN, SETTLE_STEPS, ElmanWeights
-from ...core.scenario import AXES
+from ...core.wheel_set import AXIS_WHEELS
 from ...extras import require
 from ...paths import shown_path
 
@@ -157,8 +157,8 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
                file=sys.stderr, disable=quiet or None, mininterval=1.0)
     inputs = [(np.stack([s.tcv[:n, i] for s in samples]), np.stack([s.reaction_torque[:n, i] for s in samples]),
                mode, epochs, seed + i, np.stack([s.wheel_speed[:n, i] for s in samples]) if speed_aware else None)
-              for i in range(len(AXES))]
-    jobs = max(1, min(jobs or min(2, os.cpu_count() or 1), len(AXES)))
+              for i in range(len(AXIS_WHEELS))]
+    jobs = max(1, min(jobs or min(2, os.cpu_count() or 1), len(AXIS_WHEELS)))
     if jobs == 1:
         def tick(k, loss):
             bar.update(k)
@@ -170,7 +170,7 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
         pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"))
         futures = [pool.submit(_train_one, args) for args in inputs]
         trained = (f.result() for f in futures)
-    for i, (axis, (weights, losses)) in enumerate(zip(AXES, trained)):
+    for i, (axis, (weights, losses)) in enumerate(zip(AXIS_WHEELS, trained)):
         if jobs > 1:
             bar.update(epochs)
         if speed_aware:

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.scenario import AXES
+from ...core.wheel_set import AXIS_WHEELS
 
 THESIS = {
     "reliability": {"linear": (99, 99, 100), "elman": (97, 100, 96)},
@@ -55,7 +55,8 @@ def headline(figures: dict) -> list:
                                   fn(f)) for obs, f in figures.items()}))
 
     row("threshold reliability x/y/z",
-        lambda f: "/".join("-" if a not in f["reliability"] else f"{f['reliability'][a] * 100:.0f}" for a in AXES)
+        lambda f: "/".join("-" if a not in f["reliability"] else f"{f['reliability'][a] * 100:.0f}"
+                           for a in AXIS_WHEELS)
         + f" % (n={f['reliability'].get('runs', 0)})",
         {o: "/".join(map(str, v)) + " %" for o, v in THESIS["reliability"].items()})
     for label, kind, sev in TABLE42_CELLS:
@@ -126,7 +127,7 @@ def write_markdown(report: dict, path: Path):
               "| observer | x | y | z | fitting runs | thesis x/y/z |", "|---|---|---|---|---|---|"]
     for obs, f in obs_figs.items():
         rel = f["reliability"]
-        cells = " | ".join("-" if a not in rel else f"{rel[a] * 100:.0f} %" for a in AXES)
+        cells = " | ".join("-" if a not in rel else f"{rel[a] * 100:.0f} %" for a in AXIS_WHEELS)
         lines.append(f"| {obs} | {cells} | {rel.get('runs', 0)} | {_thesis_reliability(obs)} |")
     lines += ["", "## False alarms", "", "| observer | held-out fault-free | faulty runs, before onset | "
               "ripple +40 % (must not alarm) | thesis, ripple |", "|---|---|---|---|---|"]
@@ -220,7 +221,7 @@ def write_plots(runs, figures: dict, out: Path) -> list:
         fig, axes = plt.subplots(len(observers), 3, figsize=(13, 3 * len(observers)), sharex=True, squeeze=False)
         for row, obs in enumerate(observers):
             s = r.series[obs]
-            for i, a in enumerate(AXES):
+            for i, a in enumerate(AXIS_WHEELS):
                 ax = axes[row, i]
                 ax.plot(s.time, s.residual[:, i] * 1e3, lw=1.1, label="residual")
                 ax.plot(s.time, s.threshold[:, i] * 1e3, "--", color="tab:red", lw=1.1, label="threshold")

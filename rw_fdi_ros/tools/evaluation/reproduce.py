@@ -25,7 +25,7 @@ from pathlib import Path
 
 import yaml
 
-from ...core.scenario import AXES
+from ...core.wheel_set import AXIS_WHEELS
 from ..campaigns.campaign import CampaignResult, pending, record_campaigns, run_campaign
 from ..design.train import EPOCHS
 
@@ -77,7 +77,7 @@ def plan(out: Path, scale_name: str):
             ("heldout", _scenario(scen / "fault_free.yaml", "fault_free", s), s.heldout_runs, 5000)]
 
     def per_axis(group, kind, value, label, runs, seed0, first_axis=0):
-        for i, axis in enumerate(AXES):   # runs spread over the three wheels
+        for i, axis in enumerate(AXIS_WHEELS):   # runs spread over the three wheels
             n = runs // 3 + (1 if (i - first_axis) % 3 < runs % 3 else 0)
             if n:
                 f = {"kind": kind, "wheel": axis, "onset": s.onset, "value": value}
@@ -89,8 +89,8 @@ def plan(out: Path, scale_name: str):
     for k, (kind, value, label) in enumerate(GRID if scale_name == "thesis" else SMALL_GRID):
         per_axis("grid", kind, value, label, s.grid_runs, 20000 + 100000 * k, first_axis=k)
     per_axis("ripple", "ripple_gain", 1.4, "ripple_40", s.ripple_runs, 30000, first_axis=1)
-    for i, axis in enumerate(AXES):
-        other = AXES[(i + 2) % 3]
+    for i, axis in enumerate(AXIS_WHEELS):
+        other = AXIS_WHEELS[(i + 2) % 3]
         n = s.multiple_runs // 3 + (1 if i < s.multiple_runs % 3 else 0)
         if n:
             faults = [{"kind": "bus_voltage", "wheel": axis, "onset": s.onset, "value": 5.5},
