@@ -69,7 +69,7 @@ def fdi_runs(tmp_path_factory):
     with ThreadPoolExecutor(2) as pool:
         # detection alone (fdir off): the thesis' figures; the chain with reconfiguration: test_fdir_graph.py
         futures = {k: pool.submit(run_with_fdi, str(files[k]), seed=s, out_dir=root / k, figure=True,
-                                  method=CASES[k][2], fdir=False) for k, s in seeds.items()}
+                                  fdi={"method": CASES[k][2], "fdir": False}) for k, s in seeds.items()}
         results = {k: f.result() for k, f in futures.items()}
     for k, outcome in results.items():
         outcome.scenario = load_scenario(str(files[k])).with_seed(seeds[k])

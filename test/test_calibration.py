@@ -3,6 +3,8 @@ learning window, and on the core loop a varied wheel judged against its own unit
 import numpy as np
 import pytest
 
+from rw_fdi_ros.fdi_config import FdiConfig
+
 from rw_fdi_ros.core.calibration import (UnitCalibration, calibration_samples, prior_variances, regressors,
                                          tolerances)
 from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
@@ -127,8 +129,8 @@ def test_a_varied_wheel_is_judged_against_its_own_unit():
     several times smaller than the datasheet's after the window."""
     from rw_fdi_ros.core.scenario import parse_scenario
     from rw_fdi_ros.tools.design.offline import observe
-    from rw_fdi_ros.tools.evaluation.screen import load_fdi, simulated_runs
-    weights, _ = load_fdi()
+    from rw_fdi_ros.tools.evaluation.screen import simulated_runs
+    weights, _ = FdiConfig().load()
     scenario = parse_scenario("duration: 300\nseed: 7\nwheels: {variation: true, spread: {viscous_friction: 0.3}}\n"
                               "faults: []\n")
     (_, samples, _), = simulated_runs([scenario])

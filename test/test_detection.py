@@ -4,6 +4,8 @@ import json
 import numpy as np
 import pytest
 
+from rw_fdi_ros.fdi_config import FdiConfig
+
 from rw_fdi_ros.core.detection import AlarmRule, alarm_series
 from rw_fdi_ros.core.residuals import ResidualFilter, residual_series
 from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
@@ -114,7 +116,6 @@ def test_fitting_runs_of_different_lengths_are_refused(tmp_path):
     def run(n, seed):
         z = np.zeros((n, 3))
         return FdiSamples(bag=None, seed=seed, time=np.arange(n, dtype=float), tcv=z, reaction_torque=z)
-    from rw_fdi_ros.tools.evaluation.screen import load_fdi
-    weights, _ = load_fdi(method="thesis")
+    weights, _ = FdiConfig("thesis").load()
     with pytest.raises(ThresholdError, match="different lengths \\(3 to 401 FDI samples; shortest: 2\\)"):
         fit_thresholds([run(401, 1), run(3, 2)], weights, tmp_path, plant={"emf_limit": "kf_scaled"})

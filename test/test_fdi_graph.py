@@ -132,7 +132,7 @@ def test_a_thesis_run_replays_to_its_live_result_without_a_model_observer(runs, 
     from rw_fdi_ros.tools.campaigns.replay import replay_bag
     live = runs["current_0p6_x_thesis"].bag
     thesis = fdi_dir("thesis")
-    replayed = replay_bag(live, tmp_path / "replayed", models=thesis, thresholds=thesis, method="thesis")
+    replayed = replay_bag(live, tmp_path / "replayed", {"models": thesis, "method": "thesis"})
     assert replayed.ok, replayed.reason
     a, b = read_bag(live), read_bag(replayed.bag)
     assert not any(t.startswith("/fdi/model/") for t in [*a.messages, *b.messages])

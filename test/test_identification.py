@@ -2,12 +2,14 @@
 import numpy as np
 import pytest
 
+from rw_fdi_ros.fdi_config import FdiConfig
+
 from rw_fdi_ros.core import calibration
 from rw_fdi_ros.core import identification as idf
 from rw_fdi_ros.core import wheel as wm
 from rw_fdi_ros.core.scenario import load_scenario
 from rw_fdi_ros.tools.metrics import judge_identification
-from rw_fdi_ros.tools.evaluation.screen import load_fdi, screen_runs
+from rw_fdi_ros.tools.evaluation.screen import screen_runs
 
 P = wm.WheelParams()
 
@@ -177,7 +179,7 @@ def test_messages_read_at_a_glance(found, text):
 def test_screen_identifies_the_thesis_faults_with_the_node_code():
     """Three 400 s runs through the core loop, the shipped FDI and the isolation node's identifier."""
     runs = screen_runs([load_scenario("current_0p6_x").with_seed(12), load_scenario("temperature_150_x").with_seed(13),
-                        load_scenario("bus_4v_x").with_seed(3)], *load_fdi(), identification=True)
+                        load_scenario("bus_4v_x").with_seed(3)], *FdiConfig().load(), identification=True)
     for run, (kind, value, tolerance) in zip(runs, [("current_loss", 0.6, 0.01), ("temperature", 173.0, 2.0),
                                                     ("bus_voltage", 4.0, 0.05)]):
         verdict = judge_identification(run)["x"]

@@ -95,15 +95,15 @@ def test_replay_equals_the_live_result(study):
     out, _ = study
     scenario = next((out / "scenarios").glob("current_*pct_*.yaml"))
     models = out / "models"
-    live = [run_with_fdi(str(scenario), seed=seed, out_dir=out / "live", models=models, thresholds=models)
+    live = [run_with_fdi(str(scenario), seed=seed, out_dir=out / "live", fdi={"models": models})
             for seed in (77, 78)]
     assert all(run.ok for run in live), [run.reason for run in live]
     order = [live[0].bag, live[1].bag, live[0].bag]    # a run after a different one, and again
-    outcomes = replay_bags(order, [out / f"replayed_{i}" for i in range(3)], models=models, thresholds=models)
+    outcomes = replay_bags(order, [out / f"replayed_{i}" for i in range(3)], {"models": models})
     assert [o.ok for o in outcomes] == [True] * 3, [o.reason for o in outcomes]
     alarmed = [_same_fdi_result(bag, o.bag) for bag, o in zip(order, outcomes)]
     assert any(np.any(a.wheel_values(T.fdi_output_topics("elman")["alarm"])[1]) for a in alarmed)   # a fault seen
-    paced = replay_bag(live[0].bag, out / "replayed_paced", models=models, thresholds=models, rate=40.0)
+    paced = replay_bag(live[0].bag, out / "replayed_paced", {"models": models}, rate=40.0)
     assert paced.ok, paced.reason
     _same_fdi_result(live[0].bag, paced.bag)
 
@@ -141,7 +141,7 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
     (bags / "metadata_only").mkdir()   # its data file gone: answered, not passed over in silence
     shutil.copy(good / "metadata.yaml", bags / "metadata_only")
     models = out / "models"
-    report = evaluate(bags, tmp_path / "report", models=models, thresholds=models, plots=False)
+    report = evaluate(bags, tmp_path / "report", {"models": models}, plots=False)
     assert report["runs"] == 1
     reasons = {Path(s["bag"]).name: s["reason"] for s in report["skipped"]}
     assert "incomplete bag" in reasons["truncated"]
@@ -152,7 +152,7 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
 
     with pytest.raises(BagError, match="no bags to evaluate"):
         (tmp_path / "empty").mkdir()
-        evaluate(tmp_path / "empty", tmp_path / "r2", models=models, thresholds=models)
+        evaluate(tmp_path / "empty", tmp_path / "r2", {"models": models})
 
     mismatched = tmp_path / "mismatched"
     shutil.copytree(models, mismatched)
@@ -164,7 +164,7 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)   # nothing evaluated: no plots of nothing (matplotlib warned)
-        report = evaluate(bags, tmp_path / "r3", models=models, thresholds=mismatched)
+        report = evaluate(bags, tmp_path / "r3", {"models": models, "thresholds": mismatched})
     assert report["runs"] == 0 and not list((tmp_path / "r3").glob("*.png"))
     assert "fitted with emf_limit='pwm_saturation' but the graph runs emf_limit='kf_scaled'" in \
         {Path(s["bag"]).name: s["reason"] for s in report["skipped"]}["good"]
@@ -220,8 +220,7 @@ def test_a_bad_bag_in_a_replay_graph_fails_alone(study, tmp_path):
     w.close()
     outs = [tmp_path / f"replayed_{i}" for i in range(4)]
     models = out / "models"
-    outcomes = replay_bags([good[0], bad, good[1], tmp_path / "nothing_here"], outs, models=models,
-                           thresholds=models)
+    outcomes = replay_bags([good[0], bad, good[1], tmp_path / "nothing_here"], outs, {"models": models})
     assert [o.ok for o in outcomes] == [True, False, True, False], [o.reason for o in outcomes]
     assert "did not reach the run's end" in outcomes[1].reason and "no .mcap file" in outcomes[3].reason
     assert replay_finished(outs[0]) and replay_finished(outs[2]) and not outs[1].exists()

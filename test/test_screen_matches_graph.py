@@ -12,13 +12,15 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
+from rw_fdi_ros.fdi_config import FdiConfig
+
 from conftest import CASES
 from rw_fdi_ros.core.calibration import calibration_samples
 from rw_fdi_ros.core.scenario import load_scenario
 from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
 from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
 from rw_fdi_ros.tools.metrics import judge
-from rw_fdi_ros.tools.evaluation.screen import load_fdi, screen_runs
+from rw_fdi_ros.tools.evaluation.screen import screen_runs
 
 # (kind, value) per run; wheel = index mod 3, onset spread over 30..72 s
 KINDS = [("current_limiter", 0.9)] * 4 + [("temperature", 53.0)] * 3 + [("ripple_gain", 1.6)] * 3 + [None] * 2
@@ -54,19 +56,20 @@ def both(tmp_path_factory, fdi_runs):
     units = unit_files(root)
     with ThreadPoolExecutor(2) as pool:   # one pool: the calibrated runs fill the gaps of the others
         # the screen judges detection without reconfiguration: the graph's fdir off (the chain: test_fdir_graph.py)
-        jobs = [pool.submit(run_with_fdi, str(f), out_dir=root / "bags", fdir=False) for f in files]
-        unit_jobs = [pool.submit(run_with_fdi, str(f), out_dir=root / "bags", unit_calibration=150.0, fdir=False)
+        jobs = [pool.submit(run_with_fdi, str(f), out_dir=root / "bags", fdi={"fdir": False}) for f in files]
+        unit_jobs = [pool.submit(run_with_fdi, str(f), out_dir=root / "bags",
+                                 fdi={"unit_calibration": 150.0, "fdir": False})
                      for f in units]
         graph = [j.result() for j in jobs]
         calibrated = [j.result() for j in unit_jobs]
-    weights, curves = load_fdi()
+    weights, curves = FdiConfig().load()
     screened = screen_runs([load_scenario(str(f)) for f in files], weights, curves, identification=True)
     shared = [k for k, case in CASES.items() if case[2] == "speed_aware" and not k.endswith("_again")]
     graph += [fdi_runs[k] for k in shared]
     screened += screen_runs([fdi_runs[k].scenario for k in shared], weights, curves,
                             identification=True)   # one batch of its own: longer runs
     assert len(graph) == len(screened) >= 17
-    weights, curves = load_fdi(unit_calibration=150.0)
+    weights, curves = FdiConfig(unit_calibration=150.0).load()
     calibrated_screened = screen_runs([load_scenario(str(f)) for f in units], weights, curves,
                                       calibration_samples=calibration_samples(150.0))
     return graph, screened, calibrated, calibrated_screened

@@ -71,6 +71,16 @@ def executor(args):
     return make_executor(getattr(args, "jobs", None), getattr(args, "scheduler", None))
 
 
+def fdi_config(args):
+    """The FdiConfig of a command's FDI options (those it takes; the others at their defaults): one line
+    for a value out of range, before anything starts."""
+    from ..fdi_config import FdiConfig
+    return FdiConfig(method=getattr(args, "fdi_method", None) or "speed_aware", models=getattr(args, "models", None),
+                     thresholds=getattr(args, "thresholds", None), persistence=getattr(args, "persistence", None),
+                     unit_calibration=float(getattr(args, "unit_calibration", 0.0) or 0.0),
+                     fdir=getattr(args, "fdir", True))
+
+
 def parents() -> dict:
     """The options several commands share, each defined once as an argparse parent, by name: a command
     lists the names it takes (its PARENTS)."""

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import yaml
 
-from ..core.detection import observers_of
+from ..fdi_config import FdiConfig
 from ..core.elman import network_wheel
 from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
@@ -73,10 +73,11 @@ def processes(nodes, grouping: str = DEFAULT_GROUPING) -> list:
 
 
 def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command_timeout: float = 5.0,
-                emf_limit: str | None = None, fdi: dict | None = None):
-    """Plant, three PID controllers, the wheel allocation (with FDIR when ``fdi``), (when ``fdi``) the
-    observers and isolation, and (when ``bag``) the recorder for one run. ``fdi`` maps 'models' /
-    'thresholds' to directories (None: shipped)."""
+                emf_limit: str | None = None, fdi=None):
+    """Plant, three PID controllers, the wheel allocation (with FDIR when ``fdi`` says so), (when ``fdi``) the
+    observers and isolation, and (when ``bag``) the recorder for one run. ``fdi``: an FdiConfig or its mapping
+    (an empty one: the shipped FDI); None: no FDI."""
+    fdi = None if fdi is None else FdiConfig.of(fdi)
     choices = scenario.plant_choices(emf_limit=emf_limit)
     period = choices.control_period
     times, values = scenario.setpoint_schedule()
@@ -93,7 +94,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
             "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]]}))
     nodes.append(NodeSpec("wheel_allocation", "wheel_allocation", {
         "wheel_set": choices.wheel_set, "control_period": period,
-        "fdir": fdi is not None and fdi.get("fdir", True) is not False,
+        "fdir": fdi is not None and fdi.fdir,
         "fdi_period": choices.fdi_period}))
     if scenario.magnetorquers is not None:
         rods = scenario.magnetorquers
@@ -106,7 +107,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         # absolute: a bag named like a number or a YAML word ("1e3", "on") is a path, never retyped
         nodes.append(NodeSpec("recorder", "recorder", {"output": str(Path(bag).resolve()),
                                                        "fdi_period": choices.fdi_period if fdi is not None else 0.0,
-                                                       "fdi_method": fdi_method(fdi or {}),
+                                                       "fdi_method": fdi.method if fdi else "speed_aware",
                                                        "wheel_set": choices.wheel_set,
                                                        "orbit": scenario.environment is not None,
                                                        "magnetorquers": scenario.magnetorquers is not None}))
@@ -157,34 +158,24 @@ def with_reader_counts(nodes):
     return nodes
 
 
-def fdi_method(fdi: dict) -> str:
-    """The FDI method of an ``fdi`` mapping: 'speed_aware' (default) or 'thesis'."""
-    return fdi.get("method") or "speed_aware"
-
-
-def fdi_nodes(fdi: dict, choices: PlantChoices):
+def fdi_nodes(fdi, choices: PlantChoices):
     """An Elman observer per wheel of the set, the linear observer, the model observer (speed_aware) and the
-    isolation node (told the run's choices).
-
-    ``fdi``: models / thresholds directories (None: the shipped set of the method), persistence
-    (None: the threshold file's), method ('speed_aware' or 'thesis'), unit_calibration (seconds the
-    observers learn each wheel from, core/calibration.py; 0 or None: the datasheet wheel)."""
-    models, thresholds, method = fdi.get("models"), fdi.get("thresholds"), fdi_method(fdi)
-    calibration = float(fdi.get("unit_calibration") or 0.0)
+    isolation node (told the run's choices), as ``fdi`` (FdiConfig or its mapping) says. Without models or
+    thresholds given, the nodes take the shipped set of the method themselves (a real ROS 2 install's share/)."""
+    fdi = FdiConfig.of(fdi)
     nodes = []
-    common = {"fdi_method": method, "fdi_period": choices.fdi_period, "fdi_sampling": choices.fdi_sampling,
-              "unit_calibration_time": calibration, "wheel_set": choices.wheel_set}
+    common = {"fdi_method": fdi.method, "fdi_period": choices.fdi_period, "fdi_sampling": choices.fdi_sampling,
+              "unit_calibration_time": fdi.unit_calibration, "wheel_set": choices.wheel_set}
     for axis in wheel_set(choices.wheel_set).names:
         params = {"wheel": joint_name(axis), **common}
-        if models:
-            params["model"] = str(Path(models) / f"elman_{network_wheel(axis)}.npz")
+        if fdi.models:
+            params["model"] = str(fdi.model_path(network_wheel(axis)))
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
-    for obs in observers_of(method)[1:]:   # linear_observer, model_observer: every wheel each
+    for obs in fdi.observers[1:]:   # linear_observer, model_observer: every wheel each
         nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer", dict(common)))
-    iso = {**choices.as_dict(), "fdi_method": method, "persistence": int(fdi.get("persistence") or 0),
-           "unit_calibration_time": calibration}
-    if thresholds:
-        iso.update({f"thresholds_{obs}": str(Path(thresholds) / f"thresholds_{obs}.json")
-                    for obs in observers_of(method)})
+    iso = {**choices.as_dict(), "fdi_method": fdi.method, "persistence": int(fdi.persistence or 0),
+           "unit_calibration_time": fdi.unit_calibration}
+    if fdi.models or fdi.thresholds:
+        iso.update({f"thresholds_{obs}": str(fdi.threshold_path(obs)) for obs in fdi.observers})
     nodes.append(NodeSpec("isolation", "isolation", iso))
     return nodes

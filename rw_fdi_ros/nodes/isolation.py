@@ -43,8 +43,9 @@ from sensor_msgs.msg import JointState
 
 import numpy as np
 
+from ..fdi_config import FdiConfig, checked_curves
 from ..core.detection import METHODS, observers_of
-from ..core.threshold_file import ThresholdCurves, ThresholdError
+from ..core.threshold_file import ThresholdError
 from ..core.calibration import calibration_samples
 from ..core.identification import FaultIdentifier
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
@@ -52,17 +53,12 @@ from ..core.isolation import (WHEEL_SPEED_ENVELOPE, LatchedVerdict, ObserverChan
                               stamp_seconds)
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.wheel_set import joint_name, wheel_set
-from ..paths import thresholds_dir
 from ..storage.cdr import joint_state_cdr
 from ..graph import topics as T
 from ..graph.convert import fdi_sample_of, time_msg
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 from ..graph.gate import GatedPublisher
 from ..graph.sync import StampSync
-
-
-def default_thresholds(observer: str, method: str = "speed_aware", unit_calibration_time: float = 0.0) -> str:
-    return str(thresholds_dir(method, unit_calibration_time) / f"thresholds_{observer}.json")
 
 
 def _status(name, axis, residual, threshold, alarm, first, extra=(), identification=None, unjudged=None, note=None,
@@ -126,15 +122,10 @@ class IsolationNode(GraphNode):
         self.channels = {}
         self.compute, self.compute_cpu = [], []
         for obs in observers_of(method):
-            path = self.param(f"thresholds_{obs}") or default_thresholds(obs, method, calibration)
-            try:
-                curves = ThresholdCurves.load(path, obs)
-                curves.check_method(method, origin=path)
-                curves.check_unit_calibration(calibration, origin=path)
-                curves.check_compatible(plant, origin=path)
-                if abs(curves.sample_period - plant.fdi_period) > 1e-12:
-                    raise ThresholdError(f"{path}: sample period {curves.sample_period} s differs from the "
-                                         f"FDI period {plant.fdi_period} s")
+            try:   # the shipped set of the method, by FdiConfig's rule, unless a file is given
+                path = self.param(f"thresholds_{obs}") or FdiConfig(method,
+                                                                    unit_calibration=calibration).threshold_path(obs)
+                curves = checked_curves(path, obs, method, calibration, plant)
             except ThresholdError as exc:
                 raise NodeError(str(exc), EXIT_BAD_INPUT) from None
             self.channels[obs] = ObserverChannel(obs, curves, self.param("persistence") or None, self.names)

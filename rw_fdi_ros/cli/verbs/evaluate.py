@@ -1,5 +1,5 @@
 """`rw-fdi evaluate`: recorded bags replayed through the observers and isolation, judged in one report."""
-from ..options import executor, writable_dir
+from ..options import executor, fdi_config, writable_dir
 
 NAME = "evaluate"
 HELP = "replay bags through the observers and isolation; write the report"
@@ -17,9 +17,7 @@ def add_arguments(parser) -> None:
 def main(args) -> int:
     writable_dir(args.report, "--report")   # a file in the way is said before any bag is read
     from ...tools.evaluation.evaluate import evaluate, main_summary
-    report = evaluate(args.bags, args.report, models=args.models, thresholds=args.thresholds,
-                      persistence=args.persistence, executor=executor(args), unit_calibration=args.unit_calibration,
-                      engine=args.engine)
+    report = evaluate(args.bags, args.report, fdi_config(args), executor=executor(args), engine=args.engine)
     print(main_summary(report))
     print(f"report: {args.report}/report.md, {args.report}/report.json")
     return 0 if report["runs"] else 1

@@ -1,7 +1,7 @@
 """`rw-fdi run`: one scenario through the whole graph, recorded as a bag, with its summary and FDI verdict."""
 import sys
 
-from ..options import SEED, number, writable_dir
+from ..options import SEED, fdi_config, number, writable_dir
 
 NAME = "run"
 HELP = "run one scenario through the whole graph and record a bag"
@@ -33,9 +33,9 @@ def main(args) -> int:
     wheels = scenario.wheel_set()
     nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
     if args.fdi:
-        from ...tools.campaigns.fdi import check_fdi_files, format_verdict, run_with_fdi
-        check_fdi_files(args.models, args.thresholds, scenario.plant_choices(emf_limit=args.emf_limit),
-                        args.fdi_method, args.unit_calibration, scenario.duration)
+        from ...tools.campaigns.fdi import format_verdict, run_with_fdi
+        fdi = fdi_config(args)
+        fdi.check(scenario.plant_choices(emf_limit=args.emf_limit), scenario.duration)
         nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
                  f"{wheels.count} Elman observers, linear observer, "
                  + ("model observer, " if args.fdi_method == "speed_aware" else "") + "isolation, recorder")
@@ -44,9 +44,7 @@ def main(args) -> int:
     common = dict(seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs, emf_limit=args.emf_limit,
                   command_timeout=args.command_timeout)
     if args.fdi:
-        outcome = run_with_fdi(args.scenario, models=args.models, thresholds=args.thresholds,
-                               persistence=args.persistence, figure=True, method=args.fdi_method,
-                               unit_calibration=args.unit_calibration, fdir=args.fdir, **common)
+        outcome = run_with_fdi(args.scenario, fdi=fdi, figure=True, **common)
     else:
         outcome = run_scenario(args.scenario, **common)
     if outcome.summary:

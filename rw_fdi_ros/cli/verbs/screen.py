@@ -1,5 +1,5 @@
 """`rw-fdi screen`: FDI figures of many seeds in seconds, the node code on the core loop (no ROS)."""
-from ..options import parse_seeds
+from ..options import fdi_config, parse_seeds
 
 NAME = "screen"
 HELP = "FDI figures for many seeds in seconds (core loop + node code, no ROS)"
@@ -14,12 +14,10 @@ def add_arguments(parser) -> None:
 def main(args) -> int:
     seeds = parse_seeds(args.seeds, "--seeds")   # before the imports: a bad option answers at once
     from ...core.scenario import load_scenario
-    from ...tools.campaigns.fdi import check_fdi_files
     from ...tools.evaluation.screen import format_screen, screen
+    fdi = fdi_config(args)
     for name in args.scenario:
-        if args.unit_calibration:
-            check_fdi_files(args.models, args.thresholds, None, args.fdi_method, args.unit_calibration,
-                            load_scenario(name).duration)
-        print(format_screen(name, screen(load_scenario(name), seeds, args.models, args.thresholds,
-                                         args.persistence, args.fdi_method, args.unit_calibration)))
+        scenario = load_scenario(name)
+        fdi.check(scenario.plant_choices(), scenario.duration)
+        print(format_screen(name, screen(scenario, seeds, fdi)))
     return 0

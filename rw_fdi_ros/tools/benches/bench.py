@@ -127,7 +127,7 @@ def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     scenario = out / "bench_fdi.yaml"
     scenario.write_text(f"name: bench_fdi\nduration: {duration}\nseed: {seed}\n"
                         f"faults: [{{kind: current_limiter, wheel: x, onset: {duration / 2:g}, value: 0.6}}]\n")
-    outcome = run_with_fdi(str(scenario), out_dir=out, models=models, keep_logs=True)
+    outcome = run_with_fdi(str(scenario), out_dir=out, fdi={"models": models}, keep_logs=True)
     nodes = _timing_reports(outcome.log_dir) if outcome.log_dir else {}
     lines = [f"FDI bench: one FDI step, core code only ({len(u)} samples)"]
     for name, (med, p99) in compute.items():
@@ -178,14 +178,14 @@ def bench_study(runs: int = 8, duration: float = 400.0, seed: int = 1, jobs: int
         ok &= not rec.failed and len(rec.done) == runs
     bags = sorted((out / "core_engine").iterdir())
     t0 = time.monotonic()
-    evaluate(out / "core_engine", out / "report_core", models=fdi, executor=executor, plots=False, engine="core")
+    evaluate(out / "core_engine", out / "report_core", {"models": fdi}, executor=executor, plots=False, engine="core")
     judge["core engine"] = (time.monotonic() - t0) / max(len(bags), 1)
     for grouping in (DEFAULT_GROUPING, "none"):
         todo = [(bag, out / f"replays_{grouping}" / f"{bag.name}_{k}") for k in range(replay_repeat) for bag in bags]
         t0 = time.monotonic()
         with closing(executor.map_unordered(
-                lambda pairs, g=grouping: replay_bags([b for b, _ in pairs], [o for _, o in pairs], models=fdi,
-                                                      thresholds=fdi, grouping=g),
+                lambda pairs, g=grouping: replay_bags([b for b, _ in pairs], [o for _, o in pairs], {"models": fdi},
+                                                      grouping=g),
                 replay_chunks(todo, executor.jobs))) as chunks:
             replays = [o for chunk in chunks for o in chunk]
         judge[f"replay through the FDI graph ({grouping})"] = (time.monotonic() - t0) / max(len(replays), 1)

@@ -18,8 +18,9 @@ import time
 from pathlib import Path
 
 
+from ...fdi_config import FdiConfig
 from ..metrics import observable_level
-from ..evaluation.screen import load_fdi, screen_sets
+from ..evaluation.screen import screen_sets
 from .kit import ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, format_rate, screen_cells, write_report
 
 
@@ -37,7 +38,7 @@ CELLS = (
 
 
 def _fdi_sets():
-    return {"speed_aware": load_fdi(method="speed_aware"), "thesis": load_fdi(method="thesis")}
+    return {"speed_aware": FdiConfig().load(), "thesis": FdiConfig("thesis").load()}
 
 
 def _judge_chunk(cell_index: int, seeds_range):

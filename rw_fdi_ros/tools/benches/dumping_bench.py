@@ -23,6 +23,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ...fdi_config import FdiConfig
 from ...core.closed_loop import simulate
 from ...core.environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
 from ...core.plant_choices import DEFAULT
@@ -31,7 +32,6 @@ from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.wheel import WheelParams
 from .kit import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
 from ..metrics import observable_level
-from ..evaluation.screen import load_fdi
 
 SEED_BASE = 87_000_000   # docs/fdi.md "Seeds": no other bench, training or fitting uses them
 POINTING_LIMIT_DEG = 0.2
@@ -198,7 +198,7 @@ def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20,
                   out: str | Path = "reports/dumping", jobs: int = 2) -> dict:
     t0 = time.monotonic()
     day = bench_day(hours, seed, Path(out))
-    _, curves = load_fdi(method="speed_aware")
+    _, curves = FdiConfig().load()
     level = observable_level(curves)
     sizes = [operations_runs if c.kind is None else runs_per_cell for c in CELLS]
     judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, SEED_BASE, dumping_of), "dumping bench (FDI)", jobs,

@@ -29,13 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault, Scenario
 from .kit import Cell, cell_scenarios, format_rate, rate, screen_cells
 from ..metrics import judge_identification
-from ..evaluation.screen import load_fdi, screen_sets
+from ..evaluation.screen import screen_sets
 
 SEED_BASE = 30_000_000
 KIND_ORDER = ("current_loss", "temperature", "bus_voltage", "unknown", "none")
@@ -83,7 +84,7 @@ def units_scenarios(cell_index: int, runs: int) -> list:
 
 def _units_chunk(cell_index: int, seeds_range):
     scenarios = units_scenarios(cell_index, seeds_range.stop)[seeds_range.start:]
-    fdi = (*load_fdi(method="speed_aware", unit_calibration=UNITS_CALIBRATION),
+    fdi = (*FdiConfig(unit_calibration=UNITS_CALIBRATION).load(),
            calibration_samples(UNITS_CALIBRATION, FDI_PERIOD))
     return screen_sets(scenarios, {"speed_aware": fdi}, identification=True)
 
@@ -91,7 +92,7 @@ def _units_chunk(cell_index: int, seeds_range):
 def _chunk(cell_index: int, seeds_range):
     cell = CELLS[cell_index]
     scenarios = cell_scenarios(cell, seeds_range.stop, cell_index, SEED_BASE)[seeds_range.start:]
-    return screen_sets(scenarios, {"speed_aware": load_fdi(method="speed_aware")}, identification=True)
+    return screen_sets(scenarios, {"speed_aware": FdiConfig().load()}, identification=True)
 
 
 def cell_identification(runs, observable_level: dict, strict_bus: bool = False) -> dict:
@@ -122,7 +123,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
     """Identification figures per cell; the thesis sizes get ``thesis_runs`` (the bus ``bus_thesis_runs``:
     about 6 in 10 bus drops of 2.5 V are physically visible). ``units``: the varied-wheel cells instead
     (``runs_per_cell`` each, the bus 1.7 times as many)."""
-    _, curves = load_fdi(method="speed_aware", unit_calibration=UNITS_CALIBRATION if units else 0.0)
+    _, curves = FdiConfig(unit_calibration=UNITS_CALIBRATION if units else 0.0).load()
     level = {a: float(curves["model"].curves[a][-1]) for a in "xyz"}   # the model observer's band
     t0 = time.monotonic()
     cells = {}

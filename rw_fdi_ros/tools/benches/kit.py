@@ -9,9 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ...fdi_config import FdiConfig
 from ...core.scenario import Fault, Scenario
 from ..metrics import alarm_before_onset, judge, observable
-from ..evaluation.screen import load_fdi, screen_sets
+from ..evaluation.screen import screen_sets
 
 SEED_BASE = 10_000_000         # the detection bench's; every bench passes its own
 ONSET_RANGE = (60.0, 300.0)
@@ -79,7 +80,7 @@ class SpeedAwareChunk:
         seen = []
         hook = None if self.on_run is None else (lambda sc, traj, b: seen.append(self.on_run(sc, traj, b)))
         out = screen_sets(self.scenarios(cell_index, seeds, self.seed_base),
-                          {"speed_aware": load_fdi(method="speed_aware")}, on_run=hook)
+                          {"speed_aware": FdiConfig().load()}, on_run=hook)
         return {**out, "runs": seen} if self.on_run is not None else out
 
 

@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ...fdi_config import FdiConfig
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from .kit import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
 from ..metrics import observable_level
-from ..evaluation.screen import load_fdi
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
 # manoeuvres of the 400-s runs: after the thesis' change at 0 s, one every 100-300 s (up to three more)
@@ -93,7 +93,7 @@ def manoeuvre_after_fault(scenario: Scenario) -> bool:
 def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hours_runs: int = 50,
                      seeds: str = "evaluation", out: str | Path = "reports/operations", jobs: int = 2) -> dict:
     seed_base = SEED_BASES[seeds]
-    _, curves = load_fdi(method="speed_aware")
+    _, curves = FdiConfig().load()
     level = observable_level(curves)
     sizes = [hours_runs if c.duration > 400.0 else fault_free_runs if c.kind is None and c.wheel_speed is None
              else runs_per_cell for c in CELLS]

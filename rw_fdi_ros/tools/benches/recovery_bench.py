@@ -24,12 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ...fdi_config import FdiConfig
 from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import held_speeds
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.wheel_set import WHEEL_SETS
 from .kit import format_rate, rate, write_report
-from ..evaluation.screen import load_fdi
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}
 POINTING_DEG = 0.2
@@ -133,7 +133,7 @@ def summarize(cell: Cell, runs: list) -> dict:
 def bench_recovery(runs_per_cell: int = 100, fault_free_runs: int = 1000, seeds: str = "evaluation",
                    out: str | Path = "reports/recovery", progress=None) -> dict:
     seed_base = SEED_BASES[seeds]
-    _, curves = load_fdi(method="speed_aware")
+    _, curves = FdiConfig().load()
     fdir = Fdir(curves["model"])
     t0 = time.monotonic()
     cells = {}

@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
 from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import SATURATED_S
@@ -46,7 +47,6 @@ from ...core.wheel_set import WHEEL_SETS
 from ..campaigns.campaign import LocalExecutor
 from ..metrics import IDENTIFIED_KIND, judge_size
 from .kit import format_rate, rate, write_report
-from ..evaluation.screen import load_fdi
 
 SEED_BASES = {"tuning": 90_000_000, "evaluation": 91_000_000, "net": 92_000_000}
 FAULT_FREE_SEEDS = 500_000   # the fault-free runs' seeds: the set's base plus this
@@ -134,7 +134,7 @@ def scenario(d: Draw) -> Scenario:
 
 
 def fdir_for(units: bool) -> Fdir:
-    _, curves = load_fdi(method="speed_aware", unit_calibration=CALIBRATION_S if units else 0.0)
+    _, curves = FdiConfig(unit_calibration=CALIBRATION_S if units else 0.0).load()
     return Fdir(curves["model"], calibration_samples(CALIBRATION_S) if units else 0, identification=True)
 
 

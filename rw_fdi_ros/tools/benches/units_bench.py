@@ -22,11 +22,12 @@ import time
 from functools import partial
 from pathlib import Path
 
+from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
 from ...core.plant_choices import FDI_PERIOD
 from .detection_bench import CELLS, cell_results, cell_sizes, observable_levels
 from .kit import cell_scenarios, format_rate, screen_cells, write_report
-from ..evaluation.screen import load_fdi, screen_sets
+from ..evaluation.screen import screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands
 ONSET_RANGE = (160.0, 300.0)
@@ -35,7 +36,8 @@ SETS = {"datasheet model": 0.0, "calibrated": CALIBRATION_TIME}
 
 
 def _fdi_sets() -> dict:
-    return {name: (*load_fdi(unit_calibration=t), calibration_samples(t, FDI_PERIOD)) for name, t in SETS.items()}
+    return {name: (*FdiConfig(unit_calibration=t).load(), calibration_samples(t, FDI_PERIOD))
+            for name, t in SETS.items()}
 
 
 def _judge_chunk(population: str, cell_index: int, seeds_range):

@@ -7,58 +7,20 @@ from pathlib import Path
 import numpy as np
 
 
+from ...fdi_config import FdiConfig
 from ...core.scenario import parse_scenario
 from ...core.spacecraft import BODY_AXES
-from ...core.wheel_set import AXIS_WHEELS
 from ...graph import topics as T
 from ...storage.bag import read_series
 from .. import bag_series, metrics
 from .run import RunOutcome, run_scenario
 
 
-def check_fdi_files(models=None, thresholds=None, plant=None, method: str = "speed_aware",
-                    unit_calibration: float = 0.0, duration: float | None = None):
-    """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError.
-
-    ``plant``: the run's PlantChoices (default: the defaults); ``method``: the FDI method."""
-    from ...core.threshold_file import ThresholdCurves, ThresholdError
-    from ...core.detection import observers_of
-    from ...core.elman import REGENERATE, ElmanWeights, ModelError
-    from ...core.plant_choices import DEFAULT
-    from ...paths import fdi_dir, thresholds_dir
-    if not (np.isfinite(unit_calibration) and unit_calibration >= 0):
-        raise ThresholdError(f"--unit-calibration must be a finite number of seconds >= 0, got {unit_calibration}")
-    if unit_calibration and method != "speed_aware":
-        raise ThresholdError("--unit-calibration needs --fdi-method speed_aware (the thesis' residual is unsigned)")
-    if unit_calibration and duration is not None and unit_calibration >= duration:
-        raise ThresholdError(f"--unit-calibration {unit_calibration:g} s is not shorter than the {duration:g} s run: "
-                             "the observers would spend all of it learning their wheels and judge none of it")
-    models = Path(models or fdi_dir(method))
-    thresholds = Path(thresholds or thresholds_dir(method, unit_calibration))
-    for a in AXIS_WHEELS:
-        path = models / f"elman_{a}.npz"
-        if ElmanWeights.load(path).speed_aware != (method == "speed_aware"):
-            raise ModelError(f"{path}: not a network for fdi_method={method!r}; {REGENERATE}")
-    plant = plant or DEFAULT
-    for obs in observers_of(method):
-        path = thresholds / f"thresholds_{obs}.json"
-        curves = ThresholdCurves.load(path, obs)
-        curves.check_method(method, origin=str(path))
-        curves.check_compatible(plant, origin=str(path))
-        curves.check_unit_calibration(unit_calibration, origin=str(path))
-        if duration is not None:
-            curves.check_horizon(duration, origin=str(path))
-
-
-def run_with_fdi(ref: str, seed=None, out_dir="bags", models=None, thresholds=None, persistence: int | None = None,
-                 figure: bool = False, method: str = "speed_aware", unit_calibration: float = 0.0,
-                 fdir: bool = True, **kw) -> RunOutcome:
-    """Run the full graph (plant, PIDs, wheel allocation, observers, isolation, recorder); attach the FDI
-    verdict. ``fdir`` False: the wheel allocation keeps every wheel in use (detection alone)."""
-    outcome = run_scenario(ref, seed=seed, out_dir=out_dir, fdi={"models": models, "thresholds": thresholds,
-                                                                 "persistence": persistence, "method": method,
-                                                                 "unit_calibration": unit_calibration,
-                                                                 "fdir": fdir}, **kw)
+def run_with_fdi(ref: str, seed=None, out_dir="bags", fdi=None, figure: bool = False, **kw) -> RunOutcome:
+    """Run the full graph (plant, PIDs, wheel allocation, observers, isolation, recorder) with the FDI ``fdi``
+    (FdiConfig or its mapping; None: the shipped one); attach the FDI verdict. ``fdi.fdir`` False: the wheel
+    allocation keeps every wheel in use (detection alone)."""
+    outcome = run_scenario(ref, seed=seed, out_dir=out_dir, fdi=FdiConfig.of(fdi), **kw)
     if outcome.bag.exists():
         try:
             data = read_series(outcome.bag, verdict_topics())

@@ -13,8 +13,9 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from ...fdi_config import FdiConfig
 from ...core.plant_choices import PlantChoices
-from ...launch.graph import NodeSpec, fdi_method, fdi_nodes, with_reader_counts
+from ...launch.graph import NodeSpec, fdi_nodes, with_reader_counts
 from ...launch.graph import DEFAULT_GROUPING
 from ...launch.launcher import DomainLease, GraphProcesses, cleanup
 from ...graph import topics as T
@@ -23,10 +24,11 @@ from ..design.offline import plant_conditions
 from .run import RunOutcome
 
 
-def replay_nodes(bags: list, out_bags: list, fdi: dict, plant: dict, rate: float = 0.0):
+def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0):
     """Player + the FDI nodes of the method (graph.fdi_nodes) + a recorder of their outputs, for ``bags``
     in order."""
     choices = PlantChoices(**plant)
+    fdi = FdiConfig.of(fdi)
     nodes = fdi_nodes(fdi, choices)
     for node in nodes:
         node.parameters["end_with_run"] = False   # they stay for the next bag; the launcher stops them
@@ -34,15 +36,15 @@ def replay_nodes(bags: list, out_bags: list, fdi: dict, plant: dict, rate: float
                                                "pace_period": choices.fdi_period, "topics": T.FDI_INPUTS,
                                                "await_recorder": True}))
     nodes.append(NodeSpec("recorder", "recorder", {"outputs": [str(b) for b in out_bags],
-                                                   "fdi_period": choices.fdi_period, "fdi_method": fdi_method(fdi),
+                                                   "fdi_period": choices.fdi_period, "fdi_method": fdi.method,
                                                    "record_plant": False, "wheel_set": choices.wheel_set}))
     return with_reader_counts(nodes)
 
 
-def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int | None = None, rate: float = 0.0,
-                keep_logs: bool = False, watchdog: float | None = None, method: str | None = None,
-                unit_calibration: float = 0.0, grouping: str = DEFAULT_GROUPING) -> list:
-    """Replay ``bags`` (recorded under the same plant choices) through one graph (``grouping``: which nodes
+def replay_bags(bags, out_bags, fdi=None, rate: float = 0.0, keep_logs: bool = False, watchdog: float | None = None,
+                grouping: str = DEFAULT_GROUPING) -> list:
+    """Replay ``bags`` (recorded under the same plant choices) through one graph of the FDI ``fdi`` (FdiConfig
+    or its mapping; None: the shipped one) (``grouping``: which nodes
     share a process, launch/graph.GROUPINGS); the FDI outputs of bag i go to ``out_bags[i]``. Returns one
     RunOutcome per bag, in order. A graph that fails part way keeps the bags it finished; the first
     unfinished bag gets a graph alone and the rest another, so a bad bag fails alone."""
@@ -58,8 +60,7 @@ def replay_bags(bags, out_bags, models=None, thresholds=None, persistence: int |
     if not readable:
         return outcomes
     plant = plant_conditions([bags[i] for i in readable])
-    fdi = {"models": models, "thresholds": thresholds, "persistence": persistence, "method": method,
-           "unit_calibration": unit_calibration}
+    fdi = FdiConfig.of(fdi)
     groups = [readable]
     retried = False
     while groups:
@@ -104,9 +105,7 @@ def replay_finished(out_bag: Path) -> bool:
         return False
 
 
-def replay_bag(bag, out_bag, models=None, thresholds=None, persistence: int | None = None, rate: float = 0.0,
-               keep_logs: bool = False, watchdog: float = 300.0, method: str | None = None,
+def replay_bag(bag, out_bag, fdi=None, rate: float = 0.0, keep_logs: bool = False, watchdog: float = 300.0,
                grouping: str = DEFAULT_GROUPING) -> RunOutcome:
     """Replay one bag; its FDI outputs are recorded to ``out_bag``."""
-    return replay_bags([bag], [out_bag], models, thresholds, persistence, rate, keep_logs, watchdog, method,
-                       grouping=grouping)[0]
+    return replay_bags([bag], [out_bag], fdi, rate, keep_logs, watchdog, grouping)[0]

@@ -13,15 +13,15 @@ from __future__ import annotations
 import json
 import time
 from contextlib import closing
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from ...core.threshold_file import ThresholdCurves, ThresholdError
-from ...core.detection import observers_of
+from ...fdi_config import FdiConfig
+from ...core.threshold_file import ThresholdError
 from ...core.elman import ModelError
 from ...graph import topics as T
-from ...paths import config_dir, thresholds_dir
 from ...storage.bag import BagError, bag_is_complete, read_bag, read_series
 from ..campaigns.campaign import LocalExecutor, _progress
 from ..campaigns.run import short_step_topics
@@ -29,7 +29,7 @@ from ...paths import shown_path
 from ..metrics import RunEval, aggregate, observable_level, health_rows, identification_figures
 from ..bag_series import fdi_output_topics, health_from_bag, identification_from_bag, scenario_of, series_from_bag
 from ...core.plant_choices import PlantChoices
-from ..design.offline import fdi_method_of, load_models, model_card
+from ..design.offline import model_card
 from ..campaigns.replay import replay_bags, replay_finished
 
 
@@ -96,15 +96,15 @@ def evaluate_replayed(bag: Path, out: Path, scenario, peak, observers=None) -> R
 
 
 def judge_bags(chunk) -> list:
-    """The core engine's evaluation of a chunk: ``chunk`` = (bags, models, thresholds, persistence, method,
-    unit_calibration); [(bag, RunEval or the one-line reason it is skipped)]. Each bag is checked as for a
+    """The core engine's evaluation of a chunk: ``chunk`` = (bags, FdiConfig); [(bag, RunEval or the one-line
+    reason it is skipped)]. Each bag is checked as for a
     replay (_check_bag), then the observer and isolation nodes' code runs on its recorded FDI telemetry
     (screen.judge_run), no replay. Module level: process pools and Dask workers run it."""
     from ...core.calibration import calibration_samples
     from ..design.samples import fdi_samples
-    from .screen import judge_run, load_fdi
-    bags, models, thresholds, persistence, method, unit_calibration = chunk
-    weights, curves = load_fdi(models, thresholds, method, unit_calibration)
+    from .screen import judge_run
+    bags, fdi = chunk
+    weights, curves = fdi.load()
     out = []
     for bag in bags:
         try:
@@ -113,33 +113,28 @@ def judge_bags(chunk) -> list:
             data = read_bag(bag, topics=[T.FDI_TELEMETRY, T.SCENARIO], intact=True)
             samples = fdi_samples(data, choices.fdi_period, choices.fdi_sampling, speed_aware=True,
                                   identification=True)
-            out.append((bag, judge_run(scenario, samples, peak, weights, curves, persistence, identification=True,
-                                       calibration_samples=calibration_samples(unit_calibration), bag=str(bag))))
+            out.append((bag, judge_run(scenario, samples, peak, weights, curves, fdi.persistence, identification=True,
+                                       calibration_samples=calibration_samples(fdi.unit_calibration), bag=str(bag))))
         except (BagError, ValueError, ThresholdError) as exc:
             out.append((bag, str(exc)))
     return out
 
 
-def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: int | None = None, executor=None,
-             plots: bool = True, unit_calibration: float = 0.0, engine: str = "graph") -> dict:
-    """Judge every bag under ``bags_root`` by the FDI nodes: ``engine`` 'graph' replays it through them
-    (report/replays/), 'core' runs their code on its recorded telemetry (judge_bags: the same verdicts,
-    test_engine.py). The method follows the models (``unit_calibration`` [s]: the observers learn each run's
-    wheels first, core/calibration.py)."""
+def evaluate(bags_root, report_dir, fdi=None, executor=None, plots: bool = True, engine: str = "graph") -> dict:
+    """Judge every bag under ``bags_root`` by the FDI nodes under ``fdi`` (FdiConfig or its mapping; None: the
+    shipped FDI): ``engine`` 'graph' replays it through them (report/replays/), 'core' runs their code on its
+    recorded telemetry (judge_bags: the same verdicts, test_engine.py). The method follows the models (the
+    unit calibration: the observers learn each run's wheels first, core/calibration.py)."""
     from ..campaigns.engine import check_engine
     check_engine(engine)
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
-    shipped = models is None
-    models = str(models or config_dir() / "fdi")
-    method = fdi_method_of(load_models(models))   # a missing/corrupt model stops here, before any replay
-    thresholds = str(thresholds or (thresholds_dir(method, unit_calibration) if shipped else models))
-    curves = {obs: ThresholdCurves.load(Path(thresholds) / f"thresholds_{obs}.json", obs)
-              for obs in observers_of(method)}
-    for obs, c in curves.items():
-        c.check_method(method, origin=f"{thresholds}/thresholds_{obs}.json")
-        c.check_unit_calibration(unit_calibration, origin=f"{thresholds}/thresholds_{obs}.json")
-    persistence = persistence or curves["elman"].persistence
+    fdi = FdiConfig.of(fdi)
+    fdi = fdi.following_models() if fdi.models else fdi
+    fdi.load_models()   # a missing or corrupt model stops here, before any replay
+    curves = fdi.load_thresholds()
+    fdi = replace(fdi, persistence=fdi.persistence or curves["elman"].persistence)
+    models, thresholds, persistence, method = str(fdi.models_dir), str(fdi.thresholds_dir), fdi.persistence, fdi.method
     bags = find_bags(bags_root)
     if not bags:
         raise BagError(f"{bags_root}: no bags to evaluate")
@@ -158,7 +153,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
     checked = {}
     if engine == "core":   # each bag checked where it is judged, in the worker processes
         todo, done = [], []
-        chunks = [(chunk, models, thresholds, persistence, method, unit_calibration)
+        chunks = [(chunk, fdi)
                   for chunk in replay_chunks(bags, getattr(executor, "jobs", 2))]
         with closing(executor.map_unordered(judge_bags, chunks, processes=True)) as judged:
             for pairs in judged:
@@ -178,8 +173,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
         done = [b for b in checked if b not in todo]
 
     def replay_chunk(chunk):
-        outcomes = replay_bags(chunk, [replays / b.name for b in chunk], models=models, thresholds=thresholds,
-                               persistence=persistence, method=method, unit_calibration=unit_calibration)
+        outcomes = replay_bags(chunk, [replays / b.name for b in chunk], fdi)
         return list(zip(chunk, outcomes))
 
     def collect(bag):
@@ -207,7 +201,7 @@ def evaluate(bags_root, report_dir, models=None, thresholds=None, persistence: i
         training = []
     figures = aggregate(runs, {obs: c.seeds for obs, c in curves.items()}, level, training, observers=list(curves))
     report = {"schema": "rw_fdi_ros/evaluation/1", "fdi_method": method, "persistence": persistence, "engine": engine,
-              "unit_calibration_time": unit_calibration,
+              "unit_calibration_time": fdi.unit_calibration,
               "models": shown_path(models, report_dir.parent),
               "thresholds": shown_path(thresholds, report_dir.parent), "observable_level_Nm": level, "runs": len(runs),
               "skipped": [{"bag": shown_path(b, bags_root), "reason": r} for b, r in skipped],

@@ -179,8 +179,9 @@ def graph_check(out: Path, jobs, sample: int, executor, models: Path, persistenc
             if diff:
                 differing.append({"bag": f"{group}/{bag.name}", "differences": diff})
         differing += [{"bag": f"{group}/seed {s}", "differences": [f"graph run failed: {r}"]} for s, r in res.failed]
-    reports = {engine: evaluate(root / "bags", root / f"report_{engine}", models=models, thresholds=models,
-                                persistence=persistence, executor=executor, plots=False, engine=engine)
+    reports = {engine: evaluate(root / "bags", root / f"report_{engine}",
+                                {"models": models, "persistence": persistence}, executor=executor, plots=False,
+                                engine=engine)
                for engine in ("graph", "core")}
     keys = ("observers", "identification", "health")
     return {"runs": compared, "identical_bags": compared - len(differing), "differing": differing,
@@ -245,7 +246,7 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int | 
         from ...storage.bag import bag_is_complete
         return sum(bag_is_complete(p) for p in replays.iterdir()) if replays.is_dir() else 0
     before = replayed()
-    report = evaluate(out / "bags", out / "report", models=models, thresholds=models, persistence=persistence,
+    report = evaluate(out / "bags", out / "report", {"models": models, "persistence": persistence},
                       executor=executor, engine=engine)
     if engine == "core":
         clock.add("evaluate (core)", time.monotonic() - t, report["runs"], redo=True)

@@ -13,28 +13,14 @@ import numpy as np
 
 from ...core.calibration import calibration_samples
 from ...core.closed_loop import simulate
-from ...core.threshold_file import ThresholdCurves
-from ...core.detection import observers_of
 from ...core.isolation import in_envelope
 from ...graph.topics import DIAGNOSTICS
 from ...core.wheel import WheelParams
-from ...paths import fdi_dir, thresholds_dir
 from ..metrics import VERDICT, RunEval, judge, observers_of_runs
-from ..design.offline import fdi_series, identification_series, load_models, observe, verdict_series
+from ..design.offline import fdi_series, identification_series, observe, verdict_series
 from ..design.samples import samples_from_series
 
 BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
-
-
-def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_calibration: float = 0.0):
-    """(Elman weights, {observer: ThresholdCurves}) from directories (None: the shipped set of ``method``
-    and ``unit_calibration``), checked against the calibration."""
-    weights = load_models(models or fdi_dir(method))
-    thresholds = thresholds or (models if models else thresholds_dir(method, unit_calibration))
-    curves = {o: ThresholdCurves.load(f"{thresholds}/thresholds_{o}.json", o) for o in observers_of(method)}
-    for o, c in curves.items():
-        c.check_unit_calibration(unit_calibration, origin=f"{thresholds}/thresholds_{o}.json")
-    return weights, curves
 
 
 def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None,
@@ -145,12 +131,14 @@ def summarize(runs) -> dict:
     return out
 
 
-def screen(scenario, seeds, models=None, thresholds=None, persistence: int | None = None,
-           method: str = "speed_aware", unit_calibration: float = 0.0) -> dict:
-    """Counts per observer over ``seeds`` of one scenario (see :func:`summarize`)."""
-    weights, curves = load_fdi(models, thresholds, method, unit_calibration)
-    return summarize(screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, persistence,
-                                 calibration_samples=calibration_samples(unit_calibration)))
+def screen(scenario, seeds, fdi=None) -> dict:
+    """Counts per observer over ``seeds`` of one scenario (see :func:`summarize`) under ``fdi`` (FdiConfig;
+    None: the shipped FDI)."""
+    from ...fdi_config import FdiConfig
+    fdi = FdiConfig.of(fdi)
+    weights, curves = fdi.load()
+    return summarize(screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, fdi.persistence,
+                                 calibration_samples=calibration_samples(fdi.unit_calibration)))
 
 
 def format_screen(name, out) -> str:

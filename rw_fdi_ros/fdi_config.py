@@ -1,0 +1,146 @@
+"""The FDI of a run as one typed value, the way rosbag2_py's StorageOptions carries a bag's storage: every
+command, the launch file and the graph take it, and it resolves, loads and checks its files by one rule.
+
+Paths: ``models`` (Elman networks) default to the method's shipped set; ``thresholds`` default to
+``models`` when models are given (a directory ``rw-fdi defaults`` or ``train`` + ``fit-thresholds``
+wrote), else to the shipped thresholds of the method and the unit calibration (paths.thresholds_dir).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from .core.detection import METHODS, PERSISTENCE_MAX, observers_of
+from .core.threshold_file import ThresholdError
+from .core.wheel_set import AXIS_WHEELS
+
+
+@dataclass(frozen=True)
+class FdiConfig:
+    """What the FDI of a run is made of.
+
+    Attributes
+    ----------
+    method : str
+        'speed_aware' (ours) or 'thesis' (core/detection.METHODS).
+    models, thresholds : str or None
+        Directories of ``elman_<wheel>.npz`` and ``thresholds_<observer>.json``; None: the rule above.
+    persistence : int or None
+        P, samples above the threshold before an alarm, 1..PERSISTENCE_MAX; None: the threshold file's.
+    unit_calibration : float
+        [s] of each run the observers learn their wheel's unit from (speed_aware only); 0: the datasheet wheel.
+    fdir : bool
+        Whether the wheel allocation acts on the verdict (reconfiguration); False: detection alone.
+    """
+
+    method: str = "speed_aware"
+    models: str | None = None
+    thresholds: str | None = None
+    persistence: int | None = None
+    unit_calibration: float = 0.0
+    fdir: bool = True
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise ValueError(f"fdi_method must be one of {', '.join(METHODS)}, got {self.method!r}")
+        p = self.persistence
+        if p is not None and (isinstance(p, bool) or int(p) != p or not 1 <= p <= PERSISTENCE_MAX):
+            raise ValueError(f"persistence must be a whole number of FDI samples in [1, {PERSISTENCE_MAX}], got {p}")
+        c = self.unit_calibration
+        if not (isinstance(c, (int, float)) and math.isfinite(c) and c >= 0):
+            raise ThresholdError(f"--unit-calibration must be a finite number of seconds >= 0, got {c}")
+        if c and self.method != "speed_aware":
+            raise ThresholdError("--unit-calibration needs --fdi-method speed_aware (the thesis' residual is unsigned)")
+
+    @classmethod
+    def of(cls, value) -> "FdiConfig":
+        """An FdiConfig from itself or a mapping of its fields (None values: the defaults)."""
+        if isinstance(value, cls):
+            return value
+        given = {k: v for k, v in dict(value or {}).items() if v is not None}
+        return cls(**{**given, "unit_calibration": float(given.get("unit_calibration", 0.0))})
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    @property
+    def observers(self) -> tuple:
+        return observers_of(self.method)
+
+    @property
+    def models_dir(self) -> Path:
+        from .paths import fdi_dir
+        return Path(self.models) if self.models else fdi_dir(self.method)
+
+    @property
+    def thresholds_dir(self) -> Path:
+        from .paths import thresholds_dir
+        if self.thresholds:
+            return Path(self.thresholds)
+        return Path(self.models) if self.models else thresholds_dir(self.method, self.unit_calibration)
+
+    def model_path(self, wheel: str) -> Path:
+        return self.models_dir / f"elman_{wheel}.npz"
+
+    def threshold_path(self, observer: str) -> Path:
+        return self.thresholds_dir / f"thresholds_{observer}.json"
+
+    def load_models(self) -> dict:
+        """wheel -> ElmanWeights of the axis wheels, each a network of this method (ModelError names the file)."""
+        from .core.elman import REGENERATE, ElmanWeights, ModelError
+        weights = {}
+        for a in AXIS_WHEELS:
+            weights[a] = ElmanWeights.load(self.model_path(a))
+            if weights[a].speed_aware != (self.method == "speed_aware"):
+                raise ModelError(f"{self.model_path(a)}: not a network for fdi_method={self.method!r}; {REGENERATE}")
+        return weights
+
+    def load_thresholds(self, plant=None, duration: float | None = None) -> dict:
+        """observer -> ThresholdCurves of this configuration, each through :func:`checked_curves`."""
+        return {obs: checked_curves(self.threshold_path(obs), obs, self.method, self.unit_calibration, plant, duration)
+                for obs in self.observers}
+
+    def check(self, plant=None, duration: float | None = None):
+        """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError.
+        ``plant``: the run's PlantChoices (default: the defaults); ``duration`` [s]: the run's length."""
+        from .core.plant_choices import DEFAULT
+        if self.unit_calibration and duration is not None and self.unit_calibration >= duration:
+            raise ThresholdError(f"--unit-calibration {self.unit_calibration:g} s is not shorter than the "
+                                 f"{duration:g} s run: the observers would spend all of it learning their wheels "
+                                 "and judge none of it")
+        self.load_models()
+        self.load_thresholds(plant or DEFAULT, duration)
+
+    def following_models(self) -> "FdiConfig":
+        """This configuration with the method its models are made for (thesis: two-input networks): what
+        replays and evaluations of given models take. ModelError for a missing or broken model."""
+        from dataclasses import replace
+        from .core.elman import ElmanWeights
+        speed_aware = all(ElmanWeights.load(self.model_path(a)).speed_aware for a in AXIS_WHEELS)
+        return replace(self, method="speed_aware" if speed_aware else "thesis",
+                       unit_calibration=self.unit_calibration if speed_aware else 0.0)
+
+    def load(self) -> tuple:
+        """(Elman weights, {observer: ThresholdCurves}) for the core loop (screen, evaluate, benches)."""
+        return self.load_models(), self.load_thresholds()
+
+
+def checked_curves(path, observer: str, method: str, unit_calibration: float = 0.0, plant=None,
+                   duration: float | None = None):
+    """The ThresholdCurves of ``observer`` at ``path``, checked against the method, the unit calibration and,
+    where given, the run's PlantChoices (and FDI period) and length: one-line ThresholdError naming the file.
+    What every command and the isolation node load thresholds through."""
+    from .core.threshold_file import ThresholdCurves
+    path = str(path)
+    curves = ThresholdCurves.load(path, observer)
+    curves.check_method(method, origin=path)
+    curves.check_unit_calibration(unit_calibration, origin=path)
+    if plant is not None:
+        curves.check_compatible(plant, origin=path)
+        if abs(curves.sample_period - plant.fdi_period) > 1e-12:
+            raise ThresholdError(f"{path}: sample period {curves.sample_period} s differs from the FDI period "
+                                 f"{plant.fdi_period} s")
+    if duration is not None:
+        curves.check_horizon(duration, origin=path)
+    return curves
