@@ -147,3 +147,19 @@ def test_a_scheduler_that_does_not_answer_is_one_line(monkeypatch):
         DaskExecutor("tcp://127.0.0.1:1")
     said = str(err.value)
     assert said.startswith("--scheduler tcp://127.0.0.1:1: no Dask scheduler answered within 1 s") and "\n" not in said
+
+
+def test_screen_json_and_table_give_the_counts_and_one_row_a_run(tmp_path, capsys):
+    """`screen --json` prints the counts per scenario and observer; `--table` writes one CSV row per run with
+    each observer's verdict and the identification (issue 38: every run is a row)."""
+    import csv
+    import json
+
+    from rw_fdi_ros.cli import main
+    table = tmp_path / "runs.csv"
+    assert main(["screen", "--scenario", "current_0p6_x", "--seeds", "1..2", "--json", "--table", str(table)]) == 0
+    counts = json.loads(capsys.readouterr().out)
+    assert counts["current_0p6_x"]["verdict"]["runs"] == 2 and counts["current_0p6_x"]["verdict"]["correct"] == 2
+    rows = list(csv.DictReader(table.open()))
+    assert [r["seed"] for r in rows] == ["1", "2"]
+    assert all(r["verdict.correct"] == "True" and r["identification.x.kind"] == "current_loss" for r in rows)

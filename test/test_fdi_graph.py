@@ -252,7 +252,8 @@ def test_screen_without_ros_agrees_with_the_thesis_pattern():
     """The ROS-free screen (same code as the nodes), thesis method: Elman holds the current-loss alarm,
     linear loses it."""
     from rw_fdi_ros.tools.evaluation.screen import screen
-    out = screen(load_scenario("current_0p6_x"), range(12, 15), method="thesis")
+    out, runs = screen(load_scenario("current_0p6_x"), range(12, 15), {"method": "thesis"})
+    assert [r.seed for r in runs] == [12, 13, 14]
     assert out["elman"]["held"] == 3 and out["elman"]["lost"] == 0
     assert out["linear"]["lost"] >= 2 and out["linear"]["lost"] > out["linear"]["held"]
     assert all(d > 0 for d in out["elman"]["delays"])

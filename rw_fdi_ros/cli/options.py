@@ -71,6 +71,12 @@ def executor(args):
     return make_executor(getattr(args, "jobs", None), getattr(args, "scheduler", None))
 
 
+def dumps(value) -> str:
+    """``value`` as JSON for --json: numpy numbers and arrays as plain ones, paths as text."""
+    import json
+    return json.dumps(value, indent=1, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
+
+
 def fdi_config(args):
     """The FdiConfig of a command's FDI options (those it takes; the others at their defaults): one line
     for a value out of range, before anything starts."""

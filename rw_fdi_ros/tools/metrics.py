@@ -131,6 +131,23 @@ def judge(run: RunEval, observer: str) -> dict:
     return out
 
 
+def run_row(run: RunEval) -> dict:
+    """One run as a flat record (a table row: tools/benches/kit.write_runs_table): seed, scenario, faults,
+    each observer's verdict (alarmed wheels, correct, false alarm, first delay) and the identification."""
+    row = {"seed": run.seed, "scenario": run.scenario, "category": run.category,
+           "faults": [{"kind": f.kind, "wheel": run.wheels[f.wheel], "onset": f.onset, "value": f.value,
+                       "ramp": f.ramp} for f in run.faults]}
+    for obs in observers_of_runs([run]):
+        v = judge(run, obs)
+        delays = [f["delay"] for f in v.get("axes", {}).values() if f["detected"]]
+        row[obs] = {"alarmed": v["alarmed_axes"], "false_alarm": v["false_alarm"], "correct": v.get("correct"),
+                    "delay_s": min(delays) if delays else None}
+    row["identification"] = {wheel: {k[len("fault_"):]: found.get(k) for k in ("fault_kind", "fault_size",
+                                                                          "fault_size_low", "fault_size_high")}
+                             for wheel, found in sorted(run.identification.items())}
+    return row
+
+
 # scenario fault kind -> identified kind; the tolerance a size estimate must meet (issue 11)
 IDENTIFIED_KIND = {"current_limiter": "current_loss", "temperature": "temperature", "bus_voltage": "bus_voltage"}
 

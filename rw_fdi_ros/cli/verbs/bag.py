@@ -11,6 +11,8 @@ PARENTS = ()
 def add_arguments(parser) -> None:
     parser.add_argument("bag")
     parser.add_argument("--figure", default=None, metavar="PNG", help="also draw the residuals against the thresholds")
+    parser.add_argument("--json", action="store_true",
+                        help="print it as JSON: complete, damage, topics (type, count, span), run summary, FDI verdict")
 
 
 def main(args) -> int:
@@ -20,6 +22,8 @@ def main(args) -> int:
     from ...storage.bag import bag_info, read_series
     from ...tools.campaigns.summary import format_summary, run_summary
     info = bag_info(args.bag)
+    if args.json:
+        return _json(args, info)
     state = "complete" if info.complete else f"incomplete: {info.note}"
     print(f"{info.path}: {state}")
     if info.damaged:   # what was still read is listed below; the tools that train, fit and judge skip it
@@ -43,3 +47,24 @@ def main(args) -> int:
         if args.figure:
             print(f"  figure: {plot_residuals(data, Path(args.figure))}")
     return 1 if info.damaged else 0
+
+
+def _json(args, info) -> int:
+    from ...graph import topics as T
+    from ...storage.bag import read_series
+    from ..options import dumps
+    out = {"bag": str(info.path), "complete": info.complete, "note": info.note,
+           "damage": info.damage() if info.damaged else None,
+           "topics": {t: {"type": info.types[t], "messages": info.counts[t], "first_s": info.span[t][0] * 1e-9,
+                          "last_s": info.span[t][1] * 1e-9} for t in sorted(info.counts)},
+           "summary": None, "fdi": None}
+    if T.ATTITUDE in info.counts and T.SCENARIO in info.counts:
+        from ...tools.campaigns.summary import run_summary
+        out["summary"] = run_summary(args.bag)
+    if T.fdi_output_topics("elman")["alarm"] in info.counts and T.SCENARIO in info.counts:
+        from ...tools.bag_series import health_from_bag
+        from ...tools.campaigns.fdi import fdi_verdict, verdict_topics
+        out["fdi"] = {**fdi_verdict(read_series(args.bag, verdict_topics())), "health": health_from_bag(args.bag)}
+    print(dumps(out))
+    return 1 if info.damaged else 0
+

@@ -1,7 +1,7 @@
 """`rw-fdi run`: one scenario through the whole graph, recorded as a bag, with its summary and FDI verdict."""
 import sys
 
-from ..options import SEED, fdi_config, number, writable_dir
+from ..options import SEED, dumps, fdi_config, number, writable_dir
 
 NAME = "run"
 HELP = "run one scenario through the whole graph and record a bag"
@@ -23,6 +23,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--no-fdir", dest="fdir", action="store_false",
                         help="detect, isolate and identify, but keep commanding every wheel in use (no "
                              "reconfiguration: the FDI alone, as before the redundant wheel)")
+    parser.add_argument("--json", action="store_true",
+                        help="print the outcome (ok, reason, bag, wall time, run summary, FDI verdict) as JSON on "
+                             "stdout; the progress lines go to stderr")
 
 
 def main(args) -> int:
@@ -40,13 +43,17 @@ def main(args) -> int:
                  f"{wheels.count} Elman observers, linear observer, "
                  + ("model observer, " if args.fdi_method == "speed_aware" else "") + "isolation, recorder")
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
-          f" ({nodes}; private DDS domain)", flush=True)
+          f" ({nodes}; private DDS domain)", flush=True, file=sys.stderr if args.json else sys.stdout)
     common = dict(seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs, emf_limit=args.emf_limit,
                   command_timeout=args.command_timeout)
     if args.fdi:
         outcome = run_with_fdi(args.scenario, fdi=fdi, figure=True, **common)
     else:
         outcome = run_scenario(args.scenario, **common)
+    if args.json:
+        print(dumps({"ok": outcome.ok, "reason": outcome.reason, "bag": str(outcome.bag),
+                     "wall_time_s": outcome.wall_time, "summary": outcome.summary}))
+        return 0 if outcome.ok else 1
     if outcome.summary:
         print(format_summary(outcome.summary))
         if "fdi" in outcome.summary:

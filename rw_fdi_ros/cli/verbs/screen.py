@@ -1,4 +1,6 @@
 """`rw-fdi screen`: FDI figures of many seeds in seconds, the node code on the core loop (no ROS)."""
+import sys
+
 from ..options import fdi_config, parse_seeds
 
 NAME = "screen"
@@ -9,15 +11,36 @@ PARENTS = ("fdi_files", "method", "unit")
 def add_arguments(parser) -> None:
     parser.add_argument("--scenario", nargs="+", required=True)
     parser.add_argument("--seeds", default="100..129", help="A..B inclusive")
+    parser.add_argument("--json", action="store_true",
+                        help="print the counts per scenario and observer as JSON instead of text")
+    parser.add_argument("--table", default=None, metavar="CSV",
+                        help="also write one row per run (seed, faults, each observer's verdict and delay, the "
+                             "identification) to CSV (pandas.read_csv, polars.read_csv)")
 
 
 def main(args) -> int:
     seeds = parse_seeds(args.seeds, "--seeds")   # before the imports: a bad option answers at once
+    import json
+    from tqdm import tqdm
     from ...core.scenario import load_scenario
+    from ...tools.benches.kit import write_runs_table
     from ...tools.evaluation.screen import format_screen, screen
+    from ...tools.metrics import run_row
     fdi = fdi_config(args)
-    for name in args.scenario:
-        scenario = load_scenario(name)
+    scenarios = [load_scenario(name) for name in args.scenario]
+    for scenario in scenarios:
         fdi.check(scenario.plant_choices(), scenario.duration)
-        print(format_screen(name, screen(scenario, seeds, fdi)))
+    counts, rows = {}, []
+    with tqdm(total=len(seeds) * len(scenarios), desc="screen (core loop)", unit="run", file=sys.stderr,
+              disable=None) as bar:
+        for name, scenario in zip(args.scenario, scenarios):
+            counts[name], runs = screen(scenario, seeds, fdi, progress=bar.update)
+            rows += [run_row(r) for r in runs]
+            if not args.json:
+                bar.clear()
+                print(format_screen(name, counts[name]), flush=True)
+    if args.json:
+        print(json.dumps(counts, indent=1))
+    if args.table:
+        print(f"runs: {write_runs_table(rows, args.table)}", file=sys.stderr)
     return 0

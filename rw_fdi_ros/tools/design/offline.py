@@ -216,16 +216,18 @@ def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = Tr
     return Series(s.time, s.residual, s.threshold, alarm)
 
 
-def identification_series(samples, alarm, calibration_samples: int = 0) -> list:
+def identification_series(samples, alarm, calibration_samples: int = 0, last_only: bool = False) -> list:
     """Per FDI sample, axis -> Identification or None: the isolation node's FaultIdentifier fed
     with ``samples`` (FdiSamples with the identification terms) and ``alarm`` ((n, 3) flags of the
     decision observer, as :func:`fdi_series` gives them), learning the units over the first
-    ``calibration_samples`` as the isolation node does."""
+    ``calibration_samples`` as the isolation node does. ``last_only``: only the run's last answer (a list of
+    one), decided once at the end (FaultIdentifier lazy: the same answer without a grid fit per sample)."""
     from ...core.identification import FaultIdentifier
     wheels = getattr(samples, "wheels", AXIS_WHEELS)
-    identifier = FaultIdentifier(wheels, calibration_samples)
-    return [identifier.update(row, {a: bool(alarm[k, i]) for i, a in enumerate(wheels)})
-            for k, row in enumerate(samples.rows())]
+    identifier = FaultIdentifier(wheels, calibration_samples, lazy=last_only)
+    answers = [identifier.update(row, {a: bool(alarm[k, i]) for i, a in enumerate(wheels)})
+               for k, row in enumerate(samples.rows())]
+    return [identifier.identifications()] if last_only else answers
 
 
 def decisions(run: ObserverRun, curves: dict, persistence: int | None = None) -> dict:

@@ -91,7 +91,7 @@ def judge_run(scenario, samples, peak, weights, curves, persistence: int | None 
                                      wheels=samples.wheels)
     found = {}
     if identification and len(samples.time):
-        last = identification_series(samples, series[VERDICT].alarm, calibration_samples)[-1]
+        last = identification_series(samples, series[VERDICT].alarm, calibration_samples, last_only=True)[-1]
         found = {a: v.values() for a, v in last.items() if v is not None}
     return RunEval(bag=bag or f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name, seed=scenario.seed,
                    faults=list(scenario.faults), series=series, fault_effect_peak=peak, identification=found,
@@ -131,14 +131,15 @@ def summarize(runs) -> dict:
     return out
 
 
-def screen(scenario, seeds, fdi=None) -> dict:
-    """Counts per observer over ``seeds`` of one scenario (see :func:`summarize`) under ``fdi`` (FdiConfig;
-    None: the shipped FDI)."""
+def screen(scenario, seeds, fdi=None, progress=None) -> tuple:
+    """(counts per observer over ``seeds`` of one scenario (see :func:`summarize`), the runs (RunEval)) under
+    ``fdi`` (FdiConfig; None: the shipped FDI); ``progress(n)`` is told each batch of runs done."""
     from ...fdi_config import FdiConfig
     fdi = FdiConfig.of(fdi)
     weights, curves = fdi.load()
-    return summarize(screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, fdi.persistence,
-                                 calibration_samples=calibration_samples(fdi.unit_calibration)))
+    runs = screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, fdi.persistence, progress,
+                       identification=True, calibration_samples=calibration_samples(fdi.unit_calibration))
+    return summarize(runs), runs
 
 
 def format_screen(name, out) -> str:
