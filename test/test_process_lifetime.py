@@ -80,11 +80,18 @@ def sockets_of(pids) -> list:
     return found
 
 
-def dds_listening_ports(domain: int, participants: int = 120) -> set:
-    """The ports RTPS listens on in ``domain`` (RTPS 2.2 sec. 9.6.1.1: PB 7400, DG 250, PG 2, d0..d3 0, 10, 1,
-    11): discovery multicast and unicast and user unicast and multicast of every participant."""
+def dds_listening_ports(domain: int, sockets) -> dict:
+    """pid -> the ports its participant listens on in ``domain`` (RTPS 2.2 sec. 9.6.1.1: PB 7400, DG 250, PG 2,
+    d0..d3 0, 10, 1, 11): discovery multicast, and the unicast pair of its participant id p, read from the pair
+    it holds on loopback. Per process and per id, so that an ephemeral send port of another socket that happens
+    to fall in the domain's range is not taken for a listener."""
     base = 7400 + 250 * domain
-    return {base, base + 1} | {base + offset + 2 * p for p in range(participants) for offset in (10, 11)}
+    out = {}
+    for pid, address, port in sockets:
+        p, odd = divmod(port - base - 10, 2)
+        if address == "127.0.0.1" and 0 <= p < 120 and not odd:
+            out.setdefault(pid, {base, base + 1}).update({base + 10 + 2 * p, base + 11 + 2 * p})
+    return out
 
 
 def test_the_graph_listens_on_loopback_only(tmp_path):
@@ -98,9 +105,10 @@ def test_the_graph_listens_on_loopback_only(tmp_path):
         domain = int(dict(line.split("=", 1) for line in Path(f"/proc/{pids[0]}/environ").read_bytes()
                           .decode(errors="replace").split("\0") if "=" in line)["ROS_DOMAIN_ID"])
         sockets = sockets_of(pids)
-        listening = dds_listening_ports(domain)
-        dds = [s for s in sockets if s[2] in listening]
-        assert dds and all(address == "127.0.0.1" for _, address, _ in dds), dds
+        listening = dds_listening_ports(domain, sockets)
+        assert listening, f"no DDS port on loopback: {sockets}"
+        off_loopback = [s for s in sockets if s[1] != "127.0.0.1" and s[2] in listening.get(s[0], ())]
+        assert not off_loopback, off_loopback
         elsewhere = [s for s in sockets if s[1] != "127.0.0.1"]
         assert len(elsewhere) <= 2 * len(pids), elsewhere
     finally:
