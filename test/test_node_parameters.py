@@ -28,7 +28,8 @@ def declared(modules) -> dict:
     """name -> (type, default text or None) of the literal-named declare_parameter calls."""
     out = {}
     for mod in modules:
-        for call in ast.walk(ast.parse((ROOT / "rw_fdi_ros" / "nodes" / f"{mod}.py").read_text())):
+        room = "graph" if mod in ("observer_node", "runtime") else "nodes"   # the node programs, their plumbing
+        for call in ast.walk(ast.parse((ROOT / "rw_fdi_ros" / room / f"{mod}.py").read_text())):
             if not (isinstance(call, ast.Call) and getattr(call.func, "attr", "") == "declare_parameter"
                     and isinstance(call.args[0], ast.Constant)):
                 continue
