@@ -23,20 +23,8 @@ from rw_fdi_ros.core.wheel import bus_fault_visible_above  # noqa: E402
 from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi  # noqa: E402
 
 
-# Modules that start ROS graphs or process pools (each already keeps both cores busy): one xdist worker runs
-# them one after another (`--dist loadgroup`, scripts/run_tests.sh) while the other takes the rest, so two
-# graphs of two runs each never share the two cores and a session fixture (fdi_runs) is made once.
-GRAPH_MODULES = {"test_bench_stop", "test_colcon", "test_composed", "test_engine", "test_executor", "test_fdi_graph",
-                 "test_fdir_graph", "test_graph", "test_launch_file", "test_node_parameters", "test_node_teardown",
-                 "test_process_lifetime", "test_reproduce", "test_screen_matches_graph", "test_unit_variation",
-                 "test_verdict", "test_wheel_allocation_node"}
-
-
-@pytest.hookimpl(tryfirst=True)   # before xdist reads the groups off the items
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        if item.module.__name__ in GRAPH_MODULES:
-            item.add_marker(pytest.mark.xdist_group("graph"))
+# The modules that start ROS graphs or process pools (each already keeps both cores busy) are marked
+# `graph`: scripts/run_tests.sh runs them one after another in one pytest, and the rest in another beside it.
 
 
 @pytest.fixture(scope="session")

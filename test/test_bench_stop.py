@@ -1,11 +1,14 @@
 """A bench stops on SIGTERM (issue 38): its queued work dropped, its workers ended, in seconds, not after the
 whole queue (ten minutes after SIGTERM, `rw-fdi bench detection` was still running)."""
+import pytest
 import os
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
 
 def children_of(pid: int) -> list:

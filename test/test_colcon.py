@@ -3,11 +3,14 @@ from a directory outside the source tree through the installed executables.
 
 colcon comes from PyPI (requirements.txt); the build takes a few seconds.
 """
+import pytest
 import re
 import subprocess
 import sys
 
 from colcon_ws import BIN, ROOT, colcon_env, sourced
+
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
 NODES = ["composed", "elman_observer", "isolation", "linear_observer", "model_observer", "momentum_dumping",
          "pid_controller", "plant",

@@ -20,6 +20,8 @@ from rw_fdi_ros.storage.compare import bag_differences
 from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
 from rw_fdi_ros.tools.campaigns.run import resolve_scenario
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 SCENARIO = """name: composed
 duration: 80.0
 seed: {seed}

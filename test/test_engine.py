@@ -17,6 +17,8 @@ from rw_fdi_ros.storage.compare import bag_differences
 from rw_fdi_ros.tools.campaigns.campaign import run_campaign
 from rw_fdi_ros.tools.evaluation.evaluate import evaluate
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 SEED0 = 21_000_000   # disjoint from every other seed range (docs/fdi.md "Seeds")
 SCENARIOS = {
     # two manoeuvres on top of the thesis' set-point step, a current loss on y, a hotter z later

@@ -9,6 +9,8 @@ import pytest
 
 from rw_fdi_ros.tools.campaigns.campaign import LocalExecutor
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 
 def test_an_interrupted_map_starts_no_queued_call():
     started, lock, release = [], threading.Lock(), threading.Event()

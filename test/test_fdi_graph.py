@@ -28,6 +28,8 @@ from rw_fdi_ros.storage.bag import read_bag
 from rw_fdi_ros.tools.design.offline import load_models, observe
 from rw_fdi_ros.tools.design.samples import fdi_samples
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 BIN = Path(sys.executable).parent
 SHIPPED = config_dir() / "fdi"
 

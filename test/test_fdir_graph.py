@@ -22,6 +22,8 @@ from rw_fdi_ros.paths import fdi_dir
 from rw_fdi_ros.storage.bag import read_bag
 from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 SCENARIO = """name: fdir_short
 duration: 180.0
 seed: 21000000

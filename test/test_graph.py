@@ -21,6 +21,8 @@ from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.bag import read_bag
 from rw_fdi_ros.tools.campaigns.run import resolve_scenario, run_scenario
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 BIN = Path(sys.executable).parent
 FAULT_RUN = """name: short_faults
 duration: 40.0

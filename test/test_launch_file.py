@@ -28,6 +28,8 @@ from rw_fdi_ros.storage.compare import bag_differences
 from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.tools.campaigns.run import resolve_scenario
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 ROOT = Path(__file__).resolve().parents[1]
 SOURCE_LAUNCH_FILE = ROOT / "launch" / "rw_fdi.launch.py"
 FAULT = """name: {name}

@@ -12,6 +12,8 @@ import pytest
 
 from rw_fdi_ros.core.plant_choices import DEFAULT
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 ROOT = Path(__file__).resolve().parents[1]
 NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime"],
          "elman_observer": ["elman_observer", "observer_node", "runtime"],

@@ -5,14 +5,18 @@ complete bag and empty logs) ends the process by SIGALRM after TEARDOWN_TIMEOUT,
 stack in its log; the launcher reads that exit as done, with a note. A node interrupted while it is
 still importing ends quietly (graph/entry.py), as `ros2 launch` shutting down makes them.
 """
+import os
 import signal
 import subprocess
 import sys
 import time
 
-import os
+import pytest
 
 from rw_fdi_ros.launch.launcher import TEARDOWN_HUNG
+
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 
 TEARDOWN_TIMEOUT = 3   # the test's own (RW_FDI_TEARDOWN_TIMEOUT), not the nodes' 10 s
 
@@ -44,6 +48,7 @@ def test_a_teardown_that_never_returns_ends_by_its_watchdog_with_the_stack_in_th
 SLOW_IMPORT = """
 import time
 from rw_fdi_ros.graph import entry
+
 def slow_import(name):   # a node module still importing its numerics
     print("importing", name, flush=True)
     time.sleep(60)

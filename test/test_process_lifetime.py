@@ -1,10 +1,13 @@
 """The graph's processes die with the `rw-fdi` that started them (issue 39): kill -9 of it leaves none behind."""
+import pytest
 import os
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
 
 def processes_of(parent: int) -> list:

@@ -1,8 +1,8 @@
 """`rw-fdi screen` (node code on the core loop) gives the graph's verdicts, run for run.
 
-17 runs through the full live graph and through the screen: 12 of 130 s
+13 runs through the full live graph and through the screen: 8 of 130 s
 (small faults on every wheel with onsets spread over the run, a ripple
-increase, fault-free runs; two at a time) and the 5 distinct speed-aware
+increase, a fault-free run; two at a time) and the 5 distinct speed-aware
 runs (300 s) that test_fdi_graph judges too (conftest.fdi_runs). Same alarmed
 wheels, same first-alarm times, same verdict from tools.metrics.judge, for
 every observer, and the same fault identification. Two more, of varied
@@ -22,8 +22,10 @@ from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
 from rw_fdi_ros.tools.metrics import judge
 from rw_fdi_ros.tools.evaluation.screen import screen_runs
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 # (kind, value) per run; wheel = index mod 3, onset spread over 30..72 s
-KINDS = [("current_limiter", 0.9)] * 4 + [("temperature", 53.0)] * 3 + [("ripple_gain", 1.6)] * 3 + [None] * 2
+KINDS = [("current_limiter", 0.9)] * 3 + [("temperature", 53.0)] * 2 + [("ripple_gain", 1.6)] * 2 + [None]
 SEED0 = 20_000_000   # disjoint from every other seed range (docs/fdi.md "Seeds")
 
 
@@ -68,7 +70,7 @@ def both(tmp_path_factory, fdi_runs):
     graph += [fdi_runs[k] for k in shared]
     screened += screen_runs([fdi_runs[k].scenario for k in shared], weights, curves,
                             identification=True)   # one batch of its own: longer runs
-    assert len(graph) == len(screened) >= 17
+    assert len(graph) == len(screened) >= 13
     weights, curves = FdiConfig(unit_calibration=150.0).load()
     calibrated_screened = screen_runs([load_scenario(str(f)) for f in units], weights, curves,
                                       calibration_samples=calibration_samples(150.0))

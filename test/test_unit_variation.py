@@ -9,6 +9,8 @@ from rw_fdi_ros.core.plant import Plant
 from rw_fdi_ros.core.scenario import ScenarioError, parse_scenario
 from rw_fdi_ros.core.wheel import DEFAULT_UNIT_SPREAD, UNIT_PARAMETERS, WheelParams, friction_torque, net_torque
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 BASE = "duration: 30\nseed: {seed}\nfaults: []\n"
 
 

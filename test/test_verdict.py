@@ -13,6 +13,9 @@ from rw_fdi_ros.tools.metrics import Series
 from rw_fdi_ros.tools.design.offline import verdict_series
 
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
+
 def rows(alarms, first):
     return {a: (0.1, 1.0, alarm, t) for a, alarm, t in zip("xyz", alarms, first)}
 
@@ -50,6 +53,7 @@ CALL_RESET = """
 import sys, rclpy
 from rclpy.node import Node
 from std_srvs.srv import Trigger
+
 rclpy.init()
 node = Node("operator")
 client = node.create_client(Trigger, "/isolation/reset")

@@ -7,6 +7,8 @@ import pytest
 
 from rw_fdi_ros.storage.cdr import joint_state_cdr, vector_cdr
 
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
 
 @pytest.fixture()
 def node(monkeypatch):
