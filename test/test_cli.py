@@ -21,7 +21,8 @@ BENCH_SHARED = {"--out": ["detection", "identification", "units", "memory", "ope
                 "--runs-per-cell": ["detection", "identification", "units", "operations", "recovery", "dumping"],
                 "--seed": ["graph", "fdi", "study", "memory", "dumping"],
                 "--duration": ["graph", "fdi", "study"],
-                "--jobs": ["study", "service"]}
+                "--jobs": ["study", "detection", "identification", "units", "operations", "dumping", "service"],
+                "--scheduler": ["detection", "identification", "units", "operations", "dumping", "service"]}
 
 
 def subcommands(parser) -> dict:
