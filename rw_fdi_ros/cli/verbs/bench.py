@@ -22,7 +22,10 @@ def _options() -> dict:
     option("--service-runs", type=COUNT, default=1000,
            help="service: in-service runs, each drawn from its seed (default 1000)")
     option("--max-hours", type=number(float, 0, 6, low_open=True), default=None,
-           help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h)")
+           help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h); scaling: "
+                "the same (default 0.25)")
+    option("--scaling-runs", type=COUNT, default=12,
+           help="scaling: in-service runs timed on each worker count (default 12)")
     option("--day-hours", type=number(float, 0, 240, low_open=True), default=24.0,
            help="dumping: the length of the day in orbit [h] (default 24)")
     option("--orbit-runs", type=COUNT, default=20,
@@ -140,6 +143,16 @@ def _service(args) -> dict:
                              fault_free_runs=args.fault_free_runs)
 
 
+def _scaling(args) -> dict:
+    from tqdm import tqdm
+    from ...tools.benches.scaling_bench import bench_scaling
+    workers = (1, 2)
+    with tqdm(total=args.scaling_runs * (1 if args.scheduler else len(workers)), desc="scaling bench (core loop)",
+              unit="run", file=sys.stderr) as bar:
+        return bench_scaling(runs=args.scaling_runs, max_hours=args.max_hours or 0.25, workers=workers,
+                             scheduler=args.scheduler, progress=bar.update)
+
+
 def _figures(args) -> dict:
     from ...tools.benches.figures_check import check_figures
 
@@ -178,6 +191,9 @@ BENCHES = [
      "faults of every kind, size, wheel, onset and ramp, second faults, orbit with dumping, 600 s to 6 h; "
      "reconfigurations without a fault, the right wheel acted on, pointing kept, identification; core loop)",
      ("--service-runs", "--fault-free-runs", "--max-hours", "--seed-set", "--out", *POOL), _service),
+    ("scaling", "in-service runs per second on 1 and 2 local workers (or a Dask cluster's) and the wall time "
+     "projected for 100,000 in-service runs (core loop)", ("--scaling-runs", "--max-hours", "--scheduler"),
+     _scaling),
     ("figures", "every figure of the README's table re-measured at small n (about 12 min), printed beside the "
      "README's and the record's, flagged where the two disagree beyond chance", ("--only",), _figures),
 ]
