@@ -17,6 +17,8 @@ naming the node ("Caught exception in launch ...: <node> exited with code N").
 test/test_launch_file.py runs this file under the real launch and launch_ros.
 
     ros2 launch rw_fdi_ros rw_fdi.launch.py scenario:=bus_5v5_x seed:=3 bag:=bags/demo
+    ros2 launch rw_fdi_ros rw_fdi.launch.py models:=my_fdi/ unit_calibration:=150 use_sim_time:=true \
+        params_file:=my_params.yaml
 """
 import os
 
@@ -42,16 +44,27 @@ def _nodes(context):
     seed = int(LaunchConfiguration("seed").perform(context))
     scenario, path = resolve_scenario(LaunchConfiguration("scenario").perform(context), seed if seed >= 0 else None)
     bag = LaunchConfiguration("bag").perform(context) or None
-    fdi = LaunchConfiguration("fdi").perform(context).lower() in ("true", "1", "yes")
-    method = LaunchConfiguration("fdi_method").perform(context)
-    fdir = LaunchConfiguration("fdir").perform(context).lower() in ("true", "1", "yes")
-    nodes = graph_nodes(scenario, path, bag, fdi={"method": method, "fdir": fdir} if fdi else None)
-    groups = processes(nodes, LaunchConfiguration("compose").perform(context))
-    # a composed process reads every node's parameters from one file, keyed by node name (our launcher's)
+    def arg(name):
+        return LaunchConfiguration(name).perform(context)
+
+    def flag(name):
+        return arg(name).lower() in ("true", "1", "yes")
+    # the FDI as every command takes it (rw_fdi_ros/fdi_config.py): a bad value is one line before any node
+    fdi = {"method": arg("fdi_method"), "fdir": flag("fdir"), "models": arg("models") or None,
+           "thresholds": arg("thresholds") or None, "persistence": int(arg("persistence")) or None,
+           "unit_calibration": float(arg("unit_calibration"))} if flag("fdi") else None
+    nodes = graph_nodes(scenario, path, bag, fdi=fdi)
+    if flag("use_sim_time"):   # every node's clock follows the plant's /clock
+        for node in nodes:
+            node.parameters["use_sim_time"] = True
+    groups = processes(nodes, arg("compose"))
+    # a composed process reads every node's parameters from one file, keyed by node name (our launcher's);
+    # a user's parameters file comes after ours, so its values win
     params = write_params_file(nodes, os.path.join(tempfile.mkdtemp(prefix="rw_fdi_launch_"), "params.yaml"))
+    user = [os.path.abspath(arg("params_file"))] if arg("params_file") else []
     actions = [Node(package="rw_fdi_ros", executable=p.nodes[0].executable, name=p.name,
-                    parameters=[p.nodes[0].parameters], output="screen") if len(p.nodes) == 1 else
-               Node(package="rw_fdi_ros", executable="composed", parameters=[str(params)], output="screen",
+                    parameters=[p.nodes[0].parameters, *user], output="screen") if len(p.nodes) == 1 else
+               Node(package="rw_fdi_ros", executable="composed", parameters=[str(params), *user], output="screen",
                     arguments=[f"{n.name}={n.executable}" for n in p.nodes]) for p in groups]
     return actions + [RegisterEventHandler(OnProcessExit(target_action=a, on_exit=_on_exit(p.name)))
                       for a, p in zip(actions, groups)]
@@ -84,5 +97,17 @@ def generate_launch_description():
                                           " (none: every node its own process)"),
         DeclareLaunchArgument("fdir", default_value="true",
                               description="give up a wheel the FDI confirms faulty and bring the redundant one in"),
+        DeclareLaunchArgument("models", default_value="", description="Elman model directory (empty: shipped)"),
+        DeclareLaunchArgument("thresholds", default_value="",
+                              description="threshold directory (empty: the models' when given, else shipped)"),
+        DeclareLaunchArgument("persistence", default_value="0",
+                              description="samples above the threshold before an alarm (0: the threshold file's)"),
+        DeclareLaunchArgument("unit_calibration", default_value="0",
+                              description="seconds each observer learns its wheel's unit from (0: the datasheet)"),
+        DeclareLaunchArgument("use_sim_time", default_value="false",
+                              description="every node's clock follows /clock (the plant's simulated time)"),
+        DeclareLaunchArgument("params_file", default_value="",
+                              description="a ROS 2 parameters file applied to every node after ours (node names "
+                                          "or /** as keys)"),
         OpaqueFunction(function=_nodes),
     ])

@@ -115,9 +115,31 @@ def test_a_bag_is_what_rosbag2_writes_and_rosbags_reads_it(tmp_path):
         assert "offered_qos_profiles" in next(iter(summary.channels.values())).metadata
         assert [m.name for m in reader.iter_metadata()] == ["rosbag2"]
     with Reader(tmp_path / "r") as reader:
-        assert reader.message_count == 25 and reader.ros_distro == "rw_fdi_ros"
+        assert reader.message_count == 25 and reader.ros_distro == "kilted"
         got = [typestore().deserialize_cdr(raw, c.msgtype).vector.x for c, _, raw in reader.messages()]
     assert got == [float(k) for k in range(25)]
+
+
+def test_a_recorded_topic_keeps_the_qos_it_was_offered_with(tmp_path):
+    """The recorder's QoS in rosbag2's v9 form, in metadata.yaml and in the MCAP channel (issue 38): rosbags
+    (as ros2 bag play would) reads a latched topic back as transient-local, a per-step one as volatile."""
+    from rosbags.interfaces import QosDurability, QosReliability
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
+
+    from rw_fdi_ros.graph import topics as T
+    from rw_fdi_ros.graph.convert import offered_qos
+    from rw_fdi_ros.storage.writer import BagWriter
+    w = BagWriter(tmp_path / "q")
+    w.add_topic(T.SCENARIO, "std_msgs/msg/String", offered_qos(T.LATCHED))
+    w.add_topic(T.CLOCK, "rosgraph_msgs/msg/Clock", offered_qos(T.RELIABLE))
+    w.write_message(T.SCENARIO, 0, String(data="name: x"))
+    w.close()
+    with Reader(tmp_path / "q") as reader:
+        qos = {c.topic: c.ext.offered_qos_profiles[0] for c in reader.connections}
+    assert qos[T.SCENARIO].durability == QosDurability.TRANSIENT_LOCAL and qos[T.SCENARIO].depth == 1
+    assert qos[T.CLOCK].durability == QosDurability.VOLATILE and qos[T.CLOCK].depth == 1000
+    assert {q.reliability for q in qos.values()} == {QosReliability.RELIABLE}
 
 
 def _mixed_bag(path, close=True):

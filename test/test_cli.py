@@ -21,7 +21,9 @@ BENCH_SHARED = {"--out": ["detection", "identification", "units", "memory", "ope
                 "--runs-per-cell": ["detection", "identification", "units", "operations", "recovery", "dumping"],
                 "--seed": ["graph", "fdi", "study", "memory", "dumping"],
                 "--duration": ["graph", "fdi", "study"],
-                "--jobs": ["study", "service"]}
+                "--jobs": ["study", "detection", "identification", "units", "operations", "dumping", "service"],
+                "--scheduler": ["detection", "identification", "units", "operations", "dumping", "service", "scaling"],
+                "--max-hours": ["service", "scaling"]}
 
 
 def subcommands(parser) -> dict:
@@ -163,3 +165,23 @@ def test_screen_json_and_table_give_the_counts_and_one_row_a_run(tmp_path, capsy
     rows = list(csv.DictReader(table.open()))
     assert [r["seed"] for r in rows] == ["1", "2"]
     assert all(r["verdict.correct"] == "True" and r["identification.x.kind"] == "current_loss" for r in rows)
+
+
+def test_the_scaling_bench_times_the_same_runs_on_each_worker_count(monkeypatch):
+    """`bench scaling` (issue 38): the same in-service runs on 1 and 2 local workers, runs per second and the
+    projection for 100,000 runs from the simulated hours per wall second (run_service replaced: no simulation)."""
+    from rw_fdi_ros.tools.benches import scaling_bench
+    seen = []
+
+    def fake(seeds, executor, progress, max_duration):
+        seen.append((list(seeds), executor.jobs, max_duration))
+        return [{"seed": s} for s in seeds]
+    monkeypatch.setattr(scaling_bench, "run_service", fake)
+    report = scaling_bench.bench_scaling(runs=3, max_hours=0.25)
+    assert [jobs for _, jobs, _ in seen] == [1, 2] and seen[0][0] == seen[1][0] == list(range(93_000_000, 93_000_003))
+    assert seen[0][2] == 900.0 and report["ok"] and len(report["rows"]) == 2
+    family = report["family_h_per_run"]
+    assert abs(family - 2202.0 / 3600.0) < 1e-9   # service_bench.DURATIONS: 0.7 x 600 s + ... + 0.03 x 6 h
+    for row in report["rows"]:
+        assert abs(row["projected_h"] * 3600.0 * row["simulated_h_per_wall_s"] - 100_000 * family) < 1e-6
+    assert "100,000 runs in" in report["text"]

@@ -44,7 +44,10 @@ def scenario_file(tmp_path_factory):
 def runs(scenario_file, tmp_path_factory):
     """seed 5 alone; then seeds 5 and 6 at the same time (two domains)."""
     out = tmp_path_factory.mktemp("bags")
-    alone = run_scenario(str(scenario_file), seed=5, out_dir=out, name="alone")
+    told = []
+    alone = run_scenario(str(scenario_file), seed=5, out_dir=out, name="alone",
+                         progress=lambda t, duration: told.append((t, duration)))
+    alone.told = told
     results = {}
     threads = [threading.Thread(target=lambda s=s, n=n: results.__setitem__(n, run_scenario(
         str(scenario_file), seed=s, out_dir=out, name=n))) for s, n in ((5, "twin"), (6, "other"))]
@@ -66,6 +69,16 @@ def decoded(bag_path):
         else:
             out[topic] = [repr(m) for _, m in rows]
     return out
+
+
+def test_a_run_tells_how_far_it_is_each_wall_second(runs):
+    """The plant writes its simulated time about once a wall second and the launcher passes it on
+    (`rw-fdi run` shows it as a bar): rising, within the run's 40 s."""
+    alone, _, _ = runs
+    assert alone.ok, alone.reason
+    assert alone.told or alone.wall_time < 3.0, alone.wall_time
+    times = [t for t, _ in alone.told]
+    assert times == sorted(times) and all(0.0 <= t <= 40.0 and d == 40.0 for t, d in alone.told), alone.told
 
 
 def test_fault_run_records_every_topic_readable_by_rosbags_and_mcap(runs):

@@ -227,9 +227,10 @@ def _launch_file_module():
     return module
 
 
-def parameter_files(overrides: dict) -> list:
+def parameter_files(overrides: dict, every: bool = False) -> list:
     """(node name, executable, params file launch_ros writes) of the launch file's nodes for ``overrides``:
-    the real launch context, the file's OpaqueFunction, launch_ros' own substitution of parameters."""
+    the real launch context, the file's OpaqueFunction, launch_ros' own substitution of parameters.
+    ``every``: each node's whole list of parameter files (ours, then a user's params_file) instead."""
     use_launch()
     from launch import LaunchContext
     from launch.actions import DeclareLaunchArgument, OpaqueFunction
@@ -248,8 +249,9 @@ def parameter_files(overrides: dict) -> list:
         if isinstance(action, Node):
             action._perform_substitutions(context)
             files = action._Node__expanded_parameter_arguments
-            assert len(files) == 1 and files[0][1], files
-            out.append((action.node_name.rsplit("/", 1)[-1], action.node_executable, files[0][0]))
+            assert every or (len(files) == 1 and files[0][1]), files
+            out.append((action.node_name.rsplit("/", 1)[-1], action.node_executable,
+                        [f for f, _ in files] if every else files[0][0]))
     return out
 
 
@@ -285,7 +287,9 @@ def _rcl_type(value) -> str:
 @pytest.mark.parametrize("overrides, fdi, bag", [
     ({"scenario": "bus_5v5_x", "seed": "3", "bag": "bags/demo"}, {"method": "speed_aware"}, "bags/demo"),
     ({"scenario": "fault_free", "fdi": "false"}, None, None),
-    ({"scenario": "current_0p6_x", "fdi_method": "thesis"}, {"method": "thesis"}, None)])
+    ({"scenario": "current_0p6_x", "fdi_method": "thesis"}, {"method": "thesis"}, None),
+    ({"scenario": "current_0p6_x", "models": str(ROOT / "config" / "fdi"), "persistence": "4"},
+     {"models": str(ROOT / "config" / "fdi"), "persistence": 4}, None)])
 def test_rcl_reads_our_launchers_parameters_from_the_files_launch_ros_writes(overrides, fdi, bag):
     files = parameter_files(overrides)
     seed = int(overrides.get("seed", "-1"))
@@ -330,3 +334,17 @@ def test_strings_yaml_would_retype_reach_a_node_intact_through_our_params_file(t
     got = rcl_reads([("probe", str(path))])["probe"]
     for name, value in values.items():
         assert got[name] == [_rcl_type(value), value], (name, value, got.get(name))
+
+
+def test_use_sim_time_and_a_users_parameters_file_reach_every_node(tmp_path):
+    """use_sim_time:=true sets every node's use_sim_time (rcl reads it back from launch_ros' file), and
+    params_file:=FILE comes after ours for every node, so a user's value wins (issue 38: ROS 2 habits)."""
+    mine = tmp_path / "mine.yaml"
+    mine.write_text("/**:\n  ros__parameters:\n    command_timeout: 9.0\n")
+    files = parameter_files({"scenario": "fault_free", "use_sim_time": "true", "params_file": str(mine)}, every=True)
+    assert len(files) >= 10 and all(paths[-1] == str(mine) for _, _, paths in files), files
+    for name, _, paths in files:   # launch_ros' own file (PyYAML with python tags: read as text)
+        assert "use_sim_time: true" in Path(paths[0]).read_text(), name
+    plain = parameter_files({"scenario": "fault_free"})
+    assert all("use_sim_time" not in Path(path).read_text() for _, _, path in plain)
+

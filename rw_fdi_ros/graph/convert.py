@@ -83,3 +83,18 @@ def wheel_states_msg(stamp: int, reconfiguration: Reconfiguration, names) -> Dia
             [KeyValue(key="since", value=f"{d.time:g}"), KeyValue(key="reason", value=d.reason)] if d else [])
         msg.status.append(status)
     return msg
+
+
+def offered_qos(profile) -> dict:
+    """An rclpy QoSProfile in rosbag2's metadata form (version 9: policies by name, durations as sec/nsec),
+    what a recorded topic was offered with: a player offers the same (a latched topic latched again)."""
+    def duration(d):
+        sec, nsec = divmod(int(d.nanoseconds), 1_000_000_000)
+        return {"sec": sec, "nsec": nsec}
+    return {"history": profile.history.name.lower(), "depth": int(profile.depth),
+            "reliability": profile.reliability.name.lower(), "durability": profile.durability.name.lower(),
+            "deadline": duration(profile.deadline), "lifespan": duration(profile.lifespan),
+            "liveliness": profile.liveliness.name.lower(),
+            "liveliness_lease_duration": duration(profile.liveliness_lease_duration),
+            "avoid_ros_namespace_conventions": bool(profile.avoid_ros_namespace_conventions)}
+

@@ -163,6 +163,8 @@ class GraphProcesses:
         self.work_dir = Path(work_dir)
         self.work_dir.mkdir(parents=True, exist_ok=True)
         self.env = ros_environment(domain_id, self.work_dir / "ros_log")
+        # where the plant says how far the run is (simulated seconds), about once a wall second
+        self.progress_file = self.env["RW_FDI_PROGRESS"] = str(self.work_dir / "progress")
         self.python = python
         self.procs = {}
 
@@ -189,16 +191,19 @@ class GraphProcesses:
         stop_processes([self.procs[n] for n in last if n in self.procs], grace=10.0)
 
     def run(self, main: str = "plant", watchdog: float = 600.0, finisher: str | None = "recorder",
-            finish_timeout: float = 30.0) -> GraphResult:
+            finish_timeout: float = 30.0, progress=None) -> GraphResult:
         """Wait for the process of node ``main`` to end; then for ``finisher``'s; any other essential death
-        fails the run."""
-        t0 = time.monotonic()
+        fails the run. ``progress(simulated_s, duration_s)`` is told how far the plant is, each wall second."""
+        t0 = told = time.monotonic()
         essential = {p.name for p in self.processes if p.essential}
         main = self.process_of.get(main, main)
         finisher = self.process_of.get(finisher, finisher) if finisher else None
         try:
             while True:
                 time.sleep(0.02)
+                if progress and time.monotonic() - told >= 1.0:
+                    told = time.monotonic()
+                    self._tell(progress)
                 main_code = self.procs[main].poll()
                 # a clean exit (0) is a node that saw the run end; a missing peer makes the plant time out
                 dead = [n for n in essential if n != main and self.procs[n].poll() not in (None, 0, TEARDOWN_HUNG)]
@@ -231,6 +236,13 @@ class GraphProcesses:
             return self._fail("interrupted", t0)
         finally:
             self.stop_all()
+
+    def _tell(self, progress):
+        try:
+            simulated, duration = map(float, Path(self.progress_file).read_text().split())
+        except (OSError, ValueError):   # not written yet, or being replaced
+            return
+        progress(simulated, duration)
 
     def teardown_hung(self) -> list:
         """The nodes that did their work and were ended by their teardown watchdog (a note, not a failure)."""

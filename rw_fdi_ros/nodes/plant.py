@@ -14,6 +14,7 @@ five FDI nodes read one message a second instead of three a step each.
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
@@ -91,6 +92,7 @@ class PlantNode(GraphNode):
         if self.param("seed") >= 0:
             scenario = scenario.with_seed(self.param("seed"))
         self.duration = self.param("duration") or scenario.duration
+        self.progress_file, self.progress_at = os.environ.get("RW_FDI_PROGRESS"), 0.0
         self.period = self.choices.control_period
         self.last_step = int(round(self.duration / self.period))
         self.scenario = scenario
@@ -218,6 +220,12 @@ class PlantNode(GraphNode):
         tcv, self.tcv, self.dipole = self.tcv, None, None
         t0 = wall_time()
         sample = self.plant.step(tcv)
+        if self.progress_file and t0 - self.progress_at >= 1.0:   # our launcher shows it (launcher.run)
+            self.progress_at = t0
+            tmp = f"{self.progress_file}.tmp"
+            with open(tmp, "w") as fh:
+                fh.write(f"{self.plant.time:.3f} {self.duration:.3f}\n")
+            os.replace(tmp, self.progress_file)
         self.compute_wall.append(wall_time() - t0)
         self.step_wall.append(t0 - self.t_wait)
         self._publish(sample)

@@ -25,6 +25,7 @@ from std_msgs.msg import String
 from ..storage.bag import BagError
 from ..storage.writer import BagWriter
 from ..storage.cdr import header_stamp_ns
+from ..graph.convert import offered_qos
 from ..graph import topics as T
 from ..core.wheel_set import DEFAULT_WHEEL_SET
 from ..core.environment import MAGNETOMETER_PERIOD
@@ -95,8 +96,8 @@ class RecorderNode(GraphNode):
             self.bag = BagWriter(self.outputs[self.output_index], int(self.param("flush_period") * 1e9))
         except BagError as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
-        for name, type_name, _ in self.rows:
-            self.bag.add_topic(name, type_name)
+        for name, type_name, qos in self.rows:
+            self.bag.add_topic(name, type_name, offered_qos(qos))
         self.bag.set_custom_data("engine", "graph")   # which engine recorded the run (the core loop can too)
         self.last_stamp = {}
         self.done_stamp = None

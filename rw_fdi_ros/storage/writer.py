@@ -16,6 +16,7 @@ or metadata.yaml, and bag.iter_messages reads it up to its last chunk.
 """
 from __future__ import annotations
 
+import os
 from importlib.metadata import version
 from pathlib import Path
 
@@ -24,7 +25,7 @@ import yaml
 from .bag import BagError, typestore
 
 BAG_VERSION = 9                # rosbag2 metadata version (Jazzy and later)
-QOS_PROFILES = []              # offered_qos_profiles: none recorded (what rosbags wrote too)
+ROS_DISTRO = os.environ.get("ROS_DISTRO") or "kilted"   # the ros-kilted-* wheels set none
 
 
 class BagWriter:
@@ -50,13 +51,16 @@ class BagWriter:
         self.next_flush = flush_period_ns
         self.count = 0
 
-    def add_topic(self, topic: str, type_name: str):
+    def add_topic(self, topic: str, type_name: str, qos: dict | None = None):
+        """``qos``: the profile the topic is offered with, in rosbag2's v9 form (graph.convert.offered_qos), so
+        that a player offers it again (a latched /scenario re-latched); None: none recorded."""
         if type_name not in self.schemas:
             msgdef, _ = typestore().generate_msgdef(type_name, ros_version=2)
             self.schemas[type_name] = self.writer.register_schema(type_name, "ros2msg", msgdef.encode())
-        qos = yaml.safe_dump(QOS_PROFILES, default_flow_style=True).strip()
-        channel = self.writer.register_channel(topic, "cdr", self.schemas[type_name], {"offered_qos_profiles": qos})
-        self.channels[topic] = (channel, type_name)
+        profiles = [qos] if qos else []
+        channel = self.writer.register_channel(topic, "cdr", self.schemas[type_name], {
+            "offered_qos_profiles": yaml.safe_dump(profiles, sort_keys=False).strip() if profiles else ""})
+        self.channels[topic] = (channel, type_name, profiles)
         self.counts[topic] = 0
 
     def write(self, topic: str, log_time_ns: int, raw: bytes):
@@ -92,14 +96,14 @@ class BagWriter:
             "message_count": self.count,
             "topics_with_message_count": [
                 {"topic_metadata": {"name": topic, "type": type_name, "serialization_format": "cdr",
-                                    "offered_qos_profiles": list(QOS_PROFILES),
+                                    "offered_qos_profiles": list(profiles),
                                     "type_description_hash": store.hash_rihs01(type_name)},
                  "message_count": self.counts[topic]}
-                for topic, (_, type_name) in self.channels.items()],
+                for topic, (_, type_name, profiles) in self.channels.items()],
             "compression_format": "", "compression_mode": "",
             "files": [{"path": self.file.name, "starting_time": {"nanoseconds_since_epoch": start},
                        "duration": {"nanoseconds": duration}, "message_count": self.count}],
-            "custom_data": dict(self.custom_data) or None, "ros_distro": "rw_fdi_ros",
+            "custom_data": dict(self.custom_data) or None, "ros_distro": ROS_DISTRO,
         }
 
     def close(self):

@@ -4,7 +4,7 @@ import argparse
 import json
 import sys
 
-from ..options import COUNT, SEED, number
+from ..options import COUNT, SEED, executor, number
 
 NAME = "bench"
 HELP = "benchmarks that print figures"
@@ -22,7 +22,10 @@ def _options() -> dict:
     option("--service-runs", type=COUNT, default=1000,
            help="service: in-service runs, each drawn from its seed (default 1000)")
     option("--max-hours", type=number(float, 0, 6, low_open=True), default=None,
-           help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h)")
+           help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h); scaling: "
+                "the same (default 0.25)")
+    option("--scaling-runs", type=COUNT, default=12,
+           help="scaling: in-service runs timed on each worker count (default 12)")
     option("--day-hours", type=number(float, 0, 240, low_open=True), default=24.0,
            help="dumping: the length of the day in orbit [h] (default 24)")
     option("--orbit-runs", type=COUNT, default=20,
@@ -46,7 +49,10 @@ def _options() -> dict:
            help="operations, recovery, service: the seeds of record (default) or the ones the design "
                 "was chosen on")
     option("--runs", type=COUNT, default=8, help="study: runs to record and replay")
-    option("--jobs", type=COUNT, default=None, help="study, service: processes at a time (default: 2)")
+    option("--jobs", type=COUNT, default=None,
+           help="local processes (study: graphs) at a time (default: one per core, at most 2)")
+    option("--scheduler", default=None,
+           help="dask.distributed scheduler address: run the bench's runs on that cluster instead")
     option("--duration", type=number(float, 0, low_open=True), default=400.0)
     option("--seed", type=SEED, default=1)
     option("--only", default=None,
@@ -74,14 +80,14 @@ def _study(args) -> dict:
 def _detection(args) -> dict:
     from ...tools.benches.detection_bench import bench_detection
     return bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
-                           out=args.out or "reports/detection")
+                           out=args.out or "reports/detection", executor=executor(args))
 
 
 def _identification(args) -> dict:
     from ...tools.benches.identification_bench import bench_identification
     default_out = "reports/identification_units" if args.units else "reports/identification"
     return bench_identification(runs_per_cell=args.runs_per_cell or (200 if args.units else 100),
-                                out=args.out or default_out, units=args.units,
+                                out=args.out or default_out, units=args.units, executor=executor(args),
                                 **({"thesis_runs": args.thesis_runs, "bus_thesis_runs": args.thesis_runs * 17 // 10}
                                    if args.thesis_runs else {}))
 
@@ -89,7 +95,7 @@ def _identification(args) -> dict:
 def _units(args) -> dict:
     from ...tools.benches.units_bench import bench_units
     return bench_units(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
-                       out=args.out or "reports/units")
+                       out=args.out or "reports/units", executor=executor(args))
 
 
 def _memory(args) -> dict:
@@ -106,7 +112,8 @@ def _memory(args) -> dict:
 def _operations(args) -> dict:
     from ...tools.benches.operations_bench import bench_operations
     return bench_operations(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
-                            hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations")
+                            hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations",
+                            executor=executor(args))
 
 
 def _recovery(args) -> dict:
@@ -122,7 +129,8 @@ def _recovery(args) -> dict:
 def _dumping(args) -> dict:
     from ...tools.benches.dumping_bench import bench_dumping
     return bench_dumping(hours=args.day_hours, seed=args.seed, operations_runs=args.orbit_runs,
-                         runs_per_cell=args.runs_per_cell or 100, out=args.out or "reports/dumping")
+                         runs_per_cell=args.runs_per_cell or 100, out=args.out or "reports/dumping",
+                         executor=executor(args))
 
 
 def _service(args) -> dict:
@@ -131,8 +139,18 @@ def _service(args) -> dict:
     with tqdm(total=args.service_runs + args.fault_free_runs, desc="service bench (core loop)", unit="run",
               file=sys.stderr) as bar:
         return bench_service(runs=args.service_runs, seeds=args.seed_set, out=args.out or "reports/service",
-                             jobs=args.jobs or 2, progress=bar.update, max_hours=args.max_hours,
+                             executor=executor(args), progress=bar.update, max_hours=args.max_hours,
                              fault_free_runs=args.fault_free_runs)
+
+
+def _scaling(args) -> dict:
+    from tqdm import tqdm
+    from ...tools.benches.scaling_bench import bench_scaling
+    workers = (1, 2)
+    with tqdm(total=args.scaling_runs * (1 if args.scheduler else len(workers)), desc="scaling bench (core loop)",
+              unit="run", file=sys.stderr) as bar:
+        return bench_scaling(runs=args.scaling_runs, max_hours=args.max_hours or 0.25, workers=workers,
+                             scheduler=args.scheduler, progress=bar.update)
 
 
 def _figures(args) -> dict:
@@ -145,6 +163,7 @@ def _figures(args) -> dict:
     return check_figures(benches=args.only.split(",") if args.only else None, progress=said)
 
 
+POOL = ("--jobs", "--scheduler")   # where a Monte-Carlo bench's runs go (campaign.make_executor)
 # name, what it measures (its help), the options it reads besides --json, what runs it (its report)
 BENCHES = [
     ("graph", "real-time factor of a recorded fault-free run", ("--duration", "--seed"), _graph),
@@ -152,26 +171,29 @@ BENCHES = [
     ("study", "record and replay throughput and the thesis-scale reproduce time they give",
      ("--runs", "--duration", "--seed", "--jobs"), _study),
     ("detection", "false-alarm and detection rates with 95 %% intervals on >= 1000 held-out runs, both FDI methods "
-     "(core loop)", ("--fault-free-runs", "--runs-per-cell", "--out"), _detection),
+     "(core loop)", ("--fault-free-runs", "--runs-per-cell", "--out", *POOL), _detection),
     ("identification", "fault kind and size per kind and size, confusion matrix (core loop)",
-     ("--runs-per-cell", "--units", "--thesis-runs", "--out"), _identification),
+     ("--runs-per-cell", "--units", "--thesis-runs", "--out", *POOL), _identification),
     ("units", "the detection cells on wheels drawn around the datasheet and on the datasheet wheel, with and "
-     "without unit calibration (core loop)", ("--fault-free-runs", "--runs-per-cell", "--out"), _units),
+     "without unit calibration (core loop)", ("--fault-free-runs", "--runs-per-cell", "--out", *POOL), _units),
     ("memory", "peak memory of the run summary, `rw-fdi bag` and evaluation for fault-free runs of --hours "
      "(recorded, minutes)", ("--hours", "--seed", "--out"), _memory),
     ("operations", "every observer and the /diagnostics verdict in operations (manoeuvres at random times, "
      "hours-long runs, faults a manoeuvre follows, bus drops that tumble an axis; core loop)",
-     ("--fault-free-runs", "--runs-per-cell", "--hours-runs", "--seed-set", "--out"), _operations),
+     ("--fault-free-runs", "--runs-per-cell", "--hours-runs", "--seed-set", "--out", *POOL), _operations),
     ("recovery", "the redundant wheel taking over from a wheel the FDI confirmed faulty (pointing back within "
      "0.2 deg, peak error, time to recover; FDI and FDIR in the core loop)",
      ("--runs-per-cell", "--fault-free-runs", "--seed-set", "--out"), _recovery),
     ("dumping", "a day in orbit with the magnetorquers dumping and with them off (wheel speed band, pointing, when "
      "the wheels saturate; a plot), the FDI through hours of dumping and faults during a dump (core loop)",
-     ("--day-hours", "--orbit-runs", "--runs-per-cell", "--seed", "--out"), _dumping),
+     ("--day-hours", "--orbit-runs", "--runs-per-cell", "--seed", "--out", *POOL), _dumping),
     ("service", "FDIR in service, every capability at once (units and datasheet wheels, manoeuvres before and after "
      "faults of every kind, size, wheel, onset and ramp, second faults, orbit with dumping, 600 s to 6 h; "
      "reconfigurations without a fault, the right wheel acted on, pointing kept, identification; core loop)",
-     ("--service-runs", "--fault-free-runs", "--max-hours", "--seed-set", "--jobs", "--out"), _service),
+     ("--service-runs", "--fault-free-runs", "--max-hours", "--seed-set", "--out", *POOL), _service),
+    ("scaling", "in-service runs per second on 1 and 2 local workers (or a Dask cluster's) and the wall time "
+     "projected for 100,000 in-service runs (core loop)", ("--scaling-runs", "--max-hours", "--scheduler"),
+     _scaling),
     ("figures", "every figure of the README's table re-measured at small n (about 12 min), printed beside the "
      "README's and the record's, flagged where the two disagree beyond chance", ("--only",), _figures),
 ]

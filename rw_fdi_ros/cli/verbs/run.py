@@ -44,12 +44,18 @@ def main(args) -> int:
                  + ("model observer, " if args.fdi_method == "speed_aware" else "") + "isolation, recorder")
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
           f" ({nodes}; private DDS domain)", flush=True, file=sys.stderr if args.json else sys.stdout)
-    common = dict(seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs, emf_limit=args.emf_limit,
-                  command_timeout=args.command_timeout)
-    if args.fdi:
-        outcome = run_with_fdi(args.scenario, fdi=fdi, figure=True, **common)
-    else:
-        outcome = run_scenario(args.scenario, **common)
+    from tqdm import tqdm
+    # the simulated time as it goes (the plant's, once a wall second): a day in orbit takes minutes
+    with tqdm(total=round(scenario.duration), desc="simulated", unit="s", file=sys.stderr, disable=None,
+              bar_format="{desc}: {n:.0f}/{total:.0f} s |{bar}| {elapsed} wall") as bar:
+        def progress(simulated, duration):
+            bar.update(min(simulated, duration) - bar.n)
+        common = dict(seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs, emf_limit=args.emf_limit,
+                      command_timeout=args.command_timeout, progress=progress)
+        if args.fdi:
+            outcome = run_with_fdi(args.scenario, fdi=fdi, figure=True, **common)
+        else:
+            outcome = run_scenario(args.scenario, **common)
     if args.json:
         print(dumps({"ok": outcome.ok, "reason": outcome.reason, "bag": str(outcome.bag),
                      "wall_time_s": outcome.wall_time, "summary": outcome.summary}))

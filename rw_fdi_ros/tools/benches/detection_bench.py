@@ -21,7 +21,8 @@ from pathlib import Path
 from ...fdi_config import FdiConfig
 from ..metrics import observable_level
 from ..evaluation.screen import screen_sets
-from .kit import ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, format_rate, screen_cells, write_report
+from .kit import (ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, format_rate, screen_cells, workers,
+                  write_report)
 
 
 CELLS = (
@@ -70,14 +71,14 @@ def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: s
 
 
 def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/detection",
-                    jobs: int = 2) -> dict:
+                    executor=None) -> dict:
     sets = _fdi_sets()
     levels = observable_levels(sets)
     t0 = time.monotonic()
     sizes = cell_sizes(fault_free_runs, runs_per_cell)
-    judged = screen_cells(sizes, _judge_chunk, "detection bench (core loop + node code)", jobs)
+    judged = screen_cells(sizes, _judge_chunk, "detection bench (core loop + node code)", executor)
     results = cell_results(judged, sizes, SEED_BASE, levels, "methods")
-    report = {"schema": "rw_fdi_ros/detection_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
+    report = {"schema": "rw_fdi_ros/detection_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
               "date": time.strftime("%Y-%m-%d"),
               "fault_free_runs": fault_free_runs, "runs_per_cell": runs_per_cell, "seed_base": SEED_BASE,
               "onset_range_s": ONSET_RANGE,

@@ -30,7 +30,7 @@ from ...core.plant_choices import DEFAULT
 from ...core.magnetorquers import DumpLog, MomentumDumping
 from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.wheel import WheelParams
-from .kit import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
+from .kit import workers, SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
 from ..metrics import observable_level
 
 SEED_BASE = 87_000_000   # docs/fdi.md "Seeds": no other bench, training or fitting uses them
@@ -195,13 +195,13 @@ def dumping_of(scenario, traj, b: int) -> SimpleNamespace:
 
 
 def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20, runs_per_cell: int = 100,
-                  out: str | Path = "reports/dumping", jobs: int = 2) -> dict:
+                  out: str | Path = "reports/dumping", executor=None) -> dict:
     t0 = time.monotonic()
     day = bench_day(hours, seed, Path(out))
     _, curves = FdiConfig().load()
     level = observable_level(curves)
     sizes = [operations_runs if c.kind is None else runs_per_cell for c in CELLS]
-    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, SEED_BASE, dumping_of), "dumping bench (FDI)", jobs,
+    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, SEED_BASE, dumping_of), "dumping bench (FDI)", executor,
                           chunk=10)
     cells = {}
     for i, cell in enumerate(CELLS):
@@ -222,7 +222,7 @@ def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20,
             entry["runs_not_judged_somewhere"] = sum(bool(r.health) for r in runs)
             entry["false_alarm_runs"] = {obs: sum(bool(r.series[obs].alarm.any()) for r in runs) for obs in columns}
         cells[cell.name] = entry
-    report = {"schema": "rw_fdi_ros/dumping_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
+    report = {"schema": "rw_fdi_ros/dumping_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
               "date": time.strftime("%Y-%m-%d"), "seed_base": SEED_BASE, "observable_level_Nm": level,
               "day": day, "cells": cells, "settings": MomentumDumping().__dict__}
     return write_report(report, out, "dumping", format_dumping)

@@ -34,7 +34,7 @@ from ...core.calibration import calibration_samples
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault, Scenario
-from .kit import Cell, cell_scenarios, format_rate, rate, screen_cells
+from .kit import workers, Cell, cell_scenarios, format_rate, rate, screen_cells
 from ..metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
@@ -119,7 +119,7 @@ def cell_identification(runs, observable_level: dict, strict_bus: bool = False) 
 
 
 def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_thesis_runs: int = 340,
-                         out: str | Path = "reports/identification", jobs: int = 2, units: bool = False) -> dict:
+                         out: str | Path = "reports/identification", executor=None, units: bool = False) -> dict:
     """Identification figures per cell; the thesis sizes get ``thesis_runs`` (the bus ``bus_thesis_runs``:
     about 6 in 10 bus drops of 2.5 V are physically visible). ``units``: the varied-wheel cells instead
     (``runs_per_cell`` each, the bus 1.7 times as many)."""
@@ -129,7 +129,8 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
     cells = {}
     if units:
         sizes = [runs_per_cell * 17 // 10 if kind == "bus_voltage" else runs_per_cell for _, kind, _ in UNITS_CELLS]
-        judged = screen_cells(sizes, _units_chunk, "identification bench, varied units (core loop + node code)", jobs)
+        judged = screen_cells(sizes, _units_chunk, "identification bench, varied units (core loop + node code)",
+                              executor)
         for i, (name, kind, span) in enumerate(UNITS_CELLS):
             first = UNITS_SEED_BASE + 100_000 * i
             cells[name] = {"cell": {"name": name, "kind": kind, "range": list(span), "thesis_size": False},
@@ -138,12 +139,13 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
     else:
         sizes = [(bus_thesis_runs if c.kind == "bus_voltage" else thesis_runs) if c.thesis_size else runs_per_cell
                  for c in CELLS]
-        judged = screen_cells(sizes, _chunk, "identification bench (core loop + node code)", jobs)
+        judged = screen_cells(sizes, _chunk, "identification bench (core loop + node code)", executor)
         for i, cell in enumerate(CELLS):
             first = SEED_BASE + 100_000 * i
             cells[cell.name] = {"cell": cell.__dict__, "seeds": [first, first + sizes[i] - 1],
                                 **cell_identification(judged[i]["speed_aware"], level)}
-    report = {"schema": "rw_fdi_ros/identification_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
+    report = {"schema": "rw_fdi_ros/identification_bench/1", "seconds": time.monotonic() - t0,
+              "jobs": workers(executor),
               "date": time.strftime("%Y-%m-%d"),
               "seed_base": UNITS_SEED_BASE if units else SEED_BASE,
               "decision_observer": decision_observer("speed_aware"),

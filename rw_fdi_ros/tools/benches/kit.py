@@ -44,9 +44,15 @@ def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE
     return out
 
 
-def screen_cells(sizes, chunk_job, desc: str, jobs: int = 2, chunk: int = 50) -> dict:
-    """cell index -> results of ``chunk_job(cell_index, range)`` merged over chunks of ``chunk`` runs,
-    ``jobs`` processes (CPU-bound numpy and Python: one per core). chunk_job returns name -> [RunEval]."""
+def workers(executor) -> int | str:
+    """What a report says ran it: the local processes' count, or the Dask scheduler's address."""
+    return getattr(executor, "jobs", None) or getattr(executor, "address", "dask")
+
+
+def screen_cells(sizes, chunk_job, desc: str, executor=None, chunk: int = 50) -> dict:
+    """cell index -> results of ``chunk_job(cell_index, range)`` merged over chunks of ``chunk`` runs, on
+    ``executor`` (campaign.make_executor: local processes, one per core by default, or a Dask cluster; the
+    work is CPU-bound numpy and Python). chunk_job returns name -> [RunEval]."""
     from tqdm import tqdm
     from ..campaigns.campaign import LocalExecutor, apply
     bar = tqdm(total=sum(sizes), desc=desc, unit="run", file=sys.stderr, mininterval=2.0)
@@ -54,7 +60,7 @@ def screen_cells(sizes, chunk_job, desc: str, jobs: int = 2, chunk: int = 50) ->
     calls = [(_cell_chunk, chunk_job, i, range(start, min(start + chunk, n)))
              for i, n in enumerate(sizes) for start in range(0, n, chunk)]
     # the campaigns' executor: SIGTERM or Ctrl-C drops the queued chunks and ends the workers at once
-    for i, seeds, out in LocalExecutor(jobs).map_unordered(apply, calls, processes=True):
+    for i, seeds, out in (executor or LocalExecutor()).map_unordered(apply, calls, processes=True):
         for name, runs in out.items():
             judged[i].setdefault(name, []).extend(runs)
         bar.update(len(seeds))

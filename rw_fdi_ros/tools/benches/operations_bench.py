@@ -25,7 +25,7 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.scenario import Fault, Manoeuvres, Scenario
-from .kit import SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
+from .kit import workers, SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
 from ..metrics import observable_level
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
@@ -91,14 +91,14 @@ def manoeuvre_after_fault(scenario: Scenario) -> bool:
 
 
 def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hours_runs: int = 50,
-                     seeds: str = "evaluation", out: str | Path = "reports/operations", jobs: int = 2) -> dict:
+                     seeds: str = "evaluation", out: str | Path = "reports/operations", executor=None) -> dict:
     seed_base = SEED_BASES[seeds]
     _, curves = FdiConfig().load()
     level = observable_level(curves)
     sizes = [hours_runs if c.duration > 400.0 else fault_free_runs if c.kind is None and c.wheel_speed is None
              else runs_per_cell for c in CELLS]
     t0 = time.monotonic()
-    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, seed_base), f"operations bench ({seeds} seeds)", jobs)
+    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, seed_base), f"operations bench ({seeds} seeds)", executor)
     cells = {}
     for i, cell in enumerate(CELLS):
         runs = judged[i]["speed_aware"]
@@ -116,7 +116,7 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
             followed = [r for r, sc in zip(runs, scenarios) if manoeuvre_after_fault(sc)]
             entry["manoeuvre_after_fault"] = {obs: cell_figures(followed, obs, level) for obs in columns}
         cells[cell.name] = entry
-    report = {"schema": "rw_fdi_ros/operations_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
+    report = {"schema": "rw_fdi_ros/operations_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
               "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,
               "observable_level_Nm": level, "cells": cells}
     return write_report(report, out, "operations", format_operations)

@@ -217,21 +217,16 @@ def batches(draws: list, size: int = BATCH) -> list:
     return out
 
 
-def run_service(seeds, jobs: int = 2, progress=None, max_duration: float | None = None, fault_free_seeds=()) -> list:
+def run_service(seeds, executor=None, progress=None, max_duration: float | None = None, fault_free_seeds=()) -> list:
     """Figures of the in-service runs of ``seeds`` and of the fault-free 600-s runs of ``fault_free_seeds``,
-    in seed order."""
+    in seed order, on ``executor`` (local processes by default, or a Dask cluster)."""
     work = batches([draw(s, max_duration) for s in seeds] + [draw(s, fault_free=True) for s in fault_free_seeds])
     runs = []
-    if jobs <= 1:
-        for chunk in work:
-            runs += _simulate(chunk)
-            if progress:
-                progress(len(chunk))
-    else:   # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
-        for out in LocalExecutor(jobs).map_unordered(_simulate, work, processes=True):
-            runs += out
-            if progress:
-                progress(len(out))
+    # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
+    for out in (executor or LocalExecutor()).map_unordered(_simulate, work, processes=True):
+        runs += out
+        if progress:
+            progress(len(out))
     return sorted(runs, key=lambda r: r["seed"])
 
 
@@ -294,7 +289,7 @@ def summarize(all_runs: list) -> dict:
 
 
 
-def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path = "reports/service", jobs: int = 2,
+def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path = "reports/service", executor=None,
                   progress=None, max_hours: float | None = None, fault_free_runs: int = 1000) -> dict:
     """``runs`` of the in-service family and ``fault_free_runs`` fault-free 600-s runs of it, on the seeds of
     ``seeds`` (SEED_BASES; the fault-free ones from FAULT_FREE_SEEDS above); the report in ``out``."""
@@ -302,7 +297,7 @@ def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path =
     t0 = time.monotonic()
     max_duration = None if max_hours is None else 3600.0 * max_hours
     free_base = seed_base + FAULT_FREE_SEEDS
-    results = run_service(range(seed_base, seed_base + runs), jobs, progress, max_duration,
+    results = run_service(range(seed_base, seed_base + runs), executor, progress, max_duration,
                           range(free_base, free_base + fault_free_runs))
     report = {"schema": "rw_fdi_ros/service_bench/2", "seconds": time.monotonic() - t0, "max_hours": max_hours,
               "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,

@@ -26,7 +26,7 @@ from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
 from ...core.plant_choices import FDI_PERIOD
 from .detection_bench import CELLS, cell_results, cell_sizes, observable_levels
-from .kit import cell_scenarios, format_rate, screen_cells, write_report
+from .kit import workers, cell_scenarios, format_rate, screen_cells, write_report
 from ..evaluation.screen import screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands
@@ -48,16 +48,16 @@ def _judge_chunk(population: str, cell_index: int, seeds_range):
 
 
 def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/units",
-                jobs: int = 2) -> dict:
+                executor=None) -> dict:
     t0 = time.monotonic()   # loading both calibrations' bands included
     sets = _fdi_sets()
     levels, sizes = observable_levels(sets), cell_sizes(fault_free_runs, runs_per_cell)
     populations = {}
     for population, (seed_base, wheels) in POPULATIONS.items():
-        judged = screen_cells(sizes, partial(_judge_chunk, population), f"units bench, {population} wheels", jobs)
+        judged = screen_cells(sizes, partial(_judge_chunk, population), f"units bench, {population} wheels", executor)
         populations[population] = {"seed_base": seed_base, "wheels": wheels,
                                    "cells": cell_results(judged, sizes, seed_base, levels, "sets")}
-    report = {"schema": "rw_fdi_ros/units_bench/1", "seconds": time.monotonic() - t0, "jobs": jobs,
+    report = {"schema": "rw_fdi_ros/units_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
               "date": time.strftime("%Y-%m-%d"), "fault_free_runs": fault_free_runs, "runs_per_cell": runs_per_cell,
               "onset_range_s": ONSET_RANGE, "unit_calibration_time_s": CALIBRATION_TIME,
               "bands": {name: {obs: {"seeds": [min(c.seeds), max(c.seeds)] if c.seeds else None,

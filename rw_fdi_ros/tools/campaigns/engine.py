@@ -40,7 +40,7 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     from ...core.wheel_set import joint_name, wheel_set
     from ...graph import topics as T
     from ...core.spacecraft import BODY_AXES
-    from ...graph.convert import step_stamp_ns, wheel_states_msg
+    from ...graph.convert import offered_qos, step_stamp_ns, wheel_states_msg
     from ...graph.plant_report import PlantReport, run_units
     from ...storage.cdr import joint_state_cdr, vector_cdr
     from ...storage.writer import BagWriter
@@ -51,8 +51,8 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     orbit, rods = scenario.environment is not None, scenario.magnetorquers is not None
     reading_every = magnetometer_steps(choices.control_period) if orbit else None
     writer = BagWriter(bag)
-    for topic, type_name, _ in T.recorded_rows(True, False, (), "speed_aware", choices.wheel_set, orbit, rods):
-        writer.add_topic(topic, type_name)
+    for topic, type_name, qos in T.recorded_rows(True, False, (), "speed_aware", choices.wheel_set, orbit, rods):
+        writer.add_topic(topic, type_name, offered_qos(qos))   # the recorder's: the same bag
     writer.set_custom_data("engine", "core")
 
     def write(messages, stamp):

@@ -51,9 +51,11 @@ def short_step_topics(bag) -> list:
 
 def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | None = None,
                  command_timeout: float = 5.0, watchdog: float | None = None, keep_logs: bool = False,
-                 emf_limit: str | None = None, fdi: dict | None = None, grouping: str = DEFAULT_GROUPING) -> RunOutcome:
+                 emf_limit: str | None = None, fdi=None, grouping: str = DEFAULT_GROUPING,
+                 progress=None) -> RunOutcome:
     """Run the whole graph once, recording ``out_dir/<name>``; never raises for a failed run. ``grouping``:
-    which nodes share a process (launch/graph.GROUPINGS)."""
+    which nodes share a process (launch/graph.GROUPINGS); ``progress(simulated_s, duration_s)``: told how
+    far the run is, each wall second."""
     scenario, path = resolve_scenario(ref, seed)
     bag = Path(out_dir) / (name or bag_name(scenario))
     if bag.exists():
@@ -62,7 +64,8 @@ def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | 
     watchdog = watchdog or max(120.0, scenario.duration)
     with DomainLease() as lease:
         work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_{bag.name}_"))
-        result = GraphProcesses(nodes, lease.domain_id, work, grouping=grouping).start().run(watchdog=watchdog)
+        result = GraphProcesses(nodes, lease.domain_id, work, grouping=grouping).start().run(watchdog=watchdog,
+                                                                                       progress=progress)
     outcome = RunOutcome(result.ok, result.reason, bag, result.wall_time, log_dir=work)
     if bag.exists():
         try:
