@@ -52,7 +52,7 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     reading_every = magnetometer_steps(choices.control_period) if orbit else None
     writer = BagWriter(bag)
     for topic, type_name, qos in T.recorded_rows(True, False, (), "speed_aware", choices.wheel_set, orbit, rods):
-        writer.add_topic(topic, type_name, offered_qos(qos))   # the recorder's: the same bag
+        writer.add_topic(topic, type_name, offered_qos(getattr(T, qos)))   # the recorder's: the same bag
     writer.set_custom_data("engine", "core")
 
     def write(messages, stamp):
