@@ -21,7 +21,7 @@ from rw_fdi_ros.tools.evaluation.report import validate_report
 from rw_fdi_ros.tools.evaluation.reproduce import plan, reproduce
 from rw_fdi_ros.tools.campaigns.run import short_step_topics
 
-# not marked graph: its study is mostly the core loop, so it runs in the other session to balance the two
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
 
 @pytest.fixture(scope="module")
