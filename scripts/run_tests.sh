@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The test suite (about twelve minutes on 2 cores); every ROS process stays on loopback in a private domain.
+# The test suite (10-15 minutes on 2 cores); every ROS process stays on loopback in a private domain.
 # Two pytest sessions side by side: the tests marked `graph` (they start ROS graphs or process pools and
 # keep both cores busy on their own) one after another, and the rest beside them.
 set -euo pipefail
