@@ -56,3 +56,11 @@ def test_files_of_another_method_or_calibration_are_refused_naming_the_file(tmp_
     with pytest.raises(ThresholdError, match="not shorter than the 100 s run"):
         FdiConfig(unit_calibration=150.0).check(DEFAULT, 100.0)
     assert FdiConfig("thesis", models=str(mixed)).following_models().method == "speed_aware"
+
+
+def test_the_screens_load_fdi_is_the_configs_load():
+    """`screen.load_fdi(models, thresholds, method, unit_calibration)` (what scripts call) is FdiConfig's load."""
+    from rw_fdi_ros.tools.evaluation.screen import load_fdi
+    _, curves = load_fdi(method="speed_aware", unit_calibration=150.0)
+    assert curves["model"].unit_calibration_time == 150.0
+    assert set(load_fdi(method="thesis")[1]) == set(FdiConfig("thesis").observers) == {"elman", "linear"}

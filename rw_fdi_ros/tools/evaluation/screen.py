@@ -23,6 +23,13 @@ from ..design.samples import samples_from_series
 BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
 
 
+def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_calibration: float = 0.0):
+    """(Elman weights, {observer: ThresholdCurves}) of an FDI given by its parts (None: the shipped set of
+    ``method`` and ``unit_calibration``): FdiConfig's load, for scripts that call the screen directly."""
+    from ...fdi_config import FdiConfig
+    return FdiConfig(method, models, thresholds, unit_calibration=unit_calibration).load()
+
+
 def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None,
                 identification: bool = False, calibration_samples: int = 0) -> list:
     """RunEval of every scenario (one seed each; equal durations within a batch)."""
