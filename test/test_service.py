@@ -74,3 +74,22 @@ def test_the_in_service_family_draws_every_case_from_its_seed():
             assert low <= f["value"] <= high and f["onset"] + 240.0 <= d.duration + 1e-9
         s = sb.scenario(d)
         assert s.duration == d.duration and len(s.faults) == len(d.faults)
+
+
+def test_a_ramp_that_hides_until_it_takes_the_pointing_is_counted_with_its_reason():
+    """A bus ramp shows only once the wheel needs the voltage: the run records when its effect first showed, and
+    a pointing lost within 60 s of that, before any decision, is counted apart (the grace a step has from its
+    onset), not as unexplained; lost later, or after a decision, it stays unexplained."""
+    fault = {"kind": "bus_voltage", "wheel": "y", "onset": 295.5, "value": 4.7718, "ramp": 143.4}
+    run = _runs([sb.Draw(92_000_005, 600.0, False, False, (299.3, 831.2), 1.91, (fault,))])[0]
+    assert run["visible_s"] is not None and fault["onset"] + 60.0 < run["visible_s"] < fault["onset"] + fault["ramp"]
+    lost = {"pointing_kept": False, "momentum_said": None, "first_lost_s": 424.0, "visible_s": 411.3,
+            "faults": [fault], "decisions": [(424.0, "y", "held", "confirmed faulty"), (424.0, "s", "in_use", "")]}
+    assert sb._lost_as_it_showed(lost)
+    assert not sb._lost_as_it_showed({**lost, "first_lost_s": 480.0, "decisions": []})     # 60 s of grace only
+    assert not sb._lost_as_it_showed({**lost, "decisions": [(400.0, "y", "held", "")]})    # decided in time
+    assert not sb._lost_as_it_showed({**lost, "pointing_kept": True, "first_lost_s": None})
+    figures = sb.summarize([{**lost, "fault_free_family": False, "duration": 600.0, "units": False,
+                             "reconfigured_before_fault": [], "fault_effect_peak": 0.02, "acted_right": True,
+                             "healthy_acted": [], "delay_s": 128.5, "action": "held", "at_limit": []}])
+    assert figures["pointing_lost_showing"]["k"] == 1 and figures["pointing_lost_unexplained"]["k"] == 0
