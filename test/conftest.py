@@ -51,7 +51,6 @@ CASES = {"fault_free": ("fault_free", 12, "speed_aware"), "bus_5v5_x": ("bus_5v5
          "current_0p6_x": ("current_0p6_x", 12, "speed_aware"),
          "temperature_150_x": ("temperature_150_x", 13, "speed_aware"),
          "bus_x_current_z": ("bus_x_current_z", None, "speed_aware"),
-         "bus_x_current_z_again": ("bus_x_current_z", None, "speed_aware"),
          "current_0p6_x_thesis": ("current_0p6_x", 12, "thesis")}
 
 

@@ -1,7 +1,9 @@
 """The composed graph: several nodes per process (ROS 2 composition as rclpy has it), one bag.
 
 The same seeds through every grouping of launch/graph.GROUPINGS, with the FDI nodes and FDIR acting:
-the bags are the one-node-per-process graph's, message for message. A node that fails in a composed
+the bags are the one-node-per-process graph's, message for message (so every topic of the full graph, FDI
+nodes included, is a function of the seed: compared decoded, as rclpy leaves the CDR padding after strings
+uninitialised). A node that fails in a composed
 process ends the run naming the node; the composed executable answers bad input in one line.
 """
 import os
