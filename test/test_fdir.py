@@ -12,7 +12,8 @@ from rw_fdi_ros.core.fdir import (SATURATED_S, DecisionDelay, DeliveryLog, Recon
 from rw_fdi_ros.core.plant import Plant
 from rw_fdi_ros.core.scenario import Fault, Scenario, ScenarioError, parse_scenario
 from rw_fdi_ros.core.wheel import WheelParams
-from rw_fdi_ros.core.wheel_set import WHEEL_SETS, WheelSet
+from rw_fdi_ros.core.elman import network_wheel
+from rw_fdi_ros.core.wheel_set import AXIS_WHEELS, WHEEL_SETS, WheelSet, fitted_for
 from rw_fdi_ros.paths import fdi_dir
 
 SKEW = WHEEL_SETS["orthogonal_skew"]
@@ -28,6 +29,14 @@ def test_wheel_sets_span_the_body_with_any_three_wheels():
     np.testing.assert_allclose(PYRAMID.matrix @ PYRAMID.matrix.T, 4.0 / 3.0 * np.eye(3), atol=1e-12)
     with pytest.raises(ValueError, match="span"):
         WheelSet("flat", ("a", "b", "c"), ((1, 0, 0), (0, 1, 0), (1, 0, 0)))
+
+
+def test_a_wheel_without_a_design_of_its_own_takes_its_types_by_one_rule():
+    """The redundant s runs x's network and the widest of the three threshold curves; x, y, z their own."""
+    assert fitted_for("y", AXIS_WHEELS) == ("y",) and fitted_for("s", AXIS_WHEELS) == AXIS_WHEELS
+    assert network_wheel("s") == "x" and network_wheel("z") == "z"
+    curves = ThresholdCurves("model", {"x": np.array([1.0, 2.0]), "y": np.array([3.0, 1.0]), "z": np.array([0.5])})
+    assert [curves.at("s", k) for k in (0, 1, 9)] == [3.0, 2.0, 2.0] and curves.at("y", 9) == 1.0
 
 
 def test_allocation_is_the_minimum_norm_solution_and_gives_unused_wheels_nothing():

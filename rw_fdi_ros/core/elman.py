@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .wheel_set import AXIS_WHEELS, fitted_for
+
 HIDDEN = 25
 INPUTS = 2
 # A speed-aware network starts from its steady state for its first input (the wheel was held
@@ -38,10 +40,9 @@ class ModelError(ValueError):
 
 
 def network_wheel(wheel: str) -> str:
-    """Whose network a wheel runs: the networks are trained per body axis (x, y, z); a wheel off the
-    axes (the redundant s) is of the same type and runs x's, trained on the middle of the three
-    inertias (17 kg m^2 between 15 and 22)."""
-    return wheel if wheel in ("x", "y", "z") else "x"
+    """Whose network a wheel runs (wheel_set.fitted_for): the networks are trained per body-axis wheel; the
+    redundant s runs x's."""
+    return fitted_for(wheel, AXIS_WHEELS)[0]
 
 
 REGENERATE = "regenerate with `rw-fdi train --bags DIR --out DIR` (or `rw-fdi defaults` for the shipped set)"

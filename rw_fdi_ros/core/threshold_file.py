@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .detection import METHODS, PERSISTENCE, SIGMAS, WINDOW
+from .wheel_set import fitted_for
 
 class ThresholdError(ValueError):
     """Threshold curves that cannot be used; one line naming the file and the fix."""
@@ -37,11 +38,9 @@ class ThresholdCurves:
 
     def at(self, axis: str, k: int) -> float:
         """Threshold of wheel ``axis`` at FDI sample k. A wheel without a curve of its own (the redundant
-        wheel off the body axes) is of the same type as those fitted: it gets the widest of their curves."""
-        if axis not in self.curves:
-            return max(self.at(a, k) for a in self.curves)
-        c = self.curves[axis]
-        return float(c[min(k, len(c) - 1)])   # past the fitted horizon the last value holds
+        wheel off the body axes) gets the widest of its type's (wheel_set.fitted_for)."""
+        # past the fitted horizon the last value holds
+        return max(float(c[min(k, len(c) - 1)]) for c in (self.curves[a] for a in fitted_for(axis, self.curves)))
 
     def save(self, path):
         path = Path(path)

@@ -36,6 +36,27 @@ PYRAMID_ELEVATION = float(np.degrees(np.arctan(1.0 / np.sqrt(2.0))))
 AXIS_WHEELS = ("x", "y", "z")
 
 
+def fitted_for(wheel: str, fitted) -> tuple:
+    """Whose fitted design (a network, a threshold curve) a wheel takes, the one rule for every per-wheel file.
+
+    Parameters
+    ----------
+    wheel : str
+        The wheel's name in its set.
+    fitted : iterable of str
+        The wheels a design was fitted for, in their order (AXIS_WHEELS for the shipped files).
+
+    Returns
+    -------
+    tuple of str
+        ``(wheel,)`` where it has its own; else every fitted wheel, as all wheels of a set are of one type
+        (a redundant wheel off the body axes). A network takes the first of them (x's, trained on the middle
+        of the three inertias, 17 kg m^2), a threshold the widest.
+    """
+    fitted = tuple(fitted)
+    return (wheel,) if wheel in fitted else fitted
+
+
 @dataclass(frozen=True)
 class WheelSet:
     """``names[i]`` spins about ``spin_axes[i]`` (unit, body frame); ``standby`` wheels wait unpowered."""
