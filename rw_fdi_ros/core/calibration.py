@@ -14,9 +14,7 @@ motor torque, tau_m^free the same where the bridge does not clip the current (eq
 clips, the torque is k_t I_max whatever the driver gain), tau_v Omega and tau_c tanh(.) the nominal
 viscous and coulomb friction, p the ripple phasor (its gain and phase are unknown: nuisance
 regressors, kept out of the fit's bias and out of the correction, which the ripple bound covers).
-One motor share (d_kt + d_Gd) was not enough: on the slews that reach the EMF limit at high speed
-the clipped torque scales with d_kt alone, the one-share model left up to 1.4e-3 N m unexplained,
-and the coulomb share absorbed it (35 % off on 1 wheel in 40; tuning runs 83,000,000+).
+Two motor shares, as the clipped torque scales with d_kt alone (docs/fdi.md, "unit calibration").
 
 b is estimated by Bayesian least squares with the unit spreads as prior, b ~ N(0, P0),
 P0 = diag(s_kt^2, s_Gd^2, s_v^2, s_c^2, (g_max B/2)^2, (g_max B/2)^2):
@@ -38,9 +36,7 @@ would be taken as the unit's own); meanwhile the wheel is judged against its typ
 model with the type's tolerance box, u_k = sum_i t_i |x_k,i| (t: :func:`tolerances`; z u_k is the
 largest error of any unit whose every parameter lies within z sigma, wide: a 1-sigma unit is
 2e-3 N m off while holding, so only gross faults show); from then on against its own unit, b^
-frozen. Judging with a half-learnt b^ alarmed 4 of 300 fault-free varied wheels inside the window
-(one-step predictions of a b^ still moving along the motor/friction collinearity); the quadrature
-sqrt(x_k' P0 x_k) alarmed on units near the 3-sigma cut in two parameters at once (6 of 1000).
+frozen (why not a half-learnt b^, nor the quadrature sqrt(x_k' P0 x_k): docs/fdi.md).
 """
 from __future__ import annotations
 

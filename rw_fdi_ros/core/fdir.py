@@ -1,56 +1,28 @@
 """FDIR: what the spacecraft does with a wheel the FDI has confirmed faulty (thesis chapter 1, 2.3).
 
-Detection and isolation exist so that "the redundant one will be excited
-in case any of the other three wheels fails". :class:`Reconfiguration`
-is that decision, made the way flight FDIR makes it:
+:class:`Reconfiguration` makes the decision the way flight FDIR makes it (the reasons, with their
+figures: docs/fdir.md):
 
-* only on a confirmed failure: the latched verdict of /diagnostics (the
-  decision observer's alarm after its persistence, isolation.LatchedVerdict),
-  or an operator's command; never on a single residual;
-* the wheel is given up: taken out of use for good (the allocation gives it
-  0 V from then on) and a standby wheel brought in, the first whose
-  addition keeps the wheels in use spanning the body;
-* with no standby left, the wheel is still taken out if the others span
-  the body (a pyramid loses one of four); if they do not, it is kept in
-  use and the decision says why: a faulty wheel that still gives some
-  torque is better than an axis without control, and the spacecraft never
-  commands a wheel it has given up on;
-* where the wheels left could not hold the spacecraft's angular momentum
-  without it and still take the manoeuvres to come (:func:`momentum_shortfall`:
-  the momentum held plus a slew's excursion, :func:`slew_excursion`), the wheel is
-  *kept in use beside the spare*: all four share the work by minimum norm, the
-  faulty one keeps its momentum (nothing to transfer) and the slews move each wheel
-  no further than the three healthy ones did. On the skew set a 5-deg slew moves
-  the wheels left after giving up an axis wheel by up to 44 rad/s (the spare at
-  1/sqrt(3) to the axis, the other two cancelling its cross-axis torque), so the
-  three left cannot slew from Table 2.3's speeds: in service (manoeuvres after the
-  fault, rw-fdi bench service) giving the wheel up lost the pointing on the next
-  slew in one run in seven. A degraded wheel still gives torque, and the
-  controller's feedback takes up what it does not give;
-* where it gives less than half its motor torque (:func:`delivered_share`: a
-  bus drop above the speed its bus can drive, which sheds its momentum
-  whatever it is commanded), or no spare is left, with the same shortfall, the
-  wheel is *held*: relieved of attitude control (a spare, if any, brought in)
-  and commanded only to keep its speed (allocation.hold_command), a momentum
-  store. A wheel given up spins down by its friction and its momentum goes
-  to the others; a held one keeps what its fault lets it keep (a 4 V bus:
-  up to 6 rad/s, wheel.bus_fault_visible_above; a current loss or a hotter
-  bearing: all of it), so the wheels in use only take the rest.
+* only on a confirmed failure (the latched verdict of /diagnostics, isolation.LatchedVerdict) or an
+  operator's command, never on a single residual;
+* *given up*: taken out of use for good (0 V from then on) and the first standby wheel whose addition
+  keeps the wheels in use spanning the body brought in; with none left, given up only if the others
+  still span the body, else kept in use and the decision says why;
+* *kept in use beside the spare* where the wheels left could not hold the stored momentum and still take
+  the manoeuvres to come (:func:`momentum_shortfall`, :func:`slew_excursion`): all share the work by
+  minimum norm and the controller's feedback takes up what the faulty wheel does not give;
+* *held* where it gives under half its motor torque (:func:`delivered_share`) or no spare is left, with
+  the same shortfall: relieved of attitude control and commanded only to keep its speed
+  (allocation.hold_command), a momentum store.
 
-After a reconfiguration the wheels are watched (:meth:`Reconfiguration.review`):
-a wheel kept beside the spare is held once it gives under half its torque (a
-fault that grows after the decision), or said at once where no wheel is left
-to take its share, and a wheel in use past the holdable speed is said at once
-(``at_limit``: the torque, or the momentum, left cannot keep the pointing).
+After a reconfiguration the wheels are watched (:meth:`Reconfiguration.review`): a kept wheel is held
+once it gives under half its torque, or said where no wheel is left to take its share, and a wheel in
+use past the holdable speed or at the voltage limit is said (``at_limit``).
 
-Every decision is a :class:`Decision` (time, wheel, action, reason), which
-the graph publishes and records.
-
-:class:`DecisionDelay`: a decision made on the FDI sample stamped t acts on
-the commands from t + ``DECISION_DELAY`` on: one FDI period for the verdict to
-travel (flight software applies FDIR in the next cycle). The graph's
-allocation node and the core loop apply it at the same step, so they
-command the same wheels.
+Every decision is a :class:`Decision` (time, wheel, action, reason), which the graph publishes and
+records. :class:`DecisionDelay`: a decision on the FDI sample stamped t acts on the commands from
+t + ``DECISION_DELAY`` on (flight software applies FDIR in the next cycle), in the graph's allocation
+node and the core loop alike.
 """
 from __future__ import annotations
 

@@ -1,63 +1,35 @@
 """Fault identification: which fault a wheel has and how large (thesis 1.2.1, the step it leaves out).
 
-Once a wheel is alarmed, each fault kind is a one-parameter family of the
-nominal Bialke wheel (core/wheel.py) driven by the measured command u and
-wheel speed Omega, every term the mean over one FDI period of its
-control-rate values (telemetry.TelemetrySampler):
+Once a wheel is alarmed, each fault kind is a one-parameter family of the nominal Bialke wheel
+(core/wheel.py) driven by the measured command u and wheel speed Omega, every term the mean over one FDI
+period of its control-rate values (telemetry.TelemetrySampler):
 
     current_loss  a [-]:   r^ = -a tau_m(u, Omega; 8 V) + tau_f(Omega; 23 C)           (limiter)
     temperature   T [C]:   r^ = -tau_m(u, Omega; 8 V) + tau_v(T) Omega + tau_c tanh(.)  (eq. 2.15)
     bus_voltage   V [V]:   r^ = -tau_m(u, Omega; V)   + tau_f(Omega; 23 C)             (eqs. 2.9-2.14)
 
-A current loss scales the motor torque for a given command; a temperature rise
-changes the friction in proportion to speed; a bus drop only clips the current
-when the wheel needs the voltage headroom (high speed and command). The
-aliased commutation ripple enters as two nuisance regressors, Im p and Re p
-(p: the ripple phasor; its gain and phase are unknown):
+The aliased commutation ripple enters as two nuisance regressors (p: the ripple phasor):
 
-    r_k = r^_k(theta) + alpha Im p_k + beta Re p_k + e_k
+    r_k = r^_k(theta) + alpha Im p_k + beta Re p_k + e_k,   RSS_h(theta) = || P_perp (r - r^(theta)) ||^2
 
-Each family is fitted by least squares on a grid of theta, alpha and beta
-eliminated by projection:  RSS_h(theta) = || P_perp (r - r^(theta)) ||^2.
+over a grid of theta per family, alpha and beta eliminated by projection, and over a grid of ramps
+(RAMP_SHARE, RAMP_LENGTH: theta moving linearly from the healthy value; the step is one of them).
 
-* kind: the family with the lowest RSS, if it explains at least
-  ``EXPLAINED`` of what the nominal wheel leaves unexplained,
-  1 - RSS_h / RSS_nominal, and beats every other family by a likelihood-ratio
-  margin (RSS_other - RSS_h) / s^2 >= ``DECISIVE``; else ``unknown``.
-* size: the argmin; interval {theta : RSS_h(theta) - RSS_min <= chi2_1(0.95) s^2 c}
-  with s^2 = max(RSS_min / (n - 3), sigma_floor^2) (on a unit: from the fit with the unit's
-  shares free, / (n - 7)) and c = ``CORRELATION``
-  for the serial correlation of 1 s samples (bearing noise, ripple beats).
-  Where the interval reaches the end of the grid only a bound is observable
-  (tau_v is 0 from 215 C on; a bus clipping only part of the time).
+* kind: the family with the lowest RSS, if it explains at least ``EXPLAINED`` of what the nominal wheel
+  leaves unexplained and beats every other family by (RSS_other - RSS_h) / s^2 >= ``DECISIVE``; else
+  ``unknown``;
+* size: theta at the last sample of the best fit; interval {theta : RSS_h(theta) - RSS_min <=
+  chi2_1(0.95) s^2 c}, s^2 = max(RSS_min / (n - 3), sigma_floor^2), c = ``CORRELATION`` for the serial
+  correlation of 1 s samples; where it reaches the grid's end only a bound is observable.
 
-On a wheel that is not the datasheet's (unit calibration, core/calibration.py) every family is the
-calibrated unit's: its torque constant, driver gain, viscous and coulomb friction scaled by 1 + the
-learnt shares b^ = (d_kt, d_Gd, b_v, b_c) (calibration.UnitShares), and what the calibration does not
-know enters each fit as four more regressors, the sensitivities dr^/db at theta, with the
-calibration's posterior N(0, Sigma) as their prior:
+On a calibrated unit (core/calibration.py) every family is the unit's (its shares b^ scale k_t, G_d, the
+viscous and coulomb friction), and what the calibration does not know enters as four more regressors
+dr^/db with its posterior N(0, Sigma) as prior: RSS_h(theta) = min || r - r^(theta; b^) - X_r (alpha,
+beta) - X_u(theta) db ||^2 + c s^2 db' Sigma^-1 db.
 
-    RSS_h(theta) = min over (alpha, beta, db) of || r - r^(theta; b^) - X_r (alpha, beta) - X_u(theta) db ||^2
-                                                 + c s^2 db' Sigma^-1 db
-
-(running sums again; c s^2 the per-sample noise variance the interval uses). The fault and the unit
-share a direction (a limiter share a and d_kt + d_Gd both scale the motor torque; tau_v(T) and b_v
-the viscous friction), so the interval widens by what the calibration cannot tell, and says so
-where that doubles it. A wheel alarmed while its calibration still learns is judged against any unit
-of its type (b^ = 0, Sigma = the spreads).
-
-Samples count from the fault's onset on (the alarm lags it: FaultIdentifier
-finds the onset in the samples before the alarm) and are never forgotten: the
-few seconds after a fault, while the controller moves the command, are what
-tells a current loss from a bus drop; a window of the last 300 samples forgot
-them and turned 2.5 % of 40 % current losses "unknown" by the end of the run.
-The estimate is refined on every sample.
-
-A fault may grow to its size as a ramp (a bus or a temperature drifting, a driver degrading), so every family
-is also fitted with theta moving linearly from theta_0 over each ramp of a grid (RAMP_SHARE, RAMP_LENGTH; the
-step is one of them), and RSS_h(theta) is the least over the ramps. The size reported is theta at the last
-sample, and says whether the fault was still growing then. Fitted as a step, a bus ramping to 4.4 V over 110 s
-was "unknown" (explains 49 %) and a finished ramp's size the mean of its way; with the ramps, 4.36 V.
+Samples count from the fault's onset on (FaultIdentifier finds it in the samples kept before the alarm)
+and are never forgotten. The derivation, the choices and their measurements: docs/fdi.md, "Fault
+identification".
 """
 from __future__ import annotations
 
