@@ -240,3 +240,22 @@ def test_a_figure_line_keeps_every_bucket_extreme_in_bounded_points():
     assert 12_345.0 in tk and yk.max() == 5.0 and yk.min() == -4.0
     short_t, short_y = envelope(t[:50], y[:50], buckets=1000)
     assert np.array_equal(short_t, t[:50]) and np.array_equal(short_y, y[:50])
+
+
+def test_reliability_and_observability_go_by_the_runs_wheels():
+    """A four-wheel run (the standby s beside x, y, z): reliability has a figure per wheel of the run, and s,
+    without a fitted level of its own, is judged observable against the widest of its type's."""
+    from rw_fdi_ros.core.scenario import Fault
+    from rw_fdi_ros.tools.metrics import Series, observable, reliability
+    time = np.arange(5.0)
+    residual = np.tile([1.0, 1.0, 3.0, 0.0], (5, 1))
+    series = Series(time, residual, np.full((5, 4), 2.0), np.zeros((5, 4), bool))
+    run = RunEval("b", "fault_free", 7, [], {"model": series}, wheels=("x", "y", "z", "s"))
+    rel = reliability([run], [7], "model")
+    assert rel["runs"] == 1 and [rel[a] for a in run.wheels] == [1.0, 1.0, 0.0, 1.0]
+    level = {"x": 1e-4, "y": 3e-4, "z": 2e-4}
+    faulty = RunEval("b", "f", 8, [Fault("current_limiter", 3, 10.0, 0.6)], {}, np.array([0, 0, 0, 2.5e-4]),
+                     wheels=("x", "y", "z", "s"))
+    assert not observable(faulty, level)
+    faulty.fault_effect_peak[3] = 3.5e-4
+    assert observable(faulty, level)

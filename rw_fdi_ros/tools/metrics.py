@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.plant_choices import FDI_PERIOD
-from ..core.wheel_set import AXIS_WHEELS
+from ..core.wheel_set import AXIS_WHEELS, fitted_for
 from ..graph import topics as T
 
 OBSERVERS = T.OBSERVERS
@@ -31,9 +31,9 @@ DISTURBANCE_KINDS = ("ripple_gain",)   # changes that must not alarm
 @dataclass
 class Series:
     time: np.ndarray
-    residual: np.ndarray    # (n, 3)
-    threshold: np.ndarray   # (n, 3)
-    alarm: np.ndarray       # (n, 3) bool
+    residual: np.ndarray    # (n, N): one column per wheel of the run (RunEval.wheels)
+    threshold: np.ndarray   # (n, N)
+    alarm: np.ndarray       # (n, N) bool
 
 
 @dataclass
@@ -43,8 +43,8 @@ class RunEval:
     seed: int
     faults: list                      # Fault objects
     series: dict                      # observer -> Series
-    fault_effect_peak: np.ndarray = field(default_factory=lambda: np.zeros(3))  # after onset [N m]
-    # axis -> the last fault identification of an alarmed wheel (its /diagnostics values, strings)
+    fault_effect_peak: np.ndarray = field(default_factory=lambda: np.zeros(3))  # (N,) after onset [N m]
+    # wheel -> the last fault identification of an alarmed wheel (its /diagnostics values, strings)
     identification: dict = field(default_factory=dict)
     # what the FDI said about itself (health_from_bag): status topic -> wheel -> cannot_judge / input_trouble
     health: dict = field(default_factory=dict)
@@ -209,7 +209,7 @@ def reliability(runs, curves_seeds, observer: str) -> dict:
     if not fit:
         return {"runs": 0}
     out = {"runs": len(fit), "seeds": [r.seed for r in fit]}
-    for i, a in enumerate(AXIS_WHEELS):
+    for i, a in enumerate(fit[0].wheels):   # the run's wheels, a standby one included
         out[a] = float(np.mean([np.all(r.series[observer].residual[:, i] <= r.series[observer].threshold[:, i])
                                 for r in fit]))
     return out
@@ -256,7 +256,7 @@ def alarm_before_onset(run: RunEval, observer: str) -> bool:
 def observable(run: RunEval, level: dict) -> bool:
     """Every faulty wheel's recorded fault effect peaks above ``level[axis]``, the fault-free residual
     level [N m]: a fault below it is physically invisible, not missed by the observer."""
-    return all(run.fault_effect_peak[run.wheels.index(a)] > level.get(a, max(level.values()))
+    return all(run.fault_effect_peak[run.wheels.index(a)] > max(level[k] for k in fitted_for(a, level))
                for a in run.faulty_axes)
 
 
@@ -269,7 +269,7 @@ def observable_level(curves: dict) -> dict:
     wheel shows."""
     judges = [c for obs, c in curves.items() if obs != "linear" or "model" not in curves]
     return {a: max(float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a])) for c in judges)
-            for a in AXIS_WHEELS}
+            for a in judges[0].curves}   # the fitted wheels; another of their type: observable()
 
 
 def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(), observers=None) -> dict:

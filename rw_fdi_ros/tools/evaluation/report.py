@@ -123,11 +123,14 @@ def write_markdown(report: dict, path: Path):
         lines.append(f"| {name} | " + " | ".join(f"{cols[o][0]} | {cols[o][1]}" for o in observers) + " |")
     lines += ["", "Smallest detected: per fault kind, the smallest size of the Table 5.1/5.2 grid (and Table 4.2) "
               "that alarmed on the faulty wheel in at least half of its runs.", ""]
+    wheels = [a for a in next(iter(obs_figs.values()), {}).get("reliability", {}) if a not in ("runs", "seeds")]
+    wheels = wheels or list(AXIS_WHEELS)
     lines += ["## Threshold reliability (Tables 3.1 / 4.1)", "",
-              "| observer | x | y | z | fitting runs | thesis x/y/z |", "|---|---|---|---|---|---|"]
+              f"| observer | {' | '.join(wheels)} | fitting runs | thesis x/y/z |",
+              "|---|" + "---|" * len(wheels) + "---|---|"]
     for obs, f in obs_figs.items():
         rel = f["reliability"]
-        cells = " | ".join("-" if a not in rel else f"{rel[a] * 100:.0f} %" for a in AXIS_WHEELS)
+        cells = " | ".join("-" if a not in rel else f"{rel[a] * 100:.0f} %" for a in wheels)
         lines.append(f"| {obs} | {cells} | {rel.get('runs', 0)} | {_thesis_reliability(obs)} |")
     lines += ["", "## False alarms", "", "| observer | held-out fault-free | faulty runs, before onset | "
               "ripple +40 % (must not alarm) | thesis, ripple |", "|---|---|---|---|---|"]
@@ -218,10 +221,11 @@ def write_plots(runs, figures: dict, out: Path) -> list:
         chosen.setdefault(key, r)
     for (cat, kinds), r in list(chosen.items())[:8]:
         observers = list(r.series)
-        fig, axes = plt.subplots(len(observers), 3, figsize=(13, 3 * len(observers)), sharex=True, squeeze=False)
+        fig, axes = plt.subplots(len(observers), len(r.wheels), figsize=(4.4 * len(r.wheels), 3 * len(observers)),
+                                 sharex=True, squeeze=False)
         for row, obs in enumerate(observers):
             s = r.series[obs]
-            for i, a in enumerate(AXIS_WHEELS):
+            for i, a in enumerate(r.wheels):   # the run's wheels, a standby one included
                 ax = axes[row, i]
                 ax.plot(s.time, s.residual[:, i] * 1e3, lw=1.1, label="residual")
                 ax.plot(s.time, s.threshold[:, i] * 1e3, "--", color="tab:red", lw=1.1, label="threshold")
