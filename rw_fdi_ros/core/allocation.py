@@ -34,7 +34,20 @@ HOLD_GAIN = 2.0   # [V/(rad/s)] speed-hold gain: a 0.7 s time constant on the da
 
 def distribution(spin_axes, in_use) -> np.ndarray:
     """D (N, 3) with u = D v the minimum-norm wheel commands for axis commands v; zero rows for the
-    wheels not ``in_use`` ((N,) bool). ValueError when the wheels in use do not span the body."""
+    wheels not ``in_use`` ((N,) bool). ValueError when the wheels in use do not span the body.
+
+    Parameters
+    ----------
+    spin_axes : array_like, shape (3, N)
+        G: column i is wheel i's unit spin axis, body frame (WheelSet.matrix).
+    in_use : array_like of bool, shape (N,)
+        Which wheels take commands.
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        D = G_u^T (G_u G_u^T)^-1, dimensionless (volts per axis volt).
+    """
     g = np.asarray(spin_axes, float) * np.asarray(in_use, bool)   # (3, N), columns out of use zeroed
     gram = g @ g.T
     if np.linalg.matrix_rank(gram) < 3:
@@ -43,7 +56,20 @@ def distribution(spin_axes, in_use) -> np.ndarray:
 
 
 def limited(wheel_commands, limit: float):
-    """``wheel_commands`` (..., N) scaled down, per run, so that none exceeds ``limit`` [V] in magnitude."""
+    """``wheel_commands`` (..., N) scaled down, per run, so that none exceeds ``limit`` [V] in magnitude.
+
+    Parameters
+    ----------
+    wheel_commands : array_like, shape (..., N)
+        Commands u [V], e.g. (B, N).
+    limit : float
+        The command range [V] (5 V on the datasheet wheel).
+
+    Returns
+    -------
+    ndarray, shape (..., N)
+        u [V], each run's row scaled by one factor where its largest |u_i| exceeds ``limit``.
+    """
     u = np.asarray(wheel_commands, float)
     peak = np.abs(u).max(axis=-1, keepdims=True)
     return np.where(peak > limit, u * (limit / np.maximum(peak, 1e-300)), u)
@@ -58,7 +84,26 @@ def hold_command(reference, speed, gain: float = HOLD_GAIN, limit: float = 5.0,
     u_f the datasheet wheel's friction-cancelling voltage at 23 C (wheel.holding_tcv), k = ``gain``. The
     proportional term takes up what the feed-forward misses (a unit's own drag, a current loss); where the
     fault leaves less torque than friction (a bus drop's back-EMF limit), the wheel slows to the speed it
-    can hold and the wheels in use take the momentum it sheds."""
+    can hold and the wheels in use take the momentum it sheds.
+
+    Parameters
+    ----------
+    reference : float or array_like
+        Speed to hold Omega_ref [rad/s], e.g. (K,) for K held wheels.
+    speed : float or array_like
+        Measured wheel speed Omega [rad/s], broadcasting with ``reference``.
+    gain : float, optional
+        k [V/(rad/s)].
+    limit : float, optional
+        Command range [V].
+    params : WheelParams
+        The wheel type whose friction the feed-forward cancels (scalar fields).
+
+    Returns
+    -------
+    ndarray
+        u [V] within +-``limit``, the broadcast shape of ``reference`` and ``speed``.
+    """
     ref = np.asarray(reference, float)
     u = holding_tcv(ref, 23.0, params) + gain * (ref - np.asarray(speed, float))
     return np.minimum(np.maximum(u, -limit), limit)

@@ -11,7 +11,18 @@ DISTURBANCE_SIGMA = 5.68e-5
 
 
 def cross(a, b) -> np.ndarray:
-    """a x b over the last axis of (..., 3) arrays, written out: np.cross costs 10x on 3-vectors."""
+    """a x b over the last axis of (..., 3) arrays, written out: np.cross costs 10x on 3-vectors.
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (..., 3)
+        The two vectors (any unit); their leading axes broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        a x b, in the product of their units.
+    """
     return np.stack((a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
                      a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
                      a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]), axis=-1)
@@ -32,6 +43,24 @@ def body_acceleration(body_rate, torque, inertia=INERTIA, wheel_momentum=None, w
     reaction torques. ``wheel_inertia`` is J_s: its diagonal (..., 3) when the wheels spin
     about body axes, else the (..., 3, 3) matrix. ``wheel_momentum=None`` drops h_w and
     J_s: eq. 2.27 as the thesis writes it, I dw/dt = tau - w x (I w).
+
+    Parameters
+    ----------
+    body_rate : array_like, shape (..., 3)
+        Body rate w [rad/s], body frame, e.g. (B, 3).
+    torque : array_like, shape (..., 3)
+        External plus reaction torque tau [N m], body frame.
+    inertia : array_like, shape (3,) or (..., 3)
+        Principal inertia I with the wheels locked [kg m^2].
+    wheel_momentum : array_like, shape (..., 3), optional
+        The wheels' stored momentum h_w [N m s], body frame; None for eq. 2.27 as written.
+    wheel_inertia : float or array_like, shape (..., 3) or (..., 3, 3)
+        J_s [kg m^2]: its diagonal or the full matrix; used only with ``wheel_momentum``.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        dw/dt [rad/s^2], body frame.
     """
     w = np.asarray(body_rate, float)
     inertia = np.asarray(inertia, float)
@@ -52,5 +81,19 @@ def disturbance_torque(rng: np.random.Generator, shape=(3,), sigma=DISTURBANCE_S
     """Zero-mean Gaussian disturbance, std 5.68e-5 N m per axis (eq. 2.34).
 
     [choice] one draw per control period, held over the period.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The run's disturbance stream.
+    shape : tuple of int, optional
+        Shape of the draw, (3,) for one body.
+    sigma : float, optional
+        Standard deviation per axis [N m].
+
+    Returns
+    -------
+    ndarray
+        Disturbance torque [N m] of ``shape``, body frame.
     """
     return rng.normal(0.0, sigma, size=shape)

@@ -76,6 +76,18 @@ def viscous_coefficient(temperature, params: WheelParams = WheelParams()):
     """Viscous friction coefficient tau_v(T) [N m s/rad], eq. 2.15, clamped at 0.
 
     tau_v = (0.049 - 0.0002 (T + 30)) 1e-2; 3.84e-4 at 23 C, 0 from 215 C on.
+
+    Parameters
+    ----------
+    temperature : float or array_like
+        Wheel temperature T [C], any shape.
+    params : WheelParams
+        The wheel type; its fields may be (B, N) arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    float or ndarray
+        tau_v [N m s/rad], ``temperature``'s shape broadcast with ``params.viscous_scale``.
     """
     tau_v = np.maximum((0.049 - 0.0002 * (np.asarray(temperature, float) + 30.0)) * 1e-2, 0.0)
     scale = params.viscous_scale   # a unit's own bearing drag (unit_wheel); the datasheet's law is 1
@@ -91,6 +103,20 @@ def emf_current_limit(bus_voltage, speed, params: WheelParams = WheelParams()):
         R_B |I| + k_e |w| <= g V_avail      (g = K_f or 1, the [choice])
     is a quadratic a I^2 + b I + c <= 0 whose positive root is returned
     (0 when there is none: the back-EMF alone eats the headroom).
+
+    Parameters
+    ----------
+    bus_voltage : float or array_like
+        Bus voltage V_bus [V].
+    speed : float or array_like
+        Wheel speed w [rad/s]; its sign does not matter. Broadcasts with ``bus_voltage``.
+    params : WheelParams
+        The wheel type; its fields may be (B, N) arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    ndarray
+        The current limit I_max >= 0 [A], the broadcast shape of ``bus_voltage`` and ``speed``.
     """
     p = params
     g = p.voltage_feedback_gain if p.emf_limit == "kf_scaled" else 1.0
@@ -111,13 +137,50 @@ def motor_current(tcv, speed, bus_voltage, current_limiter, params: WheelParams 
     Clamp to +-5 V, speed limiter (eq. 2.8), driver gain G_d (its 0.5 ms lag
     is algebraic at our 0.1 s step), EMF limiting in the motoring quadrant
     only (H_b, eq. 2.13), then the current-loss fault (current limiter).
+
+    Parameters
+    ----------
+    tcv : float or array_like
+        Torque command voltage [V]; clamped to +-``params.command_limit``.
+    speed : float or array_like
+        Wheel speed [rad/s].
+    bus_voltage : float or array_like
+        Bus voltage V_bus [V].
+    current_limiter : float or array_like
+        Share of the bridge current that reaches the motor (1 healthy, less under a current-loss fault).
+    params : WheelParams
+        The wheel type; its fields may be (B, N) arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    ndarray
+        I_m [A], the broadcast shape of the arguments ((B, N) in the plant).
     """
     return bridge(tcv, speed, bus_voltage, params)[0] * current_limiter
 
 
 def bridge(tcv, speed, bus_voltage, params: WheelParams = WheelParams()):
     """(current the bridge drives, whether the EMF limit clipped it) before the current limiter. Where it
-    clips, the motor torque is k_t I_max whatever the driver gain: a unit's G_d shows only elsewhere."""
+    clips, the motor torque is k_t I_max whatever the driver gain: a unit's G_d shows only elsewhere.
+
+    Parameters
+    ----------
+    tcv : float or array_like
+        Torque command voltage [V]; clamped to +-``params.command_limit``.
+    speed : float or array_like
+        Wheel speed [rad/s].
+    bus_voltage : float or array_like
+        Bus voltage V_bus [V].
+    params : WheelParams
+        The wheel type; its fields may be (B, N) arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    current : ndarray
+        The bridge current [A], the broadcast shape of the arguments.
+    clipped : ndarray of bool
+        Where the EMF limit cut it (motoring quadrant only), same shape.
+    """
     p = params
     w = np.asarray(speed, float)
     # minimum/maximum, not np.clip: the same numbers at a fifth of the cost on 3-vectors (the plant
@@ -134,14 +197,42 @@ def bridge(tcv, speed, bus_voltage, params: WheelParams = WheelParams()):
 
 
 def friction_torque(speed, temperature, params: WheelParams = WheelParams()):
-    """Bearing friction [N m]: viscous tau_v(T) w (eq. 2.15) plus smoothed coulomb tau_c."""
+    """Bearing friction [N m]: viscous tau_v(T) w (eq. 2.15) plus smoothed coulomb tau_c.
+
+    Parameters
+    ----------
+    speed : float or array_like
+        Wheel speed w [rad/s].
+    temperature : float or array_like
+        Wheel temperature T [C]; broadcasts with ``speed``.
+    params : WheelParams
+        The wheel type; its fields may be (B, N) arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    ndarray
+        Friction torque [N m], signed with ``speed``, the broadcast shape of the arguments.
+    """
     w = np.asarray(speed, float)
     coulomb = params.coulomb_friction * np.tanh(w / params.coulomb_smoothing_speed)
     return viscous_coefficient(temperature, params) * w + coulomb
 
 
 def torque_noise(t, params: WheelParams = WheelParams()):
-    """Bearing torque noise J theta_a w_a^2 sin(w_a t) [N m], eq. 2.16 (1.54e-5 N m)."""
+    """Bearing torque noise J theta_a w_a^2 sin(w_a t) [N m], eq. 2.16 (1.54e-5 N m).
+
+    Parameters
+    ----------
+    t : float or array_like
+        Time [s].
+    params : WheelParams
+        The wheel type; its fields may be (B, N) arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    float or ndarray
+        Noise torque [N m], ``t``'s shape broadcast with the fields of ``params``.
+    """
     p = params
     return p.inertia * p.noise_angle * p.noise_frequency**2 * np.sin(p.noise_frequency * np.asarray(t, float))
 
@@ -151,6 +242,27 @@ def net_torque(tcv, speed, t, op, params: WheelParams = WheelParams()):
 
     ``op`` is anything with bus_voltage, current_limiter and temperature
     attributes (an :class:`OperatingPoint` or arrays of them per wheel).
+
+    Parameters
+    ----------
+    tcv : float or array_like
+        Torque command voltage [V], e.g. (B, N).
+    speed : float or array_like
+        Wheel speed [rad/s], broadcasting with ``tcv``.
+    t : float
+        Time [s] (the bearing noise's phase).
+    op : OperatingPoint or namespace
+        ``bus_voltage`` [V], ``current_limiter`` (share), ``temperature`` [C]: floats or arrays broadcasting
+        with ``tcv``.
+    params : WheelParams
+        The wheel type; its fields may be (B, N) arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    net : ndarray
+        tau_n [N m], the broadcast shape of the arguments.
+    motor : ndarray
+        tau_m = k_t I_m [N m], same shape (what the ripple scales).
     """
     tau_m = params.torque_constant * motor_current(tcv, speed, op.bus_voltage, op.current_limiter, params)
     return tau_m - friction_torque(speed, op.temperature, params) + torque_noise(t, params), tau_m
@@ -161,13 +273,44 @@ def torque_ripple(motor_torque, wheel_angle, ripple_gain, params: WheelParams = 
 
     At ~143 Hz it averages out of the body motion over a 0.1 s step, so the
     plant applies it to the sampled output torque at the sampled wheel angle.
+
+    Parameters
+    ----------
+    motor_torque : float or array_like
+        Motor torque tau_m [N m], e.g. (B, N).
+    wheel_angle : float or array_like
+        Wheel angle theta [rad], broadcasting with ``motor_torque``.
+    ripple_gain : float or array_like
+        Multiplier of the ripple coefficient B (1 healthy; the ripple fault raises it).
+    params : WheelParams
+        The wheel type; its fields may be (B, N) arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    ndarray
+        Ripple torque [N m], the broadcast shape of the arguments.
     """
     amp = params.ripple_amplitude_share * params.ripple_coefficient * np.asarray(ripple_gain, float)
     return amp * motor_torque * np.sin(params.poles * np.asarray(wheel_angle, float))
 
 
 def holding_tcv(speed, temperature=23.0, params: WheelParams = WheelParams()):
-    """Command voltage whose motor torque cancels friction at ``speed`` (wheel in equilibrium)."""
+    """Command voltage whose motor torque cancels friction at ``speed`` (wheel in equilibrium).
+
+    Parameters
+    ----------
+    speed : float or array_like
+        Wheel speed [rad/s].
+    temperature : float or array_like, optional
+        Wheel temperature [C].
+    params : WheelParams
+        The wheel type; its fields may be (B, N) arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    ndarray
+        tcv [V], not clamped to the command range; the broadcast shape of the arguments.
+    """
     return friction_torque(speed, temperature, params) / (params.driver_gain * params.torque_constant)
 
 
@@ -185,7 +328,22 @@ DEFAULT_UNIT_SPREAD = {"torque_constant": 0.02, "driver_gain": 0.02, "viscous_fr
 
 def unit_wheel(base: WheelParams, scales: dict) -> WheelParams:
     """``base`` with each unit's parameters scaled: ``scales`` maps UNIT_PARAMETERS names to arrays of
-    shape (3,) (one wheel per axis) or (B, 3) (a batch); the physics broadcasts them per wheel."""
+    shape (3,) (one wheel per axis) or (B, 3) (a batch); the physics broadcasts them per wheel.
+
+    Parameters
+    ----------
+    base : WheelParams
+        The datasheet wheel (or any base).
+    scales : dict of str to float or array_like
+        Every name of UNIT_PARAMETERS to its scale over ``base`` (a share, 1 = datasheet), of shape (N,) for
+        one run's wheels or (B, N) for a batch.
+
+    Returns
+    -------
+    WheelParams
+        ``base`` with ``torque_constant``, ``driver_gain``, ``coulomb_friction`` and ``viscous_scale`` as
+        arrays of the scales' shape.
+    """
     from dataclasses import replace
     return replace(base, torque_constant=base.torque_constant * np.asarray(scales["torque_constant"], float),
                    driver_gain=base.driver_gain * np.asarray(scales["driver_gain"], float),
@@ -211,6 +369,20 @@ def linearised_wheel(temperature=23.0, params: WheelParams = WheelParams(), outp
     """Thesis 3.3 numbers: A=-0.04987, B=0.01563, C=0.01759, D=-0.00551 at 23 C.
 
     Only B C is fixed by eq. 2.22; ``output_gain`` is the thesis' C, B follows.
+
+    Parameters
+    ----------
+    temperature : float, optional
+        Wheel temperature [C] at which tau_v is taken.
+    params : WheelParams
+        The wheel type, scalar fields (one wheel).
+    output_gain : float, optional
+        The state-space C; B = G_d k_t tau_v / (J C).
+
+    Returns
+    -------
+    LinearWheel
+        A [1/s], B, C, D [N m/V] of eq. 2.22 (input tcv [V], output torque [N m]).
     """
     tau_v = float(viscous_coefficient(temperature, params))
     gk = params.driver_gain * params.torque_constant
@@ -224,6 +396,20 @@ def bus_fault_visible_above(bus_voltage, temperature=23.0, params: WheelParams =
 
     Below it a bus-voltage drop leaves the wheel voltage headroom and is physically
     invisible while the spacecraft holds attitude (physics.md, EMF limiting).
+
+    Parameters
+    ----------
+    bus_voltage : float
+        Bus voltage V_bus [V].
+    temperature : float, optional
+        Wheel temperature [C] (the friction to hold).
+    params : WheelParams
+        The wheel type, scalar fields (one wheel).
+
+    Returns
+    -------
+    float
+        The speed [rad/s], on a 0.01 rad/s grid over 0-100 rad/s; inf when no speed up to 100 rad/s is short.
     """
     speeds = np.linspace(0.0, 100.0, 10001)
     holding = friction_torque(speeds, temperature, params) / params.torque_constant
