@@ -55,13 +55,42 @@ DEFAULT_SAMPLES = 150  # FDI samples learnt from: 150 s at 1 s, before the evalu
 
 
 def calibration_samples(seconds: float, period: float = 1.0) -> int:
-    """FDI samples learnt from in ``seconds`` of a run at FDI period ``period``."""
+    """FDI samples learnt from in ``seconds`` of a run at FDI period ``period``.
+
+    Parameters
+    ----------
+    seconds : float
+        Time learnt from [s].
+    period : float, optional
+        FDI period [s].
+
+    Returns
+    -------
+    int
+        Number of FDI samples (rounded).
+    """
     return int(round(float(seconds) / float(period)))
 
 
 def prior_variances(spread: dict | None = None, ripple_gain_max: float = 2.0,
                     params: wm.WheelParams = wm.WheelParams()) -> np.ndarray:
-    """diag(P0): the unit spreads (shares, wheel.DEFAULT_UNIT_SPREAD) and the ripple's largest phasor gain."""
+    """diag(P0): the unit spreads (shares, wheel.DEFAULT_UNIT_SPREAD) and the ripple's largest phasor gain.
+
+    Parameters
+    ----------
+    spread : dict of str to float, optional
+        1-sigma spread (a share) of each UNIT_PARAMETERS name; None for wheel.DEFAULT_UNIT_SPREAD, a missing
+        name for 0.
+    ripple_gain_max : float, optional
+        g_max, the largest ripple gain the prior allows.
+    params : WheelParams
+        The wheel type (its ripple coefficient B and amplitude share).
+
+    Returns
+    -------
+    ndarray, shape (6,)
+        Prior variances of (d_kt, d_Gd, b_v, b_c, a_re, a_im), dimensionless.
+    """
     s = dict(wm.DEFAULT_UNIT_SPREAD if spread is None else spread)
     ripple = (params.ripple_amplitude_share * params.ripple_coefficient * ripple_gain_max) ** 2
     return np.array([s.get(name, 0.0) ** 2 for name in PARAMETERS] + [ripple, ripple])
@@ -69,7 +98,18 @@ def prior_variances(spread: dict | None = None, ripple_gain_max: float = 2.0,
 
 def tolerances(spread: dict | None = None) -> np.ndarray:
     """The 1-sigma tolerance of each physical share (d_kt, d_Gd, b_v, b_c), a box: sum_i t_i |x_i| is the
-    largest error of a unit with every share at the same end (the plant draws each within 3 sigma)."""
+    largest error of a unit with every share at the same end (the plant draws each within 3 sigma).
+
+    Parameters
+    ----------
+    spread : dict of str to float, optional
+        1-sigma spread (a share) of each UNIT_PARAMETERS name; None for wheel.DEFAULT_UNIT_SPREAD.
+
+    Returns
+    -------
+    ndarray, shape (4,)
+        t for (d_kt, d_Gd, b_v, b_c), dimensionless.
+    """
     s = dict(wm.DEFAULT_UNIT_SPREAD if spread is None else spread)
     return np.array([s.get(name, 0.0) for name in PARAMETERS])
 
@@ -78,7 +118,28 @@ def regressors(motor_torque, friction_torque, wheel_speed, ripple_phasor, free_m
                params: wm.WheelParams = wm.WheelParams()) -> np.ndarray:
     """x_k (..., 6) from the FDI sample's nominal terms (any leading shape, one wheel per element);
     without ``free_motor_torque`` (telemetry from before it was reported) the bridge is taken as never
-    clipping."""
+    clipping.
+
+    Parameters
+    ----------
+    motor_torque : array_like, shape (...)
+        The nominal motor torque tau_m [N m], e.g. (n, N): samples, wheels.
+    friction_torque : array_like, shape (...)
+        The nominal friction tau_f(Omega; 23 C) [N m].
+    wheel_speed : array_like, shape (...)
+        Omega [rad/s].
+    ripple_phasor : array_like of complex, shape (...)
+        The ripple phasor p [N m].
+    free_motor_torque : array_like, shape (...), optional
+        tau_m^free [N m], the motor torque where the bridge does not clip (0 where it does).
+    params : WheelParams
+        The wheel type whose viscous coefficient at 23 C splits the friction.
+
+    Returns
+    -------
+    ndarray, shape (..., 6)
+        x_k = (-tau_m, -tau_m^free, tau_v Omega, tau_f - tau_v Omega, Re p, Im p) [N m].
+    """
     viscous = wm.viscous_coefficient(wm.NOMINAL.temperature, params) * np.asarray(wheel_speed, float)
     p = np.asarray(ripple_phasor, complex)
     motor = np.asarray(motor_torque, float)

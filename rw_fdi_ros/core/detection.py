@@ -29,7 +29,18 @@ OBSERVERS = ("elman", "linear", "model")
 
 
 def observers_of(method: str) -> tuple:
-    """The observers an FDI of ``method`` runs: all three speed-aware, the thesis' two (Elman, Luenberger)."""
+    """The observers an FDI of ``method`` runs: all three speed-aware, the thesis' two (Elman, Luenberger).
+
+    Parameters
+    ----------
+    method : str
+        ``speed_aware`` or ``thesis`` (METHODS); ValueError otherwise.
+
+    Returns
+    -------
+    tuple of str
+        Observer slots, of OBSERVERS.
+    """
     if method not in METHODS:
         raise ValueError(f"fdi_method must be one of {', '.join(METHODS)}, got {method!r}")
     return OBSERVERS if method == "speed_aware" else OBSERVERS[:2]
@@ -61,7 +72,26 @@ class AlarmRule:
 
 
 def alarm_series(residual, threshold, times, persistence: int = PERSISTENCE):
-    """(alarm flags, first alarm time or None) of one axis through :class:`AlarmRule`."""
+    """(alarm flags, first alarm time or None) of one axis through :class:`AlarmRule`.
+
+    Parameters
+    ----------
+    residual : array_like, shape (n,)
+        The residual [N m] (|residual| for the speed-aware method).
+    threshold : array_like, shape (n,)
+        The threshold [N m] at each sample.
+    times : array_like, shape (n,)
+        Sample times [s].
+    persistence : int, optional
+        P [samples].
+
+    Returns
+    -------
+    flags : ndarray of bool, shape (n,)
+        Whether the alarm is active at each sample.
+    first_alarm : float or None
+        Time of the first alarm [s], None without one.
+    """
     rule = AlarmRule(persistence)
     flags = np.array([rule.update(r, c, t) for r, c, t in zip(residual, threshold, times)], bool)
     return flags, rule.first_alarm

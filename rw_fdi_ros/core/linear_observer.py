@@ -25,12 +25,36 @@ UNCERTAINTY_GAIN = {"x": 0.343, "y": 0.216, "z": 0.438}
 
 def uncertainty_gain(wheel: str) -> float:
     """kappa of a wheel: its axis' measured one; a wheel off the body axes (the redundant s), of the same
-    type, gets the largest of them."""
+    type, gets the largest of them.
+
+    Parameters
+    ----------
+    wheel : str
+        The wheel's name in its set (x, y, z, or another).
+
+    Returns
+    -------
+    float
+        kappa, dimensionless.
+    """
     return UNCERTAINTY_GAIN.get(wheel, max(UNCERTAINTY_GAIN.values()))
 
 
 def observer_gain(wheel: LinearWheel, speed_up: float = 4.0) -> float:
-    """L with eig(A - L C) = speed_up x eig(A), by pole placement (the dual of state feedback)."""
+    """L with eig(A - L C) = speed_up x eig(A), by pole placement (the dual of state feedback).
+
+    Parameters
+    ----------
+    wheel : LinearWheel
+        The linearised wheel (A [1/s], C).
+    speed_up : float, optional
+        How many times faster than the wheel's pole the observer's is.
+
+    Returns
+    -------
+    float
+        L, the observer gain.
+    """
     placed = signal.place_poles(np.array([[wheel.A]]), np.array([[wheel.C]]), [speed_up * wheel.A])
     return float(placed.gain_matrix[0, 0])
 
@@ -49,7 +73,22 @@ class DiscreteObserver:
 
 
 def discretise(wheel: LinearWheel, period: float, speed_up: float = 4.0) -> DiscreteObserver:
-    """Exact ZOH discretisation of the observer with inputs [u, y]."""
+    """Exact ZOH discretisation of the observer with inputs [u, y].
+
+    Parameters
+    ----------
+    wheel : LinearWheel
+        The linearised wheel (input tcv [V], output reaction torque [N m]).
+    period : float
+        Sample period [s].
+    speed_up : float, optional
+        Observer pole over the wheel's (:func:`observer_gain`).
+
+    Returns
+    -------
+    DiscreteObserver
+        Phi, Gamma_u, Gamma_y, C, D, L and ``period`` [s].
+    """
     L = observer_gain(wheel, speed_up)
     a = np.array([[wheel.A - L * wheel.C]])
     b = np.array([[wheel.B - L * wheel.D, L]])
@@ -78,6 +117,21 @@ class LinearObserver:
 
 
 def estimate_series(tcv, reaction_torque, period: float = 1.0):
-    """Estimates for whole sampled series (time first); the offline tools use this."""
+    """Estimates for whole sampled series (time first); the offline tools use this.
+
+    Parameters
+    ----------
+    tcv : array_like, shape (n, ...)
+        Torque command voltage u [V], e.g. (n, N): samples, wheels.
+    reaction_torque : array_like, shape (n, ...)
+        Measured reaction torque y [N m], the shape of ``tcv``.
+    period : float, optional
+        Sample period [s].
+
+    Returns
+    -------
+    ndarray, shape (n, ...)
+        The estimate y^ [N m] at each sample (from the state before that sample's y).
+    """
     obs = LinearObserver(period)
     return np.array([obs.update(u, y) for u, y in zip(tcv, reaction_torque)])

@@ -81,20 +81,56 @@ def ripple_reach(phasors) -> float:
     non-increasing one. A constant gain gives |S_n|; a ripple that steps up inside the window
     (a bearing wearing) can reach further: with |S_n| alone, +100 % ripple from t = 248 s gave
     a residual of 7.2e-4 N m against a bound of 4.5e-4 at t = 277 s (seed 10200092).
+
+    Parameters
+    ----------
+    phasors : iterable of complex
+        The window's ripple phasors p_1..p_n [N m] (telemetry.py), oldest first.
+
+    Returns
+    -------
+    float
+        The reach [N m] (|S_n| <= reach; 0 for an empty window).
     """
     partial = np.concatenate([[0.0], np.cumsum(np.fromiter(phasors, complex))])
     return float(np.maximum(np.abs(partial), np.abs(partial[-1] - partial)).max())
 
 
 def ripple_share(params=None) -> float:
-    """(B/2): the ripple amplitude per unit motor torque at ripple gain 1 (wheel.torque_ripple)."""
+    """(B/2): the ripple amplitude per unit motor torque at ripple gain 1 (wheel.torque_ripple).
+
+    Parameters
+    ----------
+    params : WheelParams, optional
+        The wheel type; None for the datasheet wheel.
+
+    Returns
+    -------
+    float
+        B/2 (dimensionless: ripple torque per motor torque).
+    """
     from .wheel import WheelParams
     p = params or WheelParams()
     return p.ripple_amplitude_share * p.ripple_coefficient
 
 
 def residual_series(actual, estimate, window: int = WINDOW):
-    """Residuals of whole series (time first, one column per axis) through :class:`ResidualFilter`."""
+    """Residuals of whole series (time first, one column per axis) through :class:`ResidualFilter`.
+
+    Parameters
+    ----------
+    actual : array_like, shape (n,) or (n, N)
+        Measured reaction torque r [N m]: samples, wheels.
+    estimate : array_like, shape (n,) or (n, N)
+        The observer's estimate r^ [N m], same shape.
+    window : int, optional
+        W [samples].
+
+    Returns
+    -------
+    ndarray, shape (n, N)
+        The moving mean of |r - r^| [N m] ((n, 1) for 1-D input).
+    """
     actual, estimate = np.atleast_2d(np.asarray(actual, float).T).T, np.atleast_2d(np.asarray(estimate, float).T).T
     out = np.empty(actual.shape)
     for j in range(actual.shape[1]):
@@ -104,7 +140,20 @@ def residual_series(actual, estimate, window: int = WINDOW):
 
 
 def window_mean(values, window: int = WINDOW):
-    """Moving mean over the last ``window`` samples (time first); the first W-1 average what exists."""
+    """Moving mean over the last ``window`` samples (time first); the first W-1 average what exists.
+
+    Parameters
+    ----------
+    values : array_like, shape (n, ...)
+        The series, time on axis 0 (any unit).
+    window : int, optional
+        W [samples].
+
+    Returns
+    -------
+    ndarray, shape (n, ...)
+        The moving mean, in the unit of ``values``.
+    """
     v = np.asarray(values, float)
     c = np.cumsum(v, axis=0)
     n = np.minimum(np.arange(1, len(v) + 1), window).reshape((-1,) + (1,) * (v.ndim - 1))
@@ -116,7 +165,32 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
                            regressors=None, calibration_samples: int = 0):
     """(residuals, bounds) of whole series (time first, one column per axis) through :class:`SignedResidual`;
     with ``calibration_samples`` > 0 each wheel learns its unit from its first samples (``regressors``:
-    (n, axes, 6), calibration.regressors)."""
+    (n, axes, 6), calibration.regressors).
+
+    Parameters
+    ----------
+    actual : array_like, shape (n, N)
+        Measured reaction torque r [N m]: samples, wheels.
+    estimate : array_like, shape (n, N)
+        The observer's estimate r^ [N m].
+    ripple_phasor : array_like of complex, shape (n, N)
+        The FDI samples' ripple phasors [N m] (telemetry.py).
+    window : int, optional
+        W [samples].
+    uncertainty_gains : sequence of float
+        kappa per wheel (dimensionless), N of them.
+    regressors : array_like, shape (n, N, 6), optional
+        calibration.regressors of the samples [N m]; needed with ``calibration_samples`` > 0.
+    calibration_samples : int, optional
+        FDI samples each wheel learns its unit from; 0: no calibration.
+
+    Returns
+    -------
+    residuals : ndarray, shape (n, N)
+        The signed moving mean of r - r^ (calibrated) [N m].
+    bounds : ndarray, shape (n, N)
+        What each may hold unfaulted [N m].
+    """
     from .calibration import UnitCalibration
     actual, estimate, phasor = (np.asarray(x) for x in (actual, estimate, ripple_phasor))
     res, bound = np.empty(actual.shape), np.empty(actual.shape)
@@ -132,7 +206,24 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
 def demand_ratio(actual, estimate, ripple_phasor, active: float = 1e-3) -> float | None:
     """One fault-free run of one wheel: the largest (|residual| - ripple bound) / mean(|r|) over the
     samples where mean(|r|) > ``active`` N m (a manoeuvre), i.e. how much the observer erred per unit of
-    the torque it was asked for (series (n,) of r, r^ and the ripple phasor); None: no manoeuvre."""
+    the torque it was asked for (series (n,) of r, r^ and the ripple phasor); None: no manoeuvre.
+
+    Parameters
+    ----------
+    actual : array_like, shape (n,)
+        Measured reaction torque r [N m].
+    estimate : array_like, shape (n,)
+        The observer's estimate r^ [N m].
+    ripple_phasor : array_like of complex, shape (n,)
+        The FDI samples' ripple phasors [N m].
+    active : float, optional
+        Torque demand mean(|r|) above which a sample counts [N m].
+
+    Returns
+    -------
+    float or None
+        The largest ratio (dimensionless), None when no sample is active.
+    """
     r = np.asarray(actual, float)[:, None]
     res, bound = signed_residual_series(r, np.asarray(estimate, float)[:, None],
                                         np.asarray(ripple_phasor)[:, None])
@@ -146,7 +237,20 @@ def demand_gain(ratios, false_alarm_rate: float = FALSE_ALARM_RATE) -> float:
     quantile of a Gumbel law fitted to them (:func:`gumbel_fit`), never below the largest (twice the
     largest for fewer than 4 runs: too few for a tail). An observer whose error grows with the torque
     demand gets a bound that does too; alpha / 6: half the designed per-run false-alarm rate over three
-    axes, the band c (:func:`fit_band`) gets the other half."""
+    axes, the band c (:func:`fit_band`) gets the other half.
+
+    Parameters
+    ----------
+    ratios : iterable of float
+        :func:`demand_ratio` of each fault-free run (the Nones left out), dimensionless.
+    false_alarm_rate : float, optional
+        Designed per-run false-alarm probability alpha.
+
+    Returns
+    -------
+    float
+        kappa >= 0 (dimensionless; 0 for no ratios).
+    """
     ratios = list(ratios)
     if len(ratios) < 4:
         kappa = 2.0 * max(ratios, default=0.0)

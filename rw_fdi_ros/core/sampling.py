@@ -45,7 +45,30 @@ class FdiSampler:
 
 
 def sample_series(stamps_ns, u, r, period: float = 1.0, mode: str = "mean"):
-    """Whole control-rate series -> (stamps_ns, u, r) at the FDI period, through :class:`FdiSampler`."""
+    """Whole control-rate series -> (stamps_ns, u, r) at the FDI period, through :class:`FdiSampler`.
+
+    Parameters
+    ----------
+    stamps_ns : array_like of int, shape (n,)
+        Control sample stamps [ns].
+    u : array_like, shape (n, ...)
+        Torque command voltage [V], e.g. (n, N): samples, wheels.
+    r : array_like, shape (n, ...)
+        Reaction torque [N m].
+    period : float, optional
+        FDI period T [s].
+    mode : str, optional
+        ``mean`` (over (t - T, t]) or ``instant``.
+
+    Returns
+    -------
+    stamps_ns : ndarray of int64, shape (m,)
+        FDI stamps [ns], the multiples of ``period`` among ``stamps_ns``.
+    u : ndarray, shape (m, ...)
+        FDI samples of the command [V].
+    r : ndarray, shape (m, ...)
+        FDI samples of the reaction torque [N m].
+    """
     sampler = FdiSampler(period, mode)
     rows = [row for row in (sampler.add(int(s), np.asarray(ui, float), np.asarray(ri, float))
                             for s, ui, ri in zip(stamps_ns, u, r)) if row is not None]

@@ -34,7 +34,26 @@ from .sampling import FdiSampler
 def model_reaction_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams()):
     """Reaction torque [N m] of a healthy wheel for command ``tcv`` at speed ``wheel_speed`` (no ripple),
     its motor torque tau_m, and tau_m where the bridge does not clip the current (else 0: there a
-    unit's driver gain does not show, calibration.py)."""
+    unit's driver gain does not show, calibration.py).
+
+    Parameters
+    ----------
+    tcv : float or array_like
+        Torque command voltage u [V], e.g. (n, N): samples, wheels.
+    wheel_speed : float or array_like
+        Measured wheel speed Omega [rad/s], broadcasting with ``tcv``.
+    params : WheelParams
+        The wheel type, at the nominal operating point (bus 8 V, limiter 1, 23 C).
+
+    Returns
+    -------
+    reaction : ndarray
+        r_model [N m], the broadcast shape of the arguments.
+    motor : ndarray
+        tau_m [N m], same shape.
+    free : ndarray
+        tau_m where the bridge does not clip, else 0 [N m], same shape.
+    """
     nominal = wm.NOMINAL
     current, clipped = wm.bridge(tcv, wheel_speed, nominal.bus_voltage, params)
     tau_m = params.torque_constant * current
@@ -87,7 +106,20 @@ BUS_GRID_KEY = "bus_motor_torque_f64le_base64"
 
 
 def report_values(sample: FdiSample, wheel: int) -> dict:
-    """key -> text of wheel ``wheel``'s part of ``sample`` (what the FDI telemetry message carries)."""
+    """key -> text of wheel ``wheel``'s part of ``sample`` (what the FDI telemetry message carries).
+
+    Parameters
+    ----------
+    sample : FdiSample
+        One FDI sample of the wheel set.
+    wheel : int
+        The wheel's index in the set.
+
+    Returns
+    -------
+    dict of str to str
+        REPORT_FIELDS keys (those present in ``sample``), the ripple phasor's parts and the bus grid.
+    """
     out = {key: repr(float(getattr(sample, name)[wheel])) for key, name in REPORT_FIELDS
            if getattr(sample, name) is not None}
     if sample.ripple_phasor is not None:
@@ -101,7 +133,22 @@ def report_values(sample: FdiSample, wheel: int) -> dict:
 def sample_from_report(stamp_ns: int, wheels: list, identification: bool = True) -> FdiSample:
     """The :class:`FdiSample` of one report: ``wheels`` holds one key -> text mapping per wheel, in
     axis order (the inverse of :func:`report_values`); without ``identification`` the terms only
-    fault identification needs are left out. Raises ValueError on a malformed report."""
+    fault identification needs are left out. Raises ValueError on a malformed report.
+
+    Parameters
+    ----------
+    stamp_ns : int
+        The sample's stamp [ns].
+    wheels : list of dict of str to str
+        One report (as :func:`report_values` writes it) per wheel.
+    identification : bool, optional
+        Whether to read the bus-voltage grid too.
+
+    Returns
+    -------
+    FdiSample
+        Fields (N,) for N wheels; ``bus_motor_torque`` (N, grid) [N m].
+    """
     def column(key):
         if not all(key in w for w in wheels):
             return None
@@ -199,6 +246,31 @@ class TelemetrySampler:
 
 def sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0, mode: str = "mean",
                      params: wm.WheelParams = wm.WheelParams(), identification: bool = False):
-    """Whole control-rate series (time first) -> list of FdiSample, through :class:`TelemetrySampler`."""
+    """Whole control-rate series (time first) -> list of FdiSample, through :class:`TelemetrySampler`.
+
+    Parameters
+    ----------
+    stamps_ns : array_like of int, shape (n,)
+        Control sample stamps [ns].
+    tcv : array_like, shape (n, N)
+        Torque command voltage [V]: samples, wheels.
+    reaction_torque : array_like, shape (n, N)
+        Measured reaction torque [N m].
+    wheel_speed : array_like, shape (n, N), optional
+        Measured wheel speed [rad/s]; None for the thesis' observers (tcv and torque only).
+    period : float, optional
+        FDI period T [s].
+    mode : str, optional
+        ``mean`` or ``instant`` FDI sampling (``mean`` only, with ``wheel_speed``).
+    params : WheelParams
+        The nominal wheel model.
+    identification : bool, optional
+        Whether to add the bus-voltage grid of motor torques (identification.bus_motor_torque).
+
+    Returns
+    -------
+    list of FdiSample
+        One per FDI stamp (stamps that are multiples of ``period``), fields (N,).
+    """
     return TelemetrySampler(period, mode, params, identification).add_series(stamps_ns, tcv, reaction_torque,
                                                                              wheel_speed)

@@ -14,6 +14,18 @@ def run_statistic(excess, persistence: int):
 
     ``excess``: |residual| - bound per sample (time on axis 0). An alarm with band c fires in a
     run exactly when its statistic exceeds c.
+
+    Parameters
+    ----------
+    excess : array_like, shape (n, ...)
+        |residual| - bound [N m], samples first, e.g. (n, N) for a run's wheels.
+    persistence : int
+        P [samples].
+
+    Returns
+    -------
+    ndarray, shape excess.shape[1:]
+        The run statistic [N m] per column; -inf throughout when the run has fewer than P samples.
     """
     e = np.asarray(excess, float)
     if len(e) < persistence:
@@ -30,6 +42,20 @@ def gumbel_fit(maxima, upper: float = 0.5):
     large ripple bound all run long and a very negative statistic; such runs say nothing about
     the tail, and in a fit by moments they inflated beta five-fold (the Elman bands of
     2026-11-23, c = 0.7-1.9e-3 N m against fitting maxima below 0.08e-3).
+
+    Parameters
+    ----------
+    maxima : array_like, shape (runs,)
+        One maximum per run (e.g. :func:`run_statistic`, [N m]).
+    upper : float, optional
+        Share of the sorted maxima, from the top, fitted; with fewer than 3 of them, a fit by moments.
+
+    Returns
+    -------
+    mu : float
+        Location, in the unit of ``maxima``.
+    beta : float
+        Scale (at least 1e-12), in the unit of ``maxima``.
     """
     x = np.sort(np.asarray(maxima, float))
     n = len(x)
@@ -43,7 +69,20 @@ def gumbel_fit(maxima, upper: float = 0.5):
 
 
 def gumbel_quantile(mu: float, beta: float, probability: float) -> float:
-    """x with P(M <= x) = probability: mu - beta ln(-ln p)."""
+    """x with P(M <= x) = probability: mu - beta ln(-ln p).
+
+    Parameters
+    ----------
+    mu, beta : float
+        The law's location and scale (:func:`gumbel_fit`).
+    probability : float or array_like
+        p, in (0, 1).
+
+    Returns
+    -------
+    float or ndarray
+        x, in the unit of ``mu``, the shape of ``probability``.
+    """
     return mu - beta * np.log(-np.log(probability))
 
 
@@ -57,13 +96,43 @@ MIN_FIT_RUNS = 10
 
 def fitting_runs_needed(false_alarm_rate: float, share: float = 1.0, axes: int = 3) -> int:
     """Fault-free runs a band for per-run ``false_alarm_rate`` needs (its per-axis level alpha = share x rate /
-    axes at most EXTRAPOLATION times beyond 1/n), never fewer than MIN_FIT_RUNS."""
+    axes at most EXTRAPOLATION times beyond 1/n), never fewer than MIN_FIT_RUNS.
+
+    Parameters
+    ----------
+    false_alarm_rate : float
+        Designed per-run false-alarm probability over all axes.
+    share : float, optional
+        Share of it the band spends (0.5 for an Elman or Luenberger band, 1 for the model observer's).
+    axes : int, optional
+        Number of axes (wheels) it is split over.
+
+    Returns
+    -------
+    int
+        Fault-free fitting runs needed.
+    """
     return max(MIN_FIT_RUNS, math.ceil(axes / (share * false_alarm_rate * EXTRAPOLATION)))
 
 
 def rate_carried(runs: int, share: float = 0.5, axes: int = 3) -> float:
     """The smallest per-run false-alarm rate ``runs`` fitting runs can carry (:func:`fitting_runs_needed` the other
-    way round; share 0.5: an Elman band's, the most demanding)."""
+    way round; share 0.5: an Elman band's, the most demanding).
+
+    Parameters
+    ----------
+    runs : int
+        Fault-free fitting runs at hand.
+    share : float, optional
+        Share of the rate the band spends.
+    axes : int, optional
+        Number of axes (wheels) it is split over.
+
+    Returns
+    -------
+    float
+        The per-run false-alarm probability.
+    """
     return axes / (share * max(runs, 1) * EXTRAPOLATION)
 
 
@@ -77,6 +146,22 @@ def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", 
     Gumbel law (the limit law of maxima of light-tailed sequences; :func:`gumbel_fit`), whose
     (1 - alpha/n) quantile is c: an empirical quantile of a few hundred runs cannot reach 1e-3.
     Never below the largest fitting-run statistic.
+
+    Parameters
+    ----------
+    statistics : array_like, shape (runs, len(axes))
+        :func:`run_statistic` of each fault-free run and axis [N m].
+    false_alarm_rate : float, optional
+        Designed per-run false-alarm probability over all axes.
+    axes : sequence of str, optional
+        The axes' (wheels') names, in the columns' order.
+    share : float, optional
+        Share of ``false_alarm_rate`` the bands spend.
+
+    Returns
+    -------
+    dict of str to dict
+        Per axis: ``band`` c, ``gumbel_mu``, ``gumbel_beta``, ``fitting_max`` [N m].
     """
     s = np.asarray(statistics, float)
     needed = fitting_runs_needed(false_alarm_rate, share, len(axes))
@@ -94,6 +179,19 @@ def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", 
 
 
 def fit_threshold_curve(residuals, sigmas: float = SIGMAS):
-    """mean + k sigma over runs, per time index; residuals shaped (runs, samples, ...)."""
+    """mean + k sigma over runs, per time index; residuals shaped (runs, samples, ...).
+
+    Parameters
+    ----------
+    residuals : array_like, shape (runs, n, ...)
+        Fault-free runs' residuals [N m], all of one length n.
+    sigmas : float, optional
+        k.
+
+    Returns
+    -------
+    ndarray, shape (n, ...)
+        The threshold curve [N m].
+    """
     r = np.asarray(residuals, float)
     return r.mean(axis=0) + sigmas * r.std(axis=0)
