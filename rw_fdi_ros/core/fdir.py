@@ -58,7 +58,18 @@ SATURATED_S = 30.0
 
 
 def confirmed_reason(first_alarm: float) -> str:
-    """Why a wheel is given up on the FDI's confirmed verdict (the same words in the graph and the loop)."""
+    """Why a wheel is given up on the FDI's confirmed verdict (the same words in the graph and the loop).
+
+    Parameters
+    ----------
+    first_alarm : float
+        Time of the wheel's first alarm [s].
+
+    Returns
+    -------
+    str
+        The reason, one line.
+    """
     return f"confirmed faulty by the FDI (alarm since {first_alarm:g} s)"
 
 
@@ -89,6 +100,24 @@ def held_speeds(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0, 0.0, 
     the body, from which the controller moves it into the wheels in use. With three wheels in use there
     is one answer; a redundant wheel at 1/sqrt(3) to an axis must spin sqrt(3) times as fast as the
     axis wheel it replaces did.
+
+    Parameters
+    ----------
+    wheels : WheelSet
+        The wheel set.
+    in_use : iterable of str
+        Names of the wheels in use after the reconfiguration; they must span the body (else ValueError).
+    wheel_speed : array_like, shape (N,)
+        Wheel speeds Omega now [rad/s], in the set's order.
+    body_momentum : array_like, shape (3,), optional
+        The body's angular momentum I w [N m s], body frame.
+    wheel_inertia : float, optional
+        J [kg m^2].
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Omega' [rad/s]; 0 for the wheels not in use.
     """
     u = distribution(wheels.matrix, wheels.mask(in_use))
     return u @ (wheels.matrix @ np.asarray(wheel_speed, float) + np.asarray(body_momentum, float) / wheel_inertia)
@@ -103,7 +132,26 @@ def slew_excursion(wheels: WheelSet, in_use, slew_rate: float = SLEW_RATE, body_
         dOmega_i = sum_a |D_ia| I_a slew_rate / J
 
     A redundant wheel at 1/sqrt(3) to the axis it takes over moves sqrt(3) times as far as the axis wheel
-    did: about 33 rad/s on the datasheet wheel for Table 2.3's 5-deg slews."""
+    did: about 33 rad/s on the datasheet wheel for Table 2.3's 5-deg slews.
+
+    Parameters
+    ----------
+    wheels : WheelSet
+        The wheel set.
+    in_use : iterable of str
+        Names of the wheels in use; they must span the body (else ValueError).
+    slew_rate : float, optional
+        Largest body rate per axis [rad/s].
+    body_inertia : array_like, shape (3,), optional
+        Principal inertia I [kg m^2].
+    wheel_inertia : float, optional
+        J [kg m^2].
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        dOmega [rad/s]; 0 for the wheels not in use.
+    """
     d = distribution(wheels.matrix, wheels.mask(in_use))
     return np.abs(d) @ (np.asarray(body_inertia, float) * slew_rate) / wheel_inertia
 
@@ -111,7 +159,28 @@ def slew_excursion(wheels: WheelSet, in_use, slew_rate: float = SLEW_RATE, body_
 def momentum_shortfall(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0, 0.0, 0.0),
                        holdable: float = HOLDABLE_SPEED, slew_rate: float = SLEW_RATE) -> str | None:
     """Why the wheels ``in_use`` cannot hold the spacecraft's momentum and still take a slew at ``slew_rate``
-    (one line), or None when they can: every wheel within ``holdable`` at |held speed| + slew excursion."""
+    (one line), or None when they can: every wheel within ``holdable`` at |held speed| + slew excursion.
+
+    Parameters
+    ----------
+    wheels : WheelSet
+        The wheel set.
+    in_use : iterable of str
+        Names of the wheels that would be in use; they must span the body (else ValueError).
+    wheel_speed : array_like, shape (N,)
+        Wheel speeds now [rad/s], in the set's order.
+    body_momentum : array_like, shape (3,), optional
+        The body's angular momentum I w [N m s], body frame.
+    holdable : float, optional
+        Largest speed a wheel in use may be asked to hold [rad/s].
+    slew_rate : float, optional
+        Body rate per axis of the slews to come [rad/s]; 0 for none.
+
+    Returns
+    -------
+    str or None
+        The reason, naming the worst wheel and its speeds [rad/s]; None when every wheel stays within ``holdable``.
+    """
     need = np.abs(held_speeds(wheels, in_use, wheel_speed, body_momentum))
     reach = need + slew_excursion(wheels, in_use, slew_rate)
     worst = int(np.argmax(reach))
@@ -129,7 +198,22 @@ def delivered_share(tcv, wheel_speed, reaction_torque) -> float:
         a^ = sum tau_m (tau_f - r) / sum tau_m^2        (r = -(a tau_m - tau_f), the current-loss family)
 
     with tau_m, tau_f the nominal wheel's (telemetry.model_reaction_torque). NaN where the wheel was asked
-    for next to no motor torque (nothing to measure it on)."""
+    for next to no motor torque (nothing to measure it on).
+
+    Parameters
+    ----------
+    tcv : array_like, shape (n,)
+        Command in force at each control sample [V].
+    wheel_speed : array_like, shape (n,)
+        Wheel speed [rad/s].
+    reaction_torque : array_like, shape (n,)
+        Measured reaction torque r [N m].
+
+    Returns
+    -------
+    float
+        a^ (dimensionless, 1 for a healthy wheel), or NaN.
+    """
     model, tau_m, _ = model_reaction_torque(np.asarray(tcv, float), np.asarray(wheel_speed, float))
     tau_f = model + tau_m
     power = float(np.sum(tau_m * tau_m))

@@ -62,7 +62,24 @@ FREE_UNIT = 1e-3 * SIGMA_FLOOR ** 2   # [N^2 m^2] a ridge only: the unit's share
 
 
 def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams(), grid=BUS_VOLTAGE_GRID):
-    """Motor torque k_t I_m(u, Omega; V) of a healthy wheel at every bus voltage of ``grid``: (..., len(grid))."""
+    """Motor torque k_t I_m(u, Omega; V) of a healthy wheel at every bus voltage of ``grid``: (..., len(grid)).
+
+    Parameters
+    ----------
+    tcv : float or array_like
+        Torque command voltage u [V], any shape (...), e.g. (N,) for one sample of the set.
+    wheel_speed : float or array_like
+        Wheel speed Omega [rad/s], broadcasting with ``tcv``.
+    params : WheelParams
+        The wheel type, scalar fields (one datasheet wheel).
+    grid : array_like, shape (G,)
+        Bus voltages V [V].
+
+    Returns
+    -------
+    ndarray, shape (..., G)
+        tau_m [N m] at current limiter 1.
+    """
     u = np.asarray(tcv, float)[..., None]
     w = np.asarray(wheel_speed, float)[..., None]
     return params.torque_constant * wm.motor_current(u, w, grid, 1.0, params)
@@ -81,6 +98,28 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
     ``fraction`` (H,), for one sample (n = 1): how far each of H ramps has come towards the grid value,
     theta = theta_0 + phi (theta_grid - theta_0); then (H, sum of grid sizes). The bus family's torque at a
     voltage between two grid points is interpolated (the grid is 0.01 V).
+
+    Parameters
+    ----------
+    motor_torque : float or array_like, shape (n,)
+        The nominal wheel's tau_m(u, Omega; 8 V) [N m].
+    friction_torque : float or array_like, shape (n,)
+        The nominal wheel's tau_f(Omega; 23 C) [N m].
+    wheel_speed : float or array_like, shape (n,)
+        Omega [rad/s].
+    bus_torque : array_like, shape (n, G)
+        tau_m at every voltage of BUS_VOLTAGE_GRID [N m] (:func:`bus_motor_torque`).
+    scales : sequence of 4 float, optional
+        The unit's scales (dimensionless); None for the datasheet wheel.
+    free_motor_torque : float or array_like, shape (n,), optional
+        tau_m where the bridge does not clip, else 0 [N m]; None: ``motor_torque``.
+    fraction : array_like, shape (H,), optional
+        phi of each ramp (dimensionless, :func:`ramp_fractions`), with n = 1.
+
+    Returns
+    -------
+    ndarray, shape (S, n) or (H, S)
+        Predicted reaction torque r^ [N m]; S = the sum of the grid sizes (the grids of GRIDS in KINDS order).
     """
     tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
     bus = np.atleast_2d(np.asarray(bus_torque, float)).T          # (len(BUS_VOLTAGE_GRID), n)
@@ -108,7 +147,26 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
 
 def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, free_motor_torque=None):
     """dr^/d(d_kt, d_Gd, b_v, b_c) of every grid point, (sum of grid sizes, n, 4): the directions in which
-    what the calibration does not know of the unit moves each family's prediction (to first order)."""
+    what the calibration does not know of the unit moves each family's prediction (to first order).
+
+    Parameters
+    ----------
+    motor_torque : float or array_like, shape (n,)
+        The nominal wheel's tau_m [N m].
+    friction_torque : float or array_like, shape (n,)
+        The nominal wheel's tau_f(Omega; 23 C) [N m].
+    wheel_speed : float or array_like, shape (n,)
+        Omega [rad/s].
+    bus_torque : array_like, shape (n, G)
+        tau_m at every voltage of BUS_VOLTAGE_GRID [N m].
+    free_motor_torque : float or array_like, shape (n,), optional
+        tau_m where the bridge does not clip, else 0 [N m]; None: ``motor_torque``.
+
+    Returns
+    -------
+    ndarray, shape (S, n, 4)
+        dr^/db [N m] per unit share, S = the sum of the grid sizes.
+    """
     tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
     bus = np.atleast_2d(np.asarray(bus_torque, float)).T
     free = _free(tm, free_motor_torque)
@@ -160,7 +218,18 @@ _RAMP_ORDER = np.argsort(_LONGEST_FIRST)     # stored position -> RAMP_SHARE/RAM
 
 
 def ramp_fractions(elapsed: float) -> np.ndarray:
-    """phi of every ramp (RAMP_SHARE, RAMP_LENGTH) at ``elapsed`` seconds from the first sample counted."""
+    """phi of every ramp (RAMP_SHARE, RAMP_LENGTH) at ``elapsed`` seconds from the first sample counted.
+
+    Parameters
+    ----------
+    elapsed : float
+        Time from the first sample counted [s].
+
+    Returns
+    -------
+    ndarray, shape (H,)
+        phi in [0, 1] per ramp (1 for the step), H = len(RAMP_LENGTH).
+    """
     grown = np.clip(float(elapsed) / np.maximum(RAMP_LENGTH, 1e-9), 0.0, 1.0)
     return np.where(RAMP_LENGTH > 0.0, RAMP_SHARE + (1.0 - RAMP_SHARE) * grown, 1.0)
 
@@ -329,7 +398,18 @@ class Identification:
 
 def decide(sums: ProfileSums) -> Identification:
     """Kind and size from the profile sums of one wheel's samples (module docstring); the size is the fault's
-    at the last sample (a ramp may still be growing)."""
+    at the last sample (a ramp may still be growing).
+
+    Parameters
+    ----------
+    sums : ProfileSums
+        The wheel's sums since the fault's onset.
+
+    Returns
+    -------
+    Identification
+        Kind, size (in the kind's unit: share, [C] or [V]) and interval; ``unknown`` under MIN_SAMPLES.
+    """
     n = sums.n
     if n < MIN_SAMPLES:
         return Identification(UNKNOWN, samples=n)
@@ -395,7 +475,34 @@ def _interval(sizes, rss, s2, step, neighbours: bool = True) -> tuple:
 def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor,
              unit: UnitShares | None = None, free_motor_torque=None, times=None) -> Identification:
     """Kind and size of one wheel's fault from its n FDI samples since the onset (whole arrays; ``times`` [s]
-    default: 1 s apart)."""
+    default: 1 s apart).
+
+    Parameters
+    ----------
+    reaction_torque : array_like, shape (n,)
+        Measured reaction torque r [N m], the FDI period means.
+    motor_torque : array_like, shape (n,)
+        The nominal wheel's tau_m [N m].
+    friction_torque : array_like, shape (n,)
+        The nominal wheel's tau_f [N m].
+    wheel_speed : array_like, shape (n,)
+        Omega [rad/s].
+    bus_torque : array_like, shape (n, G)
+        tau_m at every voltage of BUS_VOLTAGE_GRID [N m].
+    ripple_phasor : array_like of complex, shape (n,)
+        The ripple phasor p [N m].
+    unit : UnitShares, optional
+        What is known of the wheel's unit; None for the datasheet wheel.
+    free_motor_torque : array_like, shape (n,), optional
+        tau_m where the bridge does not clip, else 0 [N m].
+    times : array_like, shape (n,), optional
+        Sample times [s].
+
+    Returns
+    -------
+    Identification
+        As :func:`decide` gives it.
+    """
     sums = ProfileSums(unit)
     free = [None] * len(reaction_torque) if free_motor_torque is None else free_motor_torque
     times = range(len(reaction_torque)) if times is None else times
@@ -417,7 +524,20 @@ def onset_index(errors, ripple_phasors) -> int:
     seconds before its alarm), the first sample from k^ on that leaves the ripple fit of the samples
     before k^ by more than 3 max(s, sigma_floor) (s: their residual's rms). Without the ripple terms
     the change point followed the ripple: near an alias speed it swings a healthy wheel's error by as
-    much as a small fault for tens of seconds."""
+    much as a small fault for tens of seconds.
+
+    Parameters
+    ----------
+    errors : array_like, shape (n,)
+        Model error r - r^ of each FDI sample [N m].
+    ripple_phasors : array_like of complex, shape (n,)
+        The samples' ripple phasors p [N m].
+
+    Returns
+    -------
+    int
+        Index of the first sample of the fault's effect, 0 <= index < n (0 for n < 2).
+    """
     e = np.asarray(errors, float)
     p = np.asarray(ripple_phasors, complex)
     n = e.size
