@@ -44,7 +44,18 @@ MAGNETOMETER_PERIOD = 1.0
 
 def magnetometer_steps(control_period: float) -> int:
     """Control steps per magnetometer reading: a reading (and the rods' answer) on every step k with
-    k % this == 0. ValueError when the control period does not divide MAGNETOMETER_PERIOD."""
+    k % this == 0. ValueError when the control period does not divide MAGNETOMETER_PERIOD.
+
+    Parameters
+    ----------
+    control_period : float
+        Control period [s].
+
+    Returns
+    -------
+    int
+        Steps per reading (at least 1).
+    """
     steps = max(int(round(MAGNETOMETER_PERIOD / control_period)), 1)
     if abs(steps * control_period - MAGNETOMETER_PERIOD) > 1e-9:
         raise ValueError(f"in orbit the control period must divide the magnetometer's {MAGNETOMETER_PERIOD:g} s, "
@@ -85,7 +96,18 @@ class Track:
 
 
 def body_from_inertial(attitude) -> np.ndarray:
-    """C_bi (..., 3, 3) of attitude angles (..., 3) read as 3-2-1 Euler angles: R1(phi) R2(theta) R3(psi)."""
+    """C_bi (..., 3, 3) of attitude angles (..., 3) read as 3-2-1 Euler angles: R1(phi) R2(theta) R3(psi).
+
+    Parameters
+    ----------
+    attitude : array_like, shape (..., 3)
+        (phi, theta, psi) [rad], e.g. (B, 3).
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+        C_bi: body components of an inertial vector v are C_bi v.
+    """
     phi, theta, psi = (np.asarray(attitude, float)[..., i] for i in range(3))
     cf, sf, ct, st, cp, sp = np.cos(phi), np.sin(phi), np.cos(theta), np.sin(theta), np.cos(psi), np.sin(psi)
     return np.stack((np.stack((ct * cp, ct * sp, -st), -1),
@@ -95,7 +117,20 @@ def body_from_inertial(attitude) -> np.ndarray:
 
 def gravity_gradient_torque(position_body, inertia) -> np.ndarray:
     """tau_gg = 3 mu / |r|^5 (r x I r) [N m] for positions in body axes (..., 3) and a principal inertia
-    (3,) [kg m^2]."""
+    (3,) [kg m^2].
+
+    Parameters
+    ----------
+    position_body : array_like, shape (..., 3)
+        Position r from the Earth's centre [m], body axes, e.g. (B, 3).
+    inertia : array_like, shape (3,)
+        Principal inertia I [kg m^2].
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        tau_gg [N m], body axes.
+    """
     r = np.asarray(position_body, float)
     return 3.0 * MU_EARTH / np.linalg.norm(r, axis=-1, keepdims=True) ** 5 * cross(r, np.asarray(inertia) * r)
 

@@ -35,7 +35,24 @@ def _rotate_z(vectors, angle):
 
 def field_inertial(position, sidereal, epoch: datetime, model: str = "igrf") -> np.ndarray:
     """The field [T] at inertial positions ``position`` (n, 3) [m] whose sidereal angles are ``sidereal``
-    (n,) [rad], for ``model`` (FIELD_MODELS) at ``epoch``'s date; shape (n, 3)."""
+    (n,) [rad], for ``model`` (FIELD_MODELS) at ``epoch``'s date; shape (n, 3).
+
+    Parameters
+    ----------
+    position : array_like, shape (n, 3)
+        Inertial (ECI) positions [m].
+    sidereal : array_like, shape (n,)
+        Greenwich mean sidereal angle at each position's time [rad] (orbit.sidereal_angle).
+    epoch : datetime
+        Date whose IGRF coefficients are used.
+    model : str, optional
+        ``igrf`` or ``tilted_dipole``; ValueError otherwise.
+
+    Returns
+    -------
+    ndarray, shape (n, 3)
+        The field b [T], inertial frame.
+    """
     if model not in FIELD_MODELS:
         raise ValueError(f"magnetic_field must be one of {', '.join(FIELD_MODELS)}, got {model!r}")
     import ppigrf

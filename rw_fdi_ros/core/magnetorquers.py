@@ -42,13 +42,43 @@ class MomentumDumping:
 
 def wheel_momentum(wheel_speed, wheel_inertia, spin_axes, in_use) -> np.ndarray:
     """h = sum over the wheels in use of J g_i Omega_i [N m s]: speeds (B, N), inertia J scalar or (B, N),
-    spin axes G (3, N), in_use (B, N) bool; shape (B, 3)."""
+    spin axes G (3, N), in_use (B, N) bool; shape (B, 3).
+
+    Parameters
+    ----------
+    wheel_speed : array_like, shape (B, N)
+        Wheel speeds Omega [rad/s]: runs, wheels.
+    wheel_inertia : float or array_like, shape (B, N)
+        J [kg m^2].
+    spin_axes : array_like, shape (3, N)
+        G, body frame.
+    in_use : array_like of bool, shape (B, N)
+        The wheels whose momentum counts.
+
+    Returns
+    -------
+    ndarray, shape (B, 3)
+        h [N m s], body frame.
+    """
     stored = np.where(in_use, np.asarray(wheel_inertia) * np.asarray(wheel_speed, float), 0.0)
     return stored @ np.asarray(spin_axes).T
 
 
 def cross_product_dipole(field, torque) -> np.ndarray:
-    """m = (b x tau) / |b|^2 [A m^2]: the dipole whose torque m x b is tau's component across b."""
+    """m = (b x tau) / |b|^2 [A m^2]: the dipole whose torque m x b is tau's component across b.
+
+    Parameters
+    ----------
+    field : array_like, shape (..., 3)
+        Magnetic field b [T], body frame.
+    torque : array_like, shape (..., 3)
+        Wanted torque tau [N m], body frame.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        m [A m^2]; 0 where the field is 0.
+    """
     b = np.asarray(field, float)
     norm2 = np.sum(b * b, axis=-1, keepdims=True)
     return cross(b, np.asarray(torque, float)) / np.where(norm2 > 0.0, norm2, np.inf)
@@ -56,7 +86,20 @@ def cross_product_dipole(field, torque) -> np.ndarray:
 
 def saturate(dipole, limit) -> np.ndarray:
     """``dipole`` (..., 3) scaled down as a whole so that no rod exceeds ``limit`` (scalar or (..., 1));
-    its direction kept."""
+    its direction kept.
+
+    Parameters
+    ----------
+    dipole : array_like, shape (..., 3)
+        m [A m^2], one component per rod.
+    limit : float or array_like, shape (..., 1)
+        Largest dipole per rod [A m^2].
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        The dipole [A m^2], scaled by one factor <= 1 per vector.
+    """
     m = np.asarray(dipole, float)
     peak = np.max(np.abs(m), axis=-1, keepdims=True)
     return m * np.minimum(1.0, limit / np.where(peak > 0.0, peak, np.inf))

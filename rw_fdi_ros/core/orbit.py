@@ -25,7 +25,18 @@ class OrbitError(ValueError):
 
 
 def julian_date(epoch: datetime) -> float:
-    """Julian date (UTC taken as UT1: 1 s is 0.004 deg of Earth rotation) of ``epoch``."""
+    """Julian date (UTC taken as UT1: 1 s is 0.004 deg of Earth rotation) of ``epoch``.
+
+    Parameters
+    ----------
+    epoch : datetime
+        The instant; a naive datetime is taken as UTC.
+
+    Returns
+    -------
+    float
+        JD [days].
+    """
     if epoch.tzinfo is None:
         epoch = epoch.replace(tzinfo=timezone.utc)
     return 2440587.5 + epoch.timestamp() / 86400.0
@@ -34,7 +45,20 @@ def julian_date(epoch: datetime) -> float:
 def sidereal_angle(epoch: datetime, t) -> np.ndarray:
     """Greenwich mean sidereal angle [rad] at ``t`` [s] after ``epoch``: the IAU 1982 expression to first
     order, theta = 280.46061837 deg + 360.98564736629 deg/day (JD - 2451545.0) (Vallado, eq. 3-45
-    without its 1e-7 deg/century^2 terms)."""
+    without its 1e-7 deg/century^2 terms).
+
+    Parameters
+    ----------
+    epoch : datetime
+        The run's t = 0 (naive: UTC).
+    t : float or array_like
+        Time after ``epoch`` [s], e.g. (n,).
+
+    Returns
+    -------
+    float or ndarray
+        theta in [0, 2 pi) [rad], ``t``'s shape.
+    """
     days = julian_date(epoch) - J2000_JD + np.asarray(t, float) / 86400.0
     return np.deg2rad(np.mod(280.46061837 + 360.98564736629 * days, 360.0))
 

@@ -43,7 +43,26 @@ class PidGains:
 
 def design_gains(inertia=INERTIA, natural_frequency=0.3, damping=0.8, real_pole_ratio=1.0,
                  setpoint_weight=0.35) -> PidGains:
-    """Pole placement of I s^3 + k_d s^2 + k_p s + k_i = I (s + a w)(s^2 + 2 z w s + w^2)."""
+    """Pole placement of I s^3 + k_d s^2 + k_p s + k_i = I (s + a w)(s^2 + 2 z w s + w^2).
+
+    Parameters
+    ----------
+    inertia : array_like, shape (3,)
+        Principal inertia I per axis [kg m^2].
+    natural_frequency : float, optional
+        w [rad/s].
+    damping : float, optional
+        z, dimensionless.
+    real_pole_ratio : float, optional
+        a: the real pole at -a w.
+    setpoint_weight : float, optional
+        b on the proportional term, dimensionless.
+
+    Returns
+    -------
+    PidGains
+        kp [N m/rad], ki [N m/(rad s)], kd [N m s/rad], each of ``inertia``'s shape.
+    """
     inertia = np.asarray(inertia, float)
     w, z, a = natural_frequency, damping, real_pole_ratio
     return PidGains(kp=inertia * (w * w + 2 * z * a * w * w), ki=inertia * a * w**3,
@@ -51,7 +70,22 @@ def design_gains(inertia=INERTIA, natural_frequency=0.3, damping=0.8, real_pole_
 
 
 def thesis_form(gains: PidGains, wheel: WheelParams = WheelParams()):
-    """(K_d, z_c1, z_c2) of eq. 2.36 for the command voltage (K_d < 0: the wheel inverts torque)."""
+    """(K_d, z_c1, z_c2) of eq. 2.36 for the command voltage (K_d < 0: the wheel inverts torque).
+
+    Parameters
+    ----------
+    gains : PidGains
+        Body-torque gains, arrays (3,).
+    wheel : WheelParams
+        The wheel type (G_d k_t turns torque into volts), scalar fields.
+
+    Returns
+    -------
+    K_d : ndarray, shape (3,)
+        [V s/rad].
+    z_c1, z_c2 : ndarray of complex, shape (3,)
+        The zeros [1/s] (a complex pair for well-damped designs).
+    """
     gk = wheel.driver_gain * wheel.torque_constant
     k_d = -np.asarray(gains.kd) / gk
     s, p = gains.kp / gains.kd, gains.ki / gains.kd  # z1 + z2, z1 z2
