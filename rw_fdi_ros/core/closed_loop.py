@@ -67,7 +67,38 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
              every: int = 1) -> Trajectory:
     """Run scenarios (one or a list) to their end; returns every ``every``-th control-period sample (and
     the last). ``wheels``: the wheel set (None: the scenarios'); ``fdir``: reconfigure on the FDI's
-    confirmed failures; in orbit the magnetorquers dump momentum by the scenarios' law."""
+    confirmed failures; in orbit the magnetorquers dump momentum by the scenarios' law.
+
+    Parameters
+    ----------
+    scenarios : Scenario or list of Scenario
+        The B runs of the batch.
+    gains : PidGains, optional
+        The controllers' gains; None for :func:`pid.design_gains`'s defaults.
+    wheel : WheelParams
+        The wheel type (scalar fields; a scenario's units are drawn from it).
+    control_period : float, optional
+        Control period [s].
+    duration : float, optional
+        Run length [s]; None for the first scenario's.
+    disturbance : bool, optional
+        Whether eq. 2.34's random disturbance acts.
+    wheel_momentum_coupling : bool, optional
+        Whether the wheels' momentum enters the body's equations (plant.py).
+    wheels : WheelSet or str, optional
+        The wheel set; None for the scenarios'.
+    fdir : Fdir, optional
+        FDI bands and settings for reconfiguring in the loop; None: no FDIR.
+    magnetic_field : str, optional
+        Field model in orbit (``igrf``, ``tilted_dipole``); None for the first scenario's choice.
+    every : int, optional
+        Keep every ``every``-th control sample.
+
+    Returns
+    -------
+    Trajectory
+        Body arrays (K, B, 3), wheel arrays (K, B, N) over the K samples kept, time (K,) [s].
+    """
     if isinstance(scenarios, Scenario):
         scenarios = [scenarios]
     duration = duration or scenarios[0].duration
@@ -164,6 +195,26 @@ def step_metrics(traj: Trajectory, start: float = 0.0, band: float = 0.05, floor
     ``band`` of the step or ``floor`` radians of the set point, whichever is wider: a 0.04 deg
     step on one axis is moved by more than its 5 % by the gyroscopic torque w x h_w of a
     5 deg slew on another, and 0.01 deg is 20x finer than the 0.2 deg pointing requirement.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        The runs, attitude and set-point (K, B, 3) [rad].
+    start : float, optional
+        Time the step is applied [s].
+    band : float, optional
+        Settling band, a share of the step.
+    floor : float, optional
+        Tolerance about the set point [rad].
+
+    Returns
+    -------
+    overshoot : ndarray, shape (B, 3)
+        Share of the step (0 for an axis without a step).
+    settling : ndarray, shape (B, 3)
+        Settling time after ``start`` [s].
+    settled_error : ndarray, shape (B, 3)
+        Largest |attitude - set point| after settling [rad].
     """
     i0 = int(np.searchsorted(traj.time, start))
     initial = traj.attitude[i0]

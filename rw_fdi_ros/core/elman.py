@@ -41,7 +41,18 @@ class ModelError(ValueError):
 
 def network_wheel(wheel: str) -> str:
     """Whose network a wheel runs (wheel_set.fitted_for): the networks are trained per body-axis wheel; the
-    redundant s runs x's."""
+    redundant s runs x's.
+
+    Parameters
+    ----------
+    wheel : str
+        The wheel's name in its set.
+
+    Returns
+    -------
+    str
+        The body-axis wheel whose network it runs.
+    """
     return fitted_for(wheel, AXIS_WHEELS)[0]
 
 
@@ -166,13 +177,45 @@ def standby(tcv, reaction_torque) -> bool:
     """Whether an FDI sample is of a standby wheel: unpowered and at rest for the whole period (its command
     and reaction torque means exactly 0; wheel_set.py). A network trained on running wheels has nothing
     to recall there: its recall starts at the wheel's first running sample, and until then its estimate
-    is the measured torque (residual 0)."""
+    is the measured torque (residual 0).
+
+    Parameters
+    ----------
+    tcv : float
+        The sample's mean command [V].
+    reaction_torque : float
+        The sample's mean reaction torque [N m].
+
+    Returns
+    -------
+    bool
+        True when both are exactly 0.
+    """
     return float(tcv) == 0.0 and float(reaction_torque) == 0.0
 
 
 def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel_speed=None, reaction_torque=None):
     """Recall-mode estimates for a sampled tcv series (what the node computes, sample by sample); with
-    ``reaction_torque``, from the first running sample (:func:`standby`) on, the measured torque before."""
+    ``reaction_torque``, from the first running sample (:func:`standby`) on, the measured torque before.
+
+    Parameters
+    ----------
+    weights : ElmanWeights
+        The wheel's network.
+    tcv : array_like, shape (n,)
+        FDI samples of the command u [V].
+    initial_torque : float, optional
+        Reaction torque the recall starts from [N m] (without ``reaction_torque``).
+    wheel_speed : array_like, shape (n,), optional
+        Wheel speed Omega [rad/s]; needed by a speed-aware network.
+    reaction_torque : array_like, shape (n,), optional
+        Measured reaction torque [N m]: the standby samples' estimate and the recall's start.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The estimate r^ [N m].
+    """
     tcv = np.asarray(tcv, float)
     start = 0
     if reaction_torque is not None:

@@ -30,13 +30,40 @@ NEXT, NEW_RUN, OUT_OF_ORDER = "next", "new_run", "out_of_order"
 
 
 def stamp_order(last_ns: int | None, stamp_ns: int, period_ns: int) -> str:
-    """How a sample stamped ``stamp_ns`` follows the last one accepted (``last_ns``, None at start)."""
+    """How a sample stamped ``stamp_ns`` follows the last one accepted (``last_ns``, None at start).
+
+    Parameters
+    ----------
+    last_ns : int or None
+        Stamp of the last sample accepted [ns].
+    stamp_ns : int
+        The new sample's stamp [ns].
+    period_ns : int
+        FDI period [ns].
+
+    Returns
+    -------
+    str
+        NEXT, NEW_RUN (a stamp back at the run's first period) or OUT_OF_ORDER.
+    """
     if last_ns is None or stamp_ns > last_ns:
         return NEXT
     return NEW_RUN if stamp_ns <= period_ns and stamp_ns != last_ns else OUT_OF_ORDER
 
 
 def all_finite(*values) -> bool:
+    """Whether every element of every argument is finite (no NaN, no inf).
+
+    Parameters
+    ----------
+    *values : float or array_like
+        Numbers or arrays of any shape.
+
+    Returns
+    -------
+    bool
+        True when all are finite (also for no arguments).
+    """
     return all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in values)
 
 

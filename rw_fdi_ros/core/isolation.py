@@ -32,12 +32,34 @@ WHEEL_SPEED_ENVELOPE = 45.0
 
 
 def in_envelope(wheel_speed) -> np.ndarray:
-    """Per wheel: whether its FDI sample's speed [rad/s] lies in the operating envelope."""
+    """Per wheel: whether its FDI sample's speed [rad/s] lies in the operating envelope.
+
+    Parameters
+    ----------
+    wheel_speed : float or array_like
+        Wheel speed [rad/s], e.g. (N,).
+
+    Returns
+    -------
+    ndarray of bool
+        |speed| <= WHEEL_SPEED_ENVELOPE, ``wheel_speed``'s shape.
+    """
     return np.abs(np.asarray(wheel_speed, float)) <= WHEEL_SPEED_ENVELOPE
 
 
 def decision_observer(method: str) -> str:
-    """The observer that decides /diagnostics for FDI ``method``."""
+    """The observer that decides /diagnostics for FDI ``method``.
+
+    Parameters
+    ----------
+    method : str
+        ``speed_aware`` or ``thesis``; ValueError otherwise.
+
+    Returns
+    -------
+    str
+        The observer slot (``model`` or ``elman``).
+    """
     try:
         return DECISION_OBSERVERS[method]
     except KeyError:
@@ -45,7 +67,18 @@ def decision_observer(method: str) -> str:
 
 
 def stamp_seconds(stamp_ns: int) -> float:
-    """Sim time [s] of a stamp; exact for whole seconds."""
+    """Sim time [s] of a stamp; exact for whole seconds.
+
+    Parameters
+    ----------
+    stamp_ns : int
+        Stamp [ns].
+
+    Returns
+    -------
+    float
+        Time [s].
+    """
     return stamp_ns // 10**9 + (stamp_ns % 10**9) * 1e-9
 
 

@@ -51,13 +51,41 @@ class PlantSample:
 
 
 def hold_command(wheel_speed, params: wm.WheelParams = wm.WheelParams()):
-    """The command a controller that was holding attitude had before t=0 (wheel at equilibrium)."""
+    """The command a controller that was holding attitude had before t=0 (wheel at equilibrium).
+
+    Parameters
+    ----------
+    wheel_speed : float or array_like
+        Wheel speed [rad/s], e.g. (B, N).
+    params : WheelParams
+        The wheel type; fields may be (B, N) arrays (:func:`units_of`).
+
+    Returns
+    -------
+    ndarray
+        tcv [V] that cancels friction at 23 C (not clamped), the broadcast shape.
+    """
     return wm.holding_tcv(wheel_speed, 23.0, params)
 
 
 def units_of(scenarios, base: wm.WheelParams, count: int = 3) -> wm.WheelParams:
     """The ``count`` wheels of a batch of scenarios: ``base`` (the datasheet) unless some scenario draws its
-    units (Scenario.unit_scales); then each parameter of wm.UNIT_PARAMETERS as a (B, count) array."""
+    units (Scenario.unit_scales); then each parameter of wm.UNIT_PARAMETERS as a (B, count) array.
+
+    Parameters
+    ----------
+    scenarios : list of Scenario
+        The B runs of the batch.
+    base : WheelParams
+        The datasheet wheel.
+    count : int, optional
+        Wheels per run, N.
+
+    Returns
+    -------
+    WheelParams
+        ``base``, or its units with (B, N) arrays (wheel.unit_wheel); datasheet scales for runs that draw none.
+    """
     scales = [s.unit_scales(count) for s in scenarios]
     if all(sc is None for sc in scales):
         return base

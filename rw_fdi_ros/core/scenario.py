@@ -221,19 +221,65 @@ class Scenario:
 
 
 def setpoint_at(times, values, t):
-    """Set-point in force at time t from a schedule of :meth:`Scenario.setpoint_schedule`."""
+    """Set-point in force at time t from a schedule of :meth:`Scenario.setpoint_schedule`.
+
+    Parameters
+    ----------
+    times : array_like, shape (n,)
+        Times the set-points take effect [s], ascending.
+    values : array_like, shape (n, 3)
+        Attitude set-points [rad].
+    t : float
+        Time [s].
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        The set-point [rad] (the first before ``times[0]``).
+    """
     i = int(np.searchsorted(times, t + 1e-9, side="right")) - 1
     return values[max(i, 0)]
 
 
 def operating_point_at(faults, t, count: int = 3):
     """Per-wheel operating point of ``count`` wheels at time t: dict kind -> array (count,), thesis
-    Table 2.3 when healthy."""
+    Table 2.3 when healthy.
+
+    Parameters
+    ----------
+    faults : iterable of Fault
+        One run's faults.
+    t : float
+        Time [s].
+    count : int, optional
+        Wheels in the run, N.
+
+    Returns
+    -------
+    dict of str to ndarray
+        FAULT_KINDS -> (N,): ``bus_voltage`` [V], ``current_limiter`` (share), ``temperature`` [C],
+        ``ripple_gain`` (multiplier).
+    """
     return {k: v[0] for k, v in operating_points([faults], t, count).items()}
 
 
 def operating_points(fault_lists, t, count: int = 3):
-    """:func:`operating_point_at` of a batch of runs (one fault list each): dict kind -> array (B, count)."""
+    """:func:`operating_point_at` of a batch of runs (one fault list each): dict kind -> array (B, count).
+
+    Parameters
+    ----------
+    fault_lists : list of iterable of Fault
+        Each run's faults, B of them.
+    t : float
+        Time [s].
+    count : int, optional
+        Wheels per run, N.
+
+    Returns
+    -------
+    dict of str to ndarray
+        FAULT_KINDS -> (B, N), in the units of :func:`operating_point_at`.
+    """
     op = {k: np.full((len(fault_lists), count), NOMINAL_VALUES[k]) for k in FAULT_KINDS}
     for b, faults in enumerate(fault_lists):
         for f in faults:
@@ -328,7 +374,20 @@ class _UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):   # libya
 
 
 def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
-    """Parse and validate scenario YAML; every problem is a one-line ScenarioError."""
+    """Parse and validate scenario YAML; every problem is a one-line ScenarioError.
+
+    Parameters
+    ----------
+    text : str
+        The YAML (docs/scenarios.md).
+    origin : str, optional
+        Where it came from (a path), for the messages and the default name.
+
+    Returns
+    -------
+    Scenario
+        The scenario, ``source_text`` = ``text``.
+    """
     if len(text) > MAX_SCENARIO_CHARS:
         raise ScenarioError(f"{origin}: {len(text):,} characters is not a scenario (at most "
                             f"{MAX_SCENARIO_CHARS:,}; a scenario is a few KB of YAML)")
@@ -536,16 +595,41 @@ def _wheels(where, raw, count: int = 3) -> dict:
 
 
 def scenario_dir() -> Path:
+    """The directory of the scenarios known by name: config/scenarios/.
+
+    Returns
+    -------
+    pathlib.Path
+        The directory.
+    """
     from ..paths import config_dir
     return config_dir() / "scenarios"
 
 
 def available_scenarios():
+    """The names of the scenarios in :func:`scenario_dir` (the stems of its .yaml files).
+
+    Returns
+    -------
+    list of str
+        The names, sorted.
+    """
     return sorted(p.stem for p in scenario_dir().glob("*.yaml"))
 
 
 def load_scenario(name_or_path: str) -> Scenario:
-    """A scenario by file path or by name in config/scenarios/."""
+    """A scenario by file path or by name in config/scenarios/.
+
+    Parameters
+    ----------
+    name_or_path : str
+        A path to a YAML file, or a name in :func:`scenario_dir` (without .yaml).
+
+    Returns
+    -------
+    Scenario
+        The parsed scenario; ScenarioError when it is unknown, unreadable or invalid.
+    """
     path = Path(name_or_path)
     if not path.suffix and not path.exists():
         path = scenario_dir() / f"{name_or_path}.yaml"

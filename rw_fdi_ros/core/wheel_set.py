@@ -141,12 +141,34 @@ ALL_WHEEL_NAMES = tuple(sorted({n for ws in WHEEL_SETS.values() for n in ws.name
 
 
 def joint_name(wheel: str) -> str:
-    """The joint a wheel is named by on every ROS topic: reaction_wheel_<name>."""
+    """The joint a wheel is named by on every ROS topic: reaction_wheel_<name>.
+
+    Parameters
+    ----------
+    wheel : str
+        The wheel's name in its set.
+
+    Returns
+    -------
+    str
+        The joint name.
+    """
     return f"reaction_wheel_{wheel}"
 
 
 def wheel_set(name: str) -> WheelSet:
-    """The named wheel set; ValueError naming the known ones otherwise."""
+    """The named wheel set; ValueError naming the known ones otherwise.
+
+    Parameters
+    ----------
+    name : str
+        A key of WHEEL_SETS (``orthogonal_skew``, ``pyramid``, ``orthogonal``).
+
+    Returns
+    -------
+    WheelSet
+        The set.
+    """
     if name not in WHEEL_SETS:
         raise ValueError(f"wheel_set must be one of {', '.join(WHEEL_SETS)}, got {name!r}")
     return WHEEL_SETS[name]
