@@ -119,3 +119,14 @@ def test_fitting_runs_of_different_lengths_are_refused(tmp_path):
     weights, _ = FdiConfig("thesis").load()
     with pytest.raises(ThresholdError, match="different lengths \\(3 to 401 FDI samples; shortest: 2\\)"):
         fit_thresholds([run(401, 1), run(3, 2)], weights, tmp_path, plant={"emf_limit": "kf_scaled"})
+
+
+def test_signed_residuals_of_four_wheels_need_no_gains():
+    """The series of a four-wheel set (the standby s beside x, y, z): kappa defaults to 0 for every wheel, and a
+    constant error e gives the residual e once the window is full, whatever the wheel count."""
+    from rw_fdi_ros.core.residuals import signed_residual_series
+    n = 60
+    actual, estimate = np.full((n, 4), 2e-4), np.zeros((n, 4))
+    res, bound = signed_residual_series(actual, estimate, np.zeros((n, 4), complex))
+    assert res.shape == bound.shape == (n, 4)
+    np.testing.assert_allclose(res[-1], 2e-4)

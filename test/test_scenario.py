@@ -157,3 +157,12 @@ def test_a_report_path_taken_by_a_file_is_one_line(tmp_path):
     with contextlib.redirect_stderr(err):
         code = main(["evaluate", "--bags", str(tmp_path / "bags"), "--report", str(blocker), "--engine", "core"])
     assert code == 2 and err.getvalue().strip() == f"rw-fdi: error: --report {blocker}: cannot create it (File exists)"
+
+
+def test_a_second_fault_of_one_kind_on_one_wheel_takes_over_at_its_onset():
+    """Bus 5 V from 100 s, then 4 V from 300 s, on x: 8 V before, 5 V between (the later fault did not undo
+    the earlier before its onset), 4 V after; a ramp goes from the value in force."""
+    from rw_fdi_ros.core.scenario import Fault
+    faults = [Fault("bus_voltage", 0, 300.0, 4.0), Fault("bus_voltage", 0, 100.0, 5.0)]
+    assert [operating_point_at(faults, t, 4)["bus_voltage"][0] for t in (50.0, 200.0, 400.0)] == [8.0, 5.0, 4.0]
+    assert operating_point_at(faults, 200.0, 4)["bus_voltage"][1:].tolist() == [8.0, 8.0, 8.0]

@@ -161,7 +161,7 @@ def window_mean(values, window: int = WINDOW):
     return (c - lagged[:len(v)]) / n
 
 
-def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW, uncertainty_gains=(0.0, 0.0, 0.0),
+def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW, uncertainty_gains=None,
                            regressors=None, calibration_samples: int = 0):
     """(residuals, bounds) of whole series (time first, one column per axis) through :class:`SignedResidual`;
     with ``calibration_samples`` > 0 each wheel learns its unit from its first samples (``regressors``:
@@ -177,8 +177,8 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
         The FDI samples' ripple phasors [N m] (telemetry.py).
     window : int, optional
         W [samples].
-    uncertainty_gains : sequence of float
-        kappa per wheel (dimensionless), N of them.
+    uncertainty_gains : sequence of float, optional
+        kappa per wheel (dimensionless), N of them; default 0 for every wheel.
     regressors : array_like, shape (n, N, 6), optional
         calibration.regressors of the samples [N m]; needed with ``calibration_samples`` > 0.
     calibration_samples : int, optional
@@ -194,6 +194,7 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
     from .calibration import UnitCalibration
     actual, estimate, phasor = (np.asarray(x) for x in (actual, estimate, ripple_phasor))
     res, bound = np.empty(actual.shape), np.empty(actual.shape)
+    uncertainty_gains = np.zeros(actual.shape[1]) if uncertainty_gains is None else uncertainty_gains
     for j in range(actual.shape[1]):
         f = SignedResidual(window, uncertainty_gain=uncertainty_gains[j],
                            calibration=UnitCalibration(calibration_samples) if calibration_samples else None)

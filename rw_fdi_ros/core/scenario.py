@@ -282,8 +282,11 @@ def operating_points(fault_lists, t, count: int = 3):
     """
     op = {k: np.full((len(fault_lists), count), NOMINAL_VALUES[k]) for k in FAULT_KINDS}
     for b, faults in enumerate(fault_lists):
-        for f in faults:
-            op[f.kind][b, f.wheel] = f.value_at(t)
+        # by onset, and only those begun: a later fault of one kind on one wheel takes over from its onset,
+        # it does not undo an earlier one before then
+        for f in sorted(faults, key=lambda f: f.onset):
+            if t >= f.onset:
+                op[f.kind][b, f.wheel] = f.value_at(t)
     return op
 
 

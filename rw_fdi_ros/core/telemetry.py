@@ -76,7 +76,7 @@ class FdiSample:
     friction_torque: np.ndarray | None = None  # nominal tau_f(Omega; 23 C) [N m]
     free_motor_torque: np.ndarray | None = None  # nominal tau_m where the bridge does not clip, else 0 [N m]
     # fault identification only, when the sampler is asked for it:
-    bus_motor_torque: np.ndarray | None = None  # (3, bus grid) tau_m(u, Omega; V) [N m]
+    bus_motor_torque: np.ndarray | None = None  # (N, bus grid) tau_m(u, Omega; V) [N m]
     # the control sample at the FDI stamp itself (the thesis' instantaneous sampling)
     tcv_instant: np.ndarray | None = None              # [V]
     reaction_torque_instant: np.ndarray | None = None  # [N m]

@@ -141,9 +141,8 @@ def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", 
 
     ``statistics``: (runs, axes) run statistics of fault-free fitting runs (run_statistic). Each
     axis gets share x alpha / n_axes (Bonferroni; an Elman network spends the other half of
-    alpha on its uncertainty gain kappa, tools/train.uncertainty_gain); the upper half of its run maxima is fitted
-    with a
-    Gumbel law (the limit law of maxima of light-tailed sequences; :func:`gumbel_fit`), whose
+    alpha on its uncertainty gain kappa, tools/design/train.uncertainty_gain); the upper half of its run
+    maxima is fitted with a Gumbel law (the limit law of maxima of light-tailed sequences; :func:`gumbel_fit`), whose
     (1 - alpha/n) quantile is c: an empirical quantile of a few hundred runs cannot reach 1e-3.
     Never below the largest fitting-run statistic.
 

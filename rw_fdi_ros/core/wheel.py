@@ -328,7 +328,7 @@ DEFAULT_UNIT_SPREAD = {"torque_constant": 0.02, "driver_gain": 0.02, "viscous_fr
 
 def unit_wheel(base: WheelParams, scales: dict) -> WheelParams:
     """``base`` with each unit's parameters scaled: ``scales`` maps UNIT_PARAMETERS names to arrays of
-    shape (3,) (one wheel per axis) or (B, 3) (a batch); the physics broadcasts them per wheel.
+    shape (N,) (one per wheel of the set) or (B, N) (a batch); the physics broadcasts them per wheel.
 
     Parameters
     ----------
