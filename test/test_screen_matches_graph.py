@@ -97,7 +97,7 @@ def test_screen_gives_the_graph_verdicts(both):
                     assert intervals[0][0] == pytest.approx(float(series.time[flags.argmax()]), abs=1e-9)
                     detections += 1
             verdict = judge(run, obs)
-            assert sorted(verdict["alarmed_axes"]) == sorted(a for a in AXIS_WHEELS if live[obs][a])
+            assert sorted(verdict["alarmed_wheels"]) == sorted(a for a in AXIS_WHEELS if live[obs][a])
         # fault identification: the isolation node's last word on every alarmed wheel, to the digit
         assert {a: {k: v for k, v in found.items() if k != "message" and k != "samples"}
                 for a, found in live["identification"].items()} == run.identification, run.bag

@@ -575,8 +575,8 @@ class FaultIdentifier:
     a wheel's fault is identified on the unit known at its first alarm."""
 
     BACKLOG = 60   # FDI samples: the 40-sample window and the persistence the alarm lags by, and a margin
-    def __init__(self, axes=("x", "y", "z"), calibration_samples: int = 0, lazy: bool = False):
-        self.axes = tuple(axes)
+    def __init__(self, wheels=("x", "y", "z"), calibration_samples: int = 0, lazy: bool = False):
+        self.wheels = tuple(wheels)
         self.calibration_samples = int(calibration_samples)
         # lazy: decide only when asked (identifications()), for a reader that wants the last answer of a run
         # (the core loop's onboard verdict): the same answers, without the grid fits of every sample between
@@ -585,28 +585,28 @@ class FaultIdentifier:
 
     def reset(self):
         """Forget everything of the run, the units learnt included: a new run starts."""
-        self.calibrations = ({a: UnitCalibration(self.calibration_samples) for a in self.axes}
+        self.calibrations = ({a: UnitCalibration(self.calibration_samples) for a in self.wheels}
                              if self.calibration_samples else None)
-        self.faulted = {a: False for a in self.axes}   # alarmed once this run: its calibration learns no more
+        self.faulted = {a: False for a in self.wheels}   # alarmed once this run: its calibration learns no more
         self.samples = 0
         self.clear()
 
     def clear(self):
         """Forget every wheel's fault (an operator's reset); the units learnt stay, and a calibration a
         fault interrupted does not learn again (the wheel may still be faulty)."""
-        self.sums = {a: None for a in self.axes}     # axis -> ProfileSums once alarmed
-        self.latest = {a: None for a in self.axes}
-        self.stale = set()   # lazy: axes whose sums moved since their latest answer
+        self.sums = {a: None for a in self.wheels}     # wheel -> ProfileSums once alarmed
+        self.latest = {a: None for a in self.wheels}
+        self.stale = set()   # lazy: wheels whose sums moved since their latest answer
         # (row, model error, calibration regressors, time) of the samples before an alarm
-        self.backlog = {a: deque(maxlen=self.BACKLOG) for a in self.axes}
+        self.backlog = {a: deque(maxlen=self.BACKLOG) for a in self.wheels}
 
     def update(self, sample, alarmed: dict) -> dict:
-        """``sample``: a telemetry.FdiSample with the identification terms; ``alarmed``: axis -> bool.
-        Returns axis -> Identification (None for a wheel never alarmed)."""
+        """``sample``: a telemetry.FdiSample with the identification terms; ``alarmed``: wheel -> bool.
+        Returns wheel -> Identification (None for a wheel never alarmed)."""
         stamp = getattr(sample, "stamp_ns", None)
         time = self.samples if stamp is None else 1e-9 * stamp     # [s] (1 s samples where it has no stamp)
         self.samples += 1
-        for i, a in enumerate(self.axes):
+        for i, a in enumerate(self.wheels):
             calibration = None if self.calibrations is None else self.calibrations[a]
             free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
             row = (sample.reaction_torque[i], sample.motor_torque[i], sample.friction_torque[i],
@@ -643,7 +643,7 @@ class FaultIdentifier:
         return dict(self.latest)
 
     def identifications(self) -> dict:
-        """axis -> the Identification of the samples so far (None for a wheel never alarmed); what update
+        """wheel -> the Identification of the samples so far (None for a wheel never alarmed); what update
         returns, the lazy identifier's decided now."""
         for a in list(self.stale):
             self._resolve(a)

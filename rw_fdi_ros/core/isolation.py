@@ -85,9 +85,9 @@ def stamp_seconds(stamp_ns: int) -> float:
 class ObserverChannel:
     """One observer's alarms: |residual_k| against threshold(k) + bound_k for P consecutive samples.
 
-    ``update`` returns axis -> (residual, threshold + bound, alarm, first alarm time or None).
-    A non-finite residual or bound is not judged: the axis' alarm state is held (NaN > threshold
-    is False, it would clear an alarm) and the axis is in ``unjudged`` until its next finite sample.
+    ``update`` returns wheel -> (residual, threshold + bound, alarm, first alarm time or None).
+    A non-finite residual or bound is not judged: the wheel's alarm state is held (NaN > threshold
+    is False, it would clear an alarm) and the wheel is in ``unjudged`` until its next finite sample.
     """
 
     def __init__(self, observer: str, curves: ThresholdCurves, persistence: int | None = None, wheels=AXIS_WHEELS):
@@ -101,7 +101,7 @@ class ObserverChannel:
         """Forget every alarm: a new run starts."""
         self.rules = {a: AlarmRule(self.persistence) for a in self.wheels}
         self.beyond_horizon = False
-        self.unjudged = set()   # axes whose last sample could not be judged (non-finite input)
+        self.unjudged = set()   # wheels whose last sample could not be judged (non-finite input)
 
     def update(self, stamp_ns: int, residual, bound=None):
         t = stamp_seconds(stamp_ns)
@@ -109,17 +109,17 @@ class ObserverChannel:
         k = int(round(t / self.curves.sample_period))
         rows = {}
         bound = np.zeros(len(self.wheels)) if bound is None else bound
-        for i, axis in enumerate(self.wheels):
-            rule, r, b = self.rules[axis], float(residual[i]), float(bound[i])
+        for i, wheel in enumerate(self.wheels):
+            rule, r, b = self.rules[wheel], float(residual[i]), float(bound[i])
             # never below 0: a calibrated band may be negative (the bound over-covers), and an exactly
             # zero residual with a zero bound (a standby wheel at rest, unpowered) agrees perfectly
-            threshold = max(self.curves.at(axis, k) + b, 0.0)
+            threshold = max(self.curves.at(wheel, k) + b, 0.0)
             if math.isfinite(r) and math.isfinite(b):
-                self.unjudged.discard(axis)
+                self.unjudged.discard(wheel)
                 rule.update(abs(r), threshold, t)
             else:
-                self.unjudged.add(axis)
-            rows[axis] = (r, threshold, rule.active, rule.first_alarm)
+                self.unjudged.add(wheel)
+            rows[wheel] = (r, threshold, rule.active, rule.first_alarm)
         return rows
 
 
@@ -129,8 +129,8 @@ class LatchedVerdict:
     its residual does after (a manoeuvre, a fault the controller works around). Without ``latch`` the
     verdict is the observer's alarm itself (the thesis' behaviour).
 
-    ``update`` takes and returns rows axis -> (residual, threshold, alarm, first alarm or None) of
-    :meth:`ObserverChannel.update`; a latched row keeps its first alarm time and has ``latched[axis]``
+    ``update`` takes and returns rows wheel -> (residual, threshold, alarm, first alarm or None) of
+    :meth:`ObserverChannel.update`; a latched row keeps its first alarm time and has ``latched[wheel]``
     True while the observer's own alarm is down."""
 
     def __init__(self, latch: bool = True, wheels=AXIS_WHEELS):
@@ -138,15 +138,15 @@ class LatchedVerdict:
         self.wheels = tuple(wheels)
         self.reset()
 
-    def reset(self, axes=None):
-        """Clear the confirmed failures of ``axes`` (an operator's command): judged afresh from now on."""
+    def reset(self, wheels=None):
+        """Clear the confirmed failures of ``wheels`` (an operator's command): judged afresh from now on."""
         if not hasattr(self, "confirmed"):
             self.confirmed, self.latched = {}, {}
-        for a in self.wheels if axes is None else axes:
+        for a in self.wheels if wheels is None else wheels:
             self.confirmed[a], self.latched[a] = None, False
 
     def update(self, rows: dict, judged=None) -> dict:
-        """``judged``: axis -> False for a wheel whose sample cannot be judged (outside the operating
+        """``judged``: wheel -> False for a wheel whose sample cannot be judged (outside the operating
         envelope): its verdict holds (a confirmed failure stays, none is confirmed from this sample)."""
         out = {}
         for a, (r, threshold, alarm, first) in rows.items():

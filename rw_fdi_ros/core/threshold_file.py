@@ -20,10 +20,10 @@ REFIT = "regenerate with `rw-fdi fit-thresholds --bags DIR --out DIR` (or `rw-fd
 
 @dataclass
 class ThresholdCurves:
-    """Curves per observer and axis, indexed by FDI sample, with the conditions they were fitted under."""
+    """Curves per observer and wheel, indexed by FDI sample, with the conditions they were fitted under."""
 
     observer: str
-    curves: dict                     # axis -> np.ndarray (samples,)
+    curves: dict                     # wheel -> np.ndarray (samples,)
     sample_period: float = 1.0
     window: int = WINDOW
     sigmas: float = SIGMAS
@@ -36,11 +36,11 @@ class ThresholdCurves:
     calibration: dict = field(default_factory=dict)  # how the bands were fitted (speed_aware)
     unit_calibration_time: float = 0.0   # [s] of each run the observers learnt their wheel from (calibration.py)
 
-    def at(self, axis: str, k: int) -> float:
-        """Threshold of wheel ``axis`` at FDI sample k. A wheel without a curve of its own (the redundant
+    def at(self, wheel: str, k: int) -> float:
+        """Threshold of ``wheel`` at FDI sample k. A wheel without a curve of its own (the redundant
         wheel off the body axes) gets the widest of its type's (wheel_set.fitted_for)."""
         # past the fitted horizon the last value holds
-        return max(float(c[min(k, len(c) - 1)]) for c in (self.curves[a] for a in fitted_for(axis, self.curves)))
+        return max(float(c[min(k, len(c) - 1)]) for c in (self.curves[a] for a in fitted_for(wheel, self.curves)))
 
     def save(self, path):
         path = Path(path)

@@ -51,7 +51,7 @@ class RunEval:
     wheels: tuple = AXIS_WHEELS   # the run's wheel names (its wheel set's), the order of the series' columns
 
     @property
-    def faulty_axes(self):
+    def faulty_wheels(self):
         return sorted({self.wheels[f.wheel] for f in self.faults if f.kind not in DISTURBANCE_KINDS})
 
     @property
@@ -65,7 +65,7 @@ class RunEval:
             return "fault_free"
         if kinds <= set(DISTURBANCE_KINDS):
             return "disturbance"
-        return "multiple" if len(self.faulty_axes) > 1 else "single"
+        return "multiple" if len(self.faulty_wheels) > 1 else "single"
 
 
 def observers_of_runs(runs) -> list:
@@ -118,13 +118,13 @@ def judge(run: RunEval, observer: str) -> dict:
     """Verdict of one run for one observer: alarms per axis, correctness, per-faulty-axis figures."""
     s = run.series[observer]
     alarmed = [a for i, a in enumerate(run.wheels) if s.alarm[:, i].any()]
-    out = {"alarmed_axes": alarmed, "false_alarm": bool(alarmed) and run.category in ("fault_free", "disturbance")}
+    out = {"alarmed_wheels": alarmed, "false_alarm": bool(alarmed) and run.category in ("fault_free", "disturbance")}
     if run.category in ("single", "multiple"):
         figures = {}
-        for a in run.faulty_axes:
+        for a in run.faulty_wheels:
             onset = min(f.onset for f in run.faults if run.wheels[f.wheel] == a)
             figures[a] = axis_figures(s, run.wheels.index(a), onset)
-        others = [a for a in alarmed if a not in run.faulty_axes]
+        others = [a for a in alarmed if a not in run.faulty_wheels]
         out["axes"] = figures
         out["wrong_axes"] = others
         out["correct"] = all(f["detected"] for f in figures.values()) and not others
@@ -140,7 +140,7 @@ def run_row(run: RunEval) -> dict:
     for obs in observers_of_runs([run]):
         v = judge(run, obs)
         delays = [f["delay"] for f in v.get("axes", {}).values() if f["detected"]]
-        row[obs] = {"alarmed": v["alarmed_axes"], "false_alarm": v["false_alarm"], "correct": v.get("correct"),
+        row[obs] = {"alarmed": v["alarmed_wheels"], "false_alarm": v["false_alarm"], "correct": v.get("correct"),
                     "delay_s": min(delays) if delays else None}
     row["identification"] = {wheel: {k[len("fault_"):]: found.get(k) for k in ("fault_kind", "fault_size",
                                                                           "fault_size_low", "fault_size_high")}
@@ -257,7 +257,7 @@ def observable(run: RunEval, level: dict) -> bool:
     """Every faulty wheel's recorded fault effect peaks above ``level[axis]``, the fault-free residual
     level [N m]: a fault below it is physically invisible, not missed by the observer."""
     return all(run.fault_effect_peak[run.wheels.index(a)] > max(level[k] for k in fitted_for(a, level))
-               for a in run.faulty_axes)
+               for a in run.faulty_wheels)
 
 
 def observable_level(curves: dict) -> dict:
@@ -310,7 +310,7 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
                 "kind": kind, "size": size, "runs": len(members), "seeds": [r.seed for r in members],
                 "severity": None if kind == "multiple" else severity(members[0].faults[0].kind,
                                                                      members[0].faults[0].value),
-                "axes": sorted({a for r in members for a in r.faulty_axes}),
+                "axes": sorted({a for r in members for a in r.faulty_wheels}),
                 "correctness": _rate(x["correct"] for x in v),
                 "correctness_observable": _rate(verdicts[r.bag]["correct"] for r in seen),
                 "detected": _rate(f["detected"] for f in figs),

@@ -96,7 +96,7 @@ def health_lines(health: dict) -> list:
 def judged_line(v: dict) -> str:
     """One observer's shared verdict in words: what `rw-fdi evaluate` and `rw-fdi screen` count."""
     if v.get("false_alarm"):
-        return f"false alarm on {', '.join(v['alarmed_axes'])}"
+        return f"false alarm on {', '.join(v['alarmed_wheels'])}"
     if "correct" not in v:
         return "no alarm"
     if v["correct"]:

@@ -125,7 +125,7 @@ def summarize(runs) -> dict:
              "lost": 0, "delays": []}
         for r in runs:
             v = judge(r, obs)
-            o["any_alarm"] += bool(v["alarmed_axes"])
+            o["any_alarm"] += bool(v["alarmed_wheels"])
             o["false_alarm"] += v["false_alarm"]
             if "axes" in v:
                 o["correct"] += v["correct"]
