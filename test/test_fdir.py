@@ -327,3 +327,12 @@ def test_a_wheel_whose_momentum_the_others_cannot_take_is_held_and_the_pointing_
     assert np.all(traj.tcv[after, 0, 0] > 0.0)           # held: commanded, never 0 V
     error = np.degrees(np.abs(traj.error[:, 0])).max(axis=1)
     assert error[traj.time >= 210.0].max() < 0.2
+
+
+def test_a_benchs_fault_goes_on_a_wheel_in_use_of_its_set():
+    """Counts are data: the wheel is drawn from the seed over the set's wheels in use (x, y, z of the default
+    set, s standing by; all four of a pyramid), every one of them hit."""
+    from rw_fdi_ros.tools.benches.kit import fault_wheel
+    skew, pyramid = WHEEL_SETS["orthogonal_skew"], WHEEL_SETS["pyramid"]
+    assert {skew.names[fault_wheel(s, skew)] for s in range(100)} == set(skew.active) == {"x", "y", "z"}
+    assert {fault_wheel(s, pyramid) for s in range(100)} == {0, 1, 2, 3}

@@ -30,7 +30,7 @@ from ...core.plant_choices import DEFAULT
 from ...core.magnetorquers import DumpLog, MomentumDumping
 from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.wheel import WheelParams
-from .kit import workers, SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
+from .kit import fault_wheel, workers, SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
 from ..metrics import observable_level
 
 SEED_BASE = 87_000_000   # docs/fdi.md "Seeds": no other bench, training or fitting uses them
@@ -171,7 +171,7 @@ def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int = SEED_BASE) ->
         first = dumps(twins.dipole[:, b], twins.time)[0]   # already every EVERY steps
         lo, hi = first[0] + 10.0, max(first[0] + 10.0, first[1] - 10.0)
         onset = float(np.round(np.random.default_rng(scenario.seed).uniform(lo, hi), 1))
-        out.append(scenario.with_faults([Fault(cell.kind, scenario.seed % 3, onset, cell.value)]))
+        out.append(scenario.with_faults([Fault(cell.kind, fault_wheel(scenario.seed), onset, cell.value)]))
     return out
 
 

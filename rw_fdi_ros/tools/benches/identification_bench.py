@@ -34,7 +34,7 @@ from ...core.calibration import calibration_samples
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault, Scenario
-from .kit import workers, Cell, cell_scenarios, format_rate, rate, screen_cells
+from .kit import fault_wheel, workers, Cell, cell_scenarios, format_rate, rate, screen_cells
 from ..metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
@@ -77,7 +77,7 @@ def units_scenarios(cell_index: int, runs: int) -> list:
         seed = UNITS_SEED_BASE + 100_000 * cell_index + n
         rng = np.random.default_rng(seed)
         onset, size = float(np.round(rng.uniform(*UNITS_ONSETS), 1)), float(np.round(rng.uniform(low, high), 4))
-        out.append(Scenario(name, duration=400.0, seed=seed, faults=(Fault(kind, seed % 3, onset, size),),
+        out.append(Scenario(name, duration=400.0, seed=seed, faults=(Fault(kind, fault_wheel(seed), onset, size),),
                             wheels={"variation": True}))
     return out
 

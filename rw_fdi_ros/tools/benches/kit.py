@@ -11,6 +11,7 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.scenario import Fault, Scenario
+from ...core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
 from ..metrics import alarm_before_onset, judge, observable
 from ..evaluation.screen import screen_sets
 
@@ -29,17 +30,37 @@ class Cell:
     target_detection: bool = False  # the small sizes with a detection target
 
 
+def fault_wheel(seed: int, wheels: WheelSet = WHEEL_SETS[DEFAULT_WHEEL_SET]) -> int:
+    """The wheel a bench run's fault goes on, drawn from its seed over the set's wheels in use (a standby wheel
+    is at rest, unpowered: a fault there shows nothing until it is brought in, which only FDIR does).
+
+    Parameters
+    ----------
+    seed : int
+        The run's seed.
+    wheels : WheelSet, optional
+        The run's wheel set (default: the default set, x y z in use and s standing by).
+
+    Returns
+    -------
+    int
+        The wheel's index in ``wheels.names``: seed mod 3 on the default set.
+    """
+    return wheels.names.index(wheels.active[seed % len(wheels.active)])
+
+
 def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE, onset_range=ONSET_RANGE,
                    wheels: dict | None = None) -> list:
-    """``runs`` scenarios of one cell: seeds seed_base + 100,000 index + n, fault on wheel seed mod 3
-    with an onset drawn from the seed in ``onset_range``; ``wheels``: the scenario's unit variation."""
+    """``runs`` scenarios of one cell: seeds seed_base + 100,000 index + n, fault on a wheel in use
+    (:func:`fault_wheel`) with an onset drawn from the seed in ``onset_range``; ``wheels``: the scenario's unit
+    variation."""
     out = []
     for n in range(runs):
         seed = seed_base + 100_000 * index + n
         faults = ()
         if cell.kind is not None:
             onset = float(np.round(np.random.default_rng(seed).uniform(*onset_range), 1))
-            faults = (Fault(cell.kind, seed % 3, onset, cell.value, cell.ramp),)
+            faults = (Fault(cell.kind, fault_wheel(seed), onset, cell.value, cell.ramp),)
         out.append(Scenario(cell.name, duration=400.0, seed=seed, faults=faults, wheels=dict(wheels or {})))
     return out
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.scenario import Fault, Manoeuvres, Scenario
-from .kit import workers, SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
+from .kit import fault_wheel, workers, SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
 from ..metrics import observable_level
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
@@ -73,7 +73,7 @@ def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int) -> list:
         faults = ()
         if cell.kind is not None:
             onset = float(np.round(np.random.default_rng(seed).uniform(*cell.onset_range), 1))
-            faults = (Fault(cell.kind, seed % 3, onset, cell.value),)
+            faults = (Fault(cell.kind, fault_wheel(seed), onset, cell.value),)
         initial = {} if cell.wheel_speed is None else {"wheel_speed": (cell.wheel_speed,) * 3}
         out.append(Scenario(cell.name, duration=cell.duration, seed=seed, faults=faults, initial=initial,
                             manoeuvres=cell.manoeuvres))

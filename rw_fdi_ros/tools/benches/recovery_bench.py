@@ -29,7 +29,7 @@ from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import held_speeds
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.wheel_set import WHEEL_SETS
-from .kit import format_rate, rate, write_report
+from .kit import fault_wheel, format_rate, rate, write_report
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}
 POINTING_DEG = 0.2
@@ -70,7 +70,7 @@ def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int) -> list:
         faults = ()
         if cell.kind is not None:
             onset = float(np.round(rng.uniform(*cell.onset_range), 1))
-            faults = (Fault(cell.kind, seed % 3, onset, cell.value),)
+            faults = (Fault(cell.kind, fault_wheel(seed, WHEELS), onset, cell.value),)
             if cell.second is not None:
                 faults += (Fault(cell.second[0], 3, onset + 100.0, cell.second[1]),)
         speeds = tuple(float(v) for v in rng.uniform(*cell.speeds, 3))
