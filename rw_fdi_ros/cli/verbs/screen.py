@@ -1,11 +1,11 @@
 """`rw-fdi screen`: FDI figures of many seeds in seconds, the node code on the core loop (no ROS)."""
 import sys
 
-from ..options import fdi_config, parse_seeds
+from ..options import executor, fdi_config, parse_seeds
 
 NAME = "screen"
 HELP = "FDI figures for many seeds in seconds (core loop + node code, no ROS)"
-PARENTS = ("fdi_files", "method", "unit")
+PARENTS = ("fdi_files", "method", "unit", "cluster")
 
 
 def add_arguments(parser) -> None:
@@ -30,11 +30,12 @@ def main(args) -> int:
     scenarios = [load_scenario(name) for name in args.scenario]
     for scenario in scenarios:
         fdi.check(scenario.plant_choices(), scenario.duration)
+    pool = executor(args)   # --jobs local processes (default: the cores), or --scheduler's Dask cluster
     counts, rows = {}, []
     with tqdm(total=len(seeds) * len(scenarios), desc="screen (core loop)", unit="run", file=sys.stderr,
               disable=None) as bar:
         for name, scenario in zip(args.scenario, scenarios):
-            counts[name], runs = screen(scenario, seeds, fdi, progress=bar.update)
+            counts[name], runs = screen(scenario, seeds, fdi, progress=bar.update, executor=pool)
             rows += [run_row(r) for r in runs]
             if not args.json:
                 bar.clear()

@@ -138,15 +138,33 @@ def summarize(runs) -> dict:
     return out
 
 
-def screen(scenario, seeds, fdi=None, progress=None) -> tuple:
-    """(counts per observer over ``seeds`` of one scenario (see :func:`summarize`), the runs (RunEval)) under
-    ``fdi`` (FdiConfig; None: the shipped FDI); ``progress(n)`` is told each batch of runs done."""
+def screen(scenario, seeds, fdi=None, progress=None, executor=None) -> tuple:
+    """(counts per observer over ``seeds`` of one scenario (see :func:`summarize`), the runs (RunEval) in seed
+    order) under ``fdi`` (FdiConfig; None: the shipped FDI), in batches of BATCH runs on ``executor`` (local
+    processes by default, or a Dask cluster: the same runs whatever the executor, each a function of its seed);
+    ``progress(n)`` is told each batch of runs done."""
     from ...fdi_config import FdiConfig
+    from ..campaigns.campaign import LocalExecutor
     fdi = FdiConfig.of(fdi)
-    weights, curves = fdi.load()
-    runs = screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, fdi.persistence, progress,
-                       identification=True, calibration_samples=calibration_samples(fdi.unit_calibration))
+    seeds = list(seeds)
+    executor = executor or LocalExecutor()
+    size = min(BATCH, max(1, -(-len(seeds) // getattr(executor, "jobs", 8))))   # every worker busy on a few seeds
+    batches = [(scenario, seeds[i:i + size], fdi) for i in range(0, len(seeds), size)]
+    runs = []
+    for out in executor.map_unordered(_screen_batch, batches, processes=True):
+        runs += out
+        if progress:
+            progress(len(out))
+    runs.sort(key=lambda r: seeds.index(r.seed))
     return summarize(runs), runs
+
+
+def _screen_batch(work) -> list:
+    """The RunEval of one batch (scenario, seeds, FdiConfig): what a worker computes."""
+    scenario, seeds, fdi = work
+    weights, curves = fdi.load()
+    return screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, fdi.persistence,
+                       identification=True, calibration_samples=calibration_samples(fdi.unit_calibration))
 
 
 def format_screen(name, out) -> str:
