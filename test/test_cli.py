@@ -9,7 +9,8 @@ from rw_fdi_ros.core.detection import FALSE_ALARM_RATE
 
 SHARED = {"--persistence": ["run", "evaluate", "screen", "fit-thresholds", "reproduce"],
           "--models": ["run", "evaluate", "screen", "fit-thresholds"],
-          "--jobs": ["campaign", "evaluate", "reproduce", "defaults"],   # the benches' --jobs is theirs
+          # the benches take a --jobs of their own
+          "--jobs": ["campaign", "evaluate", "reproduce", "defaults", "screen", "fit-thresholds"],
           "--false-alarm-rate": ["fit-thresholds", "defaults"]}
 
 

@@ -43,3 +43,30 @@ def test_the_service_bench_gives_the_same_runs_on_local_processes_and_on_a_clust
     local = run_service(seeds, LocalExecutor(2), max_duration=600.0, fault_free_seeds=free)
     dask = run_service(seeds, cluster, max_duration=600.0, fault_free_seeds=free)
     assert [r["seed"] for r in local] == [*seeds, *free] and local == dask
+
+
+def test_bags_are_read_into_the_same_samples_on_any_executor(cluster, tmp_path):
+    """fit-thresholds' bag loading: three core-engine bags and a damaged one, read here, on local processes and on
+    the cluster: the same samples in bag order, the same bag skipped with the same reason."""
+    from rw_fdi_ros.tools.campaigns.campaign import run_campaign
+    from rw_fdi_ros.tools.design.samples import load_samples
+    scenario = tmp_path / "ff.yaml"
+    scenario.write_text("name: ff\nduration: 40.0\nseed: 0\n")
+    result = run_campaign(str(scenario), 3, 23_000_100, tmp_path / "bags", engine="core", desc="bags")
+    assert not result.failed and len(result.done) == 3
+    damaged = tmp_path / "bags" / "zz_damaged"
+    damaged.mkdir()
+    (damaged / "zz_damaged_0.mcap").write_bytes(b"not an mcap file")
+    read = {}
+    for name, executor in (("here", None), ("local", LocalExecutor(2)), ("dask", cluster)):
+        skipped = []
+        read[name] = (load_samples(tmp_path / "bags", on_skip=skipped.append, fault_free=True, executor=executor),
+                      skipped)
+    here, skipped = read["here"]
+    assert len(here) == 3 and len(skipped) == 1 and "zz_damaged" in skipped[0]
+    for name in ("local", "dask"):
+        samples, why = read[name]
+        assert why == skipped and [s.seed for s in samples] == [s.seed for s in here]
+        for a, b in zip(samples, here):
+            np.testing.assert_array_equal(a.reaction_torque, b.reaction_torque)
+            np.testing.assert_array_equal(a.time, b.time)

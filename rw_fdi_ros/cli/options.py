@@ -121,12 +121,13 @@ def parents() -> dict:
                 method=method, jobs=jobs, cluster=cluster)
 
 
-def fault_free_samples(bags, load_samples) -> list:
-    """FDI samples of the fault-free bags under ``bags`` recorded under one plant (what trains and fits): each
-    bag skipped said by name, their count, and an error where none is left."""
+def fault_free_samples(bags, load_samples, executor=None) -> list:
+    """FDI samples of the fault-free bags under ``bags`` recorded under one plant (what trains and fits), read
+    on ``executor`` (default: here): each bag skipped said by name, their count, and an error where none is left."""
     from ..tools.design.offline import under_one_plant
     skipped = []
-    samples = under_one_plant(load_samples(bags, on_skip=skipped.append, fault_free=True), skipped.append)
+    samples = under_one_plant(load_samples(bags, on_skip=skipped.append, fault_free=True, executor=executor),
+                              skipped.append)
     for reason in skipped:
         print(f"skipped: {reason}", file=sys.stderr)
     if skipped:

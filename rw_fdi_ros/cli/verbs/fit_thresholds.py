@@ -2,12 +2,12 @@
 core loop (speed_aware: bands for a designed false-alarm rate; thesis: mean + 3 sigma curves)."""
 import sys
 
-from ..options import fault_free_samples, parse_seeds
+from ..options import executor, fault_free_samples, parse_seeds
 
 NAME = "fit-thresholds"
 HELP = ("fit the thresholds of the observers from fault-free bags (speed_aware models: bands for a designed "
         "false-alarm rate; thesis models: mean + 3 sigma curves)")
-PARENTS = ("models", "false_alarms", "persistence", "unit")
+PARENTS = ("models", "false_alarms", "persistence", "unit", "cluster")
 
 
 def add_arguments(parser) -> None:
@@ -35,10 +35,11 @@ def main(args) -> int:
     models = load_models(models_dir)
     t0 = time.monotonic()
     plant = None
+    pool = executor(args)   # --jobs local processes, or --scheduler's Dask cluster
     if args.simulate:
-        samples, plant = _simulated_fitting_runs(args.simulate, seeds)
+        samples, plant = _simulated_fitting_runs(args.simulate, seeds, pool)
     else:
-        samples = fault_free_samples(args.bags, load_samples)
+        samples = fault_free_samples(args.bags, load_samples, pool)
     result = fit_thresholds(samples, models, args.out, model_ref=shown_path(models_dir, args.out),
                             false_alarm_rate=args.false_alarm_rate, persistence=args.persistence,
                             unit_calibration=args.unit_calibration, plant=plant)
@@ -53,18 +54,24 @@ def main(args) -> int:
     return 0
 
 
-def _simulated_fitting_runs(ref: str, seeds) -> tuple:
-    """FDI samples of fault-free runs of scenario ``ref`` over ``seeds`` by the core loop (screen), and
-    the plant choices they were made under."""
+def _simulated_fitting_runs(ref: str, seeds, pool) -> tuple:
+    """FDI samples of fault-free runs of scenario ``ref`` over ``seeds`` by the core loop (screen) on the executor
+    ``pool``, in seed order, and the plant choices they were made under."""
     from tqdm import tqdm
     from ...core.plant_choices import PlantChoices
     from ...core.scenario import load_scenario
-    from ...tools.evaluation.screen import simulated_runs
+    from ...tools.evaluation.screen import BATCH, simulated_samples
     scenario = load_scenario(ref)
     if scenario.faults:
         raise ValueError(f"--simulate {ref}: thresholds are fitted on fault-free runs, this scenario has faults")
+    runs = [scenario.with_seed(k) for k in seeds]
+    by_seed = {}
     with tqdm(total=len(seeds), desc="fitting runs (core loop)", unit="run", file=sys.stderr) as bar:
-        samples = [s for _, s, _ in simulated_runs([scenario.with_seed(k) for k in seeds], progress=bar.update)]
+        for done in pool.map_unordered(simulated_samples, [runs[i:i + BATCH] for i in range(0, len(runs), BATCH)],
+                                       processes=True):
+            by_seed.update(done)
+            bar.update(len(done))
+    samples = [by_seed[k] for k in seeds]
     # what a bag of such a run would record: the same choices the recorded runs' fitting gets
     plant = PlantChoices.of_recording(scenario.plant_choices().scenario_dict()).as_dict()
     return samples, plant

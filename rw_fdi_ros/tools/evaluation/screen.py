@@ -63,6 +63,12 @@ def simulated_runs(scenarios, identification: bool = False, check=None, progress
             progress(len(batch))
 
 
+def simulated_samples(scenarios) -> dict:
+    """seed -> the FdiSamples of each scenario's run by the core loop (:func:`simulated_runs`): an executor's
+    unit of work."""
+    return {scenario.seed: samples for scenario, samples, _ in simulated_runs(scenarios)}
+
+
 def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None,
                 identification: bool = False, calibration_samples: int = 0, on_run=None) -> dict:
     """name -> [RunEval] for several FDI sets {name: (weights, curves[, calibration samples])} judged on the
