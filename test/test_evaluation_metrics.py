@@ -259,3 +259,26 @@ def test_reliability_and_observability_go_by_the_runs_wheels():
     assert not observable(faulty, level)
     faulty.fault_effect_peak[3] = 3.5e-4
     assert observable(faulty, level)
+
+
+def test_a_benchs_judged_runs_are_one_row_each(tmp_path):
+    """kit.write_cells_table: every judged run of every cell and FDI set a row, named by its cell and set, with
+    run_row's verdict columns; what is not a judged run (a bench's own per-run notes) is left out."""
+    import pandas as pd
+
+    from rw_fdi_ros.core.scenario import Fault
+    from rw_fdi_ros.tools.benches.kit import write_cells_table
+    from rw_fdi_ros.tools.metrics import Series
+    time = np.arange(5.0)
+    alarm = np.zeros((5, 3), bool)
+    alarm[3:, 1] = True
+    series = Series(time, np.zeros((5, 3)), np.ones((5, 3)), alarm)
+    quiet = Series(time, np.zeros((5, 3)), np.ones((5, 3)), np.zeros((5, 3), bool))
+    runs = [RunEval("b", "c", 11, [Fault("current_limiter", 1, 2.0, 0.6)], {"model": series}),
+            RunEval("b", "c", 12, [], {"model": quiet})]
+    path = write_cells_table({0: {"speed_aware": runs[:1], "notes": ["not a run"]}, 1: {"speed_aware": runs[1:]}},
+                             ["loss", "fault-free"], tmp_path / "bench", "x")
+    table = pd.read_csv(path)
+    assert path.name == "x_runs.csv" and list(table["seed"]) == [11, 12]
+    assert list(table["cell"]) == ["loss", "fault-free"]
+    assert list(table["fdi"]) == ["speed_aware"] * 2 and list(table["model.correct"])[0] == True  # noqa: E712

@@ -22,7 +22,7 @@ from ...fdi_config import FdiConfig
 from ..metrics import observable_level
 from ..evaluation.screen import screen_sets
 from .kit import (ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, format_rate, screen_cells, workers,
-                  write_report)
+                  write_cells_table, write_report)
 
 
 CELLS = (
@@ -78,6 +78,7 @@ def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: 
     sizes = cell_sizes(fault_free_runs, runs_per_cell)
     judged = screen_cells(sizes, _judge_chunk, "detection bench (core loop + node code)", executor)
     results = cell_results(judged, sizes, SEED_BASE, levels, "methods")
+    write_cells_table(judged, [c.name for c in CELLS], out, "detection")
     report = {"schema": "rw_fdi_ros/detection_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
               "date": time.strftime("%Y-%m-%d"),
               "fault_free_runs": fault_free_runs, "runs_per_cell": runs_per_cell, "seed_base": SEED_BASE,

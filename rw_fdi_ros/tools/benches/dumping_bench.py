@@ -30,7 +30,8 @@ from ...core.plant_choices import DEFAULT
 from ...core.magnetorquers import DumpLog, MomentumDumping
 from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.wheel import WheelParams
-from .kit import fault_wheel, workers, SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
+from .kit import (SpeedAwareChunk, cell_figures, fault_wheel, format_rate, screen_cells, workers, write_cells_table,
+                  write_report)
 from ..metrics import observable_level
 
 SEED_BASE = 87_000_000   # docs/fdi.md "Seeds": no other bench, training or fitting uses them
@@ -203,6 +204,7 @@ def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20,
     sizes = [operations_runs if c.kind is None else runs_per_cell for c in CELLS]
     judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, SEED_BASE, dumping_of), "dumping bench (FDI)", executor,
                           chunk=10)
+    write_cells_table(judged, [c.name for c in CELLS], out, "dumping")
     cells = {}
     for i, cell in enumerate(CELLS):
         runs = judged[i]["speed_aware"]

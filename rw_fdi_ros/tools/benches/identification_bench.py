@@ -34,7 +34,7 @@ from ...core.calibration import calibration_samples
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault, Scenario
-from .kit import fault_wheel, workers, Cell, cell_scenarios, format_rate, rate, screen_cells
+from .kit import fault_wheel, workers, Cell, cell_scenarios, format_rate, rate, screen_cells, write_cells_table
 from ..metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
@@ -131,6 +131,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
         sizes = [runs_per_cell * 17 // 10 if kind == "bus_voltage" else runs_per_cell for _, kind, _ in UNITS_CELLS]
         judged = screen_cells(sizes, _units_chunk, "identification bench, varied units (core loop + node code)",
                               executor)
+        write_cells_table(judged, [name for name, _, _ in UNITS_CELLS], out, "identification")
         for i, (name, kind, span) in enumerate(UNITS_CELLS):
             first = UNITS_SEED_BASE + 100_000 * i
             cells[name] = {"cell": {"name": name, "kind": kind, "range": list(span), "thesis_size": False},
@@ -140,6 +141,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
         sizes = [(bus_thesis_runs if c.kind == "bus_voltage" else thesis_runs) if c.thesis_size else runs_per_cell
                  for c in CELLS]
         judged = screen_cells(sizes, _chunk, "identification bench (core loop + node code)", executor)
+        write_cells_table(judged, [c.name for c in CELLS], out, "identification")
         for i, cell in enumerate(CELLS):
             first = SEED_BASE + 100_000 * i
             cells[cell.name] = {"cell": cell.__dict__, "seeds": [first, first + sizes[i] - 1],

@@ -174,6 +174,17 @@ def runs_table(runs: list) -> tuple:
     return columns, [[row.get(c, "") for c in columns] for row in rows]
 
 
+def write_cells_table(judged: dict, cell_names, out, name: str) -> Path:
+    """The judged runs of :func:`screen_cells` as <out>/<name>_runs.csv: one row a run and FDI set, its cell and
+    set named beside metrics.run_row's columns (seed, faults, each observer's verdict and delay, the
+    identification)."""
+    from ..metrics import RunEval, run_row
+    rows = [{"cell": cell_names[i], "fdi": fdi, **run_row(r)} for i, by_fdi in sorted(judged.items())
+            for fdi, runs in by_fdi.items() for r in runs if isinstance(r, RunEval)]
+    Path(out).mkdir(parents=True, exist_ok=True)
+    return write_runs_table(rows, Path(out) / f"{name}_runs.csv")
+
+
 def write_runs_table(runs: list, path) -> Path:
     """The runs as CSV (pandas.read_csv, polars.read_csv): one row a run, :func:`runs_table`'s columns."""
     import csv

@@ -25,7 +25,8 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.scenario import Fault, Manoeuvres, Scenario
-from .kit import fault_wheel, workers, SpeedAwareChunk, cell_figures, format_rate, screen_cells, write_report
+from .kit import (SpeedAwareChunk, cell_figures, fault_wheel, format_rate, screen_cells, workers, write_cells_table,
+                  write_report)
 from ..metrics import observable_level
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
@@ -99,6 +100,7 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
              else runs_per_cell for c in CELLS]
     t0 = time.monotonic()
     judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, seed_base), f"operations bench ({seeds} seeds)", executor)
+    write_cells_table(judged, [c.name for c in CELLS], out, "operations")
     cells = {}
     for i, cell in enumerate(CELLS):
         runs = judged[i]["speed_aware"]

@@ -26,7 +26,7 @@ from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
 from ...core.plant_choices import FDI_PERIOD
 from .detection_bench import CELLS, cell_results, cell_sizes, observable_levels
-from .kit import workers, cell_scenarios, format_rate, screen_cells, write_report
+from .kit import workers, cell_scenarios, format_rate, screen_cells, write_cells_table, write_report
 from ..evaluation.screen import screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands
@@ -55,6 +55,7 @@ def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str 
     populations = {}
     for population, (seed_base, wheels) in POPULATIONS.items():
         judged = screen_cells(sizes, partial(_judge_chunk, population), f"units bench, {population} wheels", executor)
+        write_cells_table(judged, [c.name for c in CELLS], out, f"units_{population}")
         populations[population] = {"seed_base": seed_base, "wheels": wheels,
                                    "cells": cell_results(judged, sizes, seed_base, levels, "sets")}
     report = {"schema": "rw_fdi_ros/units_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
