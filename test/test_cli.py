@@ -22,8 +22,10 @@ BENCH_SHARED = {"--out": ["detection", "identification", "units", "memory", "ope
                 "--runs-per-cell": ["detection", "identification", "units", "operations", "recovery", "dumping"],
                 "--seed": ["graph", "fdi", "study", "memory", "dumping"],
                 "--duration": ["graph", "fdi", "study"],
-                "--jobs": ["study", "detection", "identification", "units", "operations", "dumping", "service"],
-                "--scheduler": ["detection", "identification", "units", "operations", "dumping", "service", "scaling"],
+                "--jobs": ["study", "detection", "identification", "units", "operations", "recovery", "dumping",
+                           "service"],
+                "--scheduler": ["detection", "identification", "units", "operations", "recovery", "dumping", "service",
+                                "scaling"],
                 "--max-hours": ["service", "scaling"]}
 
 

@@ -123,7 +123,7 @@ def _recovery(args) -> dict:
     total = sum(args.fault_free_runs if c.kind is None else runs for c in CELLS)
     with tqdm(total=total, desc="recovery bench (core loop)", unit="run", file=sys.stderr) as bar:
         return bench_recovery(runs_per_cell=runs, fault_free_runs=args.fault_free_runs, seeds=args.seed_set,
-                              out=args.out or "reports/recovery", progress=bar.update)
+                              out=args.out or "reports/recovery", progress=bar.update, executor=executor(args))
 
 
 def _dumping(args) -> dict:
@@ -183,7 +183,7 @@ BENCHES = [
      ("--fault-free-runs", "--runs-per-cell", "--hours-runs", "--seed-set", "--out", *POOL), _operations),
     ("recovery", "the redundant wheel taking over from a wheel the FDI confirmed faulty (pointing back within "
      "0.2 deg, peak error, time to recover; FDI and FDIR in the core loop)",
-     ("--runs-per-cell", "--fault-free-runs", "--seed-set", "--out"), _recovery),
+     ("--runs-per-cell", "--fault-free-runs", "--seed-set", "--out", *POOL), _recovery),
     ("dumping", "a day in orbit with the magnetorquers dumping and with them off (wheel speed band, pointing, when "
      "the wheels saturate; a plot), the FDI through hours of dumping and faults during a dump (core loop)",
      ("--day-hours", "--orbit-runs", "--runs-per-cell", "--seed", "--out", *POOL), _dumping),

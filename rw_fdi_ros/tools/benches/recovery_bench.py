@@ -29,7 +29,7 @@ from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import held_speeds
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.wheel_set import WHEEL_SETS
-from .kit import fault_wheel, format_rate, rate, write_report
+from .kit import fault_wheel, format_rate, rate, write_report, write_runs_table
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}
 POINTING_DEG = 0.2
@@ -131,30 +131,46 @@ def summarize(cell: Cell, runs: list) -> dict:
 
 
 def bench_recovery(runs_per_cell: int = 100, fault_free_runs: int = 1000, seeds: str = "evaluation",
-                   out: str | Path = "reports/recovery", progress=None) -> dict:
+                   out: str | Path = "reports/recovery", progress=None, executor=None) -> dict:
+    """The recovery figures of every cell, its runs in batches on ``executor`` (local processes by default, or a
+    Dask cluster; the same runs either way: each is drawn from its seed); the report, and one row a run
+    (recovery_runs.csv), in ``out``."""
+    from ..campaigns.campaign import LocalExecutor
     seed_base = SEED_BASES[seeds]
-    _, curves = FdiConfig().load()
-    fdir = Fdir(curves["model"])
     t0 = time.monotonic()
+    sizes = [fault_free_runs if cell.kind is None else runs_per_cell for cell in CELLS]
+    work = [(i, seed_base, range(start, min(start + BATCH, n))) for i, n in enumerate(sizes)
+            for start in range(0, n, BATCH)]
+    by_cell = {i: [] for i in range(len(CELLS))}
+    # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
+    for i, runs in (executor or LocalExecutor()).map_unordered(_batch, work, processes=True):
+        by_cell[i] += runs
+        if progress:
+            progress(len(runs))
     cells = {}
     for i, cell in enumerate(CELLS):
-        scenarios = cell_scenarios(cell, fault_free_runs if cell.kind is None else runs_per_cell, i, seed_base)
-        runs = []
-        for start in range(0, len(scenarios), BATCH):
-            batch = scenarios[start:start + BATCH]
-            traj = simulate(batch, fdir=fdir)
-            runs += [run_figures(traj, b, s) for b, s in enumerate(batch)]
-            if progress:
-                progress(len(batch))
+        runs = sorted(by_cell[i], key=lambda r: r["seed"])
         cells[cell.name] = {"cell": {**cell.__dict__, "manoeuvres": cell.manoeuvres and cell.manoeuvres.__dict__},
-                            "seeds": [scenarios[0].seed, scenarios[-1].seed], "figures": summarize(cell, runs),
+                            "seeds": [runs[0]["seed"], runs[-1]["seed"]], "figures": summarize(cell, runs),
                             "runs": runs}
+    Path(out).mkdir(parents=True, exist_ok=True)
+    write_runs_table([{"cell": name, **r} for name, c in cells.items() for r in c["runs"]],
+                     Path(out) / "recovery_runs.csv")
     report = {"schema": "rw_fdi_ros/recovery_bench/1", "seconds": time.monotonic() - t0,
               "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,
               "wheel_set": WHEELS.name, "pointing_deg": POINTING_DEG, "recovery_s": RECOVERY_S, "cells": cells}
     report = write_report(report, out, "recovery", format_recovery)
-    plot_before_after(Path(out) / "pointing_before_after.png", fdir)
+    plot_before_after(Path(out) / "pointing_before_after.png", Fdir(FdiConfig().load()[1]["model"]))
     return report
+
+
+def _batch(work) -> tuple:
+    """(cell index, the figures of its runs ``seeds``): one batch of the core loop, what a worker computes."""
+    i, seed_base, seeds = work
+    _, curves = FdiConfig().load()
+    scenarios = cell_scenarios(CELLS[i], seeds.stop, i, seed_base)[seeds.start:]
+    traj = simulate(scenarios, fdir=Fdir(curves["model"]))
+    return i, [run_figures(traj, b, s) for b, s in enumerate(scenarios)]
 
 
 def _stat(s) -> str:
