@@ -30,6 +30,7 @@ from ...core.plant_choices import DEFAULT
 from ...core.magnetorquers import DumpLog, MomentumDumping
 from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.wheel import WheelParams
+from ...core.spacecraft import BODY_AXES
 from .kit import (SpeedAwareChunk, cell_figures, fault_wheel, format_rate, screen_cells, workers, write_cells_table,
                   write_report)
 from ..metrics import observable_level
@@ -109,7 +110,7 @@ def plot_day(traj, report: dict, path: Path):
     axes[0].legend(ncol=2, fontsize=7, loc="upper left")
     axes[0].set_title(f"A day in orbit (dumping_day, seed {report['seed']}): shaded, the speeds below the "
                       "dump start", fontsize=10)
-    for i, axis in enumerate("xyz"):
+    for i, axis in enumerate(BODY_AXES):
         axes[1].plot(h, traj.dipole[:, 0, i], lw=0.8, label=f"m_{axis}")
     axes[1].set_ylabel("rod dipole [A m^2]")
     axes[1].legend(fontsize=7, loc="upper left")

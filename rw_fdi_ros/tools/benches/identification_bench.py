@@ -34,6 +34,7 @@ from ...core.calibration import calibration_samples
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault, Scenario
+from ...core.wheel_set import fitted_for
 from .kit import fault_wheel, workers, Cell, cell_scenarios, format_rate, rate, screen_cells, write_cells_table
 from ..metrics import judge_identification
 from ..evaluation.screen import screen_sets
@@ -102,7 +103,8 @@ def cell_identification(runs, observable_level: dict, strict_bus: bool = False) 
     for r in runs:
         for a, v in judge_identification(r, strict_bus).items():
             v["unit_limited"] = (r.identification.get(a) or {}).get("fault_size_unit_limited") == "true"
-            seen = bool(r.fault_effect_peak["xyz".index(a)] > observable_level[a])
+            seen = bool(r.fault_effect_peak[r.wheels.index(a)] > max(observable_level[k]
+                                                                     for k in fitted_for(a, observable_level)))
             rows.append(v)
             observable.append(seen)
     seen_rows = [v for v, o in zip(rows, observable) if o]
@@ -124,7 +126,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
     about 6 in 10 bus drops of 2.5 V are physically visible). ``units``: the varied-wheel cells instead
     (``runs_per_cell`` each, the bus 1.7 times as many)."""
     _, curves = FdiConfig(unit_calibration=UNITS_CALIBRATION if units else 0.0).load()
-    level = {a: float(curves["model"].curves[a][-1]) for a in "xyz"}   # the model observer's band
+    level = {a: float(c[-1]) for a, c in curves["model"].curves.items()}   # the model observer's band
     t0 = time.monotonic()
     cells = {}
     if units:

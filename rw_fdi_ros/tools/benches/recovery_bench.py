@@ -28,6 +28,7 @@ from ...fdi_config import FdiConfig
 from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import held_speeds
 from ...core.scenario import Fault, Manoeuvres, Scenario
+from ...core.spacecraft import BODY_AXES
 from ...core.wheel_set import WHEEL_SETS
 from .kit import fault_wheel, format_rate, rate, write_report, write_runs_table
 
@@ -227,7 +228,7 @@ def plot_before_after(path: Path, fdir: Fdir):
     for ax, (label, f) in zip(axes, (("before: the faulty wheel x stays in use", None),
                                      ("after: FDIR (x held, s brought in)", fdir))):
         traj = simulate([scenario], fdir=f)
-        for i, a in enumerate("xyz"):
+        for i, a in enumerate(BODY_AXES):
             ax.semilogy(traj.time, np.maximum(np.degrees(np.abs(traj.error[:, 0, i])), 1e-5), label=a)
         ax.axhline(POINTING_DEG, color="k", ls="--", lw=0.8)
         for fault in scenario.faults:
