@@ -30,6 +30,13 @@ _TYPESTORE = None
 
 
 def typestore():
+    """The rosbags type store of ROS 2 Kilted messages, built on the first call and kept.
+
+    Returns
+    -------
+    rosbags.typesys.store.Typestore
+        The shared type store (it decodes a message's CDR bytes by its type name).
+    """
     global _TYPESTORE
     if _TYPESTORE is None:
         from rosbags.typesys import Stores, get_typestore
@@ -98,6 +105,18 @@ class BagData:
 
 
 def mcap_file(path) -> Path:
+    """The .mcap file of a bag.
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory, or an .mcap file itself.
+
+    Returns
+    -------
+    Path
+        ``path`` where it is a file, else the first .mcap of the directory by name (BagError where it has none).
+    """
     path = Path(path)
     if path.is_file():
         return path
@@ -133,7 +152,22 @@ def iter_messages(path, topics=None, info: BagInfo | None = None):
 
     One record at a time: memory does not grow with the bag. ``info`` is filled as the records
     pass (counts and spans of the wanted topics only); a truncated tail ends the stream with
-    ``info.note`` saying so. A file without a single channel raises BagError, at the end."""
+    ``info.note`` saying so. A file without a single channel raises BagError, at the end.
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory or its .mcap file.
+    topics : iterable of str, optional
+        The topics to yield; None (or empty) for every topic.
+    info : BagInfo, optional
+        Filled in place as the records pass; a fresh one when None.
+
+    Returns
+    -------
+    iterator of tuple (str, int, bytes)
+        (topic, log time [ns], CDR bytes with the encapsulation header) per message, in file order.
+    """
     from mcap.exceptions import McapError
     from mcap.records import Channel, Chunk, Footer, Message, Schema
     from mcap.stream_reader import StreamReader, breakup_chunk
@@ -198,13 +232,37 @@ def _metadata_trouble(path: Path, info: BagInfo) -> str:
 
 
 def check_intact(info: BagInfo):
-    """A BagError naming the bag where a chunk was damaged (what trains, fits or judges must not read it)."""
+    """A BagError naming the bag where a chunk was damaged (what trains, fits or judges must not read it).
+
+    Parameters
+    ----------
+    info : BagInfo
+        What a pass over the bag saw.
+
+    Returns
+    -------
+    None
+        Returns only where no chunk was damaged.
+    """
     if info.damaged:
         raise BagError(f"{info.path}: {info.damage()}")
 
 
 def bag_info(path, topics=None) -> BagInfo:
-    """Types, counts and spans per topic of a bag, read as a stream without decoding a message."""
+    """Types, counts and spans per topic of a bag, read as a stream without decoding a message.
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory or its .mcap file.
+    topics : iterable of str, optional
+        The topics to count; None for every topic.
+
+    Returns
+    -------
+    BagInfo
+        Types of every topic, counts and log-time spans [ns] of the ``topics``, completeness and damage.
+    """
     info = BagInfo(path=Path(path))
     for _ in iter_messages(path, topics, info):
         pass
@@ -216,7 +274,24 @@ def read_bag(path, topics=None, raw: bool = False, intact: bool = False) -> BagD
 
     Memory grows with what is read: ask for the topics you need (or use :func:`read_series`).
     ``raw=True`` keeps the CDR bytes instead of decoding (what a player republishes); ``intact``: a damaged
-    chunk is a BagError, not a skip."""
+    chunk is a BagError, not a skip.
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory or its .mcap file.
+    topics : iterable of str, optional
+        The topics to read; None for every topic.
+    raw : bool
+        Keep each message's CDR bytes instead of decoding it.
+    intact : bool
+        Raise BagError where a chunk is damaged, instead of skipping it.
+
+    Returns
+    -------
+    BagData
+        Per topic a list of (log time [ns], message or CDR bytes), in log-time order; completeness and note.
+    """
     info = BagInfo(path=Path(path))
     data = BagData(path=info.path, types=info.types)
     for topic, log_time, raw_msg in iter_messages(path, topics, info):
@@ -235,7 +310,22 @@ def iter_time_order(path, topics, rank=None):
     and then file order: what a player republishes.
 
     A complete bag is merged through its MCAP chunk index (mcap's SeekingReader), holding only the
-    chunks that overlap in time; a bag without a summary (a killed recorder) is read whole and sorted."""
+    chunks that overlap in time; a bag without a summary (a killed recorder) is read whole and sorted.
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory or its .mcap file.
+    topics : iterable of str or None
+        The topics to yield; None for every topic.
+    rank : callable, optional
+        ``rank(topic)`` -> a sortable key, lower first among messages of one log time; None: all alike.
+
+    Returns
+    -------
+    iterator of tuple (int, str, bytes)
+        (log time [ns], topic, CDR bytes) per message.
+    """
     from mcap.exceptions import McapError
     from mcap.reader import SeekingReader
     rank = rank or (lambda topic: 0)
@@ -356,7 +446,23 @@ def _decode(raw, kind: str, path, topic: str):
 def read_series(path, topics, intact: bool = False) -> BagSeries:
     """The given topics of a bag as a stream into numbers (Vector3Stamped, JointState) or their first
     and last messages (the rest): memory grows only with the numbers kept, 8 bytes each. ``intact``: a
-    damaged chunk is a BagError, not a skip."""
+    damaged chunk is a BagError, not a skip.
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory or its .mcap file.
+    topics : iterable of str
+        The topics to read (None: every topic).
+    intact : bool
+        Raise BagError where a chunk is damaged, instead of skipping it.
+
+    Returns
+    -------
+    BagSeries
+        Vector3Stamped and JointState topics as arrays by header stamp, every other topic as its first
+        and last message (the last by header stamp).
+    """
     from .cdr import read_joint_state_cdr, read_vector_cdr
     info = BagInfo(path=Path(path))
     out = BagSeries(path=info.path, info=info)
@@ -385,7 +491,19 @@ def _stamp_of(msg):
 
 def message_counts(path) -> dict:
     """{topic: messages} of a finished bag, from its metadata.yaml (nothing of the data file is read);
-    empty without one."""
+    empty without one.
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory.
+
+    Returns
+    -------
+    dict of str to int
+        Messages per topic as metadata.yaml counts them; empty without metadata.yaml (BagError where it is
+        unreadable).
+    """
     import yaml
     meta = Path(path) / "metadata.yaml"
     if not meta.is_file():
@@ -399,7 +517,18 @@ def message_counts(path) -> dict:
 
 def bag_engine(path) -> str | None:
     """Which engine recorded a finished bag ('graph' or 'core', its metadata.yaml custom_data); None when
-    it does not say (an unfinished bag, or one recorded before bags said)."""
+    it does not say (an unfinished bag, or one recorded before bags said).
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory.
+
+    Returns
+    -------
+    str or None
+        'graph' or 'core' (what metadata.yaml says), or None.
+    """
     import yaml
     meta = Path(path) / "metadata.yaml"
     if not meta.is_file():
@@ -412,7 +541,18 @@ def bag_engine(path) -> str | None:
 
 
 def bag_is_complete(path) -> bool:
-    """True for a finished bag: metadata.yaml written and the MCAP footer present."""
+    """True for a finished bag: metadata.yaml written and the MCAP footer present.
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory.
+
+    Returns
+    -------
+    bool
+        Whether metadata.yaml exists and the .mcap ends in the MCAP magic bytes.
+    """
     path = Path(path)
     if not (path / "metadata.yaml").exists():
         return False

@@ -18,7 +18,18 @@ _VECTOR = struct.Struct("<3d")
 
 
 def clock_cdr(stamp_ns_: int) -> bytes:
-    """rosgraph_msgs/Clock serialised (plain CDR, little endian): the plant's clock every step."""
+    """rosgraph_msgs/Clock serialised (plain CDR, little endian): the plant's clock every step.
+
+    Parameters
+    ----------
+    stamp_ns_ : int
+        Sim time [ns].
+
+    Returns
+    -------
+    bytes
+        The message's CDR bytes, encapsulation header included (12 bytes).
+    """
     sec, nsec = divmod(int(stamp_ns_), 1_000_000_000)
     return _CDR_LE + struct.pack("<iI", sec, nsec)
 
@@ -35,7 +46,22 @@ _FRAMES = {}
 
 
 def vector_cdr(stamp_ns_: int, values, frame_id: str = "body") -> bytes:
-    """geometry_msgs/Vector3Stamped serialised as rclpy would (decoded equal), without a message object."""
+    """geometry_msgs/Vector3Stamped serialised as rclpy would (decoded equal), without a message object.
+
+    Parameters
+    ----------
+    stamp_ns_ : int
+        Header stamp [ns].
+    values : sequence of float, length 3
+        The vector's x, y, z, in the unit of the topic.
+    frame_id : str
+        Header frame_id.
+
+    Returns
+    -------
+    bytes
+        The message's CDR bytes (plain CDR, little endian), encapsulation header included.
+    """
     frame = _FRAMES.get(frame_id)
     if frame is None:
         frame = _FRAMES[frame_id] = _frame_field(frame_id)
@@ -45,7 +71,20 @@ def vector_cdr(stamp_ns_: int, values, frame_id: str = "body") -> bytes:
 
 
 def read_vector_cdr(raw: bytes):
-    """(stamp_ns, np.ndarray(3)) of a serialised geometry_msgs/Vector3Stamped, either byte order."""
+    """(stamp_ns, np.ndarray(3)) of a serialised geometry_msgs/Vector3Stamped, either byte order.
+
+    Parameters
+    ----------
+    raw : bytes
+        The message's CDR bytes, encapsulation header included.
+
+    Returns
+    -------
+    stamp_ns : int
+        Header stamp [ns].
+    values : ndarray of float64, shape (3,)
+        The vector's x, y, z, in the unit of the topic.
+    """
     end = "<" if raw[1] == 1 else ">"
     sec, nsec, length = struct.unpack_from(end + "iII", raw, 4)
     offset = 4 + 12 + length
@@ -79,7 +118,24 @@ _JOINT_PREFIXES = {}
 
 def joint_state_cdr(stamp_ns_: int, names: tuple, position=(), velocity=(), effort=(), frame_id: str = "") -> bytes:
     """sensor_msgs/JointState serialised (plain CDR, little endian) without a message object: the
-    lockstep's per-step messages; decoded equal to what rclpy would send."""
+    lockstep's per-step messages; decoded equal to what rclpy would send.
+
+    Parameters
+    ----------
+    stamp_ns_ : int
+        Header stamp [ns].
+    names : tuple of str
+        Joint names (hashable: the constant part of the message is cached by ``(frame_id, names)``).
+    position, velocity, effort : sequence of float, shape (k,) each
+        The joint arrays, in the units of the topic; empty to leave one out.
+    frame_id : str
+        Header frame_id.
+
+    Returns
+    -------
+    bytes
+        The message's CDR bytes, encapsulation header included.
+    """
     key = (frame_id, names)
     prefix = _JOINT_PREFIXES.get(key)
     if prefix is None:
@@ -101,7 +157,20 @@ def joint_state_cdr(stamp_ns_: int, names: tuple, position=(), velocity=(), effo
 
 def read_joint_state_cdr(raw: bytes):
     """(stamp_ns, position, velocity, effort) of a serialised sensor_msgs/JointState, either byte
-    order; the arrays are np.ndarray (empty where the message leaves them out)."""
+    order; the arrays are np.ndarray (empty where the message leaves them out).
+
+    Parameters
+    ----------
+    raw : bytes
+        The message's CDR bytes, encapsulation header included.
+
+    Returns
+    -------
+    stamp_ns : int
+        Header stamp [ns].
+    position, velocity, effort : ndarray of float64, shape (k,) each
+        The joint arrays, in the units of the topic; shape (0,) where left out.
+    """
     end = "<" if raw[1] == 1 else ">"
     body = memoryview(raw)[4:]
     sec, nsec, length = struct.unpack_from(end + "iII", body, 0)
@@ -130,6 +199,18 @@ def header_stamp_ns(raw: bytes, default: int) -> int:
 
     Header-stamped messages and rosgraph_msgs/Clock all start with it, right
     after the 4-byte encapsulation header (byte 1 = 1: little endian).
+
+    Parameters
+    ----------
+    raw : bytes
+        The message's CDR bytes, encapsulation header included.
+    default : int
+        What to return for a message too short to hold a stamp [ns].
+
+    Returns
+    -------
+    int
+        The stamp [ns], or ``default``.
     """
     if len(raw) < 12:
         return default

@@ -40,7 +40,21 @@ def _by_topic(bag: Path) -> tuple:
 
 
 def bag_differences(a, b, limit: int = 10) -> list:
-    """What differs between bags ``a`` and ``b`` (at most ``limit`` lines; empty: the same run)."""
+    """What differs between bags ``a`` and ``b`` (at most ``limit`` lines; empty: the same run).
+
+    Parameters
+    ----------
+    a, b : str or Path
+        The two bags (directories or .mcap files).
+    limit : int
+        The most lines to return.
+
+    Returns
+    -------
+    list of str
+        One line per difference: a topic's type, message count, or the first message whose log time [ns]
+        or decoded contents differ.
+    """
     a, b = Path(a), Path(b)
     (msgs_a, types_a), (msgs_b, types_b) = _by_topic(a), _by_topic(b)
     out = []
