@@ -5,7 +5,20 @@ import importlib
 
 
 def require(module: str, extra: str):
-    """``module`` imported, or a RuntimeError that says which extra of the package installs it."""
+    """``module`` imported, or a RuntimeError that says which extra of the package installs it.
+
+    Parameters
+    ----------
+    module : str
+        The module's dotted name.
+    extra : str
+        The extra of setup.py that installs it (named in the error).
+
+    Returns
+    -------
+    module
+        The imported module.
+    """
     try:
         return importlib.import_module(module)
     except ImportError as exc:

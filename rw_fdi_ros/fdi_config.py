@@ -130,7 +130,28 @@ def checked_curves(path, observer: str, method: str, unit_calibration: float = 0
                    duration: float | None = None):
     """The ThresholdCurves of ``observer`` at ``path``, checked against the method, the unit calibration and,
     where given, the run's PlantChoices (and FDI period) and length: one-line ThresholdError naming the file.
-    What every command and the isolation node load thresholds through."""
+    What every command and the isolation node load thresholds through.
+
+    Parameters
+    ----------
+    path : str or Path
+        The threshold file (``thresholds_<observer>.json``).
+    observer : str
+        The observer slot the curves must be fitted for.
+    method : str
+        The FDI method, 'speed_aware' or 'thesis'.
+    unit_calibration : float
+        Time [s] of the run the observers learn their wheel's unit from; 0: the datasheet wheel.
+    plant : PlantChoices, optional
+        The run's plant choices, checked with its FDI period [s]; None: not checked.
+    duration : float, optional
+        The run's length [s], which the curves must cover; None: not checked.
+
+    Returns
+    -------
+    ThresholdCurves
+        The loaded curves (ThresholdError, naming the file, where a check fails).
+    """
     from .core.threshold_file import ThresholdCurves
     path = str(path)
     curves = ThresholdCurves.load(path, observer)

@@ -11,7 +11,13 @@ _SOURCE_ROOT = Path(__file__).resolve().parents[1]
 def install_prefix() -> Path | None:
     """The install prefix when this package runs from a colcon/ament install
     (<prefix>/lib/pythonX.Y/site-packages/rw_fdi_ros), else None (a source tree or an editable
-    install)."""
+    install).
+
+    Returns
+    -------
+    Path or None
+        The prefix (it holds share/rw_fdi_ros), or None.
+    """
     site = _SOURCE_ROOT
     if site.name in ("site-packages", "dist-packages") and site.parent.parent.name == "lib":
         prefix = site.parents[2]
@@ -21,14 +27,32 @@ def install_prefix() -> Path | None:
 
 
 def installed_executable(name: str) -> Path | None:
-    """<prefix>/lib/rw_fdi_ros/<name> of an install: the file `ros2 run rw_fdi_ros <name>` starts."""
+    """<prefix>/lib/rw_fdi_ros/<name> of an install: the file `ros2 run rw_fdi_ros <name>` starts.
+
+    Parameters
+    ----------
+    name : str
+        The executable's name.
+
+    Returns
+    -------
+    Path or None
+        The file, or None outside an install or where it does not exist.
+    """
     prefix = install_prefix()
     exe = prefix / "lib" / PACKAGE / name if prefix else None
     return exe if exe is not None and exe.is_file() else None
 
 
 def config_dir() -> Path:
-    """config/ of the source tree, else <share>/rw_fdi_ros/config of an ament install."""
+    """config/ of the source tree, else <share>/rw_fdi_ros/config of an ament install.
+
+    Returns
+    -------
+    Path
+        $RW_FDI_CONFIG where set; else the first of the source tree's config/, the install prefix's, the
+        ament index's; else the source tree's config/ (which may not exist).
+    """
     env = os.environ.get("RW_FDI_CONFIG")
     if env:
         return Path(env)
@@ -46,30 +70,81 @@ def config_dir() -> Path:
 
 
 def fdi_dir(method: str = "speed_aware") -> Path:
-    """The shipped FDI models and thresholds: config/fdi (ours, speed-aware) or config/fdi/thesis."""
+    """The shipped FDI models and thresholds: config/fdi (ours, speed-aware) or config/fdi/thesis.
+
+    Parameters
+    ----------
+    method : str
+        The FDI method: 'thesis', or anything else for 'speed_aware'.
+
+    Returns
+    -------
+    Path
+        The directory.
+    """
     return config_dir() / "fdi" / ("thesis" if method == "thesis" else "")
 
 
 def thresholds_dir(method: str = "speed_aware", unit_calibration_time: float = 0.0) -> Path:
     """The shipped thresholds of ``method``: those of calibrated observers (unit_calibrated/,
-    config/fdi/unit_calibrated/README) when they learn their wheel, else the method's own."""
+    config/fdi/unit_calibrated/README) when they learn their wheel, else the method's own.
+
+    Parameters
+    ----------
+    method : str
+        The FDI method: 'thesis', or anything else for 'speed_aware'.
+    unit_calibration_time : float
+        Time [s] of each run the observers learn their wheel's unit from; 0: the datasheet wheel.
+
+    Returns
+    -------
+    Path
+        ``fdi_dir(method)``, or its unit_calibrated/ where ``unit_calibration_time`` > 0.
+    """
     return fdi_dir(method) / "unit_calibrated" if unit_calibration_time > 0 else fdi_dir(method)
 
 
 def fastdds_profiles() -> str | None:
     """FASTDDS_DEFAULT_PROFILES_FILE for the graph: the user's own, else config/fastdds.xml (50 ms
-    reliable-writer heartbeat: a run's end and paced bag replay wait on acknowledgements)."""
+    reliable-writer heartbeat: a run's end and paced bag replay wait on acknowledgements).
+
+    Returns
+    -------
+    str or None
+        $FASTDDS_DEFAULT_PROFILES_FILE where set, else config/fastdds.xml's path where it exists, else None.
+    """
     profiles = config_dir() / "fastdds.xml"
     return os.environ.get("FASTDDS_DEFAULT_PROFILES_FILE") or (str(profiles) if profiles.is_file() else None)
 
 
 def bags_dir() -> Path:
+    """Where the runs' bags go.
+
+    Returns
+    -------
+    Path
+        $RW_FDI_BAGS where set, else bags/ under the current directory.
+    """
     return Path(os.environ.get("RW_FDI_BAGS", Path.cwd() / "bags"))
 
 
 def shown_path(path, base) -> str:
     """``path`` relative to ``base`` when it lies inside it: a report names no path of the machine that
-    made it, so it reads the same wherever the study directory goes."""
+    made it, so it reads the same wherever the study directory goes.
+
+    Parameters
+    ----------
+    path : str or Path
+        The path to show.
+    base : str or Path
+        The directory the report belongs to.
+
+    Returns
+    -------
+    str
+        ``path`` relative to ``base`` where inside it; else config/... where inside the shipped config
+        directory; else relative to ``base`` through '..'.
+    """
     import os
     path, base = Path(path).resolve(), Path(base).resolve()
     for root, shown in ((base, None), (config_dir().resolve(), "config")):   # the study's, the shipped files
