@@ -70,7 +70,18 @@ class RunEval:
 
 def observers_of_runs(runs) -> list:
     """The observer slots every one of ``runs`` was judged by, in slot order, then ``verdict`` (what
-    /diagnostics says) where the runs hold it."""
+    /diagnostics says) where the runs hold it.
+
+    Parameters
+    ----------
+    runs : list of RunEval
+        The judged runs.
+
+    Returns
+    -------
+    list of str
+        The slots (of OBSERVERS, then VERDICT); empty for no runs.
+    """
     return [obs for obs in (*OBSERVERS, VERDICT) if runs and all(obs in r.series for r in runs)]
 
 
@@ -78,14 +89,43 @@ VERDICT = "verdict"   # the series of /diagnostics' verdict beside the observers
 
 
 def health_rows(runs) -> list:
-    """One row per run, status topic, wheel and kind where the FDI could not judge or had input trouble."""
+    """One row per run, status topic, wheel and kind where the FDI could not judge or had input trouble.
+
+    Parameters
+    ----------
+    runs : list of RunEval
+        The judged runs.
+
+    Returns
+    -------
+    list of dict
+        bag (its name), topic, wheel, kind ('cannot_judge' or 'input_trouble') and what
+        bag_series.health_from_bag saw: samples, first_s [s], message.
+    """
     return [{"bag": Path(r.bag).name, "topic": topic, "wheel": axis, "kind": kind, **seen}
             for r in runs for topic, wheels in r.health.items() for axis, kinds in sorted(wheels.items())
             for kind, seen in kinds.items()]
 
 
 def axis_figures(s: Series, i: int, onset: float) -> dict:
-    """Detection figures of one axis after ``onset``."""
+    """Detection figures of one axis after ``onset``.
+
+    Parameters
+    ----------
+    s : Series
+        One observer's series of a run, (n, N) each.
+    i : int
+        The column of the wheel (its index in the run's wheels).
+    onset : float
+        The fault's onset [s].
+
+    Returns
+    -------
+    dict
+        detected (bool), delay [s] and time_above [s] (None where not detected), held_to_end (bool, only
+        where detected), gap [N m] (largest residual - threshold where detected, smallest threshold - residual
+        where not; None without samples after onset).
+    """
     after = s.time >= onset
     alarm = s.alarm[:, i] & after
     gap = s.residual[after, i] - s.threshold[after, i]
@@ -101,7 +141,20 @@ def axis_figures(s: Series, i: int, onset: float) -> dict:
 def alarm_intervals(times, flags) -> list:
     """[(start, end)] of the alarm flag series, end None for an alarm still up at the last sample:
     the one definition of an alarm interval (detection, time above threshold, held to end, and
-    `rw-fdi run`'s verdict)."""
+    `rw-fdi run`'s verdict).
+
+    Parameters
+    ----------
+    times : array_like, shape (n,)
+        Sample times [s].
+    flags : array_like of bool, shape (n,)
+        The alarm at each sample.
+
+    Returns
+    -------
+    list of tuple (float, float or None)
+        (start [s], end [s]) per interval, end the first sample without the alarm, or None.
+    """
     out, start = [], None
     for t, f in zip(times, flags):
         if f and start is None:
@@ -115,7 +168,21 @@ def alarm_intervals(times, flags) -> list:
 
 
 def judge(run: RunEval, observer: str) -> dict:
-    """Verdict of one run for one observer: alarms per axis, correctness, per-faulty-axis figures."""
+    """Verdict of one run for one observer: alarms per axis, correctness, per-faulty-axis figures.
+
+    Parameters
+    ----------
+    run : RunEval
+        One judged run.
+    observer : str
+        The series to judge: an observer slot of OBSERVERS, or VERDICT.
+
+    Returns
+    -------
+    dict
+        alarmed_wheels (list of str), false_alarm (bool); for a faulty run also axes (wheel -> the
+        :func:`axis_figures` at its first onset), wrong_axes (list of str) and correct (bool).
+    """
     s = run.series[observer]
     alarmed = [a for i, a in enumerate(run.wheels) if s.alarm[:, i].any()]
     out = {"alarmed_wheels": alarmed, "false_alarm": bool(alarmed) and run.category in ("fault_free", "disturbance")}
@@ -133,7 +200,20 @@ def judge(run: RunEval, observer: str) -> dict:
 
 def run_row(run: RunEval) -> dict:
     """One run as a flat record (a table row: tools/benches/kit.write_runs_table): seed, scenario, faults,
-    each observer's verdict (alarmed wheels, correct, false alarm, first delay) and the identification."""
+    each observer's verdict (alarmed wheels, correct, false alarm, first delay) and the identification.
+
+    Parameters
+    ----------
+    run : RunEval
+        One judged run.
+
+    Returns
+    -------
+    dict
+        seed, scenario, category, faults (kind, wheel, onset [s], value, ramp [s]), per observer
+        alarmed, false_alarm, correct and delay_s [s], and identification (wheel -> kind, size, size_low,
+        size_high, as recorded: strings).
+    """
     row = {"seed": run.seed, "scenario": run.scenario, "category": run.category,
            "faults": [{"kind": f.kind, "wheel": run.wheels[f.wheel], "onset": f.onset, "value": f.value,
                        "ramp": f.ramp} for f in run.faults]}
@@ -154,7 +234,22 @@ IDENTIFIED_KIND = {"current_limiter": "current_loss", "temperature": "temperatur
 
 def size_tolerance(kind: str, value: float, strict_bus: bool = False) -> float:
     """Temperature within 10 C, limiter share and bus voltage within 10 % of the true value (``strict_bus``:
-    the bus within 0.1 V, issue 26's target)."""
+    the bus within 0.1 V, issue 26's target).
+
+    Parameters
+    ----------
+    kind : str
+        The scenario's fault kind ('temperature', 'current_limiter', 'bus_voltage').
+    value : float
+        The true value, in the kind's unit ([C], share, [V]).
+    strict_bus : bool
+        Hold the bus voltage to 0.1 V where that is tighter than 10 %.
+
+    Returns
+    -------
+    float
+        The largest admitted |estimate - truth|, in the kind's unit.
+    """
     if kind == "temperature":
         return 10.0
     return min(0.1, 0.1 * abs(value)) if strict_bus and kind == "bus_voltage" else 0.1 * abs(value)
@@ -163,7 +258,20 @@ def size_tolerance(kind: str, value: float, strict_bus: bool = False) -> float:
 def size_at(fault, at_s: float) -> float:
     """The truth an identified size is judged against: the fault's value at the identification's last sample
     (``at_s``, its stamp; the middle of that FDI period), a ramp's value then where it was still growing or its
-    wheel's driver was switched off before it ended; the final value where the time is not known."""
+    wheel's driver was switched off before it ended; the final value where the time is not known.
+
+    Parameters
+    ----------
+    fault : Fault
+        The scenario's fault (kind, onset [s], value in the kind's unit, ramp [s]).
+    at_s : float
+        The identification's stamp [s]; NaN where not known.
+
+    Returns
+    -------
+    float
+        The fault's value at ``at_s`` - FDI_PERIOD / 2, in the kind's unit.
+    """
     if not np.isfinite(at_s):
         return float(fault.value)
     return float(fault.value_at(float(at_s) - 0.5 * FDI_PERIOD))
@@ -172,7 +280,24 @@ def size_at(fault, at_s: float) -> float:
 def judge_size(fault, size: float, low: float, high: float, at_s: float = float("nan"),
                strict_bus: bool = False) -> dict:
     """size_error (estimate - truth, in the kind's unit), size_right (within :func:`size_tolerance`), covered
-    (truth inside [low, high]) of an identification of the right kind (truth: :func:`size_at`)."""
+    (truth inside [low, high]) of an identification of the right kind (truth: :func:`size_at`).
+
+    Parameters
+    ----------
+    fault : Fault
+        The scenario's fault (kind, onset [s], value in the kind's unit, ramp [s]).
+    size, low, high : float
+        The identified size and its interval, in the kind's unit.
+    at_s : float
+        The identification's stamp [s]; NaN where not known.
+    strict_bus : bool
+        Passed to :func:`size_tolerance`.
+
+    Returns
+    -------
+    dict
+        size, truth, size_error (float, in the kind's unit), size_right, covered (bool).
+    """
     truth = size_at(fault, at_s)
     return {"size": float(size), "truth": truth, "size_error": float(size) - truth,
             "size_right": bool(abs(size - truth) <= size_tolerance(fault.kind, truth, strict_bus)),
@@ -185,6 +310,19 @@ def judge_identification(run: RunEval, strict_bus: bool = False) -> dict:
     kind_right, size_error (estimate - truth, in the kind's unit), size_right (within
     :func:`size_tolerance`), covered (truth inside [low, high]); identified False when the
     wheel was never alarmed or the kind stayed 'unknown'.
+
+    Parameters
+    ----------
+    run : RunEval
+        One judged run.
+    strict_bus : bool
+        Passed to :func:`size_tolerance`.
+
+    Returns
+    -------
+    dict of str to dict
+        Wheel -> true_kind, kind, identified, kind_right and, where the kind is right, the
+        :func:`judge_size` figures; disturbances and wheels with more than one fault left out.
     """
     out = {}
     for f in run.faults:
@@ -204,7 +342,23 @@ def judge_identification(run: RunEval, strict_bus: bool = False) -> dict:
 
 
 def reliability(runs, curves_seeds, observer: str) -> dict:
-    """Share of fitting runs (seed in the curves' seeds, fault-free) under the curve at every point."""
+    """Share of fitting runs (seed in the curves' seeds, fault-free) under the curve at every point.
+
+    Parameters
+    ----------
+    runs : list of RunEval
+        The judged runs.
+    curves_seeds : iterable of int
+        The seeds the threshold curves were fitted on.
+    observer : str
+        The observer slot.
+
+    Returns
+    -------
+    dict
+        runs (int), seeds (list of int) and per wheel of the runs the share (0..1) whose residual stayed at
+        or under the threshold at every sample; only ``{"runs": 0}`` without a fitting run.
+    """
     fit = [r for r in runs if r.category == "fault_free" and r.seed in set(curves_seeds)]
     if not fit:
         return {"runs": 0}
@@ -216,7 +370,18 @@ def reliability(runs, curves_seeds, observer: str) -> dict:
 
 
 def fault_label(run: RunEval) -> tuple:
-    """(kind, size) of a single-kind run, sizes as the thesis states them."""
+    """(kind, size) of a single-kind run, sizes as the thesis states them.
+
+    Parameters
+    ----------
+    run : RunEval
+        One judged run.
+
+    Returns
+    -------
+    tuple of (str, str)
+        The kind and its first fault's size as text; ('multiple', the kinds joined by '+') for several kinds.
+    """
     kinds = sorted({f.kind for f in run.faults})
     if len(kinds) != 1:
         return ("multiple", "+".join(kinds))
@@ -232,7 +397,20 @@ def fault_label(run: RunEval) -> tuple:
 
 
 def severity(kind: str, value: float) -> float:
-    """How far a fault is from nominal in the thesis' own units: % off, % loss, degrees C, % ripple."""
+    """How far a fault is from nominal in the thesis' own units: % off, % loss, degrees C, % ripple.
+
+    Parameters
+    ----------
+    kind : str
+        The fault kind ('bus_voltage', 'current_limiter', 'temperature', else a ripple gain).
+    value : float
+        The fault's value: bus voltage [V], current share, temperature [C] or ripple gain.
+
+    Returns
+    -------
+    float
+        % under 8 V, % current lost, [C] over 23 C, or % ripple over nominal.
+    """
     if kind == "bus_voltage":
         return 100.0 * (1.0 - value / 8.0)
     if kind == "current_limiter":
@@ -248,14 +426,40 @@ def _rate(flags):
 
 
 def alarm_before_onset(run: RunEval, observer: str) -> bool:
-    """Any alarm in the fault-free first part of a faulty run: a false alarm there."""
+    """Any alarm in the fault-free first part of a faulty run: a false alarm there.
+
+    Parameters
+    ----------
+    run : RunEval
+        A run with at least one fault (an onset).
+    observer : str
+        The series to judge: an observer slot of OBSERVERS, or VERDICT.
+
+    Returns
+    -------
+    bool
+        Whether any wheel alarmed before the first onset.
+    """
     s = run.series[observer]
     return bool(s.alarm[s.time < run.onset].any())
 
 
 def observable(run: RunEval, level: dict) -> bool:
     """Every faulty wheel's recorded fault effect peaks above ``level[axis]``, the fault-free residual
-    level [N m]: a fault below it is physically invisible, not missed by the observer."""
+    level [N m]: a fault below it is physically invisible, not missed by the observer.
+
+    Parameters
+    ----------
+    run : RunEval
+        One judged run.
+    level : dict of str to float
+        Fitted wheel -> fault-free residual level [N m] (:func:`observable_level`).
+
+    Returns
+    -------
+    bool
+        Whether every faulty wheel's fault effect peak [N m] exceeds its level (True without faulty wheels).
+    """
     return all(run.fault_effect_peak[run.wheels.index(a)] > max(level[k] for k in fitted_for(a, level))
                for a in run.faulty_wheels)
 
@@ -266,7 +470,18 @@ def observable_level(curves: dict) -> dict:
     ThresholdCurves): the largest of the observers' median thresholds after the manoeuvre (a band may be
     negative: it is a level over the ripple bound, not a residual level). With the model observer in the
     set the Luenberger observer is left out: its band is its linearised model's own error, not what the
-    wheel shows."""
+    wheel shows.
+
+    Parameters
+    ----------
+    curves : dict of str to ThresholdCurves
+        Observer -> its threshold curves [N m], of one FDI set.
+
+    Returns
+    -------
+    dict of str to float
+        Fitted wheel -> level [N m].
+    """
     judges = [c for obs, c in curves.items() if obs != "linear" or "model" not in curves]
     return {a: max(float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a])) for c in judges)
             for a in judges[0].curves}   # the fitted wheels; another of their type: observable()
@@ -276,7 +491,27 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
     """All figures per observer (``observers``, default those every run was judged by);
     ``observable_level[obs][axis]``: the fault-free residual level [N m].
 
-    Held-out runs are fault-free runs the thresholds were not fitted on and the models not trained on."""
+    Held-out runs are fault-free runs the thresholds were not fitted on and the models not trained on.
+
+    Parameters
+    ----------
+    runs : list of RunEval
+        The judged runs.
+    curves_seeds : dict of str to list of int
+        Observer -> the seeds its threshold curves were fitted on.
+    observable_level : dict of str to dict of str to float
+        Observer -> wheel -> fault-free residual level [N m] (:func:`observable_level`).
+    training_seeds : iterable of int
+        The seeds the models were trained on.
+    observers : iterable of str, optional
+        The series to report; None: :func:`observers_of_runs`.
+
+    Returns
+    -------
+    dict of str to dict
+        Observer -> reliability, false alarm rates (held-out, disturbance, before onset) and faults: one
+        cell per (kind, size) with rates, delays and times above [s] and gaps [mN m].
+    """
     report = {}
     for obs in observers_of_runs(runs) if observers is None else observers:
         verdicts = {r.bag: judge(r, obs) for r in runs}
@@ -328,7 +563,19 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
 
 def identification_figures(runs) -> list:
     """Per (kind, size) of the single-fault runs: how often the identified kind was right and how
-    close the size was (:func:`judge_identification` on each faulty wheel)."""
+    close the size was (:func:`judge_identification` on each faulty wheel).
+
+    Parameters
+    ----------
+    runs : list of RunEval
+        The judged runs.
+
+    Returns
+    -------
+    list of dict
+        One cell per (kind, size): wheels, rates of identified, kind_right and size_right, abs_size_error
+        (in the kind's unit) and how often each kind was identified.
+    """
     groups = {}
     for r in runs:
         if r.category == "single":
