@@ -10,7 +10,14 @@ from .metrics import OBSERVERS, Series
 
 
 def fdi_output_topics() -> list:
-    """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more)."""
+    """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more).
+
+    Returns
+    -------
+    list of str
+        Every observer slot's residual topics (the Elman ones per wheel of any set), threshold and alarm
+        topics, then /fdi/identification and /scenario.
+    """
     from ..core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
     rows = [T.residual_topic(obs, a) for obs in OBSERVERS for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
     return rows + [t for obs in OBSERVERS for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
@@ -19,7 +26,18 @@ def fdi_output_topics() -> list:
 
 def wheels_of_bag(data) -> tuple:
     """The wheel names of a recorded run: its /scenario's wheel set (a bag from before the redundant wheel:
-    the three axis wheels)."""
+    the three axis wheels).
+
+    Parameters
+    ----------
+    data : BagData or BagSeries
+        The bag, read (storage.bag.read_bag or read_series).
+
+    Returns
+    -------
+    tuple of str
+        The wheel set's names, in its order.
+    """
     import yaml
     from ..core.plant_choices import PlantChoices
     from ..core.wheel_set import wheel_set
@@ -30,7 +48,26 @@ def wheels_of_bag(data) -> tuple:
 def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
     """(time [s], values (n, wheels)) of one observer's ``topic`` (residual_topic, bound_topic, estimate_topic):
     the Elman nodes' per-wheel topics, each carrying its own wheel (or, recorded before the redundant
-    wheel, its own axis' component), joined into one."""
+    wheel, its own axis' component), joined into one.
+
+    Parameters
+    ----------
+    data : BagData or BagSeries
+        The bag, read (storage.bag.read_bag or read_series).
+    observer : str
+        The observer slot.
+    topic : callable
+        ``topic(observer)`` or ``topic(observer, wheel)`` -> the topic name (graph.topics).
+    wheels : tuple of str, optional
+        The run's wheel names; None: :func:`wheels_of_bag`.
+
+    Returns
+    -------
+    time : ndarray, shape (n,)
+        Header stamps [s] (of the first wheel's topic where per wheel, cut to the shortest).
+    values : ndarray, shape (n, wheels)
+        One column per wheel, in the unit of the topic ([N m] for the three named).
+    """
     axes = T.observer_axes(observer)
     if axes == (None,):
         return data.wheel_values(topic(observer))
@@ -43,13 +80,36 @@ def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
 
 
 def observers_in_bag(data) -> list:
-    """The observer slots whose decisions a bag holds (the method's: core/detection.observers_of)."""
+    """The observer slots whose decisions a bag holds (the method's: core/detection.observers_of).
+
+    Parameters
+    ----------
+    data : BagData or BagSeries
+        The bag, read (storage.bag.read_bag or read_series).
+
+    Returns
+    -------
+    list of str
+        The slots (of OBSERVERS, in their order) with at least one alarm message.
+    """
     return [obs for obs in OBSERVERS if len(data.wheel_values(T.fdi_output_topics(obs)["alarm"])[0])]
 
 
 def series_from_bag(data) -> dict:
     """observer -> Series from a bag holding the isolation node's outputs and the residuals (the
-    observers the run had)."""
+    observers the run had).
+
+    Parameters
+    ----------
+    data : BagData or BagSeries
+        The bag, read (storage.bag.read_bag or read_series).
+
+    Returns
+    -------
+    dict of str to Series
+        Observer -> time [s] (n,), |residual| [N m], threshold [N m] and alarm (bool), (n, wheels) each.
+        ValueError where the bag holds no FDI outputs.
+    """
     out = {}
     for obs in observers_in_bag(data):
         topics = T.fdi_output_topics(obs)
@@ -68,7 +128,18 @@ def series_from_bag(data) -> dict:
 
 def identification_from_bag(data) -> dict:
     """axis -> the last /fdi/identification status of that wheel as a dict (message + values);
-    wheels never alarmed (or a bag without the topic) are left out."""
+    wheels never alarmed (or a bag without the topic) are left out.
+
+    Parameters
+    ----------
+    data : BagData or BagSeries
+        The bag, read (storage.bag.read_bag or read_series).
+
+    Returns
+    -------
+    dict of str to dict of str to str
+        Wheel (its hardware_id's last part) -> message and the status' values (fault_kind, fault_size, ...).
+    """
     last = data.last(T.IDENTIFICATION)
     if last is None:
         return {}
@@ -81,14 +152,33 @@ def identification_from_bag(data) -> dict:
 
 
 def health_topics() -> list:
-    """The statuses :func:`fdi_health` reads: /diagnostics and each observer's status."""
+    """The statuses :func:`fdi_health` reads: /diagnostics and each observer's status.
+
+    Returns
+    -------
+    list of str
+        /diagnostics, then every observer slot's status topic.
+    """
     return [T.DIAGNOSTICS] + [T.fdi_output_topics(obs)["status"] for obs in T.OBSERVERS]
 
 
 def diagnostics_alarms(path):
     """(time [s] (n,), faulty (n, wheels) flags) of a bag's /diagnostics: a wheel whose status is ERROR (the
     verdict users read: the decision observer's alarm, latched), streamed; empty arrays without it. The
-    wheels are those of the first message, in its order (the wheel set's)."""
+    wheels are those of the first message, in its order (the wheel set's).
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory or its .mcap file.
+
+    Returns
+    -------
+    time : ndarray of float, shape (n,)
+        Header stamps [s], ascending; messages lacking one of the wheels left out.
+    faulty : ndarray of bool, shape (n, wheels)
+        Whether each wheel's status is ERROR.
+    """
     from ..storage.bag import iter_messages, typestore
     store, times, rows, joints = typestore(), [], [], None
     for _, _, raw in iter_messages(path, [T.DIAGNOSTICS]):
@@ -108,7 +198,19 @@ def health_from_bag(path) -> dict:
     """What the FDI said about itself over a run, streamed from its statuses (memory does not grow):
     per status topic and wheel, the samples it could not judge (STALE) and those whose input stream
     had trouble (WARN: gaps, dropped duplicates or late samples), each with the first time and message.
-    A wheel with neither is left out."""
+    A wheel with neither is left out.
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory or its .mcap file.
+
+    Returns
+    -------
+    dict
+        Status topic -> wheel -> kind ('cannot_judge', 'input_trouble') -> samples (int), first_s (the first
+        such message's header stamp [s], in file order) and message (str).
+    """
     from ..storage.bag import iter_messages, typestore
     store, out = typestore(), {}
     for topic, _, raw in iter_messages(path, health_topics()):
@@ -126,6 +228,18 @@ def health_from_bag(path) -> dict:
 
 
 def scenario_of(data) -> Scenario:
+    """The ground truth of a recorded run, from its /scenario.
+
+    Parameters
+    ----------
+    data : BagData or BagSeries
+        The bag, read (storage.bag.read_bag or read_series).
+
+    Returns
+    -------
+    Scenario
+        The parsed scenario (ValueError where the bag has no /scenario).
+    """
     from ..core.scenario import parse_scenario
     if not data.scenario_text:
         raise ValueError(f"{data.path}: no /scenario message (no ground truth)")
