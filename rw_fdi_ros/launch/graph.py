@@ -62,7 +62,20 @@ DEFAULT_GROUPING = "loop_fdi"
 
 def processes(nodes, grouping: str = DEFAULT_GROUPING) -> list:
     """``nodes`` (NodeSpec) dealt into the processes of ``grouping`` (GROUPINGS), in the nodes' order; a
-    group of one node is that node's own process. ValueError for an unknown grouping."""
+    group of one node is that node's own process. ValueError for an unknown grouping.
+
+    Parameters
+    ----------
+    nodes : iterable of NodeSpec
+        The graph's nodes.
+    grouping : str
+        A key of GROUPINGS.
+
+    Returns
+    -------
+    list of ProcessSpec
+        One per group, in the order of each group's first node.
+    """
     if grouping not in GROUPINGS:
         raise ValueError(f"grouping must be one of {', '.join(GROUPINGS)}, got {grouping!r}")
     table = GROUPINGS[grouping]
@@ -76,7 +89,28 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
                 emf_limit: str | None = None, fdi=None):
     """Plant, three PID controllers, the wheel allocation (with FDIR when ``fdi`` says so), (when ``fdi``) the
     observers and isolation, and (when ``bag``) the recorder for one run. ``fdi``: an FdiConfig or its mapping
-    (an empty one: the shipped FDI); None: no FDI."""
+    (an empty one: the shipped FDI); None: no FDI.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario, seed included.
+    scenario_ref : str
+        What the plant node loads the scenario from (a path, or a name in config/scenarios/).
+    bag : Path or None
+        The bag directory the recorder writes; None: no recorder.
+    command_timeout : float
+        Wall time [s] the plant waits for a command before it fails the run.
+    emf_limit : str, optional
+        The plant choice emf_limit (PlantChoices); None: the scenario's.
+    fdi : FdiConfig or mapping or None
+        The run's FDI; None: none.
+
+    Returns
+    -------
+    list of NodeSpec
+        The nodes, told their reader counts, their string parameters checked (:func:`checked_strings`).
+    """
     fdi = None if fdi is None else FdiConfig.of(fdi)
     choices = scenario.plant_choices(emf_limit=emf_limit)
     period = choices.control_period
@@ -121,7 +155,18 @@ RCL_BOOLEAN_WORDS = {"y", "yes", "true", "on", "n", "no", "false", "off"}
 def misread_by_yaml(value: str) -> bool:
     """Whether a string parameter could come out of a YAML layer as something else: launch_ros
     yaml-loads a plain string (PyYAML, YAML 1.1) and writes it back bare, and rcl parses its params
-    file with its own rules (``y``/``n`` booleans, ``1e3`` a double)."""
+    file with its own rules (``y``/``n`` booleans, ``1e3`` a double).
+
+    Parameters
+    ----------
+    value : str
+        A string parameter's value.
+
+    Returns
+    -------
+    bool
+        True where it reads as a boolean, a number or another YAML value (or is no valid YAML).
+    """
     if value.strip().lower() in RCL_BOOLEAN_WORDS:
         return True
     try:
@@ -141,7 +186,18 @@ def misread_by_yaml(value: str) -> bool:
 def checked_strings(nodes):
     """``nodes``, after checking that none of their string parameters is one a YAML layer between a
     launch file and rcl would retype (our names are joint names, method names and absolute paths):
-    ValueError naming the node and parameter otherwise."""
+    ValueError naming the node and parameter otherwise.
+
+    Parameters
+    ----------
+    nodes : list of NodeSpec
+        The graph's nodes.
+
+    Returns
+    -------
+    list of NodeSpec
+        ``nodes`` themselves.
+    """
     for node in nodes:
         for name, value in node.parameters.items():
             if isinstance(value, str) and misread_by_yaml(value):
@@ -152,7 +208,18 @@ def checked_strings(nodes):
 
 def with_reader_counts(nodes):
     """``nodes``, each told how many readers of its topics to wait for: what the others read
-    (graph/topics.py READS), so a node added to the graph is waited for. Call it on the finished list."""
+    (graph/topics.py READS), so a node added to the graph is waited for. Call it on the finished list.
+
+    Parameters
+    ----------
+    nodes : list of NodeSpec
+        The graph's nodes.
+
+    Returns
+    -------
+    list of NodeSpec
+        ``nodes`` themselves, their parameters updated in place.
+    """
     for node in nodes:
         node.parameters.update(T.reader_counts(node, nodes))
     return nodes
@@ -161,7 +228,20 @@ def with_reader_counts(nodes):
 def fdi_nodes(fdi, choices: PlantChoices):
     """An Elman observer per wheel of the set, the linear observer, the model observer (speed_aware) and the
     isolation node (told the run's choices), as ``fdi`` (FdiConfig or its mapping) says. Without models or
-    thresholds given, the nodes take the shipped set of the method themselves (a real ROS 2 install's share/)."""
+    thresholds given, the nodes take the shipped set of the method themselves (a real ROS 2 install's share/).
+
+    Parameters
+    ----------
+    fdi : FdiConfig or mapping
+        The run's FDI.
+    choices : PlantChoices
+        The run's plant choices (wheel set, FDI period [s] and sampling).
+
+    Returns
+    -------
+    list of NodeSpec
+        The Elman observers, the other observers, then the isolation node.
+    """
     fdi = FdiConfig.of(fdi)
     nodes = []
     common = {"fdi_method": fdi.method, "fdi_period": choices.fdi_period, "fdi_sampling": choices.fdi_sampling,

@@ -68,7 +68,20 @@ class DomainLease:
 
 
 def ros_environment(domain_id: int, log_dir: Path) -> dict:
-    """Environment for node processes: loopback-only discovery on a private domain."""
+    """Environment for node processes: loopback-only discovery on a private domain.
+
+    Parameters
+    ----------
+    domain_id : int
+        The ROS_DOMAIN_ID (a :class:`DomainLease`'s).
+    log_dir : Path
+        The nodes' ROS_LOG_DIR.
+
+    Returns
+    -------
+    dict of str to str
+        This process's environment with the ROS, RMW and Fast DDS settings of the graph.
+    """
     env = dict(os.environ)
     env.update(ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                ROS_LOG_DIR=str(log_dir), RMW_IMPLEMENTATION="rmw_fastrtps_cpp", PYTHONUNBUFFERED="1",
@@ -81,7 +94,21 @@ def ros_environment(domain_id: int, log_dir: Path) -> dict:
 
 
 def stop_processes(procs, grace: float = 3.0, sig=signal.SIGINT):
-    """Ask all politely at once, then SIGKILL what is left: rclpy swallows SIGTERM when hung."""
+    """Ask all politely at once, then SIGKILL what is left: rclpy swallows SIGTERM when hung.
+
+    Parameters
+    ----------
+    procs : iterable of subprocess.Popen
+        The processes (those already ended are left alone).
+    grace : float
+        Wall time [s] all of them together get to end after ``sig``.
+    sig : int
+        The polite signal.
+
+    Returns
+    -------
+    None
+    """
     live = [p for p in procs if p.poll() is None]
     for p in live:
         try:
@@ -106,7 +133,20 @@ _QuotingDumper.add_representer(str, lambda d, v: d.represent_scalar("tag:yaml.or
 
 def write_params_file(nodes, path: Path) -> Path:
     """The ``--params-file`` every node reads (rcl parses it as YAML, as it does launch_ros' files):
-    every string quoted, so `y`, `on` or `1.5` given as strings stay strings."""
+    every string quoted, so `y`, `on` or `1.5` given as strings stay strings.
+
+    Parameters
+    ----------
+    nodes : iterable of NodeSpec
+        The graph's nodes (names and parameters).
+    path : str or Path
+        The file to write.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     params = {n.name: {"ros__parameters": n.parameters} for n in nodes}
     Path(path).write_text(yaml.dump(params, Dumper=_QuotingDumper, sort_keys=False))
     return Path(path)
@@ -132,7 +172,22 @@ def _last_line(path: Path) -> str:
 
 def node_command(n, params_file, python: str = sys.executable) -> list:
     """The command line of one node: what launch_ros' Node(name=..., parameters=[file]) gives, no remapping
-    but the node's name. On an install the files `ros2 run` starts; in a source tree the modules."""
+    but the node's name. On an install the files `ros2 run` starts; in a source tree the modules.
+
+    Parameters
+    ----------
+    n : NodeSpec
+        The node.
+    params_file : str or Path
+        The ``--params-file`` (:func:`write_params_file`).
+    python : str
+        The interpreter that runs a module.
+
+    Returns
+    -------
+    list of str
+        The command line.
+    """
     exe = installed_executable(n.executable)
     return ([str(exe)] if exe else [python, "-m", n.module]) + [
         "--ros-args", "-r", f"__node:={n.name}", "--params-file", str(params_file), "--log-level", "warn"]
@@ -140,7 +195,22 @@ def node_command(n, params_file, python: str = sys.executable) -> list:
 
 def process_command(process, params_file, python: str = sys.executable) -> list:
     """The command line of one process of the graph (launch.graph.ProcessSpec): a node's own, or the composed
-    executable with NAME=EXECUTABLE per node (no name remapping: it would rename all of them)."""
+    executable with NAME=EXECUTABLE per node (no name remapping: it would rename all of them).
+
+    Parameters
+    ----------
+    process : ProcessSpec
+        The process and its nodes.
+    params_file : str or Path
+        The ``--params-file`` (:func:`write_params_file`).
+    python : str
+        The interpreter that runs a module.
+
+    Returns
+    -------
+    list of str
+        The command line.
+    """
     if len(process.nodes) == 1:
         return node_command(process.nodes[0], params_file, python)
     exe = installed_executable("composed")
@@ -265,5 +335,18 @@ class GraphProcesses:
 
 
 def cleanup(result: GraphResult, keep: bool):
+    """Remove a run's log directory unless it is to be kept.
+
+    Parameters
+    ----------
+    result : GraphResult
+        The run's result (its ``log_dir``).
+    keep : bool
+        Keep the logs.
+
+    Returns
+    -------
+    None
+    """
     if result.log_dir and not keep:
         shutil.rmtree(result.log_dir, ignore_errors=True)
