@@ -121,7 +121,10 @@ def stop_processes(procs, grace: float = 3.0, sig=signal.SIGINT):
             p.wait(timeout=max(deadline - time.monotonic(), 0.01))
         except subprocess.TimeoutExpired:
             p.kill()
-            p.wait(timeout=5)
+            try:
+                p.wait(timeout=5)
+            except subprocess.TimeoutExpired:   # stuck in the kernel: nothing more to do from here
+                pass
 
 
 class _QuotingDumper(yaml.SafeDumper):

@@ -152,7 +152,7 @@ def identification_from_bag(data) -> dict:
 
 
 def health_topics() -> list:
-    """The statuses :func:`fdi_health` reads: /diagnostics and each observer's status.
+    """The statuses :func:`health_from_bag` reads: /diagnostics and each observer's status.
 
     Returns
     -------

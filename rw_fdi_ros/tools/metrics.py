@@ -440,6 +440,8 @@ def alarm_before_onset(run: RunEval, observer: str) -> bool:
     bool
         Whether any wheel alarmed before the first onset.
     """
+    if run.onset is None:   # a fault-free run has no before: its alarms are false_alarm's
+        return False
     s = run.series[observer]
     return bool(s.alarm[s.time < run.onset].any())
 
