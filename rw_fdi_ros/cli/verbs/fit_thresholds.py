@@ -54,9 +54,9 @@ def main(args) -> int:
     return 0
 
 
-def _simulated_fitting_runs(ref: str, seeds, pool) -> tuple:
+def _simulated_fitting_runs(ref: str, seeds, pool=None) -> tuple:
     """FDI samples of fault-free runs of scenario ``ref`` over ``seeds`` by the core loop (screen) on the executor
-    ``pool``, in seed order, and the plant choices they were made under."""
+    ``pool`` (default: local processes), in seed order, and the plant choices they were made under."""
     from tqdm import tqdm
     from ...core.plant_choices import PlantChoices
     from ...core.scenario import load_scenario
@@ -64,6 +64,8 @@ def _simulated_fitting_runs(ref: str, seeds, pool) -> tuple:
     scenario = load_scenario(ref)
     if scenario.faults:
         raise ValueError(f"--simulate {ref}: thresholds are fitted on fault-free runs, this scenario has faults")
+    from ...tools.campaigns.campaign import LocalExecutor
+    pool = pool or LocalExecutor()
     runs = [scenario.with_seed(k) for k in seeds]
     by_seed = {}
     with tqdm(total=len(seeds), desc="fitting runs (core loop)", unit="run", file=sys.stderr) as bar:
