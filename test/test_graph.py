@@ -221,10 +221,21 @@ def test_the_plant_starts_only_once_the_recorder_has_matched_every_writer(scenar
         lease.release()
 
 
+def bag_has_data(bag, timeout: float = 30.0):
+    """Wait until the bag holds several 1 s chunks (~10-20 kB each, the first with the schemas): the run is
+    stepping. A fixed sleep instead killed a node before the first step on a loaded machine (an empty bag)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        files = list(bag.glob("*.mcap"))
+        if files and files[0].stat().st_size > 60000:
+            return
+        time.sleep(0.05)
+
+
 def test_controller_killed_mid_run(scenario_file, tmp_path):
-    procs, lease, bag = graph(scenario_file, tmp_path)
+    procs, lease, bag = graph(scenario_file, tmp_path, flush=1.0)
     try:
-        result, took = run_and_kill(procs, "pid_controller_y", lambda: time.sleep(3.0))
+        result, took = run_and_kill(procs, "pid_controller_y", lambda: bag_has_data(bag))
         assert not result.ok and took < 30
         assert result.reason.startswith("pid_controller_y stopped (killed by signal 9)"), result.reason
         data = read_bag(bag)
@@ -236,18 +247,9 @@ def test_controller_killed_mid_run(scenario_file, tmp_path):
 
 def test_recorder_killed_mid_run_leaves_readable_bag(scenario_file, tmp_path):
     procs, lease, bag = graph(scenario_file, tmp_path, flush=1.0)
-
-    def when_bag_has_data():
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            files = list(bag.glob("*.mcap"))
-            # several 1 s chunks (~10-20 kB each, the first with the schemas): the kill lands after at
-            # least one complete chunk, whichever write it interrupts
-            if files and files[0].stat().st_size > 60000:
-                return
-            time.sleep(0.05)
     try:
-        result, took = run_and_kill(procs, "recorder", when_bag_has_data)
+        # the kill lands after at least one complete chunk, whichever write it interrupts
+        result, took = run_and_kill(procs, "recorder", lambda: bag_has_data(bag))
         assert not result.ok and took < 30
         assert result.reason.startswith("recorder stopped (killed by signal 9)")
         data = read_bag(bag)
