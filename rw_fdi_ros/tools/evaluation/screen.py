@@ -161,7 +161,8 @@ def screen(scenario, seeds, fdi=None, progress=None, executor=None) -> tuple:
         runs += out
         if progress:
             progress(len(out))
-    runs.sort(key=lambda r: seeds.index(r.seed))
+    order = {seed: i for i, seed in enumerate(seeds)}
+    runs.sort(key=lambda r: order[r.seed])   # seed order, whatever order the batches came back in
     return summarize(runs), runs
 
 
