@@ -265,3 +265,24 @@ def test_rw_fdi_bag_says_a_damaged_bag_is_damaged_and_fails(tmp_path, capsys):
     out, err = capsys.readouterr()
     assert "incomplete: damaged: 1 chunk(s)" in out and "/a" in out
     assert err.strip().startswith("rw-fdi: error:") and "messages read" in err and "\n" not in err.strip()
+
+
+def test_two_writers_of_one_topic_at_one_log_time_compare_in_either_order(tmp_path):
+    """/diagnostics has two writers each FDI period (the isolation node, the wheel allocation): the recorder
+    gets them in either order, which is the same run; different contents at that time are not."""
+    from rw_fdi_ros.storage.compare import bag_differences
+
+    def bag(name, values):
+        w = BagWriter(tmp_path / name)
+        w.add_topic("/a", "geometry_msgs/msg/Vector3Stamped")
+        for k, x in values:
+            w.write_message("/a", k * 10**9, vec(k * 10**9, x))
+        w.close()
+        return tmp_path / name
+    a = bag("a", [(0, 1.0), (1, 2.0), (1, 3.0), (2, 4.0)])
+    assert bag_differences(a, bag("b", [(0, 1.0), (1, 3.0), (1, 2.0), (2, 4.0)])) == []
+    assert bag_differences(a, bag("e", [(0, 1.0), (1, 2.0), (2, 4.0), (1, 3.0)])) == []   # a late arrival
+    assert bag_differences(a, bag("c", [(0, 1.0), (1, 3.0), (1, 5.0), (2, 4.0)])) == \
+        ["/a message 1 (t = 1 s): contents differ"]
+    assert bag_differences(a, bag("d", [(0, 1.0), (1, 2.0), (2, 3.0), (2, 4.0)])) == \
+        ["/a message 2: stamp 1000000000 in a, 2000000000 in d"]

@@ -14,11 +14,14 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 
 from rw_fdi_ros.launch.graph import DEFAULT_GROUPING, GROUPINGS, graph_nodes, processes
 from rw_fdi_ros.launch.launcher import DomainLease, GraphProcesses
 from rw_fdi_ros.storage.bag import read_bag
+from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.compare import bag_differences
+from rw_fdi_ros.tools.bag_series import verdict_messages
 from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
 from rw_fdi_ros.tools.campaigns.run import resolve_scenario
 
@@ -66,8 +69,37 @@ def test_a_composed_graph_records_the_one_process_per_node_bag(bags, grouping):
 def test_the_run_is_not_trivial(bags):
     """What the bags agree on includes a detected fault and FDIR's decision."""
     data = read_bag(bags[DEFAULT_GROUPING], topics=["/diagnostics", "/fdir/wheels"])
-    assert any(s.level == 2 for _, m in data.topic("/diagnostics") for s in m.status)
+    assert any(s.level == 2 for _, m in verdict_messages(data) for s in m.status)
     assert len(data.topic("/fdir/wheels")) >= 2   # the start, and the decision on y
+
+
+def test_diagnostics_carry_the_verdict_and_fdirs_state_each_fdi_period(bags):
+    """/diagnostics: the FDI's verdict and FDIR's state of every wheel once per FDI period (FDIR's as
+    /fdir/wheels last said it), and every status grouped by exactly one analyzer of the shipped aggregator
+    configuration (GenericAnalyzer's startswith)."""
+    data = read_bag(bags[DEFAULT_GROUPING], topics=["/diagnostics", "/fdir/wheels"])
+    rows = [(t, m) for t, m in data.topic("/diagnostics")]
+    fdir = {}
+    for _, m in rows:
+        states = [s for s in m.status if s.name.startswith(T.FDIR_STATUS)]
+        if states:
+            fdir[m.header.stamp.sec] = {s.hardware_id: s for s in states}
+    verdicts = verdict_messages(data)
+    assert len(fdir) == len(verdicts) == 81   # 0..80 s
+    changes = sorted((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9,
+                      {s.hardware_id: (s.level, s.message) for s in m.status}) for _, m in data.topic("/fdir/wheels"))
+    for t, states in fdir.items():   # as /fdir/wheels last said, at or before that FDI period's step
+        said = [c for c in changes if c[0] <= t][-1][1]
+        assert {h: (s.level, s.message) for h, s in states.items()} == said, t
+    assert fdir[80]["reaction_wheel_y"].level != 0 and fdir[0]["reaction_wheel_y"].level == 0   # y acted on
+    analyzers = yaml.safe_load(Path("config/diagnostics/aggregator.yaml").read_text())["analyzers"]["ros__parameters"]
+    prefixes = {name: a["startswith"] for name, a in analyzers.items() if isinstance(a, dict)}
+    names = {s.name for _, m in rows for s in m.status}
+    for name in names:
+        matched = [a for a, starts in prefixes.items() if any(name.startswith(p) for p in starts)]
+        assert len(matched) == 1, (name, matched)
+    assert {a for name in names for a, starts in prefixes.items() if any(name.startswith(p) for p in starts)} == \
+        set(prefixes)   # no analyzer left idle
 
 
 def test_a_failing_node_ends_a_composed_run_naming_itself(tmp_path):

@@ -25,6 +25,7 @@ from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.paths import config_dir, fdi_dir
 from rw_fdi_ros.storage.bag import read_bag
+from rw_fdi_ros.tools.bag_series import verdict_messages
 from rw_fdi_ros.tools.design.offline import load_models, observe
 from rw_fdi_ros.tools.design.samples import fdi_samples
 
@@ -86,7 +87,7 @@ def test_the_isolation_node_identifies_each_fault_kind_and_size(runs, case, expe
     data = read_bag(runs[case].bag, topics=[T.DIAGNOSTICS, T.IDENTIFICATION])
     found = verdict(runs[case])["identification"]
     assert set(found) == set(expected), found
-    last = {s.hardware_id[-1]: s for s in data.topic(T.DIAGNOSTICS)[-1][1].status}
+    last = {s.hardware_id[-1]: s for s in verdict_messages(data)[-1][1].status}
     for a, (kind, value, tolerance) in expected.items():
         assert found[a]["fault_kind"] == kind, found[a]
         assert abs(float(found[a]["fault_size"]) - value) <= tolerance, found[a]
@@ -152,7 +153,7 @@ def test_a_thesis_run_replays_to_its_live_result_without_a_model_observer(runs, 
 
 def test_diagnostics_one_status_per_wheel_stamped_in_sim_time(runs):
     data = read_bag(runs["current_0p6_x"].bag)
-    rows = data.topic(T.DIAGNOSTICS)
+    rows = verdict_messages(data)
     end = int(CASE_DURATION)
     assert len(rows) == end + 1
     log_time, last = rows[-1]
@@ -301,7 +302,7 @@ def test_the_fdi_reports_its_own_health_under_bad_inputs(runs, tmp_path):
     outcome = replay_bag(bag, tmp_path / "replayed", watchdog=180)
     assert outcome.ok, outcome.reason
     data = read_bag(tmp_path / "replayed", topics=[T.DIAGNOSTICS, T.fdi_output_topics("linear")["status"]])
-    diag = {m.header.stamp.sec: {st.hardware_id[-1]: st for st in m.status} for _, m in data.topic(T.DIAGNOSTICS)}
+    diag = {m.header.stamp.sec: {st.hardware_id[-1]: st for st in m.status} for _, m in verdict_messages(data)}
     assert not {60, 61, 62, 80} & set(diag) and 100 in diag
     for t in (150, first_alarm + 20):   # never OK while it could not judge
         assert all(st.level != 0 and "cannot judge" in st.message for st in diag[t].values()), diag[t]

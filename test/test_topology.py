@@ -51,7 +51,7 @@ def test_the_counts_are_the_graph_we_know():
     # 4 Elman (one per wheel, the redundant s included), the linear and model observers, isolation, recorder
     assert full["plant"] == {"attitude_readers": 5, "wheels_readers": 2, "fdi_readers": 8, "wait_for_subscribers": 1}
     assert full["pid_controller_y"] == {"min_subscribers": 2}   # the wheel allocation and the recorder
-    assert full["wheel_allocation"] == {"min_subscribers": 2, "fdir_readers": 1}
+    assert full["wheel_allocation"] == {"min_subscribers": 2, "fdir_readers": 1, "diagnostics_readers": 2}
     assert full["elman_observer_z"] == full["linear_observer"] == full["model_observer"] == {
         "estimate_readers": 1, "min_subscribers": 2}
     assert full["isolation"] == {"diagnostics_readers": 2, "min_subscribers": 1}   # the recorder, the wheel allocation

@@ -5,6 +5,7 @@ import os
 import numpy as np
 import pytest
 
+from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.cdr import joint_state_cdr, vector_cdr
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
@@ -21,6 +22,8 @@ def node(monkeypatch):
     sent = []
     n.pub.publish = sent.append        # what would go to the plant, as CDR bytes
     n.pub_fdir.publish = lambda msg: sent.append(msg)
+    n.diagnostics = []
+    n.pub_diag.publish = n.diagnostics.append   # FDIR's state on /diagnostics
     n.sent = sent
     yield n
     n.destroy_node()
@@ -74,12 +77,30 @@ def test_a_command_waits_for_the_verdict_it_depends_on(node):
     assert len(_commands(node)) == 10
     msg = DiagnosticArray()
     msg.status = [DiagnosticStatus(level=DiagnosticStatus.ERROR if j == "reaction_wheel_y" else DiagnosticStatus.OK,
-                                   hardware_id=j, values=[KeyValue(key="first_alarm", value="0")])
+                                   name=f"{T.VERDICT_STATUS} {j[-1]}", hardware_id=j,
+                                   values=[KeyValue(key="first_alarm", value="0")])
                   for j in node.joints]
     node._on_diagnostics(msg)   # stamped 0: y confirmed faulty, applied from t = 1 s
     u = _commands(node)[-1]
     # s could not take y's momentum and slew from these speeds; y, reported giving no torque, is held
     assert len(_commands(node)) == 11 and u[3] != 0.0 and node.reconfiguration.held == {"y": 19.0}
+
+
+def test_fdirs_state_goes_to_diagnostics_each_fdi_period_and_is_not_read_back_as_a_verdict(node):
+    """/diagnostics carries FDIR's state once per FDI period; the node reads that topic for the verdict, so
+    its own statuses come back to it: a wheel it holds or gives up (ERROR there) is no confirmed fault."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    for k in range(10):
+        _step(node, k)
+    assert len(node.diagnostics) == 1 and node.diagnostics[0].header.stamp.sec == 0   # t = 0 s only
+    assert [s.name for s in node.diagnostics[0].status] == [f"{T.FDIR_STATUS} {w}" for w in ("x", "y", "z", "s")]
+    echo = DiagnosticArray()
+    echo.status = [DiagnosticStatus(level=DiagnosticStatus.ERROR, name=f"{T.FDIR_STATUS} y",
+                                    hardware_id="reaction_wheel_y")]
+    node._on_diagnostics(echo)
+    assert node.verdict_ns == -1 and not node.delay.pending   # not a verdict: nothing decided, nothing waited on
+    _step(node, 10)
+    assert len(_commands(node)) == 10   # t = 1 s still waits for the verdict of t = 0
 
 
 def test_without_verdicts_it_goes_blind_once_and_stays_blind_until_one_comes(node):
@@ -120,7 +141,8 @@ def test_a_held_wheel_gets_the_speed_hold_command_from_its_own_speed(node):
     def verdict(faulty, stamp_s):
         msg = DiagnosticArray()
         msg.status = [DiagnosticStatus(level=DiagnosticStatus.ERROR if j in faulty else DiagnosticStatus.OK,
-                                       hardware_id=j, values=[KeyValue(key="first_alarm", value=str(stamp_s))])
+                                       name=f"{T.VERDICT_STATUS} {j[-1]}", hardware_id=j,
+                                       values=[KeyValue(key="first_alarm", value=str(stamp_s))])
                       for j in node.joints]
         msg.header.stamp.sec = stamp_s
         return msg

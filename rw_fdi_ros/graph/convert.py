@@ -11,6 +11,7 @@ from geometry_msgs.msg import Vector3Stamped
 
 from ..core.fdir import Reconfiguration
 from ..core.wheel_set import joint_name
+from .topics import FDIR_STATUS
 
 
 def time_msg(stamp_ns: int) -> Time:
@@ -66,8 +67,9 @@ STATES = {"in_use": DiagnosticStatus.OK, "standby": DiagnosticStatus.OK, "kept_i
 
 
 def wheel_states_msg(stamp: int, reconfiguration: Reconfiguration, names) -> DiagnosticArray:
-    """/fdir/wheels: one status per wheel of the set (in use, standby, kept in use, held, given up and why)
-    as ``reconfiguration`` (core/fdir.py) stands at ``stamp``; the core-loop engine writes the same."""
+    """/fdir/wheels (and /diagnostics, once per FDI period): one status per wheel of the set (in use, standby,
+    kept in use, held, given up and why) as ``reconfiguration`` (core/fdir.py) stands at ``stamp``; the
+    core-loop engine writes the same."""
     r = reconfiguration
     msg = DiagnosticArray()
     msg.header.stamp = time_msg(stamp)
@@ -76,7 +78,7 @@ def wheel_states_msg(stamp: int, reconfiguration: Reconfiguration, names) -> Dia
         state = ("given_up" if name in r.given_up else "kept_in_use" if name in r.kept else
                  "held" if name in r.held else "in_use" if name in r.in_use else "standby")
         d = last.get(name)
-        status = DiagnosticStatus(level=STATES[state], name=f"fdir: reaction wheel {name}",
+        status = DiagnosticStatus(level=STATES[state], name=f"{FDIR_STATUS} {name}",
                                   hardware_id=joint_name(name), message=state.replace("_", " ") + (
                                       f" since {d.time:g} s: {d.reason}" if d else ""))
         status.values = [KeyValue(key="state", value=state)] + (

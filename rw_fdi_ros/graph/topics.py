@@ -120,6 +120,17 @@ def graph_topics():
 
 
 DIAGNOSTICS = "/diagnostics"
+# /diagnostics carries two kinds of status per wheel, told apart by name (what the shipped
+# config/diagnostics/aggregator.yaml groups them by): the isolation node's FDI verdict, and FDIR's state of
+# the wheel (in use, standby, kept in use, held, given up; the wheel allocation, once per FDI period)
+VERDICT_STATUS = "rw_fdi: reaction wheel"
+FDIR_STATUS = "fdir: reaction wheel"
+
+
+def is_verdict(status) -> bool:
+    """Whether a /diagnostics status is the FDI's verdict on a wheel (not FDIR's state of it)."""
+    return status.name.startswith(VERDICT_STATUS)
+
 IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel (DiagnosticArray)
 
 
@@ -249,7 +260,8 @@ WAITS = {
                         "wait_for_subscribers": [CLOCK, FAULT_EFFECT, FAULT_TRUTH, SCENARIO],
                         **({"magnetometer_readers": [MAGNETOMETER]} if p.get("magnetorquers") else {})},
     "pid_controller": lambda p: {"min_subscribers": [tcv_command(axis_of_joint(p["joint"], ATTITUDE_JOINTS))]},
-    "wheel_allocation": lambda p: {"min_subscribers": [WHEEL_COMMAND], "fdir_readers": [FDIR_WHEELS]},
+    "wheel_allocation": lambda p: {"min_subscribers": [WHEEL_COMMAND], "fdir_readers": [FDIR_WHEELS],
+                                   "diagnostics_readers": [DIAGNOSTICS]},
     "momentum_dumping": lambda p: {"min_subscribers": [DIPOLE_COMMAND]},
     "elman_observer": lambda p: _observer_waits("elman", axis_of_joint(p["wheel"], wheel_joints(_wheel_set(p)))),
     "linear_observer": lambda p: _observer_waits("linear", None),

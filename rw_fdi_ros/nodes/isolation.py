@@ -301,7 +301,7 @@ class IsolationNode(GraphNode):
                 speed = self.speeds[self.names.index(a)]
                 unjudged = (f"outside the operating envelope (wheel speed {speed:.1f} rad/s, "
                             f"judged within +-{WHEEL_SPEED_ENVELOPE:g})")
-            status = _status(f"rw_fdi: reaction wheel {a} ({self.decision} observer)", a, *main[a],
+            status = _status(f"{T.VERDICT_STATUS} {a} ({self.decision} observer)", a, *main[a],
                              extra=extra, identification=found, note=note, unjudged=unjudged,
                              latched=self.verdict.latched[a])
             if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
@@ -361,7 +361,7 @@ class IsolationNode(GraphNode):
             msg.header.stamp = time_msg(last)
             for a in self.names:
                 msg.status.append(DiagnosticStatus(
-                    level=bytes([STALE]), name=f"rw_fdi: reaction wheel {a} ({self.decision} observer)",
+                    level=bytes([STALE]), name=f"{T.VERDICT_STATUS} {a} ({self.decision} observer)",
                     hardware_id=f"reaction_wheel_{a}",
                     message=f"cannot judge: no input for {timeout:g} s after {last * 1e-9:g} s"))
             self.pub_diag.publish(msg)

@@ -19,7 +19,10 @@ takes a wheel out of use by the parameter ``out_of_use`` (joint names;
 ``ros2 param set /wheel_allocation out_of_use "['reaction_wheel_x']"``),
 from the next step on. Every decision goes out on /fdir/wheels (one status
 per wheel: in use, standby, kept in use, held, given up and why), which the recorder
-keeps. A wheel given up is never commanded again; a held one (its momentum
+keeps; the same statuses go out on /diagnostics once per FDI period (stamped with
+that period's step, as the wheels stand after its decisions), where an operator's
+diagnostic_aggregator finds them beside the FDI's verdict (config/diagnostics/).
+A wheel given up is never commanded again; a held one (its momentum
 more than the wheels in use could take) gets only the speed-hold command,
 from its speed of the same step (allocation.hold_command).
 """
@@ -62,6 +65,7 @@ class WheelAllocationNode(GraphNode):
         self.declare_parameter("out_of_use", Parameter.Type.STRING_ARRAY)   # joints the operator took out
         self.declare_parameter("min_subscribers", 1)             # plant (+ recorder) before the first command
         self.declare_parameter("fdir_readers", 0)                # of /fdir/wheels (the recorder) before it goes
+        self.declare_parameter("diagnostics_readers", 0)         # of /diagnostics before FDIR's state goes there
         try:
             self.wheels = wheel_set(self.param("wheel_set"))
         except ValueError as exc:
@@ -90,6 +94,8 @@ class WheelAllocationNode(GraphNode):
                                   self.param("min_subscribers"))
         self.pub_fdir = GatedPublisher(self.create_publisher(DiagnosticArray, T.FDIR_WHEELS, T.RELIABLE),
                                        self.param("fdir_readers"))
+        self.pub_diag = GatedPublisher(self.create_publisher(DiagnosticArray, T.DIAGNOSTICS, T.RELIABLE),
+                                       self.param("diagnostics_readers"))
         for i, axis in enumerate(BODY_AXES):
             self.create_subscription(Vector3Stamped, T.tcv_command(axis), lambda raw, i=i: self._on_axis(i, raw),
                                      T.RELIABLE, raw=True)
@@ -135,7 +141,10 @@ class WheelAllocationNode(GraphNode):
         """A wheel /diagnostics says ERROR is confirmed faulty: decided now, applied DECISION_DELAY later."""
         stamp = stamp_ns(msg.header.stamp)
         confirmed = {}   # in the statuses' order: the set's
-        for status in msg.status:
+        verdicts = [s for s in msg.status if T.is_verdict(s)]   # not FDIR's own state, which comes here too
+        if not verdicts:
+            return
+        for status in verdicts:
             name = status.hardware_id.removeprefix("reaction_wheel_")
             if status.level == DiagnosticStatus.ERROR and name in self.wheels.names:
                 first = next((kv.value for kv in status.values if kv.key == "first_alarm"), "none")
@@ -203,6 +212,8 @@ class WheelAllocationNode(GraphNode):
             if decisions or not self.said_start:
                 self.said_start = True
                 self._publish_wheels(stamp)
+            if self.fdi_period_ns and stamp % self.fdi_period_ns == 0:   # fresh each FDI period (aggregators)
+                self.pub_diag.publish(wheel_states_msg(stamp, self.reconfiguration, self.wheels.names))
             u = self.allocator.wheel_commands([[commands[0], commands[1], commands[2]]],
                                               None if speeds is None else [speeds])[0]
             self.commands_sent[stamp] = u
@@ -231,7 +242,7 @@ class WheelAllocationNode(GraphNode):
     def poll(self):
         if self.axis_commands:
             self._try_command()
-        if self.pub.flush() & self.pub_fdir.flush() and self.run_ended():
+        if self.pub.flush() & self.pub_fdir.flush() & self.pub_diag.flush() and self.run_ended():
             self.finish()
 
 

@@ -5,7 +5,10 @@ exactly (floats bit for bit, NaN equal to NaN): two serialisations of one
 message may differ in their padding bytes (rmw leaves them uninitialised,
 DDS pads the payload to four bytes), never in what they say. Order across
 topics is not compared: the graph's recorder takes messages from several
-writers in whatever order they arrive.
+writers in whatever order they arrive; nor, for the same reason, the arrival
+order of one topic's messages where it has two writers (/diagnostics: the
+isolation node and the wheel allocation, each once per FDI period): a topic's
+messages are compared in log-time order, those of one log time in any order.
 """
 from __future__ import annotations
 
@@ -36,7 +39,26 @@ def _by_topic(bag: Path) -> tuple:
     out, info = {}, BagInfo(path=bag)
     for topic, stamp, raw in iter_messages(bag, None, info):
         out.setdefault(topic, []).append((stamp, bytes(raw)))
+    for rows in out.values():   # two writers of a topic interleave as they arrive: their log times order them
+        rows.sort(key=lambda row: row[0])
     return out, info.types
+
+
+def _same_at_log_time(ma: list, mb: list, i: int, same) -> bool:
+    """Whether message ``i``'s log time holds the same messages in ``ma`` and ``mb`` in some order (two writers of
+    one topic at one log time arrive in either order)."""
+    stamp = ma[i][0]
+    group_a = [raw for s, raw in ma if s == stamp]
+    group_b = [raw for s, raw in mb if s == stamp]
+    if len(group_a) != len(group_b) or len(group_a) < 2:
+        return False
+    unmatched = list(group_b)
+    for raw in group_a:
+        match = next((j for j, other in enumerate(unmatched) if same(raw, other)), None)
+        if match is None:
+            return False
+        del unmatched[match]
+    return True
 
 
 def bag_differences(a, b, limit: int = 10) -> list:
@@ -68,11 +90,14 @@ def bag_differences(a, b, limit: int = 10) -> list:
             out.append(f"{topic}: {len(ma)} messages in {a.name}, {len(mb)} in {b.name}")
             continue
         type_name = types_a.get(topic)
+
+        def same(ra, rb, type_name=type_name):
+            return ra == rb or _same(store.deserialize_cdr(ra, type_name), store.deserialize_cdr(rb, type_name))
         for i, ((sa, ra), (sb, rb)) in enumerate(zip(ma, mb)):
             if sa != sb:
                 out.append(f"{topic} message {i}: stamp {sa} in {a.name}, {sb} in {b.name}")
                 break
-            if ra != rb and not _same(store.deserialize_cdr(ra, type_name), store.deserialize_cdr(rb, type_name)):
+            if not same(ra, rb) and not _same_at_log_time(ma, mb, i, same):
                 out.append(f"{topic} message {i} (t = {sa * 1e-9:g} s): contents differ")
                 break
         if len(out) >= limit:

@@ -151,6 +151,29 @@ def identification_from_bag(data) -> dict:
     return out
 
 
+def verdict_messages(data) -> list:
+    """A read bag's /diagnostics with only the FDI's verdicts: FDIR's state of the wheels (the other statuses
+    on the topic) left out, and the messages left without a status dropped.
+
+    Parameters
+    ----------
+    data : BagData
+        The bag, read (storage.bag.read_bag) with /diagnostics among its topics.
+
+    Returns
+    -------
+    list of (int, DiagnosticArray)
+        (log time [ns], the message with its verdict statuses only), in log-time order, as ``data.topic``.
+    """
+    import dataclasses
+    out = []
+    for log_time, msg in data.topic(T.DIAGNOSTICS):
+        statuses = [s for s in msg.status if T.is_verdict(s)]
+        if statuses:
+            out.append((log_time, dataclasses.replace(msg, status=statuses)))
+    return out
+
+
 def health_topics() -> list:
     """The statuses :func:`health_from_bag` reads: /diagnostics and each observer's status.
 
@@ -163,8 +186,9 @@ def health_topics() -> list:
 
 
 def diagnostics_alarms(path):
-    """(time [s] (n,), faulty (n, wheels) flags) of a bag's /diagnostics: a wheel whose status is ERROR (the
-    verdict users read: the decision observer's alarm, latched), streamed; empty arrays without it. The
+    """(time [s] (n,), faulty (n, wheels) flags) of a bag's /diagnostics: a wheel whose verdict status is ERROR
+    (the verdict users read: the decision observer's alarm, latched; FDIR's state of the wheels, on the same
+    topic, left out), streamed; empty arrays without it. The
     wheels are those of the first message, in its order (the wheel set's).
 
     Parameters
@@ -183,8 +207,11 @@ def diagnostics_alarms(path):
     store, times, rows, joints = typestore(), [], [], None
     for _, _, raw in iter_messages(path, [T.DIAGNOSTICS]):
         msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
-        levels = {s.hardware_id: s.level for s in msg.status}
-        joints = joints or [s.hardware_id for s in msg.status]
+        statuses = [s for s in msg.status if T.is_verdict(s)]   # FDIR's state of the wheels comes here too
+        if not statuses:
+            continue
+        levels = {s.hardware_id: s.level for s in statuses}
+        joints = joints or [s.hardware_id for s in statuses]
         wheels = [levels.get(j) for j in joints]
         if None in wheels:
             continue
