@@ -37,7 +37,8 @@ setup(
     extras_require={
         "train": ["torch==2.13.0"],              # rw-fdi train, reproduce: the Elman observers' training
         "cluster": ["dask", "distributed"],      # --scheduler: campaigns, evaluate and reproduce on a Dask cluster
-        "test": ["pytest", "hypothesis"],        # `colcon test` runs pytest when the package asks for it
+        "live": ["foxglove-sdk"],                # rw-fdi run --live, launch live:=PORT: the run in Foxglove
+        "test": ["pytest", "hypothesis", "websockets"],   # `colcon test` runs pytest; websockets: a Foxglove client
     },
     zip_safe=True,
     maintainer="rw_fdi_ros developers",

@@ -53,7 +53,7 @@ def _nodes(context):
     fdi = {"method": arg("fdi_method"), "fdir": flag("fdir"), "models": arg("models") or None,
            "thresholds": arg("thresholds") or None, "persistence": int(arg("persistence")) or None,
            "unit_calibration": float(arg("unit_calibration"))} if flag("fdi") else None
-    nodes = graph_nodes(scenario, path, bag, fdi=fdi)
+    nodes = graph_nodes(scenario, path, bag, fdi=fdi, live=int(arg("live")) if arg("live") else None)
     if flag("use_sim_time"):   # every node's clock follows the plant's /clock
         for node in nodes:
             node.parameters["use_sim_time"] = True
@@ -104,6 +104,9 @@ def generate_launch_description():
                               description="samples above the threshold before an alarm (0: the threshold file's)"),
         DeclareLaunchArgument("unit_calibration", default_value="0",
                               description="seconds each observer learns its wheel's unit from (0: the datasheet)"),
+        DeclareLaunchArgument("live", default_value="",
+                              description="port of a live view: the run in Foxglove as it happens (foxglove-sdk; "
+                                          "0: any free port); empty: none"),
         DeclareLaunchArgument("use_sim_time", default_value="false",
                               description="every node's clock follows /clock (the plant's simulated time)"),
         DeclareLaunchArgument("params_file", default_value="",

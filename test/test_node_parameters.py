@@ -20,10 +20,15 @@ NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime"],
          "linear_observer": ["linear_observer", "observer_node", "runtime"],
          "model_observer": ["model_observer", "observer_node", "runtime"], "isolation": ["isolation", "runtime"],
          "recorder": ["recorder"], "player": ["player"], "wheel_allocation": ["wheel_allocation", "runtime"],
-         "momentum_dumping": ["momentum_dumping", "runtime"]}
+         "momentum_dumping": ["momentum_dumping", "runtime"], "live_view": ["live_view", "runtime"]}
 LOOPED = {"plant": {"fault.<wheel>.<kind>"}, "isolation": set(DEFAULT.as_dict())}
 TYPES = {bool: "bool", int: "int", float: "double", str: "string"}
 ARRAYS = {"DOUBLE_ARRAY": "double[]", "STRING_ARRAY": "string[]", "BOOL": "bool"}
+
+
+def test_every_node_executable_is_in_the_table():
+    from rw_fdi_ros.graph.entry import NODES as EXECUTABLES
+    assert set(NODES) == set(EXECUTABLES) - {"composed"}   # composed runs the others
 
 
 def declared(modules) -> dict:

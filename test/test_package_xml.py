@@ -12,7 +12,7 @@ KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yam
         "rosbags": "python3-rosbags-pip", "mcap": "mcap-ros2-support", "mcap_ros2": "mcap-ros2-support",
         "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "jsonschema": "python3-jsonschema",
         "rclpy": "rclpy", "ament_index_python": "ament_index_python", "dask": None, "distributed": None,
-        "sgp4": None, "ppigrf": None}
+        "sgp4": None, "ppigrf": None, "foxglove": None}
 
 
 def imported_modules() -> set:
@@ -52,7 +52,7 @@ def test_setup_py_declares_what_the_code_imports_and_the_extras_the_rest():
     kw = {k.arg: ast.literal_eval(k.value) for k in call.keywords if k.arg in ("install_requires", "extras_require")}
     installed = {r.split("=")[0].split("[")[0].lower() for r in kw["install_requires"]}
     extras = {r.split("=")[0].lower() for group in kw["extras_require"].values() for r in group}
-    pip_name = {"yaml": "pyyaml", "mcap_ros2": "mcap-ros2-support"}
+    pip_name = {"yaml": "pyyaml", "mcap_ros2": "mcap-ros2-support", "foxglove": "foxglove-sdk"}
     for name in sorted(imported_modules()):
         if name.endswith(("_msgs", "_srvs", "_interfaces")) or name in ("rclpy", "ament_index_python"):
             continue   # the ROS install's (requirements.txt: the ros-kilted-* wheels)

@@ -111,3 +111,21 @@ def test_graph_building_tools_import_no_rclpy():
             "assert 'rclpy' not in sys.modules, 'rclpy imported'")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
+
+
+def test_a_live_view_is_one_more_reader_of_what_the_bag_records_and_its_own_process():
+    """The live view (rw-fdi run --live) reads every recorded topic: each publisher waits for it too,
+    and it runs in a process of its own in every grouping but "all" (never inside the lockstep's)."""
+    from rw_fdi_ros.launch.graph import GROUPINGS, processes
+    scenario, path = resolve_scenario("bus_5v5_x", 3)
+    plain = counts(graph_nodes(scenario, path, "bags/demo", fdi={}))
+    nodes = graph_nodes(scenario, path, "bags/demo", fdi={}, live=0)
+    live = counts(nodes)
+    view = next(n for n in nodes if n.executable == "live_view")
+    assert view.parameters["port"] == 0 and view.parameters["fdi"] and T.DIAGNOSTICS in T.reads(view)
+    assert live["plant"]["attitude_readers"] == plain["plant"]["attitude_readers"] + 1
+    assert live["isolation"]["diagnostics_readers"] == plain["isolation"]["diagnostics_readers"] + 1
+    assert live["plant"]["wait_for_subscribers"] == plain["plant"]["wait_for_subscribers"] + 1
+    for grouping in GROUPINGS:
+        if grouping != "all":
+            assert any(p.nodes == [view] for p in processes(nodes, grouping)), grouping

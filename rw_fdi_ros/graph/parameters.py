@@ -37,6 +37,7 @@ RANGES = {
     "wait_for_subscribers": (0, COUNT_MAX),
     "speed_up": (0.01, 1000.0),
     "fdi_period": (0.01, 100.0),
+    "port": (0, 65_535),                              # the live view's WebSocket server (0: any free port)
     "window": (1, 100_000),
     "control_period": (0.001, 1.0),
     "kp": (0.0, BIG),

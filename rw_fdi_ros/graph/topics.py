@@ -197,6 +197,13 @@ def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method
     return rows
 
 
+def live_rows(p: dict) -> list:
+    """(topic, type, QoS name) the live view (nodes/live_view.py) shows for its parameters ``p``: what the
+    run's bag would hold."""
+    return recorded_rows(True, p.get("fdi", True), (), p.get("fdi_method", "speed_aware"), _wheel_set(p),
+                         p.get("orbit", False), p.get("magnetorquers", False))
+
+
 # -- who reads what ----------------------------------------------------------------------------------
 # A node holds its first messages until its topic's readers are matched (DDS drops what goes out before;
 # graph/gate.py), so how many readers each topic has in a graph is derived here, from what each node
@@ -243,6 +250,7 @@ READS = {
                                                        p.get("extra_topics"), p.get("fdi_method", "speed_aware"),
                                                        _wheel_set(p), p.get("orbit", False),
                                                        p.get("magnetorquers", False))],
+    "live_view": lambda p: [r[0] for r in live_rows(p)] + _run_end(p),
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
     "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
                         + ([RECORDER_CLOSED, RECORDER_READY] if p.get("await_recorder", False) else []),

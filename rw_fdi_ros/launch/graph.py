@@ -86,7 +86,7 @@ def processes(nodes, grouping: str = DEFAULT_GROUPING) -> list:
 
 
 def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command_timeout: float = 5.0,
-                emf_limit: str | None = None, fdi=None):
+                emf_limit: str | None = None, fdi=None, live: int | None = None):
     """Plant, three PID controllers, the wheel allocation (with FDIR when ``fdi`` says so), (when ``fdi``) the
     observers and isolation, and (when ``bag``) the recorder for one run. ``fdi``: an FdiConfig or its mapping
     (an empty one: the shipped FDI); None: no FDI.
@@ -105,6 +105,9 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         The plant choice emf_limit (PlantChoices); None: the scenario's.
     fdi : FdiConfig or mapping or None
         The run's FDI; None: none.
+    live : int, optional
+        The port of a live view (nodes/live_view.py: the run in Foxglove as it happens; 0: any free port);
+        None: none.
 
     Returns
     -------
@@ -137,6 +140,11 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
             "start_speed": rods.start_speed, "stop_speed": rods.stop_speed, "enabled": rods.enabled}))
     if fdi is not None:
         nodes += fdi_nodes(fdi, choices)
+    if live is not None:
+        nodes.append(NodeSpec("live_view", "live_view", {
+            "port": int(live), "wheel_set": choices.wheel_set, "fdi": fdi is not None,
+            "fdi_method": fdi.method if fdi else "speed_aware", "orbit": scenario.environment is not None,
+            "magnetorquers": scenario.magnetorquers is not None}))
     if bag is not None:
         # absolute: a bag named like a number or a YAML word ("1e3", "on") is a path, never retyped
         nodes.append(NodeSpec("recorder", "recorder", {"output": str(Path(bag).resolve()),

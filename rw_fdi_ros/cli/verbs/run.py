@@ -23,6 +23,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--no-fdir", dest="fdir", action="store_false",
                         help="detect, isolate and identify, but keep commanding every wheel in use (no "
                              "reconfiguration: the FDI alone, as before the redundant wheel)")
+    parser.add_argument("--live", type=number(int, 0, 65_535), nargs="?", const=8765, default=None, metavar="PORT",
+                        help="watch the run in Foxglove as it happens: a WebSocket server on ws://127.0.0.1:PORT "
+                             "(default 8765; 0: any free port) with every recorded topic; open a connection to it "
+                             "and the layout config/foxglove/rw_fdi.json (needs foxglove-sdk)")
     parser.add_argument("--json", action="store_true",
                         help="print the outcome (ok, reason, bag, wall time, run summary, FDI verdict) as JSON on "
                              "stdout; the progress lines go to stderr")
@@ -33,6 +37,13 @@ def main(args) -> int:
     from ...tools.campaigns.summary import format_summary
     scenario, _ = resolve_scenario(args.scenario, args.seed)   # a bad scenario is the first thing to say
     writable_dir(args.out, "--out")
+    if args.live is not None:   # the live view node's server: said here, before any node starts
+        from ...extras import require
+        try:
+            require("foxglove", "live")
+        except RuntimeError as exc:
+            print(f"rw-fdi: --live: {exc}", file=sys.stderr)
+            return 2
     wheels = scenario.wheel_set()
     nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
     if args.fdi:
@@ -42,8 +53,14 @@ def main(args) -> int:
         nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
                  f"{wheels.count} Elman observers, linear observer, "
                  + ("model observer, " if args.fdi_method == "speed_aware" else "") + "isolation, recorder")
+    if args.live is not None:
+        nodes += ", live view"
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
           f" ({nodes}; private DDS domain)", flush=True, file=sys.stderr if args.json else sys.stdout)
+    if args.live is not None:
+        print(f"live view: ws://127.0.0.1:{args.live or '<a free port, in the live_view log>'} (Foxglove: Open "
+              "connection; layout config/foxglove/rw_fdi.json)", flush=True,
+              file=sys.stderr if args.json else sys.stdout)
     from tqdm import tqdm
     # the simulated time as it goes (the plant's, once a wall second): a day in orbit takes minutes
     with tqdm(total=round(scenario.duration), desc="simulated", unit="s", file=sys.stderr, disable=None,
@@ -51,7 +68,7 @@ def main(args) -> int:
         def progress(simulated, duration):
             bar.update(min(simulated, duration) - bar.n)
         common = dict(seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs, emf_limit=args.emf_limit,
-                      command_timeout=args.command_timeout, progress=progress)
+                      command_timeout=args.command_timeout, progress=progress, live=args.live)
         if args.fdi:
             outcome = run_with_fdi(args.scenario, fdi=fdi, figure=True, **common)
         else:

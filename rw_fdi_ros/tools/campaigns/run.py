@@ -52,15 +52,16 @@ def short_step_topics(bag) -> list:
 def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | None = None,
                  command_timeout: float = 5.0, watchdog: float | None = None, keep_logs: bool = False,
                  emf_limit: str | None = None, fdi=None, grouping: str = DEFAULT_GROUPING,
-                 progress=None) -> RunOutcome:
+                 progress=None, live: int | None = None) -> RunOutcome:
     """Run the whole graph once, recording ``out_dir/<name>``; never raises for a failed run. ``grouping``:
     which nodes share a process (launch/graph.GROUPINGS); ``progress(simulated_s, duration_s)``: told how
-    far the run is, each wall second."""
+    far the run is, each wall second; ``live``: the port of a live view in Foxglove (None: none)."""
     scenario, path = resolve_scenario(ref, seed)
     bag = Path(out_dir) / (name or bag_name(scenario))
     if bag.exists():
         shutil.rmtree(bag)
-    nodes = graph_nodes(scenario, path, bag, command_timeout=command_timeout, emf_limit=emf_limit, fdi=fdi)
+    nodes = graph_nodes(scenario, path, bag, command_timeout=command_timeout, emf_limit=emf_limit, fdi=fdi,
+                        live=live)
     watchdog = watchdog or max(120.0, scenario.duration)
     with DomainLease() as lease:
         work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_{bag.name}_"))

@@ -1,0 +1,81 @@
+"""live_view: the run as it happens, in Foxglove (opt-in: ``rw-fdi run --live``, ``ros2 launch ... live:=8765``).
+
+It subscribes to what the bag of the run would hold (graph/topics.py ``live_rows``) and
+logs each message to a Foxglove WebSocket server (foxglove-sdk) on ``ws://host:port``, one channel per
+topic, same name, the message's fields as JSON with its schema (graph/live.py), at the message's sim-time
+stamp. In Foxglove, "Open connection" to that address, and the shipped layout
+(config/foxglove/rw_fdi.json) plots the residuals against their thresholds, the alarms and the verdict
+as they come, as it does for a recorded bag. The node takes no part in the lockstep: nobody waits for
+it, and it drops what no client reads (the server keeps a short backlog per client).
+"""
+from __future__ import annotations
+
+from ..core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
+from ..extras import require
+from ..graph import topics as T
+from ..graph.convert import stamp_ns
+from ..graph.live import json_schema, to_json
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+
+
+class LiveViewNode(GraphNode):
+    node_name = "live_view"
+
+    def __init__(self, name: str | None = None, **kwargs):   # name: another than node_name (composition)
+        super().__init__(name or self.node_name, **kwargs)
+        self.declare_parameter("host", "127.0.0.1")       # the WebSocket server's address (0.0.0.0: any)
+        self.declare_parameter("port", 8765)              # its port (0: any free one, logged)
+        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)
+        self.declare_parameter("fdi", True)               # the FDI's topics too
+        self.declare_parameter("fdi_method", "speed_aware")
+        self.declare_parameter("orbit", False)            # the magnetometer
+        self.declare_parameter("magnetorquers", False)    # the rods' command
+        if self.param("wheel_set") not in WHEEL_SETS:
+            raise NodeError(f"parameter wheel_set must be one of {', '.join(WHEEL_SETS)}, "
+                            f"got {self.param('wheel_set')!r}", EXIT_BAD_INPUT)
+        try:
+            foxglove = require("foxglove", "live")
+        except RuntimeError as exc:
+            raise NodeError(f"the live view: {exc}", EXIT_BAD_INPUT) from None
+        self.foxglove = foxglove.Context()   # its own: composed live views do not share channels
+        try:
+            self.server = foxglove.start_server(name="rw_fdi_ros", host=self.param("host"), port=self.param("port"),
+                                                context=self.foxglove)
+        except Exception as exc:   # the port taken, an address not ours: one line, not a traceback
+            raise NodeError(f"live view: no WebSocket server on {self.param('host')}:{self.param('port')}: {exc}",
+                            EXIT_BAD_INPUT) from None
+        self.port = self.server.port
+        self.channels = {}
+        params = {k: self.param(k) for k in ("wheel_set", "fdi", "fdi_method", "orbit", "magnetorquers")}
+        for topic, type_name, qos in T.live_rows(params):
+            cls = T.message_class(type_name)
+            self.channels[topic] = foxglove.Channel(topic, schema=json_schema(cls), message_encoding="json",
+                                                    context=self.foxglove)
+            self.create_subscription(cls, topic, lambda msg, topic=topic: self._on_message(topic, msg),
+                                     getattr(T, qos))
+        self.get_logger().info(f"live view: ws://{self.param('host')}:{self.port} ({len(self.channels)} channels; "
+                               "Foxglove: Open connection)")
+        self.follow_run_end()
+
+    def _on_message(self, topic: str, msg):
+        # a header's stamp; /plant/done is a Header, /clock a Clock; a String (/scenario): the server's clock
+        stamped = msg.header if hasattr(msg, "header") else msg
+        time = getattr(stamped, "stamp", getattr(stamped, "clock", None))
+        stamp = stamp_ns(time) if time is not None else None
+        self.channels[topic].log(to_json(msg), log_time=stamp)
+        if stamp is not None:   # shown up to here: the run's end once the plant's last stamp is (follow_run_end)
+            self.last_handled = max(self.last_handled, stamp)
+
+    def poll(self):
+        if self.run_ended():
+            self.finish()
+
+    def close(self):
+        self.server.stop()
+        super().close()
+
+
+main = main_for(LiveViewNode)
+
+if __name__ == "__main__":
+    main()
