@@ -60,12 +60,21 @@ def _nodes(context):
     groups = processes(nodes, arg("compose"))
     # a composed process reads every node's parameters from one file, keyed by node name (our launcher's);
     # a user's parameters file comes after ours, so its values win
-    params = write_params_file(nodes, os.path.join(tempfile.mkdtemp(prefix="rw_fdi_launch_"), "params.yaml"))
+    # a namespace (namespace:=sc1, or an including launch file's PushRosNamespace): our file keys every node by
+    # /**/name, which rcl matches in any namespace
+    params = write_params_file(nodes, os.path.join(tempfile.mkdtemp(prefix="rw_fdi_launch_"), "params.yaml"),
+                               namespace="any")
     user = [os.path.abspath(arg("params_file"))] if arg("params_file") else []
-    actions = [Node(package="rw_fdi_ros", executable=p.nodes[0].executable, name=p.name,
-                    parameters=[p.nodes[0].parameters, *user], output="screen") if len(p.nodes) == 1 else
+    ns = arg("namespace").strip("/")
+    # every topic is relative (a node resolves it in its namespace); the clock use_sim_time reads is /clock:
+    # under a namespace it is the plant's own
+    clock = [("/clock", f"/{ns}/clock")] if ns and flag("use_sim_time") else []
+    actions = [Node(package="rw_fdi_ros", executable=p.nodes[0].executable, name=p.name, namespace=ns,
+                    parameters=[p.nodes[0].parameters, *user], remappings=clock, output="screen")
+               if len(p.nodes) == 1 else
                Node(package="rw_fdi_ros", executable="composed", parameters=[str(params), *user], output="screen",
-                    arguments=[f"{n.name}={n.executable}" for n in p.nodes]) for p in groups]
+                    namespace=ns, remappings=clock, arguments=[f"{n.name}={n.executable}" for n in p.nodes])
+               for p in groups]
     return actions + [RegisterEventHandler(OnProcessExit(target_action=a, on_exit=_on_exit(p.name)))
                       for a, p in zip(actions, groups)]
 
@@ -104,6 +113,9 @@ def generate_launch_description():
                               description="samples above the threshold before an alarm (0: the threshold file's)"),
         DeclareLaunchArgument("unit_calibration", default_value="0",
                               description="seconds each observer learns its wheel's unit from (0: the datasheet)"),
+        DeclareLaunchArgument("namespace", default_value="",
+                              description="every node's namespace, its topics under it (two spacecraft in one "
+                                          "ROS graph: namespace:=sc1 and namespace:=sc2); empty: none"),
         DeclareLaunchArgument("live", default_value="",
                               description="port of a live view: the run in Foxglove as it happens (foxglove-sdk; "
                                           "0: any free port); empty: none"),

@@ -348,3 +348,31 @@ def test_use_sim_time_and_a_users_parameters_file_reach_every_node(tmp_path):
     plain = parameter_files({"scenario": "fault_free"})
     assert all("use_sim_time" not in Path(path).read_text() for _, _, path in plain)
 
+
+
+def test_a_namespace_puts_every_node_under_it_and_our_params_file_reaches_them_there(tmp_path):
+    """namespace:=sc1 (or an including file's PushRosNamespace): every node of the launch file is /sc1/<name>,
+    and our params file keys each node by /**/<name>, which rcl matches in any namespace (read back by rcl)."""
+    use_launch()
+    from launch import LaunchContext
+    from launch.actions import DeclareLaunchArgument, OpaqueFunction
+    from launch_ros.actions import Node
+    from rw_fdi_ros.launch.graph import NodeSpec
+    from rw_fdi_ros.launch.launcher import write_params_file
+    description = _launch_file_module().generate_launch_description()
+    context = LaunchContext()
+    for entity in description.entities:
+        if isinstance(entity, DeclareLaunchArgument):
+            context.launch_configurations[entity.name] = "".join(s.perform(context) for s in entity.default_value)
+    context.launch_configurations.update({"scenario": "fault_free", "namespace": "sc1", "use_sim_time": "true"})
+    opaque = next(e for e in description.entities if isinstance(e, OpaqueFunction))
+    nodes = [a for a in opaque.execute(context) if isinstance(a, Node)]
+    for action in nodes:
+        action._perform_substitutions(context)
+    assert nodes and all(a.expanded_node_namespace == "/sc1" for a in nodes), [a.expanded_node_namespace
+                                                                             for a in nodes]
+    assert all(("/clock", "/sc1/clock") in [tuple(r) for r in a.expanded_remapping_rules] for a in nodes)
+    path = write_params_file([NodeSpec("probe", "plant", {"count": 3, "flag": True})], tmp_path / "params.yaml",
+                             namespace="any")
+    assert path.read_text().startswith("'/**/probe':")   # quoted, as every string of the file
+    assert rcl_reads([("probe", str(path))])["probe"]["count"] == [_rcl_type(3), 3]

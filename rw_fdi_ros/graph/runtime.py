@@ -35,13 +35,32 @@ class NodeError(RuntimeError):
         self.code = code
 
 
+def relative(topic: str) -> str:
+    """A graph topic's name relative to the node's namespace ('/attitude' -> 'attitude'): the table's names
+    (graph/topics.py) are what a graph without a namespace has, and what a bag records; a node resolves
+    them in its namespace, so two spacecraft share a ROS graph under /sc1 and /sc2 without cross-talk."""
+    return topic[1:] if topic.startswith("/") else topic
+
+
 class GraphNode(Node):
-    """A node whose process ends when it says so (finish/fail), not only on a signal."""
+    """A node whose process ends when it says so (finish/fail), not only on a signal. Its topics are the
+    graph table's names resolved in its namespace (:func:`relative`)."""
 
     def __init__(self, name: str, **kwargs):
         super().__init__(name, **kwargs)
         self.exit_code: int | None = None
         self.exit_message = ""
+
+    def create_publisher(self, msg_type, topic, *args, **kwargs):
+        return super().create_publisher(msg_type, relative(topic), *args, **kwargs)
+
+    def create_subscription(self, msg_type, topic, *args, **kwargs):
+        return super().create_subscription(msg_type, relative(topic), *args, **kwargs)
+
+    def table_name(self, resolved: str) -> str:
+        """The graph table's name of a topic this node resolved in its namespace ('/sc1/attitude' -> '/attitude')."""
+        namespace = self.get_namespace().rstrip("/")
+        return resolved[len(namespace):] if namespace and resolved.startswith(namespace + "/") else resolved
 
     def declare_parameter(self, name, value=None, descriptor=None, ignore_override=False):
         """rclpy's, with the parameter's range (graph/parameters.py) in its descriptor: a value out of it,

@@ -134,7 +134,7 @@ class _QuotingDumper(yaml.SafeDumper):
 _QuotingDumper.add_representer(str, lambda d, v: d.represent_scalar("tag:yaml.org,2002:str", v, style="'"))
 
 
-def write_params_file(nodes, path: Path) -> Path:
+def write_params_file(nodes, path: Path, namespace: str = "") -> Path:
     """The ``--params-file`` every node reads (rcl parses it as YAML, as it does launch_ros' files):
     every string quoted, so `y`, `on` or `1.5` given as strings stay strings.
 
@@ -150,7 +150,8 @@ def write_params_file(nodes, path: Path) -> Path:
     Path
         ``path``.
     """
-    params = {n.name: {"ros__parameters": n.parameters} for n in nodes}
+    # under a namespace rcl matches a node by its full name: /** takes the node in any namespace
+    params = {(f"/**/{n.name}" if namespace else n.name): {"ros__parameters": n.parameters} for n in nodes}
     Path(path).write_text(yaml.dump(params, Dumper=_QuotingDumper, sort_keys=False))
     return Path(path)
 
@@ -173,7 +174,7 @@ def _last_line(path: Path) -> str:
     return (errors or lines or [""])[-1][:300]
 
 
-def node_command(n, params_file, python: str = sys.executable) -> list:
+def node_command(n, params_file, python: str = sys.executable, namespace: str = "") -> list:
     """The command line of one node: what launch_ros' Node(name=..., parameters=[file]) gives, no remapping
     but the node's name. On an install the files `ros2 run` starts; in a source tree the modules.
 
@@ -193,10 +194,16 @@ def node_command(n, params_file, python: str = sys.executable) -> list:
     """
     exe = installed_executable(n.executable)
     return ([str(exe)] if exe else [python, "-m", n.module]) + [
-        "--ros-args", "-r", f"__node:={n.name}", "--params-file", str(params_file), "--log-level", "warn"]
+        "--ros-args", "-r", f"__node:={n.name}", *_namespace_args(namespace), "--params-file", str(params_file),
+        "--log-level", "warn"]
 
 
-def process_command(process, params_file, python: str = sys.executable) -> list:
+def _namespace_args(namespace: str) -> list:
+    """The remapping that puts every node of a process in ``namespace`` (none for '')."""
+    return ["-r", f"__ns:=/{namespace.strip('/')}"] if namespace else []
+
+
+def process_command(process, params_file, python: str = sys.executable, namespace: str = "") -> list:
     """The command line of one process of the graph (launch.graph.ProcessSpec): a node's own, or the composed
     executable with NAME=EXECUTABLE per node (no name remapping: it would rename all of them).
 
@@ -215,11 +222,11 @@ def process_command(process, params_file, python: str = sys.executable) -> list:
         The command line.
     """
     if len(process.nodes) == 1:
-        return node_command(process.nodes[0], params_file, python)
+        return node_command(process.nodes[0], params_file, python, namespace)
     exe = installed_executable("composed")
     return ([str(exe)] if exe else [python, "-m", "rw_fdi_ros.nodes.composed"]) + [
         f"{n.name}={n.executable}" for n in process.nodes] + [
-        "--ros-args", "--params-file", str(params_file), "--log-level", "warn"]
+        "--ros-args", *_namespace_args(namespace), "--params-file", str(params_file), "--log-level", "warn"]
 
 
 class GraphProcesses:
@@ -227,7 +234,7 @@ class GraphProcesses:
     Nodes are named by their node name (``run(main=...)``); what failed is named by its process."""
 
     def __init__(self, nodes, domain_id: int, work_dir: Path, python: str = sys.executable,
-                 grouping: str = "none"):
+                 grouping: str = "none", namespace: str = ""):
         from .graph import processes
         self.nodes = nodes
         self.processes = processes(nodes, grouping)
@@ -239,12 +246,13 @@ class GraphProcesses:
         # where the plant says how far the run is (simulated seconds), about once a wall second
         self.progress_file = self.env["RW_FDI_PROGRESS"] = str(self.work_dir / "progress")
         self.python = python
+        self.namespace = namespace   # every node's: one spacecraft among others in the same ROS graph
         self.procs = {}
 
     def start(self):
-        params_file = write_params_file(self.nodes, self.work_dir / "params.yaml")
+        params_file = write_params_file(self.nodes, self.work_dir / "params.yaml", self.namespace)
         for p in self.processes:
-            cmd = process_command(p, params_file, self.python)
+            cmd = process_command(p, params_file, self.python, self.namespace)
             log = open(self.work_dir / f"{p.name}.log", "w")
             self.procs[p.name] = subprocess.Popen(cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT,
                                                   stdin=subprocess.DEVNULL, start_new_session=True)

@@ -122,7 +122,7 @@ class PlantNode(GraphNode):
         self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
         self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
         self.pub_magnetometer = pub(MagneticField, T.MAGNETOMETER) if self.plant.in_orbit else None
-        self.publishers_by_topic = {p.topic_name: p for p in (
+        self.publishers_by_topic = {self.table_name(p.topic_name): p for p in (
             self.pub_clock, self.pub_attitude, self.pub_wheels, self.pub_effect, self.pub_fdi, self.pub_truth,
             self.pub_scenario, self.pub_done, self.pub_magnetometer) if p is not None}
         self.subs = [self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE, raw=True)]
@@ -174,7 +174,7 @@ class PlantNode(GraphNode):
                 self._publish(self.plant.sample())
             elif now - self.t_wait > self.param("startup_timeout"):
                 writers = {T.WHEEL_COMMAND: "wheel allocation", T.DIPOLE_COMMAND: "momentum dumping"}
-                missing = [f"no {writers[s.topic_name]} on {s.topic_name}" for s in self.subs
+                missing = [f"no {writers[self.table_name(s.topic_name)]} on {s.topic_name}" for s in self.subs
                            if s.get_publisher_count() < 1]
                 what = (", ".join(missing) if missing else
                         "subscribers missing" if self.recorder.seen else

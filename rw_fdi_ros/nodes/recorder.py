@@ -99,6 +99,8 @@ class RecorderNode(GraphNode):
         for name, type_name, qos in self.rows:
             self.bag.add_topic(name, type_name, offered_qos(qos))
         self.bag.set_custom_data("engine", "graph")   # which engine recorded the run (the core loop can too)
+        if self.get_namespace() != "/":   # the topics are recorded by the graph table's names, under this namespace
+            self.bag.set_custom_data("namespace", self.get_namespace())
         self.last_stamp = {}
         self.done_stamp = None
         self.done_wall = 0.0

@@ -515,9 +515,34 @@ def message_counts(path) -> dict:
         raise BagError(f"{meta}: unreadable metadata ({exc})") from None
 
 
+def bag_custom_data(path) -> dict:
+    """A finished bag's metadata.yaml custom_data: which engine recorded it ('engine': 'graph' or 'core') and,
+    for a graph under a namespace, that namespace ('namespace'); {} when it says nothing (an unfinished bag).
+
+    Parameters
+    ----------
+    path : str or Path
+        A bag directory.
+
+    Returns
+    -------
+    dict of str to str
+        The custom data.
+    """
+    import yaml
+    meta = Path(path) / "metadata.yaml"
+    if not meta.is_file():
+        return {}
+    try:
+        info = yaml.safe_load(meta.read_text())["rosbag2_bagfile_information"]
+    except (yaml.YAMLError, KeyError, TypeError) as exc:
+        raise BagError(f"{meta}: unreadable metadata ({exc})") from None
+    return dict(info.get("custom_data") or {})
+
+
 def bag_engine(path) -> str | None:
-    """Which engine recorded a finished bag ('graph' or 'core', its metadata.yaml custom_data); None when
-    it does not say (an unfinished bag, or one recorded before bags said).
+    """Which engine recorded a finished bag ('graph' or 'core'); None when it does not say (an unfinished bag,
+    or one recorded before bags said).
 
     Parameters
     ----------
@@ -529,15 +554,7 @@ def bag_engine(path) -> str | None:
     str or None
         'graph' or 'core' (what metadata.yaml says), or None.
     """
-    import yaml
-    meta = Path(path) / "metadata.yaml"
-    if not meta.is_file():
-        return None
-    try:
-        info = yaml.safe_load(meta.read_text())["rosbag2_bagfile_information"]
-    except (yaml.YAMLError, KeyError, TypeError) as exc:
-        raise BagError(f"{meta}: unreadable metadata ({exc})") from None
-    return (info.get("custom_data") or {}).get("engine")
+    return bag_custom_data(path).get("engine")
 
 
 def bag_is_complete(path) -> bool:

@@ -1,6 +1,8 @@
 """One recorded run of the graph: scenario in, bag and summary out."""
 from __future__ import annotations
 
+import contextlib
+
 import shutil
 import tempfile
 from dataclasses import dataclass
@@ -52,10 +54,13 @@ def short_step_topics(bag) -> list:
 def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | None = None,
                  command_timeout: float = 5.0, watchdog: float | None = None, keep_logs: bool = False,
                  emf_limit: str | None = None, fdi=None, grouping: str = DEFAULT_GROUPING,
-                 progress=None, live: int | None = None) -> RunOutcome:
+                 progress=None, live: int | None = None, namespace: str = "",
+                 domain_id: int | None = None) -> RunOutcome:
     """Run the whole graph once, recording ``out_dir/<name>``; never raises for a failed run. ``grouping``:
     which nodes share a process (launch/graph.GROUPINGS); ``progress(simulated_s, duration_s)``: told how
-    far the run is, each wall second; ``live``: the port of a live view in Foxglove (None: none)."""
+    far the run is, each wall second; ``live``: the port of a live view in Foxglove (None: none);
+    ``namespace``: every node's (the graph's topics under it); ``domain_id``: a ROS domain shared with other
+    graphs (None: a private one, leased)."""
     scenario, path = resolve_scenario(ref, seed)
     bag = Path(out_dir) / (name or bag_name(scenario))
     if bag.exists():
@@ -63,10 +68,11 @@ def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | 
     nodes = graph_nodes(scenario, path, bag, command_timeout=command_timeout, emf_limit=emf_limit, fdi=fdi,
                         live=live)
     watchdog = watchdog or max(120.0, scenario.duration)
-    with DomainLease() as lease:
+    with DomainLease() if domain_id is None else contextlib.nullcontext() as lease:
         work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_{bag.name}_"))
-        result = GraphProcesses(nodes, lease.domain_id, work, grouping=grouping).start().run(watchdog=watchdog,
-                                                                                       progress=progress)
+        domain = lease.domain_id if domain_id is None else domain_id
+        result = GraphProcesses(nodes, domain, work, grouping=grouping, namespace=namespace).start().run(
+            watchdog=watchdog, progress=progress)
     outcome = RunOutcome(result.ok, result.reason, bag, result.wall_time, log_dir=work)
     if bag.exists():
         try:
