@@ -6,7 +6,7 @@ from setuptools import find_packages, setup
 
 PACKAGE = "rw_fdi_ros"
 NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "model_observer", "isolation",
-         "wheel_allocation", "player", "composed", "momentum_dumping"]   # rw_fdi_ros/graph/entry.py: the same list
+         "wheel_allocation", "player", "composed", "momentum_dumping", "live_view"]   # graph/entry.py: the same
 
 
 

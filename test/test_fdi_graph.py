@@ -347,18 +347,21 @@ def test_files_of_the_other_method_are_refused(tmp_path):
 
 
 def _resolve(msg, path: str):
-    """Values at a Foxglove message path below the topic ('.field', '[i]', '[:]{key=="value"}'; math
-    modifiers such as '.@negative' apply to a number and are skipped)."""
+    """Values at a Foxglove message path below the topic ('.field', '[i]', '[:]' then filters
+    '{key=="value"}' or '{key!="value"}'; math modifiers such as '.@negative' apply to a number and are
+    skipped)."""
     import re
     values = [msg]
-    for token in re.findall(r'\.@?\w+|\[:\]\{\w+=="[^"]*"\}|\[\d+\]', path):
+    for token in re.findall(r'\.@?\w+|\[:\]|\{\w+[!=]="[^"]*"\}|\[\d+\]', path):
         if token.startswith(".@"):
             continue
         if token.startswith("."):
             values = [getattr(v, token[1:]) for v in values]
-        elif token.startswith("[:]"):
-            key, want = re.match(r'\[:\]\{(\w+)=="([^"]*)"\}', token).groups()
-            values = [item for v in values for item in v if getattr(item, key) == want]
+        elif token == "[:]":
+            values = [item for v in values for item in v]
+        elif token.startswith("{"):
+            key, op, want = re.match(r'\{(\w+)([!=])="([^"]*)"\}', token).groups()
+            values = [v for v in values if (getattr(v, key) == want) == (op == "=")]
         else:
             values = [v[int(token[1:-1])] for v in values]
     return values

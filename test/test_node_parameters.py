@@ -26,9 +26,14 @@ TYPES = {bool: "bool", int: "int", float: "double", str: "string"}
 ARRAYS = {"DOUBLE_ARRAY": "double[]", "STRING_ARRAY": "string[]", "BOOL": "bool"}
 
 
-def test_every_node_executable_is_in_the_table():
+def test_every_node_executable_is_in_the_table_and_installed_by_setup_py():
+    import ast
     from rw_fdi_ros.graph.entry import NODES as EXECUTABLES
     assert set(NODES) == set(EXECUTABLES) - {"composed"}   # composed runs the others
+    tree = ast.parse((ROOT / "setup.py").read_text())
+    listed = next(ast.literal_eval(n.value) for n in tree.body if isinstance(n, ast.Assign)
+                  and getattr(n.targets[0], "id", "") == "NODES")
+    assert sorted(listed) == sorted(EXECUTABLES)   # each an installed console script (ros2 run, ros2 launch)
 
 
 def declared(modules) -> dict:

@@ -2,7 +2,7 @@
 
 A message becomes the JSON object of its fields, named and nested as in the ROS message, so the message
 paths of a Foxglove layout read a live channel as they read a recorded bag (``/wheels.velocity[1]``,
-``/diagnostics.status[:]{hardware_id=="reaction_wheel_x"}.level``): arrays become lists, a byte (a
+``/fault/ground_truth.status[:]{hardware_id=="reaction_wheel_x"}.level``): arrays become lists, a byte (a
 status' level) a number, and a non-finite float ``null`` (JSON has no NaN). Each channel carries the JSON
 schema of its type, made from the message's own field table (rosidl's ``get_fields_and_field_types``).
 """
@@ -43,13 +43,16 @@ def _field_schema(kind: str) -> dict:
     return {"type": ["number", "null"] if kind in ("float", "double") else "number"}
 
 
-def json_schema(message_class) -> dict:
+def json_schema(message_class, title: str | None = None) -> dict:
     """The JSON schema of a ROS message class's JSON form (:func:`to_json`).
 
     Parameters
     ----------
     message_class : type
         An rclpy message class (e.g. sensor_msgs.msg.JointState).
+    title : str, optional
+        The schema's title: the ROS type name ('sensor_msgs/msg/JointState'), by which Foxglove's panels know
+        a channel; None: the class name.
 
     Returns
     -------
@@ -57,7 +60,7 @@ def json_schema(message_class) -> dict:
         A JSON schema: an object with one property per field, nested messages as objects.
     """
     fields = message_class.get_fields_and_field_types()
-    return {"type": "object", "title": message_class.__name__,
+    return {"type": "object", "title": title or message_class.__name__,
             "properties": {name: _field_schema(kind) for name, kind in fields.items()}}
 
 

@@ -250,7 +250,7 @@ READS = {
                                                        p.get("extra_topics"), p.get("fdi_method", "speed_aware"),
                                                        _wheel_set(p), p.get("orbit", False),
                                                        p.get("magnetorquers", False))],
-    "live_view": lambda p: [r[0] for r in live_rows(p)] + _run_end(p),
+    "live_view": lambda p: [r[0] for r in live_rows(p)],   # /plant/done among them: its end
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
     "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
                         + ([RECORDER_CLOSED, RECORDER_READY] if p.get("await_recorder", False) else []),

@@ -3,10 +3,12 @@
 It subscribes to what the bag of the run would hold (graph/topics.py ``live_rows``) and
 logs each message to a Foxglove WebSocket server (foxglove-sdk) on ``ws://host:port``, one channel per
 topic, same name, the message's fields as JSON with its schema (graph/live.py), at the message's sim-time
-stamp. In Foxglove, "Open connection" to that address, and the shipped layout
-(config/foxglove/rw_fdi.json) plots the residuals against their thresholds, the alarms and the verdict
-as they come, as it does for a recorded bag. The node takes no part in the lockstep: nobody waits for
-it, and it drops what no client reads (the server keeps a short backlog per client).
+stamp (/scenario at 0, as the bag has it). In Foxglove, "Open connection" to that address, and the shipped
+layout (config/foxglove/rw_fdi.json) plots the residuals against their thresholds, the alarms and the
+verdict as they come, as it does for a recorded bag. It is a reader like the recorder (the publishers wait
+for its subscriptions at the start) but answers nothing, so the lockstep never waits on it; it converts a
+message only while a client is subscribed to its channel, and a message it cannot convert is said once and
+skipped, never the run's end. It stays 2 s after the run's end, so a client gets the last FDI period.
 """
 from __future__ import annotations
 
@@ -15,7 +17,9 @@ from ..extras import require
 from ..graph import topics as T
 from ..graph.convert import stamp_ns
 from ..graph.live import json_schema, to_json
-from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
+
+END_GRACE = 2.0   # [wall s] it serves after /plant/done: a client gets the run's last FDI period
 
 
 class LiveViewNode(GraphNode):
@@ -49,25 +53,38 @@ class LiveViewNode(GraphNode):
         params = {k: self.param(k) for k in ("wheel_set", "fdi", "fdi_method", "orbit", "magnetorquers")}
         for topic, type_name, qos in T.live_rows(params):
             cls = T.message_class(type_name)
-            self.channels[topic] = foxglove.Channel(topic, schema=json_schema(cls), message_encoding="json",
+            self.channels[topic] = foxglove.Channel(topic, schema=json_schema(cls, type_name), message_encoding="json",
                                                     context=self.foxglove)
             self.create_subscription(cls, topic, lambda msg, topic=topic: self._on_message(topic, msg),
                                      getattr(T, qos))
         self.get_logger().info(f"live view: ws://{self.param('host')}:{self.port} ({len(self.channels)} channels; "
                                "Foxglove: Open connection)")
-        self.follow_run_end()
+        self.sim_time = 0
+        self.done_wall = None   # wall time /plant/done came (the live view's own end: END_GRACE later)
+        self.said = set()       # topics whose messages it could not show (said once)
+        self.declare_parameter("end_with_run", True)   # false: keep serving after the run (a replay of many)
 
     def _on_message(self, topic: str, msg):
-        # a header's stamp; /plant/done is a Header, /clock a Clock; a String (/scenario): the server's clock
+        # a header's stamp; /plant/done is a Header, /clock a Clock; /scenario (a String) describes the run from
+        # its start, as in the bag; any other message without one: the latest sim time seen
         stamped = msg.header if hasattr(msg, "header") else msg
         time = getattr(stamped, "stamp", getattr(stamped, "clock", None))
-        stamp = stamp_ns(time) if time is not None else None
-        self.channels[topic].log(to_json(msg), log_time=stamp)
-        if stamp is not None:   # shown up to here: the run's end once the plant's last stamp is (follow_run_end)
-            self.last_handled = max(self.last_handled, stamp)
+        stamp = stamp_ns(time) if time is not None else (0 if topic == T.SCENARIO else self.sim_time)
+        self.sim_time = max(self.sim_time, stamp)
+        if topic == T.PLANT_DONE and self.param("end_with_run"):
+            self.done_wall = wall_time()
+        channel = self.channels[topic]
+        if not channel.has_sinks():   # no client on it: nothing to convert
+            return
+        try:
+            channel.log(to_json(msg), log_time=stamp)
+        except Exception as exc:  # noqa: BLE001 -- a view's trouble is said, never the run's end
+            if topic not in self.said:
+                self.said.add(topic)
+                self.get_logger().warning(f"live view: {topic} not shown ({type(exc).__name__}: {exc})")
 
     def poll(self):
-        if self.run_ended():
+        if self.done_wall is not None and wall_time() - self.done_wall > END_GRACE:
             self.finish()
 
     def close(self):

@@ -60,6 +60,9 @@ class RecorderNode(GraphNode):
         except ValueError as exc:   # an unknown fdi_method or wheel set
             raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
         self.rows = rows = [(name, type_name, getattr(T, qos)) for name, type_name, qos in rows]
+        # /diagnostics has two writers in a run's graph, each once per FDI period: the isolation node and the
+        # wheel allocation (FDIR's state); a replay has the isolation node only
+        self.writers = {T.DIAGNOSTICS: 2 if self.param("record_plant") else 1}
         self._open()
         try:
             self._subscribe(rows)
@@ -102,6 +105,7 @@ class RecorderNode(GraphNode):
         if self.get_namespace() != "/":   # the topics are recorded by the graph table's names, under this namespace
             self.bag.set_custom_data("namespace", self.get_namespace())
         self.last_stamp = {}
+        self.at_last = {}   # topic of several writers -> (its last stamp, messages at it)
         self.done_stamp = None
         self.done_wall = 0.0
         self.last_clock = 0
@@ -117,6 +121,9 @@ class RecorderNode(GraphNode):
         if topic == T.CLOCK:
             self.last_clock = stamp
         self.last_stamp[topic] = max(stamp, self.last_stamp.get(topic, 0))
+        if topic in self.writers:   # how many of its writers reached its last stamp
+            at, count = self.at_last.get(topic, (-1, 0))
+            self.at_last[topic] = (stamp, count + 1) if stamp == at else (max(stamp, at), 1 if stamp > at else count)
         self.bag.write(topic, stamp, bytes(raw))
         self.last_message_wall = wall_time()
         if topic == T.PLANT_DONE:
@@ -126,7 +133,8 @@ class RecorderNode(GraphNode):
         if not self.ready:
             # a writer counting this reader does not mean this reader has matched the writer: the plant
             # (the player) starts on /recorder/ready, so no run goes out to a reader that drops it all
-            self.unmatched = [s for s in self.unmatched if s.get_publisher_count() < 1]
+            self.unmatched = [s for s in self.unmatched
+                              if s.get_publisher_count() < self.writers.get(self.table_name(s.topic_name), 1)]
             if not self.unmatched:
                 self.ready = True
                 self.pub_ready.publish(String(data="ready"))
@@ -142,7 +150,8 @@ class RecorderNode(GraphNode):
             last_fdi = self.done_stamp - self.done_stamp % self.fdi_period_ns
             # every FDI topic: they come from several writers, and a bag closed on the first of them
             # would lose the others' last sample, or give it to the next run's bag (bag replay)
-            lagging_fdi = [t for t in self.fdi_names if self.last_stamp.get(t, -1) < last_fdi]
+            lagging_fdi = [t for t in self.fdi_names if self.last_stamp.get(t, -1) < last_fdi
+                           or (t in self.writers and self.at_last.get(t, (-1, 0)) < (last_fdi, self.writers[t]))]
         else:
             lagging_fdi = []
         last_reading = self.done_stamp - self.done_stamp % int(round(MAGNETOMETER_PERIOD * 1e9))

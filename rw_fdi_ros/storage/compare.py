@@ -12,6 +12,7 @@ messages are compared in log-time order, those of one log time in any order.
 """
 from __future__ import annotations
 
+import bisect
 import dataclasses
 from pathlib import Path
 
@@ -44,12 +45,18 @@ def _by_topic(bag: Path) -> tuple:
     return out, info.types
 
 
+def _at(rows: list, stamp: int) -> list:
+    """The messages of ``rows`` (sorted by log time) logged at ``stamp``."""
+    lo = bisect.bisect_left(rows, stamp, key=lambda row: row[0])
+    hi = bisect.bisect_right(rows, stamp, lo=lo, key=lambda row: row[0])
+    return [raw for _, raw in rows[lo:hi]]
+
+
 def _same_at_log_time(ma: list, mb: list, i: int, same) -> bool:
     """Whether message ``i``'s log time holds the same messages in ``ma`` and ``mb`` in some order (two writers of
     one topic at one log time arrive in either order)."""
     stamp = ma[i][0]
-    group_a = [raw for s, raw in ma if s == stamp]
-    group_b = [raw for s, raw in mb if s == stamp]
+    group_a, group_b = _at(ma, stamp), _at(mb, stamp)
     if len(group_a) != len(group_b) or len(group_a) < 2:
         return False
     unmatched = list(group_b)
