@@ -231,6 +231,20 @@ def parameter_files(overrides: dict, every: bool = False) -> list:
     """(node name, executable, params file launch_ros writes) of the launch file's nodes for ``overrides``:
     the real launch context, the file's OpaqueFunction, launch_ros' own substitution of parameters.
     ``every``: each node's whole list of parameter files (ours, then a user's params_file) instead."""
+    # every node its own Node action, as `ros2 run` starts them: the parameter files launch_ros writes per
+    # node (a composed process reads our launcher's file, test_strings_yaml_would_retype_reach_a_node_...)
+    out = []
+    for action in launch_nodes({"compose": "none", **overrides}):
+        files = action._Node__expanded_parameter_arguments
+        assert every or (len(files) == 1 and files[0][1]), files
+        out.append((action.node_name.rsplit("/", 1)[-1], action.node_executable,
+                    [f for f, _ in files] if every else files[0][0]))
+    return out
+
+
+def launch_nodes(overrides: dict) -> list:
+    """The launch file's Node actions for the launch arguments ``overrides`` (the rest at their defaults),
+    substituted in the real launch context as `ros2 launch` would."""
     use_launch()
     from launch import LaunchContext
     from launch.actions import DeclareLaunchArgument, OpaqueFunction
@@ -240,19 +254,12 @@ def parameter_files(overrides: dict, every: bool = False) -> list:
     for entity in description.entities:
         if isinstance(entity, DeclareLaunchArgument):
             context.launch_configurations[entity.name] = "".join(s.perform(context) for s in entity.default_value)
-    # every node its own Node action, as `ros2 run` starts them: the parameter files launch_ros writes per
-    # node (a composed process reads our launcher's file, test_strings_yaml_would_retype_reach_a_node_...)
-    context.launch_configurations.update({"compose": "none", **overrides})
+    context.launch_configurations.update(overrides)
     opaque = next(e for e in description.entities if isinstance(e, OpaqueFunction))
-    out = []
-    for action in opaque.execute(context):
-        if isinstance(action, Node):
-            action._perform_substitutions(context)
-            files = action._Node__expanded_parameter_arguments
-            assert every or (len(files) == 1 and files[0][1]), files
-            out.append((action.node_name.rsplit("/", 1)[-1], action.node_executable,
-                        [f for f, _ in files] if every else files[0][0]))
-    return out
+    nodes = [a for a in opaque.execute(context) if isinstance(a, Node)]
+    for action in nodes:
+        action._perform_substitutions(context)
+    return nodes
 
 
 READ_BACK = """
@@ -353,22 +360,9 @@ def test_use_sim_time_and_a_users_parameters_file_reach_every_node(tmp_path):
 def test_a_namespace_puts_every_node_under_it_and_our_params_file_reaches_them_there(tmp_path):
     """namespace:=sc1 (or an including file's PushRosNamespace): every node of the launch file is /sc1/<name>,
     and our params file keys each node by /**/<name>, which rcl matches in any namespace (read back by rcl)."""
-    use_launch()
-    from launch import LaunchContext
-    from launch.actions import DeclareLaunchArgument, OpaqueFunction
-    from launch_ros.actions import Node
     from rw_fdi_ros.launch.graph import NodeSpec
     from rw_fdi_ros.launch.launcher import write_params_file
-    description = _launch_file_module().generate_launch_description()
-    context = LaunchContext()
-    for entity in description.entities:
-        if isinstance(entity, DeclareLaunchArgument):
-            context.launch_configurations[entity.name] = "".join(s.perform(context) for s in entity.default_value)
-    context.launch_configurations.update({"scenario": "fault_free", "namespace": "sc1", "use_sim_time": "true"})
-    opaque = next(e for e in description.entities if isinstance(e, OpaqueFunction))
-    nodes = [a for a in opaque.execute(context) if isinstance(a, Node)]
-    for action in nodes:
-        action._perform_substitutions(context)
+    nodes = launch_nodes({"scenario": "fault_free", "namespace": "sc1", "use_sim_time": "true"})
     assert nodes and all(a.expanded_node_namespace == "/sc1" for a in nodes), [a.expanded_node_namespace
                                                                              for a in nodes]
     assert all(("/clock", "/sc1/clock") in [tuple(r) for r in a.expanded_remapping_rules] for a in nodes)

@@ -504,13 +504,19 @@ def message_counts(path) -> dict:
         Messages per topic as metadata.yaml counts them; empty without metadata.yaml (BagError where it is
         unreadable).
     """
+    return _from_metadata(path, lambda info: {t["topic_metadata"]["name"]: int(t["message_count"])
+                                              for t in info["topics_with_message_count"]})
+
+
+def _from_metadata(path, read) -> dict:
+    """``read(info)`` of a finished bag's metadata.yaml (its rosbag2_bagfile_information); {} without the file,
+    BagError where it is unreadable."""
     import yaml
     meta = Path(path) / "metadata.yaml"
     if not meta.is_file():
         return {}
     try:
-        info = yaml.safe_load(meta.read_text())["rosbag2_bagfile_information"]
-        return {t["topic_metadata"]["name"]: int(t["message_count"]) for t in info["topics_with_message_count"]}
+        return read(yaml.safe_load(meta.read_text())["rosbag2_bagfile_information"])
     except (yaml.YAMLError, KeyError, TypeError, ValueError) as exc:
         raise BagError(f"{meta}: unreadable metadata ({exc})") from None
 
@@ -529,15 +535,7 @@ def bag_custom_data(path) -> dict:
     dict of str to str
         The custom data.
     """
-    import yaml
-    meta = Path(path) / "metadata.yaml"
-    if not meta.is_file():
-        return {}
-    try:
-        info = yaml.safe_load(meta.read_text())["rosbag2_bagfile_information"]
-    except (yaml.YAMLError, KeyError, TypeError) as exc:
-        raise BagError(f"{meta}: unreadable metadata ({exc})") from None
-    return dict(info.get("custom_data") or {})
+    return _from_metadata(path, lambda info: dict(info.get("custom_data") or {}))
 
 
 def bag_engine(path) -> str | None:
