@@ -57,11 +57,6 @@ class GraphNode(Node):
     def create_subscription(self, msg_type, topic, *args, **kwargs):
         return super().create_subscription(msg_type, relative(topic), *args, **kwargs)
 
-    def table_name(self, resolved: str) -> str:
-        """The graph table's name of a topic this node resolved in its namespace ('/sc1/attitude' -> '/attitude')."""
-        namespace = self.get_namespace().rstrip("/")
-        return resolved[len(namespace):] if namespace and resolved.startswith(namespace + "/") else resolved
-
     def declare_parameter(self, name, value=None, descriptor=None, ignore_override=False):
         """rclpy's, with the parameter's range (graph/parameters.py) in its descriptor: a value out of it,
         or a non-finite float, ends the node with one line naming the parameter before it starts."""

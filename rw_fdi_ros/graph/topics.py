@@ -131,6 +131,18 @@ def is_verdict(status) -> bool:
     """Whether a /diagnostics status is the FDI's verdict on a wheel (not FDIR's state of it)."""
     return status.name.startswith(VERDICT_STATUS)
 
+
+def verdict_statuses(msg) -> list:
+    """The FDI verdict statuses of a /diagnostics message (an rclpy or a rosbags one), in its order:
+    FDIR's state of the wheels, on the same topic, left out."""
+    return [s for s in msg.status if is_verdict(s)]
+
+
+def writer_counts(record_plant: bool) -> dict:
+    """Topic -> its writers in a graph, where more than one: /diagnostics has the isolation node and, in a
+    run (not a replay, ``record_plant`` False), the wheel allocation (FDIR's state), each once per FDI period."""
+    return {DIAGNOSTICS: 2 if record_plant else 1}
+
 IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel (DiagnosticArray)
 
 

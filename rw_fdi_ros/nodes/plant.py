@@ -111,8 +111,11 @@ class PlantNode(GraphNode):
                                   run_units(self.plant.wheel, 0, len(self.names)), self.choices.fdi_period,
                                   self.param("truth_period"))
 
+        self.publishers_by_topic = {}   # the table's topic name -> its publisher (resolved in our namespace)
+
         def pub(msg_type, topic, qos=T.RELIABLE):
-            return self.create_publisher(msg_type, topic, qos)
+            self.publishers_by_topic[topic] = self.create_publisher(msg_type, topic, qos)
+            return self.publishers_by_topic[topic]
         self.pub_clock = pub(Clock, T.CLOCK)
         self.pub_attitude = pub(JointState, T.ATTITUDE)
         self.pub_wheels = pub(JointState, T.WHEELS)
@@ -122,13 +125,12 @@ class PlantNode(GraphNode):
         self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
         self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
         self.pub_magnetometer = pub(MagneticField, T.MAGNETOMETER) if self.plant.in_orbit else None
-        self.publishers_by_topic = {self.table_name(p.topic_name): p for p in (
-            self.pub_clock, self.pub_attitude, self.pub_wheels, self.pub_effect, self.pub_fdi, self.pub_truth,
-            self.pub_scenario, self.pub_done, self.pub_magnetometer) if p is not None}
-        self.subs = [self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE, raw=True)]
+        # what the plant steps on, by the node that writes it
+        self.subs = {"wheel allocation": self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command,
+                                                                  T.RELIABLE, raw=True)}
         if self.rods:
-            self.subs.append(self.create_subscription(Vector3Stamped, T.DIPOLE_COMMAND, self._on_dipole,
-                                                      T.RELIABLE, raw=True))
+            self.subs["momentum dumping"] = self.create_subscription(Vector3Stamped, T.DIPOLE_COMMAND,
+                                                                     self._on_dipole, T.RELIABLE, raw=True)
         self.tcv = self.dipole = None   # this step's answers, stepped on once both are in (dipole: when due)
         self.dipole_due = False
         self.recorder = RecorderReady(self, self.param("recorder_ready"))
@@ -154,7 +156,7 @@ class PlantNode(GraphNode):
 
     # -- lockstep ------------------------------------------------------------------
     def _graph_ready(self) -> bool:
-        if any(s.get_publisher_count() < 1 for s in self.subs) or not self.recorder.seen:
+        if any(s.get_publisher_count() < 1 for s in self.subs.values()) or not self.recorder.seen:
             return False
         need = [(self.pub_attitude, self.param("attitude_readers")), (self.pub_fdi, self.param("fdi_readers")),
                 (self.pub_wheels, self.param("wheels_readers"))]
@@ -173,8 +175,7 @@ class PlantNode(GraphNode):
                 self._send(self.report.start())
                 self._publish(self.plant.sample())
             elif now - self.t_wait > self.param("startup_timeout"):
-                writers = {T.WHEEL_COMMAND: "wheel allocation", T.DIPOLE_COMMAND: "momentum dumping"}
-                missing = [f"no {writers[self.table_name(s.topic_name)]} on {s.topic_name}" for s in self.subs
+                missing = [f"no {writer} on {s.topic_name}" for writer, s in self.subs.items()
                            if s.get_publisher_count() < 1]
                 what = (", ".join(missing) if missing else
                         "subscribers missing" if self.recorder.seen else

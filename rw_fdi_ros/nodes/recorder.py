@@ -60,9 +60,7 @@ class RecorderNode(GraphNode):
         except ValueError as exc:   # an unknown fdi_method or wheel set
             raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
         self.rows = rows = [(name, type_name, getattr(T, qos)) for name, type_name, qos in rows]
-        # /diagnostics has two writers in a run's graph, each once per FDI period: the isolation node and the
-        # wheel allocation (FDIR's state); a replay has the isolation node only
-        self.writers = {T.DIAGNOSTICS: 2 if self.param("record_plant") else 1}
+        self.writers = T.writer_counts(self.param("record_plant"))
         self._open()
         try:
             self._subscribe(rows)
@@ -89,7 +87,7 @@ class RecorderNode(GraphNode):
             sub = self.create_subscription(cls, name, lambda raw, n=name: self._on_message(n, raw), qos, raw=True)
             self.subs.append(sub)
             if name in awaited:
-                self.unmatched.append(sub)
+                self.unmatched.append((name, sub))
             if name == T.PLANT_DONE and self.param("record_plant"):
                 self.done_sub = sub
         self.stamped = {name for name, type_name, _ in rows if type_name != "std_msgs/msg/String"}
@@ -104,8 +102,8 @@ class RecorderNode(GraphNode):
         self.bag.set_custom_data("engine", "graph")   # which engine recorded the run (the core loop can too)
         if self.get_namespace() != "/":   # the topics are recorded by the graph table's names, under this namespace
             self.bag.set_custom_data("namespace", self.get_namespace())
-        self.last_stamp = {}
-        self.at_last = {}   # topic of several writers -> (its last stamp, messages at it)
+        self.last_stamp = {}   # topic -> its last stamp
+        self.at_last = {}   # topic of several writers -> messages at its last stamp
         self.done_stamp = None
         self.done_wall = 0.0
         self.last_clock = 0
@@ -120,10 +118,10 @@ class RecorderNode(GraphNode):
             stamp = 0 if topic == T.SCENARIO else self.last_clock
         if topic == T.CLOCK:
             self.last_clock = stamp
-        self.last_stamp[topic] = max(stamp, self.last_stamp.get(topic, 0))
-        if topic in self.writers:   # how many of its writers reached its last stamp
-            at, count = self.at_last.get(topic, (-1, 0))
-            self.at_last[topic] = (stamp, count + 1) if stamp == at else (max(stamp, at), 1 if stamp > at else count)
+        last = self.last_stamp.get(topic, -1)
+        if topic in self.writers and stamp >= last:   # how many of its writers reached its last stamp
+            self.at_last[topic] = self.at_last.get(topic, 0) + 1 if stamp == last else 1
+        self.last_stamp[topic] = max(stamp, last)
         self.bag.write(topic, stamp, bytes(raw))
         self.last_message_wall = wall_time()
         if topic == T.PLANT_DONE:
@@ -133,15 +131,15 @@ class RecorderNode(GraphNode):
         if not self.ready:
             # a writer counting this reader does not mean this reader has matched the writer: the plant
             # (the player) starts on /recorder/ready, so no run goes out to a reader that drops it all
-            self.unmatched = [s for s in self.unmatched
-                              if s.get_publisher_count() < self.writers.get(self.table_name(s.topic_name), 1)]
+            self.unmatched = [(name, s) for name, s in self.unmatched
+                              if s.get_publisher_count() < self.writers.get(name, 1)]
             if not self.unmatched:
                 self.ready = True
                 self.pub_ready.publish(String(data="ready"))
             elif not self.said_unmatched and wall_time() - self.started > 20.0:
                 # the plant gives up after its startup_timeout: say which writers this reader never matched
                 self.said_unmatched = True
-                self.get_logger().warn(f"no writer matched yet on {', '.join(s.topic_name for s in self.unmatched)}")
+                self.get_logger().warn(f"no writer matched yet on {', '.join(s.topic_name for _, s in self.unmatched)}")
         if self.done_stamp is None:
             self._check_plant_left()
             return
@@ -150,8 +148,8 @@ class RecorderNode(GraphNode):
             last_fdi = self.done_stamp - self.done_stamp % self.fdi_period_ns
             # every FDI topic: they come from several writers, and a bag closed on the first of them
             # would lose the others' last sample, or give it to the next run's bag (bag replay)
-            lagging_fdi = [t for t in self.fdi_names if self.last_stamp.get(t, -1) < last_fdi
-                           or (t in self.writers and self.at_last.get(t, (-1, 0)) < (last_fdi, self.writers[t]))]
+            lagging_fdi = [t for t in self.fdi_names if self.last_stamp.get(t, -1) < last_fdi or (
+                t in self.writers and self.last_stamp[t] == last_fdi and self.at_last[t] < self.writers[t])]
         else:
             lagging_fdi = []
         last_reading = self.done_stamp - self.done_stamp % int(round(MAGNETOMETER_PERIOD * 1e9))

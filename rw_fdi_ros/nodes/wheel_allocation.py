@@ -141,7 +141,7 @@ class WheelAllocationNode(GraphNode):
         """A wheel /diagnostics says ERROR is confirmed faulty: decided now, applied DECISION_DELAY later."""
         stamp = stamp_ns(msg.header.stamp)
         confirmed = {}   # in the statuses' order: the set's
-        verdicts = [s for s in msg.status if T.is_verdict(s)]   # not FDIR's own state, which comes here too
+        verdicts = T.verdict_statuses(msg)   # not FDIR's own state, which comes here too
         if not verdicts:
             return
         for status in verdicts:

@@ -168,7 +168,7 @@ def verdict_messages(data) -> list:
     import dataclasses
     out = []
     for log_time, msg in data.topic(T.DIAGNOSTICS):
-        statuses = [s for s in msg.status if T.is_verdict(s)]
+        statuses = T.verdict_statuses(msg)
         if statuses:
             out.append((log_time, dataclasses.replace(msg, status=statuses)))
     return out
@@ -207,7 +207,7 @@ def diagnostics_alarms(path):
     store, times, rows, joints = typestore(), [], [], None
     for _, _, raw in iter_messages(path, [T.DIAGNOSTICS]):
         msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
-        statuses = [s for s in msg.status if T.is_verdict(s)]   # FDIR's state of the wheels comes here too
+        statuses = T.verdict_statuses(msg)
         if not statuses:
             continue
         levels = {s.hardware_id: s.level for s in statuses}
