@@ -49,32 +49,100 @@ def test_joint_state_cdr_decodes_as_rclpy_would_and_reads_back(position, velocit
                                                                                   list(effort))
 
 
-def test_fdi_telemetry_report_gives_back_the_very_sample():
-    """The report carries the numbers as repr text: the observers see the plant's doubles, not a rounding."""
+def _telemetry_sample(wheels: int = 3):
     import numpy as np
-    from rclpy.serialization import deserialize_message as des, serialize_message as ser
-    from diagnostic_msgs.msg import DiagnosticArray
     from rw_fdi_ros.core.telemetry import TelemetrySampler
-    from rw_fdi_ros.graph.convert import fdi_sample_of, fdi_telemetry_msg
     rng = np.random.default_rng(1)
     sampler = TelemetrySampler(1.0, identification=True)
-    rows = [sampler.add(k * 100_000_000, rng.uniform(-5, 5, 3), rng.normal(0, 1e-2, 3), rng.uniform(20, 30, 3))
-            for k in range(11)]
-    sample = rows[-1]
-    back = fdi_sample_of(des(ser(fdi_telemetry_msg(sample, ("x", "y", "z"))), DiagnosticArray), ("x", "y", "z"))
+    rows = [sampler.add(k * 100_000_000, rng.uniform(-5, 5, wheels), rng.normal(0, 1e-2, wheels),
+                        rng.uniform(20, 30, wheels)) for k in range(11)]
+    return rows[-1]
+
+
+FIELDS = ("tcv", "reaction_torque", "wheel_speed", "model_torque", "ripple_phasor", "motor_torque", "friction_torque",
+          "free_motor_torque", "bus_motor_torque", "tcv_instant", "reaction_torque_instant")
+
+
+def test_fdi_telemetry_report_gives_back_the_very_sample():
+    """The report is numeric: named channels of the plant's doubles, and the bus grid beside it, exact."""
+    import numpy as np
+    from rclpy.serialization import deserialize_message as des, serialize_message as ser
+    from sensor_msgs.msg import JointState, PointCloud2
+    from rw_fdi_ros.graph.convert import bus_grid_msg, fdi_sample_of, fdi_telemetry_cdr, telemetry_wheels
+    sample, names = _telemetry_sample(4), ("x", "y", "z", "s")
+    report, grid = des(fdi_telemetry_cdr(sample, names), JointState), des(ser(bus_grid_msg(sample, names)), PointCloud2)
+    assert report.name[:3] == ["reaction_wheel_x/tcv", "reaction_wheel_x/reaction_torque",
+                               "reaction_wheel_x/wheel_speed"]
+    assert report.position[report.name.index("reaction_wheel_s/wheel_speed")] == sample.wheel_speed[3]
+    assert telemetry_wheels(report) == names
+    assert [f.name for f in grid.fields] == ["bus_voltage", *(f"reaction_wheel_{n}" for n in names)]
+    back = fdi_sample_of(report, names, bus_grid=grid)
     assert back.stamp_ns == sample.stamp_ns == 1_000_000_000
-    for name in ("tcv", "reaction_torque", "wheel_speed", "model_torque", "ripple_phasor", "motor_torque",
-                 "friction_torque", "bus_motor_torque", "tcv_instant", "reaction_torque_instant"):
+    for name in FIELDS:
         np.testing.assert_array_equal(getattr(back, name), getattr(sample, name), err_msg=name)
     assert not np.array_equal(back.tcv, back.tcv_instant)       # a mean is not the last value
-    instant = back.sampled("instant")
-    np.testing.assert_array_equal(instant.tcv, sample.tcv_instant)
-    light = fdi_sample_of(des(ser(fdi_telemetry_msg(sample, ("x", "y", "z"))), DiagnosticArray), ("x", "y", "z"),
-                          identification=False)
+    np.testing.assert_array_equal(back.sampled("instant").tcv, sample.tcv_instant)
+    # another order of the set's wheels reads each wheel's own numbers
+    swapped = fdi_sample_of(report, ("s", "x", "y", "z"), bus_grid=grid)
+    np.testing.assert_array_equal(swapped.bus_motor_torque[0], sample.bus_motor_torque[3])
+    np.testing.assert_array_equal(swapped.tcv[1:], sample.tcv[:3])
     # the observers read all but the identification's bus grid (the unit calibration needs the model terms)
+    light = fdi_sample_of(report, names, identification=False, bus_grid=grid)
     assert light.bus_motor_torque is None
-    np.testing.assert_array_equal(light.motor_torque, sample.motor_torque)
-    np.testing.assert_array_equal(light.friction_torque, sample.friction_torque)
+    np.testing.assert_array_equal(light.free_motor_torque, sample.free_motor_torque)
+
+
+def test_fdi_telemetry_refuses_a_malformed_report_or_grid():
+    import numpy as np
+    import pytest
+    from rclpy.serialization import deserialize_message as des
+    from sensor_msgs.msg import JointState
+    from rw_fdi_ros.graph.convert import bus_grid_msg, fdi_sample_of, fdi_telemetry_cdr
+    sample = _telemetry_sample()
+    report = des(fdi_telemetry_cdr(sample, ("x", "y", "z")), JointState)
+    with pytest.raises(ValueError, match="without wheel 'reaction_wheel_s'"):
+        fdi_sample_of(report, ("x", "y", "z", "s"))
+    with pytest.raises(ValueError, match="without float64 field 'reaction_wheel_y'"):
+        fdi_sample_of(report, ("x", "y", "z"), bus_grid=bus_grid_msg(sample, ("x", "q", "z")))
+    grid = bus_grid_msg(sample, ("x", "y", "z"))
+    grid.data = grid.data[:-8]
+    with pytest.raises(ValueError, match="shorter"):
+        fdi_sample_of(report, ("x", "y", "z"), bus_grid=grid)
+    other = bus_grid_msg(sample, ("x", "y", "z"))
+    table = np.frombuffer(bytes(other.data), "<f8").reshape(other.width, -1).copy()
+    table[:, 0] += 0.005   # another identification grid
+    other.data = table.tobytes()
+    with pytest.raises(ValueError, match="other bus voltages"):
+        fdi_sample_of(report, ("x", "y", "z"), bus_grid=other)
+    half = des(fdi_telemetry_cdr(sample, ("x", "y", "z")), JointState)
+    half.name = [n for n in half.name if not n.endswith("/reaction_torque")]
+    half.position = [p for n, p in zip(report.name, report.position) if not n.endswith("/reaction_torque")]
+    with pytest.raises(ValueError, match="without tcv or reaction_torque"):
+        fdi_sample_of(half, ("x", "y", "z"))
+
+
+def test_a_legacy_text_report_still_reads():
+    """Bags recorded before the report was numeric (one DiagnosticArray status per wheel, repr text, the grid
+    as base64) read to the same sample: their evaluation on the core engine goes on working."""
+    import base64
+    import numpy as np
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rw_fdi_ros.core.telemetry import BUS_GRID_KEY, report_columns
+    from rw_fdi_ros.graph.convert import fdi_sample_of, telemetry_wheels, time_msg
+    sample, names = _telemetry_sample(), ("x", "y", "z")
+    msg = DiagnosticArray()
+    msg.header.stamp = time_msg(sample.stamp_ns)
+    columns = report_columns(sample)
+    for i, n in enumerate(names):
+        values = [KeyValue(key=k, value=repr(float(v[i]))) for k, v in columns.items()]
+        values.append(KeyValue(key=BUS_GRID_KEY, value=base64.b64encode(
+            np.asarray(sample.bus_motor_torque[i], "<f8").tobytes()).decode()))
+        msg.status.append(DiagnosticStatus(name=f"wheel electronics: reaction wheel {n} FDI telemetry",
+                                           hardware_id=f"reaction_wheel_{n}", values=values))
+    assert telemetry_wheels(msg) == names
+    back = fdi_sample_of(msg, names)
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(back, name), getattr(sample, name), err_msg=name)
 
 
 def test_clock_cdr_decodes_as_rclpy_would():

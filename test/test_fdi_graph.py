@@ -272,8 +272,10 @@ def _tampered_bag(src, out, tamper):
 
 
 def _set_value(msg, wheel, key, value):
-    status = next(s for s in msg.status if s.hardware_id == f"reaction_wheel_{wheel}")
-    next(kv for kv in status.values if kv.key == key).value = value
+    """Set one channel of an FDI telemetry report (a rosbags JointState: position a float64 array)."""
+    position = msg.position.copy()   # read from the bag's buffer: read-only
+    position[msg.name.index(f"reaction_wheel_{wheel}/{key}")] = value
+    msg.position = position
 
 
 def test_the_fdi_reports_its_own_health_under_bad_inputs(runs, tmp_path):
@@ -294,9 +296,9 @@ def test_the_fdi_reports_its_own_health_under_bad_inputs(runs, tmp_path):
         if t == 100 * s:
             return [(t, msg), (t, msg)]                 # duplicated
         if t == 150 * s:
-            _set_value(msg, "y", "reaction_torque", "nan")            # corrupt while every wheel is healthy
+            _set_value(msg, "y", "reaction_torque", float("nan"))     # corrupt while every wheel is healthy
         if t == (first_alarm + 20) * s:
-            _set_value(msg, "x", "reaction_torque", "nan")            # corrupt while wheel x is alarmed
+            _set_value(msg, "x", "reaction_torque", float("nan"))     # corrupt while wheel x is alarmed
         return [(t, msg)]
     bag = _tampered_bag(runs["current_0p6_x"].bag, tmp_path / "tampered", tamper)
     outcome = replay_bag(bag, tmp_path / "replayed", watchdog=180)
@@ -369,13 +371,13 @@ def _resolve(msg, path: str):
 
 def test_foxglove_layout_plots_only_what_a_recorded_bag_holds(runs):
     """config/foxglove/rw_fdi.json (installed under share/): per wheel (the redundant s included) residual
-    against threshold, the alarms, the injected fault and the verdict, and FDIR's wheel states; every topic
-    and field it names is in a bag."""
+    against threshold, the alarms, the injected fault and the verdict, FDIR's wheel states and the telemetry's
+    reaction torques; every topic and field it names is in a bag."""
     import json
     from rw_fdi_ros.paths import config_dir
     layout = json.loads((config_dir() / "foxglove" / "rw_fdi.json").read_text())
     paths = [p["value"] for panel in layout["configById"].values() for p in panel["paths"]]
-    assert len(paths) == 40   # per wheel: 4 plot lines, 3 observers' alarms, truth, verdict; FDIR per wheel
+    assert len(paths) == 48   # per wheel: 4 plot lines, 3 observers' alarms, truth, verdict; FDIR; telemetry 2
     data = read_bag(runs["current_0p6_x"].bag)
     for path in paths:
         topic = next(t for t in sorted(data.messages, key=len, reverse=True) if path.startswith(t + "."))
@@ -385,6 +387,12 @@ def test_foxglove_layout_plots_only_what_a_recorded_bag_holds(runs):
         assert len(values) == 1 and isinstance(values[0], (int, float)), path
     placed = json.dumps(layout["layout"])
     assert all(f'"{panel}"' in placed for panel in layout["configById"])   # every panel is on screen
+    # the telemetry is plotted by index: each index is the channel its label names
+    names = data.messages[T.FDI_TELEMETRY][-1][1].name
+    for p in layout["configById"]["Plot!telemetry"]["paths"]:
+        channel = names[int(p["value"].split("[")[1].rstrip("]"))]
+        wheel, quantity = p["label"].split(":")[0], "model" if "model" in p["label"] else "reaction_torque"
+        assert channel.startswith(f"reaction_wheel_{wheel}/") and quantity in channel, (p, channel)
 
 
 def test_fdi_configurations_that_cannot_judge_the_run_are_refused_before_any_node(fdi_copy, tmp_path):

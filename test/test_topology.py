@@ -49,18 +49,22 @@ def test_the_counts_are_the_graph_we_know():
     full = counts(run_graph(True, True))
     # the attitude: 3 controllers, the wheel allocation (its momentum check), the recorder; the telemetry:
     # 4 Elman (one per wheel, the redundant s included), the linear and model observers, isolation, recorder
-    assert full["plant"] == {"attitude_readers": 5, "wheels_readers": 2, "fdi_readers": 8, "wait_for_subscribers": 1}
+    # the telemetry's bus-voltage grid: the isolation node (fault identification) and the recorder
+    assert full["plant"] == {"attitude_readers": 5, "wheels_readers": 2, "fdi_readers": 8, "bus_grid_readers": 2,
+                             "wait_for_subscribers": 1}
     assert full["pid_controller_y"] == {"min_subscribers": 2}   # the wheel allocation and the recorder
     assert full["wheel_allocation"] == {"min_subscribers": 2, "fdir_readers": 1, "diagnostics_readers": 2}
     assert full["elman_observer_z"] == full["linear_observer"] == full["model_observer"] == {
         "estimate_readers": 1, "min_subscribers": 2}
     assert full["isolation"] == {"diagnostics_readers": 2, "min_subscribers": 1}   # the recorder, the wheel allocation
     bare = counts(run_graph(False, False))
-    assert bare["plant"] == {"attitude_readers": 4, "wheels_readers": 1, "fdi_readers": 0, "wait_for_subscribers": 0}
+    assert bare["plant"] == {"attitude_readers": 4, "wheels_readers": 1, "fdi_readers": 0, "bus_grid_readers": 0,
+                             "wait_for_subscribers": 0}
     assert bare["pid_controller_x"] == {"min_subscribers": 1}
     assert counts(run_graph(False, True))["plant"]["fdi_readers"] == 1   # the recorder records the telemetry
     replay = counts(replay_graph())
-    assert replay["player"] == {"min_subscribers": 7}      # the FDI nodes; the replay's recorder does not read it
+    # the FDI nodes; the isolation node its grid; the replay's recorder reads neither
+    assert replay["player"] == {"min_subscribers": 7, "bus_grid_readers": 1}
     assert replay["isolation"] == {"diagnostics_readers": 2, "min_subscribers": 1}   # + the pacing player
     assert counts(replay_graph(2.0))["isolation"]["diagnostics_readers"] == 1   # paced by the clock
 

@@ -89,11 +89,10 @@ class FdiSample:
         return replace(self, tcv=self.tcv_instant, reaction_torque=self.reaction_torque_instant)
 
 
-# What one wheel's FDI telemetry report carries (key -> FdiSample field); the ripple phasor goes as
-# its real and imaginary parts. Numbers are written with repr, which reads back to the same double:
-# the report is the sample, not a rounding of it. The identification's bus-voltage grid (651 values
-# per wheel, identification.BUS_VOLTAGE_GRID) goes as base64 of its little-endian float64 bytes:
-# exact too, and 30x cheaper to write than 651 reprs every second.
+# What one wheel's FDI telemetry report carries (channel -> FdiSample field); the ripple phasor goes as
+# its real and imaginary parts. The report carries the doubles themselves (graph/convert.py: a JointState
+# of named channels), not a rounding of them. The identification's bus-voltage grid (651 values per wheel,
+# identification.BUS_VOLTAGE_GRID) goes beside it, as a binary table of float64.
 REPORT_FIELDS = (("tcv", "tcv"), ("reaction_torque", "reaction_torque"), ("wheel_speed", "wheel_speed"),
                  ("model_reaction_torque", "model_torque"), ("motor_torque", "motor_torque"),
                  ("friction_torque", "friction_torque"), ("free_motor_torque", "free_motor_torque"),
@@ -102,47 +101,50 @@ REPORT_FIELDS = (("tcv", "tcv"), ("reaction_torque", "reaction_torque"), ("wheel
 
 
 IDENTIFICATION_FIELDS = ("bus_motor_torque",)   # what only fault identification reads (costly: 651 per wheel)
+# bags recorded before the report was numeric carry the grid in the text report, as base64 of its
+# little-endian float64 bytes (read, never written)
 BUS_GRID_KEY = "bus_motor_torque_f64le_base64"
 
 
-def report_values(sample: FdiSample, wheel: int) -> dict:
-    """key -> text of wheel ``wheel``'s part of ``sample`` (what the FDI telemetry message carries).
+def report_columns(sample: FdiSample) -> dict:
+    """channel -> (N,) values of the wheel set: the scalar part of ``sample`` the FDI telemetry report carries.
 
     Parameters
     ----------
     sample : FdiSample
         One FDI sample of the wheel set.
-    wheel : int
-        The wheel's index in the set.
 
     Returns
     -------
-    dict of str to str
-        REPORT_FIELDS keys (those present in ``sample``), the ripple phasor's parts and the bus grid.
+    dict of str to ndarray, shape (N,) each
+        REPORT_FIELDS channels (those present in ``sample``), then the ripple phasor's parts
+        (``ripple_phasor_re``, ``ripple_phasor_im``).
     """
-    out = {key: repr(float(getattr(sample, name)[wheel])) for key, name in REPORT_FIELDS
+    out = {key: np.asarray(getattr(sample, name), float) for key, name in REPORT_FIELDS
            if getattr(sample, name) is not None}
     if sample.ripple_phasor is not None:
-        out["ripple_phasor_re"] = repr(float(sample.ripple_phasor[wheel].real))
-        out["ripple_phasor_im"] = repr(float(sample.ripple_phasor[wheel].imag))
-    if sample.bus_motor_torque is not None:
-        out[BUS_GRID_KEY] = base64.b64encode(np.asarray(sample.bus_motor_torque[wheel], "<f8").tobytes()).decode()
+        out["ripple_phasor_re"] = np.asarray(sample.ripple_phasor.real, float)
+        out["ripple_phasor_im"] = np.asarray(sample.ripple_phasor.imag, float)
     return out
 
 
-def sample_from_report(stamp_ns: int, wheels: list, identification: bool = True) -> FdiSample:
-    """The :class:`FdiSample` of one report: ``wheels`` holds one key -> text mapping per wheel, in
-    axis order (the inverse of :func:`report_values`); without ``identification`` the terms only
-    fault identification needs are left out. Raises ValueError on a malformed report.
+def sample_from_report(stamp_ns: int, wheels: list, identification: bool = True,
+                       bus_motor_torque=None) -> FdiSample:
+    """The :class:`FdiSample` of one report: ``wheels`` holds one channel -> value mapping per wheel, in
+    the set's order (the inverse of :func:`report_columns`; values as numbers, or as text in bags recorded
+    before the report was numeric); without ``identification`` the terms only fault identification needs
+    are left out. Raises ValueError on a malformed report.
 
     Parameters
     ----------
     stamp_ns : int
         The sample's stamp [ns].
-    wheels : list of dict of str to str
-        One report (as :func:`report_values` writes it) per wheel.
+    wheels : list of dict of str to float or str
+        One report per wheel.
     identification : bool, optional
         Whether to read the bus-voltage grid too.
+    bus_motor_torque : array_like, shape (N, grid), optional
+        The bus-voltage grid that went beside the report (else a legacy report's own, if any).
 
     Returns
     -------
@@ -160,7 +162,9 @@ def sample_from_report(stamp_ns: int, wheels: list, identification: bool = True)
     re, im = column("ripple_phasor_re"), column("ripple_phasor_im")
     if re is not None and im is not None:
         fields["ripple_phasor"] = re + 1j * im
-    if identification and all(BUS_GRID_KEY in w for w in wheels):
+    if identification and bus_motor_torque is not None:
+        fields["bus_motor_torque"] = np.asarray(bus_motor_torque, float)
+    elif identification and all(BUS_GRID_KEY in w for w in wheels):
         try:
             grids = [base64.b64decode(w[BUS_GRID_KEY], validate=True) for w in wheels]
             fields["bus_motor_torque"] = np.array([np.frombuffer(g, "<f8") for g in grids], float)

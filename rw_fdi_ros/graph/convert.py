@@ -5,12 +5,16 @@ what is built here are the message objects of the slower topics.
 """
 from __future__ import annotations
 
+import array
+
+import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 
 from ..core.fdir import Reconfiguration
 from ..core.wheel_set import joint_name
+from ..storage.cdr import joint_state_cdr
 from .topics import FDIR_STATUS
 
 
@@ -35,31 +39,86 @@ def vector_msg(stamp_ns_: int, values, frame_id: str = "body") -> Vector3Stamped
     return msg
 
 
-def fdi_telemetry_msg(sample, axes):
-    """diagnostic_msgs/DiagnosticArray of one FDI telemetry report: one status per wheel
-    (hardware_id reaction_wheel_<axis>) whose values are core.telemetry.report_values."""
-    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-    from ..core.telemetry import report_values
-    msg = DiagnosticArray()
+def telemetry_channel(name: str, key: str) -> str:
+    """The FDI telemetry report's channel of wheel ``name``'s quantity ``key`` ('reaction_wheel_x/tcv')."""
+    return f"{joint_name(name)}/{key}"
+
+
+def fdi_telemetry_cdr(sample, names) -> bytes:
+    """The FDI telemetry report of one sample (sensor_msgs/JointState, CDR): one named channel per wheel and
+    quantity (:func:`telemetry_channel`, core.telemetry.report_columns), its value in ``position``; the
+    exact doubles, plottable by name (PlotJuggler) or index (Foxglove, the shipped layout)."""
+    from ..core.telemetry import report_columns
+    columns = report_columns(sample)
+    channels = tuple(telemetry_channel(n, key) for n in names for key in columns)
+    return joint_state_cdr(sample.stamp_ns, channels, position=[columns[key][i] for i in range(len(names))
+                                                                for key in columns])
+
+
+def bus_grid_msg(sample, names):
+    """The identification's bus-voltage grid of one sample (sensor_msgs/PointCloud2, or None without it): one
+    point per bus voltage V, fields ``bus_voltage`` [V] and each wheel's joint name (k_t I_m(u, Omega; V),
+    period means [N m]), float64: a self-describing binary table beside the report, 26 kB a second."""
+    if sample.bus_motor_torque is None:
+        return None
+    from sensor_msgs.msg import PointCloud2, PointField
+    from ..core.identification import BUS_VOLTAGE_GRID
+    table = np.column_stack([BUS_VOLTAGE_GRID, np.asarray(sample.bus_motor_torque, float).T])
+    msg = PointCloud2(height=1, width=table.shape[0], is_bigendian=False, point_step=8 * table.shape[1],
+                      row_step=8 * table.size, is_dense=True)
     msg.header.stamp = time_msg(sample.stamp_ns)
-    for i, axis in enumerate(axes):
-        status = DiagnosticStatus(level=DiagnosticStatus.OK, name=f"wheel electronics: reaction wheel {axis} "
-                                  "FDI telemetry", hardware_id=f"reaction_wheel_{axis}", message="period means")
-        status.values = [KeyValue(key=k, value=v) for k, v in report_values(sample, i).items()]
-        msg.status.append(status)
+    msg.fields = [PointField(name=field, offset=8 * k, datatype=PointField.FLOAT64, count=1)
+                  for k, field in enumerate(("bus_voltage", *(joint_name(n) for n in names)))]
+    msg.data = array.array("B", table.astype("<f8").tobytes())
     return msg
 
 
-def fdi_sample_of(msg, axes, identification: bool = True):
-    """The core.telemetry.FdiSample of an FDI telemetry report (an rclpy or a rosbags message);
-    ``identification=False`` skips the terms only fault identification needs."""
-    from ..core.telemetry import sample_from_report
-    by_wheel = {s.hardware_id: {kv.key: kv.value for kv in s.values} for s in msg.status}
+def bus_grid_of(msg, names) -> np.ndarray:
+    """(N, grid) motor torques [N m] of a :func:`bus_grid_msg` (an rclpy or a rosbags message), wheels in
+    ``names`` order; ValueError if it is not that table or not on the identification's grid."""
+    from ..core.identification import BUS_VOLTAGE_GRID
+    offsets = {f.name: f.offset for f in msg.fields if f.datatype == 8 and f.count == 1}   # FLOAT64
+    step = msg.point_step
     try:
-        wheels = [by_wheel[f"reaction_wheel_{a}"] for a in axes]
+        columns = [offsets["bus_voltage"]] + [offsets[joint_name(n)] for n in names]
+    except KeyError as exc:
+        raise ValueError(f"bus grid without float64 field {exc}") from None
+    rows = msg.width * msg.height
+    if step % 8 or any(c % 8 for c in columns) or len(msg.data) < rows * step:
+        raise ValueError("bus grid: fields not on 8-byte columns, or data shorter than its points")
+    table = np.frombuffer(bytes(msg.data[:rows * step]), ">f8" if msg.is_bigendian else "<f8").reshape(rows, -1)
+    table = table[:, [c // 8 for c in columns]]
+    if not np.array_equal(table[:, 0], BUS_VOLTAGE_GRID):
+        raise ValueError("bus grid on other bus voltages than the identification's (recorded by another version)")
+    return table[:, 1:].T
+
+
+def fdi_sample_of(msg, names, identification: bool = True, bus_grid=None):
+    """The core.telemetry.FdiSample of an FDI telemetry report (an rclpy or a rosbags message), wheels in
+    ``names`` order; ``bus_grid`` its :func:`bus_grid_msg`, if identification reads it
+    (``identification=False`` skips the terms only fault identification needs). Reads the text report
+    (DiagnosticArray) of bags recorded before the report was numeric, too. ValueError if malformed."""
+    from ..core.telemetry import sample_from_report
+    if hasattr(msg, "status"):   # legacy: one status per wheel, key -> repr text
+        by_wheel = {s.hardware_id: {kv.key: kv.value for kv in s.values} for s in msg.status}
+    else:
+        by_wheel = {}
+        for channel, value in zip(msg.name, msg.position):
+            joint, _, key = channel.rpartition("/")
+            by_wheel.setdefault(joint, {})[key] = value
+    try:
+        wheels = [by_wheel[joint_name(n)] for n in names]
     except KeyError as exc:
         raise ValueError(f"FDI telemetry without wheel {exc}") from None
-    return sample_from_report(stamp_ns(msg.header.stamp), wheels, identification)
+    grid = bus_grid_of(bus_grid, names) if identification and bus_grid is not None else None
+    return sample_from_report(stamp_ns(msg.header.stamp), wheels, identification, grid)
+
+
+def telemetry_wheels(msg) -> tuple:
+    """The wheel names an FDI telemetry report (either form) holds, in its order."""
+    joints = ([s.hardware_id for s in msg.status] if hasattr(msg, "status")
+              else list(dict.fromkeys(c.rpartition("/")[0] for c in msg.name)))
+    return tuple(j.removeprefix("reaction_wheel_") for j in joints)
 
 
 STATES = {"in_use": DiagnosticStatus.OK, "standby": DiagnosticStatus.OK, "kept_in_use": DiagnosticStatus.WARN,

@@ -16,7 +16,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 
 from ..core.calibration import UnitCalibration, calibration_samples, regressors
@@ -83,7 +82,7 @@ class ObserverNode(GraphNode):
         self.pub_estimate = pub(estimate_topic, "estimate_readers")
         self.pub_residual = pub(residual_topic, "min_subscribers")
         self.pub_bound = pub(bound_topic, "min_subscribers")
-        self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
+        self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         self.follow_run_end(period=self.param("fdi_period"))
 
     def observe(self, sample):

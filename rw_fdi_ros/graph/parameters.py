@@ -26,6 +26,7 @@ RANGES = {
     "estimate_readers": (0, COUNT_MAX),
     "attitude_readers": (0, COUNT_MAX),
     "fdi_readers": (0, COUNT_MAX),
+    "bus_grid_readers": (0, COUNT_MAX),
     "wheels_readers": (0, COUNT_MAX),
     "fdir_readers": (0, COUNT_MAX),
     "magnetometer_readers": (0, COUNT_MAX),

@@ -18,7 +18,7 @@ from ..core.telemetry import TelemetrySampler
 from ..core.wheel_set import joint_name
 from ..storage.cdr import clock_cdr, joint_state_cdr
 from . import topics as T
-from .convert import fdi_telemetry_msg, time_msg
+from .convert import bus_grid_msg, fdi_telemetry_cdr, time_msg
 
 UNIT_FIELDS = (("torque_constant", "torque_constant"), ("driver_gain", "driver_gain"),
                ("viscous_friction_scale", "viscous_scale"), ("coulomb_friction", "coulomb_friction"))
@@ -80,7 +80,9 @@ class PlantReport:
             out.append((T.FAULT_EFFECT, joint_state_cdr(stamp, self.joints, effort=fault_effect)))
         report = self.telemetry.add(stamp, tcv, reaction_torque, wheel_speed)
         if report is not None:
-            out.append((T.FDI_TELEMETRY, fdi_telemetry_msg(report, self.names)))
+            grid = bus_grid_msg(report, self.names)   # first: the isolation node decides on the report
+            out += ([(T.FDI_BUS_GRID, grid)] if grid is not None else []) + [
+                (T.FDI_TELEMETRY, fdi_telemetry_cdr(report, self.names))]
         truth = self._truth(stamp, time, fault_effect, operating_point, faults)
         return out + ([(T.FAULT_TRUTH, truth)] if truth is not None else [])
 

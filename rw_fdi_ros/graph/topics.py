@@ -59,9 +59,12 @@ def axis_of_joint(joint: str, joints: tuple) -> str:
     if joint not in joints:
         raise ValueError(f"must be one of {', '.join(joints)}, got {joint!r}")
     return joint.rsplit("_", 1)[1]
-# the wheel electronics' report once per FDI period (DiagnosticArray, one status per wheel): period
-# means of tcv, reaction torque, speed and the nominal model's terms (core/telemetry.py)
+# the wheel electronics' report once per FDI period: period means of tcv, reaction torque, speed and the
+# nominal model's terms (core/telemetry.py), a JointState of named channels 'reaction_wheel_<name>/<quantity>',
+# the value in position (graph/convert.py); beside it, for fault identification only, the motor torque on
+# the bus-voltage grid (a PointCloud2 table: one point per bus voltage, one float64 field per wheel)
 FDI_TELEMETRY = "/wheels/fdi_telemetry"
+FDI_BUS_GRID = "/wheels/fdi_telemetry/bus_grid"
 FAULT_EFFECT = "/fault/effect"        # JointState effort: reaction torque minus a healthy wheel's [N m], per wheel
 FAULT_TRUTH = "/fault/ground_truth"   # what is injected where since when (DiagnosticArray)
 SCENARIO = "/scenario"                # the scenario YAML (latched)
@@ -102,7 +105,8 @@ VECTOR, DIAGNOSTICS_TYPE = "geometry_msgs/msg/Vector3Stamped", "diagnostic_msgs/
 # (topic, ROS type name, QoS name) of everything the plant side of a run sends (resolved by graph_topics)
 PLANT_ROWS = ((CLOCK, "rosgraph_msgs/msg/Clock", "RELIABLE"), (ATTITUDE, JOINT_STATE, "RELIABLE"),
               (WHEELS, JOINT_STATE, "RELIABLE"), (FAULT_EFFECT, JOINT_STATE, "RELIABLE"),
-              (FDI_TELEMETRY, DIAGNOSTICS_TYPE, "RELIABLE"), (FAULT_TRUTH, DIAGNOSTICS_TYPE, "RELIABLE"),
+              (FDI_BUS_GRID, "sensor_msgs/msg/PointCloud2", "RELIABLE"), (FDI_TELEMETRY, JOINT_STATE, "RELIABLE"),
+              (FAULT_TRUTH, DIAGNOSTICS_TYPE, "RELIABLE"),
               (SCENARIO, "std_msgs/msg/String", "LATCHED"), (PLANT_DONE, "std_msgs/msg/Header", "LATCHED"),
               *((tcv_command(a), VECTOR, "RELIABLE") for a in BODY_AXES), (WHEEL_COMMAND, JOINT_STATE, "RELIABLE"),
               (FDIR_WHEELS, DIAGNOSTICS_TYPE, "RELIABLE"))
@@ -189,7 +193,7 @@ def fdi_topics(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET):
 
 # what bag replay plays: what the observer and isolation nodes (and the recorder of their outputs) read, one
 # message per FDI period rather than a dozen per control step
-FDI_INPUTS = [FDI_TELEMETRY, FAULT_TRUTH, SCENARIO, PLANT_DONE]
+FDI_INPUTS = [FDI_BUS_GRID, FDI_TELEMETRY, FAULT_TRUTH, SCENARIO, PLANT_DONE]
 # what a recorder of a replay (record_plant false) keeps of the plant's topics besides the FDI's
 REPLAY_RECORDED = (CLOCK, SCENARIO, PLANT_DONE, FAULT_TRUTH)
 
@@ -256,8 +260,8 @@ READS = {
     "model_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "momentum_dumping": lambda p: [MAGNETOMETER, WHEELS] + ([FDIR_WHEELS] if p.get("fdir", True) else [])
                                   + _run_end(p),
-    "isolation": lambda p: [FDI_TELEMETRY, *residual_inputs(p.get("fdi_method", "speed_aware"), _wheel_set(p))]
-                           + _run_end(p),
+    "isolation": lambda p: [FDI_TELEMETRY, FDI_BUS_GRID,
+                            *residual_inputs(p.get("fdi_method", "speed_aware"), _wheel_set(p))] + _run_end(p),
     "recorder": lambda p: [r[0] for r in recorded_rows(p.get("record_plant", True), p.get("fdi_period", 0.0) > 0,
                                                        p.get("extra_topics"), p.get("fdi_method", "speed_aware"),
                                                        _wheel_set(p), p.get("orbit", False),
@@ -277,6 +281,7 @@ def _observer_waits(observer: str, axis: str | None) -> dict:
 # executable -> its parameters -> {parameter: the topics of its own whose readers that parameter counts}
 WAITS = {
     "plant": lambda p: {"attitude_readers": [ATTITUDE], "wheels_readers": [WHEELS], "fdi_readers": [FDI_TELEMETRY],
+                        "bus_grid_readers": [FDI_BUS_GRID],
                         "wait_for_subscribers": [CLOCK, FAULT_EFFECT, FAULT_TRUTH, SCENARIO],
                         **({"magnetometer_readers": [MAGNETOMETER]} if p.get("magnetorquers") else {})},
     "pid_controller": lambda p: {"min_subscribers": [tcv_command(axis_of_joint(p["joint"], ATTITUDE_JOINTS))]},
@@ -290,7 +295,7 @@ WAITS = {
                             "min_subscribers": [IDENTIFICATION, *(t for obs in observers_of(p.get("fdi_method",
                                                                                                    "speed_aware"))
                                                                   for t in fdi_output_topics(obs).values())]},
-    "player": lambda p: {"min_subscribers": [FDI_TELEMETRY]},
+    "player": lambda p: {"min_subscribers": [FDI_TELEMETRY], "bus_grid_readers": [FDI_BUS_GRID]},
     "recorder": lambda p: {},   # what it sends (/recorder/closed) is latched
 }
 

@@ -39,7 +39,7 @@ import math
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import JointState, PointCloud2
 
 import numpy as np
 
@@ -48,14 +48,14 @@ from ..core.detection import METHODS, observers_of
 from ..core.threshold_file import ThresholdError
 from ..core.calibration import calibration_samples
 from ..core.identification import FaultIdentifier
-from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
+from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor, stamp_order
 from ..core.isolation import (WHEEL_SPEED_ENVELOPE, LatchedVerdict, ObserverChannel, decision_observer, in_envelope,
                               stamp_seconds)
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.wheel_set import joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr
 from ..graph import topics as T
-from ..graph.convert import fdi_sample_of, time_msg
+from ..graph.convert import fdi_sample_of, stamp_ns, time_msg
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 from ..graph.gate import GatedPublisher
 from ..graph.sync import StampSync
@@ -150,7 +150,10 @@ class IsolationNode(GraphNode):
         self.last_input = time.monotonic()
         self.last_row = {}   # observer -> wall time of its last row
         self.silent_said = False
-        self.create_subscription(DiagnosticArray, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
+        # the report and its bus-voltage grid come on two topics, in either order: paired by stamp
+        self.bus_grids, self.reports = {}, {}   # stamp -> the message waiting for its other half
+        self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
+        self.sub_bus_grid = self.create_subscription(PointCloud2, T.FDI_BUS_GRID, self._on_bus_grid, T.RELIABLE)
         for obs in self.channels:   # one row per stamp: residual and bound of each of the observer's topics
             self._follow_observer(obs)
         self.follow_run_end(period=plant.fdi_period)
@@ -200,9 +203,27 @@ class IsolationNode(GraphNode):
         self.compute_cpu.append(time.thread_time() - c0)
 
     def _on_telemetry(self, msg):
+        stamp = stamp_ns(msg.header.stamp)
+        monitor = self.inputs["telemetry"]
+        late = stamp_order(monitor.last_ns, stamp, monitor.period_ns) == OUT_OF_ORDER   # dropped, and said
+        if stamp not in self.bus_grids and self.sub_bus_grid.get_publisher_count() > 0 and not late:
+            self.reports[stamp] = msg   # its grid is on its way
+            return
+        self._on_report(msg, self.bus_grids.pop(stamp, None))
+
+    def _on_bus_grid(self, msg):
+        stamp = stamp_ns(msg.header.stamp)
+        if stamp in self.reports:
+            self._on_report(self.reports.pop(stamp), msg)
+            return
+        self.bus_grids[stamp] = msg
+        while len(self.bus_grids) > 100:   # a grid whose report never came (a broken input): not kept forever
+            del self.bus_grids[next(iter(self.bus_grids))]
+
+    def _on_report(self, msg, bus_grid):
         t0, c0 = time.perf_counter(), time.thread_time()
         try:
-            sample = fdi_sample_of(msg, self.names)
+            sample = fdi_sample_of(msg, self.names, bus_grid=bus_grid)
         except ValueError as exc:
             self.fail(f"malformed {T.FDI_TELEMETRY}: {exc}", EXIT_BAD_INPUT)
             return

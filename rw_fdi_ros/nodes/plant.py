@@ -23,7 +23,7 @@ from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from geometry_msgs.msg import Vector3Stamped
-from sensor_msgs.msg import JointState, MagneticField
+from sensor_msgs.msg import JointState, MagneticField, PointCloud2
 from std_msgs.msg import Header, String
 
 from ..core.plant import Plant
@@ -58,6 +58,7 @@ class PlantNode(GraphNode):
         self.declare_parameter("attitude_readers", 3)    # the controllers (+ wheel allocation, recorder)
         self.declare_parameter("wheels_readers", 0)      # of /wheels: the wheel allocation (+ recorder)
         self.declare_parameter("fdi_readers", 0)         # of the FDI telemetry: the FDI nodes (+ recorder)
+        self.declare_parameter("bus_grid_readers", 0)    # of its bus-voltage grid: the isolation node (+ recorder)
         self.declare_parameter("wait_for_subscribers", 0)  # of each other topic it sends per step (the recorder)
         self.declare_parameter("magnetometer_readers", 0)  # of /magnetometer: the momentum dumping (+ recorder)
         # in orbit with magnetorquers: wait for the momentum-dumping node's dipole on each magnetometer step
@@ -120,7 +121,8 @@ class PlantNode(GraphNode):
         self.pub_attitude = pub(JointState, T.ATTITUDE)
         self.pub_wheels = pub(JointState, T.WHEELS)
         self.pub_effect = pub(JointState, T.FAULT_EFFECT)
-        self.pub_fdi = pub(DiagnosticArray, T.FDI_TELEMETRY)
+        self.pub_bus_grid = pub(PointCloud2, T.FDI_BUS_GRID)
+        self.pub_fdi = pub(JointState, T.FDI_TELEMETRY)
         self.pub_truth = pub(DiagnosticArray, T.FAULT_TRUTH)
         self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
         self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
@@ -159,6 +161,7 @@ class PlantNode(GraphNode):
         if any(s.get_publisher_count() < 1 for s in self.subs.values()) or not self.recorder.seen:
             return False
         need = [(self.pub_attitude, self.param("attitude_readers")), (self.pub_fdi, self.param("fdi_readers")),
+                (self.pub_bus_grid, self.param("bus_grid_readers")),
                 (self.pub_wheels, self.param("wheels_readers"))]
         need += [(p, self.param("wait_for_subscribers")) for p in (self.pub_effect, self.pub_clock,
                                                                    self.pub_truth, self.pub_scenario)]

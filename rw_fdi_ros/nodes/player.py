@@ -28,7 +28,7 @@ from ..graph import topics as T
 from ..graph.convert import stamp_ns
 from ..graph.runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for
 
-PLANT_OUTPUTS = [T.CLOCK, T.ATTITUDE, T.WHEELS, T.FAULT_EFFECT, T.FDI_TELEMETRY, T.FAULT_TRUTH,
+PLANT_OUTPUTS = [T.CLOCK, T.ATTITUDE, T.WHEELS, T.FAULT_EFFECT, T.FDI_BUS_GRID, T.FDI_TELEMETRY, T.FAULT_TRUTH,
                  T.SCENARIO, T.PLANT_DONE]
 
 
@@ -45,6 +45,7 @@ class PlayerNode(GraphNode):
         self.declare_parameter("pace_period", 1.0)        # FDI period [s]
         self.declare_parameter("pace_window", 20)         # FDI samples the player may run ahead
         self.declare_parameter("min_subscribers", 0)      # readers of the FDI telemetry before starting
+        self.declare_parameter("bus_grid_readers", 0)     # readers of its bus-voltage grid before starting
         self.declare_parameter("await_recorder", False)   # /recorder/ready first; between bags /recorder/closed
         self.declare_parameter("startup_timeout", 60.0)
         self.declare_parameter("stall_timeout", 10.0)     # wall s without consumer progress -> error
@@ -65,6 +66,9 @@ class PlayerNode(GraphNode):
                 raise NodeError(str(exc), EXIT_BAD_INPUT) from None
             if not info.complete:
                 self.get_logger().warn(f"{path}: {info.note}; replaying what is there")
+            if info.types.get(T.FDI_TELEMETRY, T.JOINT_STATE) != T.JOINT_STATE:
+                raise NodeError(f"{path}: recorded with the text FDI telemetry of an older rw_fdi_ros, which the "
+                                "FDI nodes no longer read: evaluate it with --engine core", EXIT_BAD_INPUT)
             for t in info.counts:
                 if t not in self.pubs:
                     self.pubs[t] = self.create_publisher(T.message_class(info.types[t]), t, qos.get(t, T.RELIABLE))
@@ -114,8 +118,8 @@ class PlayerNode(GraphNode):
     def _ready(self):
         if not self.recorder.seen:
             return False
-        need = self.param("min_subscribers")
-        inputs = T.FDI_TELEMETRY not in self.pubs or self.pubs[T.FDI_TELEMETRY].get_subscription_count() >= need
+        need = {T.FDI_TELEMETRY: self.param("min_subscribers"), T.FDI_BUS_GRID: self.param("bus_grid_readers")}
+        inputs = all(self.pubs[t].get_subscription_count() >= k for t, k in need.items() if t in self.pubs)
         return inputs and (self.pace_sub is None or self.pace_sub.get_publisher_count() >= 1)
 
     def poll(self):

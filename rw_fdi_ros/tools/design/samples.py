@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from ...core.telemetry import sample_telemetry
-from ...graph.convert import fdi_sample_of
+from ...graph.convert import fdi_sample_of, stamp_ns, telemetry_wheels
 from ...core.wheel_set import AXIS_WHEELS
-from ...graph.topics import FAULT_EFFECT, FDI_TELEMETRY
+from ...graph.topics import FAULT_EFFECT, FDI_BUS_GRID, FDI_TELEMETRY
 from ...storage.bag import BagError, bag_is_complete, read_bag
 
 
@@ -77,10 +77,12 @@ def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: 
     msgs = data.topic(FDI_TELEMETRY)
     if not msgs:
         raise BagError(f"{data.path}: no {FDI_TELEMETRY} messages")
-    # the wheels the plant reported, in its order (hardware_id reaction_wheel_<name>)
-    wheels = tuple(s.hardware_id.removeprefix("reaction_wheel_") for s in msgs[0][1].status)
+    wheels = telemetry_wheels(msgs[0][1])   # the wheels the plant reported, in its order
+    # the identification's bus-voltage grid goes beside each report (in a legacy text report, inside it)
+    grids = {stamp_ns(m.header.stamp): m for _, m in data.topic(FDI_BUS_GRID)} if identification else {}
     try:
-        rows = [fdi_sample_of(m, wheels, identification=identification).sampled(sampling) for _, m in msgs]
+        rows = [fdi_sample_of(m, wheels, identification, grids.get(stamp_ns(m.header.stamp))).sampled(sampling)
+                for _, m in msgs]
     except ValueError as exc:
         raise BagError(f"{data.path}: {FDI_TELEMETRY}: {exc}") from None
     rows.sort(key=lambda r: r.stamp_ns)

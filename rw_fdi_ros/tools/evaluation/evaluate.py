@@ -110,7 +110,7 @@ def judge_bags(chunk) -> list:
         try:
             scenario, peak = _check_bag(bag, curves)
             choices = PlantChoices.of_recording(scenario.plant)
-            data = read_bag(bag, topics=[T.FDI_TELEMETRY, T.SCENARIO], intact=True)
+            data = read_bag(bag, topics=[T.FDI_TELEMETRY, T.FDI_BUS_GRID, T.SCENARIO], intact=True)
             samples = fdi_samples(data, choices.fdi_period, choices.fdi_sampling, speed_aware=True,
                                   identification=True)
             out.append((bag, judge_run(scenario, samples, peak, weights, curves, fdi.persistence, identification=True,
