@@ -96,6 +96,33 @@ def test_identifier_starts_at_the_onset_and_forgets_nothing():
     assert out["x"].rss == pytest.approx(batch.rss, rel=1e-9, abs=1e-18)
 
 
+def test_an_unpowered_wheel_counts_until_it_comes_to_rest():
+    """A wheel given up (its driver off, tcv 0) spins down on its friction alone: those samples count (they show
+    a temperature); at rest it shows nothing, and its samples there are not counted, so the fault's size is the
+    one it had when last seen. The answer says its driver is off."""
+    from types import SimpleNamespace
+    rows = list(zip(*wheel_rows("temperature", 120.0, n=60, seed=7)))
+    ident = idf.FaultIdentifier(("x",))
+
+    def sample(row, tcv):
+        r, tm, tf, w, bus, p = row
+        return SimpleNamespace(reaction_torque=np.array([r]), motor_torque=np.array([tm]),
+                               friction_torque=np.array([tf]), wheel_speed=np.array([w]), bus_motor_torque=bus[None],
+                               ripple_phasor=np.array([p]), model_torque=np.array([-(tm - tf)]),
+                               free_motor_torque=None, tcv=np.array([tcv]))
+    for row in rows:
+        out = ident.update(sample(row, 1.0), {"x": True})
+    assert out["x"].samples == 60 and not out["x"].unpowered
+    r, tm, tf, w, bus, p = rows[-1]
+    spinning = (wm.friction_torque(w, 120.0), 0.0, wm.friction_torque(w, 23.0), w, 0.0 * bus, 0j)
+    out = ident.update(sample(spinning, 0.0), {"x": True})
+    assert out["x"].samples == 61 and out["x"].unpowered and "its driver off" in out["x"].message()
+    at_rest = (0.0, 0.0, 0.0, 0.0, 0.0 * bus, 0j)
+    for _ in range(5):
+        out = ident.update(sample(at_rest, 0.0), {"x": True})
+    assert out["x"].samples == 61 and out["x"].kind == "temperature" and out["x"].size == pytest.approx(120.0, abs=2)
+
+
 def test_the_onset_is_the_step_not_the_ripple():
     """A step of 1e-4 N m at sample 40 under an aliased ripple of 1e-3 N m whose phasor is known."""
     rng = np.random.default_rng(0)

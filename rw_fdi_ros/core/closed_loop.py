@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .allocation import TorqueAllocator
-from .fdir import SLEW_RATE, DecisionDelay, DeliveryLog, Reconfiguration
+from .fdir import HOLDABLE_SPEED, SLEW_RATE, DecisionDelay, DeliveryLog, Reconfiguration
 from .magnetorquers import Dumper
 from .onboard import OnboardVerdict
 from .pid import PidController, PidGains, design_gains
@@ -30,6 +30,7 @@ class Fdir:
     fdi_period: float = 1.0
     identification: bool = False   # also identify each alarmed wheel's fault (the isolation node's code)
     slew_rate: float = SLEW_RATE   # [rad/s] the slews the wheels in use must still take (fdir.momentum_shortfall)
+    holdable: float = HOLDABLE_SPEED   # [rad/s] what a wheel in use may be asked to hold (inf: every wheel given up)
 
 
 @dataclass
@@ -116,7 +117,7 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
     if fdir is not None:
         onboard = OnboardVerdict(plant.wheels.names, fdir.curves, plant.batch, fdir.fdi_period,
                                  fdir.calibration_samples, identification=fdir.identification)
-        reconfig = [Reconfiguration(plant.wheels, slew_rate=fdir.slew_rate) for _ in scenarios]
+        reconfig = [Reconfiguration(plant.wheels, fdir.holdable, fdir.slew_rate) for _ in scenarios]
         delays = [DecisionDelay() for _ in scenarios]
         delivery = DeliveryLog()
     rec = {k: [] for k in ("attitude", "setpoint", "body_rate", "wheel_speed", "tcv", "reaction_torque",

@@ -58,6 +58,8 @@ CORRELATION = 10.0     # interval widening for serially correlated 1 s samples
 # leave out (1.5e-5, eq. 2.16) plus half a grid step, up to 4e-5 N m where the bus family is steep.
 SIGMA_FLOOR = 5e-5
 MIN_SAMPLES = 5
+# [rad/s] an unpowered wheel below this speed is at rest: its coulomb friction's smoothing speed, twice
+AT_REST_SPEED = 2.0 * wm.WheelParams().coulomb_smoothing_speed
 FREE_UNIT = 1e-3 * SIGMA_FLOOR ** 2   # [N^2 m^2] a ridge only: the unit's shares all but free (noise estimate)
 
 
@@ -338,7 +340,7 @@ class Identification:
     healthy: bool = False        # the best fit is the nominal wheel: the data show no fault
     unit: str = "datasheet"      # the wheel the families scale: 'datasheet', 'calibrated' or 'type' (still learning)
     unit_limited: bool = False   # what is not known of the unit at least doubles the interval
-    unpowered: bool = False      # its driver is off (given up by FDIR): identified from the samples before
+    unpowered: bool = False      # its driver is off (given up by FDIR): its spin-down counts, not its rest
     ramp_s: float = 0.0          # [s] how long the fault took to grow to its size (0: a step)
     growing: bool = False        # it was still growing at the last sample: the size is the size then
     at_s: float = float("nan")   # [s] the time of the last sample (the stamp the size is the fault's at)
@@ -364,12 +366,11 @@ class Identification:
             why += " (still growing)"
         elif self.ramp_s >= RAMP_NOTED_S:
             why += f" (grew over ~{self.ramp_s:.0f} s)"
-        if self.unpowered and (self.kind != UNKNOWN or self.samples >= MIN_SAMPLES):
-            why += f" (from the {self.samples} samples before its driver was switched off)"
+        if self.unpowered:
+            why += " (its driver off: from the samples until it came to rest)"
         if self.kind == UNKNOWN:
             if self.samples < MIN_SAMPLES:
-                return (f"not identified: its driver was switched off after {self.samples} samples of the fault"
-                        if self.unpowered else f"identifying ({self.samples} samples)")
+                return f"identifying ({self.samples} samples)"
             if self.healthy:
                 return "fits a healthy wheel: alarm not confirmed"
             guess = self.best_guess.replace("_", " ")
@@ -597,6 +598,7 @@ class FaultIdentifier:
         self.sums = {a: None for a in self.wheels}     # wheel -> ProfileSums once alarmed
         self.latest = {a: None for a in self.wheels}
         self.stale = set()   # lazy: wheels whose sums moved since their latest answer
+        self.unpowered = set()   # wheels whose driver went off (given up) after their alarm
         # (row, model error, calibration regressors, time) of the samples before an alarm
         self.backlog = {a: deque(maxlen=self.BACKLOG) for a in self.wheels}
 
@@ -629,12 +631,12 @@ class FaultIdentifier:
                 self.backlog[a].clear()
             tcv = getattr(sample, "tcv", None)
             if tcv is not None and float(tcv[i]) == 0.0:
-                # its driver off (given up by FDIR): a bus or current fault no longer shows, the spin-down
-                # would dilute the fit; the identification made while it was driven holds, and says so
-                if self.sums[a].n and not (self.latest.get(a) and self.latest[a].unpowered):
-                    self._resolve(a)
-                    self.latest[a] = replace(self.latest.get(a) or decide(self.sums[a]), unpowered=True)
-                continue
+                # its driver off (given up by FDIR): it spins down on its friction alone, which still shows a
+                # temperature; once at rest it shows nothing (every family gives 0), and its fault's size is
+                # the one it had when last seen
+                self.unpowered.add(a)
+                if abs(float(sample.wheel_speed[i])) < AT_REST_SPEED:
+                    continue
             self.sums[a].add(row, time)
             if self.lazy:
                 self.stale.add(a)
@@ -655,7 +657,8 @@ class FaultIdentifier:
             self.latest[a] = self._decide(a)
 
     def _decide(self, a) -> Identification:
-        return decide(self.sums[a])
+        found = decide(self.sums[a])
+        return replace(found, unpowered=True) if a in self.unpowered else found
 
     def _add_since_onset(self, a, past, calibration):
         """Add the kept samples after the onset (the last of ``past`` is the alarm's own, added after)."""

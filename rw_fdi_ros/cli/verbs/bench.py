@@ -21,6 +21,9 @@ def _options() -> dict:
 
     option("--service-runs", type=COUNT, default=1000,
            help="service: in-service runs, each drawn from its seed (default 1000)")
+    option("--given-up-runs", type=COUNT, default=300,
+           help="service: seeds whose faulty draws run with FDIR giving up every wheel it confirms, for the "
+                "identification of a wheel given up (default 300: about 200 runs)")
     option("--max-hours", type=number(float, 0, 6, low_open=True), default=None,
            help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h); scaling: "
                 "the same (default 0.25)")
@@ -135,12 +138,14 @@ def _dumping(args) -> dict:
 
 def _service(args) -> dict:
     from tqdm import tqdm
-    from ...tools.benches.service_bench import bench_service
-    with tqdm(total=args.service_runs + args.fault_free_runs, desc="service bench (core loop)", unit="run",
-              file=sys.stderr) as bar:
+    from ...tools.benches.service_bench import GIVEN_UP_SEEDS, SEED_BASES, bench_service, given_up_draws
+    base = SEED_BASES[args.seed_set] + GIVEN_UP_SEEDS
+    given_up = len(given_up_draws(range(base, base + args.given_up_runs)))   # the faulty draws among them
+    with tqdm(total=args.service_runs + args.fault_free_runs + given_up, desc="service bench (core loop)",
+              unit="run", file=sys.stderr) as bar:
         return bench_service(runs=args.service_runs, seeds=args.seed_set, out=args.out or "reports/service",
                              executor=executor(args), progress=bar.update, max_hours=args.max_hours,
-                             fault_free_runs=args.fault_free_runs)
+                             fault_free_runs=args.fault_free_runs, given_up_runs=args.given_up_runs)
 
 
 def _scaling(args) -> dict:

@@ -24,8 +24,14 @@ the reconfiguration (core.closed_loop.simulate with Fdir). Figures, each with it
   the momentum could not allow it, when it happened, is counted apart with that reason;
 * identification of the wheel acted on: kind right, size within tolerance, interval covering the truth.
 
+In service FDIR keeps or holds nearly every wheel it acts on (a wheel given up would leave the momentum
+to the others); a wheel given up is identified from the samples before its driver goes off. That case
+gets runs of its own (``given_up_runs``): faulty draws of the family, up to 30 min long, with FDIR made
+to give up every wheel it confirms (``Fdir.holdable`` infinite, no slew margin, the policy before holding
+and keeping), measured for identification only.
+
 Seeds: tuning from 90,000,000, evaluation (figures of record) from 91,000,000, the suite's net
-from 92,000,000.
+from 92,000,000; within each, the fault-free 600-s runs from +500,000 and the given-up runs from +700,000.
 """
 from __future__ import annotations
 
@@ -50,6 +56,8 @@ from .kit import format_rate, rate, write_report
 
 SEED_BASES = {"tuning": 90_000_000, "evaluation": 91_000_000, "net": 92_000_000}
 FAULT_FREE_SEEDS = 500_000   # the fault-free runs' seeds: the set's base plus this
+GIVEN_UP_SEEDS = 700_000     # the given-up runs' seeds: the set's base plus this
+GIVEN_UP_MAX_S = 1800.0      # [s] the given-up runs' longest
 FAULT_FREE_S = 600.0
 WHEELS = WHEEL_SETS["orthogonal_skew"]
 POINTING_DEG = 0.2
@@ -77,6 +85,7 @@ class Draw:
     size_deg: float
     faults: tuple    # ({kind, wheel, onset, value, ramp}, ...)
     fault_free: bool = False   # drawn as one of the fault-free 600-s runs (draw(fault_free=True))
+    give_up: bool = False      # run with FDIR made to give up every wheel it confirms (fdir_for)
 
 
 def draw(seed: int, max_duration: float | None = None, fault_free: bool = False) -> Draw:
@@ -133,9 +142,12 @@ def scenario(d: Draw) -> Scenario:
     return parse_scenario(yaml.safe_dump(raw, sort_keys=False), origin=f"service seed {d.seed}")
 
 
-def fdir_for(units: bool) -> Fdir:
+def fdir_for(units: bool, give_up: bool = False) -> Fdir:
+    """The onboard FDIR of the family; ``give_up``: made to give up every wheel it confirms (no holding,
+    no keeping), for the identification of a wheel whose driver goes off at its decision."""
     _, curves = FdiConfig(unit_calibration=CALIBRATION_S if units else 0.0).load()
-    return Fdir(curves["model"], calibration_samples(CALIBRATION_S) if units else 0, identification=True)
+    policy = {"holdable": float("inf"), "slew_rate": 0.0} if give_up else {}
+    return Fdir(curves["model"], calibration_samples(CALIBRATION_S) if units else 0, identification=True, **policy)
 
 
 def judged_mask(time, scenario_: Scenario, start: float) -> np.ndarray:
@@ -158,7 +170,8 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
     judged = judged_mask(traj.time, scenario_, start)
     error = np.degrees(np.abs(traj.error[:, b])).max(axis=1)
     bad = judged & (error > POINTING_DEG)
-    out = {"seed": d.seed, "fault_free_family": d.fault_free, "duration": d.duration, "units": d.units,
+    out = {"seed": d.seed, "fault_free_family": d.fault_free, "give_up": d.give_up, "duration": d.duration,
+           "units": d.units,
            "orbit": d.orbit, "faults": list(d.faults),
            "decisions": decisions, "pointing_kept": not bool(bad.any()),
            "worst_deg": float(error[judged].max(initial=0.0)),
@@ -205,7 +218,7 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
 def _simulate(draws: list) -> list:
     """One batch (equal duration, wheels and orbit): the runs' figures."""
     scenarios = [scenario(d) for d in draws]
-    traj = simulate(scenarios, fdir=fdir_for(draws[0].units), every=EVERY)
+    traj = simulate(scenarios, fdir=fdir_for(draws[0].units, draws[0].give_up), every=EVERY)
     return [run_figures(traj, b, d, s) for b, (d, s) in enumerate(zip(draws, scenarios))]
 
 
@@ -213,7 +226,7 @@ def batches(draws: list, size: int = BATCH) -> list:
     """Draws grouped by what a batch must share (duration, units, orbit), longest first, in batches."""
     groups = defaultdict(list)
     for d in draws:
-        groups[(d.duration, d.units, d.orbit)].append(d)
+        groups[(d.duration, d.units, d.orbit, d.give_up)].append(d)
     out = []
     for key in sorted(groups, key=lambda k: -k[0]):   # longest first: the pool's tail is short runs
         members = groups[key]
@@ -221,10 +234,19 @@ def batches(draws: list, size: int = BATCH) -> list:
     return out
 
 
-def run_service(seeds, executor=None, progress=None, max_duration: float | None = None, fault_free_seeds=()) -> list:
-    """Figures of the in-service runs of ``seeds`` and of the fault-free 600-s runs of ``fault_free_seeds``,
-    in seed order, on ``executor`` (local processes by default, or a Dask cluster)."""
-    work = batches([draw(s, max_duration) for s in seeds] + [draw(s, fault_free=True) for s in fault_free_seeds])
+def given_up_draws(seeds) -> list:
+    """The faulty draws among ``seeds``, at most GIVEN_UP_MAX_S long, to run with FDIR giving every wheel up."""
+    from dataclasses import replace
+    return [replace(d, give_up=True) for d in (draw(s, GIVEN_UP_MAX_S) for s in seeds) if d.faults]
+
+
+def run_service(seeds, executor=None, progress=None, max_duration: float | None = None, fault_free_seeds=(),
+                given_up_seeds=()) -> list:
+    """Figures of the in-service runs of ``seeds``, of the fault-free 600-s runs of ``fault_free_seeds`` and of
+    the faulty draws of ``given_up_seeds`` with FDIR giving up (:func:`given_up_draws`), in seed order, on
+    ``executor`` (local processes by default, or a Dask cluster)."""
+    work = batches([draw(s, max_duration) for s in seeds] + [draw(s, fault_free=True) for s in fault_free_seeds]
+                   + given_up_draws(given_up_seeds))
     runs = []
     # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
     for out in (executor or LocalExecutor()).map_unordered(_simulate, work, processes=True):
@@ -260,6 +282,8 @@ def _lost_as_it_showed(run: dict) -> bool:
 def summarize(all_runs: list) -> dict:
     """The figures (module docstring): the fault-free ones on the family's runs and the fault-free 600-s runs
     together, the others on the family's runs."""
+    given_up = [r for r in all_runs if r.get("give_up")]
+    all_runs = [r for r in all_runs if not r.get("give_up")]   # the flight policy's runs
     runs = [r for r in all_runs if not r.get("fault_free_family")]
     free = [r for r in all_runs if not r["faults"]]
     free_600 = [r for r in free if r["duration"] == FAULT_FREE_S]
@@ -303,24 +327,43 @@ def summarize(all_runs: list) -> dict:
         "delay_s": ({"median": float(np.median(delays)), "p90": float(np.percentile(delays, 90)),
                      "max": float(delays.max())} if delays.size else None),
         "unknown": sum(i["kind"] == UNKNOWN for i in ident),
+        "given_up": _given_up_figures(given_up),
     }
+
+
+def _given_up_figures(runs: list) -> dict:
+    """Identification of the wheel given up at its decision, on the runs with FDIR giving up; those whose
+    fault was never acted on (hidden by the physics, or after the run's end) are counted apart."""
+    out = [r for r in runs if r["action"] == "out_of_use" and "identification" in r]
+    ident = [r["identification"] for r in out]
+    right = [i for i in ident if i["kind_right"]]
+    return {"runs": len(runs), "given_up": len(out), "kind_right": rate(i["kind_right"] for i in ident),
+            "size_right": rate(i["size_right"] for i in right), "covered": rate(i["covered"] for i in right),
+            "kind_right_by_kind": {k: rate(r["identification"]["kind_right"] for r in out
+                                           if r["faults"][0]["kind"] == k) for k in FAULT_RANGES},
+            "kind_right_by_growth": {g: rate(r["identification"]["kind_right"] for r in out
+                                             if _growth(r["faults"][0]) == g) for g in GROWTHS}}
 
 
 
 def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path = "reports/service", executor=None,
-                  progress=None, max_hours: float | None = None, fault_free_runs: int = 1000) -> dict:
-    """``runs`` of the in-service family and ``fault_free_runs`` fault-free 600-s runs of it, on the seeds of
-    ``seeds`` (SEED_BASES; the fault-free ones from FAULT_FREE_SEEDS above); the report in ``out``."""
+                  progress=None, max_hours: float | None = None, fault_free_runs: int = 1000,
+                  given_up_runs: int = 300) -> dict:
+    """``runs`` of the in-service family, ``fault_free_runs`` fault-free 600-s runs of it and the faulty draws
+    among ``given_up_runs`` seeds run with FDIR giving up, on the seeds of ``seeds`` (SEED_BASES; the fault-free
+    ones from FAULT_FREE_SEEDS above, the given-up ones from GIVEN_UP_SEEDS); the report in ``out``."""
     seed_base = SEED_BASES[seeds]
     t0 = time.monotonic()
     max_duration = None if max_hours is None else 3600.0 * max_hours
     free_base = seed_base + FAULT_FREE_SEEDS
+    given_base = seed_base + GIVEN_UP_SEEDS
     results = run_service(range(seed_base, seed_base + runs), executor, progress, max_duration,
-                          range(free_base, free_base + fault_free_runs))
+                          range(free_base, free_base + fault_free_runs), range(given_base, given_base + given_up_runs))
     report = {"schema": "rw_fdi_ros/service_bench/2", "seconds": time.monotonic() - t0, "max_hours": max_hours,
               "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,
               "seeds": [seed_base, seed_base + runs - 1],
               "fault_free_seeds": [free_base, free_base + fault_free_runs - 1] if fault_free_runs else None,
+              "given_up_seeds": [given_base, given_base + given_up_runs - 1] if given_up_runs else None,
               "figures": summarize(results), "runs": results}
     return write_report(report, out, "service", format_service)
 
@@ -340,8 +383,9 @@ def format_service(report: dict) -> str:
              "| figure | measured | goal |", "|---|---|---|",
              f"| reconfigurations without a fault, 600-s runs | {format_rate(f['reconfigured_fault_free_600s'])} | "
              "<= 0.5 % |",
-             f"| reconfigurations without a fault, per 100 h | {f['reconfigurations_per_100h']:.2f} "
-             f"({f['runs_reconfigured_before_fault']} in {f['fault_free_hours']:.0f} h) | <= 1 |",
+             "| reconfigurations without a fault, per 100 h | "
+             + ("-" if f["reconfigurations_per_100h"] is None else f"{f['reconfigurations_per_100h']:.2f} ")
+             + f"({f['runs_reconfigured_before_fault']} in {f['fault_free_hours']:.0f} h) | <= 1 |",
              f"| the faulty wheel and no other acted on (visible faults) | {format_rate(f['acted_right'])} | >= 99 % |",
              f"| pointing kept, every run | {format_rate(f['pointing_kept'])} | >= 99 % |",
              f"| pointing lost where FDIR said the momentum could not allow it | "
@@ -367,4 +411,21 @@ def format_service(report: dict) -> str:
               f"kept in {a['pointing_kept']} of them (the warning came; the slews then allowed it)."]
     h = f["physically_hidden"]
     lines += [f"Faults the physics hides (no visible torque effect, never acted on): {h['runs']} runs."]
+    g = f.get("given_up")
+    if g and g["runs"]:
+        seeds = report["given_up_seeds"]
+        lines += ["", "## A wheel given up at its decision", "",
+                  f"FDIR in service keeps or holds nearly every wheel it acts on, so the wheel given up gets runs of "
+                  f"its own: the faulty draws of seeds {seeds[0]:,}-{seeds[1]:,} ({g['runs']} runs, at most "
+                  f"{GIVEN_UP_MAX_S / 60:.0f} min) with FDIR made to give up every wheel it confirms; its "
+                  "identification comes from the samples while it was driven and as it spun down on its friction "
+                  f"(at rest it shows nothing). {g['given_up']} wheels given up (the rest: faults the physics hid, "
+                  "or confirmed after the run's end).", "",
+                  "| figure | measured | goal |", "|---|---|---|",
+                  f"| kind right, wheel given up | {format_rate(g['kind_right'])} | >= 95 % |",
+                  f"| size within tolerance | {format_rate(g['size_right'])} | >= 90 % |",
+                  f"| 95 % interval covers the truth | {format_rate(g['covered'])} | >= 90 % |"]
+        lines += [f"| kind right, {k.replace('_', ' ')} | {format_rate(r)} | >= 95 % |"
+                  for k, r in g.get("kind_right_by_kind", {}).items()]
+        lines += [f"| kind right, {k}s | {format_rate(r)} | >= 95 % |" for k, r in g["kind_right_by_growth"].items()]
     return "\n".join(lines) + "\n"
