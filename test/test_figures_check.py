@@ -48,3 +48,14 @@ def test_a_report_with_runs_writes_them_as_a_table_one_row_a_run(tmp_path):
     assert [r["seed"] for r in rows] == ["1", "2"]
     assert rows[0]["identification.kind"] == "bus_voltage" and rows[1]["identification.kind"] == ""
     assert rows[1]["delay_s"] == "3.5" and rows[0]["faults"] == '[{"kind": "bus_voltage"}]'
+
+
+def test_the_day_in_orbit_runs_beside_the_other_benches(monkeypatch, tmp_path):
+    """The check's longest single piece of work (the day in orbit, one process) starts at once in its own
+    process; the dumping bench takes its report instead of simulating it again."""
+    monkeypatch.setitem(fc.SMALL, "dumping", {**fc.SMALL["dumping"], "hours": 0.25})
+    with fc._day_beside(True, tmp_path) as day:
+        report = day.result(timeout=300)
+    assert report["hours"] == 0.25 and report["scenario"] == "dumping_day" and (tmp_path / "day.png").is_file()
+    with fc._day_beside(False, tmp_path) as none:
+        assert none is None

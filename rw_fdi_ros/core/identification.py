@@ -367,7 +367,7 @@ class Identification:
         elif self.ramp_s >= RAMP_NOTED_S:
             why += f" (grew over ~{self.ramp_s:.0f} s)"
         if self.unpowered:
-            why += " (its driver off: from the samples until it came to rest)"
+            why += " (its driver off: its spin-down counted, its rest not)"
         if self.kind == UNKNOWN:
             if self.samples < MIN_SAMPLES:
                 return f"identifying ({self.samples} samples)"
@@ -636,7 +636,11 @@ class FaultIdentifier:
                 # the one it had when last seen
                 self.unpowered.add(a)
                 if abs(float(sample.wheel_speed[i])) < AT_REST_SPEED:
+                    if self.latest[a] is not None and not self.latest[a].unpowered:
+                        self.latest[a] = replace(self.latest[a], unpowered=True)
                     continue
+            else:
+                self.unpowered.discard(a)   # driven (again)
             self.sums[a].add(row, time)
             if self.lazy:
                 self.stale.add(a)

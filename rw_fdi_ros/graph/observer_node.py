@@ -105,7 +105,7 @@ class ObserverNode(GraphNode):
             return None
         free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
         if free is None and not self.said_no_free:
-            self.said_no_free = True   # telemetry from before the report had it (an old bag's replay)
+            self.said_no_free = True   # a report from another writer than our plant
             self.get_logger().warn(f"{T.FDI_TELEMETRY} without free_motor_torque: calibrating with one motor share "
                                    "(k_t G_d), which misfits where the bridge clips at the EMF limit")
         return regressors(sample.motor_torque[i], sample.friction_torque[i], sample.wheel_speed[i],

@@ -216,8 +216,9 @@ def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method
 def live_rows(p: dict) -> list:
     """(topic, type, QoS name) the live view (nodes/live_view.py) shows for its parameters ``p``: what the
     run's bag would hold."""
-    return recorded_rows(True, p.get("fdi", True), (), p.get("fdi_method", "speed_aware"), _wheel_set(p),
+    rows = recorded_rows(True, p.get("fdi", True), (), p.get("fdi_method", "speed_aware"), _wheel_set(p),
                          p.get("orbit", False), p.get("magnetorquers", False))
+    return [r for r in rows if r[0] != FDI_BUS_GRID]   # the identification's binary table: nothing to watch
 
 
 # -- who reads what ----------------------------------------------------------------------------------

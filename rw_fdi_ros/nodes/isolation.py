@@ -151,7 +151,8 @@ class IsolationNode(GraphNode):
         self.last_row = {}   # observer -> wall time of its last row
         self.silent_said = False
         # the report and its bus-voltage grid come on two topics, in either order: paired by stamp
-        self.bus_grids, self.reports = {}, {}   # stamp -> the message waiting for its other half
+        self.bus_grids, self.reports = {}, {}   # stamp -> the grid; stamp -> (the report, since) waiting for it
+        self.said_no_grid = False
         self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         self.sub_bus_grid = self.create_subscription(PointCloud2, T.FDI_BUS_GRID, self._on_bus_grid, T.RELIABLE)
         for obs in self.channels:   # one row per stamp: residual and bound of each of the observer's topics
@@ -205,20 +206,42 @@ class IsolationNode(GraphNode):
     def _on_telemetry(self, msg):
         stamp = stamp_ns(msg.header.stamp)
         monitor = self.inputs["telemetry"]
-        late = stamp_order(monitor.last_ns, stamp, monitor.period_ns) == OUT_OF_ORDER   # dropped, and said
-        if stamp not in self.bus_grids and self.sub_bus_grid.get_publisher_count() > 0 and not late:
-            self.reports[stamp] = msg   # its grid is on its way
+        order = stamp_order(monitor.last_ns, stamp, monitor.period_ns)
+        if order == NEW_RUN:   # a new run's stamps start again: no half of the last run pairs with its own
+            self._flush_reports()
+            self.bus_grids = {t: m for t, m in self.bus_grids.items() if t <= stamp}
+        # a report whose grid did not come by the next report goes without it (its identification skipped)
+        self._flush_reports(before=stamp)
+        waiting = stamp not in self.bus_grids and self.sub_bus_grid.get_publisher_count() > 0
+        if waiting and order != OUT_OF_ORDER and stamp not in self.reports:   # late or twice: dropped, and said
+            self.reports[stamp] = (msg, time.monotonic())   # its grid is on its way
             return
         self._on_report(msg, self.bus_grids.pop(stamp, None))
+        if order != OUT_OF_ORDER:   # the grids of earlier stamps (their reports lost) are of no use now
+            self.bus_grids = {t: m for t, m in self.bus_grids.items() if t > stamp}
 
     def _on_bus_grid(self, msg):
         stamp = stamp_ns(msg.header.stamp)
         if stamp in self.reports:
-            self._on_report(self.reports.pop(stamp), msg)
+            self._on_report(self.reports.pop(stamp)[0], msg)
             return
+        last = self.inputs["telemetry"].last_ns
+        if last is not None and stamp <= last and stamp_order(last, stamp, self.inputs["telemetry"].period_ns) \
+                != NEW_RUN:
+            return   # its report was decided without it
         self.bus_grids[stamp] = msg
         while len(self.bus_grids) > 100:   # a grid whose report never came (a broken input): not kept forever
             del self.bus_grids[next(iter(self.bus_grids))]
+
+    def _flush_reports(self, before: int | None = None, waited: float | None = None):
+        """Decide the reports still waiting for their grid without it: all, those stamped before ``before``, or
+        those that waited ``waited`` wall seconds."""
+        now = time.monotonic()
+        for stamp in sorted(self.reports):
+            msg, since = self.reports[stamp]
+            if (before is None or stamp < before) and (waited is None or now - since > waited):
+                del self.reports[stamp]
+                self._on_report(msg, None)
 
     def _on_report(self, msg, bus_grid):
         t0, c0 = time.perf_counter(), time.thread_time()
@@ -266,7 +289,12 @@ class IsolationNode(GraphNode):
                                                         sample.friction_torque, sample.free_motor_torque)
                      if x is not None)
         # a non-finite sample is not judged by the observers; it must not poison the estimate either
-        identified = self.identifier.update(sample, alarmed) if finite else dict(self.identifier.latest)
+        if sample.bus_motor_torque is None and not self.said_no_grid:   # identification needs the grid
+            self.said_no_grid = True
+            self.get_logger().warn(f"{T.FDI_TELEMETRY} at {stamp * 1e-9:g} s without its {T.FDI_BUS_GRID}: fault "
+                                   "identification skips the samples that lack it")
+        identified = (self.identifier.update(sample, alarmed) if finite and sample.bus_motor_torque is not None
+                      else dict(self.identifier.latest))
         self._publish_diagnostics(stamp, handled, identified, self.decision in silent)
         self.last_handled = stamp
 
@@ -365,6 +393,7 @@ class IsolationNode(GraphNode):
 
     def _watch_inputs(self):
         """Samples an observer never completed are decided without it; silence of every input is said."""
+        self._flush_reports(waited=self.param("input_timeout"))   # a grid that never came
         if not self.live:   # a replay's player paces on /diagnostics and fails a stalled replay itself
             return
         now, timeout = time.monotonic(), self.param("input_timeout")

@@ -252,7 +252,8 @@ class PlantNode(GraphNode):
         if k >= self.last_step:
             # done only once every reader has the last sample: a recorder that sees done has it all
             for pub in (self.pub_clock, self.pub_truth, self.pub_attitude, self.pub_wheels, self.pub_fdi,
-                        self.pub_effect, *([self.pub_magnetometer] if self.pub_magnetometer else [])):
+                        self.pub_bus_grid, self.pub_effect,
+                        *([self.pub_magnetometer] if self.pub_magnetometer else [])):
                 if not pub.wait_for_all_acked(Duration(seconds=5.0)):
                     self.get_logger().warn(f"{pub.topic_name}: not every reader acknowledged the last step "
                                            "within 5 s; done anyway (the recorder says what it lacks)")

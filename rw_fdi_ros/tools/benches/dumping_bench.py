@@ -197,9 +197,11 @@ def dumping_of(scenario, traj, b: int) -> SimpleNamespace:
 
 
 def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20, runs_per_cell: int = 100,
-                  out: str | Path = "reports/dumping", executor=None) -> dict:
+                  out: str | Path = "reports/dumping", executor=None, day: dict | None = None) -> dict:
+    """The day in orbit (``day``: its :func:`bench_day` report, made elsewhere, e.g. beside other work: it is one
+    process) and the cells of runs in orbit; the report in ``out``."""
     t0 = time.monotonic()
-    day = bench_day(hours, seed, Path(out))
+    day = day if day is not None else bench_day(hours, seed, Path(out))
     _, curves = FdiConfig().load()
     level = observable_level(curves)
     sizes = [operations_runs if c.kind is None else runs_per_cell for c in CELLS]

@@ -3,7 +3,7 @@
 Many bags go through one graph (player + the method's observers + isolation
 + a recorder of the FDI outputs): the FDI nodes start a new run when the
 stamps go back to the start, and the recorder writes one bag per run. Only
-the FDI telemetry (one message per FDI period), the ground truth and the
+the FDI telemetry and its bus-voltage grid (one message each per FDI period), the ground truth and the
 scenario are played, so a replay costs a few hundred messages per bag and
 the processes start once per graph, not once per bag.
 """

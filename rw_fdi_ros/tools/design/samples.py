@@ -80,6 +80,11 @@ def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: 
     wheels = telemetry_wheels(msgs[0][1])   # the wheels the plant reported, in its order
     # the identification's bus-voltage grid goes beside each report (in a legacy text report, inside it)
     grids = {stamp_ns(m.header.stamp): m for _, m in data.topic(FDI_BUS_GRID)} if identification else {}
+    legacy = hasattr(msgs[0][1], "status")   # a text report carries its grid itself
+    lacking = [stamp_ns(m.header.stamp) for _, m in msgs if stamp_ns(m.header.stamp) not in grids]
+    if identification and not legacy and lacking:
+        raise BagError(f"{data.path}: no {FDI_BUS_GRID} for the report at {lacking[0] * 1e-9:g} s "
+                       f"({len(lacking)} reports without their grid)")
     try:
         rows = [fdi_sample_of(m, wheels, identification, grids.get(stamp_ns(m.header.stamp))).sampled(sampling)
                 for _, m in msgs]
