@@ -195,7 +195,7 @@ BENCHES = [
     ("service", "FDIR in service, every capability at once (units and datasheet wheels, manoeuvres before and after "
      "faults of every kind, size, wheel, onset and ramp, second faults, orbit with dumping, 600 s to 6 h; "
      "reconfigurations without a fault, the right wheel acted on, pointing kept, identification; core loop)",
-     ("--service-runs", "--fault-free-runs", "--max-hours", "--seed-set", "--out", *POOL), _service),
+     ("--service-runs", "--fault-free-runs", "--given-up-runs", "--max-hours", "--seed-set", "--out", *POOL), _service),
     ("scaling", "in-service runs per second on 1 and 2 local workers (or a Dask cluster's) and the wall time "
      "projected for 100,000 in-service runs (core loop)", ("--scaling-runs", "--max-hours", "--scheduler"),
      _scaling),
