@@ -28,7 +28,10 @@ dr^/db with its posterior N(0, Sigma) as prior: RSS_h(theta) = min || r - r^(the
 beta) - X_u(theta) db ||^2 + c s^2 db' Sigma^-1 db.
 
 Samples count from the fault's onset on (FaultIdentifier finds it in the samples kept before the alarm)
-and are never forgotten. The derivation, the choices and their measurements: docs/fdi.md, "Fault
+and are never forgotten. A wheel given up (its driver off) goes on through its spin-down, which shows only
+a temperature; its ripple is then one regressor of the phase its healthy samples before the onset give,
+and under MIN_DRIVEN driven samples a current loss and a bus drop are named together (``between``).
+The derivation, the choices and their measurements: docs/fdi.md, "Fault
 identification".
 """
 from __future__ import annotations
@@ -50,6 +53,9 @@ CURRENT_LIMITER_GRID = np.round(np.arange(1.0, -1e-9, -0.001), 6)           # sh
 TEMPERATURE_GRID = np.round(np.arange(23.0, 215.0 + 1e-9, 0.25), 6)          # [C]; tau_v = 0 from 215 C
 BUS_VOLTAGE_GRID = np.round(np.arange(8.0, 1.5 - 1e-9, -0.01), 6)           # [V]
 UNITS = {"current_loss": "", "temperature": "C", "bus_voltage": "V"}
+# The two families that show only through the motor torque: at one operating point a limiter share and a bus
+# voltage that clips to the same current are the same wheel, and a few samples may not tell them apart
+DRIVE = ("current_loss", "bus_voltage")
 EXPLAINED = 0.9        # share of the nominal misfit a family must explain to be named
 DECISIVE = 25.0        # likelihood-ratio margin over every other family (in s^2)
 CHI2_95 = 3.841        # chi2 with 1 degree of freedom, 95 %
@@ -58,6 +64,9 @@ CORRELATION = 10.0     # interval widening for serially correlated 1 s samples
 # leave out (1.5e-5, eq. 2.16) plus half a grid step, up to 4e-5 N m where the bus family is steep.
 SIGMA_FLOOR = 5e-5
 MIN_SAMPLES = 5
+# driven samples a current loss needs to be told from a bus drop once its driver is off: one for the family's
+# parameter, one for the ripple's amplitude, one to tell them apart
+MIN_DRIVEN = 3
 # [rad/s] an unpowered wheel below this speed is at rest: its coulomb friction's smoothing speed, twice
 AT_REST_SPEED = 2.0 * wm.WheelParams().coulomb_smoothing_speed
 FREE_UNIT = 1e-3 * SIGMA_FLOOR ** 2   # [N^2 m^2] a ridge only: the unit's shares all but free (noise estimate)
@@ -264,6 +273,39 @@ class ProfileSums:
         self.n = 0
         self.start = None     # [s] the first sample's time
         self.elapsed = 0.0    # [s] from the first sample to the last
+        self.driven = 0.0     # [s] from the first sample to the last with motor torque (its driver on)
+        self.n_driven = 0     # samples with motor torque
+        self.ripple_prior = None    # (G_0, c_0, c_0' G_0^-1 c_0) of the healthy samples before the onset
+        self.prior_on = False       # fit the ripple on them too (set_ripple_prior)
+
+    def set_ripple_prior(self, errors, ripple_phasors):
+        """The ripple's phase as the wheel's healthy samples before the onset give it (their model ``errors`` and
+        ``ripple_phasors``): w = (alpha_0, beta_0), their least-squares coefficients. While ``prior_on`` (a wheel
+        given up: the samples left carry no ripple, and the few driven ones cannot hold its two coefficients) the
+        ripple is one regressor of that phase, its amplitude kappa free,
+
+            r_k = r^_k(theta) + kappa w^T (Im p_k, Re p_k) + e_k,
+
+        as p is the nominal motor torque's phasor and a current loss or a bus drop scales the real one (kappa in
+        [0, 1]; the healthy wheel 1). Fewer than three samples, or a ripple they cannot resolve, set nothing."""
+        e = np.asarray(errors, float)
+        p = np.asarray(ripple_phasors, complex)
+        x = np.column_stack([p.imag, p.real])
+        gram = x.T @ x
+        if e.size < 3 or not np.all(np.isfinite(e)) or np.linalg.cond(gram) > 1e12:
+            return
+        self.ripple_prior = np.linalg.solve(gram, x.T @ e)
+
+    def _ripple_columns(self, cross, gram):
+        """(cross, gram, ripple columns): the ripple's two regressors, or its one of the healthy samples' phase
+        while ``prior_on`` (set_ripple_prior)."""
+        if not (self.prior_on and self.ripple_prior is not None):
+            return cross, gram, 2
+        width = gram.shape[-1]
+        shape = np.zeros((width - 1, width))       # (Im p, Re p, rest) -> (w^T (Im p, Re p), rest)
+        shape[0, :2] = self.ripple_prior
+        shape[1:, 2:] = np.eye(width - 2)
+        return cross @ shape.T, shape @ gram @ shape.T, 1
 
     def add(self, row, time: float | None = None):
         """``row``: (reaction torque, motor torque, friction torque, wheel speed, bus torques, phasor[, free
@@ -273,6 +315,9 @@ class ProfileSums:
         time = float(self.n if time is None else time)
         self.start = time if self.start is None else self.start
         self.elapsed = time - self.start
+        if tm != 0.0:
+            self.driven = self.elapsed
+            self.n_driven += 1
         e = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free)[:, 0]
         ripple = np.array([np.imag(p), np.real(p)])
         if self.unit is None:
@@ -294,7 +339,8 @@ class ProfileSums:
         self.n += 1
 
     def _ripple_usable(self, gram) -> bool:
-        return self.n > 2 and bool(np.all(np.isfinite(gram))) and np.linalg.cond(gram) <= 1e12
+        return (self.n > 2 and bool(np.all(np.isfinite(gram))) and np.abs(gram).max() > 0.0
+                and np.linalg.cond(gram) <= 1e12)
 
     def rss(self, noise_variance: float | None = None) -> np.ndarray:
         """RSS of every ramp and grid point, (ramps, grid), the ripple projected out; with ``noise_variance``
@@ -302,26 +348,35 @@ class ProfileSums:
         mean."""
         sq = self.sq[None] + self.ramp_sq[_RAMP_ORDER]
         cross = self.cross[None] + self.ramp_cross[_RAMP_ORDER]          # (ramps, grid, width)
-        ripple_gram = self.gram if self.unit is None else self.gram[0, :2, :2]
+        cross, gram, nr = self._ripple_columns(cross, self.gram)
+        ripple_gram = gram if self.unit is None else gram[0, :nr, :nr]
         ripple = self._ripple_usable(ripple_gram)
         if noise_variance is None or self.unit is None:
             if not ripple:
                 return np.maximum(sq, 0.0)
-            c = cross[..., :2]
+            c = cross[..., :nr]
             return np.maximum(sq - np.einsum("hij,hij->hi", c @ np.linalg.inv(ripple_gram), c), 0.0)
-        keep = slice(0, 6) if ripple else slice(2, 6)
-        penalty = np.zeros((6, 6))
-        penalty[2:, 2:] = noise_variance * np.linalg.inv(self.unit.covariance + 1e-12 * np.eye(4))
+        width = gram.shape[-1]
+        keep = slice(0, width) if ripple else slice(nr, width)
+        penalty = np.zeros((width, width))
+        penalty[nr:, nr:] = noise_variance * np.linalg.inv(self.unit.covariance + 1e-12 * np.eye(4))
         # one (k, k) inverse per grid point serves all its ramps: c^T (G + Pi)^-1 c as batched products,
         # five times faster than a solve per ramp
-        inverse = np.linalg.inv((self.gram + penalty)[:, keep, keep])  # (grid, k, k)
+        inverse = np.linalg.inv((gram + penalty)[:, keep, keep])        # (grid, k, k)
         c = np.moveaxis(cross[..., keep], 0, 1)                          # (grid, ramps, k)
         return np.maximum(sq - np.einsum("irk,irk->ri", c @ inverse, c), 0.0)
 
+    def seen(self, kind: str) -> float:
+        """[s] from the first sample to the last that shows ``kind``'s parameter: a current loss or a bus drop
+        shows only through the motor torque, so not once the wheel's driver is off (every later sample is the
+        same at every grid point, and a ramp's size there would be an extrapolation)."""
+        return self.elapsed if kind == "temperature" else self.driven
+
     def sizes_now(self, kind: str) -> np.ndarray:
-        """theta at the last sample of every ramp and grid point of ``kind``'s family, (ramps, grid)."""
+        """theta at the last sample that shows it (:meth:`seen`) of every ramp and grid point of ``kind``'s
+        family, (ramps, grid)."""
         grid = GRIDS[kind]
-        phi = ramp_fractions(self.elapsed)[:, None]
+        phi = ramp_fractions(self.seen(kind))[:, None]
         return grid[0] + phi * (grid[None] - grid[0])
 
 
@@ -344,6 +399,7 @@ class Identification:
     ramp_s: float = 0.0          # [s] how long the fault took to grow to its size (0: a step)
     growing: bool = False        # it was still growing at the last sample: the size is the size then
     at_s: float = float("nan")   # [s] the time of the last sample (the stamp the size is the fault's at)
+    between: tuple = ()          # 'unknown', yet one of these (DRIVE: the samples do not tell the two apart)
 
     @property
     def bound_only(self) -> str:
@@ -374,6 +430,9 @@ class Identification:
             if self.healthy:
                 return "fits a healthy wheel: alarm not confirmed"
             guess = self.best_guess.replace("_", " ")
+            if self.between:
+                return (f"current loss or bus drop, its driven samples do not tell which (closest: {guess}, explains "
+                        f"{100 * self.explained:.0f} %){why}")
             return f"unknown fault (closest: {guess}, explains {100 * self.explained:.0f} %){why}"
         head, digits = {"current_loss": ("current loss, limiter", 2), "temperature": ("temperature", 0),
                         "bus_voltage": ("bus voltage", 2)}[self.kind]
@@ -394,7 +453,7 @@ class Identification:
                 "fault_size_high": num(self.high), "fault_unit": self.unit,
                 "fault_size_unit_limited": "true" if self.unit_limited else "false",
                 "fault_growing": "true" if self.growing else "false", "fault_ramp_s": num(self.ramp_s),
-                "fault_size_at_s": num(self.at_s)}
+                "fault_size_at_s": num(self.at_s), "fault_kind_between": " or ".join(self.between)}
 
 
 def decide(sums: ProfileSums) -> Identification:
@@ -439,8 +498,8 @@ def decide(sums: ProfileSums) -> Identification:
     out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best,
                          {k: float(fits[k].min()) for k in KINDS})
     out.healthy = point == 0
-    out.at_s = float(sums.start + sums.elapsed)
-    phi = ramp_fractions(sums.elapsed)[ramp]
+    out.at_s = float(sums.start + sums.seen(best))
+    phi = ramp_fractions(sums.seen(best))[ramp]
     out.growing = bool(phi < 1.0)
     if RAMP_LENGTH[ramp] > 0.0:
         out.ramp_s = float(RAMP_LENGTH[ramp] / (1.0 - RAMP_SHARE[ramp]))
@@ -450,8 +509,15 @@ def decide(sums: ProfileSums) -> Identification:
         alone = _interval(now, known[:, _SLICES[best]], s2, step, neighbours=False)
         held = _interval(now, rss, s2, step, neighbours=False)
         out.unit_limited = (held[1] - held[0]) > 2.0 * (alone[1] - alone[0])
-    if explained < EXPLAINED or margin < DECISIVE or out.healthy:
+    # a current loss and a bus drop differ only in how the motor torque varies with the command and speed: under
+    # MIN_DRIVEN driven samples (a wheel given up at once) that is no evidence, whatever the spin-down's count
+    few_driven = best in DRIVE and sums.n_driven < MIN_DRIVEN
+    if explained < EXPLAINED or margin < DECISIVE or out.healthy or few_driven:
         out.kind = UNKNOWN
+        # the fault is in the drive, which of its two the samples cannot say: said so, not hidden in 'unknown'
+        drive_only = best in DRIVE and all((fits[k].min() - rss_min) / s2 >= DECISIVE for k in KINDS if k not in DRIVE)
+        if explained >= EXPLAINED and not out.healthy and drive_only:
+            out.between = DRIVE
     return out
 
 
@@ -661,6 +727,7 @@ class FaultIdentifier:
             self.latest[a] = self._decide(a)
 
     def _decide(self, a) -> Identification:
+        self.sums[a].prior_on = a in self.unpowered
         found = decide(self.sums[a])
         return replace(found, unpowered=True) if a in self.unpowered else found
 
@@ -673,5 +740,6 @@ class FaultIdentifier:
         mean = None if calibration is None else calibration.so_far().mean[:PHYSICAL]
         errors = [e if mean is None else e - float(z[:PHYSICAL] @ mean) for _, e, z, _ in past]
         onset = onset_index(errors, [r[5] for r, _, _, _ in past])
+        self.sums[a].set_ripple_prior(errors[:onset], [r[5] for r, _, _, _ in past[:onset]])
         for earlier, _, _, time in past[onset + 1:-1]:
             self.sums[a].add(earlier, time)

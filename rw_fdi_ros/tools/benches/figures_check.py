@@ -92,6 +92,8 @@ FIGURES = [
     Figure("**in service**", "kind identified", "service", lambda r: r["figures"]["kind_right"]),
     Figure("**in service**", "kind identified, wheel given up", "service",
            lambda r: r["figures"]["given_up"]["kind_right"]),
+    Figure("**in service**", "kind or the drive named, wheel given up", "service",
+           lambda r: r["figures"]["given_up"]["kind_narrowed"]),
     Figure("**in service**", "reconfigurations without a fault, 600-s runs", "service",
            lambda r: r["figures"]["reconfigured_fault_free_600s"]),
     Figure("reconfigurations in fault-free operations", "reconfigured", "recovery",

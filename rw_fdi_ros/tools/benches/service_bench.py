@@ -208,6 +208,8 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
             row = {"true_kind": truth, "kind": found.kind if found else "none",
                    "message": found.message() if found else "never alarmed"}
             row["kind_right"] = row["kind"] == truth
+            # or the drive named, its current and bus not told apart (Identification.between)
+            row["kind_narrowed"] = row["kind_right"] or (found is not None and truth in found.between)
             if row["kind_right"]:
                 row.update(judge_size(scenario_.faults[0], found.size, found.low, found.high, found.at_s),
                            low=float(found.low), high=float(found.high), growing=found.growing)
@@ -338,6 +340,8 @@ def _given_up_figures(runs: list) -> dict:
     ident = [r["identification"] for r in out]
     right = [i for i in ident if i["kind_right"]]
     return {"runs": len(runs), "given_up": len(out), "kind_right": rate(i["kind_right"] for i in ident),
+            "kind_narrowed": rate(i.get("kind_narrowed", i["kind_right"]) for i in ident),
+            "kind_wrong": sum(i["kind"] not in (i["true_kind"], "unknown", "none") for i in ident),
             "size_right": rate(i["size_right"] for i in right), "covered": rate(i["covered"] for i in right),
             "kind_right_by_kind": {k: rate(r["identification"]["kind_right"] for r in out
                                            if r["faults"][0]["kind"] == k) for k in FAULT_RANGES},
@@ -423,6 +427,9 @@ def format_service(report: dict) -> str:
                   "or confirmed after the run's end).", "",
                   "| figure | measured | goal |", "|---|---|---|",
                   f"| kind right, wheel given up | {format_rate(g['kind_right'])} | >= 95 % |",
+                  f"| kind right, or the drive named (current or bus not told apart) | "
+                  f"{format_rate(g['kind_narrowed']) if 'kind_narrowed' in g else '-'} | |",
+                  f"| a wrong kind named | {g.get('kind_wrong', '-')} of {g['given_up']} | 0 |",
                   f"| size within tolerance | {format_rate(g['size_right'])} | >= 90 % |",
                   f"| 95 % interval covers the truth | {format_rate(g['covered'])} | >= 90 % |"]
         lines += [f"| kind right, {k.replace('_', ' ')} | {format_rate(r)} | >= 95 % |"
