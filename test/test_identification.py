@@ -137,7 +137,7 @@ def test_a_wheel_given_up_has_its_ripple_of_the_healthy_samples_phase():
     for row in zip(*after):
         sums.add(row)
     r, tm, tf = before[:3]
-    sums.set_ripple_prior(r + (tm - tf), before[5])
+    sums.set_ripple_prior(r + (tm - tf) + 2e-4, before[5])    # an offset (a unit not calibrated) leaves the phase
     assert sums.ripple_prior == pytest.approx(ripple, rel=1e-9)
     sums.prior_on = True
     rss = sums.rss()[0]
@@ -152,12 +152,12 @@ def test_a_wheel_given_up_has_its_ripple_of_the_healthy_samples_phase():
     assert sums.rss()[0][0] < rss[0]
 
 
-@pytest.mark.parametrize("driven", [8, 4])
+@pytest.mark.parametrize("driven", [8, 5, 4])
 def test_a_wheel_given_up_after_a_few_driven_samples_is_identified_from_them(driven):
     """A current loss given up a few samples after its onset: its driver off, the samples left carry no motor
     torque and no ripple, so the ripple's coefficients come from the healthy samples before the onset (without
     them they absorbed the driven ones, and every family fitted as well as the healthy wheel). Its size is the
-    one of the last sample that showed it, not a ramp carried on through the spin-down. Under MIN_SAMPLES driven
+    one of the last sample that showed it, not a ramp carried on through the spin-down. Under MIN_DRIVEN driven
     samples a current loss and a bus drop are not told apart, and the answer says so."""
     healthy = list(zip(*wheel_rows("current_limiter", 1.0, n=30, seed=10)))
     faulty = list(zip(*wheel_rows("current_limiter", 0.6, n=driven, seed=11)))
@@ -172,7 +172,7 @@ def test_a_wheel_given_up_after_a_few_driven_samples_is_identified_from_them(dri
     found = out["x"]
     # the sample at the step left out (and the one after, where the ripple hides the change)
     assert driven - 2 <= ident.sums["x"].n_driven <= driven - 1
-    if driven - 1 < idf.MIN_SAMPLES:
+    if ident.sums["x"].n_driven < idf.MIN_DRIVEN:
         assert found.kind == "unknown" and found.between == idf.DRIVE and found.best_guess == "current_loss"
         assert found.unpowered and "do not tell which" in found.message()
         ident.sums["x"].prior_on = False     # the free ripple takes the driven samples: nothing left to explain

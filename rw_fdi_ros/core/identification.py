@@ -275,26 +275,27 @@ class ProfileSums:
         self.elapsed = 0.0    # [s] from the first sample to the last
         self.driven = 0.0     # [s] from the first sample to the last with motor torque (its driver on)
         self.n_driven = 0     # samples with motor torque
-        self.ripple_prior = None    # (G_0, c_0, c_0' G_0^-1 c_0) of the healthy samples before the onset
-        self.prior_on = False       # fit the ripple on them too (set_ripple_prior)
+        self.ripple_prior = None    # w: the ripple's phase, of the healthy samples before the onset
+        self.prior_on = False       # the ripple one regressor of that phase (set_ripple_prior)
 
     def set_ripple_prior(self, errors, ripple_phasors):
         """The ripple's phase as the wheel's healthy samples before the onset give it (their model ``errors`` and
-        ``ripple_phasors``): w = (alpha_0, beta_0), their least-squares coefficients. While ``prior_on`` (a wheel
+        ``ripple_phasors``): w = (alpha_0, beta_0), their least-squares coefficients beside a constant (what
+        the model leaves of a unit not calibrated, which would turn the phase). While ``prior_on`` (a wheel
         given up: the samples left carry no ripple, and the few driven ones cannot hold its two coefficients) the
         ripple is one regressor of that phase, its amplitude kappa free,
 
             r_k = r^_k(theta) + kappa w^T (Im p_k, Re p_k) + e_k,
 
         as p is the nominal motor torque's phasor and a current loss or a bus drop scales the real one (kappa in
-        [0, 1]; the healthy wheel 1). Fewer than three samples, or a ripple they cannot resolve, set nothing."""
+        [0, 1]; the healthy wheel 1). Fewer than four samples, or a ripple they cannot resolve, set nothing."""
         e = np.asarray(errors, float)
         p = np.asarray(ripple_phasors, complex)
-        x = np.column_stack([p.imag, p.real])
+        x = np.column_stack([p.imag, p.real, np.ones(e.size)])
         gram = x.T @ x
-        if e.size < 3 or not np.all(np.isfinite(e)) or np.linalg.cond(gram) > 1e12:
+        if e.size < 4 or not np.all(np.isfinite(e)) or np.linalg.cond(gram) > 1e12:
             return
-        self.ripple_prior = np.linalg.solve(gram, x.T @ e)
+        self.ripple_prior = np.linalg.solve(gram, x.T @ e)[:2]
 
     def _ripple_columns(self, cross, gram):
         """(cross, gram, ripple columns): the ripple's two regressors, or its one of the healthy samples' phase

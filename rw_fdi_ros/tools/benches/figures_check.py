@@ -1,8 +1,8 @@
 """`rw-fdi bench figures`: every figure of the README's table re-measured at small n, beside the README's.
 
 A figure of record holds only while nothing it depends on has changed. This command runs each bench behind
-the README's table at a small sample (SMALL: 12-15 minutes on 2 cores in all), on the benches' own seeds
-of record, and prints every figure beside the README's row and the report of record it quotes
+the README's table at a small sample (SMALL: about 25 minutes on 2 cores in all, docs/benchmarks.md), on the
+benches' own seeds of record, and prints every figure beside the README's row and the report of record it quotes
 (``reports/``). A rate is flagged when its small-n 95 % interval and the record's do not meet: the two
 samples disagree beyond chance, so something the figure depends on changed. A value (a wheel speed, a time
 of loss) is flagged outside its stated tolerance of the record. Small n cannot confirm a record (0 of 40
@@ -20,7 +20,7 @@ from pathlib import Path
 
 from .kit import format_rate, rate
 
-# the small samples: (bench, its keyword arguments); the whole check about 12-15 minutes on 2 cores
+# the small samples: (bench, its keyword arguments); the whole check about 25 minutes on 2 cores
 SMALL = {
     "detection": {"fault_free_runs": 60, "runs_per_cell": 20},
     "operations": {"fault_free_runs": 40, "runs_per_cell": 12, "hours_runs": 2},
