@@ -276,7 +276,7 @@ class ProfileSums:
         self.driven = 0.0     # [s] from the first sample to the last with motor torque (its driver on)
         self.n_driven = 0     # samples with motor torque
         self.ripple_prior = None    # w: the ripple's phase, of the healthy samples before the onset
-        self.prior_on = False       # the ripple one regressor of that phase (set_ripple_prior)
+        self.prior_on = False       # the ripple one regressor of that phase: the driver off at the last sample
 
     def set_ripple_prior(self, errors, ripple_phasors):
         """The ripple's phase as the wheel's healthy samples before the onset give it (their model ``errors`` and
@@ -319,6 +319,7 @@ class ProfileSums:
         if tm != 0.0:
             self.driven = self.elapsed
             self.n_driven += 1
+        self.prior_on = tm == 0.0    # its driver off (set_ripple_prior)
         e = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free)[:, 0]
         ripple = np.array([np.imag(p), np.real(p)])
         if self.unit is None:
@@ -728,7 +729,6 @@ class FaultIdentifier:
             self.latest[a] = self._decide(a)
 
     def _decide(self, a) -> Identification:
-        self.sums[a].prior_on = a in self.unpowered
         found = decide(self.sums[a])
         return replace(found, unpowered=True) if a in self.unpowered else found
 
