@@ -1,7 +1,7 @@
 """`rw-fdi bench figures`: every figure of the README's table re-measured at small n, beside the README's.
 
 A figure of record holds only while nothing it depends on has changed. This command runs each bench behind
-the README's table at a small sample (SMALL: about 25 minutes on 2 cores in all, docs/benchmarks.md), on the
+the README's table at a small sample (SMALL: about 8 minutes on 2 cores in all at the record's machine speed, docs/benchmarks.md), on the
 benches' own seeds of record, and prints every figure beside the README's row and the report of record it quotes
 (``reports/``). A rate is flagged when its small-n 95 % interval and the record's do not meet: the two
 samples disagree beyond chance, so something the figure depends on changed. A value (a wheel speed, a time
@@ -20,7 +20,7 @@ from pathlib import Path
 
 from .kit import format_rate, rate
 
-# the small samples: (bench, its keyword arguments); the whole check about 25 minutes on 2 cores
+# the small samples: (bench, its keyword arguments); the whole check about 8 minutes on 2 cores (the graph at its record's ~115x)
 SMALL = {
     "detection": {"fault_free_runs": 60, "runs_per_cell": 20},
     "operations": {"fault_free_runs": 40, "runs_per_cell": 12, "hours_runs": 2},
