@@ -16,8 +16,9 @@ from .fdir import HOLDABLE_SPEED, SLEW_RATE, DecisionDelay, DeliveryLog, Reconfi
 from .magnetorquers import Dumper
 from .onboard import OnboardVerdict
 from .pid import PidController, PidGains, design_gains
-from .plant import Plant
+from .plant import Plant, batch_vehicle
 from .scenario import Scenario, setpoint_at
+from .spacecraft import inertia_times
 from .wheel import WheelParams
 
 
@@ -62,7 +63,7 @@ class Trajectory:
         return self.attitude - self.setpoint
 
 
-def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = WheelParams(),
+def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None = None,
              control_period=0.1, duration=None, disturbance=True, wheel_momentum_coupling=True,
              wheels=None, fdir: Fdir | None = None, magnetic_field: str | None = None,
              every: int = 1) -> Trajectory:
@@ -75,9 +76,9 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
     scenarios : Scenario or list of Scenario
         The B runs of the batch.
     gains : PidGains, optional
-        The controllers' gains; None for :func:`pid.design_gains`'s defaults.
-    wheel : WheelParams
-        The wheel type (scalar fields; a scenario's units are drawn from it).
+        The controllers' gains; None for :func:`pid.design_gains` on the vehicle's axis inertias.
+    wheel : WheelParams, optional
+        The wheel type (scalar fields; a scenario's units are drawn from it); None: the scenarios' vehicle's.
     control_period : float, optional
         Control period [s].
     duration : float, optional
@@ -107,8 +108,10 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
                   wheel_momentum_coupling=wheel_momentum_coupling, wheels=wheels, duration=duration,
                   magnetic_field=magnetic_field)
     dumper = Dumper([s.magnetorquers for s in scenarios]) if plant.in_orbit else None
+    vehicle = batch_vehicle(scenarios)
+    wheel = vehicle.wheel if wheel is None else wheel
     allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit)
-    gains = gains or design_gains()
+    gains = gains or (design_gains() if scenarios[0].vehicle is None else design_gains(vehicle.axis_inertia))
     # the controllers' integrators hold the body-axis command of the wheels' holding voltages
     pid = PidController(gains, control_period, initial_tcv=plant.tcv @ plant.spin_axes.T, wheel=wheel)
     schedules = [s.setpoint_schedule() for s in scenarios]
@@ -117,7 +120,8 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams = Whee
     if fdir is not None:
         onboard = OnboardVerdict(plant.wheels.names, fdir.curves, plant.batch, fdir.fdi_period,
                                  fdir.calibration_samples, identification=fdir.identification)
-        reconfig = [Reconfiguration(plant.wheels, fdir.holdable, fdir.slew_rate) for _ in scenarios]
+        reconfig = [Reconfiguration(plant.wheels, fdir.holdable, fdir.slew_rate, plant.inertia, wheel.inertia)
+                    for _ in scenarios]
         delays = [DecisionDelay() for _ in scenarios]
         delivery = DeliveryLog()
     rec = {k: [] for k in ("attitude", "setpoint", "body_rate", "wheel_speed", "tcv", "reaction_torque",
@@ -176,7 +180,7 @@ def _fdir_step(onboard, reconfig, delays, allocator, plant, sample, delivery):
         if confirmed:
             delay.confirm(confirmed[b], sample.time, r.settled)
         changed = False
-        momentum = plant.inertia * sample.body_rate[b]
+        momentum = inertia_times(plant.inertia, sample.body_rate[b])
         for wheel, reason in delay.due(sample.time):
             changed |= bool(r.give_up(wheel, sample.time, reason, sample.wheel_speed[b], momentum,
                                       delivered=delivery.share(r.wheels.index(wheel), b)))

@@ -29,7 +29,7 @@ import numpy as np
 
 from .geomagnetic import field_inertial
 from .orbit import MU_EARTH, CircularOrbit, TleOrbit, sidereal_angle
-from .spacecraft import cross
+from .spacecraft import cross, inertia_times
 
 ENVIRONMENT_STEP = 10.0
 DEFAULT_EPOCH = datetime(2026, 1, 1, tzinfo=timezone.utc)
@@ -116,15 +116,15 @@ def body_from_inertial(attitude) -> np.ndarray:
 
 
 def gravity_gradient_torque(position_body, inertia) -> np.ndarray:
-    """tau_gg = 3 mu / |r|^5 (r x I r) [N m] for positions in body axes (..., 3) and a principal inertia
-    (3,) [kg m^2].
+    """tau_gg = 3 mu / |r|^5 (r x I r) [N m] for positions in body axes (..., 3) and an inertia, its
+    diagonal (3,) or the matrix (3, 3) [kg m^2].
 
     Parameters
     ----------
     position_body : array_like, shape (..., 3)
         Position r from the Earth's centre [m], body axes, e.g. (B, 3).
-    inertia : array_like, shape (3,)
-        Principal inertia I [kg m^2].
+    inertia : array_like, shape (3,) or (3, 3)
+        Inertia I [kg m^2], body axes.
 
     Returns
     -------
@@ -132,7 +132,7 @@ def gravity_gradient_torque(position_body, inertia) -> np.ndarray:
         tau_gg [N m], body axes.
     """
     r = np.asarray(position_body, float)
-    return 3.0 * MU_EARTH / np.linalg.norm(r, axis=-1, keepdims=True) ** 5 * cross(r, np.asarray(inertia) * r)
+    return 3.0 * MU_EARTH / np.linalg.norm(r, axis=-1, keepdims=True) ** 5 * cross(r, inertia_times(inertia, r))
 
 
 class Environments:

@@ -157,7 +157,8 @@ def slew_excursion(wheels: WheelSet, in_use, slew_rate: float = SLEW_RATE, body_
 
 
 def momentum_shortfall(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0, 0.0, 0.0),
-                       holdable: float = HOLDABLE_SPEED, slew_rate: float = SLEW_RATE) -> str | None:
+                       holdable: float = HOLDABLE_SPEED, slew_rate: float = SLEW_RATE, body_inertia=INERTIA,
+                       wheel_inertia: float = WheelParams().inertia) -> str | None:
     """Why the wheels ``in_use`` cannot hold the spacecraft's momentum and still take a slew at ``slew_rate``
     (one line), or None when they can: every wheel within ``holdable`` at |held speed| + slew excursion.
 
@@ -175,14 +176,20 @@ def momentum_shortfall(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0
         Largest speed a wheel in use may be asked to hold [rad/s].
     slew_rate : float, optional
         Body rate per axis of the slews to come [rad/s]; 0 for none.
+    body_inertia : array_like, shape (3,) or (3, 3), optional
+        The vehicle's inertia I [kg m^2] (its diagonal is what a slew about one axis asks).
+    wheel_inertia : float, optional
+        J [kg m^2].
 
     Returns
     -------
     str or None
         The reason, naming the worst wheel and its speeds [rad/s]; None when every wheel stays within ``holdable``.
     """
-    need = np.abs(held_speeds(wheels, in_use, wheel_speed, body_momentum))
-    reach = need + slew_excursion(wheels, in_use, slew_rate)
+    need = np.abs(held_speeds(wheels, in_use, wheel_speed, body_momentum, wheel_inertia))
+    inertia = np.asarray(body_inertia, float)
+    reach = need + slew_excursion(wheels, in_use, slew_rate, np.diag(inertia) if inertia.ndim == 2 else inertia,
+                                  wheel_inertia)
     worst = int(np.argmax(reach))
     if reach[worst] <= holdable:
         return None
@@ -266,8 +273,11 @@ class Delivered:
 class Reconfiguration:
     """Which wheels of ``wheels`` are in use, and the decisions that made it so."""
 
-    def __init__(self, wheels: WheelSet, holdable: float = HOLDABLE_SPEED, slew_rate: float = SLEW_RATE):
+    def __init__(self, wheels: WheelSet, holdable: float = HOLDABLE_SPEED, slew_rate: float = SLEW_RATE,
+                 body_inertia=INERTIA, wheel_inertia: float = WheelParams().inertia):
         self.wheels = wheels
+        self.body_inertia = body_inertia     # [kg m^2] the vehicle's I, (3,) or (3, 3)
+        self.wheel_inertia = wheel_inertia   # [kg m^2] J
         self.holdable = float(holdable)   # [rad/s] the speed a wheel in use may be asked to hold
         self.slew_rate = float(slew_rate)   # [rad/s] the body rate of the slews the wheels in use must take
         self.in_use = list(wheels.active)
@@ -305,7 +315,8 @@ class Reconfiguration:
             after = rest + ([spare] if spare is not None else [])
             short = None if wheel_speed is None else momentum_shortfall(self.wheels, after, wheel_speed,
                                                                          body_momentum, self.holdable,
-                                                                         self.slew_rate)
+                                                                         self.slew_rate, self.body_inertia,
+                                                                         self.wheel_inertia)
             if short and spare is not None and not force and not delivered < KEEPABLE_SHARE:
                 # the wheels left could not hold the momentum and still slew: the faulty wheel keeps its
                 # momentum and a share of the work beside the spare (all of them in use, minimum norm)

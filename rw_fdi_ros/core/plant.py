@@ -94,16 +94,31 @@ def units_of(scenarios, base: wm.WheelParams, count: int = 3) -> wm.WheelParams:
                                 for name in wm.UNIT_PARAMETERS})
 
 
+def batch_vehicle(scenarios):
+    """The one vehicle a batch of scenarios flies (vehicle.py); ValueError when they name different ones."""
+    vehicles = {s.spacecraft for s in scenarios}
+    if len(vehicles) > 1:
+        raise ValueError("a batch of runs flies one vehicle; these scenarios name "
+                         + ", ".join(sorted(v.name for v in vehicles)))
+    return vehicles.pop()
+
+
 class Plant:
     """Spacecraft with a set of reaction wheels (the scenarios' ``wheel_set``) for a batch of scenarios."""
 
-    def __init__(self, scenarios, wheel: wm.WheelParams = wm.WheelParams(), control_period=0.1,
-                 substeps=1, inertia=INERTIA, disturbance=True, wheel_momentum_coupling=True,
+    def __init__(self, scenarios, wheel: wm.WheelParams | None = None, control_period=0.1,
+                 substeps=1, inertia=None, disturbance=True, wheel_momentum_coupling=True,
                  wheels: WheelSet | str | None = None, duration: float | None = None,
                  magnetic_field: str | None = None):
+        """``wheel``, ``inertia``: the wheel type and the body's inertia; None: the scenarios' vehicle's."""
         if isinstance(scenarios, Scenario):
             scenarios = [scenarios]
         self.scenarios = list(scenarios)
+        vehicle = batch_vehicle(self.scenarios)
+        wheel = vehicle.wheel if wheel is None else wheel
+        if inertia is None:   # the thesis' constant where no vehicle is named: its runs bit for bit as before
+            inertia = INERTIA if self.scenarios[0].vehicle is None else vehicle.body_inertia
+        self.disturbance_sigma = vehicle.disturbance_sigma
         if wheels is None:
             wheels = self.scenarios[0].plant_choices().wheel_set
         self.wheels = named_wheel_set(wheels) if isinstance(wheels, str) else wheels
@@ -208,7 +223,7 @@ class Plant:
         t0 = self.time
         op = SimpleNamespace(**self.operating_point(t0))
         if self.disturbance:
-            dist = np.array([disturbance_torque(r) for r in self.rngs])
+            dist = np.array([disturbance_torque(r, sigma=self.disturbance_sigma) for r in self.rngs])
         else:
             dist = np.zeros((self.batch, 3))
         if self.in_orbit:   # secular torques and the rods', held over the period like eq. 2.34's

@@ -20,6 +20,9 @@ from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
 
 # what a scenario file may set under `plant:` (the rest is fixed by the graph)
 SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period", "wheel_set", "magnetic_field")
+# what a bag's /scenario records under `plant:`: those and the vehicle's name (its `vehicle:` holds the rest)
+RECORDED_KEYS = SCENARIO_KEYS + ("vehicle",)
+DEFAULT_VEHICLE = "maksat"   # vehicle.DEFAULT_VEHICLE: the thesis' spacecraft
 # the value a recorded mapping without the key was made under
 LEGACY = {"wheel_momentum_coupling": False, "wheel_set": "orthogonal"}
 # (choice, made under, running) pairs that are no difference to what was fitted or trained: a three-wheel
@@ -45,7 +48,8 @@ class PlantChoices:
     as the thesis writes it); control_period: lockstep tick [s]; wheel_set: the wheels and their
     spin axes (wheel_set.py); fdi_period / fdi_sampling: the observers' sample period [s] and how
     control-rate data becomes one FDI sample; magnetic_field: the geomagnetic model of a run in orbit
-    (geomagnetic.py; no effect without an orbit).
+    (geomagnetic.py; no effect without an orbit); vehicle: the name of the spacecraft the run flies
+    (vehicle.py): the FDI's networks and bands are fitted for one vehicle and refuse another.
 """
 
     emf_limit: str = "kf_scaled"
@@ -55,8 +59,11 @@ class PlantChoices:
     fdi_period: float = FDI_PERIOD
     fdi_sampling: str = FDI_SAMPLING
     magnetic_field: str = "igrf"
+    vehicle: str = DEFAULT_VEHICLE
 
     def __post_init__(self):
+        if not isinstance(self.vehicle, str) or not self.vehicle:
+            raise PlantChoiceError(f"vehicle must be a vehicle's name, got {self.vehicle!r}")
         if self.magnetic_field not in FIELD_MODELS:
             raise PlantChoiceError(f"magnetic_field must be one of {', '.join(FIELD_MODELS)}, "
                                    f"got {self.magnetic_field!r}")
@@ -77,7 +84,7 @@ class PlantChoices:
     @classmethod
     def for_scenario(cls, scenario_plant: dict | None = None, **overrides) -> "PlantChoices":
         """A new run's choices: the scenario's ``plant:`` mapping, then overrides that are not None."""
-        given = {k: v for k, v in (scenario_plant or {}).items() if k in SCENARIO_KEYS}
+        given = {k: v for k, v in (scenario_plant or {}).items() if k in RECORDED_KEYS}
         given.update({k: v for k, v in overrides.items() if v is not None and v != ""})
         return cls(**given)
 
@@ -100,7 +107,7 @@ class PlantChoices:
 
     def scenario_dict(self) -> dict:
         """The part a bag's /scenario records (the graph fixes the FDI sampling)."""
-        return {k: getattr(self, k) for k in SCENARIO_KEYS}
+        return {k: getattr(self, k) for k in RECORDED_KEYS}
 
     def with_(self, **changes) -> "PlantChoices":
         return replace(self, **changes)

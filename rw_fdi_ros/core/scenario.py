@@ -7,6 +7,7 @@ the run's seed, so the same seed always gives the same run.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from datetime import date, datetime, timezone
 from pathlib import Path
 
@@ -19,19 +20,21 @@ from .magnetorquers import MomentumDumping
 from .orbit import CircularOrbit, OrbitError, TleOrbit
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
 from .wheel_set import AXIS_WHEELS, DEFAULT_WHEEL_SET, WHEEL_SETS
-from .wheel import DEFAULT_UNIT_SPREAD, NOMINAL, UNIT_PARAMETERS, WheelParams, unit_wheel
+from .vehicle import DEFAULT_VEHICLE, Dispersions, Vehicle, VehicleError, load_vehicle
+from .wheel import NOMINAL, UNIT_PARAMETERS, WheelParams, unit_wheel
 
 FAULT_KINDS = ("bus_voltage", "current_limiter", "temperature", "ripple_gain")
 NOMINAL_VALUES = {k: getattr(NOMINAL, k) for k in FAULT_KINDS}
 
-# Thesis Table 2.3 ranges drawn per axis.
-ATTITUDE_RANGE_DEG = (-180.0, 180.0)
-BODY_RATE_RANGE = (-1.0e-4, 1.0e-4)
-WHEEL_SPEED_RANGE = (20.0, 30.0)
-SETPOINT_CHANGE_RANGE_DEG = (-5.0, 5.0)
+# Thesis Table 2.3 ranges drawn per axis (the default vehicle's dispersions, vehicle.py).
+ATTITUDE_RANGE_DEG = Dispersions().attitude_deg
+BODY_RATE_RANGE = Dispersions().body_rate
+WHEEL_SPEED_RANGE = Dispersions().wheel_speed
+SETPOINT_CHANGE_RANGE_DEG = Dispersions().setpoint_change_deg
 
 
-PLANT_KEYS = set(SCENARIO_KEYS)
+# `plant.vehicle` is a record (a bag's /scenario): it must name the scenario's own vehicle
+PLANT_KEYS = set(SCENARIO_KEYS) | {"vehicle"}
 
 
 class ScenarioError(ValueError):
@@ -117,6 +120,12 @@ class Scenario:
     environment: OrbitEnvironment | None = None  # in orbit (environment.py); None: no orbit, no field
     magnetorquers: MomentumDumping | None = None  # rods and their dumping law (magnetorquers.py)
     source_text: str = ""     # the YAML it came from, recorded in every bag
+    vehicle: Vehicle | None = None   # the spacecraft (vehicle.py); None: the thesis' (config/vehicles/maksat.yaml)
+
+    @property
+    def spacecraft(self) -> Vehicle:
+        """The vehicle the run flies: its own, else the default (the thesis' MakSat)."""
+        return self.vehicle if self.vehicle is not None else _default_vehicle()
 
     def with_seed(self, seed: int) -> "Scenario":
         return replace(self, seed=int(seed))
@@ -135,10 +144,11 @@ class Scenario:
     def draws(self):
         """Initial conditions and set-point changes, Table 2.3 uniform draws unless fixed."""
         rng = self._rng()
-        att = rng.uniform(*ATTITUDE_RANGE_DEG, 3)
-        rate = rng.uniform(*BODY_RATE_RANGE, 3)
-        speed = rng.uniform(*WHEEL_SPEED_RANGE, 3)
-        changes = [rng.uniform(*SETPOINT_CHANGE_RANGE_DEG, 3) for _ in self.setpoints]
+        d = self.vehicle.dispersions if self.vehicle is not None else Dispersions()
+        att = rng.uniform(*d.attitude_deg, 3)
+        rate = rng.uniform(*d.body_rate, 3)
+        speed = rng.uniform(*d.wheel_speed, 3)
+        changes = [rng.uniform(*d.setpoint_change_deg, 3) for _ in self.setpoints]
         fixed = self.initial
         att = np.asarray(fixed.get("attitude_deg", att), float)
         rate = np.asarray(fixed.get("body_rate", rate), float)
@@ -159,7 +169,7 @@ class Scenario:
         none of the three. ``scale`` entries are taken as given (3 values: the first three wheels)."""
         if not self.wheels:
             return None
-        spread = dict(DEFAULT_UNIT_SPREAD) if self.wheels.get("variation") else {}
+        spread = (self.spacecraft.dispersions.unit_spreads if self.wheels.get("variation") else {})
         spread.update(self.wheels.get("spread", {}))
         rngs = [np.random.default_rng([int(self.seed), 2]), np.random.default_rng([int(self.seed), 4])]
         out = {}
@@ -172,8 +182,10 @@ class Scenario:
             out[name] = np.concatenate([given, out[name][len(given):]])[:count]
         return out
 
-    def wheel_params(self, base: WheelParams = WheelParams()) -> WheelParams:
-        """The plant's wheels for this scenario: ``base`` (the datasheet) or its units (unit_scales)."""
+    def wheel_params(self, base: WheelParams | None = None) -> WheelParams:
+        """The plant's wheels for this scenario: ``base`` (default: its vehicle's datasheet) or its units
+        (unit_scales)."""
+        base = self.spacecraft.wheel if base is None else base
         scales = self.unit_scales(self.wheel_set().count)
         return base if scales is None else unit_wheel(base, scales)
 
@@ -209,6 +221,8 @@ class Scenario:
                              "scale": {k: [float(x) for x in v] for k, v in scales.items()}}
         if plant:
             raw["plant"] = {**raw.get("plant", {}), **plant}
+        if self.vehicle is not None:   # the whole vehicle, not its file's name: the bag alone redoes the run
+            raw["vehicle"] = self.vehicle.as_dict()
         raw.setdefault("name", self.name)
         return yaml.safe_dump(raw, sort_keys=False)
 
@@ -404,7 +418,7 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     if not isinstance(raw, dict):
         raise ScenarioError(f"{origin}: a scenario is a YAML mapping (name, duration, faults, ...)")
     unknown = set(raw) - {"name", "description", "duration", "seed", "faults", "setpoints", "initial", "plant",
-                          "wheels", "manoeuvres", "environment", "magnetorquers"}
+                          "wheels", "manoeuvres", "environment", "magnetorquers", "vehicle"}
     if unknown:
         raise ScenarioError(f"{origin}: unknown field(s) {sorted(unknown)}")
     duration = _num(f"{origin}: duration", raw.get("duration", 400.0), 1.0, 1e6)
@@ -437,6 +451,15 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
         raise ScenarioError(f"{origin}: plant may set only {sorted(PLANT_KEYS)}")
     if "control_period" in plant:
         _num(f"{origin}: plant.control_period", plant["control_period"], 1e-3, 1.0)
+    vehicle = _vehicle(origin, raw.get("vehicle"))
+    if vehicle is not None:
+        plant = {**plant, "wheel_set": _vehicle_wheel_set(origin, vehicle, plant)}
+    named = DEFAULT_VEHICLE if vehicle is None else vehicle.name
+    if plant.get("vehicle", named) != named:
+        raise ScenarioError(f"{origin}: plant.vehicle {plant['vehicle']!r} records another vehicle than the "
+                            f"scenario's ({named}); name the vehicle under `vehicle:`")
+    if vehicle is not None:
+        plant["vehicle"] = vehicle.name
     try:
         names = WHEEL_SETS[PlantChoices.for_scenario(plant).wheel_set].names
     except PlantChoiceError as exc:
@@ -454,14 +477,54 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     except ValueError:
         raise ScenarioError(f"{origin}: plant.control_period {period:g} s does not divide the magnetometer's "
                             f"{MAGNETOMETER_PERIOD:g} s (in orbit)") from None
-    magnetorquers = _magnetorquers(f"{origin}: magnetorquers", raw.get("magnetorquers"))
+    magnetorquers = _magnetorquers(f"{origin}: magnetorquers", raw.get("magnetorquers"),
+                                   None if vehicle is None else vehicle.magnetorquers)
     if magnetorquers is not None and environment is None:
         raise ScenarioError(f"{origin}: magnetorquers need a field: give the scenario an environment (an orbit)")
     return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
                     initial=initial, description=str(raw.get("description", "")), plant=dict(plant),
                     wheels=_wheels(f"{origin}: wheels", raw.get("wheels"), len(names)),
                     manoeuvres=_manoeuvres(f"{origin}: manoeuvres", raw.get("manoeuvres"), duration), source_text=text,
-                    environment=environment, magnetorquers=magnetorquers)
+                    environment=environment, magnetorquers=magnetorquers, vehicle=vehicle)
+
+
+def _vehicle(origin: str, raw) -> Vehicle | None:
+    """A scenario's ``vehicle:``: a shipped vehicle's name, a vehicle file's path (relative to the scenario's
+    folder when the scenario is a file) or the vehicle's mapping itself (what a bag records)."""
+    if raw is None:
+        return None
+    if isinstance(raw, str) and not raw.endswith((".yaml", ".yml")) or isinstance(raw, dict):
+        source = raw
+    elif isinstance(raw, str):
+        path = Path(raw).expanduser()
+        source = path if path.is_absolute() else Path(origin).parent / path   # "<scenario>": the working folder
+    else:
+        raise ScenarioError(f"{origin}: vehicle: a shipped vehicle's name, a vehicle file or its mapping, got {raw!r}")
+    try:
+        return load_vehicle(source)
+    except VehicleError as exc:
+        raise ScenarioError(f"{origin}: vehicle: {exc}") from None
+
+
+def _vehicle_wheel_set(origin: str, vehicle: Vehicle, plant: dict) -> str:
+    """The plant choice ``wheel_set`` of a scenario that names a vehicle: its vehicle's set, which must be one
+    the graph knows by name (a shipped set; a set of the vehicle's own is for a later step), and not another
+    one under ``plant:``."""
+    known = next((name for name, ws in WHEEL_SETS.items() if ws.names == vehicle.wheel_set.names
+                  and np.allclose(ws.spin_axes, vehicle.wheel_set.spin_axes, rtol=0.0, atol=1e-12)
+                  and ws.standby == vehicle.wheel_set.standby), None)
+    if known is None:
+        raise ScenarioError(f"{origin}: vehicle: its wheel set {vehicle.wheel_set.name!r} is not one of the shipped "
+                            f"sets ({', '.join(WHEEL_SETS)}); wheel sets of a vehicle's own are not flown yet")
+    if plant.get("wheel_set", known) != known:
+        raise ScenarioError(f"{origin}: plant.wheel_set {plant['wheel_set']!r}: the vehicle holds its wheel set "
+                            f"({known})")
+    return known
+
+
+@lru_cache(maxsize=1)
+def _default_vehicle() -> Vehicle:
+    return load_vehicle(None)
 
 
 def _range(where, raw, lo, hi) -> tuple:
@@ -540,9 +603,10 @@ def _environment(where, raw, duration: float) -> OrbitEnvironment | None:
     return OrbitEnvironment(orbit=orbit, epoch=epoch, **given)
 
 
-def _magnetorquers(where, raw) -> MomentumDumping | None:
+def _magnetorquers(where, raw, base: MomentumDumping | None = None) -> MomentumDumping | None:
     """The ``magnetorquers:`` mapping: dipole_limit [A m^2], and dumping: true, false (rods idle) or a
-    mapping of gain [1/s], start_speed and stop_speed [rad/s]."""
+    mapping of gain [1/s], start_speed and stop_speed [rad/s]; what it leaves out is ``base``'s (the
+    vehicle's rods and law, default the thesis vehicle's)."""
     if raw is None:
         return None
     if raw is True:
@@ -560,7 +624,7 @@ def _magnetorquers(where, raw) -> MomentumDumping | None:
         values.update({k: _num(f"{where}.dumping.{k}", v, *limits[k]) for k, v in dumping.items()})
     else:
         raise ScenarioError(f"{where}.dumping: true, false or a mapping of gain, start_speed and stop_speed")
-    settings = MomentumDumping(**values)
+    settings = replace(base or MomentumDumping(), **values)
     if settings.stop_speed > settings.start_speed:
         raise ScenarioError(f"{where}.dumping: stop_speed {settings.stop_speed:g} above start_speed "
                             f"{settings.start_speed:g}")

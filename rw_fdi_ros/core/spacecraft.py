@@ -28,6 +28,26 @@ def cross(a, b) -> np.ndarray:
                      a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]), axis=-1)
 
 
+def inertia_times(inertia, vector) -> np.ndarray:
+    """I v over the last axis of (..., 3) vectors for an inertia given as its diagonal (3,) (principal body
+    axes, the thesis') or as the full matrix (3, 3).
+
+    Parameters
+    ----------
+    inertia : array_like, shape (3,) or (3, 3)
+        I [kg m^2], body axes.
+    vector : array_like, shape (..., 3)
+        v, body axes (a rate gives the momentum I w [N m s]).
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        I v.
+    """
+    inertia = np.asarray(inertia, float)
+    return inertia * vector if inertia.ndim == 1 else np.asarray(vector, float) @ inertia.T
+
+
 def body_acceleration(body_rate, torque, inertia=INERTIA, wheel_momentum=None, wheel_inertia=0.0):
     """Euler's equations of a rigid body carrying reaction wheels; arrays of shape (..., 3).
 
@@ -39,8 +59,9 @@ def body_acceleration(body_rate, torque, inertia=INERTIA, wheel_momentum=None, w
         (I - J_s) dw/dt = tau - w x (I w + h_w)       J_s = sum_i J g_i g_i^T, the spinning part
         J (dOmega_i/dt + g_i^T dw/dt) = tau_n,i        (the wheel side, see Plant)
 
-    where I is the principal inertia with the wheels locked and tau the external plus the
-    reaction torques. ``wheel_inertia`` is J_s: its diagonal (..., 3) when the wheels spin
+    where I is the inertia with the wheels locked (its diagonal (3,) on principal body axes, or the
+    full matrix (3, 3) of a vehicle file) and tau the external plus the reaction torques.
+    ``wheel_inertia`` is J_s: its diagonal (..., 3) when the wheels spin
     about body axes, else the (..., 3, 3) matrix. ``wheel_momentum=None`` drops h_w and
     J_s: eq. 2.27 as the thesis writes it, I dw/dt = tau - w x (I w).
 
@@ -50,8 +71,8 @@ def body_acceleration(body_rate, torque, inertia=INERTIA, wheel_momentum=None, w
         Body rate w [rad/s], body frame, e.g. (B, 3).
     torque : array_like, shape (..., 3)
         External plus reaction torque tau [N m], body frame.
-    inertia : array_like, shape (3,) or (..., 3)
-        Principal inertia I with the wheels locked [kg m^2].
+    inertia : array_like, shape (3,), (..., 3) or (3, 3)
+        Inertia I with the wheels locked [kg m^2]: its diagonal on principal axes, else the matrix.
     wheel_momentum : array_like, shape (..., 3), optional
         The wheels' stored momentum h_w [N m s], body frame; None for eq. 2.27 as written.
     wheel_inertia : float or array_like, shape (..., 3) or (..., 3, 3)
@@ -64,16 +85,19 @@ def body_acceleration(body_rate, torque, inertia=INERTIA, wheel_momentum=None, w
     """
     w = np.asarray(body_rate, float)
     inertia = np.asarray(inertia, float)
-    h = inertia * w
-    spun = np.asarray(wheel_inertia, float)
+    full = inertia.shape == (3, 3)   # a full inertia: products of inertia couple the axes
+    h = inertia_times(inertia, w)
+    spun = np.asarray(wheel_inertia, float) if wheel_momentum is not None else np.zeros(())
     matrix = spun.ndim == w.ndim + 1   # (..., 3, 3) beside (..., 3) rates
     if wheel_momentum is not None:
         h = h + wheel_momentum
-        if not matrix:
+        if not matrix and not full:
             inertia = inertia - spun
     rhs = np.asarray(torque, float) - cross(w, h)
-    if wheel_momentum is not None and matrix:   # a wheel off the body axes couples them
-        return np.linalg.solve(np.eye(3) * inertia - spun, rhs[..., None])[..., 0]
+    if full or matrix:   # a wheel off the body axes, or products of inertia, couple the axes
+        spun = spun if matrix else spun[..., None] * np.eye(3)
+        locked = inertia if full else inertia[..., None] * np.eye(3)
+        return np.linalg.solve(locked - spun, rhs[..., None])[..., 0]
     return rhs / inertia
 
 

@@ -34,6 +34,7 @@ RANGES = {
     "gain": (0.0, 1.0),                               # [1/s] the dumping law's
     "start_speed": (0.0, 1000.0),                     # [rad/s]
     "stop_speed": (0.0, 1000.0),
+    "wheel_inertia": (1e-6, 100.0),                    # [kg m^2] the vehicle's wheel J
     "verdict_timeout": TIMEOUT,
     "wait_for_subscribers": (0, COUNT_MAX),
     "speed_up": (0.01, 1000.0),

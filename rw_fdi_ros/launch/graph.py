@@ -12,6 +12,7 @@ import yaml
 
 from ..fdi_config import FdiConfig
 from ..core.elman import network_wheel
+from ..core.pid import design_gains
 from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.spacecraft import BODY_AXES
@@ -120,6 +121,10 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     times, values = scenario.setpoint_schedule()
     start = Plant(scenario, wheels=choices.wheel_set)   # the plant's own units and wheels at t = 0
     hold = start.tcv[0] @ start.spin_axes.T   # the body-axis command that holds them (closed_loop.simulate's)
+    # a vehicle file's spacecraft: its controllers designed on its inertia, its FDIR's momentum checks on it
+    # (the thesis' vehicle: the nodes' own defaults, the same numbers)
+    vehicle = scenario.vehicle
+    design = design_gains(vehicle.axis_inertia) if vehicle is not None else None
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
@@ -128,16 +133,21 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     for i, axis in enumerate(BODY_AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "joint": T.ATTITUDE_JOINTS[i], "control_period": period, "initial_tcv": float(hold[i]),
-            "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]]}))
+            "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]],
+            **({} if design is None else {"kp": float(design.kp[i]), "ki": float(design.ki[i]),
+                                          "kd": float(design.kd[i])})}))
     nodes.append(NodeSpec("wheel_allocation", "wheel_allocation", {
         "wheel_set": choices.wheel_set, "control_period": period,
         "fdir": fdi is not None and fdi.fdir,
-        "fdi_period": choices.fdi_period}))
+        "fdi_period": choices.fdi_period,
+        **({} if vehicle is None else {"body_inertia": [float(v) for v in vehicle.inertia_matrix.ravel()],
+                                       "wheel_inertia": float(vehicle.wheel.inertia)})}))
     if scenario.magnetorquers is not None:
         rods = scenario.magnetorquers
         nodes.append(NodeSpec("momentum_dumping", "momentum_dumping", {
             "wheel_set": choices.wheel_set, "dipole_limit": rods.dipole_limit, "gain": rods.gain,
-            "start_speed": rods.start_speed, "stop_speed": rods.stop_speed, "enabled": rods.enabled}))
+            "start_speed": rods.start_speed, "stop_speed": rods.stop_speed, "enabled": rods.enabled,
+            **({} if vehicle is None else {"wheel_inertia": float(vehicle.wheel.inertia)})}))
     if fdi is not None:
         nodes += fdi_nodes(fdi, choices)
     if live is not None:

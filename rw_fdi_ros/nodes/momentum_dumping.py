@@ -41,9 +41,12 @@ class MomentumDumpingNode(GraphNode):
         self.declare_parameter("enabled", True)                        # false: the rods stay off
         self.declare_parameter("fdir", True)                           # follow /fdir/wheels (the wheels in use)
         self.declare_parameter("min_subscribers", 1)                   # the plant (+ recorder) before the first
+        self.declare_parameter("wheel_inertia", WheelParams().inertia)  # [kg m^2] the vehicle's datasheet J
         if self.param("wheel_set") not in WHEEL_SETS:
             raise NodeError(f"parameter wheel_set must be one of {', '.join(WHEEL_SETS)}, "
                             f"got {self.param('wheel_set')!r}", EXIT_BAD_INPUT)
+        if not self.param("wheel_inertia") > 0.0:
+            raise NodeError("parameter wheel_inertia must be > 0 [kg m^2]", EXIT_BAD_INPUT)
         if self.param("stop_speed") > self.param("start_speed"):
             raise NodeError("parameter stop_speed must not be above start_speed", EXIT_BAD_INPUT)
         self.wheels = wheel_set(self.param("wheel_set"))
@@ -53,7 +56,7 @@ class MomentumDumpingNode(GraphNode):
         settings = MomentumDumping(**{k: self.param(k) for k in ("dipole_limit", "gain", "start_speed",
                                                                   "stop_speed", "enabled")})
         self.dumper = Dumper([settings])
-        self.wheel_inertia = WheelParams().inertia   # the datasheet's J: what flight software knows
+        self.wheel_inertia = self.param("wheel_inertia")   # the datasheet's J: what flight software knows
         self.field = None        # (stamp, reading) waiting for the wheel state of its stamp
         self.speeds = {}         # stamp -> wheel speeds (N,), the latest few
         self.pub = GatedPublisher(self.create_publisher(Vector3Stamped, T.DIPOLE_COMMAND, T.RELIABLE),

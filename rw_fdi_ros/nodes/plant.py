@@ -13,6 +13,8 @@ five FDI nodes read one message a second instead of three a step each.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import math
 import os
 
@@ -29,7 +31,6 @@ from std_msgs.msg import Header, String
 from ..core.plant import Plant
 from ..core.scenario import FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
 from ..core.wheel_set import joint_name
-from ..core.wheel import WheelParams
 from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, read_vector_cdr
 from ..graph.convert import step_stamp_ns
@@ -75,7 +76,7 @@ class PlantNode(GraphNode):
                                                   control_period=self.param("control_period") or None,
                                                   wheel_set=self.param("wheel_set"),
                                                   magnetic_field=self.param("magnetic_field"))
-            wheel = WheelParams(emf_limit=self.choices.emf_limit)
+            wheel = replace(scenario.spacecraft.wheel, emf_limit=self.choices.emf_limit)
         except (ScenarioError, ValueError) as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         from ..core.wheel_set import wheel_set

@@ -33,6 +33,7 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Vector3Stamped
+import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
@@ -40,8 +41,8 @@ from sensor_msgs.msg import JointState
 from ..core.allocation import TorqueAllocator
 from ..core.fdir import DecisionDelay, DeliveryLog, Reconfiguration
 from ..core.isolation import stamp_seconds
-from ..core.spacecraft import BODY_AXES
-from ..core.spacecraft import INERTIA
+from ..core.spacecraft import BODY_AXES, INERTIA, inertia_times
+from ..core.wheel import WheelParams
 from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr, read_joint_state_cdr, read_vector_cdr
 from ..graph import topics as T
@@ -64,6 +65,10 @@ class WheelAllocationNode(GraphNode):
         self.declare_parameter("verdict_timeout", 3.0)
         self.declare_parameter("out_of_use", Parameter.Type.STRING_ARRAY)   # joints the operator took out
         self.declare_parameter("min_subscribers", 1)             # plant (+ recorder) before the first command
+        # the vehicle (core/vehicle.py): its inertia I [kg m^2], the diagonal (3) or the matrix row by row (9),
+        # and the wheels' J [kg m^2]: what the momentum checks of a reconfiguration read
+        self.declare_parameter("body_inertia", [float(v) for v in INERTIA])
+        self.declare_parameter("wheel_inertia", WheelParams().inertia)
         self.declare_parameter("fdir_readers", 0)                # of /fdir/wheels (the recorder) before it goes
         self.declare_parameter("diagnostics_readers", 0)         # of /diagnostics before FDIR's state goes there
         try:
@@ -74,7 +79,13 @@ class WheelAllocationNode(GraphNode):
         self.period = self.param("control_period")
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
         self.allocator = TorqueAllocator(self.wheels)
-        self.reconfiguration = Reconfiguration(self.wheels)
+        inertia = np.asarray(self.param("body_inertia"), float)
+        if inertia.size not in (3, 9) or not np.all(np.isfinite(inertia)) or self.param("wheel_inertia") <= 0:
+            raise NodeError("parameter body_inertia: 3 numbers (the diagonal) or 9 (the matrix, row by row) "
+                            "[kg m^2], and wheel_inertia > 0", EXIT_BAD_INPUT)
+        self.body_inertia = inertia if inertia.size == 3 else inertia.reshape(3, 3)
+        self.reconfiguration = Reconfiguration(self.wheels, body_inertia=self.body_inertia,
+                                               wheel_inertia=self.param("wheel_inertia"))
         self.delay = DecisionDelay()
         self.operator = list(self.param("out_of_use") or [])   # joints the operator took out, not yet applied
         unknown = [j for j in self.operator if j not in self.joints]
@@ -199,7 +210,7 @@ class WheelAllocationNode(GraphNode):
             decisions = []
             for wheel, reason in due:   # an operator's command is obeyed even where it costs the pointing
                 decisions += self.reconfiguration.give_up(
-                    wheel, t, reason, speeds, INERTIA * rate, force=reason == OPERATOR,
+                    wheel, t, reason, speeds, inertia_times(self.body_inertia, rate), force=reason == OPERATOR,
                     delivered=self.delivery.share(self.wheels.index(wheel)))
             if self.reconfiguration.decisions and speeds is not None:
                 on_fdi = stamp % self.fdi_period_ns == 0   # a kept wheel's share is judged once an FDI period

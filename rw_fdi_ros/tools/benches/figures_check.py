@@ -1,12 +1,12 @@
 """`rw-fdi bench figures`: every figure of the README's table re-measured at small n, beside the README's.
 
-A figure of record holds only while nothing it depends on has changed. This command runs each bench behind
-the README's table at a small sample (SMALL: about 8 minutes on 2 cores in all at the record's machine speed, docs/benchmarks.md), on the
-benches' own seeds of record, and prints every figure beside the README's row and the report of record it quotes
-(``reports/``). A rate is flagged when its small-n 95 % interval and the record's do not meet: the two
-samples disagree beyond chance, so something the figure depends on changed. A value (a wheel speed, a time
-of loss) is flagged outside its stated tolerance of the record. Small n cannot confirm a record (0 of 40
-says little); it catches a figure that has moved.
+A figure of record holds only while nothing it depends on has changed. This command runs each bench behind the
+README's table at a small sample (SMALL: about 8 minutes on 2 cores in all at the record's machine speed,
+docs/benchmarks.md), on the benches' own seeds of record, and prints every figure beside the README's row and
+the report of record it quotes (``reports/``). A rate is flagged when its small-n 95 % interval and the
+record's do not meet: the two samples disagree beyond chance, so something the figure depends on changed. A
+value (a wheel speed, a time of loss) is flagged outside its stated tolerance of the record. Small n cannot
+confirm a record (0 of 40 says little); it catches a figure that has moved.
 """
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ from pathlib import Path
 
 from .kit import format_rate, rate
 
-# the small samples: (bench, its keyword arguments); the whole check about 8 minutes on 2 cores (the graph at its record's ~115x)
+# the small samples: (bench, its keyword arguments); the whole check about 8 minutes on 2 cores (the graph
+# running at its record's ~115x real time)
 SMALL = {
     "detection": {"fault_free_runs": 60, "runs_per_cell": 20},
     "operations": {"fault_free_runs": 40, "runs_per_cell": 12, "hours_runs": 2},

@@ -1,0 +1,447 @@
+"""The spacecraft as data: a vehicle file (YAML, docs/vehicles.md) read into one typed value.
+
+A vehicle is what the FDIR flies on: the body's inertia (full 3x3, wheels locked), the wheel type's
+datasheet (every parameter of the Bialke model, wheel.WheelParams, each with its unit), the wheel set
+(spin axes, standby wheels), the attitude controller's design targets, the magnetorquers and their
+dumping law, and the dispersions a run draws from (initial conditions, set-point changes, unit-to-unit
+spreads, fault sizes). The thesis' MakSat (``config/vehicles/maksat.yaml``, Tables 2.2 and 2.3) is the
+default.
+
+A vehicle that cannot fly is refused with its reason, one line naming the field:
+
+* the inertia must be symmetric positive definite and its principal moments obey the triangle
+  inequality I_1 <= I_2 + I_3 (a rigid body's mass lies in space, not on a line);
+* the active wheels must span the three body axes;
+* the controller's targets must be within the wheels' torque: a rest-to-rest slew of the largest
+  set-point change theta in the settling time T needs, bang-bang, alpha = 4 theta / T^2 about an axis,
+  so I_kk alpha must not exceed what the active wheels give about it, tau_max sum_i |g_ik|
+  (tau_max = G_d k_t V_limit, one wheel's torque at its command limit).
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .magnetorquers import MomentumDumping
+from .wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, UNIT_PARAMETERS, WheelParams
+from .wheel_set import WHEEL_SETS, WheelSet
+
+DEFAULT_VEHICLE = "maksat"
+# every WheelParams field with its unit as a vehicle file writes it ("": a pure number; None: a named choice)
+WHEEL_UNITS = {
+    "driver_gain": "A/V", "driver_bandwidth": "rad/s", "torque_constant": "N m/A", "emf_constant": "V/(rad/s)",
+    "overspeed_gain": "V/(rad/s)", "overspeed_threshold": "rad/s", "coulomb_friction": "N m",
+    "inertia": "kg m^2", "poles": "", "ripple_coefficient": "", "input_resistance": "ohm",
+    "quiescent_power": "W", "bridge_resistance": "ohm", "voltage_feedback_gain": "V/V", "noise_angle": "rad",
+    "noise_frequency": "rad/s", "command_limit": "V", "diode_drop": "V", "emf_limit": None,
+    "ripple_amplitude_share": "", "coulomb_smoothing_speed": "rad/s", "viscous_scale": "",
+}
+# fields that may be zero (the rest of WHEEL_UNITS' numbers must be > 0)
+WHEEL_MAY_BE_ZERO = {"coulomb_friction", "ripple_coefficient", "noise_angle", "noise_frequency", "diode_drop",
+                     "quiescent_power", "input_resistance", "viscous_scale"}
+MAGNETORQUER_UNITS = {"dipole_limit": "A m^2", "gain": "1/s", "start_speed": "rad/s", "stop_speed": "rad/s"}
+FAULT_SIZE_UNITS = {"current_limiter": "", "temperature": "C", "bus_voltage": "V"}
+TOP_KEYS = {"name", "description", "sources", "inertia", "disturbance_sigma", "wheel", "wheel_set", "controller",
+            "magnetorquers", "dispersions"}
+
+
+class VehicleError(ValueError):
+    """A vehicle file that cannot be read or a vehicle that cannot fly; the message is one line naming the
+    field."""
+
+
+@dataclass(frozen=True)
+class ControllerTargets:
+    """What the attitude controller is designed to meet (thesis 2.2.5)."""
+
+    overshoot: float = 0.20        # largest overshoot of a set-point step, a share
+    settling_time: float = 30.0    # [s] 5 % settling time of a step of the largest set-point change
+    pointing: float = 0.2          # [deg] pointing requirement on every axis
+
+
+@dataclass(frozen=True)
+class Dispersions:
+    """What a run draws (uniform ranges, thesis Table 2.3) and the unit-to-unit spreads (1 sigma shares)."""
+
+    attitude_deg: tuple = (-180.0, 180.0)          # initial attitude per axis
+    body_rate: tuple = (-1.0e-4, 1.0e-4)           # [rad/s] initial body rate per axis
+    wheel_speed: tuple = (20.0, 30.0)              # [rad/s] initial speed of each active wheel
+    setpoint_change_deg: tuple = (-5.0, 5.0)       # a set-point change per axis
+    unit_spread: tuple = tuple(sorted(DEFAULT_UNIT_SPREAD.items()))   # (parameter, share) pairs
+    fault_sizes: tuple = (("bus_voltage", (4.0, 5.5)), ("current_limiter", (0.5, 0.92)),
+                          ("temperature", (48.0, 173.0)))   # (kind, (low, high)): the in-service envelope
+
+    @property
+    def unit_spreads(self) -> dict:
+        return dict(self.unit_spread)
+
+    @property
+    def fault_ranges(self) -> dict:
+        return dict(self.fault_sizes)
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """A spacecraft: see the module docstring; ``inertia`` the 3x3 rows [kg m^2] with the wheels locked."""
+
+    name: str
+    inertia: tuple
+    wheel: WheelParams = WheelParams()
+    wheel_set: WheelSet = WHEEL_SETS["orthogonal_skew"]
+    controller: ControllerTargets = ControllerTargets()
+    magnetorquers: MomentumDumping = MomentumDumping()
+    dispersions: Dispersions = Dispersions()
+    disturbance_sigma: float = 5.68e-5   # [N m] per axis, eq. 2.34
+    description: str = ""
+    wheel_type: str = ""                 # the wheel's make and model, as its datasheet names it
+    sources: tuple = field(default=(), compare=False)   # (field, where its value comes from) pairs
+
+    @property
+    def inertia_matrix(self) -> np.ndarray:
+        """I (3, 3) [kg m^2], body axes, wheels locked."""
+        return np.asarray(self.inertia, float)
+
+    @property
+    def body_inertia(self) -> np.ndarray:
+        """What the physics takes (spacecraft.body_acceleration): the diagonal (3,) where I is diagonal
+        (the thesis' principal axes, the fast and exact path), else I (3, 3)."""
+        matrix = self.inertia_matrix
+        return np.diag(matrix).copy() if not (matrix - np.diag(np.diag(matrix))).any() else matrix
+
+    @property
+    def axis_inertia(self) -> np.ndarray:
+        """I_kk (3,) [kg m^2]: what each per-axis controller is designed on (thesis 2.3: one per axis)."""
+        return np.diag(self.inertia_matrix).copy()
+
+    @property
+    def principal_inertia(self) -> np.ndarray:
+        """The principal moments (3,) [kg m^2], ascending."""
+        return np.linalg.eigvalsh(self.inertia_matrix)
+
+    def wheel_torque_limit(self) -> float:
+        """tau_max = G_d k_t V_limit [N m]: one datasheet wheel's torque at its command limit, at rest."""
+        w = self.wheel
+        return float(w.driver_gain * w.torque_constant * w.command_limit)
+
+    def axis_torque_limit(self) -> np.ndarray:
+        """(3,) [N m]: the most torque the active wheels give about each body axis, tau_max sum_i |g_ik|."""
+        g = self.wheel_set.matrix[:, self.wheel_set.mask(self.wheel_set.active)]
+        return self.wheel_torque_limit() * np.abs(g).sum(axis=1)
+
+    def slew_torque(self) -> np.ndarray:
+        """(3,) [N m]: I_kk 4 theta / T^2, the torque a bang-bang slew of the largest set-point change theta
+        takes about each axis in the settling time T."""
+        theta = np.radians(max(abs(v) for v in self.dispersions.setpoint_change_deg))
+        return self.axis_inertia * 4.0 * theta / self.controller.settling_time ** 2
+
+    def as_dict(self) -> dict:
+        """The vehicle as its file writes it (units in the values): what a bag records."""
+        return to_mapping(self)
+
+
+# -- reading ---------------------------------------------------------------------------------------------
+
+_QUANTITY = re.compile(r"^\s*([-+0-9.eE]+)\s*(.*?)\s*$")
+_RANGE = re.compile(r"^\s*([-+0-9.eE]+)\s+to\s+([-+0-9.eE]+)\s*(.*?)\s*$")
+
+
+def _number(where: str, text) -> float:
+    try:
+        value = float(text)
+    except (TypeError, ValueError, OverflowError):
+        raise VehicleError(f"{where}: expected a number, got {text!r}"[:300]) from None
+    if isinstance(text, bool) or not np.isfinite(value):
+        raise VehicleError(f"{where}: expected a finite number, got {text!r}"[:300])
+    return value
+
+
+def quantity(where: str, raw, unit: str) -> float:
+    """A number with its unit as a vehicle file writes it, ``"0.19 A/V"``; a bare number only where
+    ``unit`` is "" (a pure number). The unit must be the one the field is in: units are not converted."""
+    if isinstance(raw, (int, float)) and not isinstance(raw, bool):
+        if unit:
+            raise VehicleError(f"{where}: give its unit, e.g. '{raw} {unit}'")
+        return _number(where, raw)
+    match = _QUANTITY.match(raw) if isinstance(raw, str) else None
+    if match is None:
+        raise VehicleError(f"{where}: expected a number{' and its unit ' + unit if unit else ''}, got {raw!r}"[:300])
+    if " ".join(match.group(2).split()) != unit:
+        raise VehicleError(f"{where}: the unit must be {unit or 'none (a pure number)'!s}, got {match.group(2)!r}")
+    return _number(where, match.group(1))
+
+
+def interval(where: str, raw, unit: str) -> tuple:
+    """A range as a vehicle file writes it, ``"20 to 30 rad/s"``: (low, high) with low <= high."""
+    match = _RANGE.match(raw) if isinstance(raw, str) else None
+    if match is None:
+        raise VehicleError(f"{where}: expected a range 'low to high{' ' + unit if unit else ''}', got {raw!r}"[:300])
+    if " ".join(match.group(3).split()) != unit:
+        raise VehicleError(f"{where}: the unit must be {unit or 'none (pure numbers)'}, got {match.group(3)!r}")
+    lo, hi = _number(where, match.group(1)), _number(where, match.group(2))
+    if lo > hi:
+        raise VehicleError(f"{where}: the low end {lo:g} is above the high end {hi:g}")
+    return lo, hi
+
+
+def _mapping(where: str, raw, known) -> dict:
+    if not isinstance(raw, dict):
+        raise VehicleError(f"{where}: expected a mapping of {', '.join(sorted(known))}")
+    unknown = sorted(set(raw) - set(known))
+    if unknown:
+        raise VehicleError(f"{where}: unknown field(s) {unknown}; known: {', '.join(sorted(known))}")
+    return raw
+
+
+def _inertia(where: str, raw) -> tuple:
+    raw = _mapping(where, raw, {"unit", "matrix"})
+    if raw.get("unit") != "kg m^2":
+        raise VehicleError(f"{where}.unit: must be 'kg m^2', got {raw.get('unit')!r}")
+    rows = raw.get("matrix")
+    if not (isinstance(rows, list) and len(rows) == 3 and all(isinstance(r, list) and len(r) == 3 for r in rows)):
+        raise VehicleError(f"{where}.matrix: expected 3 rows of 3 numbers")
+    matrix = np.array([[_number(f"{where}.matrix[{i}][{j}]", v) for j, v in enumerate(r)] for i, r in enumerate(rows)])
+    check_inertia(where, matrix)
+    return tuple(tuple(float(v) for v in r) for r in matrix)
+
+
+def check_inertia(where: str, matrix) -> None:
+    """VehicleError unless I is symmetric positive definite with principal moments obeying the triangle
+    inequality (each at most the sum of the other two)."""
+    matrix = np.asarray(matrix, float)
+    scale = np.abs(matrix).max()
+    if not np.allclose(matrix, matrix.T, rtol=0.0, atol=1e-9 * scale):
+        raise VehicleError(f"{where}: not symmetric (I_ij must equal I_ji)")
+    moments = np.linalg.eigvalsh(matrix)
+    if moments[0] <= 0.0:
+        listed = ", ".join(f"{m:.4g}" for m in moments)
+        raise VehicleError(f"{where}: not positive definite (principal moments {listed} kg m^2)")
+    if moments[2] > moments[0] + moments[1] + 1e-9 * scale:
+        raise VehicleError(f"{where}: its principal moments {', '.join(f'{m:.4g}' for m in moments)} kg m^2 break the "
+                           "triangle inequality (the largest exceeds the sum of the other two): no rigid body has them")
+
+
+def _wheel(where: str, raw) -> WheelParams:
+    raw = _mapping(where, raw, {"type", *WHEEL_UNITS})
+    missing = sorted(set(WHEEL_UNITS) - set(raw))
+    if missing:
+        raise VehicleError(f"{where}: missing {', '.join(missing)} (every parameter of the wheel model, with units)")
+    values = {}
+    for name, unit in WHEEL_UNITS.items():
+        if unit is None:
+            if raw[name] not in EMF_LIMITS:
+                raise VehicleError(f"{where}.{name}: must be one of {', '.join(EMF_LIMITS)}, got {raw[name]!r}")
+            values[name] = raw[name]
+            continue
+        value = quantity(f"{where}.{name}", raw[name], unit)
+        if value < 0.0 or (value == 0.0 and name not in WHEEL_MAY_BE_ZERO):
+            bound = ">= 0" if name in WHEEL_MAY_BE_ZERO else "> 0"
+            raise VehicleError(f"{where}.{name}: must be {bound}, got {value:g}")
+        values[name] = value
+    if values["poles"] != int(values["poles"]):
+        raise VehicleError(f"{where}.poles: must be a whole number, got {values['poles']:g}")
+    values["poles"] = int(values["poles"])
+    if values["diode_drop"] >= 8.0:
+        raise VehicleError(f"{where}.diode_drop: {values['diode_drop']:g} V leaves no bus voltage to drive with")
+    return WheelParams(**values)
+
+
+def _wheel_set(where: str, raw) -> WheelSet:
+    if isinstance(raw, str):
+        if raw not in WHEEL_SETS:
+            raise VehicleError(f"{where}: a shipped set ({', '.join(WHEEL_SETS)}) or a mapping of name, wheels, "
+                               f"standby; got {raw!r}")
+        return WHEEL_SETS[raw]
+    raw = _mapping(where, raw, {"name", "wheels", "standby"})
+    wheels = raw.get("wheels")
+    # a list, not a mapping: the wheels' order is their index everywhere (faults, telemetry), and a YAML tool
+    # may reorder a mapping's keys
+    if not isinstance(wheels, list) or not wheels:
+        raise VehicleError(f"{where}.wheels: expected a list of {{name, spin_axis: [x, y, z]}}")
+    names, axes = [], []
+    for i, wheel in enumerate(wheels):
+        at = f"{where}.wheels[{i}]"
+        wheel = _mapping(at, wheel, {"name", "spin_axis"})
+        direction = wheel.get("spin_axis")
+        if not isinstance(wheel.get("name"), str) or not (isinstance(direction, list) and len(direction) == 3):
+            raise VehicleError(f"{at}: expected a name and a spin_axis direction [x, y, z]")
+        v = np.array([_number(f"{at}.spin_axis[{k}]", x) for k, x in enumerate(direction)])
+        if not np.linalg.norm(v) > 0.0:
+            raise VehicleError(f"{at}.spin_axis: a zero vector has no direction")
+        names.append(wheel["name"])
+        axes.append(tuple(float(x) for x in v / np.linalg.norm(v)))
+    standby = raw.get("standby", [])
+    if not isinstance(standby, list) or set(map(str, standby)) - set(names):
+        raise VehicleError(f"{where}.standby: a list of wheel names among {', '.join(names)}")
+    try:
+        return WheelSet(str(raw.get("name", "custom")), tuple(names), tuple(axes), tuple(map(str, standby)))
+    except ValueError as error:
+        raise VehicleError(f"{where}: {str(error).split(': ', 1)[-1]}") from None
+
+
+def _dispersions(where: str, raw) -> Dispersions:
+    units = {"attitude_deg": "deg", "body_rate": "rad/s", "wheel_speed": "rad/s", "setpoint_change_deg": "deg"}
+    raw = _mapping(where, raw, {"initial_attitude", "initial_body_rate", "initial_wheel_speed",
+                                "setpoint_change", "unit_spread", "fault_sizes"})
+    keys = {"attitude_deg": "initial_attitude", "body_rate": "initial_body_rate",
+            "wheel_speed": "initial_wheel_speed", "setpoint_change_deg": "setpoint_change"}
+    values = {f: interval(f"{where}.{k}", raw[k], units[f]) for f, k in keys.items() if k in raw}
+    if "unit_spread" in raw:
+        spread = _mapping(f"{where}.unit_spread", raw["unit_spread"], UNIT_PARAMETERS)
+        values["unit_spread"] = tuple(sorted((k, quantity(f"{where}.unit_spread.{k}", v, ""))
+                                             for k, v in spread.items()))
+    if "fault_sizes" in raw:
+        sizes = _mapping(f"{where}.fault_sizes", raw["fault_sizes"], FAULT_SIZE_UNITS)
+        values["fault_sizes"] = tuple(sorted((k, interval(f"{where}.fault_sizes.{k}", v, FAULT_SIZE_UNITS[k]))
+                                             for k, v in sizes.items()))
+    return Dispersions(**values)
+
+
+def _units_of(where: str, raw, cls, units: dict):
+    raw = _mapping(where, raw, set(units) | ({"enabled"} if cls is MomentumDumping else set()))
+    values = {k: quantity(f"{where}.{k}", v, units[k]) for k, v in raw.items() if k in units}
+    for k, v in values.items():
+        if v <= 0.0 and k != "stop_speed":
+            raise VehicleError(f"{where}.{k}: must be > 0, got {v:g}")
+    if "enabled" in raw:
+        if not isinstance(raw["enabled"], bool):
+            raise VehicleError(f"{where}.enabled: true or false, got {raw['enabled']!r}")
+        values["enabled"] = raw["enabled"]
+    return cls(**values)
+
+
+def vehicle_of(raw, where: str = "vehicle") -> Vehicle:
+    """A Vehicle from a vehicle file's mapping, checked (module docstring); VehicleError otherwise."""
+    raw = _mapping(where, raw, TOP_KEYS)
+    for key in ("name", "inertia", "wheel"):
+        if key not in raw:
+            raise VehicleError(f"{where}: missing '{key}'")
+    sources = raw.get("sources", {})
+    if not isinstance(sources, dict):
+        raise VehicleError(f"{where}.sources: expected a mapping of field -> where its value comes from")
+    controller = _units_of(f"{where}.controller", raw.get("controller", {}), ControllerTargets,
+                           {"overshoot": "", "settling_time": "s", "pointing": "deg"})
+    vehicle = Vehicle(
+        name=str(raw["name"]), inertia=_inertia(f"{where}.inertia", raw["inertia"]),
+        wheel=_wheel(f"{where}.wheel", raw["wheel"]),
+        wheel_set=_wheel_set(f"{where}.wheel_set", raw.get("wheel_set", "orthogonal_skew")),
+        controller=controller,
+        magnetorquers=_units_of(f"{where}.magnetorquers", raw.get("magnetorquers", {}), MomentumDumping,
+                                MAGNETORQUER_UNITS),
+        dispersions=_dispersions(f"{where}.dispersions", raw.get("dispersions", {})),
+        disturbance_sigma=quantity(f"{where}.disturbance_sigma", raw.get("disturbance_sigma", "5.68e-5 N m"), "N m"),
+        description=str(raw.get("description", "")), wheel_type=str(raw["wheel"].get("type", "")),
+        sources=tuple((str(k), str(v)) for k, v in sources.items()))
+    check_flyable(vehicle, where)
+    return vehicle
+
+
+def check_flyable(vehicle: Vehicle, where: str = "vehicle") -> None:
+    """VehicleError when the controller's targets are beyond the wheels' torque (module docstring)."""
+    need, have = vehicle.slew_torque(), vehicle.axis_torque_limit()
+    short = np.flatnonzero(need > have)
+    if short.size:
+        k = int(short[0])
+        theta = max(abs(v) for v in vehicle.dispersions.setpoint_change_deg)
+        raise VehicleError(
+            f"{where}.controller.settling_time: a {theta:g} deg slew in {vehicle.controller.settling_time:g} s needs "
+            f"{need[k]:.3g} N m about {'xyz'[k]} (I_{'xyz'[k] * 2} {vehicle.axis_inertia[k]:g} kg m^2), the active "
+            f"wheels give at most {have[k]:.3g} N m there")
+    lo, hi = vehicle.dispersions.wheel_speed
+    if hi >= vehicle.wheel.overspeed_threshold:
+        raise VehicleError(f"{where}.dispersions.initial_wheel_speed: up to {hi:g} rad/s is beyond the wheel's speed "
+                           f"limiter ({vehicle.wheel.overspeed_threshold:g} rad/s)")
+
+
+def shipped_vehicles() -> dict:
+    """name -> path of the vehicle files shipped in config/vehicles."""
+    from ..paths import config_dir
+    folder = config_dir() / "vehicles"
+    return {p.stem: p for p in sorted(folder.glob("*.yaml"))} if folder.is_dir() else {}
+
+
+def load_vehicle(source=None) -> Vehicle:
+    """The vehicle named ``source``: a shipped name (config/vehicles/NAME.yaml), a path to a vehicle file,
+    a mapping (a bag's record), or None for the default (the thesis' MakSat)."""
+    if isinstance(source, Vehicle):
+        return source
+    if isinstance(source, dict):
+        return vehicle_of(source)
+    name = DEFAULT_VEHICLE if source is None else str(source)
+    shipped = shipped_vehicles()
+    path = shipped.get(name, Path(name))
+    if not path.is_file():
+        raise VehicleError(f"vehicle {name!r}: no such file, nor a shipped vehicle ({', '.join(shipped) or 'none'})")
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as error:
+        raise VehicleError(f"{path}: not a readable YAML file ({str(error).splitlines()[0]})") from None
+    return vehicle_of(raw, where=str(path.name))
+
+
+# -- writing ---------------------------------------------------------------------------------------------
+
+def _with_unit(value, unit: str):
+    return value if not unit else f"{float(value)!r} {unit}"   # repr: every digit, read back exactly
+
+
+def _range(values, unit: str) -> str:
+    return f"{float(values[0])!r} to {float(values[1])!r}" + (f" {unit}" if unit else "")
+
+
+def to_mapping(vehicle: Vehicle) -> dict:
+    """The vehicle file's mapping of ``vehicle`` (vehicle_of reads it back to an equal Vehicle)."""
+    d = vehicle.dispersions
+    wheel = {"type": vehicle.wheel_type}
+    for name, unit in WHEEL_UNITS.items():
+        value = getattr(vehicle.wheel, name)
+        wheel[name] = value if unit is None else _with_unit(float(value) if unit else value, unit)
+    ws = vehicle.wheel_set
+    return {
+        "name": vehicle.name, "description": vehicle.description,
+        "inertia": {"unit": "kg m^2", "matrix": [list(r) for r in vehicle.inertia]},
+        "disturbance_sigma": _with_unit(vehicle.disturbance_sigma, "N m"),
+        "wheel": wheel,
+        "wheel_set": {"name": ws.name, "wheels": [{"name": n, "spin_axis": list(a)}
+                                                  for n, a in zip(ws.names, ws.spin_axes)],
+                      "standby": list(ws.standby)},
+        "controller": {"overshoot": vehicle.controller.overshoot,
+                       "settling_time": _with_unit(vehicle.controller.settling_time, "s"),
+                       "pointing": _with_unit(vehicle.controller.pointing, "deg")},
+        "magnetorquers": {**{k: _with_unit(getattr(vehicle.magnetorquers, k), u)
+                             for k, u in MAGNETORQUER_UNITS.items()}, "enabled": vehicle.magnetorquers.enabled},
+        "dispersions": {"initial_attitude": _range(d.attitude_deg, "deg"),
+                        "initial_body_rate": _range(d.body_rate, "rad/s"),
+                        "initial_wheel_speed": _range(d.wheel_speed, "rad/s"),
+                        "setpoint_change": _range(d.setpoint_change_deg, "deg"),
+                        "unit_spread": dict(d.unit_spread),
+                        "fault_sizes": {k: _range(v, FAULT_SIZE_UNITS[k]) for k, v in d.fault_sizes}},
+        "sources": dict(vehicle.sources),
+    }
+
+
+def summary(vehicle: Vehicle) -> str:
+    """A few lines a person reads: what the vehicle is and what its wheels can do about each axis."""
+    moments = ", ".join(f"{m:.4g}" for m in vehicle.principal_inertia)
+    have, need = vehicle.axis_torque_limit(), vehicle.slew_torque()
+    ws = vehicle.wheel_set
+    lines = [f"vehicle {vehicle.name}: {vehicle.description}".rstrip(": "),
+             f"  inertia: principal moments {moments} kg m^2",
+             f"  wheels: {ws.count} ({', '.join(ws.names)}; standby {', '.join(ws.standby) or 'none'}), "
+             f"J {vehicle.wheel.inertia:g} kg m^2, {vehicle.wheel_torque_limit() * 1e3:.3g} mN m each at "
+             f"{vehicle.wheel.command_limit:g} V",
+             "  torque about x, y, z: the active wheels give " + ", ".join(f"{v * 1e3:.3g}" for v in have)
+             + " mN m; the largest slew in the settling time needs " + ", ".join(f"{v * 1e3:.3g}" for v in need)
+             + " mN m"]
+    return "\n".join(lines)
+
+
+def with_wheel_set(vehicle: Vehicle, wheels: WheelSet) -> Vehicle:
+    """``vehicle`` with another wheel set (a scenario's plant choice ``wheel_set``), checked again."""
+    out = replace(vehicle, wheel_set=wheels)
+    check_flyable(out)
+    return out
+

@@ -1,0 +1,205 @@
+"""The vehicle as data (core/vehicle.py): the shipped file is the thesis' spacecraft, a full inertia moves the
+body as Euler's equations say, a vehicle file flies through scenarios, the core loop and the launcher, and a bad
+file or a vehicle that cannot fly gets one line naming the field."""
+import copy
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+from rw_fdi_ros.core.closed_loop import simulate
+from rw_fdi_ros.core.magnetorquers import MomentumDumping
+from rw_fdi_ros.core.plant import Plant
+from rw_fdi_ros.core.plant_choices import PlantChoices
+from rw_fdi_ros.core.scenario import Scenario, ScenarioError, parse_scenario
+from rw_fdi_ros.core.spacecraft import DISTURBANCE_SIGMA, INERTIA, body_acceleration
+from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
+from rw_fdi_ros.core.vehicle import (Dispersions, VehicleError, load_vehicle, shipped_vehicles, to_mapping,
+                                    vehicle_of)
+from rw_fdi_ros.core.wheel import DEFAULT_UNIT_SPREAD, WheelParams
+from rw_fdi_ros.core.wheel_set import WHEEL_SETS
+from rw_fdi_ros.paths import fdi_dir
+
+
+def _rotation(roll, pitch, yaw):
+    """R = Rz(yaw) Ry(pitch) Rx(roll) [deg]."""
+    a, b, c = np.radians([roll, pitch, yaw])
+    rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+    rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def test_the_shipped_default_is_the_thesis_spacecraft():
+    v = load_vehicle()
+    assert v.name == "maksat" and "maksat" in shipped_vehicles()
+    np.testing.assert_array_equal(v.body_inertia, INERTIA)          # Table 2.3, diagonal: the exact fast path
+    assert v.wheel == WheelParams()                                   # Table 2.2
+    assert v.wheel_set == WHEEL_SETS["orthogonal_skew"]              # the skew axis exactly (1, 1, 1)/sqrt(3)
+    assert v.magnetorquers == MomentumDumping()
+    assert v.disturbance_sigma == DISTURBANCE_SIGMA
+    assert v.dispersions == Dispersions() and v.dispersions.unit_spreads == DEFAULT_UNIT_SPREAD
+    assert (v.controller.overshoot, v.controller.settling_time, v.controller.pointing) == (0.2, 30.0, 0.2)
+
+
+@pytest.mark.parametrize("name", sorted(shipped_vehicles()))
+def test_a_vehicle_reads_back_from_what_it_writes(name):
+    v = load_vehicle(name)
+    assert vehicle_of(yaml.safe_load(yaml.safe_dump(to_mapping(v)))) == v   # sorted keys: the order is a list's
+
+
+def test_a_full_inertia_is_eulers_equations_in_the_principal_frame():
+    """I = R D R^T: in body axes dw/dt = R (Euler's equations of D for R^T w, R^T tau, R^T h)."""
+    rot = _rotation(20.0, -35.0, 50.0)
+    principal = np.array([12.0, 15.0, 22.0])
+    inertia = rot @ np.diag(principal) @ rot.T
+    w, tau, h = np.array([0.01, -0.02, 0.03]), np.array([1e-3, 2e-3, -1e-3]), np.array([0.1, 0.05, -0.2])
+    spun = 0.0077 * np.eye(3)   # isotropic: the same in either frame
+    body = body_acceleration(w, tau, inertia, wheel_momentum=h, wheel_inertia=spun)
+    frame = body_acceleration(w @ rot, tau @ rot, principal, wheel_momentum=h @ rot,
+                              wheel_inertia=np.full(3, 0.0077)) @ rot.T
+    np.testing.assert_allclose(body, frame, rtol=1e-12, atol=1e-18)
+    # spin about a principal axis that is not a body axis: steady, torque free
+    for k in range(3):
+        np.testing.assert_allclose(body_acceleration(0.2 * rot[:, k], np.zeros(3), inertia), 0.0, atol=1e-15)
+
+
+def test_a_full_inertia_conserves_momentum_and_energy_torque_free():
+    rot = _rotation(10.0, 25.0, -40.0)
+    inertia = rot @ np.diag([12.0, 15.0, 22.0]) @ rot.T
+    w, dt = np.array([0.01, 0.02, -0.015]), 0.05
+    h0, e0 = np.linalg.norm(inertia @ w), 0.5 * w @ inertia @ w
+    for _ in range(2000):   # RK4
+        k1 = body_acceleration(w, np.zeros(3), inertia)
+        k2 = body_acceleration(w + dt / 2 * k1, np.zeros(3), inertia)
+        k3 = body_acceleration(w + dt / 2 * k2, np.zeros(3), inertia)
+        k4 = body_acceleration(w + dt * k3, np.zeros(3), inertia)
+        w = w + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    assert abs(np.linalg.norm(inertia @ w) - h0) < 1e-10 * h0
+    assert abs(0.5 * w @ inertia @ w - e0) < 1e-10 * e0
+
+
+def _raw():
+    return yaml.safe_load(shipped_vehicles()["maksat"].read_text())
+
+
+def _set(raw, path, value):
+    keys = path.split(".")
+    for k in keys[:-1]:
+        raw = raw[k]
+    if value is None:
+        del raw[keys[-1]]
+    else:
+        raw[keys[-1]] = value
+
+
+BAD = [
+    ("inertia.matrix", [[17, 0, 0], [0, -15, 0], [0, 0, 22]], "inertia: not positive definite"),
+    ("inertia.matrix", [[1, 0, 0], [0, 1, 0], [0, 0, 3]], "triangle inequality"),
+    ("inertia.matrix", [[17, 1, 0], [0, 15, 0], [0, 0, 22]], "inertia: not symmetric"),
+    ("inertia.matrix", [[17, 0], [0, 15]], "inertia.matrix: expected 3 rows of 3 numbers"),
+    ("wheel.driver_gain", "0.19 mA/V", "wheel.driver_gain: the unit must be A/V"),
+    ("wheel.driver_gain", 0.19, "wheel.driver_gain: give its unit"),
+    ("wheel.inertia", "-0.0077 kg m^2", "wheel.inertia: must be > 0"),
+    ("wheel.poles", 36.5, "wheel.poles: must be a whole number"),
+    ("wheel.emf_limit", "magic", "wheel.emf_limit: must be one of"),
+    ("wheel.torque_constant", None, "wheel: missing torque_constant"),
+    ("wheel.colour", "blue", "wheel: unknown field(s) ['colour']"),
+    ("wheel_set", {"wheels": [{"name": n, "spin_axis": a} for n, a in (("x", [1, 0, 0]), ("y", [0, 1, 0]),
+                                                                         ("z", [1, 1, 0]))]},
+     "wheel_set: its active wheels do not span the three body axes"),
+    ("wheel_set.wheels", {"x": [1, 0, 0]}, "wheel_set.wheels: expected a list"),
+    ("wheel_set.wheels", [{"name": "x", "spin_axis": [0, 0, 0]}], "wheel_set.wheels[0].spin_axis: a zero vector"),
+    ("wheel_set.standby", ["q"], "wheel_set.standby"),
+    ("controller.settling_time", "5 s", "controller.settling_time: a 5 deg slew in 5 s needs"),
+    ("dispersions.initial_wheel_speed", "30 to 20 rad/s", "dispersions.initial_wheel_speed: the low end 30"),
+    ("dispersions.initial_wheel_speed", "20 to 900 rad/s", "beyond the wheel's speed limiter"),
+    ("magnetorquers.dipole_limit", "15 A", "magnetorquers.dipole_limit: the unit must be A m^2"),
+    ("name", None, "missing 'name'"),
+    ("mass", "100 kg", "unknown field(s) ['mass']"),
+]
+
+
+@pytest.mark.parametrize("path, value, message", BAD, ids=[f"{p}={v}" for p, v, _ in BAD])
+def test_a_bad_vehicle_gets_one_line_naming_the_field(path, value, message):
+    raw = copy.deepcopy(_raw())
+    _set(raw, path, value)
+    with pytest.raises(VehicleError) as error:
+        vehicle_of(raw, "v.yaml")
+    text = str(error.value)
+    assert message in text and "\n" not in text and text.startswith("v.yaml")
+
+
+def _vehicle_file(tmp_path, scale=2.0, name="heavy"):
+    raw = _raw()
+    raw["name"] = name
+    raw["inertia"]["matrix"] = (scale * np.diag(INERTIA)).tolist()
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    return path
+
+
+def test_naming_the_default_vehicle_changes_no_number():
+    plain = parse_scenario("name: a\nduration: 30\nseed: 3\n")
+    named = parse_scenario("name: a\nduration: 30\nseed: 3\nvehicle: maksat\n")
+    a, b = simulate(plain), simulate(named)
+    np.testing.assert_array_equal(a.attitude, b.attitude)
+    np.testing.assert_array_equal(a.wheel_speed, b.wheel_speed)
+
+
+def test_a_scenario_flies_its_vehicle_and_the_bag_records_it(tmp_path):
+    path = _vehicle_file(tmp_path)
+    (tmp_path / "run.yaml").write_text("name: heavy_run\nduration: 120\nseed: 5\nvehicle: heavy.yaml\n")
+    from rw_fdi_ros.core.scenario import load_scenario
+    scenario = load_scenario(str(tmp_path / "run.yaml"))
+    assert scenario.vehicle == load_vehicle(path) and scenario.plant["vehicle"] == "heavy"
+    np.testing.assert_array_equal(Plant(scenario).inertia, 2.0 * INERTIA)
+    assert scenario.plant_choices().vehicle == "heavy"
+    again = parse_scenario(scenario.effective_text(scenario.plant_choices().scenario_dict()))
+    assert again.vehicle == scenario.vehicle   # the bag alone redoes the run: the whole vehicle is in it
+    # its controllers are designed on its inertia: the doubled body still settles its 5-deg steps
+    heavy, thesis = simulate(scenario), simulate(Scenario("t", duration=120.0, seed=5))
+    assert np.abs(np.degrees(heavy.error[-1])).max() < 0.2
+    assert not np.allclose(heavy.attitude, thesis.attitude)
+
+
+def test_the_launcher_gives_the_nodes_the_vehicle(tmp_path):
+    from rw_fdi_ros.core.pid import design_gains
+    from rw_fdi_ros.launch.graph import graph_nodes
+    _vehicle_file(tmp_path)
+    scenario = parse_scenario("name: h\nduration: 10\nvehicle: heavy.yaml\n", origin=str(tmp_path / "h.yaml"))
+    nodes = {n.name: n.parameters for n in graph_nodes(scenario, "h", None, fdi=None)}
+    gains = design_gains(2.0 * INERTIA)
+    assert nodes["pid_controller_y"]["kp"] == pytest.approx(gains.kp[1])
+    assert nodes["wheel_allocation"]["body_inertia"] == pytest.approx(np.diag(2.0 * INERTIA).ravel().tolist())
+    thesis = {n.name: n.parameters for n in graph_nodes(parse_scenario("name: t\n"), "t", None, fdi=None)}
+    assert "kp" not in thesis["pid_controller_y"] and "body_inertia" not in thesis["wheel_allocation"]
+
+
+def test_the_fdi_refuses_bands_fitted_for_another_vehicle():
+    curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
+    curves.check_compatible(PlantChoices())   # the shipped bands: the thesis' vehicle
+    with pytest.raises(ThresholdError, match="fitted with vehicle='maksat' but the graph runs vehicle='heavy'"):
+        curves.check_compatible(PlantChoices(vehicle="heavy"))
+
+
+def test_a_scenario_that_records_another_vehicle_is_refused(tmp_path):
+    _vehicle_file(tmp_path)
+    with pytest.raises(ScenarioError, match="plant.vehicle 'other' records another vehicle"):
+        parse_scenario("name: h\nvehicle: heavy.yaml\nplant: {vehicle: other}\n", origin=str(tmp_path / "h.yaml"))
+    with pytest.raises(ScenarioError, match="vehicle: vehicle 'nowhere'"):
+        parse_scenario("name: h\nvehicle: nowhere\n")
+
+
+def test_the_command_line_checks_a_vehicle_file(tmp_path):
+    path = _vehicle_file(tmp_path)
+    ok = subprocess.run([sys.executable, "-m", "rw_fdi_ros.cli", "vehicle", str(path)], capture_output=True, text=True)
+    assert ok.returncode == 0 and "principal moments 30, 34, 44 kg m^2" in ok.stdout
+    raw = yaml.safe_load(path.read_text())
+    raw["inertia"]["matrix"][0][0] = 200.0
+    path.write_text(yaml.safe_dump(raw))
+    bad = subprocess.run([sys.executable, "-m", "rw_fdi_ros.cli", "vehicle", str(path)], capture_output=True, text=True)
+    assert bad.returncode == 2
+    assert bad.stderr.strip().count("\n") == 0 and "heavy.yaml.inertia" in bad.stderr and "triangle" in bad.stderr
