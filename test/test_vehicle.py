@@ -185,6 +185,22 @@ def test_the_fdi_refuses_bands_fitted_for_another_vehicle():
         curves.check_compatible(PlantChoices(vehicle="heavy"))
 
 
+def test_the_fdi_refuses_a_wheel_it_does_not_model(tmp_path):
+    """Another wheel type flies (no FDI), but no FDI judges it with the thesis wheel's model."""
+    from rw_fdi_ros.core.closed_loop import Fdir
+    from rw_fdi_ros.launch.graph import graph_nodes
+    raw = _raw()
+    raw["name"], raw["wheel"]["torque_constant"] = "other_wheel", "0.035 N m/A"
+    (tmp_path / "other_wheel.yaml").write_text(yaml.safe_dump(raw))
+    scenario = parse_scenario("name: o\nduration: 20\nvehicle: other_wheel.yaml\n", origin=str(tmp_path / "o.yaml"))
+    assert np.isfinite(simulate(scenario).attitude).all()
+    assert graph_nodes(scenario, "o", None, fdi=None)
+    curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
+    for attempt in (lambda: simulate(scenario, fdir=Fdir(curves)), lambda: graph_nodes(scenario, "o", None, fdi={})):
+        with pytest.raises(VehicleError, match="the FDI models the thesis' wheel type .*torque_constant"):
+            attempt()
+
+
 def test_a_scenario_that_records_another_vehicle_is_refused(tmp_path):
     _vehicle_file(tmp_path)
     with pytest.raises(ScenarioError, match="plant.vehicle 'other' records another vehicle"):

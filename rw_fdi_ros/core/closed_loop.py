@@ -19,6 +19,7 @@ from .pid import PidController, PidGains, design_gains
 from .plant import Plant, batch_vehicle
 from .scenario import Scenario, setpoint_at
 from .spacecraft import inertia_times
+from .vehicle import check_fdi_wheel
 from .wheel import WheelParams
 
 
@@ -109,6 +110,8 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
                   magnetic_field=magnetic_field)
     dumper = Dumper([s.magnetorquers for s in scenarios]) if plant.in_orbit else None
     vehicle = batch_vehicle(scenarios)
+    if fdir is not None:
+        check_fdi_wheel(vehicle)
     wheel = vehicle.wheel if wheel is None else wheel
     allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit)
     gains = gains or (design_gains() if scenarios[0].vehicle is None else design_gains(vehicle.axis_inertia))

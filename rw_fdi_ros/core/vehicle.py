@@ -356,6 +356,19 @@ def check_flyable(vehicle: Vehicle, where: str = "vehicle") -> None:
                            f"limiter ({vehicle.wheel.overspeed_threshold:g} rad/s)")
 
 
+def check_fdi_wheel(vehicle: Vehicle) -> None:
+    """VehicleError unless the FDI can model ``vehicle``'s wheels: its nominal wheel model, ripple bound, unit
+    calibration, identification and networks are the thesis' wheel type's (Table 2.2) for now, so a vehicle
+    whose wheel differs (but for the plant choice emf_limit) is refused rather than judged with another
+    wheel's model. Body, wheel set, controller and dispersions may differ: the FDI judges each wheel."""
+    datasheet = WheelParams()
+    if replace(vehicle.wheel, emf_limit=datasheet.emf_limit) != datasheet:
+        differ = [k for k in WHEEL_UNITS if k != "emf_limit" and getattr(vehicle.wheel, k) != getattr(datasheet, k)]
+        raise VehicleError(f"vehicle {vehicle.name}: the FDI models the thesis' wheel type (Table 2.2) for now, and "
+                           f"this vehicle's wheel differs ({', '.join(differ[:4])}{', ...' if len(differ) > 4 else ''})"
+                           "; run it without the FDI (--no-fdi), docs/vehicles.md")
+
+
 def shipped_vehicles() -> dict:
     """name -> path of the vehicle files shipped in config/vehicles."""
     from ..paths import config_dir

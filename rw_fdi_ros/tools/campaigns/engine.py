@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import shutil
 import time
+from dataclasses import replace
 from pathlib import Path
 
 ENGINES = ("graph", "core")
@@ -100,7 +101,6 @@ def record_batch(items) -> list:
     from ...core.closed_loop import simulate
     from ...core.plant import units_of
     from ...core.scenario import load_scenario
-    from ...core.wheel import WheelParams
     from ...core.wheel_set import wheel_set
     t0 = time.monotonic()
     loaded = {}
@@ -109,7 +109,7 @@ def record_batch(items) -> list:
     if len(keys) != 1:
         raise ValueError(f"one batch, several durations or plant choices: {sorted(map(str, keys))}")
     choices = scenarios[0].plant_choices(emf_limit=items[0][3])
-    wheel = WheelParams(emf_limit=choices.emf_limit)
+    wheel = replace(scenarios[0].spacecraft.wheel, emf_limit=choices.emf_limit)
     traj = simulate(scenarios, wheel=wheel, control_period=choices.control_period,
                     wheel_momentum_coupling=choices.wheel_momentum_coupling, wheels=choices.wheel_set,
                     magnetic_field=choices.magnetic_field)
