@@ -12,11 +12,12 @@ import yaml
 from rw_fdi_ros.core.closed_loop import simulate
 from rw_fdi_ros.core.magnetorquers import MomentumDumping
 from rw_fdi_ros.core.plant import Plant
-from rw_fdi_ros.core.plant_choices import PlantChoices
+from rw_fdi_ros.core.fdir import slew_excursion
+from rw_fdi_ros.core.plant_choices import PlantChoiceError, PlantChoices
 from rw_fdi_ros.core.scenario import Scenario, ScenarioError, parse_scenario
 from rw_fdi_ros.core.spacecraft import DISTURBANCE_SIGMA, INERTIA, body_acceleration
 from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
-from rw_fdi_ros.core.vehicle import (Dispersions, VehicleError, load_vehicle, shipped_vehicles, to_mapping,
+from rw_fdi_ros.core.vehicle import (THESIS, Dispersions, VehicleError, load_vehicle, shipped_vehicles, to_mapping,
                                     vehicle_of)
 from rw_fdi_ros.core.wheel import DEFAULT_UNIT_SPREAD, WheelParams
 from rw_fdi_ros.core.wheel_set import WHEEL_SETS
@@ -35,6 +36,7 @@ def _rotation(roll, pitch, yaw):
 def test_the_shipped_default_is_the_thesis_spacecraft():
     v = load_vehicle()
     assert v.name == "maksat" and "maksat" in shipped_vehicles()
+    assert v == THESIS   # the file and the code's constants: one vehicle
     np.testing.assert_array_equal(v.body_inertia, INERTIA)          # Table 2.3, diagonal: the exact fast path
     assert v.wheel == WheelParams()                                   # Table 2.2
     assert v.wheel_set == WHEEL_SETS["orthogonal_skew"]              # the skew axis exactly (1, 1, 1)/sqrt(3)
@@ -118,6 +120,18 @@ BAD = [
     ("dispersions.initial_wheel_speed", "20 to 900 rad/s", "beyond the wheel's speed limiter"),
     ("magnetorquers.dipole_limit", "15 A", "magnetorquers.dipole_limit: the unit must be A m^2"),
     ("name", None, "missing 'name'"),
+    ("name", "  ", "name: a name (text)"),
+    ("controller", None, "missing 'controller'"),
+    ("controller.overshoot", 1.5, "controller.overshoot: a share below 1"),
+    ("disturbance_sigma", "-1e-5 N m", "disturbance_sigma: must be >= 0"),
+    ("magnetorquers.stop_speed", "40 rad/s", "magnetorquers.stop_speed: 40 rad/s is above start_speed 35"),
+    ("magnetorquers.gain", "-0.002 1/s", "magnetorquers.gain: must be > 0"),
+    ("dispersions.unit_spread.driver_gain", 0.5, "dispersions.unit_spread.driver_gain: a 1-sigma share in [0, 0.3]"),
+    ("dispersions.initial_attitude", "-200 to 200 deg", "dispersions.initial_attitude: beyond +-180 deg"),
+    ("dispersions.initial_body_rate", "-2 to 2 rad/s", "dispersions.initial_body_rate: beyond +-1 rad/s"),
+    ("wheel_set.wheels", [{"name": n, "spin_axis": a} for n, a in (("x", [1, 0, 0]), ("x", [0, 1, 0]))],
+     "wheel_set.wheels[1].name: wheel 'x' twice"),
+    ("wheel.1", "odd", "wheel: unknown field(s) ['1']"),
     ("mass", "100 kg", "unknown field(s) ['mass']"),
 ]
 
@@ -185,20 +199,37 @@ def test_the_fdi_refuses_bands_fitted_for_another_vehicle():
         curves.check_compatible(PlantChoices(vehicle="heavy"))
 
 
-def test_the_fdi_refuses_a_wheel_it_does_not_model(tmp_path):
-    """Another wheel type flies (no FDI), but no FDI judges it with the thesis wheel's model."""
-    from rw_fdi_ros.core.closed_loop import Fdir
-    from rw_fdi_ros.launch.graph import graph_nodes
+def test_another_wheel_type_is_read_but_not_flown(tmp_path):
+    """The controllers, the allocation and the FDI model the thesis' wheel: another is refused by name."""
     raw = _raw()
     raw["name"], raw["wheel"]["torque_constant"] = "other_wheel", "0.035 N m/A"
     (tmp_path / "other_wheel.yaml").write_text(yaml.safe_dump(raw))
-    scenario = parse_scenario("name: o\nduration: 20\nvehicle: other_wheel.yaml\n", origin=str(tmp_path / "o.yaml"))
-    assert np.isfinite(simulate(scenario).attitude).all()
-    assert graph_nodes(scenario, "o", None, fdi=None)
-    curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
-    for attempt in (lambda: simulate(scenario, fdir=Fdir(curves)), lambda: graph_nodes(scenario, "o", None, fdi={})):
-        with pytest.raises(VehicleError, match="the FDI models the thesis' wheel type .*torque_constant"):
-            attempt()
+    assert load_vehicle(tmp_path / "other_wheel.yaml").wheel.torque_constant == 0.035
+    with pytest.raises(ScenarioError, match=r"its wheel differs from the thesis' type \(Table 2.2: torque_constant\)"):
+        parse_scenario("name: o\nvehicle: other_wheel.yaml\n", origin=str(tmp_path / "o.yaml"))
+
+
+def test_a_vehicle_gives_a_scenario_what_it_leaves_open(tmp_path):
+    raw = _raw()
+    raw["name"], raw["wheel"]["emf_limit"] = "pwm", "pwm_saturation"
+    raw["dispersions"]["setpoint_change"] = "-2 to 2 deg"
+    (tmp_path / "pwm.yaml").write_text(yaml.safe_dump(raw))
+    scenario = parse_scenario("name: p\nvehicle: pwm.yaml\nmanoeuvres: {interval_s: [60, 90]}\n",
+                              origin=str(tmp_path / "p.yaml"))
+    assert scenario.plant_choices().emf_limit == "pwm_saturation"   # one source: the graph and the bag read it
+    assert scenario.manoeuvres.size_deg == (-2.0, 2.0)
+    with pytest.raises(PlantChoiceError, match="flies vehicle pwm, whose wheel set is orthogonal_skew"):
+        scenario.plant_choices(wheel_set="pyramid")   # the plant node's parameter: the bag would not parse
+
+
+def test_a_slew_with_products_of_inertia_moves_the_wheels_of_every_axis_it_couples():
+    """Orthogonal wheels (D = identity on x, y, z): dOmega_i = s sum_a |I_ia| / J."""
+    inertia = np.array([[30.0, 2.0, 0.0], [2.0, 26.0, -1.0], [0.0, -1.0, 40.0]])
+    wheels = WHEEL_SETS["orthogonal"]
+    got = slew_excursion(wheels, wheels.names, 0.01, inertia, 0.0077)
+    np.testing.assert_allclose(got, np.abs(inertia).sum(axis=1) * 0.01 / 0.0077, rtol=1e-12)
+    np.testing.assert_array_equal(slew_excursion(wheels, wheels.names, 0.01, np.diag(INERTIA), 0.0077),
+                                  slew_excursion(wheels, wheels.names, 0.01, INERTIA, 0.0077))
 
 
 def test_a_scenario_that_records_another_vehicle_is_refused(tmp_path):
@@ -219,3 +250,28 @@ def test_the_command_line_checks_a_vehicle_file(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "rw_fdi_ros.cli", "vehicle", str(path)], capture_output=True, text=True)
     assert bad.returncode == 2
     assert bad.stderr.strip().count("\n") == 0 and "heavy.yaml.inertia" in bad.stderr and "triangle" in bad.stderr
+
+
+def test_your_vehicle_gets_its_own_bands_and_the_fdi_judges_it(tmp_path):
+    """A vehicle with products of inertia: bands fitted on its own fault-free runs (the shipped ones refused),
+    then a current loss on y found on the right wheel by /diagnostics' verdict, on other seeds."""
+    raw = _raw()
+    raw["name"], raw["inertia"]["matrix"] = "coupled", [[30, 2, 0], [2, 26, -1], [0, -1, 40]]
+    (tmp_path / "coupled.yaml").write_text(yaml.safe_dump(raw))
+    (tmp_path / "ff.yaml").write_text("name: coupled_ff\nduration: 300\nvehicle: coupled.yaml\n")
+    (tmp_path / "cl.yaml").write_text("name: coupled_cl\nduration: 300\nvehicle: coupled.yaml\nfaults: "
+                                      "[{kind: current_limiter, wheel: y, onset: 150, value: 0.6}]\n")
+    cli = [sys.executable, "-m", "rw_fdi_ros.cli"]
+    fit = subprocess.run(cli + ["fit-thresholds", "--simulate", "ff.yaml", "--seeds", "7000..7059", "--out", "fdi",
+                                "--jobs", "1"], cwd=tmp_path, capture_output=True, text=True)
+    assert fit.returncode == 0, fit.stderr
+    assert yaml.safe_load((tmp_path / "fdi" / "thresholds_model.json").read_text())["plant"]["vehicle"] == "coupled"
+    shipped = subprocess.run(cli + ["screen", "--scenario", "cl.yaml", "--seeds", "8000..8001", "--jobs", "1"],
+                             cwd=tmp_path, capture_output=True, text=True)
+    assert shipped.returncode == 2
+    assert "fitted with vehicle='maksat' but the graph runs vehicle='coupled'" in shipped.stderr
+    own = subprocess.run(cli + ["screen", "--scenario", "cl.yaml", "--seeds", "8000..8003", "--thresholds", "fdi",
+                                "--jobs", "1"], cwd=tmp_path, capture_output=True, text=True)
+    assert own.returncode == 0, own.stderr
+    verdict = next(line for line in own.stdout.splitlines() if " verdict " in line).split()
+    assert verdict[verdict.index("correct") + 1] == "4" and verdict[verdict.index("false") + 2] == "0"

@@ -19,7 +19,6 @@ from .pid import PidController, PidGains, design_gains
 from .plant import Plant, batch_vehicle
 from .scenario import Scenario, setpoint_at
 from .spacecraft import inertia_times
-from .vehicle import check_fdi_wheel
 from .wheel import WheelParams
 
 
@@ -110,11 +109,9 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
                   magnetic_field=magnetic_field)
     dumper = Dumper([s.magnetorquers for s in scenarios]) if plant.in_orbit else None
     vehicle = batch_vehicle(scenarios)
-    if fdir is not None:
-        check_fdi_wheel(vehicle)
     wheel = vehicle.wheel if wheel is None else wheel
     allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit)
-    gains = gains or (design_gains() if scenarios[0].vehicle is None else design_gains(vehicle.axis_inertia))
+    gains = gains or design_gains(vehicle.axis_inertia)
     # the controllers' integrators hold the body-axis command of the wheels' holding voltages
     pid = PidController(gains, control_period, initial_tcv=plant.tcv @ plant.spin_axes.T, wheel=wheel)
     schedules = [s.setpoint_schedule() for s in scenarios]

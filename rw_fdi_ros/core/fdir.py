@@ -127,9 +127,9 @@ def slew_excursion(wheels: WheelSet, in_use, slew_rate: float = SLEW_RATE, body_
                    wheel_inertia: float = WheelParams().inertia) -> np.ndarray:
     """How far (N,) [rad/s] each wheel ``in_use`` may have to move its speed for a slew at ``slew_rate``
     [rad/s] about any combination of axes: the body momentum I w of the slew, |w_a| <= slew_rate, spread
-    by the minimum-norm distribution D of the wheels in use,
+    by the minimum-norm distribution D of the wheels in use, at its largest over the box of rates,
 
-        dOmega_i = sum_a |D_ia| I_a slew_rate / J
+        dOmega_i = sum_a |(D I)_ia| slew_rate / J       (= sum_a |D_ia| I_a slew_rate / J, I diagonal)
 
     A redundant wheel at 1/sqrt(3) to the axis it takes over moves sqrt(3) times as far as the axis wheel
     did: about 33 rad/s on the datasheet wheel for Table 2.3's 5-deg slews.
@@ -142,8 +142,8 @@ def slew_excursion(wheels: WheelSet, in_use, slew_rate: float = SLEW_RATE, body_
         Names of the wheels in use; they must span the body (else ValueError).
     slew_rate : float, optional
         Largest body rate per axis [rad/s].
-    body_inertia : array_like, shape (3,), optional
-        Principal inertia I [kg m^2].
+    body_inertia : array_like, shape (3,) or (3, 3), optional
+        The body's inertia I [kg m^2]: its diagonal, or the matrix.
     wheel_inertia : float, optional
         J [kg m^2].
 
@@ -153,7 +153,10 @@ def slew_excursion(wheels: WheelSet, in_use, slew_rate: float = SLEW_RATE, body_
         dOmega [rad/s]; 0 for the wheels not in use.
     """
     d = distribution(wheels.matrix, wheels.mask(in_use))
-    return np.abs(d) @ (np.asarray(body_inertia, float) * slew_rate) / wheel_inertia
+    inertia = np.asarray(body_inertia, float)
+    if inertia.ndim == 2:   # products of inertia: a rate about one axis stores momentum about the others too
+        return np.abs(d @ inertia).sum(axis=1) * slew_rate / wheel_inertia
+    return np.abs(d) @ (inertia * slew_rate) / wheel_inertia
 
 
 def momentum_shortfall(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0, 0.0, 0.0),
@@ -187,9 +190,7 @@ def momentum_shortfall(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0
         The reason, naming the worst wheel and its speeds [rad/s]; None when every wheel stays within ``holdable``.
     """
     need = np.abs(held_speeds(wheels, in_use, wheel_speed, body_momentum, wheel_inertia))
-    inertia = np.asarray(body_inertia, float)
-    reach = need + slew_excursion(wheels, in_use, slew_rate, np.diag(inertia) if inertia.ndim == 2 else inertia,
-                                  wheel_inertia)
+    reach = need + slew_excursion(wheels, in_use, slew_rate, body_inertia, wheel_inertia)
     worst = int(np.argmax(reach))
     if reach[worst] <= holdable:
         return None

@@ -31,7 +31,7 @@ import numpy as np
 from . import wheel as wm
 from .scenario import FAULT_KINDS, NOMINAL_VALUES, Scenario, operating_points
 from .environment import Environments, magnetometer_steps
-from .spacecraft import INERTIA, body_acceleration, disturbance_torque
+from .spacecraft import body_acceleration, disturbance_torque
 from .wheel_set import WheelSet, wheel_set as named_wheel_set
 
 
@@ -116,8 +116,8 @@ class Plant:
         self.scenarios = list(scenarios)
         vehicle = batch_vehicle(self.scenarios)
         wheel = vehicle.wheel if wheel is None else wheel
-        if inertia is None:   # the thesis' constant where no vehicle is named: its runs bit for bit as before
-            inertia = INERTIA if self.scenarios[0].vehicle is None else vehicle.body_inertia
+        if inertia is None:
+            inertia = vehicle.body_inertia
         self.disturbance_sigma = vehicle.disturbance_sigma
         if wheels is None:
             wheels = self.scenarios[0].plant_choices().wheel_set

@@ -16,13 +16,13 @@ from dataclasses import asdict, dataclass, fields, replace
 from .geomagnetic import FIELD_MODELS
 from .sampling import SAMPLINGS as FDI_SAMPLINGS
 from .wheel import EMF_LIMITS
+from .vehicle import DEFAULT_VEHICLE
 from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
 
 # what a scenario file may set under `plant:` (the rest is fixed by the graph)
 SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period", "wheel_set", "magnetic_field")
 # what a bag's /scenario records under `plant:`: those and the vehicle's name (its `vehicle:` holds the rest)
 RECORDED_KEYS = SCENARIO_KEYS + ("vehicle",)
-DEFAULT_VEHICLE = "maksat"   # vehicle.DEFAULT_VEHICLE: the thesis' spacecraft
 # the value a recorded mapping without the key was made under
 LEGACY = {"wheel_momentum_coupling": False, "wheel_set": "orthogonal"}
 # (choice, made under, running) pairs that are no difference to what was fitted or trained: a three-wheel

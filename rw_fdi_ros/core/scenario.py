@@ -7,7 +7,6 @@ the run's seed, so the same seed always gives the same run.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from functools import lru_cache
 from datetime import date, datetime, timezone
 from pathlib import Path
 
@@ -20,7 +19,8 @@ from .magnetorquers import MomentumDumping
 from .orbit import CircularOrbit, OrbitError, TleOrbit
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
 from .wheel_set import AXIS_WHEELS, DEFAULT_WHEEL_SET, WHEEL_SETS
-from .vehicle import DEFAULT_VEHICLE, Dispersions, Vehicle, VehicleError, load_vehicle
+from .vehicle import (DEFAULT_VEHICLE, DISPERSION_LIMITS, THESIS, UNIT_SPREAD_MAX, Dispersions, Vehicle,
+                      VehicleError, check_wheel_type, load_vehicle)
 from .wheel import NOMINAL, UNIT_PARAMETERS, WheelParams, unit_wheel
 
 FAULT_KINDS = ("bus_voltage", "current_limiter", "temperature", "ripple_gain")
@@ -125,7 +125,7 @@ class Scenario:
     @property
     def spacecraft(self) -> Vehicle:
         """The vehicle the run flies: its own, else the default (the thesis' MakSat)."""
-        return self.vehicle if self.vehicle is not None else _default_vehicle()
+        return self.vehicle if self.vehicle is not None else THESIS
 
     def with_seed(self, seed: int) -> "Scenario":
         return replace(self, seed=int(seed))
@@ -227,8 +227,13 @@ class Scenario:
         return yaml.safe_dump(raw, sort_keys=False)
 
     def plant_choices(self, **overrides) -> PlantChoices:
-        """The choices this scenario runs under (its ``plant:`` mapping, then overrides not None)."""
-        return PlantChoices.for_scenario(self.plant, **overrides)
+        """The choices this scenario runs under (its ``plant:`` mapping, then overrides not None). A scenario
+        that names a vehicle flies its wheel set: another one asked for is refused (its bag would not parse)."""
+        choices = PlantChoices.for_scenario(self.plant, **overrides)
+        if self.vehicle is not None and choices.wheel_set != self.plant.get("wheel_set", choices.wheel_set):
+            raise PlantChoiceError(f"wheel_set {choices.wheel_set!r}: scenario {self.name} flies vehicle "
+                                   f"{self.vehicle.name}, whose wheel set is {self.plant['wheel_set']}")
+        return choices
 
     def fault_free(self) -> "Scenario":
         return replace(self, faults=())
@@ -366,8 +371,8 @@ def _vector(where, raw, lengths=(3,), lo=None, hi=None):
 # a set-point change or an initial attitude of at most half a turn per axis (the manoeuvres' size_deg alike), a
 # body rate the controllers are meant for, and no wheel beyond its speed limiter's threshold (Table 2.2's w_s),
 # where the wheel model ends.
-ANGLE_LIMIT_DEG = 180.0
-BODY_RATE_LIMIT = 1.0                                       # [rad/s]
+ANGLE_LIMIT_DEG = DISPERSION_LIMITS["attitude_deg"]
+BODY_RATE_LIMIT = DISPERSION_LIMITS["body_rate"]            # [rad/s]
 WHEEL_SPEED_LIMIT = WheelParams().overspeed_threshold      # [rad/s]
 INITIAL_LIMITS = {"attitude_deg": ANGLE_LIMIT_DEG, "body_rate": BODY_RATE_LIMIT, "wheel_speed": WHEEL_SPEED_LIMIT}
 
@@ -454,6 +459,8 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     vehicle = _vehicle(origin, raw.get("vehicle"))
     if vehicle is not None:
         plant = {**plant, "wheel_set": _vehicle_wheel_set(origin, vehicle, plant)}
+        # its wheel's EMF limiting is the plant choice (one source: the graph and the bag read the choice)
+        plant.setdefault("emf_limit", vehicle.wheel.emf_limit)
     named = DEFAULT_VEHICLE if vehicle is None else vehicle.name
     if plant.get("vehicle", named) != named:
         raise ScenarioError(f"{origin}: plant.vehicle {plant['vehicle']!r} records another vehicle than the "
@@ -484,7 +491,8 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     return Scenario(name=name, duration=duration, seed=seed, faults=faults, setpoints=tuple(setpoints),
                     initial=initial, description=str(raw.get("description", "")), plant=dict(plant),
                     wheels=_wheels(f"{origin}: wheels", raw.get("wheels"), len(names)),
-                    manoeuvres=_manoeuvres(f"{origin}: manoeuvres", raw.get("manoeuvres"), duration), source_text=text,
+                    manoeuvres=_manoeuvres(f"{origin}: manoeuvres", raw.get("manoeuvres"), duration, vehicle),
+                    source_text=text,
                     environment=environment, magnetorquers=magnetorquers, vehicle=vehicle)
 
 
@@ -501,9 +509,11 @@ def _vehicle(origin: str, raw) -> Vehicle | None:
     else:
         raise ScenarioError(f"{origin}: vehicle: a shipped vehicle's name, a vehicle file or its mapping, got {raw!r}")
     try:
-        return load_vehicle(source)
+        vehicle = load_vehicle(source)
+        check_wheel_type(vehicle)
     except VehicleError as exc:
         raise ScenarioError(f"{origin}: vehicle: {exc}") from None
+    return vehicle
 
 
 def _vehicle_wheel_set(origin: str, vehicle: Vehicle, plant: dict) -> str:
@@ -522,11 +532,6 @@ def _vehicle_wheel_set(origin: str, vehicle: Vehicle, plant: dict) -> str:
     return known
 
 
-@lru_cache(maxsize=1)
-def _default_vehicle() -> Vehicle:
-    return load_vehicle(None)
-
-
 def _range(where, raw, lo, hi) -> tuple:
     if not isinstance(raw, (list, tuple)) or len(raw) != 2:
         raise ScenarioError(f"{where}: expected [low, high]")
@@ -536,13 +541,14 @@ def _range(where, raw, lo, hi) -> tuple:
     return low, high
 
 
-def _manoeuvres(where, raw, duration) -> Manoeuvres | None:
-    """The ``manoeuvres:`` mapping: interval_s [low, high] (>= 1 s), size_deg [low, high] per axis, start_s."""
+def _manoeuvres(where, raw, duration, vehicle: Vehicle | None = None) -> Manoeuvres | None:
+    """The ``manoeuvres:`` mapping: interval_s [low, high] (>= 1 s), size_deg [low, high] per axis (default:
+    the vehicle's set-point changes), start_s."""
     if raw is None:
         return None
     if not isinstance(raw, dict) or set(raw) - {"interval_s", "size_deg", "start_s"}:
         raise ScenarioError(f"{where}: a mapping of interval_s, size_deg and start_s")
-    default = Manoeuvres()
+    default = Manoeuvres() if vehicle is None else Manoeuvres(size_deg=vehicle.dispersions.setpoint_change_deg)
     return Manoeuvres(interval_s=_range(f"{where}.interval_s", raw.get("interval_s", default.interval_s), 1.0, 1e6),
                       size_deg=_range(f"{where}.size_deg", raw.get("size_deg", default.size_deg), -ANGLE_LIMIT_DEG,
                                       ANGLE_LIMIT_DEG),
@@ -633,7 +639,6 @@ def _magnetorquers(where, raw, base: MomentumDumping | None = None) -> MomentumD
 
 # a spread's draws are cut at 3 sigma, so every drawn scale lies inside the range a `scale` may give:
 # the bag's recorded scenario always parses again
-UNIT_SPREAD_MAX = 0.3
 UNIT_SCALE_RANGE = (0.05, 5.0)
 
 

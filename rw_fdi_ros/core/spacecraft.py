@@ -71,8 +71,9 @@ def body_acceleration(body_rate, torque, inertia=INERTIA, wheel_momentum=None, w
         Body rate w [rad/s], body frame, e.g. (B, 3).
     torque : array_like, shape (..., 3)
         External plus reaction torque tau [N m], body frame.
-    inertia : array_like, shape (3,), (..., 3) or (3, 3)
-        Inertia I with the wheels locked [kg m^2]: its diagonal on principal axes, else the matrix.
+    inertia : array_like, shape (3,) or (3, 3)
+        Inertia I with the wheels locked [kg m^2], one for the batch: its diagonal on principal axes, else
+        the matrix.
     wheel_momentum : array_like, shape (..., 3), optional
         The wheels' stored momentum h_w [N m s], body frame; None for eq. 2.27 as written.
     wheel_inertia : float or array_like, shape (..., 3) or (..., 3, 3)

@@ -10,12 +10,18 @@ default.
 A vehicle that cannot fly is refused with its reason, one line naming the field:
 
 * the inertia must be symmetric positive definite and its principal moments obey the triangle
-  inequality I_1 <= I_2 + I_3 (a rigid body's mass lies in space, not on a line);
+  inequality I_3 <= I_1 + I_2 (the largest at most the sum of the others: no rigid body has more);
 * the active wheels must span the three body axes;
 * the controller's targets must be within the wheels' torque: a rest-to-rest slew of the largest
   set-point change theta in the settling time T needs, bang-bang, alpha = 4 theta / T^2 about an axis,
   so I_kk alpha must not exceed what the active wheels give about it, tau_max sum_i |g_ik|
-  (tau_max = G_d k_t V_limit, one wheel's torque at its command limit).
+  (tau_max = G_d k_t V_limit, one wheel's torque at its command limit). A necessary condition, not a
+  sufficient one: the gains are still the thesis' pole placement at w_n = 0.3 rad/s (pid.design_gains),
+  not designed from the targets (docs/vehicles.md).
+
+The wheels themselves must be the thesis' type (Table 2.2) for now (:func:`check_wheel_type`): the
+controllers' volts per torque, the allocation's hold feed-forward and the whole FDI model that wheel; a
+vehicle file whose wheel differs is read and checked, and refused for flight by name.
 """
 from __future__ import annotations
 
@@ -27,6 +33,7 @@ import numpy as np
 import yaml
 
 from .magnetorquers import MomentumDumping
+from .spacecraft import DISTURBANCE_SIGMA, INERTIA
 from .wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, UNIT_PARAMETERS, WheelParams
 from .wheel_set import WHEEL_SETS, WheelSet
 
@@ -44,6 +51,13 @@ WHEEL_UNITS = {
 WHEEL_MAY_BE_ZERO = {"coulomb_friction", "ripple_coefficient", "noise_angle", "noise_frequency", "diode_drop",
                      "quiescent_power", "input_resistance", "viscous_scale"}
 MAGNETORQUER_UNITS = {"dipole_limit": "A m^2", "gain": "1/s", "start_speed": "rad/s", "stop_speed": "rad/s"}
+CONTROLLER_UNITS = {"overshoot": "", "settling_time": "s", "pointing": "deg"}
+REQUIRED_KEYS = ("name", "inertia", "disturbance_sigma", "wheel", "wheel_set", "controller", "magnetorquers",
+                 "dispersions")
+# the largest a dispersion may reach (what a scenario may ask: scenario.ANGLE_LIMIT_DEG, INITIAL_LIMITS)
+# (the initial wheel speeds: the vehicle's own wheel's speed limiter, check_flyable)
+DISPERSION_LIMITS = {"attitude_deg": 180.0, "body_rate": 1.0, "setpoint_change_deg": 180.0}
+UNIT_SPREAD_MAX = 0.3   # scenario.UNIT_SPREAD_MAX: cut at 3 sigma, every unit's scale stays positive
 FAULT_SIZE_UNITS = {"current_limiter": "", "temperature": "C", "bus_voltage": "V"}
 TOP_KEYS = {"name", "description", "sources", "inertia", "disturbance_sigma", "wheel", "wheel_set", "controller",
             "magnetorquers", "dispersions"}
@@ -95,10 +109,11 @@ class Vehicle:
     controller: ControllerTargets = ControllerTargets()
     magnetorquers: MomentumDumping = MomentumDumping()
     dispersions: Dispersions = Dispersions()
-    disturbance_sigma: float = 5.68e-5   # [N m] per axis, eq. 2.34
-    description: str = ""
-    wheel_type: str = ""                 # the wheel's make and model, as its datasheet names it
-    sources: tuple = field(default=(), compare=False)   # (field, where its value comes from) pairs
+    disturbance_sigma: float = DISTURBANCE_SIGMA   # [N m] per axis, eq. 2.34
+    # words, not physics: two vehicles that fly alike are equal
+    description: str = field(default="", compare=False)
+    wheel_type: str = field(default="", compare=False)    # the wheel's make and model, as its datasheet names it
+    sources: tuple = field(default=(), compare=False)     # (field, where its value comes from) pairs
 
     @property
     def inertia_matrix(self) -> np.ndarray:
@@ -141,6 +156,12 @@ class Vehicle:
     def as_dict(self) -> dict:
         """The vehicle as its file writes it (units in the values): what a bag records."""
         return to_mapping(self)
+
+
+# the thesis' MakSat in the code's own constants (Tables 2.2, 2.3): what a scenario without a vehicle flies,
+# with no file to read; config/vehicles/maksat.yaml is the same vehicle as data (test_vehicle.py)
+THESIS = Vehicle(DEFAULT_VEHICLE, tuple(tuple(float(v) for v in row) for row in np.diag(INERTIA)),
+                 description="the thesis' MakSat", wheel_type="ITHACO Type A")
 
 
 # -- reading ---------------------------------------------------------------------------------------------
@@ -190,7 +211,7 @@ def interval(where: str, raw, unit: str) -> tuple:
 def _mapping(where: str, raw, known) -> dict:
     if not isinstance(raw, dict):
         raise VehicleError(f"{where}: expected a mapping of {', '.join(sorted(known))}")
-    unknown = sorted(set(raw) - set(known))
+    unknown = sorted(map(str, set(raw) - set(known)))   # str: YAML keys may be numbers or booleans
     if unknown:
         raise VehicleError(f"{where}: unknown field(s) {unknown}; known: {', '.join(sorted(known))}")
     return raw
@@ -269,10 +290,14 @@ def _wheel_set(where: str, raw) -> WheelSet:
         if not isinstance(wheel.get("name"), str) or not (isinstance(direction, list) and len(direction) == 3):
             raise VehicleError(f"{at}: expected a name and a spin_axis direction [x, y, z]")
         v = np.array([_number(f"{at}.spin_axis[{k}]", x) for k, x in enumerate(direction)])
-        if not np.linalg.norm(v) > 0.0:
+        norm = np.linalg.norm(v)
+        if not norm > 0.0:
             raise VehicleError(f"{at}.spin_axis: a zero vector has no direction")
+        if wheel["name"] in names:
+            raise VehicleError(f"{at}.name: wheel {wheel['name']!r} twice")
         names.append(wheel["name"])
-        axes.append(tuple(float(x) for x in v / np.linalg.norm(v)))
+        # a unit vector read back stays as it was (a bag's vehicle equals its file's, bit for bit)
+        axes.append(tuple(float(x) for x in (v if abs(norm - 1.0) <= 1e-12 else v / norm)))
     standby = raw.get("standby", [])
     if not isinstance(standby, list) or set(map(str, standby)) - set(names):
         raise VehicleError(f"{where}.standby: a list of wheel names among {', '.join(names)}")
@@ -289,10 +314,16 @@ def _dispersions(where: str, raw) -> Dispersions:
     keys = {"attitude_deg": "initial_attitude", "body_rate": "initial_body_rate",
             "wheel_speed": "initial_wheel_speed", "setpoint_change_deg": "setpoint_change"}
     values = {f: interval(f"{where}.{k}", raw[k], units[f]) for f, k in keys.items() if k in raw}
+    for f, k in keys.items():   # what a scenario may ask (scenario.INITIAL_LIMITS, ANGLE_LIMIT_DEG)
+        if f in values and f in DISPERSION_LIMITS and max(abs(v) for v in values[f]) > DISPERSION_LIMITS[f]:
+            raise VehicleError(f"{where}.{k}: beyond +-{DISPERSION_LIMITS[f]:g} {units[f]}")
     if "unit_spread" in raw:
         spread = _mapping(f"{where}.unit_spread", raw["unit_spread"], UNIT_PARAMETERS)
         values["unit_spread"] = tuple(sorted((k, quantity(f"{where}.unit_spread.{k}", v, ""))
                                              for k, v in spread.items()))
+        for k, v in values["unit_spread"]:
+            if not 0.0 <= v <= UNIT_SPREAD_MAX:   # cut at 3 sigma, a unit's scale stays positive
+                raise VehicleError(f"{where}.unit_spread.{k}: a 1-sigma share in [0, {UNIT_SPREAD_MAX:g}], got {v:g}")
     if "fault_sizes" in raw:
         sizes = _mapping(f"{where}.fault_sizes", raw["fault_sizes"], FAULT_SIZE_UNITS)
         values["fault_sizes"] = tuple(sorted((k, interval(f"{where}.fault_sizes.{k}", v, FAULT_SIZE_UNITS[k]))
@@ -300,41 +331,62 @@ def _dispersions(where: str, raw) -> Dispersions:
     return Dispersions(**values)
 
 
-def _units_of(where: str, raw, cls, units: dict):
-    raw = _mapping(where, raw, set(units) | ({"enabled"} if cls is MomentumDumping else set()))
-    values = {k: quantity(f"{where}.{k}", v, units[k]) for k, v in raw.items() if k in units}
+def _positive(where: str, raw, units: dict, may_be_zero=()) -> dict:
+    """The quantities of ``raw`` (a mapping of ``units``' fields), each > 0 (>= 0 for ``may_be_zero``)."""
+    values = {k: quantity(f"{where}.{k}", v, units[k]) for k, v in raw.items()}
     for k, v in values.items():
-        if v <= 0.0 and k != "stop_speed":
-            raise VehicleError(f"{where}.{k}: must be > 0, got {v:g}")
+        if v < 0.0 or (v == 0.0 and k not in may_be_zero):
+            raise VehicleError(f"{where}.{k}: must be {'>= 0' if k in may_be_zero else '> 0'}, got {v:g}")
+    return values
+
+
+def _controller(where: str, raw) -> ControllerTargets:
+    values = _positive(where, _mapping(where, raw, CONTROLLER_UNITS), CONTROLLER_UNITS)
+    if values.get("overshoot", 0.0) >= 1.0:
+        raise VehicleError(f"{where}.overshoot: a share below 1, got {values['overshoot']:g}")
+    return ControllerTargets(**values)
+
+
+def _magnetorquers(where: str, raw) -> MomentumDumping:
+    raw = _mapping(where, raw, {*MAGNETORQUER_UNITS, "enabled"})
+    values = _positive(where, {k: v for k, v in raw.items() if k != "enabled"}, MAGNETORQUER_UNITS, ("stop_speed",))
     if "enabled" in raw:
         if not isinstance(raw["enabled"], bool):
             raise VehicleError(f"{where}.enabled: true or false, got {raw['enabled']!r}")
         values["enabled"] = raw["enabled"]
-    return cls(**values)
+    rods = MomentumDumping(**values)
+    if rods.stop_speed > rods.start_speed:
+        raise VehicleError(f"{where}.stop_speed: {rods.stop_speed:g} rad/s is above start_speed {rods.start_speed:g}")
+    return rods
+
+
+def _text(value) -> str:
+    return "" if value is None else str(value)
 
 
 def vehicle_of(raw, where: str = "vehicle") -> Vehicle:
     """A Vehicle from a vehicle file's mapping, checked (module docstring); VehicleError otherwise."""
     raw = _mapping(where, raw, TOP_KEYS)
-    for key in ("name", "inertia", "wheel"):
-        if key not in raw:
-            raise VehicleError(f"{where}: missing '{key}'")
-    sources = raw.get("sources", {})
+    # every section is the vehicle's own: nothing of the thesis' spacecraft is taken in silently
+    missing = [k for k in REQUIRED_KEYS if k not in raw]
+    if missing:
+        raise VehicleError(f"{where}: missing {', '.join(repr(k) for k in missing)} (docs/vehicles.md)")
+    if not isinstance(raw["name"], str) or not raw["name"].strip():
+        raise VehicleError(f"{where}.name: a name (text), got {raw['name']!r}")
+    sources = raw.get("sources") or {}
     if not isinstance(sources, dict):
         raise VehicleError(f"{where}.sources: expected a mapping of field -> where its value comes from")
-    controller = _units_of(f"{where}.controller", raw.get("controller", {}), ControllerTargets,
-                           {"overshoot": "", "settling_time": "s", "pointing": "deg"})
+    wheel = _wheel(f"{where}.wheel", raw["wheel"])
     vehicle = Vehicle(
-        name=str(raw["name"]), inertia=_inertia(f"{where}.inertia", raw["inertia"]),
-        wheel=_wheel(f"{where}.wheel", raw["wheel"]),
-        wheel_set=_wheel_set(f"{where}.wheel_set", raw.get("wheel_set", "orthogonal_skew")),
-        controller=controller,
-        magnetorquers=_units_of(f"{where}.magnetorquers", raw.get("magnetorquers", {}), MomentumDumping,
-                                MAGNETORQUER_UNITS),
-        dispersions=_dispersions(f"{where}.dispersions", raw.get("dispersions", {})),
-        disturbance_sigma=quantity(f"{where}.disturbance_sigma", raw.get("disturbance_sigma", "5.68e-5 N m"), "N m"),
-        description=str(raw.get("description", "")), wheel_type=str(raw["wheel"].get("type", "")),
-        sources=tuple((str(k), str(v)) for k, v in sources.items()))
+        name=raw["name"].strip(), inertia=_inertia(f"{where}.inertia", raw["inertia"]), wheel=wheel,
+        wheel_set=_wheel_set(f"{where}.wheel_set", raw["wheel_set"]),
+        controller=_controller(f"{where}.controller", raw["controller"]),
+        magnetorquers=_magnetorquers(f"{where}.magnetorquers", raw["magnetorquers"]),
+        dispersions=_dispersions(f"{where}.dispersions", raw["dispersions"]),
+        disturbance_sigma=_positive(where, {"disturbance_sigma": raw["disturbance_sigma"]},
+                                    {"disturbance_sigma": "N m"}, ("disturbance_sigma",))["disturbance_sigma"],
+        description=_text(raw.get("description")), wheel_type=_text(raw["wheel"].get("type")),
+        sources=tuple((str(k), _text(v)) for k, v in sources.items()))
     check_flyable(vehicle, where)
     return vehicle
 
@@ -356,17 +408,18 @@ def check_flyable(vehicle: Vehicle, where: str = "vehicle") -> None:
                            f"limiter ({vehicle.wheel.overspeed_threshold:g} rad/s)")
 
 
-def check_fdi_wheel(vehicle: Vehicle) -> None:
-    """VehicleError unless the FDI can model ``vehicle``'s wheels: its nominal wheel model, ripple bound, unit
-    calibration, identification and networks are the thesis' wheel type's (Table 2.2) for now, so a vehicle
-    whose wheel differs (but for the plant choice emf_limit) is refused rather than judged with another
-    wheel's model. Body, wheel set, controller and dispersions may differ: the FDI judges each wheel."""
+def check_wheel_type(vehicle: Vehicle) -> None:
+    """VehicleError unless ``vehicle``'s wheels are the thesis' type (Table 2.2; its emf_limit is a plant
+    choice): the controllers' volts per torque and command limit in the graph, the allocation's hold
+    feed-forward and the FDI's nominal model, ripple bound, calibration, identification and networks are that
+    wheel's for now, so another wheel is refused by name rather than flown with its constants. Body, wheel
+    set, controller targets, rods and dispersions may differ."""
     datasheet = WheelParams()
     if replace(vehicle.wheel, emf_limit=datasheet.emf_limit) != datasheet:
         differ = [k for k in WHEEL_UNITS if k != "emf_limit" and getattr(vehicle.wheel, k) != getattr(datasheet, k)]
-        raise VehicleError(f"vehicle {vehicle.name}: the FDI models the thesis' wheel type (Table 2.2) for now, and "
-                           f"this vehicle's wheel differs ({', '.join(differ[:4])}{', ...' if len(differ) > 4 else ''})"
-                           "; run it without the FDI (--no-fdi), docs/vehicles.md")
+        raise VehicleError(f"vehicle {vehicle.name}: its wheel differs from the thesis' type (Table 2.2: "
+                           f"{', '.join(differ[:4])}{', ...' if len(differ) > 4 else ''}); the controllers, the "
+                           "allocation and the FDI model that wheel for now, so no other is flown (docs/vehicles.md)")
 
 
 def shipped_vehicles() -> dict:
@@ -450,11 +503,3 @@ def summary(vehicle: Vehicle) -> str:
              + " mN m; the largest slew in the settling time needs " + ", ".join(f"{v * 1e3:.3g}" for v in need)
              + " mN m"]
     return "\n".join(lines)
-
-
-def with_wheel_set(vehicle: Vehicle, wheels: WheelSet) -> Vehicle:
-    """``vehicle`` with another wheel set (a scenario's plant choice ``wheel_set``), checked again."""
-    out = replace(vehicle, wheel_set=wheels)
-    check_flyable(out)
-    return out
-

@@ -13,7 +13,6 @@ import yaml
 from ..fdi_config import FdiConfig
 from ..core.elman import network_wheel
 from ..core.pid import design_gains
-from ..core.vehicle import check_fdi_wheel
 from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.spacecraft import BODY_AXES
@@ -117,8 +116,6 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         The nodes, told their reader counts, their string parameters checked (:func:`checked_strings`).
     """
     fdi = None if fdi is None else FdiConfig.of(fdi)
-    if fdi is not None:
-        check_fdi_wheel(scenario.spacecraft)
     choices = scenario.plant_choices(emf_limit=emf_limit)
     period = choices.control_period
     times, values = scenario.setpoint_schedule()

@@ -17,7 +17,6 @@ from ...core.calibration import calibration_samples
 from ...core.closed_loop import simulate
 from ...core.isolation import in_envelope
 from ...graph.topics import DIAGNOSTICS
-from ...core.vehicle import check_fdi_wheel
 from ..metrics import VERDICT, RunEval, judge, observers_of_runs
 from ..design.offline import fdi_series, identification_series, observe, verdict_series
 from ..design.samples import samples_from_series
@@ -47,7 +46,6 @@ def simulated_runs(scenarios, identification: bool = False, check=None, progress
     for start in range(0, len(scenarios), BATCH):
         batch = scenarios[start:start + BATCH]
         choices = batch[0].plant_choices()
-        check_fdi_wheel(batch[0].spacecraft)
         if check:
             check(choices)
         traj = simulate(batch, wheel=replace(batch[0].spacecraft.wheel, emf_limit=choices.emf_limit),

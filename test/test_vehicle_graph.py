@@ -1,0 +1,45 @@
+"""A vehicle of the user's own through the graph: a body with products of inertia flies the same run in the
+graph as in the core loop, with its controllers, its bands and its FDI verdict (core/vehicle.py)."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+from rw_fdi_ros.core.closed_loop import Fdir, simulate
+from rw_fdi_ros.core.scenario import load_scenario
+from rw_fdi_ros.core.threshold_file import ThresholdCurves
+from rw_fdi_ros.graph import topics as T
+from rw_fdi_ros.paths import config_dir
+from rw_fdi_ros.storage.bag import read_bag
+from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
+
+pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
+
+
+def test_a_coupled_vehicle_flies_the_same_run_in_the_graph_as_in_the_core_loop(tmp_path):
+    raw = yaml.safe_load((config_dir() / "vehicles" / "maksat.yaml").read_text())
+    raw["name"], raw["inertia"]["matrix"] = "coupled", [[30, 2, 0], [2, 26, -1], [0, -1, 40]]
+    (tmp_path / "coupled.yaml").write_text(yaml.safe_dump(raw))
+    (tmp_path / "ff.yaml").write_text("name: coupled_ff\nduration: 200\nvehicle: coupled.yaml\n")
+    path = tmp_path / "cl.yaml"
+    path.write_text("name: coupled_cl\nduration: 200\nseed: 8002\nvehicle: coupled.yaml\nfaults: "
+                    "[{kind: current_limiter, wheel: y, onset: 100, value: 0.6}]\n")
+    fit = subprocess.run([sys.executable, "-m", "rw_fdi_ros.cli", "fit-thresholds", "--simulate", "ff.yaml", "--seeds",
+                          "7000..7059", "--out", "fdi", "--jobs", "1"], cwd=tmp_path, capture_output=True, text=True)
+    assert fit.returncode == 0, fit.stderr
+    outcome = run_with_fdi(str(path), out_dir=tmp_path / "bags", fdi={"thresholds": str(tmp_path / "fdi")})
+    assert outcome.ok, outcome.reason
+    curves = ThresholdCurves.load(tmp_path / "fdi" / "thresholds_model.json", "model")
+    traj = simulate([load_scenario(str(path))], fdir=Fdir(curves))
+    data = read_bag(outcome.bag, topics=[T.ATTITUDE, T.SCENARIO])
+    _, attitude, _, _ = data.joint_states(T.ATTITUDE)
+    np.testing.assert_allclose(attitude, traj.attitude[:, 0], rtol=0, atol=1e-12)   # the same run, products of inertia
+    assert yaml.safe_load(data.scenario_text)["vehicle"]["inertia"]["matrix"][0][1] == 2.0   # the bag records it
+    verdict = outcome.summary["fdi"]["verdict"]
+    assert verdict["y"] and not verdict["x"] and not verdict["z"]
+    assert traj.decisions[0], "FDIR acted on the current loss"
+    assert [(d.wheel, d.action) for d in traj.decisions[0]] == [
+        (d["wheel"], {"in_use": "in_use", "out_of_use": "out_of_use"}.get(d["state"], d["state"]))
+        for d in outcome.summary["reconfiguration"]]
