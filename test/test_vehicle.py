@@ -150,6 +150,7 @@ def _vehicle_file(tmp_path, scale=2.0, name="heavy"):
     raw = _raw()
     raw["name"] = name
     raw["inertia"]["matrix"] = (scale * np.diag(INERTIA)).tolist()
+    raw["controller"]["settling_time"] = "60 s"   # the same wheels take longer to turn a heavier body
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(raw))
     return path
@@ -257,6 +258,7 @@ def test_your_vehicle_gets_its_own_bands_and_the_fdi_judges_it(tmp_path):
     then a current loss on y found on the right wheel by /diagnostics' verdict, on other seeds."""
     raw = _raw()
     raw["name"], raw["inertia"]["matrix"] = "coupled", [[30, 2, 0], [2, 26, -1], [0, -1, 40]]
+    raw["controller"]["settling_time"] = "60 s"
     (tmp_path / "coupled.yaml").write_text(yaml.safe_dump(raw))
     (tmp_path / "ff.yaml").write_text("name: coupled_ff\nduration: 300\nvehicle: coupled.yaml\n")
     (tmp_path / "cl.yaml").write_text("name: coupled_cl\nduration: 300\nvehicle: coupled.yaml\nfaults: "

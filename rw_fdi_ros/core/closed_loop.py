@@ -15,7 +15,8 @@ from .allocation import TorqueAllocator
 from .fdir import HOLDABLE_SPEED, SLEW_RATE, DecisionDelay, DeliveryLog, Reconfiguration
 from .magnetorquers import Dumper
 from .onboard import OnboardVerdict
-from .pid import PidController, PidGains, design_gains
+from .controller_design import design_controller
+from .pid import PidController, PidGains
 from .plant import Plant, batch_vehicle
 from .scenario import Scenario, setpoint_at
 from .spacecraft import inertia_times
@@ -76,7 +77,7 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
     scenarios : Scenario or list of Scenario
         The B runs of the batch.
     gains : PidGains, optional
-        The controllers' gains; None for :func:`pid.design_gains` on the vehicle's axis inertias.
+        The controllers' gains; None: the vehicle's, designed to its targets (controller_design.py).
     wheel : WheelParams, optional
         The wheel type (scalar fields; a scenario's units are drawn from it); None: the scenarios' vehicle's.
     control_period : float, optional
@@ -111,7 +112,7 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
     vehicle = batch_vehicle(scenarios)
     wheel = vehicle.wheel if wheel is None else wheel
     allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit)
-    gains = gains or design_gains(vehicle.axis_inertia)
+    gains = gains or design_controller(vehicle).gains
     # the controllers' integrators hold the body-axis command of the wheels' holding voltages
     pid = PidController(gains, control_period, initial_tcv=plant.tcv @ plant.spin_axes.T, wheel=wheel)
     schedules = [s.setpoint_schedule() for s in scenarios]

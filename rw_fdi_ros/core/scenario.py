@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .controller_design import design_controller
 from .environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
 from .geomagnetic import IGRF_YEARS
 from .magnetorquers import MomentumDumping
@@ -511,6 +512,7 @@ def _vehicle(origin: str, raw) -> Vehicle | None:
     try:
         vehicle = load_vehicle(source)
         check_wheel_type(vehicle)
+        design_controller(vehicle)   # its targets met, or refused now with the reason
     except VehicleError as exc:
         raise ScenarioError(f"{origin}: vehicle: {exc}") from None
     return vehicle

@@ -15,9 +15,8 @@ A vehicle that cannot fly is refused with its reason, one line naming the field:
 * the controller's targets must be within the wheels' torque: a rest-to-rest slew of the largest
   set-point change theta in the settling time T needs, bang-bang, alpha = 4 theta / T^2 about an axis,
   so I_kk alpha must not exceed what the active wheels give about it, tau_max sum_i |g_ik|
-  (tau_max = G_d k_t V_limit, one wheel's torque at its command limit). A necessary condition, not a
-  sufficient one: the gains are still the thesis' pole placement at w_n = 0.3 rad/s (pid.design_gains),
-  not designed from the targets (docs/vehicles.md).
+  (tau_max = G_d k_t V_limit, one wheel's torque at its command limit). A quick necessary condition; the
+  sufficient one is controller_design.design_controller, which a scenario naming the vehicle runs.
 
 The wheels themselves must be the thesis' type (Table 2.2) for now (:func:`check_wheel_type`): the
 controllers' volts per torque, the allocation's hold feed-forward and the whole FDI model that wheel; a

@@ -12,7 +12,7 @@ import yaml
 
 from ..fdi_config import FdiConfig
 from ..core.elman import network_wheel
-from ..core.pid import design_gains
+from ..core.controller_design import design_controller
 from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.spacecraft import BODY_AXES
@@ -124,7 +124,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     # a vehicle file's spacecraft: its controllers designed on its inertia, its FDIR's momentum checks on it
     # (the thesis' vehicle: the nodes' own defaults, the same numbers)
     vehicle = scenario.vehicle
-    design = design_gains(vehicle.axis_inertia) if vehicle is not None else None
+    design = design_controller(vehicle).gains if vehicle is not None else None
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,

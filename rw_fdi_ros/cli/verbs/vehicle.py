@@ -20,6 +20,15 @@ def main(args) -> int:
             vehicle = load_vehicle(name)
             print(f"{name:14s} {vehicle.wheel_set.count} wheels, {vehicle.wheel_type}: {vehicle.description}")
         return 0
+    from ...core.controller_design import design_controller
     vehicle = load_vehicle(args.vehicle)
-    print(yaml.safe_dump(to_mapping(vehicle), sort_keys=False) if args.yaml else summary(vehicle))
+    if args.yaml:
+        print(yaml.safe_dump(to_mapping(vehicle), sort_keys=False))
+        return 0
+    print(summary(vehicle))
+    design = design_controller(vehicle)   # its targets met, or the reason it cannot fly
+    t = vehicle.controller
+    print(f"  controllers: w_n {', '.join(f'{w:g}' for w in design.natural_frequency)} rad/s; the largest step "
+          f"settles in {', '.join(f'{s:.0f}' for s in design.settling_time)} s (target {t.settling_time:g}), "
+          f"overshoot {', '.join(f'{o:.0%}' for o in design.overshoot)} (target {t.overshoot:.0%})")
     return 0
