@@ -65,7 +65,7 @@ def test_threshold_file_roundtrip_and_errors(tmp_path):
     raw = json.loads((tmp_path / "t.json").read_text())
     raw["curves"]["z"] = [float("nan")]
     (tmp_path / "nan.json").write_text(json.dumps(raw))
-    with pytest.raises(ThresholdError, match="finite curves"):
+    with pytest.raises(ThresholdError, match="needs a finite curve for each wheel"):
         ThresholdCurves.load(tmp_path / "nan.json")
 
 

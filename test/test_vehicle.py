@@ -277,3 +277,22 @@ def test_your_vehicle_gets_its_own_bands_and_the_fdi_judges_it(tmp_path):
     assert own.returncode == 0, own.stderr
     verdict = next(line for line in own.stdout.splitlines() if " verdict " in line).split()
     assert verdict[verdict.index("correct") + 1] == "4" and verdict[verdict.index("false") + 2] == "0"
+
+
+def test_a_pyramid_vehicle_gets_a_band_per_wheel_and_the_fdi_judges_it(tmp_path):
+    """The shipped microsatellite: four wheels in a pyramid, all in use; its bands are fitted per wheel (p1-p4,
+    not the thesis' x, y, z) and a current loss on p2 is found on p2."""
+    (tmp_path / "ff.yaml").write_text("name: micro_ff\nduration: 200\nvehicle: microsat_pyramid\n")
+    (tmp_path / "cl.yaml").write_text("name: micro_cl\nduration: 200\nvehicle: microsat_pyramid\nfaults: "
+                                      "[{kind: current_limiter, wheel: p2, onset: 100, value: 0.6}]\n")
+    cli = [sys.executable, "-m", "rw_fdi_ros.cli"]
+    fit = subprocess.run(cli + ["fit-thresholds", "--simulate", "ff.yaml", "--seeds", "7000..7079", "--out", "fdi",
+                                "--jobs", "1"], cwd=tmp_path, capture_output=True, text=True)
+    assert fit.returncode == 0, fit.stderr
+    curves = ThresholdCurves.load(tmp_path / "fdi" / "thresholds_model.json", "model")
+    assert sorted(curves.curves) == ["p1", "p2", "p3", "p4"] and curves.calibration["alpha_per_axis"] == 1e-3 / 4
+    own = subprocess.run(cli + ["screen", "--scenario", "cl.yaml", "--seeds", "8000..8003", "--thresholds", "fdi",
+                                "--jobs", "1"], cwd=tmp_path, capture_output=True, text=True)
+    assert own.returncode == 0, own.stderr
+    verdict = next(line for line in own.stdout.splitlines() if " verdict " in line).split()
+    assert verdict[verdict.index("correct") + 1] == "4" and verdict[verdict.index("wrong") + 2] == "0"

@@ -72,9 +72,11 @@ class ThresholdCurves:
         except (ValueError, KeyError, TypeError) as exc:
             raise ThresholdError(f"{path}: not a readable threshold file ({type(exc).__name__}: {exc}); "
                                  f"{REFIT}") from None
-        if set(out.curves) != {"x", "y", "z"} or any(len(c) == 0 or not np.all(np.isfinite(c))
-                                                     for c in out.curves.values()):
-            raise ThresholdError(f"{path}: needs finite curves for axes x, y, z; {REFIT}")
+        # one curve per wheel fitted: the thesis' three axis wheels, or every wheel in use of another set
+        if not out.curves or any(len(c) == 0 or not np.all(np.isfinite(c)) for c in out.curves.values()):
+            raise ThresholdError(f"{path}: needs a finite curve for each wheel it was fitted for; {REFIT}")
+        if out.method == "thesis" and set(out.curves) != {"x", "y", "z"}:
+            raise ThresholdError(f"{path}: the thesis' curves are for axes x, y, z; {REFIT}")
         if observer is not None and out.observer != observer:
             raise ThresholdError(f"{path}: curves of the {out.observer} observer, not of the {observer} "
                                  f"observer; {REFIT}")

@@ -16,9 +16,11 @@ def main(args) -> int:
     import yaml
     from ...core.vehicle import load_vehicle, shipped_vehicles, summary, to_mapping
     if args.vehicle is None:
-        for name in shipped_vehicles():
+        names = shipped_vehicles()
+        width = max(map(len, names), default=0)
+        for name in names:
             vehicle = load_vehicle(name)
-            print(f"{name:14s} {vehicle.wheel_set.count} wheels, {vehicle.wheel_type}: {vehicle.description}")
+            print(f"{name:{width}s}  {vehicle.wheel_set.count} wheels, {vehicle.wheel_type}: {vehicle.description}")
         return 0
     from ...core.controller_design import design_controller
     vehicle = load_vehicle(args.vehicle)

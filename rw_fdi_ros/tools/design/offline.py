@@ -20,8 +20,8 @@ from ...core.residuals import residual_series, signed_residual_series
 from ...core.calibration import calibration_samples, regressors
 from ...core.elman import ElmanWeights, ModelError, network_wheel, recall_series
 from ...core.linear_observer import estimate_series, uncertainty_gain
-from ...core.plant_choices import FDI_PERIOD, FDI_SAMPLING
-from ...core.wheel_set import AXIS_WHEELS
+from ...core.plant_choices import FDI_PERIOD, FDI_SAMPLING, PlantChoices
+from ...core.wheel_set import AXIS_WHEELS, wheel_set
 
 
 
@@ -151,26 +151,28 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
                 "model": "nominal wheel model at the measured speed"}
     # the axis wheels' columns: a standby wheel never used in a fitting run has no residual to fit, and gets
     # the widest band of its type (ThresholdCurves.at)
-    axis_columns = [runs[0].wheels.index(a) for a in AXIS_WHEELS] if runs else []
+    axis_columns = [runs[0].wheels.index(a) for a in AXIS_WHEELS] if runs and runs[0].method == "thesis" else []
     if runs and runs[0].method == "speed_aware":
         p = persistence or PERSISTENCE_SPEED_AWARE
+        # a band per wheel in use in the fitting runs (x, y, z; a pyramid's four): counts are the set's
+        fitted = wheel_set(PlantChoices.from_recorded(plant).wheel_set).active
+        cols = [runs[0].wheels.index(a) for a in fitted]
         for obs in observers_of("speed_aware"):
-            cols = axis_columns
             stats = np.array([run_statistic(np.abs(run.residual[obs][:, cols]) - run.bound[obs][:, cols], p)
                               for run in runs])
             # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain)
             share = 1.0 if obs == "model" else 0.5
-            bands = fit_band(stats, false_alarm_rate, share=share)
-            ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in AXIS_WHEELS},
+            bands = fit_band(stats, false_alarm_rate, axes=fitted, share=share)
+            ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in fitted},
                             sample_period=FDI_PERIOD, window=window, sigmas=float("nan"), seeds=seeds, plant=plant,
                             model=describe[obs], method="speed_aware", persistence=p,
                             false_alarm_rate=false_alarm_rate, unit_calibration_time=float(unit_calibration),
                             calibration={"law": "Gumbel fitted to the upper half of the run statistics "
                                                    "(probability plot)",
-                                            "alpha_per_axis": share * false_alarm_rate / 3, "axes": bands,
+                                            "alpha_per_axis": share * false_alarm_rate / len(fitted), "axes": bands,
                                          "run_statistic": "max over k of min(|residual| - bound) over P samples"}
                             ).save(out_dir / f"thresholds_{obs}.json")
-            report[obs] = {a: bands[a]["band"] for a in AXIS_WHEELS}
+            report[obs] = {a: bands[a]["band"] for a in fitted}
         return report
     for obs in observers_of("thesis"):
         stack = np.stack([run.residual[obs][:n, axis_columns] for run in runs])          # (runs, n, 3)
