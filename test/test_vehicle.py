@@ -253,6 +253,25 @@ def test_the_command_line_checks_a_vehicle_file(tmp_path):
     assert bad.stderr.strip().count("\n") == 0 and "heavy.yaml.inertia" in bad.stderr and "triangle" in bad.stderr
 
 
+CLI = [sys.executable, "-m", "rw_fdi_ros.cli"]
+
+
+def _rw_fdi(cwd, *args):
+    return subprocess.run(CLI + list(args) + ["--jobs", "1"], cwd=cwd, capture_output=True, text=True)
+
+
+def _fit_then_screen(cwd, fit_seeds: str) -> dict:
+    """Bands fitted on ff.yaml's ``fit_seeds`` into fdi/, then cl.yaml screened with them on 4 other seeds:
+    /diagnostics' verdict line as {column: count}."""
+    fit = _rw_fdi(cwd, "fit-thresholds", "--simulate", "ff.yaml", "--seeds", fit_seeds, "--out", "fdi")
+    assert fit.returncode == 0, fit.stderr
+    own = _rw_fdi(cwd, "screen", "--scenario", "cl.yaml", "--seeds", "8000..8003", "--thresholds", "fdi")
+    assert own.returncode == 0, own.stderr
+    words = next(line for line in own.stdout.splitlines() if " verdict " in line).split()
+    return {"correct": int(words[words.index("correct") + 1]), "false alarm": int(words[words.index("false") + 2]),
+            "wrong axis": int(words[words.index("wrong") + 2])}
+
+
 def test_your_vehicle_gets_its_own_bands_and_the_fdi_judges_it(tmp_path):
     """A vehicle with products of inertia: bands fitted on its own fault-free runs (the shipped ones refused),
     then a current loss on y found on the right wheel by /diagnostics' verdict, on other seeds."""
@@ -263,20 +282,12 @@ def test_your_vehicle_gets_its_own_bands_and_the_fdi_judges_it(tmp_path):
     (tmp_path / "ff.yaml").write_text("name: coupled_ff\nduration: 300\nvehicle: coupled.yaml\n")
     (tmp_path / "cl.yaml").write_text("name: coupled_cl\nduration: 300\nvehicle: coupled.yaml\nfaults: "
                                       "[{kind: current_limiter, wheel: y, onset: 150, value: 0.6}]\n")
-    cli = [sys.executable, "-m", "rw_fdi_ros.cli"]
-    fit = subprocess.run(cli + ["fit-thresholds", "--simulate", "ff.yaml", "--seeds", "7000..7059", "--out", "fdi",
-                                "--jobs", "1"], cwd=tmp_path, capture_output=True, text=True)
-    assert fit.returncode == 0, fit.stderr
-    assert yaml.safe_load((tmp_path / "fdi" / "thresholds_model.json").read_text())["plant"]["vehicle"] == "coupled"
-    shipped = subprocess.run(cli + ["screen", "--scenario", "cl.yaml", "--seeds", "8000..8001", "--jobs", "1"],
-                             cwd=tmp_path, capture_output=True, text=True)
+    shipped = _rw_fdi(tmp_path, "screen", "--scenario", "cl.yaml", "--seeds", "8000..8001")
     assert shipped.returncode == 2
     assert "fitted with vehicle='maksat' but the graph runs vehicle='coupled'" in shipped.stderr
-    own = subprocess.run(cli + ["screen", "--scenario", "cl.yaml", "--seeds", "8000..8003", "--thresholds", "fdi",
-                                "--jobs", "1"], cwd=tmp_path, capture_output=True, text=True)
-    assert own.returncode == 0, own.stderr
-    verdict = next(line for line in own.stdout.splitlines() if " verdict " in line).split()
-    assert verdict[verdict.index("correct") + 1] == "4" and verdict[verdict.index("false") + 2] == "0"
+    verdict = _fit_then_screen(tmp_path, "7000..7059")
+    assert yaml.safe_load((tmp_path / "fdi" / "thresholds_model.json").read_text())["plant"]["vehicle"] == "coupled"
+    assert verdict == {"correct": 4, "false alarm": 0, "wrong axis": 0}
 
 
 def test_a_pyramid_vehicle_gets_a_band_per_wheel_and_the_fdi_judges_it(tmp_path):
@@ -285,14 +296,7 @@ def test_a_pyramid_vehicle_gets_a_band_per_wheel_and_the_fdi_judges_it(tmp_path)
     (tmp_path / "ff.yaml").write_text("name: micro_ff\nduration: 200\nvehicle: microsat_pyramid\n")
     (tmp_path / "cl.yaml").write_text("name: micro_cl\nduration: 200\nvehicle: microsat_pyramid\nfaults: "
                                       "[{kind: current_limiter, wheel: p2, onset: 100, value: 0.6}]\n")
-    cli = [sys.executable, "-m", "rw_fdi_ros.cli"]
-    fit = subprocess.run(cli + ["fit-thresholds", "--simulate", "ff.yaml", "--seeds", "7000..7079", "--out", "fdi",
-                                "--jobs", "1"], cwd=tmp_path, capture_output=True, text=True)
-    assert fit.returncode == 0, fit.stderr
+    verdict = _fit_then_screen(tmp_path, "7000..7079")   # four wheels: 80 runs for a 0.1 % per-run rate
     curves = ThresholdCurves.load(tmp_path / "fdi" / "thresholds_model.json", "model")
     assert sorted(curves.curves) == ["p1", "p2", "p3", "p4"] and curves.calibration["alpha_per_axis"] == 1e-3 / 4
-    own = subprocess.run(cli + ["screen", "--scenario", "cl.yaml", "--seeds", "8000..8003", "--thresholds", "fdi",
-                                "--jobs", "1"], cwd=tmp_path, capture_output=True, text=True)
-    assert own.returncode == 0, own.stderr
-    verdict = next(line for line in own.stdout.splitlines() if " verdict " in line).split()
-    assert verdict[verdict.index("correct") + 1] == "4" and verdict[verdict.index("wrong") + 2] == "0"
+    assert verdict == {"correct": 4, "false alarm": 0, "wrong axis": 0}
