@@ -200,6 +200,14 @@ def test_the_fdi_refuses_bands_fitted_for_another_vehicle():
         curves.check_compatible(PlantChoices(vehicle="heavy"))
 
 
+def test_a_key_given_twice_is_refused_not_overwritten(tmp_path):
+    line = "  torque_constant: 0.029 N m/A"
+    text = shipped_vehicles()["maksat"].read_text().replace(line, f"{line}\n  torque_constant: 1 N m/A")
+    (tmp_path / "twice.yaml").write_text(text)
+    with pytest.raises(VehicleError, match=r"twice.yaml: line \d+ is not valid YAML \(duplicate key 'torque_const"):
+        load_vehicle(tmp_path / "twice.yaml")
+
+
 def test_another_wheel_type_is_read_but_not_flown(tmp_path):
     """The controllers, the allocation and the FDI model the thesis' wheel: another is refused by name."""
     raw = _raw()

@@ -29,12 +29,12 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from .magnetorquers import MomentumDumping
 from .spacecraft import DISTURBANCE_SIGMA, INERTIA
 from .wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, UNIT_PARAMETERS, WheelParams
 from .wheel_set import WHEEL_SETS, WheelSet
+from .yaml_text import YamlError, read_yaml
 
 DEFAULT_VEHICLE = "maksat"
 # every WheelParams field with its unit as a vehicle file writes it ("": a pure number; None: a named choice)
@@ -441,9 +441,11 @@ def load_vehicle(source=None) -> Vehicle:
     if not path.is_file():
         raise VehicleError(f"vehicle {name!r}: no such file, nor a shipped vehicle ({', '.join(shipped) or 'none'})")
     try:
-        raw = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as error:
-        raise VehicleError(f"{path}: not a readable YAML file ({str(error).splitlines()[0]})") from None
+        raw = read_yaml(path.read_text(), str(path))   # a key given twice refused, as in a scenario
+    except (OSError, UnicodeDecodeError) as error:
+        raise VehicleError(f"{path}: not a readable file ({str(error).splitlines()[0]})") from None
+    except YamlError as error:
+        raise VehicleError(str(error)) from None
     return vehicle_of(raw, where=str(path.name))
 
 
