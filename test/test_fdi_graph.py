@@ -302,7 +302,7 @@ def test_the_fdi_reports_its_own_health_under_bad_inputs(runs, tmp_path):
         if t == (first_alarm + 20) * s:
             _set_value(msg, "x", "reaction_torque", float("nan"))     # corrupt while wheel x is alarmed
         return [(t, msg)]
-    # a report whose bus grid was lost: decided without it at the next report (its identification skipped)
+    # a report whose bus grid was lost: decided without it when the next grid comes (its identification skipped)
     bag = _tampered_bag(runs["current_0p6_x"].bag, tmp_path / "tampered", tamper, drop_grids=(120 * s,))
     outcome = replay_bag(bag, tmp_path / "replayed", watchdog=180)
     assert outcome.ok, outcome.reason

@@ -210,38 +210,52 @@ class IsolationNode(GraphNode):
         if order == NEW_RUN:   # a new run's stamps start again: no half of the last run pairs with its own
             self._flush_reports()
             self.bus_grids = {t: m for t, m in self.bus_grids.items() if t <= stamp}
-        # a report whose grid did not come by the next report goes without it (its identification skipped)
-        self._flush_reports(before=stamp)
-        waiting = stamp not in self.bus_grids and self.sub_bus_grid.get_publisher_count() > 0
-        if waiting and order != OUT_OF_ORDER and stamp not in self.reports:   # late or twice: dropped, and said
-            self.reports[stamp] = (msg, time.monotonic())   # its grid is on its way
+        # reports are decided in order, each with its grid: the two topics arrive in either order, and a report
+        # may come before the grid of the one before it (a loaded machine)
+        if self.sub_bus_grid.get_publisher_count() > 0 and order != OUT_OF_ORDER and stamp not in self.reports:
+            self.reports[stamp] = (msg, time.monotonic())
+            self._drain_reports()
             return
-        self._on_report(msg, self.bus_grids.pop(stamp, None))
+        self._on_report(msg, self.bus_grids.pop(stamp, None))   # late or twice: dropped, and said
         if order != OUT_OF_ORDER:   # the grids of earlier stamps (their reports lost) are of no use now
             self.bus_grids = {t: m for t, m in self.bus_grids.items() if t > stamp}
 
     def _on_bus_grid(self, msg):
         stamp = stamp_ns(msg.header.stamp)
-        if stamp in self.reports:
-            self._on_report(self.reports.pop(stamp)[0], msg)
-            return
         last = self.inputs["telemetry"].last_ns
-        if last is not None and stamp <= last and stamp_order(last, stamp, self.inputs["telemetry"].period_ns) \
-                != NEW_RUN:
+        if stamp not in self.reports and last is not None and stamp <= last and \
+                stamp_order(last, stamp, self.inputs["telemetry"].period_ns) != NEW_RUN:
             return   # its report was decided without it
         self.bus_grids[stamp] = msg
         while len(self.bus_grids) > 100:   # a grid whose report never came (a broken input): not kept forever
             del self.bus_grids[next(iter(self.bus_grids))]
+        self._drain_reports()
 
-    def _flush_reports(self, before: int | None = None, waited: float | None = None):
-        """Decide the reports still waiting for their grid without it: all, those stamped before ``before``, or
-        those that waited ``waited`` wall seconds."""
+    def _drain_reports(self):
+        """Decide the waiting reports, oldest first, while the oldest has its grid, or a later grid says its own
+        was lost (one publisher on one reliable topic: the grids come in order)."""
+        while self.reports:
+            stamp = min(self.reports)
+            if stamp in self.bus_grids:
+                grid = self.bus_grids.pop(stamp)
+            elif any(t > stamp for t in self.bus_grids):
+                grid = None   # its identification skipped, said once
+            else:
+                return
+            self._on_report(self.reports.pop(stamp)[0], grid)
+            self.bus_grids = {t: m for t, m in self.bus_grids.items() if t > stamp}   # theirs lost with them
+
+    def _flush_reports(self, waited: float | None = None):
+        """Decide the waiting reports, oldest first, with their grid if it came: all, or those that waited
+        ``waited`` wall seconds (a grid stream that went silent), then the rest as their grids allow."""
         now = time.monotonic()
         for stamp in sorted(self.reports):
             msg, since = self.reports[stamp]
-            if (before is None or stamp < before) and (waited is None or now - since > waited):
-                del self.reports[stamp]
-                self._on_report(msg, None)
+            if waited is not None and now - since <= waited:
+                break
+            del self.reports[stamp]
+            self._on_report(msg, self.bus_grids.pop(stamp, None))
+        self._drain_reports()
 
     def _on_report(self, msg, bus_grid):
         t0, c0 = time.perf_counter(), time.thread_time()
