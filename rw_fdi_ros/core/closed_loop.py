@@ -17,7 +17,7 @@ from .magnetorquers import Dumper
 from .onboard import OnboardVerdict
 from .controller_design import design_controller
 from .pid import PidController, PidGains
-from .plant import Plant, batch_vehicle
+from .plant import Plant
 from .scenario import Scenario, setpoint_at
 from .spacecraft import inertia_times
 from .wheel import WheelParams
@@ -109,10 +109,9 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
                   wheel_momentum_coupling=wheel_momentum_coupling, wheels=wheels, duration=duration,
                   magnetic_field=magnetic_field)
     dumper = Dumper([s.magnetorquers for s in scenarios]) if plant.in_orbit else None
-    vehicle = batch_vehicle(scenarios)
-    wheel = vehicle.wheel if wheel is None else wheel
+    wheel = plant.datasheet
     allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit)
-    gains = gains or design_controller(vehicle).gains
+    gains = gains or design_controller(plant.vehicle).gains
     # the controllers' integrators hold the body-axis command of the wheels' holding voltages
     pid = PidController(gains, control_period, initial_tcv=plant.tcv @ plant.spin_axes.T, wheel=wheel)
     schedules = [s.setpoint_schedule() for s in scenarios]

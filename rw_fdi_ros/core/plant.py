@@ -114,8 +114,9 @@ class Plant:
         if isinstance(scenarios, Scenario):
             scenarios = [scenarios]
         self.scenarios = list(scenarios)
-        vehicle = batch_vehicle(self.scenarios)
-        wheel = vehicle.wheel if wheel is None else wheel
+        self.vehicle = vehicle = batch_vehicle(self.scenarios)
+        # the wheel type's datasheet (what the controllers and FDIR know); self.wheel: the units flown
+        self.datasheet = wheel = vehicle.wheel if wheel is None else wheel
         if inertia is None:
             inertia = vehicle.body_inertia
         self.disturbance_sigma = vehicle.disturbance_sigma

@@ -146,7 +146,7 @@ class Scenario:
     def draws(self):
         """Initial conditions and set-point changes, Table 2.3 uniform draws unless fixed."""
         rng = self._rng()
-        d = self.vehicle.dispersions if self.vehicle is not None else Dispersions()
+        d = self.spacecraft.dispersions
         att = rng.uniform(*d.attitude_deg, 3)
         rate = rng.uniform(*d.body_rate, 3)
         speed = rng.uniform(*d.wheel_speed, 3)
@@ -171,7 +171,7 @@ class Scenario:
         none of the three. ``scale`` entries are taken as given (3 values: the first three wheels)."""
         if not self.wheels:
             return None
-        spread = (self.spacecraft.dispersions.unit_spreads if self.wheels.get("variation") else {})
+        spread = self.spacecraft.dispersions.unit_spreads if self.wheels.get("variation") else {}
         spread.update(self.wheels.get("spread", {}))
         rngs = [np.random.default_rng([int(self.seed), 2]), np.random.default_rng([int(self.seed), 4])]
         out = {}
@@ -183,6 +183,11 @@ class Scenario:
             given = np.asarray(values, float)
             out[name] = np.concatenate([given, out[name][len(given):]])[:count]
         return out
+
+    def datasheet(self, choices: PlantChoices | None = None) -> WheelParams:
+        """The wheel type the run flies: its vehicle's datasheet under the run's plant choice emf_limit
+        (``choices``, default this scenario's)."""
+        return replace(self.spacecraft.wheel, emf_limit=(choices or self.plant_choices()).emf_limit)
 
     def wheel_params(self, base: WheelParams | None = None) -> WheelParams:
         """The plant's wheels for this scenario: ``base`` (default: its vehicle's datasheet) or its units
@@ -535,7 +540,7 @@ def _manoeuvres(where, raw, duration, vehicle: Vehicle | None = None) -> Manoeuv
         return None
     if not isinstance(raw, dict) or set(raw) - {"interval_s", "size_deg", "start_s"}:
         raise ScenarioError(f"{where}: a mapping of interval_s, size_deg and start_s")
-    default = Manoeuvres() if vehicle is None else Manoeuvres(size_deg=vehicle.dispersions.setpoint_change_deg)
+    default = Manoeuvres(size_deg=(vehicle or THESIS).dispersions.setpoint_change_deg)
     return Manoeuvres(interval_s=_range(f"{where}.interval_s", raw.get("interval_s", default.interval_s), 1.0, 1e6),
                       size_deg=_range(f"{where}.size_deg", raw.get("size_deg", default.size_deg), -ANGLE_LIMIT_DEG,
                                       ANGLE_LIMIT_DEG),

@@ -13,8 +13,6 @@ five FDI nodes read one message a second instead of three a step each.
 """
 from __future__ import annotations
 
-from dataclasses import replace
-
 import math
 import os
 
@@ -76,7 +74,7 @@ class PlantNode(GraphNode):
                                                   control_period=self.param("control_period") or None,
                                                   wheel_set=self.param("wheel_set"),
                                                   magnetic_field=self.param("magnetic_field"))
-            wheel = replace(scenario.spacecraft.wheel, emf_limit=self.choices.emf_limit)
+            wheel = scenario.datasheet(self.choices)
         except (ScenarioError, ValueError) as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         from ..core.wheel_set import wheel_set

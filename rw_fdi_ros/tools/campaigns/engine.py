@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import shutil
 import time
-from dataclasses import replace
 from pathlib import Path
 
 ENGINES = ("graph", "core")
@@ -109,7 +108,7 @@ def record_batch(items) -> list:
     if len(keys) != 1:
         raise ValueError(f"one batch, several durations or plant choices: {sorted(map(str, keys))}")
     choices = scenarios[0].plant_choices(emf_limit=items[0][3])
-    wheel = replace(scenarios[0].spacecraft.wheel, emf_limit=choices.emf_limit)
+    wheel = scenarios[0].datasheet(choices)
     traj = simulate(scenarios, wheel=wheel, control_period=choices.control_period,
                     wheel_momentum_coupling=choices.wheel_momentum_coupling, wheels=choices.wheel_set,
                     magnetic_field=choices.magnetic_field)

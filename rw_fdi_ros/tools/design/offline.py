@@ -96,7 +96,6 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
 def _plant_of(sample, sampling: str = FDI_SAMPLING):
     """The PlantChoices a bag (or FdiSamples read from one) was recorded under."""
     import yaml
-    from ...core.plant_choices import PlantChoices
     from ...storage.bag import read_bag
     text = read_bag(getattr(sample, "bag", sample), topics=["/scenario"]).scenario_text or ""
     return PlantChoices.of_recording((yaml.safe_load(text) or {}).get("plant"), sampling)

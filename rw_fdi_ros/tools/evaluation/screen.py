@@ -9,8 +9,6 @@ use it for large samples, `rw-fdi evaluate` on recorded bags for replays.
 """
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from ...core.calibration import calibration_samples
@@ -48,8 +46,7 @@ def simulated_runs(scenarios, identification: bool = False, check=None, progress
         choices = batch[0].plant_choices()
         if check:
             check(choices)
-        traj = simulate(batch, wheel=replace(batch[0].spacecraft.wheel, emf_limit=choices.emf_limit),
-                        control_period=choices.control_period,
+        traj = simulate(batch, wheel=batch[0].datasheet(choices), control_period=choices.control_period,
                         wheel_momentum_coupling=choices.wheel_momentum_coupling)
         stamps = np.round(traj.time * 1e9).astype(np.int64)
         for b, scenario in enumerate(batch):
