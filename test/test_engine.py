@@ -113,3 +113,20 @@ def test_the_core_engine_refuses_what_it_does_not_record(tmp_path):
         run_campaign("fault_free", 1, 1, tmp_path, engine="core", fdi=True)
     with pytest.raises(ValueError, match="unknown engine"):
         run_campaign("fault_free", 1, 1, tmp_path, engine="fast")
+
+
+def test_a_replay_waits_for_every_reports_grid_when_its_bags_hold_them(recorded, tmp_path):
+    """The isolation node is told that every report comes with its grid (not left to discovery, which may
+    bring the report's publisher first on a loaded machine: the report judged without its grid); a bag
+    without grids (an older recorder) leaves it to what it sees."""
+    from rw_fdi_ros.core.plant_choices import PlantChoices
+    from rw_fdi_ros.tools.campaigns.replay import replay_nodes
+    _, out = recorded
+    bags = out["mix"]["core"]
+    plant = PlantChoices.of_recording({}).as_dict()
+
+    def awaits(bag_list):
+        nodes = replay_nodes(bag_list, [tmp_path / f"o{i}" for i in range(len(bag_list))], None, plant)
+        return next(n for n in nodes if n.executable == "isolation").parameters["await_bus_grid"]
+    assert awaits(bags) is True
+    assert awaits([*bags, tmp_path / "no_metadata"]) is False

@@ -149,7 +149,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
             "start_speed": rods.start_speed, "stop_speed": rods.stop_speed, "enabled": rods.enabled,
             **({} if vehicle is None else {"wheel_inertia": float(vehicle.wheel.inertia)})}))
     if fdi is not None:
-        nodes += fdi_nodes(fdi, choices)
+        nodes += fdi_nodes(fdi, choices, await_bus_grid=True)   # the plant sends a grid with every report
     if live is not None:
         nodes.append(NodeSpec("live_view", "live_view", {
             "port": int(live), "wheel_set": choices.wheel_set, "fdi": fdi is not None,
@@ -243,7 +243,7 @@ def with_reader_counts(nodes):
     return nodes
 
 
-def fdi_nodes(fdi, choices: PlantChoices):
+def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
     """An Elman observer per wheel of the set, the linear observer, the model observer (speed_aware) and the
     isolation node (told the run's choices), as ``fdi`` (FdiConfig or its mapping) says. Without models or
     thresholds given, the nodes take the shipped set of the method themselves (a real ROS 2 install's share/).
@@ -254,6 +254,9 @@ def fdi_nodes(fdi, choices: PlantChoices):
         The run's FDI.
     choices : PlantChoices
         The run's plant choices (wheel set, FDI period [s] and sampling).
+    await_bus_grid : bool
+        Every report of the FDI telemetry comes with its bus-voltage grid: the isolation node waits for it
+        from the first report (else only once it has seen the grid's publisher, which may come late).
 
     Returns
     -------
@@ -272,7 +275,7 @@ def fdi_nodes(fdi, choices: PlantChoices):
     for obs in fdi.observers[1:]:   # linear_observer, model_observer: every wheel each
         nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer", dict(common)))
     iso = {**choices.as_dict(), "fdi_method": fdi.method, "persistence": int(fdi.persistence or 0),
-           "unit_calibration_time": fdi.unit_calibration}
+           "unit_calibration_time": fdi.unit_calibration, "await_bus_grid": bool(await_bus_grid)}
     if fdi.models or fdi.thresholds:
         iso.update({f"thresholds_{obs}": str(fdi.threshold_path(obs)) for obs in fdi.observers})
     nodes.append(NodeSpec("isolation", "isolation", iso))

@@ -102,6 +102,7 @@ class IsolationNode(GraphNode):
         self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
         self.declare_parameter("decision_observer", "")    # empty: the method's (core/isolation.py)
         self.declare_parameter("latch", True)               # a confirmed failure stays until ~/reset
+        self.declare_parameter("await_bus_grid", False)     # each report waits for its grid from the first on
         self.declare_parameter("input_timeout", 10.0)       # wall s an input may be silent before it is said
         self.declare_parameter("min_subscribers", 0)        # readers of each output (the recorder) before it goes
         self.declare_parameter("diagnostics_readers", 0)    # of /diagnostics: the recorder (+ a replay's player)
@@ -153,6 +154,8 @@ class IsolationNode(GraphNode):
         # the report and its bus-voltage grid come on two topics, in either order: paired by stamp
         self.bus_grids, self.reports = {}, {}   # stamp -> the grid; stamp -> (the report, since) waiting for it
         self.said_no_grid = False
+        # else only once the grid's publisher is seen: discovery may bring the report's publisher first
+        self.await_bus_grid = self.param("await_bus_grid")
         self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         self.sub_bus_grid = self.create_subscription(PointCloud2, T.FDI_BUS_GRID, self._on_bus_grid, T.RELIABLE)
         for obs in self.channels:   # one row per stamp: residual and bound of each of the observer's topics
@@ -212,7 +215,8 @@ class IsolationNode(GraphNode):
             self.bus_grids = {t: m for t, m in self.bus_grids.items() if t <= stamp}
         # reports are decided in order, each with its grid: the two topics arrive in either order, and a report
         # may come before the grid of the one before it (a loaded machine)
-        if self.sub_bus_grid.get_publisher_count() > 0 and order != OUT_OF_ORDER and stamp not in self.reports:
+        awaited = self.await_bus_grid or self.sub_bus_grid.get_publisher_count() > 0
+        if awaited and order != OUT_OF_ORDER and stamp not in self.reports:
             self.reports[stamp] = (msg, time.monotonic())
             self._drain_reports()
             return

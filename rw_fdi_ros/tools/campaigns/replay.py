@@ -19,7 +19,7 @@ from ...launch.graph import NodeSpec, fdi_nodes, with_reader_counts
 from ...launch.graph import DEFAULT_GROUPING
 from ...launch.launcher import DomainLease, GraphProcesses, cleanup
 from ...graph import topics as T
-from ...storage.bag import BagError, bag_is_complete, read_bag
+from ...storage.bag import BagError, bag_is_complete, message_counts, read_bag
 from ..design.offline import plant_conditions
 from .run import RunOutcome
 
@@ -29,7 +29,8 @@ def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0
     in order."""
     choices = PlantChoices(**plant)
     fdi = FdiConfig.of(fdi)
-    nodes = fdi_nodes(fdi, choices)
+    # every bag with a grid per report (any bag of today's recorder): each report waits for its own
+    nodes = fdi_nodes(fdi, choices, await_bus_grid=all(_has_bus_grid(b) for b in bags))
     for node in nodes:
         node.parameters["end_with_run"] = False   # they stay for the next bag; the launcher stops them
     nodes.append(NodeSpec("player", "player", {"bags": [str(b) for b in bags], "rate": float(rate),
@@ -39,6 +40,13 @@ def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0
                                                    "fdi_period": choices.fdi_period, "fdi_method": fdi.method,
                                                    "record_plant": False, "wheel_set": choices.wheel_set}))
     return with_reader_counts(nodes)
+
+
+def _has_bus_grid(bag) -> bool:
+    try:
+        return message_counts(bag).get(T.FDI_BUS_GRID, 0) > 0
+    except BagError:   # said when the player reads it
+        return False
 
 
 def replay_bags(bags, out_bags, fdi=None, rate: float = 0.0, keep_logs: bool = False, watchdog: float | None = None,
