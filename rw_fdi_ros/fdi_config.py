@@ -3,7 +3,8 @@ command, the launch file and the graph take it, and it resolves, loads and check
 
 Paths: ``models`` (Elman networks) default to the method's shipped set; ``thresholds`` default to
 ``models`` when models are given (a directory ``rw-fdi defaults`` or ``train`` + ``fit-thresholds``
-wrote), else to the shipped thresholds of the method and the unit calibration (paths.thresholds_dir).
+wrote; its ``unit_calibrated/`` with a unit calibration, where it has one, as config/fdi), else to the
+shipped thresholds of the method and the unit calibration (paths.thresholds_dir).
 """
 from __future__ import annotations
 
@@ -13,7 +14,6 @@ from pathlib import Path
 
 from .core.detection import METHODS, PERSISTENCE_MAX, observers_of
 from .core.threshold_file import ThresholdError
-from .core.wheel_set import AXIS_WHEELS
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,9 @@ class FdiConfig:
         [s] of each run the observers learn their wheel's unit from (speed_aware only); 0: the datasheet wheel.
     fdir : bool
         Whether the wheel allocation acts on the verdict (reconfiguration); False: detection alone.
+    vehicle : str or None
+        Whose shipped FDI the defaults are (paths.fdi_dir): the run's vehicle (:meth:`for_vehicle`); None: the
+        thesis' MakSat (config/fdi).
     """
 
     method: str = "speed_aware"
@@ -40,6 +43,7 @@ class FdiConfig:
     persistence: int | None = None
     unit_calibration: float = 0.0
     fdir: bool = True
+    vehicle: str | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -64,6 +68,15 @@ class FdiConfig:
     def as_dict(self) -> dict:
         return asdict(self)
 
+    def for_vehicle(self, vehicle: str) -> "FdiConfig":
+        """This configuration for a run of ``vehicle`` (its name): the shipped FDI of that vehicle where no files
+        are given; the given files as they are (their bands refuse another vehicle, checked_curves)."""
+        from dataclasses import replace
+        from .core.vehicle import DEFAULT_VEHICLE
+        if self.models or self.thresholds:
+            return self
+        return replace(self, vehicle=None if vehicle == DEFAULT_VEHICLE else vehicle)
+
     @property
     def observers(self) -> tuple:
         return observers_of(self.method)
@@ -71,26 +84,36 @@ class FdiConfig:
     @property
     def models_dir(self) -> Path:
         from .paths import fdi_dir
-        return Path(self.models) if self.models else fdi_dir(self.method)
+        return Path(self.models) if self.models else fdi_dir(self.method, self.vehicle)
 
     @property
     def thresholds_dir(self) -> Path:
         from .paths import thresholds_dir
         if self.thresholds:
             return Path(self.thresholds)
-        return Path(self.models) if self.models else thresholds_dir(self.method, self.unit_calibration)
+        if not self.models:
+            return thresholds_dir(self.method, self.unit_calibration, self.vehicle)
+        # a models directory laid out as config/fdi (rw-fdi defaults --vehicle): its calibrated bands beside
+        own = Path(self.models) / "unit_calibrated"
+        return own if self.unit_calibration > 0 and own.is_dir() else Path(self.models)
 
     def model_path(self, wheel: str) -> Path:
-        return self.models_dir / f"elman_{wheel}.npz"
+        """The network ``wheel`` runs (its own, or its type's: core/elman.network_path)."""
+        from .core.elman import network_path
+        return network_path(self.models_dir, wheel)
 
     def threshold_path(self, observer: str) -> Path:
         return self.thresholds_dir / f"thresholds_{observer}.json"
 
     def load_models(self) -> dict:
-        """wheel -> ElmanWeights of the axis wheels, each a network of this method (ModelError names the file)."""
-        from .core.elman import REGENERATE, ElmanWeights, ModelError
+        """wheel -> ElmanWeights of the wheels the set was trained for, each a network of this method (ModelError
+        names the file)."""
+        from .core.elman import REGENERATE, ElmanWeights, ModelError, network_wheels
+        if not self.models_dir.is_dir() and self.vehicle is not None:
+            raise ModelError(f"no shipped FDI for vehicle {self.vehicle} ({self.models_dir}): make it with `rw-fdi "
+                             f"defaults --vehicle FILE --out DIR` and give --models DIR")
         weights = {}
-        for a in AXIS_WHEELS:
+        for a in network_wheels(self.models_dir):
             weights[a] = ElmanWeights.load(self.model_path(a))
             if weights[a].speed_aware != (self.method == "speed_aware"):
                 raise ModelError(f"{self.model_path(a)}: not a network for fdi_method={self.method!r}; {REGENERATE}")
@@ -116,8 +139,8 @@ class FdiConfig:
         """This configuration with the method its models are made for (thesis: two-input networks): what
         replays and evaluations of given models take. ModelError for a missing or broken model."""
         from dataclasses import replace
-        from .core.elman import ElmanWeights
-        speed_aware = all(ElmanWeights.load(self.model_path(a)).speed_aware for a in AXIS_WHEELS)
+        from .core.elman import ElmanWeights, network_wheels
+        speed_aware = all(ElmanWeights.load(self.model_path(a)).speed_aware for a in network_wheels(self.models_dir))
         return replace(self, method="speed_aware" if speed_aware else "thesis",
                        unit_calibration=self.unit_calibration if speed_aware else 0.0)
 

@@ -69,23 +69,30 @@ def config_dir() -> Path:
         return local
 
 
-def fdi_dir(method: str = "speed_aware") -> Path:
-    """The shipped FDI models and thresholds: config/fdi (ours, speed-aware) or config/fdi/thesis.
+def fdi_dir(method: str = "speed_aware", vehicle: str | None = None) -> Path:
+    """The shipped FDI models and thresholds: config/fdi (ours, speed-aware) or config/fdi/thesis, for the
+    thesis' vehicle; config/fdi/vehicles/<vehicle> (`rw-fdi defaults --vehicle`) for another shipped one.
 
     Parameters
     ----------
     method : str
         The FDI method: 'thesis', or anything else for 'speed_aware'.
+    vehicle : str, optional
+        The name of the vehicle the run flies; None: the thesis' MakSat.
 
     Returns
     -------
     Path
         The directory.
     """
-    return config_dir() / "fdi" / ("thesis" if method == "thesis" else "")
+    from .core.vehicle import DEFAULT_VEHICLE
+    base = config_dir() / "fdi"
+    if vehicle is not None and vehicle != DEFAULT_VEHICLE:
+        base = base / "vehicles" / vehicle
+    return base / ("thesis" if method == "thesis" else "")
 
 
-def thresholds_dir(method: str = "speed_aware", unit_calibration_time: float = 0.0) -> Path:
+def thresholds_dir(method: str = "speed_aware", unit_calibration_time: float = 0.0, vehicle: str | None = None) -> Path:
     """The shipped thresholds of ``method``: those of calibrated observers (unit_calibrated/,
     config/fdi/unit_calibrated/README) when they learn their wheel, else the method's own.
 
@@ -95,13 +102,16 @@ def thresholds_dir(method: str = "speed_aware", unit_calibration_time: float = 0
         The FDI method: 'thesis', or anything else for 'speed_aware'.
     unit_calibration_time : float
         Time [s] of each run the observers learn their wheel's unit from; 0: the datasheet wheel.
+    vehicle : str, optional
+        The name of the vehicle the run flies (:func:`fdi_dir`); None: the thesis' MakSat.
 
     Returns
     -------
     Path
-        ``fdi_dir(method)``, or its unit_calibrated/ where ``unit_calibration_time`` > 0.
+        ``fdi_dir(method, vehicle)``, or its unit_calibrated/ where ``unit_calibration_time`` > 0.
     """
-    return fdi_dir(method) / "unit_calibrated" if unit_calibration_time > 0 else fdi_dir(method)
+    base = fdi_dir(method, vehicle)
+    return base / "unit_calibrated" if unit_calibration_time > 0 else base
 
 
 def fastdds_profiles() -> str | None:

@@ -122,3 +122,18 @@ def test_speed_aware_network_starts_in_its_steady_state():
     out = recall_series(w, np.full(30, 1.2), 0.0, np.full(30, 25.0))
     assert abs(out[0]) > 1e-4                      # not the zero-state start the thesis network has
     np.testing.assert_allclose(out, out[-1], rtol=1e-5)   # a zero-state start is off by O(1)
+
+
+def test_each_wheel_runs_its_own_network_or_its_types(tmp_path):
+    """A model set names the wheels it has networks for (its card's ``wheels``); a wheel without one (a
+    standby wheel, at rest while they were trained) runs the first of them; a set without the list is x, y, z."""
+    from rw_fdi_ros.core.elman import network_path, network_wheel, network_wheels
+    assert network_wheels(tmp_path) == ("x", "y", "z")
+    assert network_path(tmp_path, "s").name == "elman_x.npz" and network_path(tmp_path, "z").name == "elman_z.npz"
+    (tmp_path / "model_set.json").write_text(json.dumps({"wheels": ["p1", "p2", "p3", "p4"]}))
+    assert network_wheels(tmp_path) == ("p1", "p2", "p3", "p4")
+    assert network_path(tmp_path, "p3").name == "elman_p3.npz"
+    assert network_wheel("s", ("p1", "p2")) == "p1"
+    (tmp_path / "model_set.json").write_text("{not json")
+    with pytest.raises(ModelError, match="not a readable model card"):
+        network_wheels(tmp_path)

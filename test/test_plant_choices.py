@@ -44,7 +44,7 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
     from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as Header
     from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
-    from rw_fdi_ros.cli.verbs.fit_thresholds import _simulated_fitting_runs
+    from rw_fdi_ros.tools.design.samples import simulated_fault_free_runs
     from rw_fdi_ros.core.scenario import load_scenario
     from rw_fdi_ros.launch.graph import graph_nodes
     from rw_fdi_ros.graph import topics as T
@@ -76,7 +76,7 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
 
     curves = Curves()
     _check_bag(bag, {"elman": curves})
-    _, simulated = _simulated_fitting_runs(str(ref), range(0))
+    _, simulated = simulated_fault_free_runs(str(ref), range(0))
     isolation = next(n for n in graph_nodes(scenario, str(ref), None, fdi={}) if n.name == "isolation")
     running = PlantChoices(**{k: isolation.parameters[k] for k in DEFAULT.as_dict()})
     assert running.emf_limit == "pwm_saturation" and running.wheel_momentum_coupling is False

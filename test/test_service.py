@@ -3,6 +3,7 @@ so that a change to one capability cannot silently break another (rw-fdi bench s
 import numpy as np
 
 from rw_fdi_ros.core.calibration import UnitCalibration
+from rw_fdi_ros.core.vehicle import load_vehicle
 from rw_fdi_ros.tools.benches import service_bench as sb
 
 MANOEUVRES = (100.0, 200.0)
@@ -63,14 +64,15 @@ def test_the_in_service_family_draws_every_case_from_its_seed():
     draws = [sb.draw(s) for s in range(sb.SEED_BASES["net"], sb.SEED_BASES["net"] + 400)]
     assert sb.draw(sb.SEED_BASES["net"]) == draws[0]
     faults = [f for d in draws for f in d.faults]
-    assert {f["kind"] for f in faults} == set(sb.FAULT_RANGES) and {f["wheel"] for f in faults} >= {"x", "y", "z", "s"}
+    ranges = load_vehicle().dispersions.fault_ranges   # the thesis' vehicle's in-service fault sizes
+    assert {f["kind"] for f in faults} == set(sb.FAULT_KINDS) and {f["wheel"] for f in faults} >= {"x", "y", "z", "s"}
     assert any(f["ramp"] for f in faults) and any(not f["ramp"] for f in faults)
     assert any(d.units for d in draws) and any(not d.units for d in draws) and any(d.orbit for d in draws)
     assert {d.duration for d in draws} == {dur for dur, _ in sb.DURATIONS}
     assert any(len(d.faults) == 2 for d in draws) and any(not d.faults for d in draws)
     for d in draws:
         for f in d.faults:
-            low, high = sb.FAULT_RANGES[f["kind"]]
+            low, high = ranges[f["kind"]]
             assert low <= f["value"] <= high and f["onset"] + 240.0 <= d.duration + 1e-9
         s = sb.scenario(d)
         assert s.duration == d.duration and len(s.faults) == len(d.faults)
@@ -113,3 +115,15 @@ def test_a_wheel_given_up_at_its_decision_is_identified_from_the_samples_before(
     assert sb.summarize([run])["runs"] == 0   # not among the flight policy's figures
     given = sb.given_up_draws(range(sb.SEED_BASES["net"], sb.SEED_BASES["net"] + 30))
     assert given and all(d.give_up and d.faults and d.duration <= sb.GIVEN_UP_MAX_S for d in given)
+
+
+def test_the_family_flies_another_vehicle_with_its_wheels_and_its_fdi():
+    """Drawn for the shipped microsatellite: its pyramid's wheels fail, its scenario names it, and its FDIR
+    judges with the FDI made for it (config/fdi/vehicles/microsat_pyramid); the thesis' draws are unchanged."""
+    draws = [sb.draw(s, vehicle="microsat_pyramid") for s in range(sb.SEED_BASES["net"], sb.SEED_BASES["net"] + 60)]
+    assert {f["wheel"] for d in draws for f in d.faults} <= {"p1", "p2", "p3", "p4"}
+    assert [(d.duration, d.faults and d.faults[0]["kind"]) for d in draws[:20]] == \
+        [(d.duration, d.faults and d.faults[0]["kind"]) for d in (sb.draw(d.seed) for d in draws[:20])]
+    s = sb.scenario(draws[0])
+    assert s.spacecraft.name == "microsat_pyramid" and s.wheel_set().name == "pyramid"
+    assert sb.fdir_for(False, vehicle="microsat_pyramid").curves.plant["vehicle"] == "microsat_pyramid"

@@ -39,24 +39,43 @@ class ModelError(ValueError):
     """A model file that cannot be used; one line naming the file and how to regenerate it."""
 
 
-def network_wheel(wheel: str) -> str:
-    """Whose network a wheel runs (wheel_set.fitted_for): the networks are trained per body-axis wheel; the
-    redundant s runs x's.
+REGENERATE = "regenerate with `rw-fdi train --bags DIR --out DIR` (or `rw-fdi defaults` for the shipped set)"
+MODEL_SET = "model_set.json"   # a model directory's card: how it was trained, and which wheels have a network
+
+
+def network_wheels(models_dir) -> tuple:
+    """The wheels a model directory has networks for, in order: its card's ``wheels`` (one network per wheel
+    in use of the set it was trained on); a set without them (trained before): x, y, z."""
+    path = Path(models_dir) / MODEL_SET
+    try:
+        wheels = json.loads(path.read_text()).get("wheels") if path.is_file() else None
+    except (OSError, ValueError):
+        raise ModelError(f"{path}: not a readable model card; {REGENERATE}") from None
+    return tuple(wheels) if wheels else AXIS_WHEELS
+
+
+def network_wheel(wheel: str, fitted=AXIS_WHEELS) -> str:
+    """Whose network a wheel runs (wheel_set.fitted_for): its own where it was trained for, else the first
+    of the set's (a redundant wheel, of the same type, out of use while the networks were trained).
 
     Parameters
     ----------
     wheel : str
         The wheel's name in its set.
+    fitted : iterable of str
+        The wheels the model set has networks for (:func:`network_wheels`).
 
     Returns
     -------
     str
-        The body-axis wheel whose network it runs.
+        The wheel whose network it runs.
     """
-    return fitted_for(wheel, AXIS_WHEELS)[0]
+    return fitted_for(wheel, fitted)[0]
 
 
-REGENERATE = "regenerate with `rw-fdi train --bags DIR --out DIR` (or `rw-fdi defaults` for the shipped set)"
+def network_path(models_dir, wheel: str) -> Path:
+    """The network file ``wheel`` runs in ``models_dir``: ``elman_<network_wheel>.npz``."""
+    return Path(models_dir) / f"elman_{network_wheel(wheel, network_wheels(models_dir))}.npz"
 
 
 @dataclass

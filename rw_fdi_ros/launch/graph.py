@@ -11,7 +11,6 @@ from pathlib import Path
 import yaml
 
 from ..fdi_config import FdiConfig
-from ..core.elman import network_wheel
 from ..core.controller_design import design_controller
 from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
@@ -263,20 +262,20 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
     list of NodeSpec
         The Elman observers, the other observers, then the isolation node.
     """
-    fdi = FdiConfig.of(fdi)
+    fdi = FdiConfig.of(fdi).for_vehicle(choices.vehicle)
     nodes = []
     common = {"fdi_method": fdi.method, "fdi_period": choices.fdi_period, "fdi_sampling": choices.fdi_sampling,
               "unit_calibration_time": fdi.unit_calibration, "wheel_set": choices.wheel_set}
     for axis in wheel_set(choices.wheel_set).names:
         params = {"wheel": joint_name(axis), **common}
-        if fdi.models:
-            params["model"] = str(fdi.model_path(network_wheel(axis)))
+        if fdi.models or fdi.vehicle:   # else the node's own default, the thesis' vehicle's shipped set
+            params["model"] = str(fdi.model_path(axis))
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
     for obs in fdi.observers[1:]:   # linear_observer, model_observer: every wheel each
         nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer", dict(common)))
     iso = {**choices.as_dict(), "fdi_method": fdi.method, "persistence": int(fdi.persistence or 0),
            "unit_calibration_time": fdi.unit_calibration, "await_bus_grid": bool(await_bus_grid)}
-    if fdi.models or fdi.thresholds:
+    if fdi.models or fdi.thresholds or fdi.vehicle:
         iso.update({f"thresholds_{obs}": str(fdi.threshold_path(obs)) for obs in fdi.observers})
     nodes.append(NodeSpec("isolation", "isolation", iso))
     return nodes

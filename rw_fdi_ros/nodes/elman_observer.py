@@ -11,7 +11,7 @@ and publishes the estimate, the residual and the ripple bound: the signed
 from __future__ import annotations
 
 from ..core.residuals import ResidualFilter
-from ..core.elman import REGENERATE, ElmanObserver, ElmanWeights, ModelError, network_wheel, standby
+from ..core.elman import REGENERATE, ElmanObserver, ElmanWeights, ModelError, network_path, standby
 from ..paths import fdi_dir
 from ..graph import topics as T
 from ..graph.observer_node import ObserverNode
@@ -29,8 +29,8 @@ class ElmanObserverNode(ObserverNode):
             axis = T.axis_of_joint(self.param("wheel"), self.joints)
         except ValueError as exc:
             raise NodeError(f"parameter wheel {exc}", EXIT_BAD_INPUT) from None
-        path = self.param("model") or str(fdi_dir(self.method) / f"elman_{network_wheel(axis)}.npz")
         try:
+            path = self.param("model") or str(network_path(fdi_dir(self.method), axis))
             weights = ElmanWeights.load(path)
             if weights.speed_aware != self.speed_aware:
                 raise ModelError(f"{path}: a {weights.inputs}-input network cannot run fdi_method={self.method!r} "

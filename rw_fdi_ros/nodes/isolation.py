@@ -124,8 +124,8 @@ class IsolationNode(GraphNode):
         self.compute, self.compute_cpu = [], []
         for obs in observers_of(method):
             try:   # the shipped set of the method, by FdiConfig's rule, unless a file is given
-                path = self.param(f"thresholds_{obs}") or FdiConfig(method,
-                                                                    unit_calibration=calibration).threshold_path(obs)
+                path = self.param(f"thresholds_{obs}") or FdiConfig(method, unit_calibration=calibration,
+                                                                    vehicle=plant.vehicle).threshold_path(obs)
                 curves = checked_curves(path, obs, method, calibration, plant)
             except ThresholdError as exc:
                 raise NodeError(str(exc), EXIT_BAD_INPUT) from None

@@ -61,6 +61,9 @@ def _options() -> dict:
     option("--only", default=None,
            help="figures: the benches to re-measure, comma-separated (detection, operations, "
                 "identification_units, recovery, service, dumping, reproduce, graph, study; default all)")
+    option("--vehicle", default="maksat", metavar="NAME",
+           help="detection, service: the shipped vehicle the runs fly, with its shipped FDI (config/fdi/vehicles; "
+                "default %(default)s, the thesis' spacecraft)")
     option("--json", action="store_true")
     return made
 
@@ -83,7 +86,25 @@ def _study(args) -> dict:
 def _detection(args) -> dict:
     from ...tools.benches.detection_bench import bench_detection
     return bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
-                           out=args.out or "reports/detection", executor=executor(args))
+                           out=args.out or _vehicle_out(args, "detection"), executor=executor(args),
+                           vehicle=_checked_vehicle(args))
+
+
+def _checked_vehicle(args) -> str:
+    """The shipped vehicle of --vehicle, read (one line naming the field) before any run."""
+    from ...core.vehicle import load_vehicle, shipped_vehicles
+    if args.vehicle not in shipped_vehicles():
+        raise ValueError(f"--vehicle {args.vehicle}: the benches fly a shipped vehicle "
+                         f"({', '.join(shipped_vehicles())}); for your own, `rw-fdi defaults --vehicle FILE` then "
+                         "`screen --models DIR`")
+    return load_vehicle(args.vehicle).name
+
+
+def _vehicle_out(args, what: str) -> str:
+    """A bench's default report directory: reports/<what>, or reports/vehicles/<vehicle>/<what> on another
+    vehicle than the thesis'."""
+    from ...core.vehicle import DEFAULT_VEHICLE
+    return f"reports/{what}" if args.vehicle == DEFAULT_VEHICLE else f"reports/vehicles/{args.vehicle}/{what}"
 
 
 def _identification(args) -> dict:
@@ -140,12 +161,15 @@ def _service(args) -> dict:
     from tqdm import tqdm
     from ...tools.benches.service_bench import GIVEN_UP_SEEDS, SEED_BASES, bench_service, given_up_draws
     base = SEED_BASES[args.seed_set] + GIVEN_UP_SEEDS
-    given_up = len(given_up_draws(range(base, base + args.given_up_runs)))   # the faulty draws among them
+    vehicle = _checked_vehicle(args)
+    given_up = len(given_up_draws(range(base, base + args.given_up_runs), vehicle))   # the faulty draws among them
     with tqdm(total=args.service_runs + args.fault_free_runs + given_up, desc="service bench (core loop)",
               unit="run", file=sys.stderr) as bar:
-        return bench_service(runs=args.service_runs, seeds=args.seed_set, out=args.out or "reports/service",
+        return bench_service(runs=args.service_runs, seeds=args.seed_set,
+                             out=args.out or _vehicle_out(args, "service"),
                              executor=executor(args), progress=bar.update, max_hours=args.max_hours,
-                             fault_free_runs=args.fault_free_runs, given_up_runs=args.given_up_runs)
+                             fault_free_runs=args.fault_free_runs, given_up_runs=args.given_up_runs,
+                             vehicle=vehicle)
 
 
 def _scaling(args) -> dict:
@@ -176,7 +200,7 @@ BENCHES = [
     ("study", "record and replay throughput and the thesis-scale reproduce time they give",
      ("--runs", "--duration", "--seed", "--jobs"), _study),
     ("detection", "false-alarm and detection rates with 95 %% intervals on >= 1000 held-out runs, both FDI methods "
-     "(core loop)", ("--fault-free-runs", "--runs-per-cell", "--out", *POOL), _detection),
+     "(core loop)", ("--fault-free-runs", "--runs-per-cell", "--vehicle", "--out", *POOL), _detection),
     ("identification", "fault kind and size per kind and size, confusion matrix (core loop)",
      ("--runs-per-cell", "--units", "--thesis-runs", "--out", *POOL), _identification),
     ("units", "the detection cells on wheels drawn around the datasheet and on the datasheet wheel, with and "
@@ -195,7 +219,8 @@ BENCHES = [
     ("service", "FDIR in service, every capability at once (units and datasheet wheels, manoeuvres before and after "
      "faults of every kind, size, wheel, onset and ramp, second faults, orbit with dumping, 600 s to 6 h; "
      "reconfigurations without a fault, the right wheel acted on, pointing kept, identification; core loop)",
-     ("--service-runs", "--fault-free-runs", "--given-up-runs", "--max-hours", "--seed-set", "--out", *POOL), _service),
+     ("--service-runs", "--fault-free-runs", "--given-up-runs", "--max-hours", "--seed-set", "--vehicle", "--out",
+      *POOL), _service),
     ("scaling", "in-service runs per second on 1 and 2 local workers (or a Dask cluster's) and the wall time "
      "projected for 100,000 in-service runs (core loop)", ("--scaling-runs", "--max-hours", "--scheduler"),
      _scaling),

@@ -1,28 +1,59 @@
 """`rw-fdi defaults`: the shipped models and threshold curves regenerated from nothing (campaigns, training,
-fitting, a held-out check)."""
+fitting, a held-out check); with --vehicle, everything the FDI needs for that vehicle."""
 from ..options import COUNT, executor
 
 NAME = "defaults"
-HELP = "regenerate the shipped models and threshold curves from nothing"
+HELP = ("regenerate the shipped models and threshold curves from nothing; with --vehicle, make the FDI of that "
+        "vehicle (controllers, networks, bands)")
 PARENTS = ("jobs", "false_alarms")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--work", default="bags/defaults", help="where the campaigns' bags go (resumable)")
-    parser.add_argument("--out", default=None, help="default: config/fdi")
+    parser.add_argument("--vehicle", default=None, metavar="NAME|FILE",
+                        help="a shipped vehicle's name or a vehicle file (docs/vehicles.md): its controllers, a "
+                             "network per wheel in use, datasheet and unit-calibrated bands, all on the core loop "
+                             "(then give every command --models OUT)")
+    parser.add_argument("--work", default="bags/defaults", help="where the campaigns' bags go (resumable; not with "
+                                                                "--vehicle, which records no bags)")
+    parser.add_argument("--out", default=None, help="default: config/fdi; with --vehicle: fdi_<vehicle name>")
     parser.add_argument("--fit-runs", type=COUNT, default=100)
-    parser.add_argument("--heldout-runs", type=COUNT, default=20)
+    parser.add_argument("--heldout-runs", type=COUNT, default=None,
+                        help="default: 20 (--vehicle: 100 of datasheet wheels and 100 of drawn units)")
     parser.add_argument("--train-runs", type=COUNT, default=40)
+    parser.add_argument("--unit-runs", type=COUNT, default=300,
+                        help="with --vehicle: runs of drawn wheel units the calibrated bands are fitted on")
     parser.add_argument("--epochs", type=COUNT, default=None,
                         help="speed-aware set (default 1000; the thesis set: 300)")
 
 
 def main(args) -> int:
+    if args.vehicle is not None:
+        return _vehicle(args)
     from ...paths import config_dir
     from ...tools.design.defaults import format_report, regenerate_defaults
     report = regenerate_defaults(work=args.work, out=args.out or config_dir() / "fdi", fit_runs=args.fit_runs,
-                                 heldout_runs=args.heldout_runs, train_runs=args.train_runs,
+                                 heldout_runs=args.heldout_runs or 20, train_runs=args.train_runs,
                                  **({"epochs": args.epochs} if args.epochs else {}),
                                  executor=executor(args), false_alarm_rate=args.false_alarm_rate)
     print(format_report(report))
+    return 0
+
+
+def _vehicle(args) -> int:
+    from ...core.vehicle import load_vehicle
+    from ...tools.design.vehicle_defaults import vehicle_defaults
+    vehicle = load_vehicle(args.vehicle)   # a bad file: one line naming the field, before anything runs
+    out = args.out or f"fdi_{vehicle.name}"
+    report = vehicle_defaults(args.vehicle, out, train_runs=args.train_runs, fit_runs=args.fit_runs,
+                              heldout_runs=args.heldout_runs or 100, unit_runs=args.unit_runs,
+                              unit_heldout_runs=args.heldout_runs or 100,
+                              **({"epochs": args.epochs} if args.epochs else {}), executor=executor(args),
+                              false_alarm_rate=args.false_alarm_rate)
+    held = report["held_out_false_alarms"]
+    print(f"FDI of vehicle {vehicle.name} in {out} ({report['stages']['total_s'] / 60:.1f} min): networks for "
+          f"{', '.join(report['networks']['wheels'])}; held-out fault-free runs alarmed: "
+          + "; ".join(f"{kind} " + ", ".join(f"{obs} {x['alarmed']}/{x['runs']}" for obs, x in rows.items())
+                      for kind, rows in held.items()))
+    print(f"use it: rw-fdi run --scenario {out}/scenarios/fault_free.yaml --models {out} (report: "
+          f"{out}/defaults_report.md)")
     return 0

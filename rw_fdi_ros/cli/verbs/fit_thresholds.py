@@ -1,6 +1,5 @@
 """`rw-fdi fit-thresholds`: the observers' thresholds fitted on fault-free runs, recorded bags or runs of the
 core loop (speed_aware: bands for a designed false-alarm rate; thesis: mean + 3 sigma curves)."""
-import sys
 
 from ..options import executor, fault_free_samples, parse_seeds
 
@@ -30,14 +29,14 @@ def main(args) -> int:
     import time
     from ...paths import config_dir, shown_path
     from ...tools.design.offline import fdi_method_of, fit_thresholds, load_models
-    from ...tools.design.samples import load_samples
+    from ...tools.design.samples import load_samples, simulated_fault_free_runs
     models_dir = args.models or str(config_dir() / "fdi")
     models = load_models(models_dir)
     t0 = time.monotonic()
     plant = None
     pool = executor(args)   # --jobs local processes, or --scheduler's Dask cluster
     if args.simulate:
-        samples, plant = _simulated_fitting_runs(args.simulate, seeds, pool)
+        samples, plant = simulated_fault_free_runs(args.simulate, seeds, pool)
     else:
         samples = fault_free_samples(args.bags, load_samples, pool)
     result = fit_thresholds(samples, models, args.out, model_ref=shown_path(models_dir, args.out),
@@ -52,28 +51,3 @@ def main(args) -> int:
         else:
             print(f"  {obs:7s} reliability " + "  ".join(f"{a}={v * 100:.0f}%" for a, v in row.items()))
     return 0
-
-
-def _simulated_fitting_runs(ref: str, seeds, pool=None) -> tuple:
-    """FDI samples of fault-free runs of scenario ``ref`` over ``seeds`` by the core loop (screen) on the executor
-    ``pool`` (default: local processes), in seed order, and the plant choices they were made under."""
-    from tqdm import tqdm
-    from ...core.plant_choices import PlantChoices
-    from ...core.scenario import load_scenario
-    from ...tools.evaluation.screen import BATCH, simulated_samples
-    scenario = load_scenario(ref)
-    if scenario.faults:
-        raise ValueError(f"--simulate {ref}: thresholds are fitted on fault-free runs, this scenario has faults")
-    from ...tools.campaigns.campaign import LocalExecutor
-    pool = pool or LocalExecutor()
-    runs = [scenario.with_seed(k) for k in seeds]
-    by_seed = {}
-    with tqdm(total=len(seeds), desc="fitting runs (core loop)", unit="run", file=sys.stderr) as bar:
-        for done in pool.map_unordered(simulated_samples, [runs[i:i + BATCH] for i in range(0, len(runs), BATCH)],
-                                       processes=True):
-            by_seed.update(done)
-            bar.update(len(done))
-    samples = [by_seed[k] for k in seeds]
-    # what a bag of such a run would record: the same choices the recorded runs' fitting gets
-    plant = PlantChoices.of_recording(scenario.plant_choices().scenario_dict()).as_dict()
-    return samples, plant

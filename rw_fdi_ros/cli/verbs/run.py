@@ -48,7 +48,7 @@ def main(args) -> int:
     nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
     if args.fdi:
         from ...tools.campaigns.fdi import format_verdict, run_with_fdi
-        fdi = fdi_config(args)
+        fdi = fdi_config(args).for_vehicle(scenario.spacecraft.name)
         fdi.check(scenario.plant_choices(emf_limit=args.emf_limit), scenario.duration)
         nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
                  f"{wheels.count} Elman observers, linear observer, "

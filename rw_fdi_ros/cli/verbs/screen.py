@@ -26,15 +26,15 @@ def main(args) -> int:
     from ...tools.benches.kit import write_runs_table
     from ...tools.evaluation.screen import format_screen, screen
     from ...tools.metrics import run_row
-    fdi = fdi_config(args)
     scenarios = [load_scenario(name) for name in args.scenario]
-    for scenario in scenarios:
+    fdis = [fdi_config(args).for_vehicle(s.spacecraft.name) for s in scenarios]   # each its vehicle's FDI
+    for scenario, fdi in zip(scenarios, fdis):
         fdi.check(scenario.plant_choices(), scenario.duration)
     pool = executor(args)   # --jobs local processes (default: the cores), or --scheduler's Dask cluster
     counts, rows = {}, []
     with tqdm(total=len(seeds) * len(scenarios), desc="screen (core loop)", unit="run", file=sys.stderr,
               disable=None) as bar:
-        for name, scenario in zip(args.scenario, scenarios):
+        for name, scenario, fdi in zip(args.scenario, scenarios, fdis):
             counts[name], runs = screen(scenario, seeds, fdi, progress=bar.update, executor=pool)
             rows += [run_row(r) for r in runs]
             if not args.json:

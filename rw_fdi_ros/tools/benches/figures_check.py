@@ -18,7 +18,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .kit import format_rate, rate
+from ..metrics import rate
+from .kit import format_rate
 
 # the small samples: (bench, its keyword arguments); the whole check about 8 minutes on 2 cores (the graph
 # running at its record's ~115x real time)

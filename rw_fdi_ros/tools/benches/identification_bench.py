@@ -35,7 +35,8 @@ from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault, Scenario
 from ...core.wheel_set import fitted_for
-from .kit import fault_wheel, workers, Cell, cell_scenarios, format_rate, rate, screen_cells, write_cells_table
+from ..metrics import rate
+from .kit import fault_wheel, workers, Cell, cell_scenarios, format_rate, screen_cells, write_cells_table
 from ..metrics import judge_identification
 from ..evaluation.screen import screen_sets
 

@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import json
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from ...fdi_config import FdiConfig
-from ...core.scenario import Fault, Scenario
+from ...core.scenario import Fault, Scenario, parse_scenario
+from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
-from ..metrics import alarm_before_onset, judge, observable
+from ..metrics import alarm_before_onset, judge, observable, rate
 from ..evaluation.screen import screen_sets
 
 SEED_BASE = 10_000_000         # the detection bench's; every bench passes its own
@@ -49,19 +51,31 @@ def fault_wheel(seed: int, wheels: WheelSet = WHEEL_SETS[DEFAULT_WHEEL_SET]) -> 
     return wheels.names.index(wheels.active[seed % len(wheels.active)])
 
 
+@lru_cache(maxsize=None)
+def vehicle_scenario(vehicle: str) -> Scenario:
+    """A 400-s run of the shipped ``vehicle`` through the scenario file's own checks (its wheel set, plant
+    choices and dispersions): what a bench's cells fly on another vehicle than the thesis'."""
+    return parse_scenario(f"name: {vehicle}\nvehicle: {vehicle}\nduration: 400.0\n", origin=f"vehicle {vehicle}")
+
+
 def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE, onset_range=ONSET_RANGE,
-                   wheels: dict | None = None) -> list:
+                   wheels: dict | None = None, vehicle: str = DEFAULT_VEHICLE) -> list:
     """``runs`` scenarios of one cell: seeds seed_base + 100,000 index + n, fault on a wheel in use
     (:func:`fault_wheel`) with an onset drawn from the seed in ``onset_range``; ``wheels``: the scenario's unit
-    variation."""
+    variation; ``vehicle``: the shipped vehicle they fly (default: the thesis')."""
+    base = None if vehicle == DEFAULT_VEHICLE else vehicle_scenario(vehicle)
+    wheel_set = WHEEL_SETS[DEFAULT_WHEEL_SET] if base is None else base.wheel_set()
     out = []
     for n in range(runs):
         seed = seed_base + 100_000 * index + n
         faults = ()
         if cell.kind is not None:
             onset = float(np.round(np.random.default_rng(seed).uniform(*onset_range), 1))
-            faults = (Fault(cell.kind, fault_wheel(seed), onset, cell.value, cell.ramp),)
-        out.append(Scenario(cell.name, duration=400.0, seed=seed, faults=faults, wheels=dict(wheels or {})))
+            faults = (Fault(cell.kind, fault_wheel(seed, wheel_set), onset, cell.value, cell.ramp),)
+        if base is None:
+            out.append(Scenario(cell.name, duration=400.0, seed=seed, faults=faults, wheels=dict(wheels or {})))
+        else:
+            out.append(replace(base, name=cell.name, seed=seed, faults=faults, wheels=dict(wheels or {})))
     return out
 
 
@@ -109,23 +123,6 @@ class SpeedAwareChunk:
         out = screen_sets(self.scenarios(cell_index, seeds, self.seed_base),
                           {"speed_aware": FdiConfig().load()}, on_run=hook)
         return {**out, "runs": seen} if self.on_run is not None else out
-
-
-def wilson(k: int, n: int, z: float = 1.96):
-    """95 % Wilson score interval of k successes in n trials."""
-    if n == 0:
-        return (float("nan"), float("nan"))
-    p = k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (max(0.0, centre - half), min(1.0, centre + half))
-
-
-def rate(flags) -> dict:
-    flags = [bool(f) for f in flags]
-    k, n = sum(flags), len(flags)
-    lo, hi = wilson(k, n)
-    return {"k": k, "n": n, "rate": k / n if n else None, "ci95": [lo, hi]}
 
 
 def cell_figures(runs, observer: str, observable_level: dict) -> dict:

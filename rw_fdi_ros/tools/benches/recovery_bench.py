@@ -30,7 +30,8 @@ from ...core.fdir import held_speeds
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.spacecraft import BODY_AXES
 from ...core.wheel_set import WHEEL_SETS
-from .kit import fault_wheel, format_rate, rate, write_report, write_runs_table
+from ..metrics import rate
+from .kit import fault_wheel, format_rate, write_report, write_runs_table
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}
 POINTING_DEG = 0.2

@@ -38,6 +38,7 @@ from __future__ import annotations
 import time
 from collections import defaultdict
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -49,22 +50,22 @@ from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import SATURATED_S
 from ...core.identification import UNKNOWN
 from ...core.scenario import Scenario, parse_scenario
-from ...core.wheel_set import WHEEL_SETS
+from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
 from ..campaigns.campaign import LocalExecutor
 from ..metrics import IDENTIFIED_KIND, judge_size
-from .kit import format_rate, rate, write_report
+from ..metrics import rate
+from .kit import format_rate, write_report
 
 SEED_BASES = {"tuning": 90_000_000, "evaluation": 91_000_000, "net": 92_000_000}
 FAULT_FREE_SEEDS = 500_000   # the fault-free runs' seeds: the set's base plus this
 GIVEN_UP_SEEDS = 700_000     # the given-up runs' seeds: the set's base plus this
 GIVEN_UP_MAX_S = 1800.0      # [s] the given-up runs' longest
 FAULT_FREE_S = 600.0
-WHEELS = WHEEL_SETS["orthogonal_skew"]
 POINTING_DEG = 0.2
 SETTLE_S = 60.0          # [s] after an onset and after a set-point change, not judged
 CALIBRATION_S = 150.0    # [s] the shipped unit_calibrated bands
 DURATIONS = ((600.0, 0.7), (1800.0, 0.15), (7200.0, 0.12), (21600.0, 0.03))   # [s], share of runs
-FAULT_RANGES = {"current_limiter": (0.5, 0.92), "temperature": (48.0, 173.0), "bus_voltage": (4.0, 5.5)}
+FAULT_KINDS = ("current_limiter", "temperature", "bus_voltage")   # the kinds drawn, in the draw's order
 EVERY = 10               # record every 10th control sample (1 s): hours of four wheels in memory
 BATCH = 25
 ACTED = ("out_of_use", "held", "kept_in_use")
@@ -86,12 +87,24 @@ class Draw:
     faults: tuple    # ({kind, wheel, onset, value, ramp}, ...)
     fault_free: bool = False   # drawn as one of the fault-free 600-s runs (draw(fault_free=True))
     give_up: bool = False      # run with FDIR made to give up every wheel it confirms (fdir_for)
+    vehicle: str = DEFAULT_VEHICLE   # the spacecraft (a shipped name): its wheel set, fault sizes, slews, FDI
 
 
-def draw(seed: int, max_duration: float | None = None, fault_free: bool = False) -> Draw:
+@lru_cache(maxsize=None)
+def _vehicle(name: str):
+    """The vehicle of a draw (a shipped name), and what the family draws from it: its wheel set, the in-service
+    fault sizes and the largest set-point change [deg] (MakSat: Table 2.3's 5 deg, the four-wheel set)."""
+    vehicle = load_vehicle(name)
+    return vehicle, vehicle.wheel_set, vehicle.dispersions.fault_ranges, max(
+        abs(v) for v in vehicle.dispersions.setpoint_change_deg)
+
+
+def draw(seed: int, max_duration: float | None = None, fault_free: bool = False,
+         vehicle: str = DEFAULT_VEHICLE) -> Draw:
     """The in-service run of ``seed`` (module docstring); ``max_duration`` [s] shortens the longer ones (the
     rest of the draw unchanged); ``fault_free``: a 600-s run of the family without a fault (the false
-    reconfiguration figure needs a thousand of them)."""
+    reconfiguration figure needs a thousand of them); ``vehicle``: the spacecraft's name (its wheels, sizes)."""
+    _, wheels, ranges, largest = _vehicle(vehicle)
     rng = np.random.default_rng([int(seed), 34])
     durations, shares = zip(*DURATIONS)
     duration = float(rng.choice(durations, p=shares))
@@ -103,7 +116,7 @@ def draw(seed: int, max_duration: float | None = None, fault_free: bool = False)
     orbit = bool(rng.random() < 0.2)
     low = float(rng.uniform(60.0, 300.0))
     interval = (round(low, 1), round(float(min(900.0, low + rng.uniform(0.0, 600.0))), 1))
-    size = round(float(rng.uniform(1.0, 5.0)), 2)
+    size = round(float(rng.uniform(min(1.0, largest), largest)), 2)
     faults = []
     if rng.random() < 2.0 / 3.0 and not fault_free:
         earliest = CALIBRATION_S + 5.0 if units else 20.0
@@ -111,18 +124,18 @@ def draw(seed: int, max_duration: float | None = None, fault_free: bool = False)
             onset = rng.uniform(earliest, earliest + 20.0)
         else:
             onset = rng.uniform(earliest, duration - 240.0)
-        wheel = str(rng.choice(WHEELS.active))
-        faults.append(_fault(rng, wheel, onset))
+        wheel = str(rng.choice(wheels.active))
+        faults.append(_fault(rng, wheel, onset, ranges))
         if rng.random() < 0.2 and onset + 100.0 < duration - 240.0:
-            others = [w for w in WHEELS.names if w != wheel]
+            others = [w for w in wheels.names if w != wheel]
             second = rng.uniform(onset + 100.0, min(onset + 600.0, duration - 240.0))
-            faults.append(_fault(rng, str(rng.choice(others)), second))
-    return Draw(int(seed), duration, units, orbit, interval, size, tuple(faults), bool(fault_free))
+            faults.append(_fault(rng, str(rng.choice(others)), second, ranges))
+    return Draw(int(seed), duration, units, orbit, interval, size, tuple(faults), bool(fault_free), vehicle=vehicle)
 
 
-def _fault(rng, wheel: str, onset: float) -> dict:
-    kind = str(rng.choice(list(FAULT_RANGES)))
-    value = round(float(rng.uniform(*FAULT_RANGES[kind])), 4)
+def _fault(rng, wheel: str, onset: float, ranges: dict) -> dict:
+    kind = str(rng.choice(FAULT_KINDS))
+    value = round(float(rng.uniform(*ranges[kind])), 4)
     ramp = 0.0 if rng.random() < 0.5 else round(float(rng.uniform(50.0, 300.0)), 1)
     return {"kind": kind, "wheel": wheel, "onset": round(float(onset), 1), "value": value, "ramp": ramp}
 
@@ -131,7 +144,8 @@ def scenario(d: Draw) -> Scenario:
     """The Scenario of a draw, through the scenario file's own checks (and its text, as a bag records it)."""
     raw = {"name": "service", "duration": d.duration, "seed": d.seed,
            "description": "in service: every capability at once (rw-fdi bench service)",
-           "plant": {"wheel_set": WHEELS.name},
+           **({"plant": {"wheel_set": _vehicle(d.vehicle)[1].name}} if d.vehicle == DEFAULT_VEHICLE
+              else {"vehicle": d.vehicle}),
            "manoeuvres": {"interval_s": list(d.interval_s), "size_deg": [-d.size_deg, d.size_deg]},
            "faults": [dict(f) for f in d.faults]}
     if d.units:
@@ -142,10 +156,11 @@ def scenario(d: Draw) -> Scenario:
     return parse_scenario(yaml.safe_dump(raw, sort_keys=False), origin=f"service seed {d.seed}")
 
 
-def fdir_for(units: bool, give_up: bool = False) -> Fdir:
-    """The onboard FDIR of the family; ``give_up``: made to give up every wheel it confirms (no holding,
-    no keeping), for the identification of a wheel whose driver goes off at its decision."""
-    _, curves = FdiConfig(unit_calibration=CALIBRATION_S if units else 0.0).load()
+def fdir_for(units: bool, give_up: bool = False, vehicle: str = DEFAULT_VEHICLE) -> Fdir:
+    """The onboard FDIR of the family, the shipped FDI of ``vehicle``; ``give_up``: made to give up every wheel
+    it confirms (no holding, no keeping), for the identification of a wheel whose driver goes off at its
+    decision."""
+    _, curves = FdiConfig(unit_calibration=CALIBRATION_S if units else 0.0).for_vehicle(vehicle).load()
     policy = {"holdable": float("inf"), "slew_rate": 0.0} if give_up else {}
     return Fdir(curves["model"], calibration_samples(CALIBRATION_S) if units else 0, identification=True, **policy)
 
@@ -220,7 +235,7 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
 def _simulate(draws: list) -> list:
     """One batch (equal duration, wheels and orbit): the runs' figures."""
     scenarios = [scenario(d) for d in draws]
-    traj = simulate(scenarios, fdir=fdir_for(draws[0].units, draws[0].give_up), every=EVERY)
+    traj = simulate(scenarios, fdir=fdir_for(draws[0].units, draws[0].give_up, draws[0].vehicle), every=EVERY)
     return [run_figures(traj, b, d, s) for b, (d, s) in enumerate(zip(draws, scenarios))]
 
 
@@ -228,7 +243,7 @@ def batches(draws: list, size: int = BATCH) -> list:
     """Draws grouped by what a batch must share (duration, units, orbit), longest first, in batches."""
     groups = defaultdict(list)
     for d in draws:
-        groups[(d.duration, d.units, d.orbit, d.give_up)].append(d)
+        groups[(d.duration, d.units, d.orbit, d.give_up, d.vehicle)].append(d)
     out = []
     for key in sorted(groups, key=lambda k: -k[0]):   # longest first: the pool's tail is short runs
         members = groups[key]
@@ -236,19 +251,20 @@ def batches(draws: list, size: int = BATCH) -> list:
     return out
 
 
-def given_up_draws(seeds) -> list:
+def given_up_draws(seeds, vehicle: str = DEFAULT_VEHICLE) -> list:
     """The faulty draws among ``seeds``, at most GIVEN_UP_MAX_S long, to run with FDIR giving every wheel up."""
     from dataclasses import replace
-    return [replace(d, give_up=True) for d in (draw(s, GIVEN_UP_MAX_S) for s in seeds) if d.faults]
+    return [replace(d, give_up=True) for d in (draw(s, GIVEN_UP_MAX_S, vehicle=vehicle) for s in seeds) if d.faults]
 
 
 def run_service(seeds, executor=None, progress=None, max_duration: float | None = None, fault_free_seeds=(),
-                given_up_seeds=()) -> list:
+                given_up_seeds=(), vehicle: str = DEFAULT_VEHICLE) -> list:
     """Figures of the in-service runs of ``seeds``, of the fault-free 600-s runs of ``fault_free_seeds`` and of
     the faulty draws of ``given_up_seeds`` with FDIR giving up (:func:`given_up_draws`), in seed order, on
-    ``executor`` (local processes by default, or a Dask cluster)."""
-    work = batches([draw(s, max_duration) for s in seeds] + [draw(s, fault_free=True) for s in fault_free_seeds]
-                   + given_up_draws(given_up_seeds))
+    ``executor`` (local processes by default, or a Dask cluster), all flying ``vehicle``."""
+    work = batches([draw(s, max_duration, vehicle=vehicle) for s in seeds]
+                   + [draw(s, fault_free=True, vehicle=vehicle) for s in fault_free_seeds]
+                   + given_up_draws(given_up_seeds, vehicle))
     runs = []
     # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
     for out in (executor or LocalExecutor()).map_unordered(_simulate, work, processes=True):
@@ -344,7 +360,7 @@ def _given_up_figures(runs: list) -> dict:
             "kind_wrong": sum(i["kind"] not in (i["true_kind"], "unknown", "none") for i in ident),
             "size_right": rate(i["size_right"] for i in right), "covered": rate(i["covered"] for i in right),
             "kind_right_by_kind": {k: rate(r["identification"]["kind_right"] for r in out
-                                           if r["faults"][0]["kind"] == k) for k in FAULT_RANGES},
+                                           if r["faults"][0]["kind"] == k) for k in FAULT_KINDS},
             "kind_right_by_growth": {g: rate(r["identification"]["kind_right"] for r in out
                                              if _growth(r["faults"][0]) == g) for g in GROWTHS}}
 
@@ -352,7 +368,7 @@ def _given_up_figures(runs: list) -> dict:
 
 def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path = "reports/service", executor=None,
                   progress=None, max_hours: float | None = None, fault_free_runs: int = 1000,
-                  given_up_runs: int = 300) -> dict:
+                  given_up_runs: int = 300, vehicle: str = DEFAULT_VEHICLE) -> dict:
     """``runs`` of the in-service family, ``fault_free_runs`` fault-free 600-s runs of it and the faulty draws
     among ``given_up_runs`` seeds run with FDIR giving up, on the seeds of ``seeds`` (SEED_BASES; the fault-free
     ones from FAULT_FREE_SEEDS above, the given-up ones from GIVEN_UP_SEEDS); the report in ``out``."""
@@ -362,8 +378,10 @@ def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path =
     free_base = seed_base + FAULT_FREE_SEEDS
     given_base = seed_base + GIVEN_UP_SEEDS
     results = run_service(range(seed_base, seed_base + runs), executor, progress, max_duration,
-                          range(free_base, free_base + fault_free_runs), range(given_base, given_base + given_up_runs))
+                          range(free_base, free_base + fault_free_runs), range(given_base, given_base + given_up_runs),
+                          vehicle)
     report = {"schema": "rw_fdi_ros/service_bench/2", "seconds": time.monotonic() - t0, "max_hours": max_hours,
+              "vehicle": vehicle,
               "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,
               "seeds": [seed_base, seed_base + runs - 1],
               "fault_free_seeds": [free_base, free_base + fault_free_runs - 1] if fault_free_runs else None,
@@ -374,7 +392,9 @@ def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path =
 
 def format_service(report: dict) -> str:
     f = report["figures"]
-    lines = ["# FDIR in service (`rw-fdi bench service`)", "",
+    vehicle = report.get("vehicle", DEFAULT_VEHICLE)
+    lines = ["# FDIR in service (`rw-fdi bench service`)" + (f", vehicle {vehicle}" if vehicle != DEFAULT_VEHICLE
+                                                             else ""), "",
              f"Measured {report['date']}, {report['seed_set']} seeds {report['seeds'][0]:,}-{report['seeds'][1]:,} "
              f"({f['runs']} runs, {f['hours']:.0f} h of service)"
              + (f" and fault-free 600-s runs {report['fault_free_seeds'][0]:,}-{report['fault_free_seeds'][1]:,}"

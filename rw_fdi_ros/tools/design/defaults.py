@@ -51,8 +51,8 @@ def false_alarm_rates(samples, models, thresholds_dir, persistences=PERSISTENCES
     for p in persistences:
         out[p] = {}
         for obs in curves:
-            alarmed = [any(d[obs][a][1] is not None for a in AXIS_WHEELS) for d in (decisions(r, {obs: curves[obs]}, p)
-                                                                              for r in runs)]
+            alarmed = [any(first is not None for _, first in d[obs].values())
+                       for d in (decisions(r, {obs: curves[obs]}, p) for r in runs)]
             out[p][obs] = float(np.mean(alarmed))
     return out
 
@@ -134,6 +134,7 @@ def _card(card: dict) -> dict:
 
 def format_report(r: dict) -> str:
     th, ours = r["thesis"], r["speed_aware"]
+    wheels = list(next(iter(ours["bands"].values())))   # the wheels in use: a band each
     lines = ["# Shipped FDI defaults", "",
              f"Regenerate with `{r['command']}` (from nothing: campaigns, training, fitting). Plant choices: "
              + ", ".join(f"{k} {v}" for k, v in r["plant"].items()) + ".",
@@ -146,17 +147,18 @@ def format_report(r: dict) -> str:
              f"P = {ours['persistence']} (Gumbel fit of the upper half of the fitting runs' statistics; alpha/3 per "
              "axis for the model observer, alpha/6 for the Elman and Luenberger observers, whose kappa spends the "
              "other half):", "",
-             "| observer | c x [1e-3 N m] | c y | c z | held-out |residual| after 60 s: mean / p99 / max [1e-3 N m] |",
-             "|---|---|---|---|---|"]
+             f"| observer | {' | '.join(f'c {a}' for a in wheels)} [1e-3 N m] | held-out |residual| after 60 s: "
+             "mean / p99 / max [1e-3 N m] |",
+             "|---|" + "---|" * (len(wheels) + 1)]
     for obs, row in ours["bands"].items():
         n = ours["nominal_residual"][obs]
-        lines.append(f"| {obs} | " + " | ".join(f"{row[a] * 1e3:.4f}" for a in AXIS_WHEELS)
+        lines.append(f"| {obs} | " + " | ".join(f"{row[a] * 1e3:.4f}" for a in wheels)
                      + f" | {n['mean'] * 1e3:.4f} / {n['p99'] * 1e3:.4f} / {n['max'] * 1e3:.4f} |")
     far = ours["false_alarm_rate_heldout"]
     kappa = ours["train_card"]["axes"]
     lines += ["", "Elman uncertainty gain kappa (bound grows by kappa x mean |r| in manoeuvres; the (1 - alpha/6) "
               "Gumbel quantile of the training and fitting runs' largest error per unit demand): "
-              + ", ".join(f"{a} {kappa[a]['uncertainty_gain']:.3f}" for a in AXIS_WHEELS) + ".",
+              + ", ".join(f"{a} {kappa[a]['uncertainty_gain']:.3f}" for a in kappa) + ".",
               "", "Held-out runs with any alarm: " + ", ".join(f"{o} {v * 100:.0f} %" for o, v in far.items())
               + f" (n = {len(r['heldout_seeds'])}).", "", *([ours["note"], ""] if ours.get("note") else []),
               "## The thesis' method (`config/fdi/thesis`)", "",

@@ -18,7 +18,7 @@ from ...core.threshold_file import ThresholdCurves, ThresholdError
 from ...core.threshold_fit import fit_band, run_statistic
 from ...core.residuals import residual_series, signed_residual_series
 from ...core.calibration import calibration_samples, regressors
-from ...core.elman import ElmanWeights, ModelError, network_wheel, recall_series
+from ...core.elman import ElmanWeights, ModelError, network_wheel, network_wheels, recall_series
 from ...core.linear_observer import estimate_series, uncertainty_gain
 from ...core.plant_choices import FDI_PERIOD, FDI_SAMPLING, PlantChoices
 from ...core.wheel_set import AXIS_WHEELS, wheel_set
@@ -26,9 +26,10 @@ from ...core.wheel_set import AXIS_WHEELS, wheel_set
 
 
 def load_models(models_dir) -> dict:
-    """axis -> ElmanWeights from ``models_dir/elman_<axis>.npz`` (ModelError names the file)."""
+    """wheel -> ElmanWeights from ``models_dir/elman_<wheel>.npz``, a network per wheel the set was trained
+    for (core/elman.network_wheels; ModelError names the file)."""
     models_dir = Path(models_dir)
-    return {a: ElmanWeights.load(models_dir / f"elman_{a}.npz") for a in AXIS_WHEELS}
+    return {a: ElmanWeights.load(models_dir / f"elman_{a}.npz") for a in network_wheels(models_dir)}
 
 
 def model_card(models_dir) -> dict:
@@ -65,7 +66,7 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     r = samples.reaction_torque
     method = fdi_method_of(models)
     wheels = getattr(samples, "wheels", AXIS_WHEELS)
-    nets = [models[network_wheel(a)] for a in wheels]   # the redundant wheel runs its type's network
+    nets = [models[network_wheel(a, models)] for a in wheels]   # a redundant wheel runs its type's network
     if method == "thesis":
         elman = np.stack([recall_series(m, samples.tcv[:, i], r[0, i], reaction_torque=r[:, i])
                           for i, m in enumerate(nets)], axis=1)

@@ -1,6 +1,7 @@
 """FDI samples out of bags: the 1 s samples the observers see (core/telemetry.py, as the nodes make them)."""
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -174,3 +175,29 @@ def _bag_samples(work) -> tuple:
         return bag, fdi_samples(data, period, sampling, speed_aware=sampling == "mean"), None
     except BagError as exc:
         return bag, None, str(exc)
+
+
+def simulated_fault_free_runs(ref, seeds, pool=None, desc: str = "fitting runs (core loop)") -> tuple:
+    """FDI samples of fault-free runs of scenario ``ref`` (a name, a path or a Scenario) over ``seeds`` by the
+    core loop (rw-fdi screen's: the graph's numbers, no bags) on the executor ``pool`` (default: local
+    processes), in seed order, and the plant choices they were made under (what a bag of such a run records)."""
+    from tqdm import tqdm
+    from ...core.plant_choices import PlantChoices
+    from ...core.scenario import Scenario, load_scenario
+    from ..campaigns.campaign import LocalExecutor
+    from ..evaluation.screen import BATCH, simulated_samples
+    scenario = ref if isinstance(ref, Scenario) else load_scenario(ref)
+    if scenario.faults:
+        raise ValueError(f"scenario {scenario.name}: thresholds and networks are fitted on fault-free runs, "
+                         "this scenario has faults")
+    pool = pool or LocalExecutor()
+    seeds = list(seeds)
+    runs = [scenario.with_seed(k) for k in seeds]
+    by_seed = {}
+    with tqdm(total=len(seeds), desc=desc, unit="run", file=sys.stderr) as bar:
+        for done in pool.map_unordered(simulated_samples, [runs[i:i + BATCH] for i in range(0, len(runs), BATCH)],
+                                       processes=True):
+            by_seed.update(done)
+            bar.update(len(done))
+    plant = PlantChoices.of_recording(scenario.plant_choices().scenario_dict()).as_dict()
+    return [by_seed[k] for k in seeds], plant

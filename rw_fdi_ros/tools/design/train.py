@@ -25,7 +25,6 @@ import numpy as np
 
 from ...core.detection import FALSE_ALARM_RATE
 from ...core.elman import HIDDEN, SETTLE_STEPS, ElmanWeights
-from ...core.wheel_set import AXIS_WHEELS
 from ...extras import require
 from ...paths import shown_path
 
@@ -112,7 +111,8 @@ def _train_one(args):
     return train_axis(tcv, torque, mode, epochs, seed=seed, wheel_speed=speed)
 
 
-def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE) -> float:
+def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE,
+                     wheel: str | None = None) -> float:
     """kappa of an Elman network (core/residuals.demand_gain over ``samples``): it models slews less well
     than holding, and its first seconds start from a zero state."""
     from ...core.residuals import demand_gain, demand_ratio
@@ -122,15 +122,29 @@ def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALS
                            s.ripple_phasor[:, axis]) for s in samples]
     kappa = demand_gain([x for x in ratios if x is not None], false_alarm_rate)
     if not kappa < 10.0:   # ElmanWeights refuses such a model: say so now, not when a node loads it
-        raise ValueError(f"wheel {'xyz'[axis]}: the network errs by {kappa:.3g} x the torque demand on fault-free "
+        raise ValueError(f"wheel {wheel or samples[0].wheels[axis]}: the network errs by {kappa:.3g} x the torque "
+                         "demand on fault-free "
                          "runs (> 10); train longer or on more runs")
     return kappa
+
+
+def trained_wheels(samples, plant: dict | None = None) -> tuple:
+    """The wheels a model set has networks for: those in use of the runs' wheel set (``plant``'s
+    ``wheel_set``, else the samples' columns); a standby wheel, at rest in every training run, runs the
+    network of its type (core/elman.network_wheel)."""
+    from ...core.wheel_set import wheel_set
+    names = tuple(samples[0].wheels)
+    if any(tuple(s.wheels) != names for s in samples):
+        raise ValueError("training runs of different wheel sets: train each set on its own")
+    active = wheel_set(plant["wheel_set"]).active if plant and plant.get("wheel_set") else names
+    return tuple(a for a in names if a in active)
 
 
 def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, plant: dict | None = None,
                  seed: int = 0, quiet: bool = False, speed_aware: bool = True, calibration=None,
                  false_alarm_rate: float = FALSE_ALARM_RATE, jobs: int | None = None) -> dict:
-    """Train x, y, z networks on a list of FdiSamples and save them with cards; returns the set card.
+    """Train a network per wheel in use of the samples' set (:func:`trained_wheels`; the default set: x, y, z)
+    on a list of FdiSamples and save them with cards; returns the set card (its ``wheels``: which have one).
     ``jobs``: axes trained at once, one process each (default: 2 on 2 cores; 1: in this process).
 
     ``speed_aware``: three inputs with the wheel speed (ours); False: the thesis' two.
@@ -144,21 +158,24 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
     if not samples:
         raise ValueError("no fault-free bags to train on")
     n = min(len(s.time) for s in samples)
+    wheels = trained_wheels(samples, plant)
+    columns = [samples[0].wheels.index(a) for a in wheels]
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
     card = {"mode": mode, "speed_aware": speed_aware, "epochs": epochs, "hidden": HIDDEN, "samples_per_run": n,
-            "bags": [shown_path(s.bag, out_dir) for s in samples], "seeds": [s.seed for s in samples],
-            "plant": plant or {}, "axes": {}}
+            "bags": [shown_path(s.bag, out_dir) for s in samples if s.bag is not None],   # none: core-loop runs
+            "seeds": [s.seed for s in samples],
+            "plant": plant or {}, "wheels": list(wheels), "axes": {}}
     calibration = list(calibration) if calibration else list(samples)
     if speed_aware:
         card["uncertainty_gain_seeds"] = [s.seed for s in calibration]
-    bar = tqdm(total=3 * epochs, desc=f"train elman ({mode}, {len(samples)} runs)", unit="epoch",
+    bar = tqdm(total=len(wheels) * epochs, desc=f"train elman ({mode}, {len(samples)} runs)", unit="epoch",
                file=sys.stderr, disable=quiet or None, mininterval=1.0)
     inputs = [(np.stack([s.tcv[:n, i] for s in samples]), np.stack([s.reaction_torque[:n, i] for s in samples]),
                mode, epochs, seed + i, np.stack([s.wheel_speed[:n, i] for s in samples]) if speed_aware else None)
-              for i in range(len(AXIS_WHEELS))]
-    jobs = max(1, min(jobs or min(2, os.cpu_count() or 1), len(AXIS_WHEELS)))
+              for i in columns]
+    jobs = max(1, min(jobs or min(2, os.cpu_count() or 1), len(wheels)))
     if jobs == 1:
         def tick(k, loss):
             bar.update(k)
@@ -170,11 +187,11 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
         pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"))
         futures = [pool.submit(_train_one, args) for args in inputs]
         trained = (f.result() for f in futures)
-    for i, (axis, (weights, losses)) in enumerate(zip(AXIS_WHEELS, trained)):
+    for i, axis, (weights, losses) in zip(columns, wheels, trained):
         if jobs > 1:
             bar.update(epochs)
         if speed_aware:
-            weights.uncertainty_gain = uncertainty_gain(weights, calibration, i, false_alarm_rate)
+            weights.uncertainty_gain = uncertainty_gain(weights, calibration, i, false_alarm_rate, axis)
         axis_card = {**{k: v for k, v in card.items() if k != "axes"}, "axis": axis,
                      "final_loss": losses[-1], "first_loss": losses[0], "tcv_scale": weights.tcv_scale,
                      "torque_scale": weights.torque_scale, "speed_scale": weights.speed_scale,

@@ -1,0 +1,192 @@
+"""Everything the FDI needs for one vehicle, from nothing (`rw-fdi defaults --vehicle FILE --out DIR`).
+
+On the core loop (rw-fdi screen's: the graph's numbers, no bags), the speed-aware method:
+
+1. the controllers designed to the vehicle's targets (core/controller_design.py; the runs fly them);
+2. fault-free runs of the vehicle: training (seeds 1000-1039), fitting (1040-1139), held-out (5000-5099);
+   runs of drawn wheel units for the calibrated bands (60,000,000-60,000,299) and their held-out runs
+   (5,200-5,299): training, fitting and checking never share a run;
+3. a speed-aware Elman network per wheel in use (a standby wheel runs its type's), its uncertainty gain;
+4. the three observers' bands for the designed per-run false-alarm rate, for datasheet wheels and for
+   observers that learn their wheel over the first 150 s (``unit_calibrated/``);
+5. the held-out runs judged by the FDI just made: their false alarms, with 95 % intervals.
+
+The directory holds the vehicle, its fault-free scenarios, the networks, both band sets and a report
+(defaults.json, defaults_report.md), laid out as config/fdi is: ``--models DIR`` gives every command it.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+from ...core.controller_design import design_controller
+from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE_SPEED_AWARE, observers_of
+from ...core.threshold_file import ThresholdCurves
+from ...core.vehicle import load_vehicle, to_mapping
+from ..metrics import wilson
+from .offline import decisions, fit_thresholds, load_models, observe
+from .samples import simulated_fault_free_runs
+from .train import EPOCHS, train_models
+
+TRAIN_SEED, HELDOUT_SEED = 1000, 5000           # training then fitting runs; held-out runs (datasheet wheels)
+UNITS_SEED, UNITS_HELDOUT_SEED = 60_000_000, 5200   # drawn wheel units: fitting; held-out
+UNIT_CALIBRATION = 150.0                        # [s] the calibrated observers' learning window (config/fdi's)
+DURATION = 400.0                                # [s] the fault-free runs (the thesis' operation)
+
+
+def _log(msg):
+    print(msg, file=sys.stderr, flush=True)
+
+
+def vehicle_scenarios(vehicle_file: Path, out: Path) -> dict:
+    """kind -> path of the vehicle's fault-free scenarios written under ``out/scenarios`` (datasheet wheels;
+    drawn units), each naming the vehicle file copied to ``out/vehicle.yaml``."""
+    folder = out / "scenarios"
+    folder.mkdir(parents=True, exist_ok=True)
+    bodies = {"fault_free": "", "fault_free_units": "wheels: {variation: true}\n"}
+    paths = {}
+    for kind, body in bodies.items():
+        path = folder / f"{kind}.yaml"
+        path.write_text(f"name: {kind}\ndescription: fault-free runs of {vehicle_file.name}, initial conditions and "
+                        f"set-point change drawn from its dispersions\nvehicle: ../{vehicle_file.name}\n"
+                        f"duration: {DURATION:g}\nseed: 1\n{body}faults: []\n")
+        paths[kind] = path
+    return paths
+
+
+def held_out_alarms(samples, models, thresholds_dir, calibration: float = 0.0) -> dict:
+    """observer -> (runs with any alarm, runs) of fault-free ``samples`` under the bands in ``thresholds_dir``."""
+    from ...core.calibration import calibration_samples
+    curves = {obs: ThresholdCurves.load(Path(thresholds_dir) / f"thresholds_{obs}.json", obs)
+              for obs in observers_of("speed_aware")}
+    k = calibration_samples(calibration)
+    runs = [observe(s, models, calibration_samples=k) for s in samples]
+    out = {}
+    for obs, c in curves.items():
+        alarmed = sum(any(first is not None for _, first in decisions(r, {obs: c})[obs].values()) for r in runs)
+        out[obs] = (int(alarmed), len(runs))
+    return out
+
+
+def vehicle_defaults(vehicle_source, out, train_runs: int = 40, fit_runs: int = 100, heldout_runs: int = 100,
+                     unit_runs: int = 300, unit_heldout_runs: int = 100, epochs: int = EPOCHS, executor=None,
+                     false_alarm_rate: float = FALSE_ALARM_RATE) -> dict:
+    """Make the FDI of the vehicle ``vehicle_source`` (a shipped name or a vehicle file) in ``out``; returns the
+    report (also written as out/defaults.json and out/defaults_report.md)."""
+    t0 = time.monotonic()
+    vehicle = load_vehicle(vehicle_source)   # one line naming the field, before any run
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    vehicle_file = out / "vehicle.yaml"
+    vehicle_file.write_text(yaml.safe_dump(to_mapping(vehicle), sort_keys=False))
+    stages = {}
+
+    _log(f"[1/5] controllers designed to {vehicle.name}'s targets")
+    design = design_controller(vehicle)
+    controller = {"kp": list(map(float, design.gains.kp)), "ki": list(map(float, design.gains.ki)),
+                  "kd": list(map(float, design.gains.kd)), "natural_frequency": list(design.natural_frequency),
+                  "settling_time": list(design.settling_time), "overshoot": list(design.overshoot)}
+    stages["controller_s"] = time.monotonic() - t0
+
+    t = time.monotonic()
+    scenarios = vehicle_scenarios(vehicle_file, out)
+    _log(f"[2/5] fault-free runs of {vehicle.name} on the core loop")
+    fitting, plant = simulated_fault_free_runs(scenarios["fault_free"], range(TRAIN_SEED,
+                                                                              TRAIN_SEED + train_runs + fit_runs),
+                                               executor, desc="training + fitting runs")
+    heldout, _ = simulated_fault_free_runs(scenarios["fault_free"], range(HELDOUT_SEED, HELDOUT_SEED + heldout_runs),
+                                           executor, desc="held-out runs")
+    units, units_plant = simulated_fault_free_runs(scenarios["fault_free_units"],
+                                                   range(UNITS_SEED, UNITS_SEED + unit_runs), executor,
+                                                   desc="unit runs (calibrated bands)")
+    units_heldout, _ = simulated_fault_free_runs(scenarios["fault_free_units"],
+                                                 range(UNITS_HELDOUT_SEED, UNITS_HELDOUT_SEED + unit_heldout_runs),
+                                                 executor, desc="held-out unit runs")
+    train, fit = fitting[:train_runs], fitting[train_runs:]
+    stages["runs_s"] = time.monotonic() - t
+
+    t = time.monotonic()
+    _log(f"[3/5] a speed-aware Elman network per wheel in use, {epochs} epochs on {train_runs} runs")
+    card = train_models(train, out, mode="recall", epochs=epochs, plant=plant, speed_aware=True,
+                        calibration=train + fit, false_alarm_rate=false_alarm_rate)
+    stages["training_s"] = time.monotonic() - t
+
+    t = time.monotonic()
+    _log(f"[4/5] bands for a per-run false-alarm rate of {false_alarm_rate:g}: datasheet wheels, and observers "
+         f"that learn their wheel over {UNIT_CALIBRATION:g} s")
+    models = load_models(out)
+    bands = fit_thresholds(fit, models, out, model_ref="model_set.json", false_alarm_rate=false_alarm_rate,
+                           persistence=PERSISTENCE_SPEED_AWARE, plant=plant)
+    unit_bands = fit_thresholds(units, models, out / "unit_calibrated", model_ref="../model_set.json",
+                                false_alarm_rate=false_alarm_rate, persistence=PERSISTENCE_SPEED_AWARE,
+                                unit_calibration=UNIT_CALIBRATION, plant=units_plant)
+    stages["fitting_s"] = time.monotonic() - t
+
+    t = time.monotonic()
+    _log(f"[5/5] held-out runs judged: {heldout_runs} with datasheet wheels, {unit_heldout_runs} of drawn units")
+    checks = {"datasheet": held_out_alarms(heldout, models, out),
+              "unit_calibrated": held_out_alarms(units_heldout, models, out / "unit_calibrated", UNIT_CALIBRATION)}
+    stages["held_out_s"] = time.monotonic() - t
+    stages["total_s"] = time.monotonic() - t0
+
+    report = {"command": f"rw-fdi defaults --vehicle {vehicle_source} --out {out}", "vehicle": vehicle.name,
+              "wheel_set": plant["wheel_set"], "controller": controller, "plant": plant,
+              "seeds": {"training": [TRAIN_SEED, TRAIN_SEED + train_runs - 1],
+                        "fitting": [TRAIN_SEED + train_runs, TRAIN_SEED + train_runs + fit_runs - 1],
+                        "held_out": [HELDOUT_SEED, HELDOUT_SEED + heldout_runs - 1],
+                        "unit_fitting": [UNITS_SEED, UNITS_SEED + unit_runs - 1],
+                        "unit_held_out": [UNITS_HELDOUT_SEED, UNITS_HELDOUT_SEED + unit_heldout_runs - 1]},
+              "networks": {"wheels": card["wheels"], "epochs": epochs,
+                           "final_loss": {a: c["final_loss"] for a, c in card["axes"].items()},
+                           "uncertainty_gain": {a: c["uncertainty_gain"] for a, c in card["axes"].items()}},
+              "bands": {"datasheet": bands, "unit_calibrated": unit_bands,
+                        "false_alarm_rate_design": false_alarm_rate, "persistence": PERSISTENCE_SPEED_AWARE,
+                        "unit_calibration_s": UNIT_CALIBRATION},
+              "held_out_false_alarms": {kind: {obs: {"alarmed": k, "runs": n, "ci95": list(wilson(k, n))}
+                                               for obs, (k, n) in rows.items()} for kind, rows in checks.items()},
+              "stages": stages}
+    (out / "defaults.json").write_text(json.dumps(report, indent=2))
+    (out / "defaults_report.md").write_text(format_report(report))
+    _log(f"wrote {out} in {stages['total_s'] / 60:.1f} min")
+    return report
+
+
+def format_report(r: dict) -> str:
+    """The report as Markdown: what was made, on which seeds, and the held-out check."""
+    c, s, b = r["controller"], r["seeds"], r["bands"]
+    wheels = list(next(iter(b["datasheet"].values())))
+    def seeds(key):
+        return f"{s[key][0]}-{s[key][1]}"
+    lines = [f"# FDI of vehicle {r['vehicle']}", "",
+             f"Made from nothing by `{r['command']}` on the core loop (the graph's numbers). Wheel set "
+             f"{r['wheel_set']}; fault-free runs of {DURATION:g} s drawn from the vehicle's dispersions. Seeds: "
+             f"training {seeds('training')}, fitting {seeds('fitting')}, held-out {seeds('held_out')}; drawn "
+             f"units: fitting {seeds('unit_fitting')}, held-out {seeds('unit_held_out')}.", "",
+             "## Controllers (designed to the vehicle's targets)", "",
+             "| axis | k_p | k_i | k_d | w_n [rad/s] | settling [s] | overshoot |", "|---|---|---|---|---|---|---|"]
+    for i, axis in enumerate("xyz"):
+        lines.append(f"| {axis} | {c['kp'][i]:.4g} | {c['ki'][i]:.4g} | {c['kd'][i]:.4g} | "
+                     f"{c['natural_frequency'][i]:g} | {c['settling_time'][i]:.0f} | {c['overshoot'][i] * 100:.0f} % |")
+    n = r["networks"]
+    lines += ["", f"## Elman networks (speed-aware, {n['epochs']} epochs, one per wheel in use)", "",
+              "| wheel | final training MSE | uncertainty gain kappa |", "|---|---|---|"]
+    lines += [f"| {a} | {n['final_loss'][a]:.2e} | {n['uncertainty_gain'][a]:.3f} |" for a in n["wheels"]]
+    lines += ["", f"## Bands (per-run false-alarm rate {b['false_alarm_rate_design']:g}, P = {b['persistence']})", "",
+              "| set | observer | " + " | ".join(f"c {a} [1e-3 N m]" for a in wheels) + " |",
+              "|---|---|" + "---|" * len(wheels)]
+    for kind in ("datasheet", "unit_calibrated"):
+        for obs, row in b[kind].items():
+            lines.append(f"| {kind} | {obs} | " + " | ".join(f"{row[a] * 1e3:.4f}" for a in wheels) + " |")
+    lines += ["", "## Held-out fault-free runs with any alarm (95 % Wilson interval)", "",
+              "| set | observer | alarmed | runs | rate | 95 % interval |", "|---|---|---|---|---|---|"]
+    for kind, rows in r["held_out_false_alarms"].items():
+        for obs, x in rows.items():
+            lo, hi = x["ci95"]
+            lines.append(f"| {kind} | {obs} | {x['alarmed']} | {x['runs']} | {x['alarmed'] / x['runs'] * 100:.1f} % "
+                         f"| [{lo * 100:.1f}, {hi * 100:.1f}] % |")
+    lines += ["", "Stage times [s]: " + ", ".join(f"{k} {v:.0f}" for k, v in r["stages"].items()), ""]
+    return "\n".join(lines)
