@@ -52,7 +52,8 @@ def _nodes(context):
     # the FDI as every command takes it (rw_fdi_ros/fdi_config.py): a bad value is one line before any node
     fdi = {"method": arg("fdi_method"), "fdir": flag("fdir"), "models": arg("models") or None,
            "thresholds": arg("thresholds") or None, "persistence": int(arg("persistence")) or None,
-           "unit_calibration": float(arg("unit_calibration"))} if flag("fdi") else None
+           "unit_calibration": float(arg("unit_calibration")), "decision": arg("decision") or None} if flag("fdi") \
+        else None
     nodes = graph_nodes(scenario, path, bag, fdi=fdi, live=int(arg("live")) if arg("live") else None)
     if flag("use_sim_time"):   # every node's clock follows the plant's /clock
         for node in nodes:
@@ -113,6 +114,9 @@ def generate_launch_description():
                               description="samples above the threshold before an alarm (0: the threshold file's)"),
         DeclareLaunchArgument("unit_calibration", default_value="0",
                               description="seconds each observer learns its wheel's unit from (0: the datasheet)"),
+        DeclareLaunchArgument("decision", default_value="",
+                              description="what makes /diagnostics: an observer (model, linear, elman) or a vote "
+                                          "KofN, e.g. 2of3 (empty: the method's)"),
         DeclareLaunchArgument("namespace", default_value="",
                               description="every node's namespace, its topics under it (two spacecraft in one "
                                           "ROS graph: namespace:=sc1 and namespace:=sc2); empty: none"),

@@ -32,6 +32,9 @@ class FdiConfig:
         [s] of each run the observers learn their wheel's unit from (speed_aware only); 0: the datasheet wheel.
     fdir : bool
         Whether the wheel allocation acts on the verdict (reconfiguration); False: detection alone.
+    decision : str or None
+        What makes /diagnostics: an observer of the method, or a vote 'KofN' of its N observers
+        (core/isolation.decision_of); None: the method's decision observer.
     vehicle : str or None
         Whose shipped FDI the defaults are (paths.fdi_dir): the run's vehicle (:meth:`for_vehicle`); None: the
         thesis' MakSat (config/fdi).
@@ -44,6 +47,7 @@ class FdiConfig:
     unit_calibration: float = 0.0
     fdir: bool = True
     vehicle: str | None = None
+    decision: str | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -56,6 +60,7 @@ class FdiConfig:
             raise ThresholdError(f"--unit-calibration must be a finite number of seconds >= 0, got {c}")
         if c and self.method != "speed_aware":
             raise ThresholdError("--unit-calibration needs --fdi-method speed_aware (the thesis' residual is unsigned)")
+        self.decision_rule   # one line naming what it accepts
 
     @classmethod
     def of(cls, value) -> "FdiConfig":
@@ -67,6 +72,15 @@ class FdiConfig:
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+    @property
+    def decision_rule(self):
+        """The core/isolation.Decision of this configuration (ValueError for one the method has not)."""
+        from .core.isolation import decision_of
+        try:
+            return decision_of(self.decision or "", self.method)
+        except ValueError as exc:
+            raise ValueError(f"--{exc}") from None
 
     def for_vehicle(self, vehicle: str) -> "FdiConfig":
         """This configuration for a run of ``vehicle`` (its name): the shipped FDI of that vehicle where no files

@@ -296,7 +296,8 @@ def _rcl_type(value) -> str:
     ({"scenario": "fault_free", "fdi": "false"}, None, None),
     ({"scenario": "current_0p6_x", "fdi_method": "thesis"}, {"method": "thesis"}, None),
     ({"scenario": "current_0p6_x", "models": str(ROOT / "config" / "fdi"), "persistence": "4"},
-     {"models": str(ROOT / "config" / "fdi"), "persistence": 4}, None)])
+     {"models": str(ROOT / "config" / "fdi"), "persistence": 4}, None),
+    ({"scenario": "current_0p6_x", "decision": "2of3"}, {"decision": "2of3"}, None)])
 def test_rcl_reads_our_launchers_parameters_from_the_files_launch_ros_writes(overrides, fdi, bag):
     files = parameter_files(overrides)
     seed = int(overrides.get("seed", "-1"))

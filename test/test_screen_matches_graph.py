@@ -122,3 +122,24 @@ def test_calibrated_observers_give_the_screen_verdicts_on_varied_wheels(both):
     # on wheel y only (the Luenberger observer's figures are reports/units')
     assert not any(graph[0].summary["fdi"][obs][a] for obs in run.series for a in AXIS_WHEELS)
     assert alarms == 2 and all(graph[1].summary["fdi"][obs]["y"] for obs in ("elman", "model"))
+
+
+def test_a_vote_decides_the_graph_as_it_decides_the_screen(tmp_path):
+    """`decision: 2of3` in the isolation node: /diagnostics alarms a wheel where two of the three observers
+    do, at the screen's samples, and says who decided."""
+    from rw_fdi_ros.core.isolation import decision_of
+    from rw_fdi_ros.graph import topics as T
+    from rw_fdi_ros.storage.bag import read_bag
+    path = scenario_files(tmp_path)[1]
+    outcome = run_with_fdi(str(path), out_dir=tmp_path / "bags", fdi={"fdir": False, "decision": "2of3"})
+    assert outcome.ok, outcome.reason
+    weights, curves = FdiConfig().load()
+    run = screen_runs([load_scenario(str(path))], weights, curves, decision=decision_of("2of3", "speed_aware"))[0]
+    live, flags = outcome.summary["fdi"]["verdict"], run.series["verdict"].alarm
+    for i, a in enumerate(AXIS_WHEELS):
+        assert bool(live[a]) == bool(flags[:, i].any()), (a, live[a])
+        if live[a]:
+            assert live[a][0][0] == pytest.approx(float(run.series["verdict"].time[flags[:, i].argmax()]), abs=1e-9)
+    assert flags.any()   # something was decided
+    _, last = read_bag(outcome.bag, [T.DIAGNOSTICS]).topic(T.DIAGNOSTICS)[-1]
+    assert all(s.name.endswith("(2 of 3 observers)") for s in T.verdict_statuses(last))

@@ -194,6 +194,23 @@ def test_the_launcher_gives_the_nodes_the_vehicle(tmp_path):
     assert "kp" not in thesis["pid_controller_y"] and "body_inertia" not in thesis["wheel_allocation"]
 
 
+def test_the_launcher_gives_a_shipped_vehicles_nodes_its_own_fdi():
+    """A scenario naming the microsatellite: each Elman node runs its wheel's network and the isolation node
+    its bands, all from config/fdi/vehicles/microsat_pyramid; the thesis' runs keep the nodes' own defaults."""
+    from rw_fdi_ros.launch.graph import graph_nodes
+    scenario = parse_scenario("name: m\nduration: 10\nvehicle: microsat_pyramid\n")
+    nodes = {n.name: n.parameters for n in graph_nodes(scenario, "m", None, fdi={})}
+    own = fdi_dir("speed_aware", "microsat_pyramid")
+    assert own.name == "microsat_pyramid" and own.parent.name == "vehicles"
+    for wheel in ("p1", "p2", "p3", "p4"):
+        assert nodes[f"elman_observer_{wheel}"]["model"] == str(own / f"elman_{wheel}.npz")
+    assert nodes["isolation"]["thresholds_model"] == str(own / "thresholds_model.json")
+    calibrated = {n.name: n.parameters for n in graph_nodes(scenario, "m", None, fdi={"unit_calibration": 150.0})}
+    assert calibrated["isolation"]["thresholds_model"] == str(own / "unit_calibrated" / "thresholds_model.json")
+    thesis = {n.name: n.parameters for n in graph_nodes(parse_scenario("name: t\n"), "t", None, fdi={})}
+    assert "model" not in thesis["elman_observer_x"] and "thresholds_model" not in thesis["isolation"]
+
+
 def test_the_fdi_refuses_bands_fitted_for_another_vehicle():
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     curves.check_compatible(PlantChoices())   # the shipped bands: the thesis' vehicle

@@ -84,7 +84,7 @@ def fdi_config(args):
     return FdiConfig(method=getattr(args, "fdi_method", None) or "speed_aware", models=getattr(args, "models", None),
                      thresholds=getattr(args, "thresholds", None), persistence=getattr(args, "persistence", None),
                      unit_calibration=float(getattr(args, "unit_calibration", 0.0) or 0.0),
-                     fdir=getattr(args, "fdir", True))
+                     fdir=getattr(args, "fdir", True), decision=getattr(args, "decision", None))
 
 
 def parents() -> dict:
@@ -113,12 +113,17 @@ def parents() -> dict:
                         help="speed_aware (ours: wheel speed, signed residual, designed false-alarm rate) or "
                              "thesis (2-input Elman, |r - r^|, mean + 3 sigma curves); without --models it "
                              "picks config/fdi or config/fdi/thesis")
+    decision = argparse.ArgumentParser(add_help=False)
+    decision.add_argument("--decision", default=None, metavar="OBSERVER|KofN",
+                          help="what makes /diagnostics (and FDIR's verdict in the graph): one observer of the "
+                               "method (model, linear, elman) or a vote, e.g. 2of3: a wheel at least two alarm "
+                               "(default: the method's, model speed-aware; docs/fdi.md 'The decision')")
     jobs = argparse.ArgumentParser(add_help=False)
     jobs.add_argument("--jobs", type=COUNT, default=None, help="graphs at once (default: 2 on 2 cores)")
     cluster = argparse.ArgumentParser(add_help=False, parents=[jobs])
     cluster.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
     return dict(models=models, persistence=persistence, fdi_files=fdi_files, false_alarms=false_alarms, unit=unit,
-                method=method, jobs=jobs, cluster=cluster)
+                method=method, decision=decision, jobs=jobs, cluster=cluster)
 
 
 def fault_free_samples(bags, load_samples, executor=None) -> list:

@@ -7,6 +7,7 @@ the node's verdict.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -64,6 +65,72 @@ def decision_observer(method: str) -> str:
         return DECISION_OBSERVERS[method]
     except KeyError:
         raise ValueError(f"fdi_method must be one of {', '.join(DECISION_OBSERVERS)}, got {method!r}") from None
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What makes /diagnostics: one observer's alarms, or a vote, a wheel alarmed where at least ``votes`` of
+    ``observers`` alarm it. ``lead`` (the first observer) gives the residual and threshold the verdict shows.
+
+    A vote's alarm on a wheel comes up at the sample its ``votes``-th observer alarms and goes down when
+    fewer than ``votes`` do; its first alarm time is the ``votes``-th earliest first alarm among those
+    alarming. A single observer's rows pass unchanged."""
+
+    observers: tuple
+    votes: int = 1
+
+    def __post_init__(self):
+        if not 1 <= self.votes <= len(self.observers) or len(set(self.observers)) != len(self.observers):
+            raise ValueError(f"a decision takes 1 to {len(self.observers)} votes of distinct observers, got "
+                             f"{self.votes} of {self.observers}")
+
+    @property
+    def lead(self) -> str:
+        return self.observers[0]
+
+    @property
+    def phrase(self) -> str:
+        """Who decides, as /diagnostics names it: 'model observer', or '2 of 3 observers' for a vote."""
+        if len(self.observers) == 1:
+            return f"{self.lead} observer"
+        return f"{self.votes} of {len(self.observers)} observers"
+
+    @property
+    def label(self) -> str:
+        """How a configuration and the command line write it: 'model', or '2of3'."""
+        return self.lead if len(self.observers) == 1 else f"{self.votes}of{len(self.observers)}"
+
+    def combine(self, rows_of: dict) -> dict:
+        """wheel -> (residual, threshold, alarm, first alarm or None) of the decision, from ``rows_of``:
+        observer -> its :meth:`ObserverChannel.update` rows (every one of ``observers``)."""
+        lead = rows_of[self.lead]
+        if len(self.observers) == 1:
+            return lead
+        out = {}
+        for a, (r, threshold, _, _) in lead.items():
+            firsts = sorted(rows_of[o][a][3] for o in self.observers if rows_of[o][a][2])
+            alarm = len(firsts) >= self.votes
+            out[a] = (r, threshold, alarm, firsts[self.votes - 1] if alarm else None)
+        return out
+
+
+def decision_of(text: str, method: str, observers=None) -> Decision:
+    """The Decision a configuration names: '' (the method's decision observer), an observer's name, or a
+    vote 'KofN' over the method's N observers (``observers``: those, default core/detection.observers_of).
+    ValueError naming what it accepts."""
+    from .detection import observers_of
+    available = tuple(observers or observers_of(method))
+    text = (text or "").strip()
+    if not text:
+        return Decision((decision_observer(method),))
+    if text in available:
+        return Decision((text,))
+    votes, sep, count = text.partition("of")
+    if sep and votes.isdigit() and count.isdigit() and int(count) == len(available) and 1 <= int(votes) <= int(count):
+        lead = decision_observer(method)   # its residual is what the verdict shows
+        return Decision((lead, *(o for o in available if o != lead)), int(votes))
+    raise ValueError(f"decision must be one of {', '.join(available)} or a vote KofN of the {len(available)} "
+                     f"observers (e.g. 2of{len(available)}), got {text!r}")
 
 
 def stamp_seconds(stamp_ns: int) -> float:

@@ -274,7 +274,8 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
     for obs in fdi.observers[1:]:   # linear_observer, model_observer: every wheel each
         nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer", dict(common)))
     iso = {**choices.as_dict(), "fdi_method": fdi.method, "persistence": int(fdi.persistence or 0),
-           "unit_calibration_time": fdi.unit_calibration, "await_bus_grid": bool(await_bus_grid)}
+           "unit_calibration_time": fdi.unit_calibration, "await_bus_grid": bool(await_bus_grid),
+           **({"decision": fdi.decision} if fdi.decision else {})}
     if fdi.models or fdi.thresholds or fdi.vehicle:
         iso.update({f"thresholds_{obs}": str(fdi.threshold_path(obs)) for obs in fdi.observers})
     nodes.append(NodeSpec("isolation", "isolation", iso))

@@ -6,10 +6,10 @@ the axis' alarm after ``persistence`` consecutive samples above
 (core/isolation.py, evaluation.md). Alarmed axes are the faulty wheels. It
 publishes per observer the thresholds, the alarm flags and a DiagnosticArray
 with residual, threshold, margin and first alarm per wheel, and /diagnostics
-with one status per wheel, decided by the ``decision_observer`` (the method's:
-the model observer speed-aware, the Elman network for the thesis method;
-core/isolation.py says why) and stamped with the sim clock. A wheel the
-decision observer alarms is a confirmed failure: /diagnostics holds it
+with one status per wheel, decided by the ``decision``: one observer (the method's
+by default: the model observer speed-aware, the Elman network for the thesis method;
+core/isolation.py says why) or a vote of them (``2of3``: a wheel at least two alarm),
+stamped with the sim clock. A wheel the decision alarms is a confirmed failure: /diagnostics holds it
 (latched) until the ``~/reset`` service (std_srvs/Trigger) clears it. Every output of stamp k is made from
 the inputs of stamp k alone, so the same run gives the same messages.
 
@@ -49,7 +49,7 @@ from ..core.threshold_file import ThresholdError
 from ..core.calibration import calibration_samples
 from ..core.identification import FaultIdentifier
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor, stamp_order
-from ..core.isolation import (WHEEL_SPEED_ENVELOPE, LatchedVerdict, ObserverChannel, decision_observer, in_envelope,
+from ..core.isolation import (WHEEL_SPEED_ENVELOPE, LatchedVerdict, ObserverChannel, decision_of, in_envelope,
                               stamp_seconds)
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.wheel_set import joint_name, wheel_set
@@ -100,7 +100,7 @@ class IsolationNode(GraphNode):
         self.declare_parameter("fdi_method", "speed_aware")  # speed_aware (ours) or thesis
         self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
         self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
-        self.declare_parameter("decision_observer", "")    # empty: the method's (core/isolation.py)
+        self.declare_parameter("decision", "")             # an observer or a vote KofN; empty: the method's
         self.declare_parameter("latch", True)               # a confirmed failure stays until ~/reset
         self.declare_parameter("await_bus_grid", False)     # each report waits for its grid from the first on
         self.declare_parameter("input_timeout", 10.0)       # wall s an input may be silent before it is said
@@ -130,9 +130,10 @@ class IsolationNode(GraphNode):
             except ThresholdError as exc:
                 raise NodeError(str(exc), EXIT_BAD_INPUT) from None
             self.channels[obs] = ObserverChannel(obs, curves, self.param("persistence") or None, self.names)
-        self.decision = self.param("decision_observer") or decision_observer(method)
-        if self.decision not in self.channels:
-            raise NodeError(f"decision_observer must be one of {', '.join(self.channels)}", EXIT_BAD_INPUT)
+        try:   # core/isolation.decision_of: one observer's alarms, or a vote of them
+            self.decision = decision_of(self.param("decision"), method, tuple(self.channels))
+        except ValueError as exc:
+            raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
         self.verdict = LatchedVerdict(self.param("latch"), self.names)
         # the operator's command that clears every confirmed failure (std_srvs/Trigger, as FDIR resets go)
         from std_srvs.srv import Trigger
@@ -192,7 +193,7 @@ class IsolationNode(GraphNode):
                 self.identifier.reset()
             else:
                 self.channels[source].reset()
-                if source == self.decision:   # a new run's verdict starts from no confirmed failure
+                if source == self.decision.lead:   # a new run's verdict starts from no confirmed failure
                     self.verdict.reset()
         return True
 
@@ -299,8 +300,8 @@ class IsolationNode(GraphNode):
         self.envelope = dict(zip(self.names, in_envelope(sample.wheel_speed) if sample.wheel_speed is not None
                                  else [True] * len(self.names)))
         self.speeds = sample.wheel_speed
-        handled[self.decision] = self.verdict.update(handled[self.decision], self.envelope)
-        alarmed = {a: handled[self.decision][a][2] for a in self.names}
+        decided = self.verdict.update(self.decision.combine(handled), self.envelope)
+        alarmed = {a: decided[a][2] for a in self.names}
         finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
                                                         sample.ripple_phasor, sample.bus_motor_torque,
                                                         sample.model_torque, sample.motor_torque,
@@ -313,7 +314,7 @@ class IsolationNode(GraphNode):
                                    "identification skips the samples that lack it")
         identified = (self.identifier.update(sample, alarmed) if finite and sample.bus_motor_torque is not None
                       else dict(self.identifier.latest))
-        self._publish_diagnostics(stamp, handled, identified, self.decision in silent)
+        self._publish_diagnostics(stamp, handled, decided, identified, self.decision.lead in silent)
         self.last_handled = stamp
 
     def _on_reset(self, request, response):
@@ -330,14 +331,13 @@ class IsolationNode(GraphNode):
         self.get_logger().warn(f"reset by command: {response.message}")
         return response
 
-    def _publish_diagnostics(self, stamp, rows_of, identified, silent=False):
-        """/diagnostics and /fdi/identification of one stamp from every observer's rows and the
-        identification of that same stamp."""
+    def _publish_diagnostics(self, stamp, rows_of, main, identified, silent=False):
+        """/diagnostics and /fdi/identification of one stamp from every observer's rows, the decision's
+        (``main``, latched) and the identification of that same stamp."""
         msg = DiagnosticArray()
         msg.header.stamp = time_msg(stamp)
         ident = DiagnosticArray()
         ident.header.stamp = time_msg(stamp)
-        main = rows_of[self.decision]
         note = self.inputs["telemetry"].take_note(stamp)
         for a in self.names:
             found = identified.get(a)
@@ -353,7 +353,7 @@ class IsolationNode(GraphNode):
             ident.status.append(status)
             extra = []
             for obs in self.channels:
-                if obs != self.decision:
+                if self.decision.observers != (obs,):   # a vote shows every observer's row
                     r, c, alarm, first = rows_of[obs][a]
                     extra += [KeyValue(key=f"{obs}_residual", value=f"{r:.6g}"),
                               KeyValue(key=f"{obs}_threshold", value=f"{c:.6g}"),
@@ -363,12 +363,12 @@ class IsolationNode(GraphNode):
                 extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
             if self.verdict.latched[a]:
                 extra.append(KeyValue(key="latched", value="true"))
-            unjudged = self._why_unjudged(self.decision, stamp, main[a], silent)
+            unjudged = self._why_unjudged(self.decision.lead, stamp, rows_of[self.decision.lead][a], silent)
             if unjudged is None and not self.envelope[a]:
                 speed = self.speeds[self.names.index(a)]
                 unjudged = (f"outside the operating envelope (wheel speed {speed:.1f} rad/s, "
                             f"judged within +-{WHEEL_SPEED_ENVELOPE:g})")
-            status = _status(f"{T.VERDICT_STATUS} {a} ({self.decision} observer)", a, *main[a],
+            status = _status(f"{T.VERDICT_STATUS} {a} ({self.decision.phrase})", a, *main[a],
                              extra=extra, identification=found, note=note, unjudged=unjudged,
                              latched=self.verdict.latched[a])
             if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
@@ -377,13 +377,13 @@ class IsolationNode(GraphNode):
                 status.level = DiagnosticStatus.STALE
                 status.message = f"cannot judge yet: learning its unit until {self.calibration_time:g} s"
                 status.values.append(KeyValue(key="judged", value="false"))
-            channel = self.channels[self.decision]
+            channel = self.channels[self.decision.lead]
             beyond = stamp_seconds(stamp) > channel.curves.horizon   # this stamp's, not the channel's latest
             if beyond and status.level == DiagnosticStatus.OK:   # never OK while it cannot judge
                 status.level = DiagnosticStatus.STALE
                 status.values.append(KeyValue(key="judged", value="false"))
                 status.message = (f"cannot judge: the threshold curves end at {channel.curves.horizon:g} s "
-                                  f"({self.param(f'thresholds_{self.decision}') or 'shipped'})")
+                                  f"({self.param(f'thresholds_{self.decision.lead}') or 'shipped'})")
             msg.status.append(status)
         self.pub_diag.publish(msg)
         self.pub_ident.publish(ident)
@@ -429,7 +429,7 @@ class IsolationNode(GraphNode):
             msg.header.stamp = time_msg(last)
             for a in self.names:
                 msg.status.append(DiagnosticStatus(
-                    level=bytes([STALE]), name=f"{T.VERDICT_STATUS} {a} ({self.decision} observer)",
+                    level=bytes([STALE]), name=f"{T.VERDICT_STATUS} {a} ({self.decision.phrase})",
                     hardware_id=f"reaction_wheel_{a}",
                     message=f"cannot judge: no input for {timeout:g} s after {last * 1e-9:g} s"))
             self.pub_diag.publish(msg)

@@ -82,10 +82,17 @@ def observers_of_runs(runs) -> list:
     list of str
         The slots (of OBSERVERS, then VERDICT); empty for no runs.
     """
-    return [obs for obs in (*OBSERVERS, VERDICT) if runs and all(obs in r.series for r in runs)]
+    extra = sorted({k for r in runs for k in r.series if k.startswith(VERDICT + " ")})   # other decisions'
+    return [obs for obs in (*OBSERVERS, VERDICT, *extra) if runs and all(obs in r.series for r in runs)]
 
 
 VERDICT = "verdict"   # the series of /diagnostics' verdict beside the observers' (offline.verdict_series)
+
+
+def decision_slot(label: str) -> str:
+    """The series of the verdict another decision (core/isolation.Decision.label, e.g. '2of3') would give,
+    judged beside the run's own: 'verdict 2of3'."""
+    return f"{VERDICT} {label}"
 
 
 def health_rows(runs) -> list:

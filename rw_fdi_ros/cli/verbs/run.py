@@ -5,7 +5,7 @@ from ..options import SEED, dumps, fdi_config, number, writable_dir
 
 NAME = "run"
 HELP = "run one scenario through the whole graph and record a bag"
-PARENTS = ("fdi_files", "method", "unit")
+PARENTS = ("fdi_files", "method", "unit", "decision")
 
 
 def add_arguments(parser) -> None:

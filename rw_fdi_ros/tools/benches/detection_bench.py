@@ -21,7 +21,8 @@ from pathlib import Path
 
 from ...fdi_config import FdiConfig
 from ...core.vehicle import DEFAULT_VEHICLE
-from ..metrics import observable_level
+from ...core.isolation import decision_of
+from ..metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
 from .kit import (ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, format_rate, screen_cells, workers,
                   write_cells_table, write_report)
@@ -40,6 +41,10 @@ CELLS = (
 )
 
 
+# the votes judged beside each observer and the verdict (speed-aware: three observers; docs/fdi.md "The decision")
+DECISIONS = ("2of3", "3of3")
+
+
 def _fdi_sets(vehicle: str = DEFAULT_VEHICLE):
     """Both methods' shipped FDI for the thesis' vehicle; ours (the vehicle's shipped FDI) for another."""
     if vehicle != DEFAULT_VEHICLE:   # the thesis' method is MakSat's own (its networks, its x, y, z curves)
@@ -51,7 +56,8 @@ def _judge_chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE):
     """One worker's share of a cell: figures need the runs, so the runs come back (small: series only)."""
     cell = CELLS[cell_index]
     scenarios = [s for s in cell_scenarios(cell, seeds_range.stop, cell_index, vehicle=vehicle)][seeds_range.start:]
-    return screen_sets(scenarios, _fdi_sets(vehicle))
+    return screen_sets(scenarios, _fdi_sets(vehicle),
+                       other_decisions=tuple(decision_of(d, "speed_aware") for d in DECISIONS))
 
 
 def observable_levels(sets: dict) -> dict:
@@ -68,9 +74,12 @@ def cell_sizes(fault_free_runs: int, runs_per_cell: int) -> list:
 def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: str) -> dict:
     """cell name -> the cell, its seeds (cell i from seed_base + 100,000 i) and under ``key`` per FDI set
     and observer its :func:`cell_figures`; ``judged[i]``: set name -> the judged runs of cell i."""
+    # every slot the runs were judged by: the observers, the verdict and the other decisions' verdicts, each
+    # against the set's one observable level
     return {cell.name: {"cell": cell.__dict__,
                         "seeds": [seed_base + 100_000 * i, seed_base + 100_000 * i + sizes[i] - 1],
-                        key: {name: {obs: cell_figures(runs, obs, levels[name][obs]) for obs in levels[name]}
+                        key: {name: {obs: cell_figures(runs, obs, next(iter(levels[name].values())))
+                                     for obs in observers_of_runs(runs)}
                               for name, runs in judged[i].items()}}
             for i, cell in enumerate(CELLS)}
 

@@ -112,16 +112,20 @@ class SpeedAwareChunk:
     """A picklable chunk job for :func:`screen_cells`: the runs ``seeds`` of cell ``cell_index`` as
     ``scenarios(cell_index, seeds, seed_base)`` (a module-level function) makes them, judged by the shipped
     speed-aware FDI; with ``on_run`` (a picklable callable returning objects with a ``seed``) also what
-    it says of each run's trajectory, under the name "runs"."""
+    it says of each run's trajectory, under the name "runs". ``decisions``: the labels of other decisions
+    whose verdicts are judged beside /diagnostics' (core/isolation.decision_of, e.g. '2of3')."""
 
-    def __init__(self, scenarios, seed_base: int, on_run=None):
+    def __init__(self, scenarios, seed_base: int, on_run=None, decisions=()):
         self.scenarios, self.seed_base, self.on_run = scenarios, seed_base, on_run
+        self.decisions = tuple(decisions)
 
     def __call__(self, cell_index: int, seeds):
+        from ...core.isolation import decision_of
         seen = []
         hook = None if self.on_run is None else (lambda sc, traj, b: seen.append(self.on_run(sc, traj, b)))
         out = screen_sets(self.scenarios(cell_index, seeds, self.seed_base),
-                          {"speed_aware": FdiConfig().load()}, on_run=hook)
+                          {"speed_aware": FdiConfig().load()}, on_run=hook,
+                          other_decisions=tuple(decision_of(d, "speed_aware") for d in self.decisions))
         return {**out, "runs": seen} if self.on_run is not None else out
 
 

@@ -91,6 +91,11 @@ def manoeuvre_after_fault(scenario: Scenario) -> bool:
     return bool(np.any(scenario.setpoint_schedule()[0] > onset))
 
 
+# the decisions judged beside /diagnostics' (the model observer's): any one observer is its own column; the
+# votes of the three (docs/fdi.md "The decision")
+DECISIONS = ("2of3", "3of3")
+
+
 def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hours_runs: int = 50,
                      seeds: str = "evaluation", out: str | Path = "reports/operations", executor=None) -> dict:
     seed_base = SEED_BASES[seeds]
@@ -99,7 +104,8 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
     sizes = [hours_runs if c.duration > 400.0 else fault_free_runs if c.kind is None and c.wheel_speed is None
              else runs_per_cell for c in CELLS]
     t0 = time.monotonic()
-    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, seed_base), f"operations bench ({seeds} seeds)", executor)
+    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, seed_base, decisions=DECISIONS),
+                          f"operations bench ({seeds} seeds)", executor)
     write_cells_table(judged, [c.name for c in CELLS], out, "operations")
     cells = {}
     for i, cell in enumerate(CELLS):

@@ -202,19 +202,33 @@ def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -
     return out
 
 
-def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True, wheels=AXIS_WHEELS):
-    """metrics.Series of what /diagnostics says: the decision observer's rows of ``series`` (observer ->
-    Series, :func:`fdi_series`) through the isolation node's LatchedVerdict, a wheel outside the operating
-    envelope at a sample (``wheel_speed``: (n, 3) of the FDI samples) not judged there."""
-    from ...core.isolation import LatchedVerdict, decision_observer, in_envelope
+def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True, wheels=AXIS_WHEELS,
+                   decision=None):
+    """metrics.Series of what /diagnostics says: the ``decision``'s rows (core/isolation.Decision; None: the
+    method's decision observer) of ``series`` (observer -> Series, :func:`fdi_series`) through the isolation
+    node's LatchedVerdict, a wheel outside the operating envelope at a sample (``wheel_speed``: (n, N) of the
+    FDI samples) not judged there. A vote's first alarm is the node's: the K-th earliest first alarm of the
+    observers alarming."""
+    from ...core.isolation import Decision, LatchedVerdict, decision_observer, in_envelope
     from ..metrics import Series
-    s = series[decision_observer(method)]
+    decision = decision or Decision((decision_observer(method),))
+    s = series[decision.lead]
+    n = len(s.time)
     judged = np.ones(s.alarm.shape, bool) if wheel_speed is None else in_envelope(wheel_speed)
+    # each observer's first alarm so far, per sample and wheel (AlarmRule.first_alarm: its first in the run)
+    firsts = {}
+    for o in decision.observers:
+        flags = series[o].alarm.reshape(n, len(wheels))
+        seen = np.maximum.accumulate(np.where(flags, np.arange(n)[:, None], -1), axis=0)
+        first_index = np.array([np.argmax(flags[:, i]) if flags[:, i].any() else n for i in range(len(wheels))])
+        firsts[o] = (flags, np.where(seen >= 0, s.time[np.minimum(first_index, n - 1)][None, :], np.nan))
     verdict = LatchedVerdict(latch, wheels)
-    alarm = np.array([[verdict.update({a: (0.0, 0.0, bool(s.alarm[k, i]), float(s.time[k]))
-                                       for i, a in enumerate(wheels)},
-                                      dict(zip(wheels, judged[k])))[a][2] for a in wheels]
-                      for k in range(len(s.time))], bool).reshape(len(s.time), len(wheels))
+    alarm = np.zeros((n, len(wheels)), bool)
+    for k in range(n):
+        rows_of = {o: {a: (0.0, 0.0, bool(flags[k, i]), None if np.isnan(first[k, i]) else float(first[k, i]))
+                       for i, a in enumerate(wheels)} for o, (flags, first) in firsts.items()}
+        rows = verdict.update(decision.combine(rows_of), dict(zip(wheels, judged[k])))
+        alarm[k] = [rows[a][2] for a in wheels]
     return Series(s.time, s.residual, s.threshold, alarm)
 
 

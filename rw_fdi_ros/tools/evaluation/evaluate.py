@@ -114,7 +114,8 @@ def judge_bags(chunk) -> list:
             samples = fdi_samples(data, choices.fdi_period, choices.fdi_sampling, speed_aware=True,
                                   identification=True)
             out.append((bag, judge_run(scenario, samples, peak, weights, curves, fdi.persistence, identification=True,
-                                       calibration_samples=calibration_samples(fdi.unit_calibration), bag=str(bag))))
+                                       calibration_samples=calibration_samples(fdi.unit_calibration), bag=str(bag),
+                                       decision=fdi.decision_rule)))
         except (BagError, ValueError, ThresholdError) as exc:
             out.append((bag, str(exc)))
     return out

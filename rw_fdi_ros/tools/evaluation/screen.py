@@ -15,7 +15,7 @@ from ...core.calibration import calibration_samples
 from ...core.closed_loop import simulate
 from ...core.isolation import in_envelope
 from ...graph.topics import DIAGNOSTICS
-from ..metrics import VERDICT, RunEval, judge, observers_of_runs
+from ..metrics import VERDICT, RunEval, decision_slot, judge, observers_of_runs
 from ..design.offline import fdi_series, identification_series, observe, verdict_series
 from ..design.samples import samples_from_series
 
@@ -30,10 +30,11 @@ def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_cal
 
 
 def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None,
-                identification: bool = False, calibration_samples: int = 0) -> list:
-    """RunEval of every scenario (one seed each; equal durations within a batch)."""
+                identification: bool = False, calibration_samples: int = 0, decision=None) -> list:
+    """RunEval of every scenario (one seed each; equal durations within a batch); ``decision``: what makes
+    the verdict (core/isolation.Decision; None: the method's decision observer)."""
     return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress, identification,
-                       calibration_samples)["fdi"]
+                       calibration_samples, decision=decision)["fdi"]
 
 
 def simulated_runs(scenarios, identification: bool = False, check=None, progress=None, on_run=None):
@@ -69,14 +70,15 @@ def simulated_samples(scenarios) -> dict:
 
 
 def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None,
-                identification: bool = False, calibration_samples: int = 0, on_run=None) -> dict:
+                identification: bool = False, calibration_samples: int = 0, on_run=None, decision=None,
+                other_decisions=()) -> dict:
     """name -> [RunEval] for several FDI sets {name: (weights, curves[, calibration samples])} judged on the
     same simulated runs (a set's own calibration samples, else ``calibration_samples``).
 
     Besides each observer's series, ``verdict``: what /diagnostics says (the decision observer's alarm,
     latched: offline.verdict_series). ``identification``: also identify the faults of the wheels the
     verdict names (the isolation node's FaultIdentifier), into RunEval.identification. ``on_run``: as in
-    :func:`simulated_runs`."""
+    :func:`simulated_runs`; ``decision``, ``other_decisions``: as in :func:`judge_run`."""
     out = {name: [] for name in fdi_sets}
 
     def check(choices):
@@ -87,20 +89,26 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
     for scenario, samples, peak in simulated_runs(scenarios, identification, check, progress, on_run):
         for name, (weights, curves, *own) in fdi_sets.items():
             out[name].append(judge_run(scenario, samples, peak, weights, curves, persistence, identification,
-                                       own[0] if own else calibration_samples))
+                                       own[0] if own else calibration_samples, decision=decision,
+                                       other_decisions=other_decisions))
     return out
 
 
 def judge_run(scenario, samples, peak, weights, curves, persistence: int | None = None,
-              identification: bool = False, calibration_samples: int = 0, bag: str | None = None) -> RunEval:
+              identification: bool = False, calibration_samples: int = 0, bag: str | None = None,
+              decision=None, other_decisions=()) -> RunEval:
     """The RunEval of one run from its FDI samples, by the observer and isolation nodes' code: each
-    observer's series, ``verdict`` (what /diagnostics says: the decision observer's alarm, latched:
-    offline.verdict_series) and with ``identification`` the faults of the wheels the verdict names (the
-    isolation node's FaultIdentifier; the samples must carry the bus grid). ``peak``: |fault effect| per
-    wheel after the first onset."""
+    observer's series, ``verdict`` (what /diagnostics says: the ``decision``'s alarm, latched, None: the
+    method's decision observer; offline.verdict_series) and with ``identification`` the faults of the wheels
+    the verdict names (the isolation node's FaultIdentifier; the samples must carry the bus grid). ``peak``:
+    |fault effect| per wheel after the first onset. ``other_decisions`` (core/isolation.Decision): the verdict
+    each would give, beside (metrics.decision_slot)."""
     series = fdi_series(observe(samples, weights, calibration_samples=calibration_samples), curves, persistence)
-    series[VERDICT] = verdict_series(series, next(iter(curves.values())).method, samples.wheel_speed,
-                                     wheels=samples.wheels)
+    method = next(iter(curves.values())).method
+    series[VERDICT] = verdict_series(series, method, samples.wheel_speed, wheels=samples.wheels, decision=decision)
+    for other in (d for d in other_decisions if set(d.observers) <= set(series)):   # those of this method
+        series[decision_slot(other.label)] = verdict_series(series, method, samples.wheel_speed,
+                                                            wheels=samples.wheels, decision=other)
     found = {}
     if identification and len(samples.time):
         last = identification_series(samples, series[VERDICT].alarm, calibration_samples, last_only=True)[-1]
@@ -170,7 +178,8 @@ def _screen_batch(work) -> list:
     scenario, seeds, fdi = work
     weights, curves = fdi.load()
     return screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, fdi.persistence,
-                       identification=True, calibration_samples=calibration_samples(fdi.unit_calibration))
+                       identification=True, calibration_samples=calibration_samples(fdi.unit_calibration),
+                       decision=fdi.decision_rule)
 
 
 def format_screen(name, out) -> str:
