@@ -75,7 +75,7 @@ class FdiConfig:
 
     @property
     def decision_rule(self):
-        """The core/isolation.Decision of this configuration (ValueError for one the method has not)."""
+        """The core/isolation.DecisionRule of this configuration (ValueError for one the method has not)."""
         from .core.isolation import decision_of
         try:
             return decision_of(self.decision or "", self.method)
@@ -83,12 +83,10 @@ class FdiConfig:
             raise ValueError(f"--{exc}") from None
 
     def for_vehicle(self, vehicle: str) -> "FdiConfig":
-        """This configuration for a run of ``vehicle`` (its name): the shipped FDI of that vehicle where no files
-        are given; the given files as they are (their bands refuse another vehicle, checked_curves)."""
+        """This configuration for a run of ``vehicle`` (its name): the shipped FDI of that vehicle for what no
+        file is given (the given files as they are: their bands refuse another vehicle, checked_curves)."""
         from dataclasses import replace
         from .core.vehicle import DEFAULT_VEHICLE
-        if self.models or self.thresholds:
-            return self
         return replace(self, vehicle=None if vehicle == DEFAULT_VEHICLE else vehicle)
 
     @property
@@ -97,8 +95,17 @@ class FdiConfig:
 
     @property
     def models_dir(self) -> Path:
+        """``models``; else the networks the given bands were fitted with where they lie beside them (a
+        directory `rw-fdi defaults` wrote); else the vehicle's shipped set; bands of your own given alone for a
+        vehicle without one: the method's (what `fit-thresholds` fits with by default)."""
+        from .core.elman import MODEL_SET
         from .paths import fdi_dir
-        return Path(self.models) if self.models else fdi_dir(self.method, self.vehicle)
+        if self.models:
+            return Path(self.models)
+        if self.thresholds and (Path(self.thresholds) / MODEL_SET).is_file():
+            return Path(self.thresholds)
+        own = fdi_dir(self.method, self.vehicle)
+        return fdi_dir(self.method) if self.thresholds and not own.is_dir() else own
 
     @property
     def thresholds_dir(self) -> Path:
@@ -124,8 +131,8 @@ class FdiConfig:
         names the file)."""
         from .core.elman import REGENERATE, ElmanWeights, ModelError, network_wheels
         if not self.models_dir.is_dir() and self.vehicle is not None:
-            raise ModelError(f"no shipped FDI for vehicle {self.vehicle} ({self.models_dir}): make it with `rw-fdi "
-                             f"defaults --vehicle FILE --out DIR` and give --models DIR")
+            raise ModelError(f"no shipped {self.method} FDI for vehicle {self.vehicle} ({self.models_dir}): make it "
+                             "with `rw-fdi defaults --vehicle FILE --out DIR` (speed_aware) and give --models DIR")
         weights = {}
         for a in network_wheels(self.models_dir):
             weights[a] = ElmanWeights.load(self.model_path(a))

@@ -1,4 +1,4 @@
-"""The decision (core/isolation.Decision): what makes /diagnostics is one observer's alarm or a vote of them,
+"""The decision (core/isolation.DecisionRule): what makes /diagnostics is one observer's alarm or a vote of them,
 set in configuration and on the command line, the same in the isolation node and the offline tools."""
 import subprocess
 import sys
@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.isolation import Decision, decision_of
+from rw_fdi_ros.core.isolation import DecisionRule, decision_of
 from rw_fdi_ros.fdi_config import FdiConfig
 from rw_fdi_ros.tools.design.offline import verdict_series
 from rw_fdi_ros.tools.metrics import Series
@@ -19,7 +19,7 @@ def _rows(alarms: dict, firsts: dict) -> dict:
 
 def test_a_vote_alarms_a_wheel_where_enough_observers_do():
     vote = decision_of("2of3", "speed_aware")
-    assert vote == Decision(("model", "elman", "linear"), 2) and vote.lead == "model"
+    assert vote == DecisionRule(("model", "elman", "linear"), 2) and vote.lead == "model"
     assert vote.label == "2of3" and vote.phrase == "2 of 3 observers"
     one = _rows({"model": True, "elman": False, "linear": False}, {"model": 10.0, "elman": None, "linear": None})
     assert vote.combine(one)["x"] == (0.1, 1.0, False, None)   # one observer is not two
@@ -49,8 +49,8 @@ def test_a_decision_the_method_cannot_take_is_refused_in_one_line(text, method, 
 
 
 def test_the_default_decision_is_the_methods():
-    assert decision_of("", "speed_aware") == Decision(("model",)) and FdiConfig().decision_rule.lead == "model"
-    assert decision_of("", "thesis") == Decision(("elman",))
+    assert decision_of("", "speed_aware") == DecisionRule(("model",)) and FdiConfig().decision_rule.lead == "model"
+    assert decision_of("", "thesis") == DecisionRule(("elman",))
 
 
 def test_the_offline_verdict_of_a_vote_is_the_nodes():
@@ -77,3 +77,16 @@ def test_the_command_line_takes_a_decision_and_refuses_a_wrong_one(tmp_path):
     assert int(words[words.index("correct") + 1]) == 2
     bad = subprocess.run(cli + ["--decision", "3of4"], cwd=tmp_path, capture_output=True, text=True)
     assert bad.returncode == 2 and bad.stderr.strip().count("\n") == 0 and "--decision must be one of" in bad.stderr
+
+
+def test_bands_given_alone_run_with_the_networks_they_were_fitted_with(tmp_path):
+    """--thresholds of a directory `rw-fdi defaults` wrote: its networks beside them, not the thesis' (the
+    elman bands were fitted with those); bands of your own alone, for a vehicle without a shipped FDI: the
+    method's networks, which fit-thresholds fits with by default."""
+    from rw_fdi_ros.paths import fdi_dir
+    micro = fdi_dir("speed_aware", "microsat_pyramid")
+    assert FdiConfig(thresholds=str(micro)).for_vehicle("microsat_pyramid").models_dir == micro
+    assert FdiConfig(thresholds=str(micro)).models_dir == micro
+    assert FdiConfig(thresholds=str(tmp_path)).for_vehicle("coupled").models_dir == fdi_dir("speed_aware")
+    assert FdiConfig().for_vehicle("microsat_pyramid").models_dir == micro
+    assert FdiConfig().for_vehicle("maksat") == FdiConfig()

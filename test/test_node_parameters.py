@@ -113,7 +113,9 @@ def test_every_numeric_parameter_has_a_range_and_the_table_states_it():
     (["plant", "-p", "fault.y.current_limiter:=3.0"], "fault.y.current_limiter out of range"),
     (["recorder", "-p", "drain_timeout:=0.0"], "drain_timeout out of range"),
     (["plant", "-p", "fault.w.bus_voltage:=4.0"], "parameter fault.w.bus_voltage: no such fault; wheel set"),
-    (["plant", "-p", "fault.x.voltage:=4.0"], "parameter fault.x.voltage: no such fault")])
+    (["plant", "-p", "fault.x.voltage:=4.0"], "parameter fault.x.voltage: no such fault"),
+    (["isolation", "-p", "decision_observer:=linear"], "decision_observer is now decision"),
+    (["isolation", "-p", "decision:=4of3"], "decision must be one of elman, linear, model or a vote")])
 def test_a_node_refuses_a_parameter_out_of_its_range_in_one_line(args, said, tmp_path):
     import os
     import subprocess

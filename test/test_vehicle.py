@@ -310,7 +310,7 @@ def test_your_vehicle_gets_its_own_bands_and_the_fdi_judges_it(tmp_path):
                                       "[{kind: current_limiter, wheel: y, onset: 150, value: 0.6}]\n")
     shipped = _rw_fdi(tmp_path, "screen", "--scenario", "cl.yaml", "--seeds", "8000..8001")
     assert shipped.returncode == 2
-    assert "no shipped FDI for vehicle coupled" in shipped.stderr and "rw-fdi defaults --vehicle" in shipped.stderr
+    assert "no shipped speed_aware FDI for vehicle coupled" in shipped.stderr and "defaults --vehicle" in shipped.stderr
     maksat = _rw_fdi(tmp_path, "screen", "--scenario", "cl.yaml", "--seeds", "8000..8001", "--models",
                      str(fdi_dir()))   # the thesis' set given by hand: its bands refuse the vehicle
     assert maksat.returncode == 2
@@ -370,3 +370,68 @@ def test_a_bad_vehicle_file_stops_the_defaults_before_any_run(tmp_path):
     bad = _rw_fdi(tmp_path, "defaults", "--vehicle", "bad.yaml", "--out", "x")
     assert bad.returncode == 2 and bad.stderr.strip().count("\n") == 0 and "inertia" in bad.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_evaluate_judges_a_vehicles_bags_with_its_shipped_fdi(tmp_path):
+    """Bags of a microsatellite run (recorded by the core engine): `evaluate` takes the vehicle's shipped FDI
+    from what the bags recorded, and finds the fault on its wheel."""
+    from rw_fdi_ros.tools.campaigns.campaign import run_campaign
+    from rw_fdi_ros.tools.evaluation.evaluate import evaluate
+    (tmp_path / "cl.yaml").write_text("name: micro_cl\nduration: 200\nvehicle: microsat_pyramid\nfaults: "
+                                      "[{kind: current_limiter, wheel: p2, onset: 100, value: 0.6}]\n")
+    done = run_campaign(str(tmp_path / "cl.yaml"), 1, 8000, tmp_path / "bags", engine="core")
+    assert not done.failed, done.failed
+    report = evaluate(tmp_path / "bags", tmp_path / "report", engine="core", plots=False)
+    assert report["runs"] == 1 and "vehicles/microsat_pyramid" in report["thresholds"]
+    assert report["identification"] and report["identification"][0]["kind"] == "current_limiter"
+
+
+def test_the_recovery_bench_flies_a_vehicle_with_its_wheels_left_taking_over():
+    """bench recovery --vehicle: the pyramid's runs (no standby wheel: no cell with a second fault on one), its
+    FDI acting, the three wheels left holding the lost one's momentum; the thesis' cells unchanged."""
+    from rw_fdi_ros.tools.benches import recovery_bench as rb
+    assert rb.cells_of() == rb.CELLS and all(c.second is None for c in rb.cells_of("microsat_pyramid"))
+    scenarios = rb.cell_scenarios(rb.CELLS[2], 3, 2, rb.SEED_BASES["tuning"], "microsat_pyramid")
+    assert {s.wheel_set().name for s in scenarios} == {"pyramid"} and all(
+        s.spacecraft.name == "microsat_pyramid" for s in scenarios)
+    i, runs = rb._batch((2, rb.SEED_BASES["tuning"], range(0, 2), "microsat_pyramid"))   # current loss 40 %
+    assert i == 2 and all(r["wheel"].startswith("p") for r in runs)
+    assert all(any(w == r["wheel"] for _, w, _ in r["decisions"]) for r in runs), runs   # the faulty wheel acted on
+    assert all(not r["healthy_given_up"] for r in runs)
+
+
+def test_the_units_bench_judges_a_vehicles_varied_wheels_with_its_calibrated_bands():
+    from rw_fdi_ros.tools.benches import units_bench as ub
+    sets = ub._fdi_sets("microsat_pyramid")
+    assert {c.plant["vehicle"] for _, curves, _ in sets.values() for c in curves.values()} == {"microsat_pyramid"}
+    assert sets["calibrated"][1]["model"].unit_calibration_time == 150.0
+    out = ub._judge_chunk("varied", 0, range(0, 2), vehicle="microsat_pyramid")   # fault-free, drawn units
+    assert set(out) == set(ub.SETS) and all(len(runs) == 2 for runs in out.values())
+    assert all(r.wheels == ("p1", "p2", "p3", "p4") for runs in out.values() for r in runs)
+    # units the datasheet model does not know: its bands alarm; observers that learnt their wheel do not
+    assert all(r.series["verdict"].alarm.any() for r in out["datasheet model"])
+    assert not any(r.series["verdict"].alarm.any() for r in out["calibrated"])
+
+
+def test_the_operations_bench_flies_a_vehicle_with_its_fdi():
+    from rw_fdi_ros.tools.benches import operations_bench as ob
+    from rw_fdi_ros.tools.benches.kit import SpeedAwareChunk
+    from functools import partial
+    scenarios = ob.cell_scenarios(ob.CELLS[2], range(3), 2, ob.SEED_BASES["tuning"], "microsat_pyramid")
+    assert all(s.spacecraft.name == "microsat_pyramid" and s.faults[0].wheel in range(4) for s in scenarios)
+    assert ob.cell_scenarios(ob.CELLS[2], range(3), 2, 1) == ob.cell_scenarios(ob.CELLS[2], range(3), 2, 1, "maksat")
+    chunk = SpeedAwareChunk(partial(ob._cell_runs, vehicle="microsat_pyramid"), ob.SEED_BASES["tuning"],
+                            decisions=("2of3",), vehicle="microsat_pyramid")
+    runs = chunk(4, range(0, 2))["speed_aware"]   # current loss 40 % in operations, judged by its own FDI
+    assert all(r.wheels == ("p1", "p2", "p3", "p4") and "verdict 2of3" in r.series for r in runs)
+    assert all(r.series["verdict"].alarm[:, r.faults[0].wheel].any() for r in runs)
+
+
+def test_the_identification_bench_identifies_a_vehicles_faults_with_its_fdi():
+    from rw_fdi_ros.tools.benches import identification_bench as ib
+    runs = ib._chunk(0, range(0, 2), vehicle="microsat_pyramid")["speed_aware"]   # current loss 40 %
+    assert all(r.wheels == ("p1", "p2", "p3", "p4") for r in runs)
+    assert all(r.identification[r.wheels[r.faults[0].wheel]]["fault_kind"] == "current_loss" for r in runs)
+    units = ib.units_scenarios(2, 3, "microsat_pyramid")
+    assert all(s.spacecraft.name == "microsat_pyramid" and s.wheels == {"variation": True} for s in units)
+    assert ib.units_scenarios(2, 3) == ib.units_scenarios(2, 3, "maksat")

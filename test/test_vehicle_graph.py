@@ -44,3 +44,26 @@ def test_a_coupled_vehicle_flies_the_same_run_in_the_graph_as_in_the_core_loop(t
     assert [(d.wheel, d.action) for d in traj.decisions[0]] == [
         (d["wheel"], {"in_use": "in_use", "out_of_use": "out_of_use"}.get(d["state"], d["state"]))
         for d in outcome.summary["reconfiguration"]]
+
+
+def test_a_shipped_vehicle_runs_its_own_fdi_in_the_graph_as_the_screen_does(tmp_path):
+    """The microsatellite with no FDI option at all: the graph's Elman nodes run its own networks (p1-p4), the
+    isolation node its bands, and every observer alarms where the screen's node code does."""
+    from rw_fdi_ros.fdi_config import FdiConfig
+    from rw_fdi_ros.tools.evaluation.screen import screen_runs
+    path = tmp_path / "micro.yaml"
+    path.write_text("name: micro_cl\nduration: 200\nseed: 8003\nvehicle: microsat_pyramid\nfaults: "
+                    "[{kind: current_limiter, wheel: p3, onset: 100, value: 0.6}]\n")
+    outcome = run_with_fdi(str(path), out_dir=tmp_path / "bags", fdi={"fdir": False})
+    assert outcome.ok, outcome.reason
+    weights, curves = FdiConfig().for_vehicle("microsat_pyramid").load()
+    assert sorted(weights) == ["p1", "p2", "p3", "p4"]
+    run = screen_runs([load_scenario(str(path))], weights, curves)[0]
+    live = outcome.summary["fdi"]
+    for obs in ("elman", "linear", "model", "verdict"):
+        for i, a in enumerate(run.wheels):
+            flags = run.series[obs].alarm[:, i]
+            assert bool(live[obs][a]) == bool(flags.any()), (obs, a, live[obs][a])
+            if live[obs][a]:
+                assert live[obs][a][0][0] == pytest.approx(float(run.series[obs].time[flags.argmax()]), abs=1e-9)
+    assert live["verdict"]["p3"] and not any(live["verdict"][a] for a in ("p1", "p2", "p4"))

@@ -68,7 +68,7 @@ def decision_observer(method: str) -> str:
 
 
 @dataclass(frozen=True)
-class Decision:
+class DecisionRule:
     """What makes /diagnostics: one observer's alarms, or a vote, a wheel alarmed where at least ``votes`` of
     ``observers`` alarm it. ``lead`` (the first observer) gives the residual and threshold the verdict shows.
 
@@ -114,21 +114,21 @@ class Decision:
         return out
 
 
-def decision_of(text: str, method: str, observers=None) -> Decision:
-    """The Decision a configuration names: '' (the method's decision observer), an observer's name, or a
+def decision_of(text: str, method: str, observers=None) -> DecisionRule:
+    """The DecisionRule a configuration names: '' (the method's decision observer), an observer's name, or a
     vote 'KofN' over the method's N observers (``observers``: those, default core/detection.observers_of).
     ValueError naming what it accepts."""
     from .detection import observers_of
     available = tuple(observers or observers_of(method))
     text = (text or "").strip()
     if not text:
-        return Decision((decision_observer(method),))
+        return DecisionRule((decision_observer(method),))
     if text in available:
-        return Decision((text,))
+        return DecisionRule((text,))
     votes, sep, count = text.partition("of")
     if sep and votes.isdigit() and count.isdigit() and int(count) == len(available) and 1 <= int(votes) <= int(count):
         lead = decision_observer(method)   # its residual is what the verdict shows
-        return Decision((lead, *(o for o in available if o != lead)), int(votes))
+        return DecisionRule((lead, *(o for o in available if o != lead)), int(votes))
     raise ValueError(f"decision must be one of {', '.join(available)} or a vote KofN of the {len(available)} "
                      f"observers (e.g. 2of{len(available)}), got {text!r}")
 

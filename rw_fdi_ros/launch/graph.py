@@ -268,7 +268,7 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
               "unit_calibration_time": fdi.unit_calibration, "wheel_set": choices.wheel_set}
     for axis in wheel_set(choices.wheel_set).names:
         params = {"wheel": joint_name(axis), **common}
-        if fdi.models or fdi.vehicle:   # else the node's own default, the thesis' vehicle's shipped set
+        if fdi.models or fdi.thresholds or fdi.vehicle:   # else the node's own default, the thesis' shipped set
             params["model"] = str(fdi.model_path(axis))
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
     for obs in fdi.observers[1:]:   # linear_observer, model_observer: every wheel each

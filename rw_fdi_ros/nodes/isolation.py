@@ -101,6 +101,7 @@ class IsolationNode(GraphNode):
         self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
         self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
         self.declare_parameter("decision", "")             # an observer or a vote KofN; empty: the method's
+        self.declare_parameter("decision_observer", "")    # before `decision`: refused, not silently ignored
         self.declare_parameter("latch", True)               # a confirmed failure stays until ~/reset
         self.declare_parameter("await_bus_grid", False)     # each report waits for its grid from the first on
         self.declare_parameter("input_timeout", 10.0)       # wall s an input may be silent before it is said
@@ -130,6 +131,9 @@ class IsolationNode(GraphNode):
             except ThresholdError as exc:
                 raise NodeError(str(exc), EXIT_BAD_INPUT) from None
             self.channels[obs] = ObserverChannel(obs, curves, self.param("persistence") or None, self.names)
+        if self.param("decision_observer"):
+            raise NodeError(f"parameter decision_observer is now decision (an observer or a vote KofN): set "
+                            f"decision:={self.param('decision_observer')}", EXIT_BAD_INPUT)
         try:   # core/isolation.decision_of: one observer's alarms, or a vote of them
             self.decision = decision_of(self.param("decision"), method, tuple(self.channels))
         except ValueError as exc:
@@ -314,7 +318,8 @@ class IsolationNode(GraphNode):
                                    "identification skips the samples that lack it")
         identified = (self.identifier.update(sample, alarmed) if finite and sample.bus_motor_torque is not None
                       else dict(self.identifier.latest))
-        self._publish_diagnostics(stamp, handled, decided, identified, self.decision.lead in silent)
+        self._publish_diagnostics(stamp, handled, decided, identified,
+                                  [o for o in self.decision.observers if o in silent])
         self.last_handled = stamp
 
     def _on_reset(self, request, response):
@@ -331,9 +336,10 @@ class IsolationNode(GraphNode):
         self.get_logger().warn(f"reset by command: {response.message}")
         return response
 
-    def _publish_diagnostics(self, stamp, rows_of, main, identified, silent=False):
+    def _publish_diagnostics(self, stamp, rows_of, main, identified, silent=()):
         """/diagnostics and /fdi/identification of one stamp from every observer's rows, the decision's
-        (``main``, latched) and the identification of that same stamp."""
+        (``main``, latched) and the identification of that same stamp; ``silent``: the deciding observers whose
+        rows never came."""
         msg = DiagnosticArray()
         msg.header.stamp = time_msg(stamp)
         ident = DiagnosticArray()
@@ -363,7 +369,9 @@ class IsolationNode(GraphNode):
                 extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
             if self.verdict.latched[a]:
                 extra.append(KeyValue(key="latched", value="true"))
-            unjudged = self._why_unjudged(self.decision.lead, stamp, rows_of[self.decision.lead][a], silent)
+            # a vote judges only where every voter could: one silent or non-finite, and it cannot say
+            unjudged = next((why for why in (self._why_unjudged(o, stamp, rows_of[o][a], o in silent)
+                                             for o in self.decision.observers) if why is not None), None)
             if unjudged is None and not self.envelope[a]:
                 speed = self.speeds[self.names.index(a)]
                 unjudged = (f"outside the operating envelope (wheel speed {speed:.1f} rad/s, "

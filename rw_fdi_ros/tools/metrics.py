@@ -90,7 +90,7 @@ VERDICT = "verdict"   # the series of /diagnostics' verdict beside the observers
 
 
 def decision_slot(label: str) -> str:
-    """The series of the verdict another decision (core/isolation.Decision.label, e.g. '2of3') would give,
+    """The series of the verdict another decision (core/isolation.DecisionRule.label, e.g. '2of3') would give,
     judged beside the run's own: 'verdict 2of3'."""
     return f"{VERDICT} {label}"
 

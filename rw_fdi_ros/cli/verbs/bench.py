@@ -60,10 +60,11 @@ def _options() -> dict:
     option("--seed", type=SEED, default=1)
     option("--only", default=None,
            help="figures: the benches to re-measure, comma-separated (detection, operations, "
-                "identification_units, recovery, service, dumping, reproduce, graph, study; default all)")
+                "identification_units, recovery, service, dumping, reproduce, graph, study, vehicle_detection, "
+                "vehicle_recovery, vehicle_service; default all)")
     option("--vehicle", default="maksat", metavar="NAME",
-           help="detection, service: the shipped vehicle the runs fly, with its shipped FDI (config/fdi/vehicles; "
-                "default %(default)s, the thesis' spacecraft)")
+           help="detection, identification, units, operations, recovery, service: the shipped vehicle the runs fly, "
+                "with its shipped FDI (config/fdi/vehicles; default %(default)s, the thesis' spacecraft)")
     option("--json", action="store_true")
     return made
 
@@ -109,9 +110,10 @@ def _vehicle_out(args, what: str) -> str:
 
 def _identification(args) -> dict:
     from ...tools.benches.identification_bench import bench_identification
-    default_out = "reports/identification_units" if args.units else "reports/identification"
+    default_out = _vehicle_out(args, "identification_units" if args.units else "identification")
     return bench_identification(runs_per_cell=args.runs_per_cell or (200 if args.units else 100),
                                 out=args.out or default_out, units=args.units, executor=executor(args),
+                                vehicle=_checked_vehicle(args),
                                 **({"thesis_runs": args.thesis_runs, "bus_thesis_runs": args.thesis_runs * 17 // 10}
                                    if args.thesis_runs else {}))
 
@@ -119,7 +121,8 @@ def _identification(args) -> dict:
 def _units(args) -> dict:
     from ...tools.benches.units_bench import bench_units
     return bench_units(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
-                       out=args.out or "reports/units", executor=executor(args))
+                       out=args.out or _vehicle_out(args, "units"), executor=executor(args),
+                       vehicle=_checked_vehicle(args))
 
 
 def _memory(args) -> dict:
@@ -136,18 +139,21 @@ def _memory(args) -> dict:
 def _operations(args) -> dict:
     from ...tools.benches.operations_bench import bench_operations
     return bench_operations(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
-                            hours_runs=args.hours_runs, seeds=args.seed_set, out=args.out or "reports/operations",
-                            executor=executor(args))
+                            hours_runs=args.hours_runs, seeds=args.seed_set,
+                            out=args.out or _vehicle_out(args, "operations"), executor=executor(args),
+                            vehicle=_checked_vehicle(args))
 
 
 def _recovery(args) -> dict:
     from tqdm import tqdm
-    from ...tools.benches.recovery_bench import CELLS, bench_recovery
+    from ...tools.benches.recovery_bench import bench_recovery, cells_of
+    vehicle = _checked_vehicle(args)
     runs = args.runs_per_cell or 100
-    total = sum(args.fault_free_runs if c.kind is None else runs for c in CELLS)
+    total = sum(args.fault_free_runs if c.kind is None else runs for c in cells_of(vehicle))
     with tqdm(total=total, desc="recovery bench (core loop)", unit="run", file=sys.stderr) as bar:
         return bench_recovery(runs_per_cell=runs, fault_free_runs=args.fault_free_runs, seeds=args.seed_set,
-                              out=args.out or "reports/recovery", progress=bar.update, executor=executor(args))
+                              out=args.out or _vehicle_out(args, "recovery"), progress=bar.update,
+                              executor=executor(args), vehicle=vehicle)
 
 
 def _dumping(args) -> dict:
@@ -202,17 +208,19 @@ BENCHES = [
     ("detection", "false-alarm and detection rates with 95 %% intervals on >= 1000 held-out runs, both FDI methods "
      "(core loop)", ("--fault-free-runs", "--runs-per-cell", "--vehicle", "--out", *POOL), _detection),
     ("identification", "fault kind and size per kind and size, confusion matrix (core loop)",
-     ("--runs-per-cell", "--units", "--thesis-runs", "--out", *POOL), _identification),
+     ("--runs-per-cell", "--units", "--thesis-runs", "--vehicle", "--out", *POOL), _identification),
     ("units", "the detection cells on wheels drawn around the datasheet and on the datasheet wheel, with and "
-     "without unit calibration (core loop)", ("--fault-free-runs", "--runs-per-cell", "--out", *POOL), _units),
+     "without unit calibration (core loop)", ("--fault-free-runs", "--runs-per-cell", "--vehicle", "--out", *POOL),
+     _units),
     ("memory", "peak memory of the run summary, `rw-fdi bag` and evaluation for fault-free runs of --hours "
      "(recorded, minutes)", ("--hours", "--seed", "--out"), _memory),
     ("operations", "every observer and the /diagnostics verdict in operations (manoeuvres at random times, "
      "hours-long runs, faults a manoeuvre follows, bus drops that tumble an axis; core loop)",
-     ("--fault-free-runs", "--runs-per-cell", "--hours-runs", "--seed-set", "--out", *POOL), _operations),
+     ("--fault-free-runs", "--runs-per-cell", "--hours-runs", "--seed-set", "--vehicle", "--out", *POOL),
+     _operations),
     ("recovery", "the redundant wheel taking over from a wheel the FDI confirmed faulty (pointing back within "
      "0.2 deg, peak error, time to recover; FDI and FDIR in the core loop)",
-     ("--runs-per-cell", "--fault-free-runs", "--seed-set", "--out", *POOL), _recovery),
+     ("--runs-per-cell", "--fault-free-runs", "--seed-set", "--vehicle", "--out", *POOL), _recovery),
     ("dumping", "a day in orbit with the magnetorquers dumping and with them off (wheel speed band, pointing, when "
      "the wheels saturate; a plot), the FDI through hours of dumping and faults during a dump (core loop)",
      ("--day-hours", "--orbit-runs", "--runs-per-cell", "--seed", "--out", *POOL), _dumping),

@@ -27,8 +27,8 @@ def main(args) -> int:
     epochs = args.epochs or (EPOCHS if speed_aware else THESIS_EPOCHS)
     card = train_models(samples, args.out, mode=args.mode, epochs=epochs, plant=plant_conditions(samples),
                         speed_aware=speed_aware)
-    print(f"trained 3 Elman networks ({args.mode} mode) on {len(samples)} runs in {card['train_seconds']:.0f} s "
-          f"-> {args.out}")
+    print(f"trained {len(card['wheels'])} Elman networks ({', '.join(card['wheels'])}; {args.mode} mode) on "
+          f"{len(samples)} runs in {card['train_seconds']:.0f} s -> {args.out}")
     for a, c in card["axes"].items():
         print(f"  {a}: final MSE {c['final_loss']:.2e} (normalised), torque scale {c['torque_scale']:.4f} N m")
     return 0

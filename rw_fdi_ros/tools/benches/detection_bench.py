@@ -24,7 +24,7 @@ from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.isolation import decision_of
 from ..metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
-from .kit import (ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, format_rate, screen_cells, workers,
+from .kit import (VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, format_rate, screen_cells, workers,
                   write_cells_table, write_report)
 
 
@@ -41,8 +41,6 @@ CELLS = (
 )
 
 
-# the votes judged beside each observer and the verdict (speed-aware: three observers; docs/fdi.md "The decision")
-DECISIONS = ("2of3", "3of3")
 
 
 def _fdi_sets(vehicle: str = DEFAULT_VEHICLE):
@@ -57,7 +55,7 @@ def _judge_chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE):
     cell = CELLS[cell_index]
     scenarios = [s for s in cell_scenarios(cell, seeds_range.stop, cell_index, vehicle=vehicle)][seeds_range.start:]
     return screen_sets(scenarios, _fdi_sets(vehicle),
-                       other_decisions=tuple(decision_of(d, "speed_aware") for d in DECISIONS))
+                       other_decisions=tuple(decision_of(d, "speed_aware") for d in VOTES))
 
 
 def observable_levels(sets: dict) -> dict:

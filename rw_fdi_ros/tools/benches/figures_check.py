@@ -34,11 +34,19 @@ SMALL = {
     "reproduce": {"scale_name": "small"},
     "graph": {},
     "study": {"runs": 2},
+    # the shipped microsatellite's row, with its own FDI (docs/vehicles.md)
+    "vehicle_detection": {"fault_free_runs": 60, "runs_per_cell": 20, "vehicle": "microsat_pyramid"},
+    "vehicle_recovery": {"runs_per_cell": 6, "fault_free_runs": 40, "vehicle": "microsat_pyramid"},
+    "vehicle_service": {"runs": 24, "fault_free_runs": 40, "max_hours": 0.5, "given_up_runs": 16,
+                        "vehicle": "microsat_pyramid"},
 }
 RECORDS = {"detection": "reports/detection/detection.json", "operations": "reports/operations/operations.json",
            "identification_units": "reports/identification_units/identification.json",
            "recovery": "reports/recovery/recovery.json", "service": "reports/service/service.json",
-           "dumping": "reports/dumping/dumping.json"}
+           "dumping": "reports/dumping/dumping.json",
+           "vehicle_detection": "reports/vehicles/microsat_pyramid/detection/detection.json",
+           "vehicle_recovery": "reports/vehicles/microsat_pyramid/recovery/recovery.json",
+           "vehicle_service": "reports/vehicles/microsat_pyramid/service/service.json"}
 
 
 @dataclass(frozen=True)
@@ -118,6 +126,18 @@ FIGURES = [
            lambda r: r["groupings"][next(iter(r["groupings"]))]["real_time_factor"], None, "x"),
     Figure("the recorded graph", "real time, one node per process", "graph",
            lambda r: r["groupings"]["none"]["real_time_factor"], None, "x"),
+    Figure("**another vehicle**", "microsat: false alarms", "vehicle_detection",
+           lambda r: r["cells"]["fault_free"]["methods"]["speed_aware"]["verdict"]["false_alarm"]),
+    Figure("**another vehicle**", "microsat: current loss 10 % right, observable", "vehicle_detection",
+           lambda r: r["cells"]["current loss 10 %"]["methods"]["speed_aware"]["verdict"]["correct_observable"]),
+    Figure("**another vehicle**", "microsat: single faults recovered", "vehicle_recovery",
+           _summed(SINGLE_FAULTS, "recovered")),
+    Figure("**another vehicle**", "microsat in service: the faulty wheel and no other acted on", "vehicle_service",
+           lambda r: r["figures"]["acted_right"]),
+    Figure("**another vehicle**", "microsat in service: pointing kept", "vehicle_service",
+           lambda r: r["figures"]["pointing_kept"]),
+    Figure("**another vehicle**", "microsat in service: reconfigurations without a fault", "vehicle_service",
+           lambda r: r["figures"]["reconfigured_fault_free_600s"]),
     *[Figure("judging a recorded bag", f"judging a bag: {how}", "study",
              lambda r, how=how: next(v for k, v in r["judge_s_per_bag"].items() if k.startswith(how)), None, "s")
       for how in ("core engine", "replay through the FDI graph")],
@@ -145,6 +165,9 @@ BENCH_FUNCTIONS = {
     "reproduce": ("..evaluation.reproduce", "reproduce", None),
     "graph": (".bench", "bench_graph", None),
     "study": (".bench", "bench_study", None),
+    "vehicle_detection": (".detection_bench", "bench_detection", "detection.json"),
+    "vehicle_recovery": (".recovery_bench", "bench_recovery", "recovery.json"),
+    "vehicle_service": (".service_bench", "bench_service", "service.json"),
 }
 
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -33,10 +34,12 @@ from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
-from ...core.scenario import Fault, Scenario
+from ...core.scenario import Fault
+from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.wheel_set import fitted_for
 from ..metrics import rate
-from .kit import fault_wheel, workers, Cell, cell_scenarios, format_rate, screen_cells, write_cells_table
+from .kit import (bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios, format_rate, screen_cells,
+                  write_cells_table)
 from ..metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
@@ -70,31 +73,33 @@ UNITS_CELLS = (("current loss 8-45 %", "current_limiter", (0.55, 0.92)),
                ("bus 4.0-5.5 V", "bus_voltage", (4.0, 5.5)))
 
 
-def units_scenarios(cell_index: int, runs: int) -> list:
-    """``runs`` varied-wheel scenarios of a units cell: seed 31,000,000 + 100,000 index + n, the fault on
-    wheel seed mod 3, its onset and size drawn from the seed."""
+def units_scenarios(cell_index: int, runs: int, vehicle: str = DEFAULT_VEHICLE) -> list:
+    """``runs`` varied-wheel scenarios of a units cell: seed 31,000,000 + 100,000 index + n, the fault on a
+    wheel in use drawn from the seed (seed mod 3 on the thesis' set), its onset and size drawn from the seed;
+    ``vehicle``: the shipped vehicle they fly."""
     name, kind, (low, high) = UNITS_CELLS[cell_index]
+    wheels = bench_wheels(vehicle)
     out = []
     for n in range(runs):
         seed = UNITS_SEED_BASE + 100_000 * cell_index + n
         rng = np.random.default_rng(seed)
         onset, size = float(np.round(rng.uniform(*UNITS_ONSETS), 1)), float(np.round(rng.uniform(low, high), 4))
-        out.append(Scenario(name, duration=400.0, seed=seed, faults=(Fault(kind, fault_wheel(seed), onset, size),),
-                            wheels={"variation": True}))
+        fault = Fault(kind, fault_wheel(seed, wheels), onset, size)
+        out.append(bench_scenario(vehicle, name, seed=seed, faults=(fault,), wheels={"variation": True}))
     return out
 
 
-def _units_chunk(cell_index: int, seeds_range):
-    scenarios = units_scenarios(cell_index, seeds_range.stop)[seeds_range.start:]
-    fdi = (*FdiConfig(unit_calibration=UNITS_CALIBRATION).load(),
+def _units_chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE):
+    scenarios = units_scenarios(cell_index, seeds_range.stop, vehicle)[seeds_range.start:]
+    fdi = (*FdiConfig(unit_calibration=UNITS_CALIBRATION).for_vehicle(vehicle).load(),
            calibration_samples(UNITS_CALIBRATION, FDI_PERIOD))
     return screen_sets(scenarios, {"speed_aware": fdi}, identification=True)
 
 
-def _chunk(cell_index: int, seeds_range):
+def _chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE):
     cell = CELLS[cell_index]
-    scenarios = cell_scenarios(cell, seeds_range.stop, cell_index, SEED_BASE)[seeds_range.start:]
-    return screen_sets(scenarios, {"speed_aware": FdiConfig().load()}, identification=True)
+    scenarios = cell_scenarios(cell, seeds_range.stop, cell_index, SEED_BASE, vehicle=vehicle)[seeds_range.start:]
+    return screen_sets(scenarios, {"speed_aware": FdiConfig().for_vehicle(vehicle).load()}, identification=True)
 
 
 def cell_identification(runs, observable_level: dict, strict_bus: bool = False) -> dict:
@@ -122,18 +127,19 @@ def cell_identification(runs, observable_level: dict, strict_bus: bool = False) 
 
 
 def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_thesis_runs: int = 340,
-                         out: str | Path = "reports/identification", executor=None, units: bool = False) -> dict:
+                         out: str | Path = "reports/identification", executor=None, units: bool = False,
+                         vehicle: str = DEFAULT_VEHICLE) -> dict:
     """Identification figures per cell; the thesis sizes get ``thesis_runs`` (the bus ``bus_thesis_runs``:
     about 6 in 10 bus drops of 2.5 V are physically visible). ``units``: the varied-wheel cells instead
     (``runs_per_cell`` each, the bus 1.7 times as many)."""
-    _, curves = FdiConfig(unit_calibration=UNITS_CALIBRATION if units else 0.0).load()
+    _, curves = FdiConfig(unit_calibration=UNITS_CALIBRATION if units else 0.0).for_vehicle(vehicle).load()
     level = {a: float(c[-1]) for a, c in curves["model"].curves.items()}   # the model observer's band
     t0 = time.monotonic()
     cells = {}
     if units:
         sizes = [runs_per_cell * 17 // 10 if kind == "bus_voltage" else runs_per_cell for _, kind, _ in UNITS_CELLS]
-        judged = screen_cells(sizes, _units_chunk, "identification bench, varied units (core loop + node code)",
-                              executor)
+        judged = screen_cells(sizes, partial(_units_chunk, vehicle=vehicle),
+                              "identification bench, varied units (core loop + node code)", executor)
         write_cells_table(judged, [name for name, _, _ in UNITS_CELLS], out, "identification")
         for i, (name, kind, span) in enumerate(UNITS_CELLS):
             first = UNITS_SEED_BASE + 100_000 * i
@@ -143,7 +149,8 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
     else:
         sizes = [(bus_thesis_runs if c.kind == "bus_voltage" else thesis_runs) if c.thesis_size else runs_per_cell
                  for c in CELLS]
-        judged = screen_cells(sizes, _chunk, "identification bench (core loop + node code)", executor)
+        judged = screen_cells(sizes, partial(_chunk, vehicle=vehicle), "identification bench (core loop + node code)",
+                              executor)
         write_cells_table(judged, [c.name for c in CELLS], out, "identification")
         for i, cell in enumerate(CELLS):
             first = SEED_BASE + 100_000 * i
@@ -151,7 +158,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
                                 **cell_identification(judged[i]["speed_aware"], level)}
     report = {"schema": "rw_fdi_ros/identification_bench/1", "seconds": time.monotonic() - t0,
               "jobs": workers(executor),
-              "date": time.strftime("%Y-%m-%d"),
+              "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle,
               "seed_base": UNITS_SEED_BASE if units else SEED_BASE,
               "decision_observer": decision_observer("speed_aware"),
               "observable_level_Nm": level, "units": units,
@@ -219,9 +226,9 @@ def format_identification(report: dict) -> str:
                 f"Measured {report.get('date', '?')} on the shipped `config/fdi/unit_calibrated` with the "
                 "command's defaults.", "",
                 f"Seeds from {report['seed_base']:,}; wheels drawn at the default unit spreads, every observer and "
-                f"the identifier calibrated over the first {report['unit_calibration_time_s']:g} s; faults on wheel "
-                "seed mod 3, onsets uniform in 160-300 s, sizes drawn uniformly over the case's range (off every "
-                "grid), 400 s runs; identification starts at the "
+                f"the identifier calibrated over the first {report['unit_calibration_time_s']:g} s; faults on a wheel "
+                "in use drawn from the seed, onsets uniform in 160-300 s, sizes drawn uniformly over the case's "
+                "range (off every grid), 400 s runs; identification starts at the "
                 f"{report['decision_observer']} observer's alarm. Size within 10 % (10 C; the bus within 0.1 V). "
                 "'Widened by the unit': the share of intervals at least twice as wide as they would be were the "
                 f"unit known exactly. Rates with 95 % Wilson intervals. {report['seconds'] / 60:.0f} min on this "
@@ -229,10 +236,15 @@ def format_identification(report: dict) -> str:
     else:
         head = ["# Fault identification on held-out runs (`rw-fdi bench identification`)", "",
                 f"Measured {report.get('date', '?')} on the shipped `config/fdi` with the command's defaults.", "",
-                f"Seeds from {report['seed_base']:,}; faults on wheel seed mod 3, onsets uniform in 60-300 s, 400 s "
+                f"Seeds from {report['seed_base']:,}; faults on a wheel in use drawn from the seed, onsets uniform in "
+                f"60-300 s, 400 s "
                 f"runs; identification starts at the {report['decision_observer']} observer's alarm. Observable: the "
                 "fault's effect on the reaction torque exceeds the nominal-model observer's band. Rates with 95 % "
                 f"Wilson intervals. {report['seconds'] / 60:.0f} min on this machine."]
+    vehicle = report.get("vehicle", DEFAULT_VEHICLE)
+    if vehicle != DEFAULT_VEHICLE:
+        head[0] += f", vehicle {vehicle}"
+        head[2] = head[2].replace("the shipped `config/fdi", f"the shipped `config/fdi/vehicles/{vehicle}")
     lines = head + ["", "| case | observable | kind right (observable) | size within tolerance | "
                         "|error| median / p90 | interval covers truth | widened by the unit |",
                     "|---|---|---|---|---|---|---|"]

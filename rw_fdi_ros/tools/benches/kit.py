@@ -51,6 +51,11 @@ def fault_wheel(seed: int, wheels: WheelSet = WHEEL_SETS[DEFAULT_WHEEL_SET]) -> 
     return wheels.names.index(wheels.active[seed % len(wheels.active)])
 
 
+# the votes of the three speed-aware observers the benches judge beside /diagnostics' decision (an observer
+# alone is its own column; docs/fdi.md "The decision")
+VOTES = ("2of3", "3of3")
+
+
 @lru_cache(maxsize=None)
 def vehicle_scenario(vehicle: str) -> Scenario:
     """A 400-s run of the shipped ``vehicle`` through the scenario file's own checks (its wheel set, plant
@@ -58,13 +63,26 @@ def vehicle_scenario(vehicle: str) -> Scenario:
     return parse_scenario(f"name: {vehicle}\nvehicle: {vehicle}\nduration: 400.0\n", origin=f"vehicle {vehicle}")
 
 
+def bench_scenario(vehicle: str, name: str, **fields) -> Scenario:
+    """A bench run of ``vehicle`` (a shipped name): the thesis' as Scenario(name, 400 s, **fields) makes it,
+    another's from :func:`vehicle_scenario` with ``fields`` replaced (its source text cleared: a bag of it
+    records what the run is, not the template's)."""
+    if vehicle == DEFAULT_VEHICLE:
+        return Scenario(name, **{"duration": 400.0, **fields})
+    return replace(vehicle_scenario(vehicle), name=name, source_text="", **fields)
+
+
+def bench_wheels(vehicle: str) -> WheelSet:
+    """The wheel set the bench runs of ``vehicle`` fly."""
+    return WHEEL_SETS[DEFAULT_WHEEL_SET] if vehicle == DEFAULT_VEHICLE else vehicle_scenario(vehicle).wheel_set()
+
+
 def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE, onset_range=ONSET_RANGE,
                    wheels: dict | None = None, vehicle: str = DEFAULT_VEHICLE) -> list:
     """``runs`` scenarios of one cell: seeds seed_base + 100,000 index + n, fault on a wheel in use
     (:func:`fault_wheel`) with an onset drawn from the seed in ``onset_range``; ``wheels``: the scenario's unit
     variation; ``vehicle``: the shipped vehicle they fly (default: the thesis')."""
-    base = None if vehicle == DEFAULT_VEHICLE else vehicle_scenario(vehicle)
-    wheel_set = WHEEL_SETS[DEFAULT_WHEEL_SET] if base is None else base.wheel_set()
+    wheel_set = bench_wheels(vehicle)
     out = []
     for n in range(runs):
         seed = seed_base + 100_000 * index + n
@@ -72,10 +90,7 @@ def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE
         if cell.kind is not None:
             onset = float(np.round(np.random.default_rng(seed).uniform(*onset_range), 1))
             faults = (Fault(cell.kind, fault_wheel(seed, wheel_set), onset, cell.value, cell.ramp),)
-        if base is None:
-            out.append(Scenario(cell.name, duration=400.0, seed=seed, faults=faults, wheels=dict(wheels or {})))
-        else:
-            out.append(replace(base, name=cell.name, seed=seed, faults=faults, wheels=dict(wheels or {})))
+        out.append(bench_scenario(vehicle, cell.name, seed=seed, faults=faults, wheels=dict(wheels or {})))
     return out
 
 
@@ -115,16 +130,16 @@ class SpeedAwareChunk:
     it says of each run's trajectory, under the name "runs". ``decisions``: the labels of other decisions
     whose verdicts are judged beside /diagnostics' (core/isolation.decision_of, e.g. '2of3')."""
 
-    def __init__(self, scenarios, seed_base: int, on_run=None, decisions=()):
+    def __init__(self, scenarios, seed_base: int, on_run=None, decisions=(), vehicle: str = DEFAULT_VEHICLE):
         self.scenarios, self.seed_base, self.on_run = scenarios, seed_base, on_run
-        self.decisions = tuple(decisions)
+        self.decisions, self.vehicle = tuple(decisions), vehicle   # the vehicle's shipped FDI judges
 
     def __call__(self, cell_index: int, seeds):
         from ...core.isolation import decision_of
         seen = []
         hook = None if self.on_run is None else (lambda sc, traj, b: seen.append(self.on_run(sc, traj, b)))
         out = screen_sets(self.scenarios(cell_index, seeds, self.seed_base),
-                          {"speed_aware": FdiConfig().load()}, on_run=hook,
+                          {"speed_aware": FdiConfig().for_vehicle(self.vehicle).load()}, on_run=hook,
                           other_decisions=tuple(decision_of(d, "speed_aware") for d in self.decisions))
         return {**out, "runs": seen} if self.on_run is not None else out
 

@@ -19,14 +19,16 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.scenario import Fault, Manoeuvres, Scenario
-from .kit import (SpeedAwareChunk, cell_figures, fault_wheel, format_rate, screen_cells, workers, write_cells_table,
-                  write_report)
+from ...core.vehicle import DEFAULT_VEHICLE
+from .kit import (VOTES, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, fault_wheel, format_rate,
+                  screen_cells, workers, write_cells_table, write_report)
 from ..metrics import observable_level
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
@@ -65,24 +67,26 @@ CELLS = (
 )
 
 
-def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int) -> list:
+def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int, vehicle: str = DEFAULT_VEHICLE) -> list:
     """The scenarios of one cell for run numbers ``seeds`` (a range): seed seed_base + 100,000 index + n,
-    the fault on wheel seed mod 3 at an onset drawn from the seed in the cell's range."""
+    the fault on a wheel in use drawn from the seed (seed mod 3 on the thesis' set) at an onset drawn from the
+    seed in the cell's range; ``vehicle``: the shipped vehicle they fly."""
+    wheels = bench_wheels(vehicle)
     out = []
     for n in seeds:
         seed = seed_base + 100_000 * index + n
         faults = ()
         if cell.kind is not None:
             onset = float(np.round(np.random.default_rng(seed).uniform(*cell.onset_range), 1))
-            faults = (Fault(cell.kind, fault_wheel(seed), onset, cell.value),)
+            faults = (Fault(cell.kind, fault_wheel(seed, wheels), onset, cell.value),)
         initial = {} if cell.wheel_speed is None else {"wheel_speed": (cell.wheel_speed,) * 3}
-        out.append(Scenario(cell.name, duration=cell.duration, seed=seed, faults=faults, initial=initial,
-                            manoeuvres=cell.manoeuvres))
+        out.append(bench_scenario(vehicle, cell.name, duration=cell.duration, seed=seed, faults=faults,
+                                  initial=initial, manoeuvres=cell.manoeuvres))
     return out
 
 
-def _cell_runs(cell_index: int, seeds, seed_base: int) -> list:
-    return cell_scenarios(CELLS[cell_index], seeds, cell_index, seed_base)
+def _cell_runs(cell_index: int, seeds, seed_base: int, vehicle: str = DEFAULT_VEHICLE) -> list:
+    return cell_scenarios(CELLS[cell_index], seeds, cell_index, seed_base, vehicle)
 
 
 def manoeuvre_after_fault(scenario: Scenario) -> bool:
@@ -91,20 +95,19 @@ def manoeuvre_after_fault(scenario: Scenario) -> bool:
     return bool(np.any(scenario.setpoint_schedule()[0] > onset))
 
 
-# the decisions judged beside /diagnostics' (the model observer's): any one observer is its own column; the
-# votes of the three (docs/fdi.md "The decision")
-DECISIONS = ("2of3", "3of3")
 
 
 def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hours_runs: int = 50,
-                     seeds: str = "evaluation", out: str | Path = "reports/operations", executor=None) -> dict:
+                     seeds: str = "evaluation", out: str | Path = "reports/operations", executor=None,
+                     vehicle: str = DEFAULT_VEHICLE) -> dict:
     seed_base = SEED_BASES[seeds]
-    _, curves = FdiConfig().load()
+    _, curves = FdiConfig().for_vehicle(vehicle).load()
     level = observable_level(curves)
     sizes = [hours_runs if c.duration > 400.0 else fault_free_runs if c.kind is None and c.wheel_speed is None
              else runs_per_cell for c in CELLS]
     t0 = time.monotonic()
-    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, seed_base, decisions=DECISIONS),
+    judged = screen_cells(sizes, SpeedAwareChunk(partial(_cell_runs, vehicle=vehicle), seed_base, decisions=VOTES,
+                                                 vehicle=vehicle),
                           f"operations bench ({seeds} seeds)", executor)
     write_cells_table(judged, [c.name for c in CELLS], out, "operations")
     cells = {}
@@ -120,12 +123,12 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
             entry["runs_not_judged_somewhere"] = sum(bool(r.health) for r in runs)
             entry["false_alarm_runs"] = {obs: sum(bool(r.series[obs].alarm.any()) for r in runs) for obs in columns}
         else:
-            scenarios = cell_scenarios(cell, range(sizes[i]), i, seed_base)   # the runs' order: by seed
+            scenarios = cell_scenarios(cell, range(sizes[i]), i, seed_base, vehicle)   # the runs' order: by seed
             followed = [r for r, sc in zip(runs, scenarios) if manoeuvre_after_fault(sc)]
             entry["manoeuvre_after_fault"] = {obs: cell_figures(followed, obs, level) for obs in columns}
         cells[cell.name] = entry
     report = {"schema": "rw_fdi_ros/operations_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
-              "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,
+              "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle, "seed_set": seeds, "seed_base": seed_base,
               "observable_level_Nm": level, "cells": cells}
     return write_report(report, out, "operations", format_operations)
 
@@ -133,7 +136,9 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
 def format_operations(report: dict) -> str:
     cells = report["cells"]
     columns = list(next(iter(cells.values()))["observers"])
-    lines = ["# The FDI in operations (`rw-fdi bench operations`)", "",
+    vehicle = report.get("vehicle", DEFAULT_VEHICLE)
+    lines = ["# The FDI in operations (`rw-fdi bench operations`)"
+             + ("" if vehicle == DEFAULT_VEHICLE else f", vehicle {vehicle}"), "",
              f"Measured {report['date']} on the shipped speed-aware FDI, {report['seed_set']} seeds from "
              f"{report['seed_base']:,}; {report['seconds'] / 60:.0f} min on this machine. Rates with 95 % Wilson "
              "intervals. `verdict`: what /diagnostics says (the decision observer's alarm, latched).", "",

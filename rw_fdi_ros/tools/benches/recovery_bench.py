@@ -29,9 +29,10 @@ from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import held_speeds
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.spacecraft import BODY_AXES
+from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.wheel_set import WHEEL_SETS
 from ..metrics import rate
-from .kit import fault_wheel, format_rate, write_report, write_runs_table
+from .kit import bench_scenario, bench_wheels, fault_wheel, format_rate, write_report, write_runs_table
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}
 POINTING_DEG = 0.2
@@ -64,7 +65,14 @@ CELLS = (
 )
 
 
-def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int) -> list:
+def cells_of(vehicle: str = DEFAULT_VEHICLE) -> tuple:
+    """The cells of ``vehicle``: all of CELLS, but the second fault on the standby wheel where there is none."""
+    standby = bool(bench_wheels(vehicle).standby)
+    return tuple(c for c in CELLS if c.second is None or standby)
+
+
+def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int, vehicle: str = DEFAULT_VEHICLE) -> list:
+    wheels = bench_wheels(vehicle)
     out = []
     for n in range(runs):
         seed = seed_base + 100_000 * index + n
@@ -72,26 +80,30 @@ def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int) -> list:
         faults = ()
         if cell.kind is not None:
             onset = float(np.round(rng.uniform(*cell.onset_range), 1))
-            faults = (Fault(cell.kind, fault_wheel(seed, WHEELS), onset, cell.value),)
-            if cell.second is not None:
-                faults += (Fault(cell.second[0], 3, onset + 100.0, cell.second[1]),)
+            faults = (Fault(cell.kind, fault_wheel(seed, wheels), onset, cell.value),)
+            if cell.second is not None:   # on the standby wheel
+                faults += (Fault(cell.second[0], wheels.names.index(wheels.standby[0]), onset + 100.0,
+                                 cell.second[1]),)
         speeds = tuple(float(v) for v in rng.uniform(*cell.speeds, 3))
-        out.append(Scenario(cell.name, duration=400.0, seed=seed, faults=faults, initial={"wheel_speed": speeds},
-                            manoeuvres=cell.manoeuvres, plant={"wheel_set": WHEELS.name}))
+        # the thesis' runs name their set (the default's), as they always did
+        plant = {"plant": {"wheel_set": WHEELS.name}} if vehicle == DEFAULT_VEHICLE else {}
+        out.append(bench_scenario(vehicle, cell.name, seed=seed, faults=faults, initial={"wheel_speed": speeds},
+                                  manoeuvres=cell.manoeuvres, **plant))
     return out
 
 
 def run_figures(traj, b: int, scenario: Scenario) -> dict:
     """What one run did: decisions, whether the momentum was holdable, recovery time and peak error."""
+    wheels = scenario.wheel_set()
     error = np.degrees(np.abs(traj.error[:, b])).max(axis=1)
     decisions = [(d.time, d.wheel, d.action) for d in traj.decisions[b]]
     out = {"seed": scenario.seed, "decisions": decisions}
     if not scenario.faults:
         return out
     fault = scenario.faults[0]
-    lost = WHEELS.names[fault.wheel]
+    lost = wheels.names[fault.wheel]
     i0 = int(np.searchsorted(traj.time, fault.onset))
-    need = held_speeds(WHEELS, [n for n in WHEELS.names if n != lost], traj.wheel_speed[i0, b])
+    need = held_speeds(wheels, [n for n in wheels.names if n != lost], traj.wheel_speed[i0, b])
     late = np.nonzero(error[i0:] >= POINTING_DEG)[0]
     recover = float(traj.time[i0 + late[-1]] + 0.1 - fault.onset) if len(late) else 0.0
     given_up = [w for t, w, a in decisions if a == "out_of_use"]
@@ -101,12 +113,13 @@ def run_figures(traj, b: int, scenario: Scenario) -> dict:
                kept=any(w == lost and a == "kept_in_use" for _, w, a in decisions),
                held=any(w == lost and a == "held" for _, w, a in decisions),
                healthy_given_up=[w for _, w, a in decisions if a in ACTED and w != lost
-                                 and not (len(scenario.faults) > 1 and w == "s")],
+                                 and not (len(scenario.faults) > 1 and w in wheels.standby)],
                reconfigured_s=next((t - fault.onset for t, w, a in decisions
                                     if w == lost and a in ACTED),
                                    None))
     if len(scenario.faults) > 1:   # the later fault on s: confirmed (kept in use: no wheel is left)
-        out["second_detected"] = any(w == "s" for _, w, a in decisions if a in ("kept_in_use", "held", "out_of_use"))
+        out["second_detected"] = any(w in wheels.standby for _, w, a in decisions
+                                     if a in ("kept_in_use", "held", "out_of_use"))
     return out
 
 
@@ -133,24 +146,26 @@ def summarize(cell: Cell, runs: list) -> dict:
 
 
 def bench_recovery(runs_per_cell: int = 100, fault_free_runs: int = 1000, seeds: str = "evaluation",
-                   out: str | Path = "reports/recovery", progress=None, executor=None) -> dict:
+                   out: str | Path = "reports/recovery", progress=None, executor=None,
+                   vehicle: str = DEFAULT_VEHICLE) -> dict:
     """The recovery figures of every cell, its runs in batches on ``executor`` (local processes by default, or a
     Dask cluster; the same runs either way: each is drawn from its seed); the report, and one row a run
     (recovery_runs.csv), in ``out``."""
     from ..campaigns.campaign import LocalExecutor
     seed_base = SEED_BASES[seeds]
     t0 = time.monotonic()
-    sizes = [fault_free_runs if cell.kind is None else runs_per_cell for cell in CELLS]
-    work = [(i, seed_base, range(start, min(start + BATCH, n))) for i, n in enumerate(sizes)
+    cells_run = cells_of(vehicle)
+    sizes = [fault_free_runs if cell.kind is None else runs_per_cell for cell in cells_run]
+    work = [(i, seed_base, range(start, min(start + BATCH, n)), vehicle) for i, n in enumerate(sizes)
             for start in range(0, n, BATCH)]
-    by_cell = {i: [] for i in range(len(CELLS))}
+    by_cell = {i: [] for i in range(len(cells_run))}
     # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
     for i, runs in (executor or LocalExecutor()).map_unordered(_batch, work, processes=True):
         by_cell[i] += runs
         if progress:
             progress(len(runs))
     cells = {}
-    for i, cell in enumerate(CELLS):
+    for i, cell in enumerate(cells_run):
         runs = sorted(by_cell[i], key=lambda r: r["seed"])
         cells[cell.name] = {"cell": {**cell.__dict__, "manoeuvres": cell.manoeuvres and cell.manoeuvres.__dict__},
                             "seeds": [runs[0]["seed"], runs[-1]["seed"]], "figures": summarize(cell, runs),
@@ -160,17 +175,21 @@ def bench_recovery(runs_per_cell: int = 100, fault_free_runs: int = 1000, seeds:
                      Path(out) / "recovery_runs.csv")
     report = {"schema": "rw_fdi_ros/recovery_bench/1", "seconds": time.monotonic() - t0,
               "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,
-              "wheel_set": WHEELS.name, "pointing_deg": POINTING_DEG, "recovery_s": RECOVERY_S, "cells": cells}
+              "vehicle": vehicle, "wheel_set": bench_wheels(vehicle).name, "pointing_deg": POINTING_DEG,
+              "recovery_s": RECOVERY_S, "cells": cells}
     report = write_report(report, out, "recovery", format_recovery)
-    plot_before_after(Path(out) / "pointing_before_after.png", Fdir(FdiConfig().load()[1]["model"]))
+    if vehicle == DEFAULT_VEHICLE:   # the thesis' figure: a bus drop on x, s taking over
+        plot_before_after(Path(out) / "pointing_before_after.png", Fdir(FdiConfig().load()[1]["model"]))
     return report
 
 
 def _batch(work) -> tuple:
     """(cell index, the figures of its runs ``seeds``): one batch of the core loop, what a worker computes."""
-    i, seed_base, seeds = work
-    _, curves = FdiConfig().load()
-    scenarios = cell_scenarios(CELLS[i], seeds.stop, i, seed_base)[seeds.start:]
+    i, seed_base, seeds, vehicle = work
+    _, curves = FdiConfig().for_vehicle(vehicle).load()
+    # a cell's seeds follow its index among all CELLS: a vehicle's runs are the thesis' seeds where they share it
+    cell = cells_of(vehicle)[i]
+    scenarios = cell_scenarios(cell, seeds.stop, CELLS.index(cell), seed_base, vehicle)[seeds.start:]
     traj = simulate(scenarios, fdir=Fdir(curves["model"]))
     return i, [run_figures(traj, b, s) for b, s in enumerate(scenarios)]
 
@@ -180,7 +199,9 @@ def _stat(s) -> str:
 
 
 def format_recovery(report: dict) -> str:
-    lines = ["# The redundant wheel takes over (`rw-fdi bench recovery`)", "",
+    vehicle = report.get("vehicle", DEFAULT_VEHICLE)
+    lines = ["# The redundant wheel takes over (`rw-fdi bench recovery`)" if vehicle == DEFAULT_VEHICLE else
+             f"# The wheels left take over (`rw-fdi bench recovery --vehicle {vehicle}`)", "",
              f"Measured {report['date']}, {report['seed_set']} seeds from {report['seed_base']:,}; "
              f"{report['seconds'] / 60:.0f} min on this machine. Wheel set {report['wheel_set']}; the core loop with "
              "the FDI verdict and FDIR in it. Recovered: within 0.2 deg on every axis from at most 60 s after the "

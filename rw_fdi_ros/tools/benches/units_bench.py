@@ -25,6 +25,7 @@ from pathlib import Path
 from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
 from ...core.plant_choices import FDI_PERIOD
+from ...core.vehicle import DEFAULT_VEHICLE
 from .detection_bench import CELLS, cell_results, cell_sizes, observable_levels
 from .kit import workers, cell_scenarios, format_rate, screen_cells, write_cells_table, write_report
 from ..evaluation.screen import screen_sets
@@ -35,31 +36,34 @@ POPULATIONS = {"varied": (40_000_000, {"variation": True}), "datasheet": (41_000
 SETS = {"datasheet model": 0.0, "calibrated": CALIBRATION_TIME}
 
 
-def _fdi_sets() -> dict:
-    return {name: (*FdiConfig(unit_calibration=t).load(), calibration_samples(t, FDI_PERIOD))
+def _fdi_sets(vehicle: str = DEFAULT_VEHICLE) -> dict:
+    """The datasheet and the calibrated sets of the shipped FDI of ``vehicle``."""
+    return {name: (*FdiConfig(unit_calibration=t).for_vehicle(vehicle).load(), calibration_samples(t, FDI_PERIOD))
             for name, t in SETS.items()}
 
 
-def _judge_chunk(population: str, cell_index: int, seeds_range):
+def _judge_chunk(population: str, cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE):
     seed_base, wheels = POPULATIONS[population]
     scenarios = cell_scenarios(CELLS[cell_index], seeds_range.stop, cell_index, seed_base, ONSET_RANGE,
-                               wheels)[seeds_range.start:]
-    return screen_sets(scenarios, _fdi_sets())
+                               wheels, vehicle=vehicle)[seeds_range.start:]
+    return screen_sets(scenarios, _fdi_sets(vehicle))
 
 
 def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/units",
-                executor=None) -> dict:
+                executor=None, vehicle: str = DEFAULT_VEHICLE) -> dict:
     t0 = time.monotonic()   # loading both calibrations' bands included
-    sets = _fdi_sets()
+    sets = _fdi_sets(vehicle)
     levels, sizes = observable_levels(sets), cell_sizes(fault_free_runs, runs_per_cell)
     populations = {}
     for population, (seed_base, wheels) in POPULATIONS.items():
-        judged = screen_cells(sizes, partial(_judge_chunk, population), f"units bench, {population} wheels", executor)
+        judged = screen_cells(sizes, partial(_judge_chunk, population, vehicle=vehicle),
+                              f"units bench, {population} wheels", executor)
         write_cells_table(judged, [c.name for c in CELLS], out, f"units_{population}")
         populations[population] = {"seed_base": seed_base, "wheels": wheels,
                                    "cells": cell_results(judged, sizes, seed_base, levels, "sets")}
     report = {"schema": "rw_fdi_ros/units_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
-              "date": time.strftime("%Y-%m-%d"), "fault_free_runs": fault_free_runs, "runs_per_cell": runs_per_cell,
+              "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle, "fault_free_runs": fault_free_runs,
+              "runs_per_cell": runs_per_cell,
               "onset_range_s": ONSET_RANGE, "unit_calibration_time_s": CALIBRATION_TIME,
               "bands": {name: {obs: {"seeds": [min(c.seeds), max(c.seeds)] if c.seeds else None,
                                      "unit_calibration_time": c.unit_calibration_time}
@@ -69,12 +73,14 @@ def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str 
 
 
 def format_units(report: dict) -> str:
-    lines = ["# The FDI on wheels that are not the datasheet (`rw-fdi bench units`)", "",
+    vehicle = report.get("vehicle", DEFAULT_VEHICLE)
+    lines = ["# The FDI on wheels that are not the datasheet (`rw-fdi bench units`)"
+             + ("" if vehicle == DEFAULT_VEHICLE else f", vehicle {vehicle}"), "",
              f"Measured {report['date']} with the shipped speed-aware models; `datasheet model`: the shipped "
              f"bands, observers modelling Table 2.2's wheel; `calibrated`: each observer learns its wheel over "
              f"the first {report['unit_calibration_time_s']:g} s of the run (`--unit-calibration "
-             f"{report['unit_calibration_time_s']:g}`, bands `config/fdi/unit_calibrated`). Faults on wheel "
-             f"seed mod 3, onsets uniform in {report['onset_range_s'][0]:g}-{report['onset_range_s'][1]:g} s; "
+             f"{report['unit_calibration_time_s']:g}`, bands `unit_calibrated`). Faults on a wheel in use drawn "
+             f"from the seed, onsets uniform in {report['onset_range_s'][0]:g}-{report['onset_range_s'][1]:g} s; "
              f"{report['fault_free_runs']} fault-free runs and {report['runs_per_cell']} per other cell, per "
              f"population; rates with 95 % Wilson intervals; {report['seconds'] / 60:.0f} min on this machine.", ""]
     sets = list(SETS)

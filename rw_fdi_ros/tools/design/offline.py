@@ -94,7 +94,7 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     return ObserverRun(samples.time, r, est, residual, bound, method, wheels)
 
 
-def _plant_of(sample, sampling: str = FDI_SAMPLING):
+def recorded_plant(sample, sampling: str = FDI_SAMPLING):
     """The PlantChoices a bag (or FdiSamples read from one) was recorded under."""
     import yaml
     from ...storage.bag import read_bag
@@ -105,7 +105,7 @@ def _plant_of(sample, sampling: str = FDI_SAMPLING):
 def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
     """The plant choices the bags were recorded under (FdiSamples or bag paths), as a mapping;
     they must all agree."""
-    seen = {_plant_of(s, sampling) for s in samples_list}
+    seen = {recorded_plant(s, sampling) for s in samples_list}
     if len(seen) != 1:
         raise ThresholdError(f"bags recorded under different plant choices: {sorted(map(str, seen))}")
     return seen.pop().as_dict()
@@ -114,7 +114,7 @@ def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
 def under_one_plant(samples_list, on_skip, sampling: str = FDI_SAMPLING) -> list:
     """The samples recorded under the plant choices most of them share; each other one is passed to
     ``on_skip`` with its reason (a model or band learnt from a mix would fit no plant)."""
-    plants = [_plant_of(s, sampling) for s in samples_list]
+    plants = [recorded_plant(s, sampling) for s in samples_list]
     if len(set(plants)) <= 1:
         return list(samples_list)
     kept = max(set(plants), key=lambda p: (plants.count(p), -plants.index(p)))
@@ -204,14 +204,14 @@ def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -
 
 def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True, wheels=AXIS_WHEELS,
                    decision=None):
-    """metrics.Series of what /diagnostics says: the ``decision``'s rows (core/isolation.Decision; None: the
+    """metrics.Series of what /diagnostics says: the ``decision``'s rows (core/isolation.DecisionRule; None: the
     method's decision observer) of ``series`` (observer -> Series, :func:`fdi_series`) through the isolation
     node's LatchedVerdict, a wheel outside the operating envelope at a sample (``wheel_speed``: (n, N) of the
     FDI samples) not judged there. A vote's first alarm is the node's: the K-th earliest first alarm of the
     observers alarming."""
-    from ...core.isolation import Decision, LatchedVerdict, decision_observer, in_envelope
+    from ...core.isolation import LatchedVerdict, decision_of, in_envelope
     from ..metrics import Series
-    decision = decision or Decision((decision_observer(method),))
+    decision = decision or decision_of("", method)
     s = series[decision.lead]
     n = len(s.time)
     judged = np.ones(s.alarm.shape, bool) if wheel_speed is None else in_envelope(wheel_speed)

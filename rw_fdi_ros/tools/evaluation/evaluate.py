@@ -121,6 +121,16 @@ def judge_bags(chunk) -> list:
     return out
 
 
+def _recorded_vehicle(bag) -> str:
+    """The vehicle a bag's run flew (its /scenario's plant choices; the thesis' for a bag before vehicles): whose
+    shipped FDI judges it where none is given (each bag is checked against the bands still, _check_bag)."""
+    from ..design.offline import recorded_plant
+    try:
+        return recorded_plant(bag).vehicle
+    except (BagError, OSError, ValueError):
+        return PlantChoices().vehicle   # said where the bag is checked
+
+
 def evaluate(bags_root, report_dir, fdi=None, executor=None, plots: bool = True, engine: str = "graph") -> dict:
     """Judge every bag under ``bags_root`` by the FDI nodes under ``fdi`` (FdiConfig or its mapping; None: the
     shipped FDI): ``engine`` 'graph' replays it through them (report/replays/), 'core' runs their code on its
@@ -130,15 +140,15 @@ def evaluate(bags_root, report_dir, fdi=None, executor=None, plots: bool = True,
     check_engine(engine)
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
+    bags = find_bags(bags_root)
+    if not bags:
+        raise BagError(f"{bags_root}: no bags to evaluate")
     fdi = FdiConfig.of(fdi)
-    fdi = fdi.following_models() if fdi.models else fdi
+    fdi = fdi.following_models() if fdi.models else fdi.for_vehicle(_recorded_vehicle(bags[0]))
     fdi.load_models()   # a missing or corrupt model stops here, before any replay
     curves = fdi.load_thresholds()
     fdi = replace(fdi, persistence=fdi.persistence or curves["elman"].persistence)
     models, thresholds, persistence, method = str(fdi.models_dir), str(fdi.thresholds_dir), fdi.persistence, fdi.method
-    bags = find_bags(bags_root)
-    if not bags:
-        raise BagError(f"{bags_root}: no bags to evaluate")
     t0 = time.monotonic()
     runs, skipped = [], []
     executor = executor or LocalExecutor()

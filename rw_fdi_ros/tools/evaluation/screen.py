@@ -32,7 +32,7 @@ def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_cal
 def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None,
                 identification: bool = False, calibration_samples: int = 0, decision=None) -> list:
     """RunEval of every scenario (one seed each; equal durations within a batch); ``decision``: what makes
-    the verdict (core/isolation.Decision; None: the method's decision observer)."""
+    the verdict (core/isolation.DecisionRule; None: the method's decision observer)."""
     return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress, identification,
                        calibration_samples, decision=decision)["fdi"]
 
@@ -101,7 +101,7 @@ def judge_run(scenario, samples, peak, weights, curves, persistence: int | None 
     observer's series, ``verdict`` (what /diagnostics says: the ``decision``'s alarm, latched, None: the
     method's decision observer; offline.verdict_series) and with ``identification`` the faults of the wheels
     the verdict names (the isolation node's FaultIdentifier; the samples must carry the bus grid). ``peak``:
-    |fault effect| per wheel after the first onset. ``other_decisions`` (core/isolation.Decision): the verdict
+    |fault effect| per wheel after the first onset. ``other_decisions`` (core/isolation.DecisionRule): the verdict
     each would give, beside (metrics.decision_slot)."""
     series = fdi_series(observe(samples, weights, calibration_samples=calibration_samples), curves, persistence)
     method = next(iter(curves.values())).method
