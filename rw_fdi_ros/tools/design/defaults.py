@@ -21,10 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, observers_of
-from ...core.threshold_file import ThresholdCurves
 from ...core.wheel_set import AXIS_WHEELS
 from ..campaigns.campaign import run_campaign
-from .offline import decisions, fdi_method_of, fit_thresholds, load_models, observe, plant_conditions
+from .offline import (alarmed_runs, fdi_method_of, fit_thresholds, load_models, observe, plant_conditions,
+                      threshold_set)
 from .samples import load_samples
 from .train import EPOCHS, THESIS_EPOCHS, train_models
 
@@ -44,17 +44,9 @@ def nominal_residuals(samples, models, settle: float = 60.0, observer: str = "el
 
 def false_alarm_rates(samples, models, thresholds_dir, persistences=PERSISTENCES) -> dict:
     """P -> observer -> share of runs with any alarm."""
-    curves = {obs: ThresholdCurves.load(Path(thresholds_dir) / f"thresholds_{obs}.json", obs)
-              for obs in observers_of(fdi_method_of(models))}
+    curves = threshold_set(thresholds_dir, fdi_method_of(models))
     runs = [observe(s, models) for s in samples]
-    out = {}
-    for p in persistences:
-        out[p] = {}
-        for obs in curves:
-            alarmed = [any(first is not None for _, first in d[obs].values())
-                       for d in (decisions(r, {obs: curves[obs]}, p) for r in runs)]
-            out[p][obs] = float(np.mean(alarmed))
-    return out
+    return {p: {obs: k / len(runs) for obs, k in alarmed_runs(runs, curves, p).items()} for p in persistences}
 
 
 def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, heldout_runs=20, train_runs=40,

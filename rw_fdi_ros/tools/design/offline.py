@@ -215,18 +215,15 @@ def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = Tr
     s = series[decision.lead]
     n = len(s.time)
     judged = np.ones(s.alarm.shape, bool) if wheel_speed is None else in_envelope(wheel_speed)
-    # each observer's first alarm so far, per sample and wheel (AlarmRule.first_alarm: its first in the run)
-    firsts = {}
-    for o in decision.observers:
-        flags = series[o].alarm.reshape(n, len(wheels))
-        seen = np.maximum.accumulate(np.where(flags, np.arange(n)[:, None], -1), axis=0)
-        first_index = np.array([np.argmax(flags[:, i]) if flags[:, i].any() else n for i in range(len(wheels))])
-        firsts[o] = (flags, np.where(seen >= 0, s.time[np.minimum(first_index, n - 1)][None, :], np.nan))
+    # each observer's flags and the sample of its first alarm per wheel (AlarmRule.first_alarm: its first in
+    # the run; n where it never alarms)
+    flags = {o: series[o].alarm.reshape(n, len(wheels)) for o in decision.observers}
+    first = {o: np.where(f.any(axis=0), f.argmax(axis=0), n) for o, f in flags.items()}
     verdict = LatchedVerdict(latch, wheels)
     alarm = np.zeros((n, len(wheels)), bool)
     for k in range(n):
-        rows_of = {o: {a: (0.0, 0.0, bool(flags[k, i]), None if np.isnan(first[k, i]) else float(first[k, i]))
-                       for i, a in enumerate(wheels)} for o, (flags, first) in firsts.items()}
+        rows_of = {o: {a: (0.0, 0.0, bool(f[k, i]), float(s.time[first[o][i]]) if first[o][i] <= k else None)
+                       for i, a in enumerate(wheels)} for o, f in flags.items()}
         rows = verdict.update(decision.combine(rows_of), dict(zip(wheels, judged[k])))
         alarm[k] = [rows[a][2] for a in wheels]
     return Series(s.time, s.residual, s.threshold, alarm)
@@ -256,3 +253,15 @@ def decisions(run: ObserverRun, curves: dict, persistence: int | None = None) ->
             up = np.nonzero(flags)[0]   # AlarmRule's first alarm: where the flag first goes up
             out[obs][a] = (flags, float(s.time[up[0]]) if up.size else None)
     return out
+
+
+def threshold_set(thresholds_dir, method: str) -> dict:
+    """observer -> ThresholdCurves of the ``method``'s observers in ``thresholds_dir`` (thresholds_<obs>.json)."""
+    return {obs: ThresholdCurves.load(Path(thresholds_dir) / f"thresholds_{obs}.json", obs)
+            for obs in observers_of(method)}
+
+
+def alarmed_runs(runs, curves: dict, persistence: int | None = None) -> dict:
+    """observer -> how many of ``runs`` (ObserverRun) it alarmed anywhere: on fault-free runs, its false alarms."""
+    judged = [decisions(r, curves, persistence) for r in runs]
+    return {obs: sum(any(first is not None for _, first in d[obs].values()) for d in judged) for obs in curves}

@@ -24,11 +24,10 @@ from pathlib import Path
 import yaml
 
 from ...core.controller_design import design_controller
-from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE_SPEED_AWARE, observers_of
-from ...core.threshold_file import ThresholdCurves
+from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE_SPEED_AWARE
 from ...core.vehicle import load_vehicle, to_mapping
 from ..metrics import wilson
-from .offline import decisions, fit_thresholds, load_models, observe
+from .offline import alarmed_runs, fit_thresholds, load_models, observe, threshold_set
 from .samples import simulated_fault_free_runs
 from .train import EPOCHS, train_models
 
@@ -61,15 +60,8 @@ def vehicle_scenarios(vehicle_file: Path, out: Path) -> dict:
 def held_out_alarms(samples, models, thresholds_dir, calibration: float = 0.0) -> dict:
     """observer -> (runs with any alarm, runs) of fault-free ``samples`` under the bands in ``thresholds_dir``."""
     from ...core.calibration import calibration_samples
-    curves = {obs: ThresholdCurves.load(Path(thresholds_dir) / f"thresholds_{obs}.json", obs)
-              for obs in observers_of("speed_aware")}
-    k = calibration_samples(calibration)
-    runs = [observe(s, models, calibration_samples=k) for s in samples]
-    out = {}
-    for obs, c in curves.items():
-        alarmed = sum(any(first is not None for _, first in decisions(r, {obs: c})[obs].values()) for r in runs)
-        out[obs] = (int(alarmed), len(runs))
-    return out
+    runs = [observe(s, models, calibration_samples=calibration_samples(calibration)) for s in samples]
+    return {obs: (k, len(runs)) for obs, k in alarmed_runs(runs, threshold_set(thresholds_dir, "speed_aware")).items()}
 
 
 def vehicle_defaults(vehicle_source, out, train_runs: int = 40, fit_runs: int = 100, heldout_runs: int = 100,
