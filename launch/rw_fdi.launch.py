@@ -52,8 +52,8 @@ def _nodes(context):
     # the FDI as every command takes it (rw_fdi_ros/fdi_config.py): a bad value is one line before any node
     fdi = {"method": arg("fdi_method"), "fdir": flag("fdir"), "models": arg("models") or None,
            "thresholds": arg("thresholds") or None, "persistence": int(arg("persistence")) or None,
-           "unit_calibration": float(arg("unit_calibration")), "decision": arg("decision") or None} if flag("fdi") \
-        else None
+           "unit_calibration": float(arg("unit_calibration")), "decision": arg("decision") or None,
+           "plugins": tuple(x.strip() for x in arg("observers").split(",") if x.strip())} if flag("fdi") else None
     nodes = graph_nodes(scenario, path, bag, fdi=fdi, live=int(arg("live")) if arg("live") else None)
     if flag("use_sim_time"):   # every node's clock follows the plant's /clock
         for node in nodes:
@@ -117,6 +117,10 @@ def generate_launch_description():
         DeclareLaunchArgument("decision", default_value="",
                               description="what makes /diagnostics: an observer (model, linear, elman) or a vote "
                                           "KofN, e.g. 2of3 (empty: the method's)"),
+        DeclareLaunchArgument("observers", default_value="",
+                              description="a user's observers beside ours, comma-separated (entry point, module:Class "
+                                          "or file.py:Class; their state and bands in thresholds:=; "
+                                          "docs/observers.md); empty: none"),
         DeclareLaunchArgument("namespace", default_value="",
                               description="every node's namespace, its topics under it (two spacecraft in one "
                                           "ROS graph: namespace:=sc1 and namespace:=sc2); empty: none"),

@@ -38,6 +38,10 @@ class FdiConfig:
     vehicle : str or None
         Whose shipped FDI the defaults are (paths.fdi_dir): the run's vehicle (:meth:`for_vehicle`); None: the
         thesis' MakSat (config/fdi).
+    plugins : tuple of str
+        Observers of the user's beside ours (core/observer_plugin.py: entry point names, ``module:Class`` or
+        ``file.py:Class``), speed_aware only; their state and bands in the thresholds directory
+        (``observer_<slot>.json``, ``thresholds_<slot>.json``).
     """
 
     method: str = "speed_aware"
@@ -48,8 +52,13 @@ class FdiConfig:
     fdir: bool = True
     vehicle: str | None = None
     decision: str | None = None
+    plugins: tuple = ()
 
     def __post_init__(self):
+        object.__setattr__(self, "plugins", tuple(self.plugins or ()))
+        if self.plugins and self.method != "speed_aware":
+            raise ValueError("--observer needs --fdi-method speed_aware (a plug-in's residual is signed, with the "
+                             "ripple bound)")
         if self.method not in METHODS:
             raise ValueError(f"fdi_method must be one of {', '.join(METHODS)}, got {self.method!r}")
         p = self.persistence
@@ -78,7 +87,7 @@ class FdiConfig:
         """The core/isolation.DecisionRule of this configuration (ValueError for one the method has not)."""
         from .core.isolation import decision_of
         try:
-            return decision_of(self.decision or "", self.method)
+            return decision_of(self.decision or "", self.method, self.observers if self.plugins else None)
         except ValueError as exc:
             raise ValueError(f"--{exc}") from None
 
@@ -91,7 +100,42 @@ class FdiConfig:
 
     @property
     def observers(self) -> tuple:
-        return observers_of(self.method)
+        """The slots of the FDI's observers: the method's, then the plug-ins'."""
+        return observers_of(self.method) + self.plugin_slots
+
+    @property
+    def plugin_slots(self) -> tuple:
+        return tuple(cls.slot for cls in self.plugin_classes())
+
+    def plugin_classes(self) -> tuple:
+        """The plug-ins' WheelObserver classes (ObserverError, one line, for one not found or twice)."""
+        from .core.observer_plugin import ObserverError, load_observer
+        classes = tuple(load_observer(spec) for spec in self.plugins)
+        slots = [c.slot for c in classes]
+        if len(set(slots)) != len(slots):
+            raise ObserverError(f"--observer: a slot given twice ({', '.join(slots)})")
+        return classes
+
+    @property
+    def plugin_dirs(self) -> tuple:
+        """Where a plug-in's trained state is looked for: the thresholds directory (and the one it is the
+        ``unit_calibrated/`` of), then the models directory."""
+        t = self.thresholds_dir
+        return (t, *((t.parent,) if t.name == "unit_calibrated" else ()), self.models_dir)
+
+    def load_plugins(self) -> tuple:
+        """((class, state), ...) of the plug-ins: each with its trained state (ObserverError for one that
+        trains and has none)."""
+        from .core.observer_plugin import ObserverError, load_state, state_path, trains
+        out = []
+        for spec, cls in zip(self.plugins, self.plugin_classes()):
+            state = load_state(self.plugin_dirs, cls.slot)
+            if not state and trains(cls):
+                raise ObserverError(f"observer {spec} is not trained: no {state_path(self.thresholds_dir, cls.slot)}"
+                                    f" (`rw-fdi train --observer {spec} --simulate fault_free --out DIR`, then "
+                                    "`rw-fdi fit-thresholds --observer ... --out DIR`)")
+            out.append((cls, state))
+        return tuple(out)
 
     @property
     def models_dir(self) -> Path:
@@ -110,13 +154,12 @@ class FdiConfig:
     @property
     def thresholds_dir(self) -> Path:
         from .paths import thresholds_dir
-        if self.thresholds:
-            return Path(self.thresholds)
-        if not self.models:
+        if not (self.thresholds or self.models):
             return thresholds_dir(self.method, self.unit_calibration, self.vehicle)
-        # a models directory laid out as config/fdi (rw-fdi defaults --vehicle): its calibrated bands beside
-        own = Path(self.models) / "unit_calibrated"
-        return own if self.unit_calibration > 0 and own.is_dir() else Path(self.models)
+        # a directory laid out as config/fdi (rw-fdi defaults --vehicle): its calibrated bands beside
+        base = Path(self.thresholds or self.models)
+        own = base / "unit_calibrated"
+        return own if self.unit_calibration > 0 and own.is_dir() else base
 
     def model_path(self, wheel: str) -> Path:
         """The network ``wheel`` runs (its own, or its type's: core/elman.network_path)."""
@@ -142,6 +185,11 @@ class FdiConfig:
 
     def load_thresholds(self, plant=None, duration: float | None = None) -> dict:
         """observer -> ThresholdCurves of this configuration, each through :func:`checked_curves`."""
+        for slot, spec in zip(self.plugin_slots, self.plugins):
+            if not self.threshold_path(slot).is_file():
+                raise ThresholdError(f"no bands for observer {spec} in {self.thresholds_dir}: fit them with "
+                                     f"`rw-fdi fit-thresholds --observer {spec} --simulate fault_free --out DIR` and "
+                                     "give --thresholds DIR")
         return {obs: checked_curves(self.threshold_path(obs), obs, self.method, self.unit_calibration, plant, duration)
                 for obs in self.observers}
 
@@ -154,6 +202,7 @@ class FdiConfig:
                                  f"{duration:g} s run: the observers would spend all of it learning their wheels "
                                  "and judge none of it")
         self.load_models()
+        self.load_plugins()
         self.load_thresholds(plant or DEFAULT, duration)
 
     def following_models(self) -> "FdiConfig":
@@ -166,8 +215,10 @@ class FdiConfig:
                        unit_calibration=self.unit_calibration if speed_aware else 0.0)
 
     def load(self) -> tuple:
-        """(Elman weights, {observer: ThresholdCurves}) for the core loop (screen, evaluate, benches)."""
-        return self.load_models(), self.load_thresholds()
+        """(ObserverModels: the Elman weights by wheel and the plug-ins, {observer: ThresholdCurves}) for the
+        core loop (screen, evaluate, benches)."""
+        from .core.observer_plugin import ObserverModels
+        return ObserverModels(self.load_models(), self.load_plugins()), self.load_thresholds()
 
 
 def checked_curves(path, observer: str, method: str, unit_calibration: float = 0.0, plant=None,

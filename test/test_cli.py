@@ -10,7 +10,8 @@ from rw_fdi_ros.core.detection import FALSE_ALARM_RATE
 SHARED = {"--persistence": ["run", "evaluate", "screen", "fit-thresholds", "reproduce"],
           "--models": ["run", "evaluate", "screen", "fit-thresholds"],
           # the benches take a --jobs of their own
-          "--jobs": ["campaign", "evaluate", "reproduce", "defaults", "screen", "fit-thresholds"],
+          "--jobs": ["campaign", "evaluate", "reproduce", "defaults", "screen", "fit-thresholds", "train"],
+          "--observer": ["run", "evaluate", "screen", "fit-thresholds", "train"],
           "--false-alarm-rate": ["fit-thresholds", "defaults"]}
 
 
@@ -26,7 +27,9 @@ BENCH_SHARED = {"--out": ["detection", "identification", "units", "memory", "ope
                            "service"],
                 "--scheduler": ["detection", "identification", "units", "operations", "recovery", "dumping", "service",
                                 "scaling"],
-                "--max-hours": ["service", "scaling"]}
+                "--max-hours": ["service", "scaling"],
+                "--observer": ["detection", "units", "operations"],
+                "--thresholds": ["detection", "units", "operations"]}
 
 
 def subcommands(parser) -> dict:

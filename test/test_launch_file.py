@@ -262,6 +262,7 @@ def launch_nodes(overrides: dict) -> list:
     return nodes
 
 
+KALMAN = f"{ROOT}/examples/kalman_observer/kalman_observer.py:KalmanObserver"   # docs/observers.md's example
 READ_BACK = """
 import json, sys, rclpy
 from rclpy.node import Node
@@ -297,7 +298,8 @@ def _rcl_type(value) -> str:
     ({"scenario": "current_0p6_x", "fdi_method": "thesis"}, {"method": "thesis"}, None),
     ({"scenario": "current_0p6_x", "models": str(ROOT / "config" / "fdi"), "persistence": "4"},
      {"models": str(ROOT / "config" / "fdi"), "persistence": 4}, None),
-    ({"scenario": "current_0p6_x", "decision": "2of3"}, {"decision": "2of3"}, None)])
+    ({"scenario": "current_0p6_x", "decision": "2of3"}, {"decision": "2of3"}, None),
+    ({"scenario": "current_0p6_x", "observers": KALMAN, "bag": "bags/k"}, {"plugins": (KALMAN,)}, "bags/k")])
 def test_rcl_reads_our_launchers_parameters_from_the_files_launch_ros_writes(overrides, fdi, bag):
     files = parameter_files(overrides)
     seed = int(overrides.get("seed", "-1"))
@@ -313,6 +315,9 @@ def test_rcl_reads_our_launchers_parameters_from_the_files_launch_ros_writes(ove
         assert {"elman_observer_x", "elman_observer_y", "elman_observer_z", "linear_observer",
                 "isolation"} <= {n.name for n in ours}
     assert "recorder" in got if bag else "recorder" not in got
+    if fdi and fdi.get("plugins"):   # a user's observer: its node, judged and recorded
+        assert got["kalman_observer"]["observer"] == ["STRING", KALMAN]
+        assert got["isolation"]["plugin_observers"] == got["recorder"]["plugin_observers"] == ["STRING", "kalman"]
 
 
 RETYPED = ["y", "n", "Y", "yes", "no", "on", "off", "true", "False", "1.5", "7", "0x10", "1e3", "~", "null", "",

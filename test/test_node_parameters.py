@@ -20,8 +20,9 @@ NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime"],
          "linear_observer": ["linear_observer", "observer_node", "runtime"],
          "model_observer": ["model_observer", "observer_node", "runtime"], "isolation": ["isolation", "runtime"],
          "recorder": ["recorder"], "player": ["player"], "wheel_allocation": ["wheel_allocation", "runtime"],
-         "momentum_dumping": ["momentum_dumping", "runtime"], "live_view": ["live_view", "runtime"]}
-LOOPED = {"plant": {"fault.<wheel>.<kind>"}, "isolation": set(DEFAULT.as_dict())}
+         "momentum_dumping": ["momentum_dumping", "runtime"], "live_view": ["live_view", "runtime"],
+         "plugin_observer": ["plugin_observer", "observer_node", "runtime"]}
+LOOPED = {"plant": {"fault.<wheel>.<kind>"}, "isolation": {*DEFAULT.as_dict(), "thresholds_<slot>"}}
 TYPES = {bool: "bool", int: "int", float: "double", str: "string"}
 ARRAYS = {"DOUBLE_ARRAY": "double[]", "STRING_ARRAY": "string[]", "BOOL": "bool"}
 

@@ -84,7 +84,8 @@ def fdi_config(args):
     return FdiConfig(method=getattr(args, "fdi_method", None) or "speed_aware", models=getattr(args, "models", None),
                      thresholds=getattr(args, "thresholds", None), persistence=getattr(args, "persistence", None),
                      unit_calibration=float(getattr(args, "unit_calibration", 0.0) or 0.0),
-                     fdir=getattr(args, "fdir", True), decision=getattr(args, "decision", None))
+                     fdir=getattr(args, "fdir", True), decision=getattr(args, "decision", None),
+                     plugins=tuple(getattr(args, "plugins", None) or ()))
 
 
 def parents() -> dict:
@@ -118,12 +119,17 @@ def parents() -> dict:
                           help="what makes /diagnostics (and FDIR's verdict in the graph): one observer of the "
                                "method (model, linear, elman) or a vote, e.g. 2of3: a wheel at least two alarm "
                                "(default: the method's, model speed-aware; docs/fdi.md 'The decision')")
+    observers = argparse.ArgumentParser(add_help=False)
+    observers.add_argument("--observer", dest="plugins", action="append", default=None, metavar="SPEC",
+                           help="a user's observer beside ours (repeatable): an entry point of rw_fdi_ros.observers, "
+                                "module:Class or file.py:Class; its state and bands in the --thresholds directory "
+                                "(docs/observers.md)")
     jobs = argparse.ArgumentParser(add_help=False)
     jobs.add_argument("--jobs", type=COUNT, default=None, help="graphs at once (default: 2 on 2 cores)")
     cluster = argparse.ArgumentParser(add_help=False, parents=[jobs])
     cluster.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
     return dict(models=models, persistence=persistence, fdi_files=fdi_files, false_alarms=false_alarms, unit=unit,
-                method=method, decision=decision, jobs=jobs, cluster=cluster)
+                method=method, decision=decision, observers=observers, jobs=jobs, cluster=cluster)
 
 
 def fault_free_samples(bags, load_samples, executor=None) -> list:

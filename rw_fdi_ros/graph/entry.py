@@ -31,5 +31,5 @@ def _entry(executable: str):
 
 
 NODES = ("plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "model_observer", "isolation",
-         "wheel_allocation", "player", "composed", "momentum_dumping", "live_view")
+         "wheel_allocation", "player", "composed", "momentum_dumping", "live_view", "plugin_observer")
 globals().update({name: _entry(name) for name in NODES})

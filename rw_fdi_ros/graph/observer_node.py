@@ -173,10 +173,10 @@ class WheelsObserverNode(ObserverNode):
 
     def __init__(self, name: str):
         super().__init__(name)
+        self.declare_own_parameters()   # a plug-in's node learns its slot here
         if self.needs_speed and not self.speed_aware:
             raise NodeError(f"the {self.slot} observer needs fdi_method speed_aware (it reads the wheel speed)",
                             EXIT_BAD_INPUT)
-        self.declare_own_parameters()
         self.reset()
         self.start(T.estimate_topic(self.slot), T.residual_topic(self.slot), T.bound_topic(self.slot))
 

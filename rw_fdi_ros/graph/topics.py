@@ -173,9 +173,16 @@ def fdi_output_topics(observer: str):
             "status": f"/fdi/{observer}/status"}
 
 
-def _fdi_rows(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET):
-    """(topic, type, QoS name) of the FDI half of a graph of FDI ``method`` (None: every slot's)."""
-    rows, observers = [], OBSERVERS if method is None else observers_of(method)
+def plugin_slots(p) -> tuple:
+    """The slots of a user's observers (core/observer_plugin.py) a node's parameters ``p`` name: its
+    ``plugin_observers``, comma-separated (a string: rcl has no empty string array)."""
+    return tuple(x.strip() for x in str(p.get("plugin_observers", "") or "").split(",") if x.strip())
+
+
+def _fdi_rows(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET, plugins=()):
+    """(topic, type, QoS name) of the FDI half of a graph of FDI ``method`` (None: every slot's) with the
+    plug-in observers of slots ``plugins``."""
+    rows, observers = [], (OBSERVERS if method is None else observers_of(method)) + tuple(plugins)
     for obs in observers:
         rows += [(f(obs, axis), JOINT_STATE, "RELIABLE") for axis in observer_axes(obs, wheel_set)
                  for f in (estimate_topic, residual_topic, bound_topic)]
@@ -186,9 +193,9 @@ def _fdi_rows(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET):
     return rows + [(DIAGNOSTICS, DIAGNOSTICS_TYPE, "RELIABLE"), (IDENTIFICATION, DIAGNOSTICS_TYPE, "RELIABLE")]
 
 
-def fdi_topics(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET):
-    """(topic, type, qos) of the FDI half of a graph of FDI ``method`` (None: every slot's)."""
-    return _with_qos(_fdi_rows(method, wheel_set))
+def fdi_topics(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET, plugins=()):
+    """(topic, type, qos) of the FDI half of a graph of FDI ``method`` (None: every slot's), plug-ins beside."""
+    return _with_qos(_fdi_rows(method, wheel_set, plugins))
 
 
 # what bag replay plays: what the observer and isolation nodes (and the recorder of their outputs) read, one
@@ -199,14 +206,15 @@ REPLAY_RECORDED = (CLOCK, SCENARIO, PLANT_DONE, FAULT_TRUTH)
 
 
 def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method: str = "speed_aware",
-                  wheel_set: str = DEFAULT_WHEEL_SET, orbit: bool = False, magnetorquers: bool = False):
+                  wheel_set: str = DEFAULT_WHEEL_SET, orbit: bool = False, magnetorquers: bool = False, plugins=()):
     """(topic, type, QoS name) the recorder subscribes to: the plant's topics (with ``record_plant``
     false only REPLAY_RECORDED; in ``orbit`` the magnetometer, with ``magnetorquers`` their command),
-    with ``fdi`` those of the FDI of ``method`` on ``wheel_set``, and ``extra`` 'name:pkg/msg/Type'."""
+    with ``fdi`` those of the FDI of ``method`` on ``wheel_set`` (and of the plug-in slots ``plugins``), and
+    ``extra`` 'name:pkg/msg/Type'."""
     rows = [r for r in PLANT_ROWS if record_plant or r[0] in REPLAY_RECORDED]
     if record_plant:
         rows += list(ORBIT_ROWS if orbit else ()) + list(MAGNETORQUER_ROWS if magnetorquers else ())
-    rows += _fdi_rows(method, wheel_set) if fdi else []
+    rows += _fdi_rows(method, wheel_set, plugins) if fdi else []
     for spec in extra or ():
         name, _, type_name = spec.partition(":")
         rows.append((name, type_name, "RELIABLE"))
@@ -217,7 +225,7 @@ def live_rows(p: dict) -> list:
     """(topic, type, QoS name) the live view (nodes/live_view.py) shows for its parameters ``p``: what the
     run's bag would hold."""
     rows = recorded_rows(True, p.get("fdi", True), (), p.get("fdi_method", "speed_aware"), _wheel_set(p),
-                         p.get("orbit", False), p.get("magnetorquers", False))
+                         p.get("orbit", False), p.get("magnetorquers", False), plugin_slots(p))
     return [r for r in rows if r[0] != FDI_BUS_GRID]   # the identification's binary table: nothing to watch
 
 
@@ -239,9 +247,10 @@ def observer_axes(observer: str, wheel_set: str = DEFAULT_WHEEL_SET) -> tuple:
     return named_wheel_set(wheel_set).names if observer == "elman" else (None,)
 
 
-def residual_inputs(method: str = "speed_aware", wheel_set: str = DEFAULT_WHEEL_SET) -> list:
-    """What the isolation node of FDI ``method`` reads of its observers: residual and ripple bound of each."""
-    return [f(obs, a) for obs in observers_of(method) for a in observer_axes(obs, wheel_set)
+def residual_inputs(method: str = "speed_aware", wheel_set: str = DEFAULT_WHEEL_SET, plugins=()) -> list:
+    """What the isolation node of FDI ``method`` reads of its observers (and of the plug-in slots ``plugins``):
+    residual and ripple bound of each."""
+    return [f(obs, a) for obs in (*observers_of(method), *plugins) for a in observer_axes(obs, wheel_set)
             for f in (residual_topic, bound_topic)]
 
 
@@ -259,14 +268,16 @@ READS = {
     "elman_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "linear_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "model_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
+    "plugin_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "momentum_dumping": lambda p: [MAGNETOMETER, WHEELS] + ([FDIR_WHEELS] if p.get("fdir", True) else [])
                                   + _run_end(p),
     "isolation": lambda p: [FDI_TELEMETRY, FDI_BUS_GRID,
-                            *residual_inputs(p.get("fdi_method", "speed_aware"), _wheel_set(p))] + _run_end(p),
+                            *residual_inputs(p.get("fdi_method", "speed_aware"), _wheel_set(p), plugin_slots(p))]
+                           + _run_end(p),
     "recorder": lambda p: [r[0] for r in recorded_rows(p.get("record_plant", True), p.get("fdi_period", 0.0) > 0,
                                                        p.get("extra_topics"), p.get("fdi_method", "speed_aware"),
                                                        _wheel_set(p), p.get("orbit", False),
-                                                       p.get("magnetorquers", False))],
+                                                       p.get("magnetorquers", False), plugin_slots(p))],
     "live_view": lambda p: [r[0] for r in live_rows(p)],   # /plant/done among them: its end
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
     "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
@@ -292,9 +303,11 @@ WAITS = {
     "elman_observer": lambda p: _observer_waits("elman", axis_of_joint(p["wheel"], wheel_joints(_wheel_set(p)))),
     "linear_observer": lambda p: _observer_waits("linear", None),
     "model_observer": lambda p: _observer_waits("model", None),
+    "plugin_observer": lambda p: _observer_waits(p["slot"], None),
     "isolation": lambda p: {"diagnostics_readers": [DIAGNOSTICS],
-                            "min_subscribers": [IDENTIFICATION, *(t for obs in observers_of(p.get("fdi_method",
-                                                                                                   "speed_aware"))
+                            "min_subscribers": [IDENTIFICATION, *(t for obs in (*observers_of(p.get("fdi_method",
+                                                                                                    "speed_aware")),
+                                                                                 *plugin_slots(p))
                                                                   for t in fdi_output_topics(obs).values())]},
     "player": lambda p: {"min_subscribers": [FDI_TELEMETRY], "bus_grid_readers": [FDI_BUS_GRID]},
     "recorder": lambda p: {},   # what it sends (/recorder/closed) is latched

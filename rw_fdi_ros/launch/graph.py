@@ -12,6 +12,7 @@ import yaml
 
 from ..fdi_config import FdiConfig
 from ..core.controller_design import design_controller
+from ..core.detection import observers_of
 from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.spacecraft import BODY_AXES
@@ -50,7 +51,8 @@ class ProcessSpec:
 # own process, as `ros2 run` starts them. The default was chosen by measurement (docs/benchmarks.md).
 _LOOP = {"plant": "loop", "player": "loop", "pid_controller": "loop", "wheel_allocation": "loop",
          "momentum_dumping": "loop"}
-_FDI = {"elman_observer": "fdi", "linear_observer": "fdi", "model_observer": "fdi", "isolation": "fdi"}
+_FDI = {"elman_observer": "fdi", "linear_observer": "fdi", "model_observer": "fdi", "plugin_observer": "fdi",
+        "isolation": "fdi"}
 GROUPINGS = {
     "none": None,
     "all": dict.fromkeys([*_LOOP, *_FDI, "recorder"], "graph"),
@@ -161,8 +163,16 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
                                                        "fdi_method": fdi.method if fdi else "speed_aware",
                                                        "wheel_set": choices.wheel_set,
                                                        "orbit": scenario.environment is not None,
-                                                       "magnetorquers": scenario.magnetorquers is not None}))
+                                                       "magnetorquers": scenario.magnetorquers is not None,
+                                                       **plugin_parameters(fdi)}))
     return checked_strings(with_reader_counts(nodes))
+
+
+def plugin_parameters(fdi) -> dict:
+    """The ``plugin_observers`` parameter (the slots of the FDI's plug-ins, comma-separated) of the nodes that
+    read or record their topics; {} without plug-ins (the nodes' default)."""
+    slots = () if fdi is None else FdiConfig.of(fdi).plugin_slots
+    return {"plugin_observers": ",".join(slots)} if slots else {}
 
 
 # plain scalars rcl's parameter parser takes for booleans beyond PyYAML's (YAML 1.1) own: `y`, `n`
@@ -271,12 +281,19 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
         if fdi.models or fdi.thresholds or fdi.vehicle:   # else the node's own default, the thesis' shipped set
             params["model"] = str(fdi.model_path(axis))
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
-    for obs in fdi.observers[1:]:   # linear_observer, model_observer: every wheel each
+    for obs in observers_of(fdi.method)[1:]:   # linear_observer, model_observer: every wheel each
         nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer", dict(common)))
+    from ..core.observer_plugin import absolute_spec, state_path
+    for spec, cls in zip(fdi.plugins, fdi.plugin_classes()):   # a user's observers: a plugin_observer node each
+        state = next((state_path(d, cls.slot) for d in fdi.plugin_dirs if state_path(d, cls.slot).is_file()), None)
+        nodes.append(NodeSpec(f"{cls.slot}_observer", "plugin_observer", {
+            **common, "observer": absolute_spec(spec), "slot": cls.slot,
+            **({"observer_state": str(Path(state).resolve())} if state else {})}))
     iso = {**choices.as_dict(), "fdi_method": fdi.method, "persistence": int(fdi.persistence or 0),
            "unit_calibration_time": fdi.unit_calibration, "await_bus_grid": bool(await_bus_grid),
-           **({"decision": fdi.decision} if fdi.decision else {})}
+           **({"decision": fdi.decision} if fdi.decision else {}), **plugin_parameters(fdi)}
     if fdi.models or fdi.thresholds or fdi.vehicle:
-        iso.update({f"thresholds_{obs}": str(fdi.threshold_path(obs)) for obs in fdi.observers})
+        iso.update({f"thresholds_{obs}": str(fdi.threshold_path(obs)) for obs in observers_of(fdi.method)})
+    iso.update({f"thresholds_{slot}": str(fdi.threshold_path(slot).resolve()) for slot in fdi.plugin_slots})
     nodes.append(NodeSpec("isolation", "isolation", iso))
     return nodes

@@ -102,6 +102,8 @@ class IsolationNode(GraphNode):
         self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
         self.declare_parameter("decision", "")             # an observer or a vote KofN; empty: the method's
         self.declare_parameter("decision_observer", "")    # before `decision`: refused, not silently ignored
+        self.declare_parameter("plugin_observers", "")     # slots of a user's observers (comma-separated), each
+        # with its thresholds_<slot> parameter (declared below) and its residuals on /fdi/<slot>/...
         self.declare_parameter("latch", True)               # a confirmed failure stays until ~/reset
         self.declare_parameter("await_bus_grid", False)     # each report waits for its grid from the first on
         self.declare_parameter("input_timeout", 10.0)       # wall s an input may be silent before it is said
@@ -123,7 +125,16 @@ class IsolationNode(GraphNode):
         self.joints = tuple(joint_name(n) for n in self.names)
         self.channels = {}
         self.compute, self.compute_cpu = [], []
-        for obs in observers_of(method):
+        plugins = T.plugin_slots({"plugin_observers": self.param("plugin_observers")})
+        for slot in plugins:
+            if slot in observers_of(method) or not slot.isidentifier():
+                raise NodeError(f"parameter plugin_observers: {slot!r} is not a plug-in's slot", EXIT_BAD_INPUT)
+            self.declare_parameter(f"thresholds_{slot}", "")
+            if not self.param(f"thresholds_{slot}"):
+                raise NodeError(f"parameter thresholds_{slot}: the bands of plug-in observer {slot} (a "
+                                "thresholds_<slot>.json `rw-fdi fit-thresholds --observer` wrote) must be given",
+                                EXIT_BAD_INPUT)
+        for obs in (*observers_of(method), *plugins):
             try:   # the shipped set of the method, by FdiConfig's rule, unless a file is given
                 path = self.param(f"thresholds_{obs}") or FdiConfig(method, unit_calibration=calibration,
                                                                     vehicle=plant.vehicle).threshold_path(obs)

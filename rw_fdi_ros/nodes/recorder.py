@@ -48,15 +48,18 @@ class RecorderNode(GraphNode):
         self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)  # whose wheels' FDI topics (one Elman node per wheel)
         self.declare_parameter("orbit", False)                 # in orbit: record the magnetometer
         self.declare_parameter("magnetorquers", False)         # record the magnetorquers' command
+        self.declare_parameter("plugin_observers", "")         # slots of a user's observers, comma-separated
         self.outputs = list(self.param("outputs") or []) or [self.param("output")]
         self.output_index = 0
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
         # what it subscribes to is the graph's table (topics.READS counts the recorder's reads from it)
         method = self.param("fdi_method")
+        plugins = T.plugin_slots({"plugin_observers": self.param("plugin_observers")})
         try:
             rows = T.recorded_rows(self.param("record_plant"), self.fdi_period_ns > 0, self.param("extra_topics"),
-                                   method, self.param("wheel_set"), self.param("orbit"), self.param("magnetorquers"))
-            self.fdi_names = [t for t, _, _ in T.fdi_topics(method, self.param("wheel_set"))]
+                                   method, self.param("wheel_set"), self.param("orbit"), self.param("magnetorquers"),
+                                   plugins)
+            self.fdi_names = [t for t, _, _ in T.fdi_topics(method, self.param("wheel_set"), plugins)]
         except ValueError as exc:   # an unknown fdi_method or wheel set
             raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
         self.rows = rows = [(name, type_name, getattr(T, qos)) for name, type_name, qos in rows]

@@ -9,8 +9,9 @@ from ..graph import topics as T
 from .metrics import OBSERVERS, Series
 
 
-def fdi_output_topics() -> list:
-    """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more).
+def fdi_output_topics(plugins=()) -> list:
+    """The topics :func:`series_from_bag` reads (read only these: a replay bag holds much more), with those
+    of the plug-in observers of slots ``plugins``.
 
     Returns
     -------
@@ -19,8 +20,9 @@ def fdi_output_topics() -> list:
         topics, then /fdi/identification and /scenario.
     """
     from ..core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
-    rows = [T.residual_topic(obs, a) for obs in OBSERVERS for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
-    return rows + [t for obs in OBSERVERS for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
+    slots = (*OBSERVERS, *plugins)
+    rows = [T.residual_topic(obs, a) for obs in slots for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
+    return rows + [t for obs in slots for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
         T.IDENTIFICATION, T.SCENARIO]
 
 
@@ -92,7 +94,15 @@ def observers_in_bag(data) -> list:
     list of str
         The slots (of OBSERVERS, in their order) with at least one alarm message.
     """
-    return [obs for obs in OBSERVERS if len(data.wheel_values(T.fdi_output_topics(obs)["alarm"])[0])]
+    return [obs for obs in (*OBSERVERS, *plugin_slots_of(data.types))
+            if len(data.wheel_values(T.fdi_output_topics(obs)["alarm"])[0])]
+
+
+def plugin_slots_of(topics) -> list:
+    """The slots of a user's observers (core/observer_plugin.py) among ``topics`` (names): those with an
+    /fdi/<slot>/alarm that is not one of ours."""
+    return sorted({t.split("/")[2] for t in topics if t.startswith("/fdi/") and t.endswith("/alarm")
+                   and t.count("/") == 3} - set(OBSERVERS))
 
 
 def series_from_bag(data) -> dict:

@@ -80,10 +80,11 @@ def observers_of_runs(runs) -> list:
     Returns
     -------
     list of str
-        The slots (of OBSERVERS, then VERDICT); empty for no runs.
+        The slots (of OBSERVERS, the plug-ins', then VERDICT); empty for no runs.
     """
     extra = sorted({k for r in runs for k in r.series if k.startswith(VERDICT + " ")})   # other decisions'
-    return [obs for obs in (*OBSERVERS, VERDICT, *extra) if runs and all(obs in r.series for r in runs)]
+    plugins = sorted({k for r in runs for k in r.series} - {*OBSERVERS, VERDICT, *extra})   # a user's observers
+    return [obs for obs in (*OBSERVERS, *plugins, VERDICT, *extra) if runs and all(obs in r.series for r in runs)]
 
 
 VERDICT = "verdict"   # the series of /diagnostics' verdict beside the observers' (offline.verdict_series)

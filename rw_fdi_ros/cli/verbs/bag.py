@@ -39,9 +39,9 @@ def main(args) -> int:
         if T.PLANT_DONE not in info.counts:   # what a script checks after a launch that ended early
             print(f"  run interrupted: no {T.PLANT_DONE} (the plant did not reach the run's end)")
     if T.fdi_output_topics("elman")["alarm"] in info.counts:
-        from ...tools.bag_series import health_from_bag
+        from ...tools.bag_series import health_from_bag, plugin_slots_of
         from ...tools.campaigns.fdi import fdi_verdict, format_verdict, plot_residuals, verdict_topics
-        data = read_series(args.bag, verdict_topics())
+        data = read_series(args.bag, verdict_topics(plugin_slots_of(info.counts)))
         verdict = {**fdi_verdict(data), "health": health_from_bag(args.bag)}
         print(f"fault detection and isolation:\n{format_verdict(verdict)}")
         if args.figure:
@@ -62,9 +62,10 @@ def _json(args, info) -> int:
         from ...tools.campaigns.summary import run_summary
         out["summary"] = run_summary(args.bag)
     if T.fdi_output_topics("elman")["alarm"] in info.counts and T.SCENARIO in info.counts:
-        from ...tools.bag_series import health_from_bag
+        from ...tools.bag_series import health_from_bag, plugin_slots_of
         from ...tools.campaigns.fdi import fdi_verdict, verdict_topics
-        out["fdi"] = {**fdi_verdict(read_series(args.bag, verdict_topics())), "health": health_from_bag(args.bag)}
+        out["fdi"] = {**fdi_verdict(read_series(args.bag, verdict_topics(plugin_slots_of(info.counts)))),
+                      "health": health_from_bag(args.bag)}
     print(dumps(out))
     return 1 if info.damaged else 0
 

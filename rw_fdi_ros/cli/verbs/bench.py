@@ -65,8 +65,35 @@ def _options() -> dict:
     option("--vehicle", default="maksat", metavar="NAME",
            help="detection, identification, units, operations, recovery, service: the shipped vehicle the runs fly, "
                 "with its shipped FDI (config/fdi/vehicles; default %(default)s, the thesis' spacecraft)")
+    option("--observer", dest="plugins", action="append", default=None, metavar="SPEC",
+           help="detection, units, operations: a user's observer judged beside ours (repeatable; entry point, "
+                "module:Class or file.py:Class; docs/observers.md), its bands and ours from --thresholds")
+    option("--thresholds", default=None, metavar="DIR",
+           help="detection, units, operations: the FDI directory `rw-fdi fit-thresholds --observer` wrote (with "
+                "--observer; default: the shipped FDI)")
     option("--json", action="store_true")
     return made
+
+
+def _bench_fdi(args):
+    """The FdiConfig a bench judges with where --observer or --thresholds says (else None: the shipped FDI);
+    one line for a plug-in that cannot be loaded, before any run."""
+    if not (args.plugins or args.thresholds):
+        return None
+    from ...fdi_config import FdiConfig
+    fdi = FdiConfig(thresholds=args.thresholds, plugins=tuple(args.plugins or ()))
+    fdi.load_plugins()
+    return fdi
+
+
+def _out(args, what: str) -> str:
+    """--out, else the bench's report directory: a user's observers' under reports/observers/<slots>/."""
+    if args.out:
+        return args.out
+    if getattr(args, "plugins", None):
+        from ...fdi_config import FdiConfig
+        return f"reports/observers/{'_'.join(FdiConfig(plugins=tuple(args.plugins)).plugin_slots)}/{what}"
+    return _vehicle_out(args, what)
 
 
 def _graph(args) -> dict:
@@ -87,8 +114,8 @@ def _study(args) -> dict:
 def _detection(args) -> dict:
     from ...tools.benches.detection_bench import bench_detection
     return bench_detection(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
-                           out=args.out or _vehicle_out(args, "detection"), executor=executor(args),
-                           vehicle=_checked_vehicle(args))
+                           out=_out(args, "detection"), executor=executor(args),
+                           vehicle=_checked_vehicle(args), fdi=_bench_fdi(args))
 
 
 def _checked_vehicle(args) -> str:
@@ -121,8 +148,8 @@ def _identification(args) -> dict:
 def _units(args) -> dict:
     from ...tools.benches.units_bench import bench_units
     return bench_units(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
-                       out=args.out or _vehicle_out(args, "units"), executor=executor(args),
-                       vehicle=_checked_vehicle(args))
+                       out=_out(args, "units"), executor=executor(args),
+                       vehicle=_checked_vehicle(args), fdi=_bench_fdi(args))
 
 
 def _memory(args) -> dict:
@@ -140,8 +167,8 @@ def _operations(args) -> dict:
     from ...tools.benches.operations_bench import bench_operations
     return bench_operations(fault_free_runs=args.fault_free_runs, runs_per_cell=args.runs_per_cell or 200,
                             hours_runs=args.hours_runs, seeds=args.seed_set,
-                            out=args.out or _vehicle_out(args, "operations"), executor=executor(args),
-                            vehicle=_checked_vehicle(args))
+                            out=_out(args, "operations"), executor=executor(args),
+                            vehicle=_checked_vehicle(args), fdi=_bench_fdi(args))
 
 
 def _recovery(args) -> dict:
@@ -206,18 +233,19 @@ BENCHES = [
     ("study", "record and replay throughput and the thesis-scale reproduce time they give",
      ("--runs", "--duration", "--seed", "--jobs"), _study),
     ("detection", "false-alarm and detection rates with 95 %% intervals on >= 1000 held-out runs, both FDI methods "
-     "(core loop)", ("--fault-free-runs", "--runs-per-cell", "--vehicle", "--out", *POOL), _detection),
+     "(core loop)", ("--fault-free-runs", "--runs-per-cell", "--vehicle", "--observer", "--thresholds", "--out", *POOL),
+     _detection),
     ("identification", "fault kind and size per kind and size, confusion matrix (core loop)",
      ("--runs-per-cell", "--units", "--thesis-runs", "--vehicle", "--out", *POOL), _identification),
     ("units", "the detection cells on wheels drawn around the datasheet and on the datasheet wheel, with and "
-     "without unit calibration (core loop)", ("--fault-free-runs", "--runs-per-cell", "--vehicle", "--out", *POOL),
-     _units),
+     "without unit calibration (core loop)", ("--fault-free-runs", "--runs-per-cell", "--vehicle", "--observer",
+                                              "--thresholds", "--out", *POOL), _units),
     ("memory", "peak memory of the run summary, `rw-fdi bag` and evaluation for fault-free runs of --hours "
      "(recorded, minutes)", ("--hours", "--seed", "--out"), _memory),
     ("operations", "every observer and the /diagnostics verdict in operations (manoeuvres at random times, "
      "hours-long runs, faults a manoeuvre follows, bus drops that tumble an axis; core loop)",
-     ("--fault-free-runs", "--runs-per-cell", "--hours-runs", "--seed-set", "--vehicle", "--out", *POOL),
-     _operations),
+     ("--fault-free-runs", "--runs-per-cell", "--hours-runs", "--seed-set", "--vehicle", "--observer", "--thresholds",
+      "--out", *POOL), _operations),
     ("recovery", "the redundant wheel taking over from a wheel the FDI confirmed faulty (pointing back within "
      "0.2 deg, peak error, time to recover; FDI and FDIR in the core loop)",
      ("--runs-per-cell", "--fault-free-runs", "--seed-set", "--vehicle", "--out", *POOL), _recovery),

@@ -3,7 +3,7 @@ from ..options import executor, fdi_config, writable_dir
 
 NAME = "evaluate"
 HELP = "replay bags through the observers and isolation; write the report"
-PARENTS = ("fdi_files", "cluster", "unit", "decision")
+PARENTS = ("fdi_files", "cluster", "unit", "decision", "observers")
 
 
 def add_arguments(parser) -> None:

@@ -6,7 +6,7 @@ from ..options import executor, fault_free_samples, parse_seeds
 NAME = "fit-thresholds"
 HELP = ("fit the thresholds of the observers from fault-free bags (speed_aware models: bands for a designed "
         "false-alarm rate; thesis models: mean + 3 sigma curves)")
-PARENTS = ("models", "false_alarms", "persistence", "unit", "cluster")
+PARENTS = ("models", "false_alarms", "persistence", "unit", "observers", "cluster")
 
 
 def add_arguments(parser) -> None:
@@ -32,6 +32,11 @@ def main(args) -> int:
     from ...tools.design.samples import load_samples, simulated_fault_free_runs
     models_dir = args.models or str(config_dir() / "fdi")
     models = load_models(models_dir)
+    if args.plugins:   # a user's observers, with their trained state from --out (or --models)
+        from ...fdi_config import FdiConfig
+        from ...core.observer_plugin import ObserverModels
+        models = ObserverModels(models, FdiConfig(models=models_dir, thresholds=args.out, plugins=tuple(args.plugins),
+                                                  unit_calibration=args.unit_calibration).load_plugins())
     t0 = time.monotonic()
     plant = None
     pool = executor(args)   # --jobs local processes, or --scheduler's Dask cluster

@@ -5,7 +5,7 @@ from ..options import SEED, dumps, fdi_config, number, writable_dir
 
 NAME = "run"
 HELP = "run one scenario through the whole graph and record a bag"
-PARENTS = ("fdi_files", "method", "unit", "decision")
+PARENTS = ("fdi_files", "method", "unit", "decision", "observers")
 
 
 def add_arguments(parser) -> None:
@@ -52,7 +52,8 @@ def main(args) -> int:
         fdi.check(scenario.plant_choices(emf_limit=args.emf_limit), scenario.duration)
         nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
                  f"{wheels.count} Elman observers, linear observer, "
-                 + ("model observer, " if args.fdi_method == "speed_aware" else "") + "isolation, recorder")
+                 + ("model observer, " if args.fdi_method == "speed_aware" else "")
+                 + "".join(f"{slot} observer (plug-in), " for slot in fdi.plugin_slots) + "isolation, recorder")
     if args.live is not None:
         nodes += ", live view"
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +

@@ -5,7 +5,7 @@ from ..options import executor, fdi_config, parse_seeds
 
 NAME = "screen"
 HELP = "FDI figures for many seeds in seconds (core loop + node code, no ROS)"
-PARENTS = ("fdi_files", "method", "unit", "decision", "cluster")
+PARENTS = ("fdi_files", "method", "unit", "decision", "observers", "cluster")
 
 
 def add_arguments(parser) -> None:

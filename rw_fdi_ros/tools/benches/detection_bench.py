@@ -24,8 +24,8 @@ from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.isolation import decision_of
 from ..metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
-from .kit import (VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, format_rate, screen_cells, workers,
-                  write_cells_table, write_report)
+from .kit import (VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, configured, fdi_phrase,
+                  format_rate, screen_cells, workers, write_cells_table, write_report)
 
 
 CELLS = (
@@ -43,18 +43,20 @@ CELLS = (
 
 
 
-def _fdi_sets(vehicle: str = DEFAULT_VEHICLE):
-    """Both methods' shipped FDI for the thesis' vehicle; ours (the vehicle's shipped FDI) for another."""
+def _fdi_sets(vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None):
+    """Both methods' shipped FDI for the thesis' vehicle; ours (the vehicle's shipped FDI) for another.
+    ``fdi``: ours as configured (a user's observers beside: FdiConfig.plugins) instead of the shipped one."""
+    ours = {"speed_aware": (fdi or FdiConfig()).for_vehicle(vehicle).load()}
     if vehicle != DEFAULT_VEHICLE:   # the thesis' method is MakSat's own (its networks, its x, y, z curves)
-        return {"speed_aware": FdiConfig().for_vehicle(vehicle).load()}
-    return {"speed_aware": FdiConfig().load(), "thesis": FdiConfig("thesis").load()}
+        return ours
+    return {**ours, "thesis": FdiConfig("thesis").load()}
 
 
-def _judge_chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE):
+def _judge_chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None):
     """One worker's share of a cell: figures need the runs, so the runs come back (small: series only)."""
     cell = CELLS[cell_index]
     scenarios = [s for s in cell_scenarios(cell, seeds_range.stop, cell_index, vehicle=vehicle)][seeds_range.start:]
-    return screen_sets(scenarios, _fdi_sets(vehicle),
+    return screen_sets(scenarios, _fdi_sets(vehicle, fdi),
                        other_decisions=tuple(decision_of(d, "speed_aware") for d in VOTES))
 
 
@@ -83,17 +85,17 @@ def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: s
 
 
 def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/detection",
-                    executor=None, vehicle: str = DEFAULT_VEHICLE) -> dict:
-    sets = _fdi_sets(vehicle)
+                    executor=None, vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None) -> dict:
+    sets = _fdi_sets(vehicle, fdi)
     levels = observable_levels(sets)
     t0 = time.monotonic()
     sizes = cell_sizes(fault_free_runs, runs_per_cell)
-    judged = screen_cells(sizes, partial(_judge_chunk, vehicle=vehicle), "detection bench (core loop + node code)",
-                          executor)
+    judged = screen_cells(sizes, partial(_judge_chunk, vehicle=vehicle, fdi=fdi),
+                          "detection bench (core loop + node code)", executor)
     results = cell_results(judged, sizes, SEED_BASE, levels, "methods")
     write_cells_table(judged, [c.name for c in CELLS], out, "detection")
     report = {"schema": "rw_fdi_ros/detection_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
-              "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle,
+              "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle, "configured": configured(fdi),
               "fault_free_runs": fault_free_runs, "runs_per_cell": runs_per_cell, "seed_base": SEED_BASE,
               "onset_range_s": ONSET_RANGE,
               "design": {name: {obs: {"method": c.method, "persistence": c.persistence,
@@ -118,7 +120,7 @@ def format_detection(report: dict) -> str:
     shipped = ("the shipped `config/fdi` (speed-aware) and `config/fdi/thesis`" if vehicle == DEFAULT_VEHICLE
                else f"vehicle {vehicle} with its shipped `config/fdi/vehicles/{vehicle}` (speed-aware)")
     lines = ["# Detection on held-out runs (`rw-fdi bench detection`)", "",
-             f"Measured {report.get('date', '?')} on {shipped} with the command's defaults.", "",
+             f"Measured {report.get('date', '?')} on {fdi_phrase(report, shipped)} with the command's defaults.", "",
              f"Seeds from {report['seed_base']:,} (disjoint from training, fitting and the thesis study); faults "
              f"on a wheel in use drawn from the seed (seed mod the wheels in use) with onsets uniform in "
              f"{report['onset_range_s'][0]:g}-{report['onset_range_s'][1]:g} s; "

@@ -130,18 +130,36 @@ class SpeedAwareChunk:
     it says of each run's trajectory, under the name "runs". ``decisions``: the labels of other decisions
     whose verdicts are judged beside /diagnostics' (core/isolation.decision_of, e.g. '2of3')."""
 
-    def __init__(self, scenarios, seed_base: int, on_run=None, decisions=(), vehicle: str = DEFAULT_VEHICLE):
+    def __init__(self, scenarios, seed_base: int, on_run=None, decisions=(), vehicle: str = DEFAULT_VEHICLE,
+                 fdi: FdiConfig | None = None):
         self.scenarios, self.seed_base, self.on_run = scenarios, seed_base, on_run
         self.decisions, self.vehicle = tuple(decisions), vehicle   # the vehicle's shipped FDI judges
+        self.fdi = fdi or FdiConfig()   # or ours as configured: a user's observers beside (FdiConfig.plugins)
 
     def __call__(self, cell_index: int, seeds):
         from ...core.isolation import decision_of
         seen = []
         hook = None if self.on_run is None else (lambda sc, traj, b: seen.append(self.on_run(sc, traj, b)))
         out = screen_sets(self.scenarios(cell_index, seeds, self.seed_base),
-                          {"speed_aware": FdiConfig().for_vehicle(self.vehicle).load()}, on_run=hook,
+                          {"speed_aware": self.fdi.for_vehicle(self.vehicle).load()}, on_run=hook,
                           other_decisions=tuple(decision_of(d, "speed_aware") for d in self.decisions))
         return {**out, "runs": seen} if self.on_run is not None else out
+
+
+def configured(fdi) -> dict | None:
+    """What a bench's report says of an FDI given instead of the shipped one (FdiConfig; None: the shipped)."""
+    if fdi is None:
+        return None
+    return {"thresholds": str(fdi.thresholds_dir), "plugins": list(fdi.plugins), "slots": list(fdi.plugin_slots)}
+
+
+def fdi_phrase(report: dict, shipped: str) -> str:
+    """``shipped``, or the FDI the report was measured on where it was given (:func:`configured`)."""
+    given = report.get("configured")
+    if not given:
+        return shipped
+    return (f"the FDI in `{given['thresholds']}` (ours fitted there beside the user's observers "
+            f"{', '.join(given['slots'])}: {', '.join(f'`{p}`' for p in given['plugins'])}; docs/observers.md)")
 
 
 def cell_figures(runs, observer: str, observable_level: dict) -> dict:

@@ -27,8 +27,8 @@ import numpy as np
 from ...fdi_config import FdiConfig
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.vehicle import DEFAULT_VEHICLE
-from .kit import (VOTES, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, fault_wheel, format_rate,
-                  screen_cells, workers, write_cells_table, write_report)
+from .kit import (VOTES, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, configured, fault_wheel,
+                  fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report)
 from ..metrics import observable_level
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
@@ -99,15 +99,16 @@ def manoeuvre_after_fault(scenario: Scenario) -> bool:
 
 def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hours_runs: int = 50,
                      seeds: str = "evaluation", out: str | Path = "reports/operations", executor=None,
-                     vehicle: str = DEFAULT_VEHICLE) -> dict:
+                     vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None) -> dict:
     seed_base = SEED_BASES[seeds]
-    _, curves = FdiConfig().for_vehicle(vehicle).load()
+    fdi = fdi or FdiConfig()
+    _, curves = fdi.for_vehicle(vehicle).load()
     level = observable_level(curves)
     sizes = [hours_runs if c.duration > 400.0 else fault_free_runs if c.kind is None and c.wheel_speed is None
              else runs_per_cell for c in CELLS]
     t0 = time.monotonic()
     judged = screen_cells(sizes, SpeedAwareChunk(partial(_cell_runs, vehicle=vehicle), seed_base, decisions=VOTES,
-                                                 vehicle=vehicle),
+                                                 vehicle=vehicle, fdi=fdi),
                           f"operations bench ({seeds} seeds)", executor)
     write_cells_table(judged, [c.name for c in CELLS], out, "operations")
     cells = {}
@@ -129,6 +130,7 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
         cells[cell.name] = entry
     report = {"schema": "rw_fdi_ros/operations_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
               "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle, "seed_set": seeds, "seed_base": seed_base,
+              "configured": configured(fdi if fdi.plugins or fdi.thresholds else None),
               "observable_level_Nm": level, "cells": cells}
     return write_report(report, out, "operations", format_operations)
 
@@ -139,7 +141,8 @@ def format_operations(report: dict) -> str:
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
     lines = ["# The FDI in operations (`rw-fdi bench operations`)"
              + ("" if vehicle == DEFAULT_VEHICLE else f", vehicle {vehicle}"), "",
-             f"Measured {report['date']} on the shipped speed-aware FDI, {report['seed_set']} seeds from "
+             f"Measured {report['date']} on {fdi_phrase(report, 'the shipped speed-aware FDI')}, {report['seed_set']} "
+             f"seeds from "
              f"{report['seed_base']:,}; {report['seconds'] / 60:.0f} min on this machine. Rates with 95 % Wilson "
              "intervals. `verdict`: what /diagnostics says (the decision observer's alarm, latched).", "",
              "## False alarms", "", "| case | hours | " + " | ".join(columns) + " |",

@@ -27,7 +27,8 @@ from ...core.calibration import calibration_samples
 from ...core.plant_choices import FDI_PERIOD
 from ...core.vehicle import DEFAULT_VEHICLE
 from .detection_bench import CELLS, cell_results, cell_sizes, observable_levels
-from .kit import workers, cell_scenarios, format_rate, screen_cells, write_cells_table, write_report
+from .kit import (cell_scenarios, configured, fdi_phrase, format_rate, screen_cells, workers, write_cells_table,
+                  write_report)
 from ..evaluation.screen import screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands
@@ -36,33 +37,38 @@ POPULATIONS = {"varied": (40_000_000, {"variation": True}), "datasheet": (41_000
 SETS = {"datasheet model": 0.0, "calibrated": CALIBRATION_TIME}
 
 
-def _fdi_sets(vehicle: str = DEFAULT_VEHICLE) -> dict:
-    """The datasheet and the calibrated sets of the shipped FDI of ``vehicle``."""
-    return {name: (*FdiConfig(unit_calibration=t).for_vehicle(vehicle).load(), calibration_samples(t, FDI_PERIOD))
+def _fdi_sets(vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None) -> dict:
+    """The datasheet and the calibrated sets of the shipped FDI of ``vehicle`` (or of ``fdi``: a user's observers
+    beside, their bands in its thresholds directory and its unit_calibrated/)."""
+    from dataclasses import replace
+    fdi = fdi or FdiConfig()
+    return {name: (*replace(fdi, unit_calibration=t).for_vehicle(vehicle).load(), calibration_samples(t, FDI_PERIOD))
             for name, t in SETS.items()}
 
 
-def _judge_chunk(population: str, cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE):
+def _judge_chunk(population: str, cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE,
+                 fdi: FdiConfig | None = None):
     seed_base, wheels = POPULATIONS[population]
     scenarios = cell_scenarios(CELLS[cell_index], seeds_range.stop, cell_index, seed_base, ONSET_RANGE,
                                wheels, vehicle=vehicle)[seeds_range.start:]
-    return screen_sets(scenarios, _fdi_sets(vehicle))
+    return screen_sets(scenarios, _fdi_sets(vehicle, fdi))
 
 
 def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/units",
-                executor=None, vehicle: str = DEFAULT_VEHICLE) -> dict:
+                executor=None, vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None) -> dict:
     t0 = time.monotonic()   # loading both calibrations' bands included
-    sets = _fdi_sets(vehicle)
+    sets = _fdi_sets(vehicle, fdi)
     levels, sizes = observable_levels(sets), cell_sizes(fault_free_runs, runs_per_cell)
     populations = {}
     for population, (seed_base, wheels) in POPULATIONS.items():
-        judged = screen_cells(sizes, partial(_judge_chunk, population, vehicle=vehicle),
+        judged = screen_cells(sizes, partial(_judge_chunk, population, vehicle=vehicle, fdi=fdi),
                               f"units bench, {population} wheels", executor)
         write_cells_table(judged, [c.name for c in CELLS], out, f"units_{population}")
         populations[population] = {"seed_base": seed_base, "wheels": wheels,
                                    "cells": cell_results(judged, sizes, seed_base, levels, "sets")}
     report = {"schema": "rw_fdi_ros/units_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
-              "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle, "fault_free_runs": fault_free_runs,
+              "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle, "configured": configured(fdi),
+              "fault_free_runs": fault_free_runs,
               "runs_per_cell": runs_per_cell,
               "onset_range_s": ONSET_RANGE, "unit_calibration_time_s": CALIBRATION_TIME,
               "bands": {name: {obs: {"seeds": [min(c.seeds), max(c.seeds)] if c.seeds else None,
@@ -76,9 +82,9 @@ def format_units(report: dict) -> str:
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
     lines = ["# The FDI on wheels that are not the datasheet (`rw-fdi bench units`)"
              + ("" if vehicle == DEFAULT_VEHICLE else f", vehicle {vehicle}"), "",
-             f"Measured {report['date']} with the shipped speed-aware models; `datasheet model`: the shipped "
-             f"bands, observers modelling Table 2.2's wheel; `calibrated`: each observer learns its wheel over "
-             f"the first {report['unit_calibration_time_s']:g} s of the run (`--unit-calibration "
+             f"Measured {report['date']} on {fdi_phrase(report, 'the shipped speed-aware FDI')}; `datasheet model`: "
+             f"the datasheet bands, observers modelling Table 2.2's wheel; `calibrated`: each observer learns its "
+             f"wheel over the first {report['unit_calibration_time_s']:g} s of the run (`--unit-calibration "
              f"{report['unit_calibration_time_s']:g}`, bands `unit_calibrated`). Faults on a wheel in use drawn "
              f"from the seed, onsets uniform in {report['onset_range_s'][0]:g}-{report['onset_range_s'][1]:g} s; "
              f"{report['fault_free_runs']} fault-free runs and {report['runs_per_cell']} per other cell, per "

@@ -23,7 +23,7 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", fdi=None, figure: bool = F
     outcome = run_scenario(ref, seed=seed, out_dir=out_dir, fdi=FdiConfig.of(fdi), **kw)
     if outcome.bag.exists():
         try:
-            data = read_series(outcome.bag, verdict_topics())
+            data = read_series(outcome.bag, verdict_topics(FdiConfig.of(fdi).plugin_slots))
             outcome.summary = {**(outcome.summary or {}), "fdi": {**fdi_verdict(data),
                                                                   "health": bag_series.health_from_bag(outcome.bag)}}
             if figure:
@@ -35,11 +35,12 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", fdi=None, figure: bool = F
     return outcome
 
 
-def verdict_topics() -> list:
-    """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag."""
+def verdict_topics(plugins=()) -> list:
+    """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag (with the plug-in slots ``plugins``')."""
     from ...core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
-    bounds = [T.bound_topic(obs, a) for obs in T.OBSERVERS for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
-    return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, T.DIPOLE_COMMAND, *bag_series.fdi_output_topics(), *bounds]
+    bounds = [T.bound_topic(obs, a) for obs in (*T.OBSERVERS, *plugins)
+              for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
+    return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, T.DIPOLE_COMMAND, *bag_series.fdi_output_topics(plugins), *bounds]
 
 
 def fdi_verdict(data) -> dict:

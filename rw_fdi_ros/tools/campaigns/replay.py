@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ...fdi_config import FdiConfig
 from ...core.plant_choices import PlantChoices
-from ...launch.graph import NodeSpec, fdi_nodes, with_reader_counts
+from ...launch.graph import NodeSpec, fdi_nodes, plugin_parameters, with_reader_counts
 from ...launch.graph import DEFAULT_GROUPING
 from ...launch.launcher import DomainLease, GraphProcesses, cleanup
 from ...graph import topics as T
@@ -38,7 +38,8 @@ def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0
                                                "await_recorder": True}))
     nodes.append(NodeSpec("recorder", "recorder", {"outputs": [str(b) for b in out_bags],
                                                    "fdi_period": choices.fdi_period, "fdi_method": fdi.method,
-                                                   "record_plant": False, "wheel_set": choices.wheel_set}))
+                                                   "record_plant": False, "wheel_set": choices.wheel_set,
+                                                   **plugin_parameters(fdi)}))
     return with_reader_counts(nodes)
 
 

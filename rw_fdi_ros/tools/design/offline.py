@@ -20,6 +20,7 @@ from ...core.residuals import residual_series, signed_residual_series
 from ...core.calibration import calibration_samples, regressors
 from ...core.elman import ElmanWeights, ModelError, network_wheel, network_wheels, recall_series
 from ...core.linear_observer import estimate_series, uncertainty_gain
+from ...core.observer_plugin import estimate_series as plugin_estimate_series
 from ...core.plant_choices import FDI_PERIOD, FDI_SAMPLING, PlantChoices
 from ...core.wheel_set import AXIS_WHEELS, wheel_set
 
@@ -59,8 +60,8 @@ def fdi_method_of(models: dict) -> str:
 
 def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PERIOD,
             calibration_samples: int = 0) -> ObserverRun:
-    """The method's observers (core/detection.observers_of) over one run; the method follows the Elman
-    models (thesis: 2 inputs).
+    """The method's observers (core/detection.observers_of) over one run, and the plug-ins of ``models``
+    (core/observer_plugin.ObserverModels) beside them; the method follows the Elman models (thesis: 2 inputs).
     ``calibration_samples`` > 0: each speed-aware observer learns each wheel's unit from that many
     first samples (core/calibration.py)."""
     r = samples.reaction_torque
@@ -79,9 +80,13 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     elman = np.stack([recall_series(m, samples.tcv[:, i], r[0, i], samples.wheel_speed[:, i], r[:, i])
                       for i, m in enumerate(nets)], axis=1)
     est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period), "model": samples.model_torque}
-    residual, bound = {}, {}
     gains = {"elman": [m.uncertainty_gain for m in nets], "linear": [uncertainty_gain(a) for a in wheels],
              "model": [0.0] * len(wheels)}
+    for cls, state in getattr(models, "plugins", ()):   # a user's observers (core/observer_plugin.py)
+        plugin = cls(wheels, period, state)
+        est[cls.slot] = plugin_estimate_series(plugin, samples, calibration_samples)
+        gains[cls.slot] = [plugin.uncertainty_gain(a) for a in wheels]
+    residual, bound = {}, {}
     x = None
     if calibration_samples:
         if samples.motor_torque is None:
@@ -148,7 +153,9 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     out_dir = Path(out_dir)
     report = {}
     describe = {"elman": model_ref, "linear": "linearised wheel, poles 4x",
-                "model": "nominal wheel model at the measured speed"}
+                "model": "nominal wheel model at the measured speed",
+                **{cls.slot: f"{cls.__module__}.{cls.__qualname__}: {cls.description}".rstrip(": ")
+                   for cls, _ in getattr(models, "plugins", ())}}
     # the axis wheels' columns: a standby wheel never used in a fitting run has no residual to fit, and gets
     # the widest band of its type (ThresholdCurves.at)
     axis_columns = [runs[0].wheels.index(a) for a in AXIS_WHEELS] if runs and runs[0].method == "thesis" else []
@@ -157,11 +164,12 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
         # a band per wheel in use in the fitting runs (x, y, z; a pyramid's four): counts are the set's
         fitted = wheel_set(PlantChoices.from_recorded(plant).wheel_set).active
         cols = [runs[0].wheels.index(a) for a in fitted]
-        for obs in observers_of("speed_aware"):
+        for obs in observers_of("speed_aware") + tuple(cls.slot for cls, _ in getattr(models, "plugins", ())):
             stats = np.array([run_statistic(np.abs(run.residual[obs][:, cols]) - run.bound[obs][:, cols], p)
                               for run in runs])
-            # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain)
-            share = 1.0 if obs == "model" else 0.5
+            # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain); a plug-in's
+            # kappa, where it has one, is its own: its band gets the whole
+            share = 0.5 if obs in ("elman", "linear") else 1.0
             bands = fit_band(stats, false_alarm_rate, axes=fitted, share=share)
             ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in fitted},
                             sample_period=FDI_PERIOD, window=window, sigmas=float("nan"), seeds=seeds, plant=plant,
@@ -255,10 +263,11 @@ def decisions(run: ObserverRun, curves: dict, persistence: int | None = None) ->
     return out
 
 
-def threshold_set(thresholds_dir, method: str) -> dict:
-    """observer -> ThresholdCurves of the ``method``'s observers in ``thresholds_dir`` (thresholds_<obs>.json)."""
+def threshold_set(thresholds_dir, method: str, plugins=()) -> dict:
+    """observer -> ThresholdCurves of the ``method``'s observers and the ``plugins`` (their slots) in
+    ``thresholds_dir`` (thresholds_<obs>.json)."""
     return {obs: ThresholdCurves.load(Path(thresholds_dir) / f"thresholds_{obs}.json", obs)
-            for obs in observers_of(method)}
+            for obs in (*observers_of(method), *plugins)}
 
 
 def alarmed_runs(runs, curves: dict, persistence: int | None = None) -> dict:

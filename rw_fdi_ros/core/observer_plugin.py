@@ -1,0 +1,254 @@
+"""A user's observer as a plug-in: the interface it implements and how it is found (docs/observers.md).
+
+An observer estimates each wheel's reaction torque r^ once per FDI sample; the FDI
+makes its residual (the signed 40-sample mean of r - r^ with the ripple bound,
+residuals.SignedResidual), learns each wheel's unit on top of it when the run
+calibrates (calibration.py), fits its band (threshold_fit.py) and alarms on it, as
+for the three observers of ours. A plug-in is named on the command line
+(``--observer SPEC``) by
+
+* an entry point of the group ``rw_fdi_ros.observers`` (``kalman = my_pkg.kalman:KalmanObserver``), or
+* a dotted path ``my_pkg.kalman:KalmanObserver`` (or ``my_pkg.kalman.KalmanObserver``), or
+* a file ``path/to/kalman.py:KalmanObserver``.
+
+Its files (its trained ``state`` and its bands) live in the FDI directory as ours do:
+``observer_<slot>.json`` (data, never a pickle) and ``thresholds_<slot>.json``.
+"""
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import json
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ENTRY_POINT_GROUP = "rw_fdi_ros.observers"
+BUILTIN_SLOTS = ("elman", "linear", "model")
+RESERVED_SLOTS = (*BUILTIN_SLOTS, "verdict", "identification", "telemetry", "wheels")
+_SLOT = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
+
+
+class ObserverError(ValueError):
+    """A plug-in that cannot be found, loaded or run: one line naming it."""
+
+
+class WheelObserver:
+    """The base of a plug-in observer: r^ of every wheel of the set, one FDI sample at a time.
+
+    Subclass it, set ``slot`` and implement :meth:`estimate`; the rest is optional.
+
+    Attributes
+    ----------
+    slot : str
+        Its name: topics ``/fdi/<slot>/...``, files ``thresholds_<slot>.json``, report columns. Lower-case
+        letters, digits and '_', not one of ours (elman, linear, model).
+    description : str
+        One line for the threshold file and the docs.
+    wheels : tuple of str
+        The wheels of the set, in the order of every (N,) field of a sample (x, y, z, s by default).
+    fdi_period : float
+        The FDI sample period T [s].
+    state : dict
+        What :meth:`train` returned, as loaded from ``observer_<slot>.json`` ({} untrained).
+    """
+
+    slot = ""
+    description = ""
+
+    def __init__(self, wheels, fdi_period: float = 1.0, state: dict | None = None):
+        self.wheels = tuple(wheels)
+        self.fdi_period = float(fdi_period)
+        self.state = dict(state or {})
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the run so far (a new run starts: a bag replay feeds many through one node)."""
+
+    def estimate(self, sample) -> np.ndarray:
+        """r^_k [N m] of every wheel for one FDI sample.
+
+        Parameters
+        ----------
+        sample : core.telemetry.FdiSample
+            The period means of the wheels' telemetry, every field (N,): ``tcv`` u [V], ``reaction_torque``
+            r [N m], ``wheel_speed`` Omega [rad/s], ``model_torque`` (the nominal Bialke model at u and
+            Omega) [N m], ``motor_torque``, ``friction_torque`` [N m], ``ripple_phasor`` (complex) [N m];
+            ``stamp_ns`` its time [ns].
+
+        Returns
+        -------
+        array_like, shape (N,)
+            The estimate of each wheel's reaction torque [N m]. An estimate made before r_k is seen is a
+            prediction, and its residual shows a fault at once; one that follows r_k absorbs it.
+        """
+        raise NotImplementedError
+
+    def calibrate(self, sample) -> None:
+        """Called before :meth:`estimate` on each sample of a run's unit calibration (its first
+        ``unit_calibration`` seconds, the wheels assumed healthy). The FDI's own calibration already learns
+        each wheel's unit from the residual (calibration.py); an observer that learns more of its own does
+        it here."""
+
+    def uncertainty_gain(self, wheel: str) -> float:
+        """kappa of ``wheel``: the share of the torque demand mean(|r|) the observer's own model error may
+        reach unfaulted, added to the residual's bound (residuals.SignedResidual; 0: an exact model). By
+        default ``state['uncertainty_gain'][wheel]`` when :meth:`train` measured one, else 0."""
+        return float(self.state.get("uncertainty_gain", {}).get(wheel, 0.0))
+
+    @classmethod
+    def train(cls, runs, wheels, fdi_period: float) -> dict | None:
+        """Optional: learn from fault-free runs; the dict returned (JSON data: numbers, lists, strings) is
+        saved as ``observer_<slot>.json`` and given back as ``state``. None: nothing to learn.
+
+        Parameters
+        ----------
+        runs : list of FdiSamples
+            Each run's FDI samples: arrays ``time`` (n,), ``tcv``, ``reaction_torque``, ``wheel_speed``,
+            ``model_torque`` (n, N), ...; ``rows()`` gives them one FdiSample at a time, as
+            :meth:`estimate` sees them.
+        wheels : tuple of str
+            The wheel set's names (the columns).
+        fdi_period : float
+            T [s].
+        """
+        return None
+
+
+def step(observer: WheelObserver, sample, calibrating: bool) -> np.ndarray:
+    """One FDI sample through ``observer`` (what the plug-in node and the offline tools both do): its
+    calibration hook while ``calibrating``, then its estimate, checked to hold one finite value per wheel."""
+    if calibrating:
+        observer.calibrate(sample)
+    estimate = np.asarray(observer.estimate(sample), float).reshape(-1)
+    if estimate.shape != (len(observer.wheels),):
+        raise ObserverError(f"observer {observer.slot}: estimate() gave {estimate.size} values for "
+                            f"{len(observer.wheels)} wheels ({', '.join(observer.wheels)})")
+    return estimate
+
+
+def estimate_series(observer: WheelObserver, samples, calibration_samples: int = 0) -> np.ndarray:
+    """r^ (n, N) of a whole run (FdiSamples) through :func:`step`, from a reset observer."""
+    observer.reset()
+    rows = [step(observer, row, k < calibration_samples) for k, row in enumerate(samples.rows())]
+    return np.array(rows).reshape(len(samples.time), len(observer.wheels))
+
+
+def _entry_points() -> dict:
+    from importlib.metadata import entry_points
+    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def _from_file(path: Path, attr: str):
+    name = f"rw_fdi_ros_observer_{re.sub(r'[^0-9a-zA-Z_]', '_', str(path.resolve()))}"
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module   # dataclasses and pickling look their module up by name
+        spec.loader.exec_module(module)
+    return getattr(sys.modules[name], attr)
+
+
+def load_observer(spec: str) -> type:
+    """The WheelObserver class ``spec`` names: an entry point of ENTRY_POINT_GROUP, ``module:Class``,
+    ``module.Class`` or ``file.py:Class``; ObserverError (one line) for one that cannot be found or is not an
+    observer.
+
+    Parameters
+    ----------
+    spec : str
+        What the user wrote after ``--observer``.
+
+    Returns
+    -------
+    type
+        The class, its ``slot`` checked.
+    """
+    spec = str(spec).strip()
+    found = _entry_points()
+    try:
+        if spec in found:
+            cls = found[spec].load()
+        elif ":" in spec or "." in spec:
+            where, _, attr = spec.rpartition(":") if ":" in spec else spec.rpartition(".")
+            if where.endswith(".py"):
+                if not Path(where).is_file():
+                    raise ObserverError(f"observer {spec}: no file {where}")
+                cls = _from_file(Path(where), attr)
+            else:
+                cls = getattr(importlib.import_module(where), attr)
+        else:
+            known = ", ".join(sorted(found)) or "none installed"
+            raise ObserverError(f"observer {spec!r}: not an entry point of {ENTRY_POINT_GROUP} ({known}) nor "
+                                "module:Class or file.py:Class")
+    except ObserverError:
+        raise
+    except (ImportError, AttributeError, SyntaxError) as exc:
+        raise ObserverError(f"observer {spec}: cannot load it ({type(exc).__name__}: {exc})") from None
+    if not (isinstance(cls, type) and issubclass(cls, WheelObserver)):
+        raise ObserverError(f"observer {spec}: {cls!r} is not a subclass of rw_fdi_ros.core.observer_plugin."
+                            "WheelObserver")
+    if not _SLOT.match(cls.slot or "") or cls.slot in RESERVED_SLOTS:
+        raise ObserverError(f"observer {spec}: its slot {cls.slot!r} must be lower-case letters, digits and '_' "
+                            f"(at most 32), not one of {', '.join(RESERVED_SLOTS)}")
+    return cls
+
+
+def absolute_spec(spec: str) -> str:
+    """``spec`` with a file's path made absolute (a node process may start elsewhere); others unchanged."""
+    where, sep, attr = str(spec).rpartition(":")
+    return f"{Path(where).resolve()}:{attr}" if sep and where.endswith(".py") else str(spec)
+
+
+def state_path(directory, slot: str) -> Path:
+    """Where a plug-in's trained state lies in an FDI directory."""
+    return Path(directory) / f"observer_{slot}.json"
+
+
+def save_state(directory, cls: type, spec: str, state: dict, seeds=()) -> Path:
+    """``state`` (:meth:`WheelObserver.train`'s) as ``observer_<slot>.json`` in ``directory``, with what made it."""
+    path = state_path(directory, cls.slot)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        text = json.dumps({"slot": cls.slot, "observer": spec, "seeds": [int(s) for s in seeds if s is not None],
+                           "state": state}, indent=1)
+    except TypeError as exc:
+        raise ObserverError(f"observer {spec}: train() must return JSON data (numbers, lists, strings): {exc}") \
+            from None
+    path.write_text(text + "\n")
+    return path
+
+
+def load_state(directories, slot: str) -> dict:
+    """The state of ``slot`` from the first of ``directories`` holding ``observer_<slot>.json`` ({}: none)."""
+    for d in directories:
+        path = state_path(d, slot)
+        if path.is_file():
+            try:
+                data = json.loads(path.read_text())
+                if data.get("slot") != slot or not isinstance(data.get("state"), dict):
+                    raise ValueError(f"not the state of observer {slot}")
+            except (ValueError, OSError) as exc:
+                raise ObserverError(f"{path}: unreadable ({exc})") from None
+            return data["state"]
+    return {}
+
+
+def trains(cls: type) -> bool:
+    """Whether ``cls`` has a training hook of its own (an untrained one cannot run)."""
+    return getattr(cls.train, "__func__", None) is not getattr(WheelObserver.train, "__func__", None)
+
+
+class ObserverModels(dict):
+    """What the observers of an FDI are made of, as the offline tools take it: the Elman networks by wheel
+    (the dict itself, as before plug-ins) and ``plugins``, ((WheelObserver class, state), ...)."""
+
+    def __init__(self, networks=(), plugins=()):
+        super().__init__(networks)
+        self.plugins = tuple(plugins)
+
+    def __reduce__(self):   # to worker processes: the networks and the plug-ins, not the dict's items alone
+        return (type(self), (dict(self), self.plugins))
+

@@ -1,0 +1,186 @@
+"""A user's observer as a plug-in (core/observer_plugin.py, docs/observers.md): found by entry point, dotted path
+or file; stepped by the offline tools exactly as ours are; trained, fitted and screened by the same commands; the
+worked example (examples/kalman_observer) against its closed form."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.linalg import solve_discrete_are
+
+from rw_fdi_ros.core.observer_plugin import (ObserverError, ObserverModels, WheelObserver, estimate_series,
+                                             load_observer, save_state, load_state)
+from rw_fdi_ros.fdi_config import FdiConfig
+
+ROOT = Path(__file__).resolve().parents[1]
+KALMAN = f"{ROOT}/examples/kalman_observer/kalman_observer.py:KalmanObserver"
+BIN = Path(sys.executable).parent
+
+
+class ModelCopy(WheelObserver):
+    """The nominal wheel model as a plug-in: must give our model observer's residuals exactly."""
+    slot = "model_copy"
+
+    def estimate(self, sample):
+        return sample.model_torque
+
+
+class Wrong(WheelObserver):
+    slot = "wrong"
+
+    def estimate(self, sample):
+        return np.zeros(2)
+
+
+def test_the_kalman_gain_is_the_riccati_equations():
+    kalman = sys.modules[load_observer(KALMAN).__module__]
+    phi, _, c, _ = kalman.discrete_wheel(1.0)
+    for ratio in (1e-4, 0.3, 1e3):
+        p = solve_discrete_are(np.array([[phi]]), np.array([[c]]), np.array([[ratio]]), np.array([[1.0]]))[0, 0]
+        assert kalman.steady_state_gain(phi, c, ratio) == pytest.approx(p * c / (c * c * p + 1.0), rel=1e-9)
+
+
+@pytest.mark.parametrize("spec, words", [
+    ("no_such_observer", "not an entry point"),
+    ("no_such_module:Thing", "cannot load it"),
+    ("numpy:ndarray", "not a subclass"),
+    (f"{ROOT}/nowhere.py:X", "no file"),
+])
+def test_a_bad_plugin_is_one_line_naming_it(spec, words):
+    with pytest.raises(ObserverError, match=words) as info:
+        load_observer(spec)
+    assert "\n" not in str(info.value)
+
+
+def test_a_slot_of_ours_is_refused(tmp_path):
+    (tmp_path / "dup.py").write_text("from rw_fdi_ros.core.observer_plugin import WheelObserver\n"
+                                     "class Dup(WheelObserver):\n    slot = 'model'\n")
+    with pytest.raises(ObserverError, match="not one of elman, linear, model"):
+        load_observer(f"{tmp_path}/dup.py:Dup")
+
+
+def test_an_entry_point_names_it(tmp_path, monkeypatch):
+    dist = tmp_path / "my_observer-1.0.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: my-observer\nVersion: 1.0\n")
+    (dist / "entry_points.txt").write_text("[rw_fdi_ros.observers]\nmine = test_observer_plugin:ModelCopy\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert load_observer("mine") is ModelCopy
+
+
+def test_a_plugin_equal_to_our_model_gives_its_residuals_with_and_without_calibration(fault_free_samples):
+    from rw_fdi_ros.tools.design.offline import observe
+    models = FdiConfig().load_models()
+    for calibration in (0, 150):
+        run = observe(fault_free_samples, ObserverModels(models, [(ModelCopy, {})]), calibration_samples=calibration)
+        np.testing.assert_array_equal(run.residual["model_copy"], run.residual["model"])
+        np.testing.assert_array_equal(run.bound["model_copy"], run.bound["model"])
+
+
+def test_an_estimate_of_the_wrong_size_is_said(fault_free_samples):
+    with pytest.raises(ObserverError, match="gave 2 values for 4 wheels"):
+        estimate_series(Wrong(fault_free_samples.wheels), fault_free_samples)
+
+
+def test_a_state_that_is_not_data_is_refused_and_data_comes_back(tmp_path):
+    with pytest.raises(ObserverError, match="JSON data"):
+        save_state(tmp_path, ModelCopy, "x:ModelCopy", {"gain": object()})
+    save_state(tmp_path, ModelCopy, "x:ModelCopy", {"gain": [1.0, 2.0]}, seeds=[3])
+    assert load_state([tmp_path / "none", tmp_path], "model_copy") == {"gain": [1.0, 2.0]}
+    assert json.loads((tmp_path / "observer_model_copy.json").read_text())["seeds"] == [3]
+
+
+@pytest.fixture(scope="module")
+def fault_free_samples():
+    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.tools.evaluation.screen import simulated_samples
+    scenario = load_scenario("fault_free").with_seed(61_000_500)
+    return simulated_samples([scenario])[scenario.seed]
+
+
+def cli(*args, timeout=300):
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    return subprocess.run([str(BIN / "rw-fdi"), *args], capture_output=True, text=True, timeout=timeout, env=env)
+
+
+@pytest.fixture(scope="module")
+def kalman_fdi(tmp_path_factory):
+    """The worked example trained and fitted by the commands a user runs (small: 6 and 12 runs)."""
+    out = tmp_path_factory.mktemp("kalman_fdi")
+    r = cli("train", "--observer", KALMAN, "--simulate", "fault_free", "--seeds", "61000000..61000005",
+            "--out", str(out), "--jobs", "1")
+    assert r.returncode == 0, r.stderr
+    r2 = cli("fit-thresholds", "--observer", KALMAN, "--simulate", "fault_free", "--seeds", "60000000..60000011",
+             "--false-alarm-rate", "0.005", "--out", str(out), "--jobs", "1")
+    assert r2.returncode == 0, r2.stderr
+    return out, r.stdout + r2.stdout
+
+
+def test_train_and_fit_thresholds_write_its_state_and_bands_beside_ours(kalman_fdi):
+    out, said = kalman_fdi
+    state = json.loads((out / "observer_kalman.json").read_text())
+    assert set(state["state"]["q_over_rho"]) == {"x", "y", "z"} and state["seeds"][0] == 61_000_000
+    assert all(k > 0 for k in state["state"]["uncertainty_gain"].values())
+    bands = json.loads((out / "thresholds_kalman.json").read_text())
+    assert bands["observer"] == "kalman" and "KalmanObserver" in bands["model"]
+    assert (out / "thresholds_model.json").is_file() and "kalman  band c" in said
+
+
+def test_screen_judges_it_beside_ours(kalman_fdi):
+    out, _ = kalman_fdi
+    r = cli("screen", "--observer", KALMAN, "--thresholds", str(out), "--scenario", "current_0p6_x",
+            "--seeds", "100..103", "--jobs", "1", "--json")
+    assert r.returncode == 0, r.stderr
+    counts = json.loads(r.stdout)["current_0p6_x"]
+    assert list(counts) == ["elman", "linear", "model", "kalman", "verdict"]
+    assert counts["kalman"]["correct"] == 4 and counts["verdict"]["correct"] == 4
+
+
+def test_a_plugin_untrained_or_without_bands_is_one_line(kalman_fdi, tmp_path):
+    r = cli("screen", "--observer", KALMAN, "--scenario", "current_0p6_x", "--seeds", "100..100")
+    assert r.returncode != 0 and "is not trained" in r.stderr and "train --observer" in r.stderr
+    assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0
+    out, _ = kalman_fdi
+    (tmp_path / "observer_kalman.json").write_text((out / "observer_kalman.json").read_text())   # no bands
+    r = cli("screen", "--observer", KALMAN, "--thresholds", str(tmp_path), "--scenario", "current_0p6_x",
+            "--seeds", "100..100")
+    assert r.returncode != 0 and "no bands for observer" in r.stderr and "fit-thresholds --observer" in r.stderr
+    assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0
+
+
+def test_a_bench_judges_it_beside_ours(kalman_fdi, tmp_path):
+    from rw_fdi_ros.tools.benches.detection_bench import bench_detection
+    from rw_fdi_ros.tools.campaigns.campaign import LocalExecutor
+    out, _ = kalman_fdi
+    report = bench_detection(fault_free_runs=2, runs_per_cell=1, out=tmp_path, executor=LocalExecutor(1),
+                             fdi=FdiConfig(thresholds=str(out), plugins=(KALMAN,)))
+    assert "| kalman |" in report["text"] and "| model |" in report["text"]
+
+
+@pytest.mark.graph
+def test_it_runs_as_a_node_of_the_graph_with_the_screens_verdict(kalman_fdi, tmp_path):
+    """The plug-in's node in the live graph (composed with the FDI nodes) alarms the wheels and at the times the
+    screen does, and its topics are in the bag."""
+    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.storage.bag import bag_info
+    from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
+    from rw_fdi_ros.tools.evaluation.screen import screen_runs
+    from rw_fdi_ros.tools.metrics import judge
+    out, _ = kalman_fdi
+    scenario = tmp_path / "loss_y.yaml"
+    scenario.write_text("name: loss_y\nduration: 130.0\nseed: 61000900\n"
+                        "faults: [{kind: current_limiter, wheel: y, onset: 50.0, value: 0.6}]\n")
+    fdi = FdiConfig(thresholds=str(out), plugins=(KALMAN,), fdir=False)
+    graph = run_with_fdi(str(scenario), out_dir=tmp_path / "bags", fdi=fdi)
+    assert graph.ok, graph.reason
+    assert "/fdi/kalman/residual" in bag_info(graph.bag).types
+    weights, curves = fdi.load()
+    screened = screen_runs([load_scenario(str(scenario))], weights, curves)[0]
+    verdict = graph.summary["fdi"]
+    assert verdict["observers"] == ["elman", "linear", "model", "kalman"]
+    assert [a for a, iv in verdict["kalman"].items() if iv] == judge(screened, "kalman")["alarmed_wheels"] == ["y"]
+    first = {a: iv[0][0] for a, iv in verdict["kalman"].items() if iv}
+    assert first["y"] - 50.0 == pytest.approx(judge(screened, "kalman")["axes"]["y"]["delay"])
