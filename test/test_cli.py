@@ -28,8 +28,8 @@ BENCH_SHARED = {"--out": ["detection", "identification", "units", "memory", "ope
                 "--scheduler": ["detection", "identification", "units", "operations", "recovery", "dumping", "service",
                                 "scaling"],
                 "--max-hours": ["service", "scaling"],
-                "--observer": ["detection", "units", "operations"],
-                "--thresholds": ["detection", "units", "operations"]}
+                "--observer": ["detection", "units", "operations", "service"],
+                "--thresholds": ["detection", "units", "operations", "service"]}
 
 
 def subcommands(parser) -> dict:

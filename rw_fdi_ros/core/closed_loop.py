@@ -33,6 +33,7 @@ class Fdir:
     identification: bool = False   # also identify each alarmed wheel's fault (the isolation node's code)
     slew_rate: float = SLEW_RATE   # [rad/s] the slews the wheels in use must still take (fdir.momentum_shortfall)
     holdable: float = HOLDABLE_SPEED   # [rad/s] what a wheel in use may be asked to hold (inf: every wheel given up)
+    watched: dict = None           # observers judged beside, acted on by nothing (onboard.watched_observers)
 
 
 @dataclass
@@ -51,6 +52,7 @@ class Trajectory:
     wheel_names: tuple = ("x", "y", "z")
     decisions: list = None    # per run: [fdir.Decision]
     identified: list = None   # per run, with Fdir.identification: wheel -> the last identification.Identification
+    watched: list = None      # per run, with Fdir.watched: observer -> wheel -> alarm intervals [[start, end], ...] [s]
     in_use: np.ndarray = None  # (steps + 1, B, N) bool
     wheel_angle: np.ndarray = None      # rotor angle [rad] (steps + 1, B, N)
     axis_command: np.ndarray = None     # the controllers' body-axis commands v of each sample [V] (steps + 1, B, 3)
@@ -119,7 +121,7 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
     onboard = reconfig = delays = None
     if fdir is not None:
         onboard = OnboardVerdict(plant.wheels.names, fdir.curves, plant.batch, fdir.fdi_period,
-                                 fdir.calibration_samples, identification=fdir.identification)
+                                 fdir.calibration_samples, identification=fdir.identification, watched=fdir.watched)
         reconfig = [Reconfiguration(plant.wheels, fdir.holdable, fdir.slew_rate, plant.inertia, wheel.inertia)
                     for _ in scenarios]
         delays = [DecisionDelay() for _ in scenarios]
@@ -166,6 +168,7 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
     return Trajectory(time=time, wheel_names=plant.wheels.names,
                       decisions=[r.decisions for r in reconfig] if reconfig else None,
                       identified=onboard.identified if onboard is not None and fdir.identification else None,
+                      watched=onboard.watch.intervals if onboard is not None and onboard.watch else None,
                       operating_point={k: np.array([op[k] for op in operating_point]) for k in operating_point[0]},
                       **{k: np.array(v) for k, v in rec.items()})
 

@@ -90,6 +90,9 @@ class ElmanWeights:
     speed_scale: float = 0.0    # [rad/s] normalises Omega; 0: no speed input (the thesis' network)
     # kappa: the network's fault-free error bound per unit of mean |r| (residuals.SignedResidual)
     uncertainty_gain: float = 0.0
+    # True: the network learnt the nominal wheel model's error r - r_model, and its estimate is r_model plus its
+    # output (a grey box, tools/design/service_training.py); False: it learnt r itself (the thesis')
+    model_error: bool = False
 
     @property
     def inputs(self) -> int:
@@ -114,6 +117,8 @@ class ElmanWeights:
                 raise ModelError(f"{origin}: {name} holds non-finite values; {REGENERATE}")
         if not (self.tcv_scale > 0 and self.torque_scale > 0):
             raise ModelError(f"{origin}: normalisation scales must be positive; {REGENERATE}")
+        if self.model_error and not self.speed_aware:
+            raise ModelError(f"{origin}: a network of the model's error needs the speed input; {REGENERATE}")
         return self
 
     def save(self, path, card: dict | None = None):
@@ -122,7 +127,8 @@ class ElmanWeights:
         path.parent.mkdir(parents=True, exist_ok=True)
         np.savez(path, w_ih=self.w_ih, w_hh=self.w_hh, b_h=self.b_h, w_ho=self.w_ho, b_o=self.b_o,
                  tcv_scale=np.array(self.tcv_scale), torque_scale=np.array(self.torque_scale),
-                 speed_scale=np.array(self.speed_scale), uncertainty_gain=np.array(self.uncertainty_gain))
+                 speed_scale=np.array(self.speed_scale), uncertainty_gain=np.array(self.uncertainty_gain),
+                 model_error=np.array(bool(self.model_error)))
         if card is not None:
             path.with_suffix(".json").write_text(json.dumps(card, indent=2))
 
@@ -136,7 +142,8 @@ class ElmanWeights:
                 w = cls(**{k: z[k] for k in ("w_ih", "w_hh", "b_h", "w_ho", "b_o")},
                         tcv_scale=float(z["tcv_scale"]), torque_scale=float(z["torque_scale"]),
                         speed_scale=float(z["speed_scale"]) if "speed_scale" in z.files else 0.0,
-                        uncertainty_gain=float(z["uncertainty_gain"]) if "uncertainty_gain" in z.files else 0.0)
+                        uncertainty_gain=float(z["uncertainty_gain"]) if "uncertainty_gain" in z.files else 0.0,
+                        model_error=bool(z["model_error"]) if "model_error" in z.files else False)
         except ModelError:
             raise
         except Exception as exc:  # zip/npz damage, missing arrays, pickled content
@@ -192,6 +199,32 @@ class ElmanObserver:
         return self.previous
 
 
+class WheelRecall:
+    """One wheel's network as the Elman node runs it: while the wheel stands by (:func:`standby`) its estimate is
+    the measured torque; from its first running sample on, recall started at that sample's torque. A network
+    of the model's error (ElmanWeights.model_error) adds the nominal model's torque r_model to its output."""
+
+    def __init__(self, weights: ElmanWeights):
+        self.observer = ElmanObserver(weights)
+        self.started = False
+
+    def update(self, tcv: float, reaction_torque: float, wheel_speed: float | None = None,
+               model_torque: float | None = None) -> float:
+        """r^ of one FDI sample (u, the measured r, Omega for a speed-aware network, r_model for one of the
+        model's error) [N m]."""
+        base = 0.0
+        if self.observer.w.model_error:
+            if model_torque is None:
+                raise ValueError("a network of the model's error needs the nominal model's torque")
+            base = float(model_torque)
+        if not self.started and standby(tcv, reaction_torque):
+            return float(reaction_torque)
+        if not self.started:
+            self.observer.reset(float(reaction_torque) - base)
+            self.started = True
+        return base + self.observer.update(float(tcv), None, None if wheel_speed is None else float(wheel_speed))
+
+
 def standby(tcv, reaction_torque) -> bool:
     """Whether an FDI sample is of a standby wheel: unpowered and at rest for the whole period (its command
     and reaction torque means exactly 0; wheel_set.py). A network trained on running wheels has nothing
@@ -213,7 +246,8 @@ def standby(tcv, reaction_torque) -> bool:
     return float(tcv) == 0.0 and float(reaction_torque) == 0.0
 
 
-def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel_speed=None, reaction_torque=None):
+def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel_speed=None, reaction_torque=None,
+                  model_torque=None):
     """Recall-mode estimates for a sampled tcv series (what the node computes, sample by sample); with
     ``reaction_torque``, from the first running sample (:func:`standby`) on, the measured torque before.
 
@@ -229,6 +263,8 @@ def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel
         Wheel speed Omega [rad/s]; needed by a speed-aware network.
     reaction_torque : array_like, shape (n,), optional
         Measured reaction torque [N m]: the standby samples' estimate and the recall's start.
+    model_torque : array_like, shape (n,), optional
+        The nominal model's torque r_model [N m]: needed by a network of the model's error.
 
     Returns
     -------
@@ -236,14 +272,13 @@ def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel
         The estimate r^ [N m].
     """
     tcv = np.asarray(tcv, float)
-    start = 0
-    if reaction_torque is not None:
-        r = np.asarray(reaction_torque, float)
-        running = ~((tcv == 0.0) & (r == 0.0))
-        start = int(np.argmax(running)) if running.any() else len(tcv)
-        initial_torque = r[start] if start < len(tcv) else initial_torque
-    obs = ElmanObserver(weights)
-    obs.reset(initial_torque)
     speeds = [None] * len(tcv) if wheel_speed is None else np.asarray(wheel_speed, float)
-    out = [obs.update(u, None, w) for u, w in zip(tcv[start:], speeds[start:])]
-    return np.concatenate([np.asarray(reaction_torque, float)[:start] if start else np.zeros(0), out])
+    models = [None] * len(tcv) if model_torque is None else np.asarray(model_torque, float)
+    if reaction_torque is not None:
+        recall = WheelRecall(weights)
+        return np.array([recall.update(u, r, w, m) for u, r, w, m in
+                         zip(tcv, np.asarray(reaction_torque, float), speeds, models)])
+    base = np.asarray(model_torque, float) if weights.model_error else np.zeros(len(tcv))
+    obs = ElmanObserver(weights)
+    obs.reset(initial_torque - (base[0] if len(base) else 0.0))
+    return base + np.array([obs.update(u, None, w) for u, w in zip(tcv, speeds)])

@@ -21,6 +21,7 @@ from .calibration import UnitCalibration, regressors
 from .residuals import SignedResidual
 from .threshold_file import ThresholdCurves
 from .identification import FaultIdentifier
+from .observer_plugin import step as plugin_step
 from .isolation import LatchedVerdict, ObserverChannel, in_envelope
 from .telemetry import TelemetrySampler
 
@@ -29,7 +30,8 @@ class OnboardVerdict:
     """The latched verdict of wheels ``names`` for ``batch`` runs from control-rate telemetry."""
 
     def __init__(self, names, curves: ThresholdCurves, batch: int, fdi_period: float = 1.0,
-                 calibration_samples: int = 0, persistence: int | None = None, identification: bool = False):
+                 calibration_samples: int = 0, persistence: int | None = None, identification: bool = False,
+                 watched: dict | None = None):
         self.names = tuple(names)
         self.fdi_period_ns = int(round(fdi_period * 1e9))
         self.sampler = TelemetrySampler(fdi_period, "mean", identification=identification)
@@ -41,6 +43,8 @@ class OnboardVerdict:
                                         else None) for _ in self.names] for _ in range(batch)]
         self.channels = [ObserverChannel("model", curves, persistence, self.names) for _ in range(batch)]
         self.verdicts = [LatchedVerdict(True, self.names) for _ in range(batch)]
+        # observers judged beside the decision, acted on by nothing (their figures in service)
+        self.watch = ObserverWatch(self.names, watched, batch, calibration_samples, persistence) if watched else None
 
     def add(self, stamp_ns: int, tcv, reaction_torque, wheel_speed):
         """Control-rate sample (B, N) arrays in; on an FDI stamp, per run {wheel: first alarm [s] of a
@@ -50,6 +54,8 @@ class OnboardVerdict:
             return None
         x = (regressors(sample.motor_torque, sample.friction_torque, sample.wheel_speed, sample.ripple_phasor,
                         sample.free_motor_torque) if self.calibration_samples else None)
+        if self.watch is not None:
+            self.watch.add(sample, x)
         judged = in_envelope(sample.wheel_speed)
         out = []
         for b, (filters, channel, verdict) in enumerate(zip(self.filters, self.channels, self.verdicts)):
@@ -75,3 +81,91 @@ def _run_of(sample, b: int):
     """The FDI sample of run ``b`` of a batch: every (B, N, ...) field at ``b``."""
     values = {f.name: getattr(sample, f.name) for f in fields(sample)}
     return type(sample)(**{k: v[b] if isinstance(v, np.ndarray) and v.ndim >= 2 else v for k, v in values.items()})
+
+
+class ObserverWatch:
+    """Observers judged beside the decision in the core loop and acted on by nothing (the figures of every
+    observer in service): per FDI sample, each one's estimate, its SignedResidual per wheel (learning the unit
+    when calibrating) and its ObserverChannel, as the observer and isolation nodes run them; per run, slot and
+    wheel the alarm intervals [start, end or None] [s] (:attr:`intervals`).
+
+    ``observers``: slot -> (estimator, uncertainty gain per wheel, ThresholdCurves), an estimator being
+    ``make() -> step(sample) -> (B, N) r^``, made once per batch (:func:`watched_observers`)."""
+
+    def __init__(self, names, observers: dict, batch: int, calibration_samples: int = 0,
+                 persistence: int | None = None):
+        self.names = tuple(names)
+        self.estimators = {slot: make() for slot, (make, _, _) in observers.items()}
+        self.filters = {slot: [[SignedResidual(uncertainty_gain=gains[i],
+                                               calibration=UnitCalibration(calibration_samples)
+                                               if calibration_samples else None)
+                                for i in range(len(self.names))] for _ in range(batch)]
+                        for slot, (_, gains, _) in observers.items()}
+        self.channels = {slot: [ObserverChannel(slot, curves, persistence, self.names) for _ in range(batch)]
+                         for slot, (_, _, curves) in observers.items()}
+        self.calibration_samples = calibration_samples
+        self.intervals = [{slot: {a: [] for a in self.names} for slot in observers} for _ in range(batch)]
+
+    def add(self, sample, x=None):
+        """One FDI sample of the batch (fields (B, N)); ``x``: its calibration regressors (B, N, 6) or None."""
+        t = sample.stamp_ns * 1e-9
+        for slot, estimate in self.estimators.items():
+            r_hat = estimate(sample)
+            for b, (filters, channel) in enumerate(zip(self.filters[slot], self.channels[slot])):
+                rows = [f.update(sample.reaction_torque[b, i], r_hat[b, i], sample.ripple_phasor[b, i],
+                                 None if x is None else x[b, i]) for i, f in enumerate(filters)]
+                alarms = channel.update(sample.stamp_ns, np.array([r[0] for r in rows]), np.array([r[1] for r in rows]))
+                for a, row in alarms.items():
+                    spans = self.intervals[b][slot][a]
+                    up = bool(row[2])
+                    if up and (not spans or spans[-1][1] is not None):
+                        spans.append([t, None])
+                    elif not up and spans and spans[-1][1] is None:
+                        spans[-1][1] = t
+
+
+def watched_observers(names, models, curves: dict, period: float, calibration_samples: int = 0) -> dict:
+    """slot -> (estimator factory, kappa per wheel, curves) of the observers of ``curves`` on the wheel set
+    ``names``: the model observer (the sample's nominal model torque), the Luenberger observer
+    (linear_observer.py, every run at once), the Elman network of each wheel (recall as the node runs it,
+    elman.WheelRecall) and the plug-ins of ``models`` (observer_plugin.ObserverModels: one per run, stepped as
+    the plug-in node steps it)."""
+    from .elman import WheelRecall, network_wheel
+    from .linear_observer import LinearObserver, uncertainty_gain
+    nets = [models[network_wheel(a, models)] for a in names]
+
+    def elman():
+        recalls = []
+        def step(sample):
+            if not recalls:   # one recall per run and wheel, made on the first sample (the batch's size)
+                recalls.extend([WheelRecall(net) for net in nets] for _ in range(sample.tcv.shape[0]))
+            out = np.empty(sample.tcv.shape)
+            for b, row in enumerate(recalls):
+                for i, recall in enumerate(row):
+                    out[b, i] = recall.update(sample.tcv[b, i], sample.reaction_torque[b, i], sample.wheel_speed[b, i],
+                                              sample.model_torque[b, i])
+            return out
+        return step
+
+    def linear():
+        observer = LinearObserver(period)
+        return lambda sample: observer.update(sample.tcv, sample.reaction_torque)
+
+    def plugin(cls, state):
+        def make():
+            runs, seen = [], [0]
+            def step(sample):
+                if not runs:   # one observer per run of the batch
+                    runs.extend(cls(names, period, state) for _ in range(sample.tcv.shape[0]))
+                seen[0] += 1
+                return np.array([plugin_step(observer, _run_of(sample, b), seen[0] <= calibration_samples)
+                                 for b, observer in enumerate(runs)])
+            return step
+        gains = cls(names, period, state)
+        return make, [gains.uncertainty_gain(a) for a in names]
+
+    table = {"elman": (elman, [n.uncertainty_gain for n in nets]),
+             "linear": (linear, [uncertainty_gain(a) for a in names]),
+             "model": (lambda: (lambda sample: sample.model_torque), [0.0] * len(names)),
+             **{cls.slot: plugin(cls, state) for cls, state in getattr(models, "plugins", ())}}
+    return {slot: (*table[slot], c) for slot, c in curves.items()}

@@ -11,7 +11,7 @@ and publishes the estimate, the residual and the ripple bound: the signed
 from __future__ import annotations
 
 from ..core.residuals import ResidualFilter
-from ..core.elman import REGENERATE, ElmanObserver, ElmanWeights, ModelError, network_path, standby
+from ..core.elman import REGENERATE, ElmanWeights, ModelError, WheelRecall, network_path
 from ..paths import fdi_dir
 from ..graph import topics as T
 from ..graph.observer_node import ObserverNode
@@ -45,28 +45,22 @@ class ElmanObserverNode(ObserverNode):
         self.start(T.estimate_topic("elman", axis), T.residual_topic("elman", axis), T.bound_topic("elman", axis))
 
     def reset(self):
-        self.observer = ElmanObserver(self.weights)
+        # the measured torque while the wheel stands by, recall from its first running sample (elman.WheelRecall)
+        self.recall = WheelRecall(self.weights)
         window = self.param("window")
         self.residual = (self.signed_residual(self.weights.uncertainty_gain) if self.speed_aware
                          else ResidualFilter(window))
-        self.started = False
 
     def observe(self, sample):
         i = self.index
         u, r = float(sample.tcv[i]), float(sample.reaction_torque[i])
-        if not self.started and standby(u, r):   # nothing to recall yet: the estimate is the measurement
-            residual, bound = (self.residual.update(r, r, sample.ripple_phasor[i], self.regressors(sample, i))
-                               if self.speed_aware else (self.residual.update(r, r), 0.0))
-            return [r], [residual], [bound]
-        if not self.started:  # recall mode starts from the first measured torque (of the running wheel)
-            self.observer.reset(r)
-            self.started = True
         if self.speed_aware:
-            network = self.observer.update(u, None, float(sample.wheel_speed[i]))   # recalls its own, uncorrected
+            network = self.recall.update(u, r, float(sample.wheel_speed[i]),   # recalls its own, uncorrected
+                                         None if sample.model_torque is None else float(sample.model_torque[i]))
             residual, bound = self.residual.update(r, network, sample.ripple_phasor[i], self.regressors(sample, i))
             estimate = self.residual.estimate   # calibrated to the unit when the node calibrates
         else:
-            estimate = self.observer.update(u)
+            estimate = self.recall.update(u, r)
             residual, bound = self.residual.update(r, estimate), 0.0
         return [estimate], [residual], [bound]
 

@@ -60,7 +60,8 @@ def _options() -> dict:
     option("--seed", type=SEED, default=1)
     option("--only", default=None,
            help="figures: the benches to re-measure, comma-separated (detection, operations, "
-                "identification_units, recovery, service, dumping, reproduce, graph, study, vehicle_detection, "
+                "identification_units, recovery, service, service_observers, dumping, reproduce, graph, study, "
+                "vehicle_detection, "
                 "vehicle_recovery, vehicle_service; default all)")
     option("--vehicle", default="maksat", metavar="NAME",
            help="detection, identification, units, operations, recovery, service: the shipped vehicle the runs fly, "
@@ -71,6 +72,9 @@ def _options() -> dict:
     option("--thresholds", default=None, metavar="DIR",
            help="detection, units, operations: the FDI directory `rw-fdi fit-thresholds --observer` wrote (with "
                 "--observer; default: the shipped FDI)")
+    option("--every-observer", action="store_true",
+           help="service: judge every observer (ours, and --observer's) beside the decision on the same runs, acted "
+                "on by nothing: their false alarms, right wheel, held alarm and delay in service")
     option("--json", action="store_true")
     return made
 
@@ -195,14 +199,16 @@ def _service(args) -> dict:
     from ...tools.benches.service_bench import GIVEN_UP_SEEDS, SEED_BASES, bench_service, given_up_draws
     base = SEED_BASES[args.seed_set] + GIVEN_UP_SEEDS
     vehicle = _checked_vehicle(args)
+    from ...fdi_config import FdiConfig
+    watch = _bench_fdi(args) or (FdiConfig() if args.every_observer else None)
     given_up = len(given_up_draws(range(base, base + args.given_up_runs), vehicle))   # the faulty draws among them
     with tqdm(total=args.service_runs + args.fault_free_runs + given_up, desc="service bench (core loop)",
               unit="run", file=sys.stderr) as bar:
         return bench_service(runs=args.service_runs, seeds=args.seed_set,
-                             out=args.out or _vehicle_out(args, "service"),
+                             out=_out(args, "service_observers" if args.every_observer else "service"),
                              executor=executor(args), progress=bar.update, max_hours=args.max_hours,
                              fault_free_runs=args.fault_free_runs, given_up_runs=args.given_up_runs,
-                             vehicle=vehicle)
+                             vehicle=vehicle, watch=watch)
 
 
 def _scaling(args) -> dict:
@@ -256,7 +262,7 @@ BENCHES = [
      "faults of every kind, size, wheel, onset and ramp, second faults, orbit with dumping, 600 s to 6 h; "
      "reconfigurations without a fault, the right wheel acted on, pointing kept, identification; core loop)",
      ("--service-runs", "--fault-free-runs", "--given-up-runs", "--max-hours", "--seed-set", "--vehicle", "--out",
-      *POOL), _service),
+      "--every-observer", "--observer", "--thresholds", *POOL), _service),
     ("scaling", "in-service runs per second on 1 and 2 local workers (or a Dask cluster's) and the wall time "
      "projected for 100,000 in-service runs (core loop)", ("--scaling-runs", "--max-hours", "--scheduler"),
      _scaling),

@@ -13,6 +13,14 @@ def add_arguments(parser) -> None:
                         help="a shipped vehicle's name or a vehicle file (docs/vehicles.md): its controllers, a "
                              "network per wheel in use, datasheet and unit-calibrated bands, all on the core loop "
                              "(then give every command --models OUT)")
+    parser.add_argument("--service", choices=["datasheet", "mixed"], default=None, metavar="WHEELS",
+                        help="a speed-aware set trained and fitted for service (tools/design/service_training.py, "
+                             "docs/fdi.md 'Learned observers in service'): one network of the wheel type learning "
+                             "the nominal model's error on the in-service family's healthy stretches of every wheel "
+                             "(manoeuvres, reconfigurations, dumps through zero), flown on the core loop; WHEELS: "
+                             "datasheet (chosen) or mixed (the family's units and datasheet wheels); every "
+                             "observer's bands on its fault-free 600-s runs, datasheet and calibrated (then "
+                             "--models OUT)")
     parser.add_argument("--work", default="bags/defaults", help="where the campaigns' bags go (resumable; not with "
                                                                 "--vehicle, which records no bags)")
     parser.add_argument("--out", default=None, help="default: config/fdi; with --vehicle: fdi_<vehicle name>")
@@ -29,6 +37,8 @@ def add_arguments(parser) -> None:
 def main(args) -> int:
     if args.vehicle is not None:
         return _vehicle(args)
+    if args.service is not None:
+        return _service(args)
     from ...paths import config_dir
     from ...tools.design.defaults import format_report, regenerate_defaults
     report = regenerate_defaults(work=args.work, out=args.out or config_dir() / "fdi", fit_runs=args.fit_runs,
@@ -56,4 +66,17 @@ def _vehicle(args) -> int:
                       for kind, rows in held.items()))
     print(f"use it: rw-fdi run --scenario {out}/scenarios/fault_free.yaml --models {out} (report: "
           f"{out}/defaults_report.md)")
+    return 0
+
+
+def _service(args) -> int:
+    from ...tools.design.service_training import service_defaults
+    out = args.out or f"fdi_service_{args.service}"
+    report = service_defaults(out, train_runs=args.train_runs, fit_runs=args.fit_runs, units=args.service,
+                              epochs=args.epochs or 1000, executor=executor(args))
+    print(f"service-trained FDI in {out} ({report['seconds'] / 60:.1f} min): one network of the wheel type on "
+          + ", ".join(f"{n} windows of {a}" for a, n in report["windows"].items())
+          + "; kappa " + ", ".join(f"{a} {k:.3f}" for a, k in report["uncertainty_gain"].items()))
+    print(f"use it: rw-fdi screen --models {out} ...; in service: rw-fdi bench service --every-observer "
+          f"--thresholds {out}")
     return 0

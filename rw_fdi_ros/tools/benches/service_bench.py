@@ -30,6 +30,12 @@ gets runs of its own (``given_up_runs``): faulty draws of the family, up to 30 m
 to give up every wheel it confirms (``Fdir.holdable`` infinite, no slew margin, the policy before holding
 and keeping), measured for identification only.
 
+With ``watch`` (``--every-observer``) every observer of an FDI configuration (ours, and a user's plug-ins) is
+judged beside the decision on the same runs, acted on by nothing (core/onboard.ObserverWatch): its false alarms
+on fault-free 600-s runs and per 100 h, the faulty wheel and no other alarmed, no healthy wheel alarmed while or
+after the spacecraft reconfigured, the alarm held to the end, the delay (docs/fdi.md "Learned observers in
+service").
+
 Seeds: tuning from 90,000,000, evaluation (figures of record) from 91,000,000, the suite's net
 from 92,000,000; within each, the fault-free 600-s runs from +500,000 and the given-up runs from +700,000.
 """
@@ -49,6 +55,7 @@ from ...core.calibration import calibration_samples
 from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import SATURATED_S
 from ...core.identification import UNKNOWN
+from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Scenario, parse_scenario
 from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
 from ..campaigns.campaign import LocalExecutor
@@ -156,13 +163,22 @@ def scenario(d: Draw) -> Scenario:
     return parse_scenario(yaml.safe_dump(raw, sort_keys=False), origin=f"service seed {d.seed}")
 
 
-def fdir_for(units: bool, give_up: bool = False, vehicle: str = DEFAULT_VEHICLE) -> Fdir:
+def fdir_for(units: bool, give_up: bool = False, vehicle: str = DEFAULT_VEHICLE, watch: FdiConfig | None = None,
+             names=None) -> Fdir:
     """The onboard FDIR of the family, the shipped FDI of ``vehicle``; ``give_up``: made to give up every wheel
     it confirms (no holding, no keeping), for the identification of a wheel whose driver goes off at its
-    decision."""
+    decision. ``watch``: every observer of that FDI configuration (ours, and its plug-ins) judged beside on the
+    wheels ``names``, acted on by nothing (onboard.ObserverWatch)."""
+    from dataclasses import replace
+    from ...core.onboard import watched_observers
+    calibration = calibration_samples(CALIBRATION_S) if units else 0
     _, curves = FdiConfig(unit_calibration=CALIBRATION_S if units else 0.0).for_vehicle(vehicle).load()
     policy = {"holdable": float("inf"), "slew_rate": 0.0} if give_up else {}
-    return Fdir(curves["model"], calibration_samples(CALIBRATION_S) if units else 0, identification=True, **policy)
+    watched = None
+    if watch is not None and not give_up:
+        models, every = replace(watch, unit_calibration=CALIBRATION_S if units else 0.0).for_vehicle(vehicle).load()
+        watched = watched_observers(names, models, every, FDI_PERIOD, calibration)
+    return Fdir(curves["model"], calibration, identification=True, watched=watched, **policy)
 
 
 def judged_mask(time, scenario_: Scenario, start: float) -> np.ndarray:
@@ -229,13 +245,43 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
                 row.update(judge_size(scenario_.faults[0], found.size, found.low, found.high, found.at_s),
                            low=float(found.low), high=float(found.high), growing=found.growing)
             out["identification"] = row
+    if traj.watched:
+        out["observers"] = observer_figures(traj.watched[b], d, decisions)
     return out
 
 
-def _simulate(draws: list) -> list:
-    """One batch (equal duration, wheels and orbit): the runs' figures."""
+def observer_figures(watched: dict, d: Draw, decisions: list) -> dict:
+    """slot -> what each observer judged beside the decision said of one run: its alarms against the truth and
+    against FDIR's acts (a healthy wheel alarmed while or after the spacecraft reconfigured)."""
+    first = min((f["onset"] for f in d.faults), default=None)
+    faulty = {f["wheel"] for f in d.faults}
+    acted_at = min((t for t, _, a, _ in decisions if a in ACTED), default=None)
+    out = {}
+    for slot, wheels in watched.items():
+        starts = {a: [s for s, _ in spans] for a, spans in wheels.items()}
+        before = first if first is not None else d.duration
+        row = {"alarms_before_fault": sum(s < before for ss in starts.values() for s in ss),
+               "alarmed": sorted(a for a, ss in starts.items() if ss)}
+        if d.faults:
+            f0 = d.faults[0]
+            on_fault = [s for s in starts[f0["wheel"]] if s >= f0["onset"]]
+            healthy = sorted(a for a, ss in starts.items() if ss and a not in faulty)
+            row.update(detected=bool(on_fault), healthy_alarmed=healthy, right=bool(on_fault) and not healthy,
+                       delay_s=on_fault[0] - f0["onset"] if on_fault else None,
+                       held=bool(on_fault) and wheels[f0["wheel"]][-1][1] is None)
+            if acted_at is not None:
+                row["healthy_after_reconfiguration"] = sorted(
+                    a for a, spans in wheels.items() if a not in faulty and any(e is None or e >= acted_at
+                                                                               for _, e in spans))
+        out[slot] = row
+    return out
+
+
+def _simulate(draws: list, watch: FdiConfig | None = None) -> list:
+    """One batch (equal duration, wheels and orbit): the runs' figures; ``watch``: every observer's too."""
     scenarios = [scenario(d) for d in draws]
-    traj = simulate(scenarios, fdir=fdir_for(draws[0].units, draws[0].give_up, draws[0].vehicle), every=EVERY)
+    fdir = fdir_for(draws[0].units, draws[0].give_up, draws[0].vehicle, watch, scenarios[0].wheel_set().names)
+    traj = simulate(scenarios, fdir=fdir, every=EVERY)
     return [run_figures(traj, b, d, s) for b, (d, s) in enumerate(zip(draws, scenarios))]
 
 
@@ -258,16 +304,18 @@ def given_up_draws(seeds, vehicle: str = DEFAULT_VEHICLE) -> list:
 
 
 def run_service(seeds, executor=None, progress=None, max_duration: float | None = None, fault_free_seeds=(),
-                given_up_seeds=(), vehicle: str = DEFAULT_VEHICLE) -> list:
+                given_up_seeds=(), vehicle: str = DEFAULT_VEHICLE, watch: FdiConfig | None = None) -> list:
     """Figures of the in-service runs of ``seeds``, of the fault-free 600-s runs of ``fault_free_seeds`` and of
     the faulty draws of ``given_up_seeds`` with FDIR giving up (:func:`given_up_draws`), in seed order, on
-    ``executor`` (local processes by default, or a Dask cluster), all flying ``vehicle``."""
+    ``executor`` (local processes by default, or a Dask cluster), all flying ``vehicle``; with ``watch`` (an
+    FdiConfig) every observer of it judged beside the decision on each flight run."""
+    from functools import partial
     work = batches([draw(s, max_duration, vehicle=vehicle) for s in seeds]
                    + [draw(s, fault_free=True, vehicle=vehicle) for s in fault_free_seeds]
                    + given_up_draws(given_up_seeds, vehicle))
     runs = []
     # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
-    for out in (executor or LocalExecutor()).map_unordered(_simulate, work, processes=True):
+    for out in (executor or LocalExecutor()).map_unordered(partial(_simulate, watch=watch), work, processes=True):
         runs += out
         if progress:
             progress(len(out))
@@ -346,7 +394,35 @@ def summarize(all_runs: list) -> dict:
                      "max": float(delays.max())} if delays.size else None),
         "unknown": sum(i["kind"] == UNKNOWN for i in ident),
         "given_up": _given_up_figures(given_up),
+        **({"observers": _observer_figures(all_runs, free_600, visible, hours)} if any("observers" in r
+                                                                                     for r in all_runs) else {}),
     }
+
+
+def _observer_figures(all_runs: list, free_600: list, visible: list, hours: float) -> dict:
+    """Every observer judged beside the decision (run_figures' ``observers``), slot by slot: false alarms on the
+    fault-free 600-s runs and per 100 h of fault-free service, the faulty wheel and no other alarmed (visible
+    faults), no healthy wheel alarmed while or after the spacecraft reconfigured, the alarm held to the end,
+    the delay."""
+    slots = next(r["observers"] for r in all_runs if "observers" in r)
+    out = {}
+    for slot in slots:
+        def of(r):
+            return r["observers"][slot]
+        detected = [of(r) for r in visible if of(r)["detected"]]
+        delays = np.array([o["delay_s"] for o in detected])
+        reconfigured = [of(r) for r in visible if "healthy_after_reconfiguration" in of(r)]
+        alarms = sum(of(r)["alarms_before_fault"] for r in all_runs)
+        out[slot] = {
+            "false_alarm_600s": rate(bool(of(r)["alarmed"]) for r in free_600),
+            "false_alarms_per_100h": 100.0 * alarms / hours if hours else None, "false_alarms": alarms,
+            "right": rate(of(r)["right"] for r in visible),
+            "detected": rate(of(r)["detected"] for r in visible),
+            "no_healthy_after_reconfiguration": rate(not o["healthy_after_reconfiguration"] for o in reconfigured),
+            "held": rate(o["held"] for o in detected),
+            "delay_s": ({"median": float(np.median(delays)), "p90": float(np.percentile(delays, 90))}
+                        if delays.size else None)}
+    return out
 
 
 def _given_up_figures(runs: list) -> dict:
@@ -368,7 +444,7 @@ def _given_up_figures(runs: list) -> dict:
 
 def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path = "reports/service", executor=None,
                   progress=None, max_hours: float | None = None, fault_free_runs: int = 1000,
-                  given_up_runs: int = 300, vehicle: str = DEFAULT_VEHICLE) -> dict:
+                  given_up_runs: int = 300, vehicle: str = DEFAULT_VEHICLE, watch: FdiConfig | None = None) -> dict:
     """``runs`` of the in-service family, ``fault_free_runs`` fault-free 600-s runs of it and the faulty draws
     among ``given_up_runs`` seeds run with FDIR giving up, on the seeds of ``seeds`` (SEED_BASES; the fault-free
     ones from FAULT_FREE_SEEDS above, the given-up ones from GIVEN_UP_SEEDS); the report in ``out``."""
@@ -379,7 +455,7 @@ def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path =
     given_base = seed_base + GIVEN_UP_SEEDS
     results = run_service(range(seed_base, seed_base + runs), executor, progress, max_duration,
                           range(free_base, free_base + fault_free_runs), range(given_base, given_base + given_up_runs),
-                          vehicle)
+                          vehicle, watch)
     report = {"schema": "rw_fdi_ros/service_bench/2", "seconds": time.monotonic() - t0, "max_hours": max_hours,
               "vehicle": vehicle,
               "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,
@@ -388,6 +464,31 @@ def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path =
               "given_up_seeds": [given_base, given_base + given_up_runs - 1] if given_up_runs else None,
               "figures": summarize(results), "runs": results}
     return write_report(report, out, "service", format_service)
+
+
+def _format_observers(figures: dict | None) -> list:
+    """The table of every observer judged beside the decision (``--every-observer``), one column each."""
+    if not figures:
+        return []
+    slots = list(figures)
+
+    def row(name, cell):
+        return f"| {name} | " + " | ".join(cell(figures[s]) for s in slots) + " |"
+    return ["", "## Every observer in service", "",
+            "Each observer judged beside the decision on the same runs (the model observer's verdict flies FDIR; "
+            "the others are acted on by nothing): its alarms against the truth and against FDIR's acts.", "",
+            "| figure | " + " | ".join(slots) + " |", "|---|" + "---|" * len(slots),
+            row("false alarms, fault-free 600-s runs", lambda o: format_rate(o["false_alarm_600s"])),
+            row("false alarms per 100 h of fault-free service",
+                lambda o: "-" if o["false_alarms_per_100h"] is None else
+                f"{o['false_alarms_per_100h']:.1f} ({o['false_alarms']})"),
+            row("the faulty wheel and no other alarmed (visible faults)", lambda o: format_rate(o["right"])),
+            row("detected (visible faults)", lambda o: format_rate(o["detected"])),
+            row("no healthy wheel alarmed while or after the spacecraft reconfigured",
+                lambda o: format_rate(o["no_healthy_after_reconfiguration"])),
+            row("alarm held to the end (detected)", lambda o: format_rate(o["held"])),
+            row("delay median / p90 [s]", lambda o: "-" if not o["delay_s"] else
+                f"{o['delay_s']['median']:.0f} / {o['delay_s']['p90']:.0f}")]
 
 
 def format_service(report: dict) -> str:
@@ -435,6 +536,7 @@ def format_service(report: dict) -> str:
               f"kept in {a['pointing_kept']} of them (the warning came; the slews then allowed it)."]
     h = f["physically_hidden"]
     lines += [f"Faults the physics hides (no visible torque effect, never acted on): {h['runs']} runs."]
+    lines += _format_observers(f.get("observers"))
     g = f.get("given_up")
     if g and g["runs"]:
         seeds = report["given_up_seeds"]

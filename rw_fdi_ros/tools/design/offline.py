@@ -77,7 +77,8 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
                            {k: zero for k in est}, wheels=wheels)
     if samples.wheel_speed is None:
         raise ValueError("speed-aware observers need FDI samples with wheel speed (fdi_sampling 'mean')")
-    elman = np.stack([recall_series(m, samples.tcv[:, i], r[0, i], samples.wheel_speed[:, i], r[:, i])
+    elman = np.stack([recall_series(m, samples.tcv[:, i], r[0, i], samples.wheel_speed[:, i], r[:, i],
+                                    None if samples.model_torque is None else samples.model_torque[:, i])
                       for i, m in enumerate(nets)], axis=1)
     est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period), "model": samples.model_torque}
     gains = {"elman": [m.uncertainty_gain for m in nets], "linear": [uncertainty_gain(a) for a in wheels],

@@ -1,0 +1,82 @@
+"""The Elman networks' training for service (tools/design/service_training.py): what a wheel's healthy running
+stretches are, window by window."""
+import numpy as np
+import pytest
+
+from rw_fdi_ros.tools.benches import service_bench as sb
+from rw_fdi_ros.tools.design.samples import FdiSamples
+from rw_fdi_ros.tools.design.service_training import healthy_windows
+
+
+def run(n: int, standby_until: int):
+    """x, y, z running from the start; s at rest and unpowered until ``standby_until``, then running."""
+    t = np.arange(n, dtype=float)
+    tcv = np.ones((n, 4))
+    torque = np.full((n, 4), 1e-3)
+    tcv[:standby_until, 3] = torque[:standby_until, 3] = 0.0
+    return FdiSamples(None, 1, t, tcv, torque, wheel_speed=np.zeros((n, 4)), ripple_phasor=np.zeros((n, 4), complex),
+                      model_torque=np.full((n, 4), 0.9e-3), wheels=("x", "y", "z", "s"))
+
+
+def test_a_faulty_wheel_from_its_onset_and_a_standby_wheel_are_left_out():
+    fault = {"kind": "current_limiter", "wheel": "y", "onset": 250.0, "value": 0.7, "ramp": 0.0}
+    draw = sb.Draw(1, 1000.0, False, False, (60.0, 120.0), 5.0, (fault,))
+    windows = healthy_windows(draw, run(1000, standby_until=420), length=200)
+    assert {a: len(w) for a, w in windows.items()} == {"x": 5, "y": 1, "z": 5, "s": 2}
+    u, r, w, p, m = windows["s"][0]
+    assert len(u) == 200 and u[0] == 1.0 and r[0] == 1e-3 and p.dtype == complex and m[0] == 0.9e-3   # running
+
+
+def test_a_run_shorter_than_a_window_gives_none():
+    draw = sb.Draw(2, 150.0, False, False, (60.0, 120.0), 5.0, ())
+    assert healthy_windows(draw, run(150, standby_until=150), length=200) == {}
+
+
+def test_a_network_of_the_model_error_that_learnt_nothing_is_the_model_observer(tmp_path):
+    """A grey-box network (ElmanWeights.model_error) whose output is 0 estimates r_model exactly: its residuals
+    are the model observer's, and its weights come back from the file as they went."""
+    from rw_fdi_ros.core.elman import ElmanWeights, recall_series
+    from rw_fdi_ros.core.observer_plugin import ObserverModels
+    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.tools.design.offline import observe
+    from rw_fdi_ros.tools.evaluation.screen import simulated_samples
+    rng = np.random.default_rng(0)
+    w = ElmanWeights.random(rng, speed_scale=45.0, torque_scale=1e-3)
+    w.w_ho[:] = 0.0
+    w.b_o[:] = 0.0
+    w.model_error = True
+    w.save(tmp_path / "elman_x.npz")
+    back = ElmanWeights.load(tmp_path / "elman_x.npz")
+    assert back.model_error and np.array_equal(back.w_ih, w.w_ih)
+    scenario = load_scenario("current_0p6_x").with_seed(61_000_700)
+    samples = simulated_samples([scenario])[scenario.seed]
+    run = observe(samples, ObserverModels({"x": back}))
+    np.testing.assert_array_equal(run.residual["elman"], run.residual["model"])
+    est = recall_series(back, samples.tcv[:, 0], samples.reaction_torque[0, 0], samples.wheel_speed[:, 0],
+                        model_torque=samples.model_torque[:, 0])
+    np.testing.assert_array_equal(est, samples.model_torque[:, 0])
+
+
+@pytest.mark.graph
+def test_the_service_trained_set_runs_in_the_graph_with_the_screens_verdict(tmp_path):
+    """config/fdi/service's grey-box networks in the Elman nodes (the model torque from the FDI telemetry): the
+    graph alarms the wheels and at the times the screen does."""
+    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.fdi_config import FdiConfig
+    from rw_fdi_ros.paths import config_dir
+    from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
+    from rw_fdi_ros.tools.evaluation.screen import screen_runs
+    from rw_fdi_ros.tools.metrics import judge
+    scenario = tmp_path / "loss_z.yaml"
+    scenario.write_text("name: loss_z\nduration: 130.0\nseed: 61000901\n"
+                        "faults: [{kind: current_limiter, wheel: z, onset: 50.0, value: 0.8}]\n")
+    fdi = FdiConfig(models=str(config_dir() / "fdi" / "service"), fdir=False)
+    graph = run_with_fdi(str(scenario), out_dir=tmp_path / "bags", fdi=fdi)
+    assert graph.ok, graph.reason
+    weights, curves = fdi.load()
+    assert all(w.model_error for w in weights.values())
+    screened = screen_runs([load_scenario(str(scenario))], weights, curves)[0]
+    verdict = graph.summary["fdi"]
+    assert [a for a, iv in verdict["elman"].items() if iv] == judge(screened, "elman")["alarmed_wheels"] == ["z"]
+    first = verdict["elman"]["z"][0][0]
+    assert first - 50.0 == pytest.approx(judge(screened, "elman")["axes"]["z"]["delay"])
