@@ -184,3 +184,9 @@ def test_it_runs_as_a_node_of_the_graph_with_the_screens_verdict(kalman_fdi, tmp
     assert [a for a, iv in verdict["kalman"].items() if iv] == judge(screened, "kalman")["alarmed_wheels"] == ["y"]
     first = {a: iv[0][0] for a, iv in verdict["kalman"].items() if iv}
     assert first["y"] - 50.0 == pytest.approx(judge(screened, "kalman")["axes"]["y"]["delay"])
+    # and a replay of the bag through the FDI graph judges it as the core engine does
+    from rw_fdi_ros.tools.evaluation.evaluate import evaluate
+    reports = {engine: evaluate(tmp_path / "bags", tmp_path / f"report_{engine}", fdi, engine=engine)
+               for engine in ("graph", "core")}
+    assert reports["graph"]["runs"] == reports["core"]["runs"] == 1
+    assert "kalman" in (tmp_path / "report_graph" / "report.md").read_text()

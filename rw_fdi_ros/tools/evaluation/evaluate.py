@@ -85,7 +85,8 @@ def replay_chunks(bags: list, jobs: int) -> list:
 def evaluate_replayed(bag: Path, out: Path, scenario, peak, observers=None) -> RunEval:
     """The figures of one bag from its replay ``out`` and its ground truth; ``observers``: those the
     replay must hold (a replay without one of them is refused, not judged by the others alone)."""
-    replay = read_series(out, topics=fdi_output_topics())
+    plugins = [obs for obs in observers or () if obs not in T.OBSERVERS]   # a user's observers: their topics too
+    replay = read_series(out, topics=fdi_output_topics(plugins))
     series = series_from_bag(replay)
     missing = [obs for obs in observers or () if obs not in series]
     if missing:
