@@ -55,7 +55,8 @@ class FdiConfig:
     plugins: tuple = ()
 
     def __post_init__(self):
-        object.__setattr__(self, "plugins", tuple(self.plugins or ()))
+        from .core.observer_plugin import absolute_spec   # a worker elsewhere finds a file.py:Class spec too
+        object.__setattr__(self, "plugins", tuple(absolute_spec(p) for p in self.plugins or ()))
         if self.plugins and self.method != "speed_aware":
             raise ValueError("--observer needs --fdi-method speed_aware (a plug-in's residual is signed, with the "
                              "ripple bound)")

@@ -126,6 +126,8 @@ def test_train_and_fit_thresholds_write_its_state_and_bands_beside_ours(kalman_f
     assert all(k > 0 for k in state["state"]["uncertainty_gain"].values())
     bands = json.loads((out / "thresholds_kalman.json").read_text())
     assert bands["observer"] == "kalman" and "KalmanObserver" in bands["model"]
+    # its kappa spends half of the designed rate, as the Elman and Luenberger observers' do
+    assert bands["calibration"]["alpha_per_axis"] == pytest.approx(0.5 * 0.005 / 3)
     assert (out / "thresholds_model.json").is_file() and "kalman  band c" in said
 
 
@@ -190,3 +192,21 @@ def test_it_runs_as_a_node_of_the_graph_with_the_screens_verdict(kalman_fdi, tmp
                for engine in ("graph", "core")}
     assert reports["graph"]["runs"] == reports["core"]["runs"] == 1
     assert "kalman" in (tmp_path / "report_graph" / "report.md").read_text()
+
+
+def test_a_file_spec_is_made_absolute_and_each_observer_has_its_own_state(tmp_path, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    fdi = FdiConfig(plugins=("examples/kalman_observer/kalman_observer.py:KalmanObserver",))
+    assert fdi.plugins == (KALMAN,) and fdi.plugin_slots == ("kalman",)
+    state = {"uncertainty_gain": {"x": 0.1}}
+    a, b = ModelCopy(("x",), 1.0, state), ModelCopy(("x",), 1.0, state)
+    a.state["uncertainty_gain"]["x"] = 9.0
+    assert b.uncertainty_gain("x") == 0.1 and state["uncertainty_gain"]["x"] == 0.1
+
+
+def test_a_network_of_the_model_error_without_the_model_torque_is_said():
+    from rw_fdi_ros.core.elman import ElmanWeights, recall_series
+    w = ElmanWeights.random(np.random.default_rng(1), speed_scale=45.0)
+    w.model_error = True
+    with pytest.raises(ValueError, match="nominal model's torque"):
+        recall_series(w, np.zeros(5), 0.0, np.zeros(5))

@@ -85,3 +85,11 @@ def test_a_plugin_is_watched_in_service_as_its_node_runs_it():
         from dataclasses import replace
         traj = simulate([scenario], fdir=replace(fdir, watched=watched))
         assert traj.watched[0]["model_copy"] == traj.watched[0]["model"] and traj.watched[0]["model"]["y"]
+
+
+def test_an_alarm_up_before_the_onset_and_held_through_it_counts_from_the_onset():
+    draw = sb.Draw(1, 600.0, False, False, (60.0, 120.0), 5.0, (FAULT,))
+    watched = {"elman": {"x": [], "y": [[200.0, None]], "z": [], "s": []}}
+    row = sb.observer_figures(watched, draw, [])["elman"]
+    assert row["detected"] and row["held"] and row["right"] and row["delay_s"] == 0.0
+    assert row["alarms_before_fault"] == 1   # and it was raised before the fault: a false alarm too

@@ -278,6 +278,8 @@ def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel
         recall = WheelRecall(weights)
         return np.array([recall.update(u, r, w, m) for u, r, w, m in
                          zip(tcv, np.asarray(reaction_torque, float), speeds, models)])
+    if weights.model_error and model_torque is None:
+        raise ValueError("a network of the model's error needs the nominal model's torque")
     base = np.asarray(model_torque, float) if weights.model_error else np.zeros(len(tcv))
     obs = ElmanObserver(weights)
     obs.reset(initial_torque - (base[0] if len(base) else 0.0))

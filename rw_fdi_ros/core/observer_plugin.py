@@ -16,6 +16,7 @@ Its files (its trained ``state`` and its bands) live in the FDI directory as our
 """
 from __future__ import annotations
 
+import copy
 import importlib
 import importlib.util
 import json
@@ -61,7 +62,7 @@ class WheelObserver:
     def __init__(self, wheels, fdi_period: float = 1.0, state: dict | None = None):
         self.wheels = tuple(wheels)
         self.fdi_period = float(fdi_period)
-        self.state = dict(state or {})
+        self.state = copy.deepcopy(dict(state or {}))   # each run its own: a plug-in may change it
         self.reset()
 
     def reset(self) -> None:

@@ -264,7 +264,8 @@ def observer_figures(watched: dict, d: Draw, decisions: list) -> dict:
                "alarmed": sorted(a for a, ss in starts.items() if ss)}
         if d.faults:
             f0 = d.faults[0]
-            on_fault = [s for s in starts[f0["wheel"]] if s >= f0["onset"]]
+            # an alarm of the faulty wheel up at the onset or after it (one raised before and still up: from the onset)
+            on_fault = [max(s, f0["onset"]) for s, e in wheels[f0["wheel"]] if e is None or e >= f0["onset"]]
             healthy = sorted(a for a, ss in starts.items() if ss and a not in faulty)
             row.update(detected=bool(on_fault), healthy_alarmed=healthy, right=bool(on_fault) and not healthy,
                        delay_s=on_fault[0] - f0["onset"] if on_fault else None,

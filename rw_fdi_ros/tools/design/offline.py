@@ -165,12 +165,14 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
         # a band per wheel in use in the fitting runs (x, y, z; a pyramid's four): counts are the set's
         fitted = wheel_set(PlantChoices.from_recorded(plant).wheel_set).active
         cols = [runs[0].wheels.index(a) for a in fitted]
+        kappa_of = {cls.slot: any(cls(runs[0].wheels, FDI_PERIOD, state).uncertainty_gain(a) > 0 for a in fitted)
+                    for cls, state in getattr(models, "plugins", ())}
         for obs in observers_of("speed_aware") + tuple(cls.slot for cls, _ in getattr(models, "plugins", ())):
             stats = np.array([run_statistic(np.abs(run.residual[obs][:, cols]) - run.bound[obs][:, cols], p)
                               for run in runs])
-            # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain); a plug-in's
-            # kappa, where it has one, is its own: its band gets the whole
-            share = 0.5 if obs in ("elman", "linear") else 1.0
+            # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain), and so does a
+            # plug-in with a kappa (the same rule); the model observer's band gets the whole
+            share = 0.5 if obs in ("elman", "linear") or kappa_of.get(obs) else 1.0
             bands = fit_band(stats, false_alarm_rate, axes=fitted, share=share)
             ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in fitted},
                             sample_period=FDI_PERIOD, window=window, sigmas=float("nan"), seeds=seeds, plant=plant,
