@@ -41,6 +41,8 @@ def _nodes(context):
     from rw_fdi_ros.tools.campaigns.run import resolve_scenario
     from rw_fdi_ros.launch.graph import graph_nodes, processes
     from rw_fdi_ros.launch.launcher import write_params_file
+    from rw_fdi_ros.launch.shm import clean_zombie_files
+    clean_zombie_files()   # Fast DDS files of killed processes (what `fastdds shm clean` removes)
     seed = int(LaunchConfiguration("seed").perform(context))
     scenario, path = resolve_scenario(LaunchConfiguration("scenario").perform(context), seed if seed >= 0 else None)
     bag = LaunchConfiguration("bag").perform(context) or None

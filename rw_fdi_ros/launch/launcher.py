@@ -23,6 +23,7 @@ from pathlib import Path
 import yaml
 
 from ..paths import fastdds_profiles, installed_executable
+from .shm import clean_zombie_files
 
 # a node that did its work and then hung tearing DDS down ends by SIGALRM (nodes/runtime.TEARDOWN_TIMEOUT):
 # that is a clean exit with a note, not a failed node
@@ -250,6 +251,7 @@ class GraphProcesses:
         self.procs = {}
 
     def start(self):
+        clean_zombie_files()   # a killed run's shared-memory files must not stall this one's discovery
         params_file = write_params_file(self.nodes, self.work_dir / "params.yaml", self.namespace)
         for p in self.processes:
             cmd = process_command(p, params_file, self.python, self.namespace)
