@@ -109,13 +109,20 @@ class FdiConfig:
         return tuple(cls.slot for cls in self.plugin_classes())
 
     def plugin_classes(self) -> tuple:
-        """The plug-ins' WheelObserver classes (ObserverError, one line, for one not found or twice)."""
+        """The plug-ins' WheelObserver classes (ObserverError, one line, for one not found or twice); found
+        once per configuration (finding an entry point reads every installed package's metadata)."""
+        if "_plugin_classes" in self.__dict__:
+            return self.__dict__["_plugin_classes"]
         from .core.observer_plugin import ObserverError, load_observer
         classes = tuple(load_observer(spec) for spec in self.plugins)
         slots = [c.slot for c in classes]
         if len(set(slots)) != len(slots):
             raise ObserverError(f"--observer: a slot given twice ({', '.join(slots)})")
+        object.__setattr__(self, "_plugin_classes", classes)   # not a field: not compared, copied or replaced
         return classes
+
+    def __getstate__(self):   # to a worker: the specs, not the classes (one from a file.py is not importable there)
+        return {k: v for k, v in self.__dict__.items() if k != "_plugin_classes"}
 
     @property
     def plugin_dirs(self) -> tuple:

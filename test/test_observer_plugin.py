@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_discrete_are
 
-from rw_fdi_ros.core.observer_plugin import (ObserverError, ObserverModels, WheelObserver, estimate_series,
-                                             load_observer, save_state, load_state)
+from rw_fdi_ros.core.observer_plugin import (ObserverError, ObserverModels, PluginRun, WheelObserver, load_observer,
+                                             save_state, load_state)
 from rw_fdi_ros.fdi_config import FdiConfig
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -82,7 +82,7 @@ def test_a_plugin_equal_to_our_model_gives_its_residuals_with_and_without_calibr
 
 def test_an_estimate_of_the_wrong_size_is_said(fault_free_samples):
     with pytest.raises(ObserverError, match="gave 2 values for 4 wheels"):
-        estimate_series(Wrong(fault_free_samples.wheels), fault_free_samples)
+        PluginRun(Wrong, fault_free_samples.wheels, 1.0).series(fault_free_samples)
 
 
 def test_a_state_that_is_not_data_is_refused_and_data_comes_back(tmp_path):
@@ -210,3 +210,64 @@ def test_a_network_of_the_model_error_without_the_model_torque_is_said():
     w.model_error = True
     with pytest.raises(ValueError, match="nominal model's torque"):
         recall_series(w, np.zeros(5), 0.0, np.zeros(5))
+
+
+class Broken(WheelObserver):
+    """A plug-in with a bug in its estimate."""
+    slot = "broken"
+
+    def estimate(self, sample):
+        return {}["x"]
+
+
+def test_whatever_a_plugin_raises_is_one_line_naming_it(fault_free_samples):
+    with pytest.raises(ObserverError, match=r"^observer broken: estimate\(\) raised KeyError: 'x'$"):
+        PluginRun(Broken, fault_free_samples.wheels, 1.0).series(fault_free_samples)
+
+    class BadInit(ModelCopy):
+        slot = "bad_init"
+
+        def reset(self):
+            raise RuntimeError("no memory")
+    with pytest.raises(ObserverError, match=r"^observer bad_init: __init__\(\) raised RuntimeError: no memory$"):
+        PluginRun(BadInit, fault_free_samples.wheels, 1.0)
+
+
+def test_a_state_file_of_another_observer_is_refused(tmp_path):
+    from rw_fdi_ros.core.observer_plugin import read_state
+    path = save_state(tmp_path, ModelCopy, "x:ModelCopy", {"gain": [1.0]})
+    assert read_state(path, "model_copy") == {"gain": [1.0]}
+    with pytest.raises(ObserverError, match="not the state of observer kalman"):
+        read_state(path, "kalman")
+
+
+@pytest.mark.graph
+def test_the_node_says_a_state_of_another_observer_and_a_plugins_failure_in_one_line(tmp_path):
+    from rw_fdi_ros.launch.launcher import DomainLease
+    path = save_state(tmp_path, ModelCopy, "x:ModelCopy", {"gain": [1.0]})
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", PYTHONPATH=str(ROOT / "test"))
+    with DomainLease() as lease:
+        env["ROS_DOMAIN_ID"] = str(lease.domain_id)
+        r = subprocess.run([sys.executable, "-m", "rw_fdi_ros.nodes.plugin_observer", "--ros-args", "-p",
+                            f"observer:={KALMAN}", "-p", f"observer_state:={path}"],
+                           capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode == 2 and "not the state of observer kalman" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr
+
+
+@pytest.mark.graph
+def test_a_plugins_failure_inside_the_node_ends_it_in_one_line_naming_it(fault_free_samples, monkeypatch):
+    import rclpy
+    from rw_fdi_ros.graph.runtime import EXIT_ERROR, NodeError
+    from rw_fdi_ros.nodes.plugin_observer import PluginObserverNode
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(100 + os.getpid() % 100))
+    rclpy.init(args=["--ros-args", "-p", "observer:=test_observer_plugin:Broken"])
+    try:
+        node = PluginObserverNode()
+        with pytest.raises(NodeError, match=r"^observer broken: estimate\(\) raised KeyError") as info:
+            node.estimate(next(fault_free_samples.rows()))
+        assert info.value.code == EXIT_ERROR and "\n" not in str(info.value)
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown()

@@ -118,23 +118,73 @@ class WheelObserver:
         return None
 
 
+def _hook(observer: WheelObserver, hook: str, *args):
+    """``observer.hook(*args)``, anything it raises one ObserverError naming the plug-in (the node, the offline
+    tools and the core loop all say it in one line)."""
+    try:
+        return getattr(observer, hook)(*args)
+    except ObserverError:
+        raise
+    except Exception as exc:   # noqa: BLE001 -- a user's code: whatever it raises is said, naming it
+        raise ObserverError(f"observer {observer.slot}: {hook}() raised {type(exc).__name__}: {exc}") from exc
+
+
 def step(observer: WheelObserver, sample, calibrating: bool) -> np.ndarray:
-    """One FDI sample through ``observer`` (what the plug-in node and the offline tools both do): its
-    calibration hook while ``calibrating``, then its estimate, checked to hold one finite value per wheel."""
+    """One FDI sample through ``observer``: its calibration hook while ``calibrating``, then its estimate,
+    checked to hold one finite value per wheel."""
     if calibrating:
-        observer.calibrate(sample)
-    estimate = np.asarray(observer.estimate(sample), float).reshape(-1)
+        _hook(observer, "calibrate", sample)
+    estimate = np.asarray(_hook(observer, "estimate", sample), float).reshape(-1)
     if estimate.shape != (len(observer.wheels),):
         raise ObserverError(f"observer {observer.slot}: estimate() gave {estimate.size} values for "
                             f"{len(observer.wheels)} wheels ({', '.join(observer.wheels)})")
     return estimate
 
 
-def estimate_series(observer: WheelObserver, samples, calibration_samples: int = 0) -> np.ndarray:
-    """r^ (n, N) of a whole run (FdiSamples) through :func:`step`, from a reset observer."""
-    observer.reset()
-    rows = [step(observer, row, k < calibration_samples) for k, row in enumerate(samples.rows())]
-    return np.array(rows).reshape(len(samples.time), len(observer.wheels))
+class PluginRun:
+    """One run through a plug-in, as the plug-in node, the offline tools and the core loop all run it: a new
+    instance of ``cls`` (its own copy of ``state``) whose first ``calibration_samples`` samples also go to its
+    calibration hook (:func:`step`).
+
+    Parameters
+    ----------
+    cls : type
+        The WheelObserver subclass.
+    wheels : sequence of str
+        The wheel set's names.
+    fdi_period : float
+        T [s].
+    state : dict, optional
+        Its trained state (:func:`load_state`).
+    calibration_samples : int
+        The run's unit-calibration samples (0: none).
+    """
+
+    def __init__(self, cls: type, wheels, fdi_period: float, state: dict | None = None,
+                 calibration_samples: int = 0):
+        try:
+            self.observer = cls(wheels, fdi_period, state)
+        except ObserverError:
+            raise
+        except Exception as exc:   # noqa: BLE001 -- a user's code
+            raise ObserverError(f"observer {cls.slot}: __init__() raised {type(exc).__name__}: {exc}") from exc
+        self.calibration_samples = int(calibration_samples)
+        self.seen = 0
+
+    def uncertainty_gains(self) -> list:
+        """kappa of each wheel (:meth:`WheelObserver.uncertainty_gain`)."""
+        return [float(_hook(self.observer, "uncertainty_gain", a)) for a in self.observer.wheels]
+
+    def step(self, sample) -> np.ndarray:
+        """r^_k (N,) of the run's next FDI sample."""
+        calibrating = self.seen < self.calibration_samples
+        self.seen += 1
+        return step(self.observer, sample, calibrating)
+
+    def series(self, samples) -> np.ndarray:
+        """r^ (n, N) of a whole run (FdiSamples), from its first sample."""
+        rows = [self.step(row) for row in samples.rows()]
+        return np.array(rows).reshape(len(samples.time), len(self.observer.wheels))
 
 
 def _entry_points() -> dict:
@@ -186,15 +236,20 @@ def load_observer(spec: str) -> type:
                                 "module:Class or file.py:Class")
     except ObserverError:
         raise
-    except (ImportError, AttributeError, SyntaxError) as exc:
+    except Exception as exc:   # noqa: BLE001 -- importing a user's module runs its code: whatever it raises
         raise ObserverError(f"observer {spec}: cannot load it ({type(exc).__name__}: {exc})") from None
     if not (isinstance(cls, type) and issubclass(cls, WheelObserver)):
         raise ObserverError(f"observer {spec}: {cls!r} is not a subclass of rw_fdi_ros.core.observer_plugin."
                             "WheelObserver")
-    if not _SLOT.match(cls.slot or "") or cls.slot in RESERVED_SLOTS:
+    if not is_plugin_slot(cls.slot or ""):
         raise ObserverError(f"observer {spec}: its slot {cls.slot!r} must be lower-case letters, digits and '_' "
                             f"(at most 32), not one of {', '.join(RESERVED_SLOTS)}")
     return cls
+
+
+def is_plugin_slot(slot: str) -> bool:
+    """Whether ``slot`` may name a plug-in: lower-case letters, digits and '_' (at most 32), none of ours."""
+    return bool(_SLOT.match(slot)) and slot not in RESERVED_SLOTS
 
 
 def absolute_spec(spec: str) -> str:
@@ -222,19 +277,26 @@ def save_state(directory, cls: type, spec: str, state: dict, seeds=()) -> Path:
     return path
 
 
+def find_state(directories, slot: str) -> Path | None:
+    """``observer_<slot>.json`` in the first of ``directories`` that holds one (None: none does)."""
+    return next((state_path(d, slot) for d in directories if state_path(d, slot).is_file()), None)
+
+
+def read_state(path, slot: str) -> dict:
+    """The trained state in the file ``path``, checked to be the state of ``slot`` (ObserverError, one line)."""
+    try:
+        data = json.loads(Path(path).read_text())
+        if not isinstance(data, dict) or data.get("slot") != slot or not isinstance(data.get("state"), dict):
+            raise ValueError(f"not the state of observer {slot}")
+    except (ValueError, OSError) as exc:
+        raise ObserverError(f"{path}: unreadable ({exc})") from None
+    return data["state"]
+
+
 def load_state(directories, slot: str) -> dict:
     """The state of ``slot`` from the first of ``directories`` holding ``observer_<slot>.json`` ({}: none)."""
-    for d in directories:
-        path = state_path(d, slot)
-        if path.is_file():
-            try:
-                data = json.loads(path.read_text())
-                if data.get("slot") != slot or not isinstance(data.get("state"), dict):
-                    raise ValueError(f"not the state of observer {slot}")
-            except (ValueError, OSError) as exc:
-                raise ObserverError(f"{path}: unreadable ({exc})") from None
-            return data["state"]
-    return {}
+    path = find_state(directories, slot)
+    return {} if path is None else read_state(path, slot)
 
 
 def trains(cls: type) -> bool:

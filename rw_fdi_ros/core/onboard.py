@@ -21,7 +21,7 @@ from .calibration import UnitCalibration, regressors
 from .residuals import SignedResidual
 from .threshold_file import ThresholdCurves
 from .identification import FaultIdentifier
-from .observer_plugin import step as plugin_step
+from .observer_plugin import PluginRun
 from .isolation import LatchedVerdict, ObserverChannel, in_envelope
 from .telemetry import TelemetrySampler
 
@@ -90,12 +90,12 @@ class ObserverWatch:
     wheel the alarm intervals [start, end or None] [s] (:attr:`intervals`).
 
     ``observers``: slot -> (estimator, uncertainty gain per wheel, ThresholdCurves), an estimator being
-    ``make() -> step(sample) -> (B, N) r^``, made once per batch (:func:`watched_observers`)."""
+    ``make(batch)``, a callable ``(sample) -> (B, N) r^`` made once per batch (:func:`watched_observers`)."""
 
     def __init__(self, names, observers: dict, batch: int, calibration_samples: int = 0,
                  persistence: int | None = None):
         self.names = tuple(names)
-        self.estimators = {slot: make() for slot, (make, _, _) in observers.items()}
+        self.estimators = {slot: make(batch) for slot, (make, _, _) in observers.items()}
         self.filters = {slot: [[SignedResidual(uncertainty_gain=gains[i],
                                                calibration=UnitCalibration(calibration_samples)
                                                if calibration_samples else None)
@@ -124,48 +124,51 @@ class ObserverWatch:
                         spans[-1][1] = t
 
 
+class _ElmanRecalls:
+    """The Elman network of each wheel recalled for each run of a batch, as the node recalls it."""
+
+    def __init__(self, nets, batch: int):
+        from .elman import WheelRecall
+        self.recalls = [[WheelRecall(net) for net in nets] for _ in range(batch)]
+
+    def __call__(self, sample) -> np.ndarray:
+        out = np.empty(sample.tcv.shape)
+        for b, row in enumerate(self.recalls):
+            for i, recall in enumerate(row):
+                out[b, i] = recall.update(sample.tcv[b, i], sample.reaction_torque[b, i], sample.wheel_speed[b, i],
+                                          sample.model_torque[b, i])
+        return out
+
+
+class _PluginRuns:
+    """A plug-in run for each run of a batch (observer_plugin.PluginRun), as the plug-in node steps it."""
+
+    def __init__(self, cls, names, period: float, state, calibration_samples: int, batch: int):
+        self.runs = [PluginRun(cls, names, period, state, calibration_samples) for _ in range(batch)]
+
+    def __call__(self, sample) -> np.ndarray:
+        return np.array([run.step(_run_of(sample, b)) for b, run in enumerate(self.runs)])
+
+
 def watched_observers(names, models, curves: dict, period: float, calibration_samples: int = 0) -> dict:
-    """slot -> (estimator factory, kappa per wheel, curves) of the observers of ``curves`` on the wheel set
-    ``names``: the model observer (the sample's nominal model torque), the Luenberger observer
-    (linear_observer.py, every run at once), the Elman network of each wheel (recall as the node runs it,
-    elman.WheelRecall) and the plug-ins of ``models`` (observer_plugin.ObserverModels: one per run, stepped as
-    the plug-in node steps it)."""
-    from .elman import WheelRecall, network_wheel
+    """slot -> (estimator factory ``make(batch)``, kappa per wheel, curves) of the observers of ``curves`` on the
+    wheel set ``names``: the model observer (the sample's nominal model torque), the Luenberger observer
+    (linear_observer.py, every run at once), the Elman network of each wheel (elman.WheelRecall) and the
+    plug-ins of ``models`` (observer_plugin.ObserverModels)."""
+    from functools import partial
+    from .elman import network_wheel
     from .linear_observer import LinearObserver, uncertainty_gain
     nets = [models[network_wheel(a, models)] for a in names]
 
-    def elman():
-        recalls = []
-        def step(sample):
-            if not recalls:   # one recall per run and wheel, made on the first sample (the batch's size)
-                recalls.extend([WheelRecall(net) for net in nets] for _ in range(sample.tcv.shape[0]))
-            out = np.empty(sample.tcv.shape)
-            for b, row in enumerate(recalls):
-                for i, recall in enumerate(row):
-                    out[b, i] = recall.update(sample.tcv[b, i], sample.reaction_torque[b, i], sample.wheel_speed[b, i],
-                                              sample.model_torque[b, i])
-            return out
-        return step
-
-    def linear():
+    def linear(batch):
         observer = LinearObserver(period)
         return lambda sample: observer.update(sample.tcv, sample.reaction_torque)
 
-    def plugin(cls, state):
-        def make():
-            runs, seen = [], [0]
-            def step(sample):
-                if not runs:   # one observer per run of the batch
-                    runs.extend(cls(names, period, state) for _ in range(sample.tcv.shape[0]))
-                seen[0] += 1
-                return np.array([plugin_step(observer, _run_of(sample, b), seen[0] <= calibration_samples)
-                                 for b, observer in enumerate(runs)])
-            return step
-        gains = cls(names, period, state)
-        return make, [gains.uncertainty_gain(a) for a in names]
-
-    table = {"elman": (elman, [n.uncertainty_gain for n in nets]),
+    table = {"elman": (partial(_ElmanRecalls, nets), [n.uncertainty_gain for n in nets]),
              "linear": (linear, [uncertainty_gain(a) for a in names]),
-             "model": (lambda: (lambda sample: sample.model_torque), [0.0] * len(names)),
-             **{cls.slot: plugin(cls, state) for cls, state in getattr(models, "plugins", ())}}
+             "model": (lambda batch: (lambda sample: sample.model_torque), [0.0] * len(names)),
+             **{cls.slot: (lambda batch, cls=cls, state=state: _PluginRuns(cls, names, period, state,
+                                                                           calibration_samples, batch),
+                           PluginRun(cls, names, period, state).uncertainty_gains())
+                for cls, state in getattr(models, "plugins", ())}}
     return {slot: (*table[slot], c) for slot, c in curves.items()}

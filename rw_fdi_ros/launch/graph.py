@@ -283,11 +283,11 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
     for obs in observers_of(fdi.method)[1:]:   # linear_observer, model_observer: every wheel each
         nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer", dict(common)))
-    from ..core.observer_plugin import absolute_spec, state_path
+    from ..core.observer_plugin import find_state
     for spec, cls in zip(fdi.plugins, fdi.plugin_classes()):   # a user's observers: a plugin_observer node each
-        state = next((state_path(d, cls.slot) for d in fdi.plugin_dirs if state_path(d, cls.slot).is_file()), None)
+        state = find_state(fdi.plugin_dirs, cls.slot)
         nodes.append(NodeSpec(f"{cls.slot}_observer", "plugin_observer", {
-            **common, "observer": absolute_spec(spec), "slot": cls.slot,
+            **common, "observer": spec, "slot": cls.slot,
             **({"observer_state": str(Path(state).resolve())} if state else {})}))
     iso = {**choices.as_dict(), "fdi_method": fdi.method, "persistence": int(fdi.persistence or 0),
            "unit_calibration_time": fdi.unit_calibration, "await_bus_grid": bool(await_bus_grid),

@@ -48,6 +48,7 @@ from ..core.detection import METHODS, observers_of
 from ..core.threshold_file import ThresholdError
 from ..core.calibration import calibration_samples
 from ..core.identification import FaultIdentifier
+from ..core.observer_plugin import is_plugin_slot
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor, stamp_order
 from ..core.isolation import (WHEEL_SPEED_ENVELOPE, LatchedVerdict, ObserverChannel, decision_of, in_envelope,
                               stamp_seconds)
@@ -127,7 +128,7 @@ class IsolationNode(GraphNode):
         self.compute, self.compute_cpu = [], []
         plugins = T.plugin_slots({"plugin_observers": self.param("plugin_observers")})
         for slot in plugins:
-            if slot in observers_of(method) or not slot.isidentifier():
+            if not is_plugin_slot(slot):
                 raise NodeError(f"parameter plugin_observers: {slot!r} is not a plug-in's slot", EXIT_BAD_INPUT)
             self.declare_parameter(f"thresholds_{slot}", "")
             if not self.param(f"thresholds_{slot}"):

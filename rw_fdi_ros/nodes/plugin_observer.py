@@ -11,11 +11,9 @@ when told its slot (plugin_observers) and bands (thresholds_<slot>).
 """
 from __future__ import annotations
 
-import json
-
-from ..core.observer_plugin import ObserverError, load_observer, step
+from ..core.observer_plugin import ObserverError, PluginRun, load_observer, read_state
 from ..graph.observer_node import WheelsObserverNode
-from ..graph.runtime import EXIT_BAD_INPUT, NodeError, main_for
+from ..graph.runtime import EXIT_BAD_INPUT, EXIT_ERROR, NodeError, main_for
 
 
 class PluginObserverNode(WheelsObserverNode):
@@ -33,34 +31,32 @@ class PluginObserverNode(WheelsObserverNode):
             if not self.param("observer"):
                 raise ObserverError("parameter observer must name a WheelObserver (module:Class, file.py:Class or "
                                     "an entry point of rw_fdi_ros.observers)")
-            cls = load_observer(self.param("observer"))
-            if self.param("slot") and self.param("slot") != cls.slot:
+            self.observer_class = load_observer(self.param("observer"))
+            self.slot = self.observer_class.slot
+            if self.param("slot") and self.param("slot") != self.slot:
                 raise ObserverError(f"parameter slot {self.param('slot')!r}: {self.param('observer')} has slot "
-                                    f"{cls.slot!r}")
-            state = {}
-            if self.param("observer_state"):
-                with open(self.param("observer_state")) as f:
-                    state = json.load(f)["state"]
-        except (ObserverError, OSError, ValueError, KeyError) as exc:
-            raise NodeError(str(exc) if isinstance(exc, ObserverError) else
-                            f"parameter observer_state {self.param('observer_state')}: unreadable ({exc})",
-                            EXIT_BAD_INPUT) from None
-        self.slot = cls.slot
-        self.plugin = cls(self.names, self.param("fdi_period"), state)
-        self.samples_seen = 0
+                                    f"{self.slot!r}")
+            self.state = read_state(self.param("observer_state"), self.slot) if self.param("observer_state") else {}
+            self.gains = dict(zip(self.names, self._new_run().uncertainty_gains()))
+        except ObserverError as exc:
+            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+
+    def _new_run(self) -> PluginRun:
+        return PluginRun(self.observer_class, self.names, self.param("fdi_period"), self.state,
+                         self.calibration_samples)
 
     def uncertainty_gain(self, wheel: str) -> float:
-        return self.plugin.uncertainty_gain(wheel)
+        return self.gains[wheel]
 
     def reset(self):
-        self.plugin.reset()
-        self.samples_seen = 0
+        self.run = self._new_run()   # each run a new instance, as offline (a plug-in may change its state)
         super().reset()
 
     def estimate(self, sample):
-        calibrating = self.samples_seen < self.calibration_samples
-        self.samples_seen += 1
-        return step(self.plugin, sample, calibrating)
+        try:
+            return self.run.step(sample)
+        except ObserverError as exc:   # the user's code failed: one line naming it, not a traceback
+            raise NodeError(str(exc), EXIT_ERROR) from None
 
 
 main = main_for(PluginObserverNode)

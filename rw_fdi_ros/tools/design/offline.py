@@ -20,7 +20,7 @@ from ...core.residuals import residual_series, signed_residual_series
 from ...core.calibration import calibration_samples, regressors
 from ...core.elman import ElmanWeights, ModelError, network_wheel, network_wheels, recall_series
 from ...core.linear_observer import estimate_series, uncertainty_gain
-from ...core.observer_plugin import estimate_series as plugin_estimate_series
+from ...core.observer_plugin import PluginRun
 from ...core.plant_choices import FDI_PERIOD, FDI_SAMPLING, PlantChoices
 from ...core.wheel_set import AXIS_WHEELS, wheel_set
 
@@ -69,7 +69,7 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     wheels = getattr(samples, "wheels", AXIS_WHEELS)
     nets = [models[network_wheel(a, models)] for a in wheels]   # a redundant wheel runs its type's network
     if method == "thesis":
-        elman = np.stack([recall_series(m, samples.tcv[:, i], r[0, i], reaction_torque=r[:, i])
+        elman = np.stack([recall_series(m, samples.tcv[:, i], reaction_torque=r[:, i])
                           for i, m in enumerate(nets)], axis=1)
         est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period)}
         zero = np.zeros_like(r)
@@ -77,16 +77,17 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
                            {k: zero for k in est}, wheels=wheels)
     if samples.wheel_speed is None:
         raise ValueError("speed-aware observers need FDI samples with wheel speed (fdi_sampling 'mean')")
-    elman = np.stack([recall_series(m, samples.tcv[:, i], r[0, i], samples.wheel_speed[:, i], r[:, i],
-                                    None if samples.model_torque is None else samples.model_torque[:, i])
+    speed, model = samples.wheel_speed, samples.model_torque
+    elman = np.stack([recall_series(m, samples.tcv[:, i], wheel_speed=speed[:, i], reaction_torque=r[:, i],
+                                    model_torque=None if model is None else model[:, i])
                       for i, m in enumerate(nets)], axis=1)
     est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period), "model": samples.model_torque}
     gains = {"elman": [m.uncertainty_gain for m in nets], "linear": [uncertainty_gain(a) for a in wheels],
              "model": [0.0] * len(wheels)}
     for cls, state in getattr(models, "plugins", ()):   # a user's observers (core/observer_plugin.py)
-        plugin = cls(wheels, period, state)
-        est[cls.slot] = plugin_estimate_series(plugin, samples, calibration_samples)
-        gains[cls.slot] = [plugin.uncertainty_gain(a) for a in wheels]
+        run = PluginRun(cls, wheels, period, state, calibration_samples)
+        gains[cls.slot] = run.uncertainty_gains()
+        est[cls.slot] = run.series(samples)
     residual, bound = {}, {}
     x = None
     if calibration_samples:
@@ -165,7 +166,9 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
         # a band per wheel in use in the fitting runs (x, y, z; a pyramid's four): counts are the set's
         fitted = wheel_set(PlantChoices.from_recorded(plant).wheel_set).active
         cols = [runs[0].wheels.index(a) for a in fitted]
-        kappa_of = {cls.slot: any(cls(runs[0].wheels, FDI_PERIOD, state).uncertainty_gain(a) > 0 for a in fitted)
+        kappa_of = {cls.slot: any(g > 0 for a, g in zip(runs[0].wheels, PluginRun(cls, runs[0].wheels, FDI_PERIOD,
+                                                                                   state).uncertainty_gains())
+                                  if a in fitted)
                     for cls, state in getattr(models, "plugins", ())}
         for obs in observers_of("speed_aware") + tuple(cls.slot for cls, _ in getattr(models, "plugins", ())):
             stats = np.array([run_statistic(np.abs(run.residual[obs][:, cols]) - run.bound[obs][:, cols], p)
@@ -266,11 +269,10 @@ def decisions(run: ObserverRun, curves: dict, persistence: int | None = None) ->
     return out
 
 
-def threshold_set(thresholds_dir, method: str, plugins=()) -> dict:
-    """observer -> ThresholdCurves of the ``method``'s observers and the ``plugins`` (their slots) in
-    ``thresholds_dir`` (thresholds_<obs>.json)."""
+def threshold_set(thresholds_dir, method: str) -> dict:
+    """observer -> ThresholdCurves of the ``method``'s observers in ``thresholds_dir`` (thresholds_<obs>.json)."""
     return {obs: ThresholdCurves.load(Path(thresholds_dir) / f"thresholds_{obs}.json", obs)
-            for obs in (*observers_of(method), *plugins)}
+            for obs in observers_of(method)}
 
 
 def alarmed_runs(runs, curves: dict, persistence: int | None = None) -> dict:
