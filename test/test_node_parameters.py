@@ -15,13 +15,15 @@ from rw_fdi_ros.core.plant_choices import DEFAULT
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
 ROOT = Path(__file__).resolve().parents[1]
-NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime"],
-         "elman_observer": ["elman_observer", "observer_node", "runtime"],
-         "linear_observer": ["linear_observer", "observer_node", "runtime"],
-         "model_observer": ["model_observer", "observer_node", "runtime"], "isolation": ["isolation", "runtime"],
-         "recorder": ["recorder"], "player": ["player"], "wheel_allocation": ["wheel_allocation", "runtime"],
+NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime", "wheel_type"],
+         "elman_observer": ["elman_observer", "observer_node", "runtime", "wheel_type"],
+         "linear_observer": ["linear_observer", "observer_node", "runtime", "wheel_type"],
+         "model_observer": ["model_observer", "observer_node", "runtime", "wheel_type"],
+         "isolation": ["isolation", "runtime", "wheel_type"],
+         "recorder": ["recorder"], "player": ["player"],
+         "wheel_allocation": ["wheel_allocation", "runtime", "wheel_type"],
          "momentum_dumping": ["momentum_dumping", "runtime"], "live_view": ["live_view", "runtime"],
-         "plugin_observer": ["plugin_observer", "observer_node", "runtime"]}
+         "plugin_observer": ["plugin_observer", "observer_node", "runtime", "wheel_type"]}
 LOOPED = {"plant": {"fault.<wheel>.<kind>"}, "isolation": {*DEFAULT.as_dict(), "thresholds_<slot>"}}
 TYPES = {bool: "bool", int: "int", float: "double", str: "string"}
 ARRAYS = {"DOUBLE_ARRAY": "double[]", "STRING_ARRAY": "string[]", "BOOL": "bool"}
@@ -41,7 +43,8 @@ def declared(modules) -> dict:
     """name -> (type, default text or None) of the literal-named declare_parameter calls."""
     out = {}
     for mod in modules:
-        room = "graph" if mod in ("observer_node", "runtime") else "nodes"   # the node programs, their plumbing
+        # the node programs, and their plumbing in graph/
+        room = "graph" if mod in ("observer_node", "runtime", "wheel_type") else "nodes"
         for call in ast.walk(ast.parse((ROOT / "rw_fdi_ros" / room / f"{mod}.py").read_text())):
             if not (isinstance(call, ast.Call) and getattr(call.func, "attr", "") == "declare_parameter"
                     and isinstance(call.args[0], ast.Constant)):

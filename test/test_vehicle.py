@@ -226,14 +226,24 @@ def test_a_key_given_twice_is_refused_not_overwritten(tmp_path):
         load_vehicle(tmp_path / "twice.yaml")
 
 
-def test_another_wheel_type_is_read_but_not_flown(tmp_path):
-    """The controllers, the allocation and the FDI model the thesis' wheel: another is refused by name."""
+def test_another_wheel_type_flies_and_every_node_is_told_it(tmp_path):
+    """A vehicle's own wheel type: the scenario flies it, the nodes that model the wheel get it as their
+    wheel_type parameter (read back equal), the thesis' type leaves them at their default."""
+    from rw_fdi_ros.core.vehicle import wheel_from_parameter
+    from rw_fdi_ros.launch.graph import graph_nodes
     raw = _raw()
     raw["name"], raw["wheel"]["torque_constant"] = "other_wheel", "0.035 N m/A"
     (tmp_path / "other_wheel.yaml").write_text(yaml.safe_dump(raw))
-    assert load_vehicle(tmp_path / "other_wheel.yaml").wheel.torque_constant == 0.035
-    with pytest.raises(ScenarioError, match=r"its wheel differs from the thesis' type \(Table 2.2: torque_constant\)"):
-        parse_scenario("name: o\nvehicle: other_wheel.yaml\n", origin=str(tmp_path / "o.yaml"))
+    scenario = parse_scenario("name: o\nvehicle: other_wheel.yaml\n", origin=str(tmp_path / "o.yaml"))
+    assert scenario.spacecraft.wheel.torque_constant == 0.035
+    nodes = {n.name: n.parameters for n in graph_nodes(scenario, str(tmp_path / "o.yaml"), None, fdi={})}
+    modelling = [name for name, p in nodes.items() if "wheel_type" in p]
+    assert sorted(modelling) == sorted(["pid_controller_x", "pid_controller_y", "pid_controller_z", "wheel_allocation",
+                                        "elman_observer_x", "elman_observer_y", "elman_observer_z", "elman_observer_s",
+                                        "linear_observer", "model_observer", "isolation"])
+    assert all(wheel_from_parameter(nodes[n]["wheel_type"]) == scenario.spacecraft.wheel for n in modelling)
+    thesis = parse_scenario("name: t\n", origin=str(tmp_path / "t.yaml"))
+    assert not any("wheel_type" in n.parameters for n in graph_nodes(thesis, "t", None, fdi={}))
 
 
 def test_a_vehicle_gives_a_scenario_what_it_leaves_open(tmp_path):

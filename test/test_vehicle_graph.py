@@ -67,3 +67,29 @@ def test_a_shipped_vehicle_runs_its_own_fdi_in_the_graph_as_the_screen_does(tmp_
             if live[obs][a]:
                 assert live[obs][a][0][0] == pytest.approx(float(run.series[obs].time[flags.argmax()]), abs=1e-9)
     assert live["verdict"]["p3"] and not any(live["verdict"][a] for a in ("p1", "p2", "p4"))
+
+
+def test_a_cubesat_with_a_wheel_type_of_its_own_flies_the_core_loops_run_in_the_graph(tmp_path):
+    """The shipped CubeSat (a 20 mN m s wheel, not the thesis' Type A): every node that models the wheel is told
+    its type, and the graph flies the core loop's run sample for sample, FDIR's decisions and the verdict too."""
+    from rw_fdi_ros.fdi_config import FdiConfig
+    path = tmp_path / "cube.yaml"
+    path.write_text("name: cube_cl\nduration: 160\nseed: 8005\nvehicle: cubesat_6u\nfaults: "
+                    "[{kind: current_limiter, wheel: y, onset: 80, value: 0.6}]\n")
+    outcome = run_with_fdi(str(path), out_dir=tmp_path / "bags", fdi={})
+    assert outcome.ok, outcome.reason
+    _, curves = FdiConfig().for_vehicle("cubesat_6u").load()
+    scenario = load_scenario(str(path))
+    assert scenario.spacecraft.wheel.inertia == pytest.approx(2.94e-5)
+    traj = simulate([scenario], fdir=Fdir(curves["model"]))
+    data = read_bag(outcome.bag, topics=[T.ATTITUDE, T.WHEELS])
+    _, attitude, _, _ = data.joint_states(T.ATTITUDE)
+    np.testing.assert_allclose(attitude, traj.attitude[:, 0], rtol=0, atol=1e-12)
+    _, _, speed, _ = data.joint_states(T.WHEELS)
+    np.testing.assert_allclose(speed, traj.wheel_speed[:, 0], rtol=0, atol=1e-9)
+    assert np.abs(traj.wheel_speed[0, 0, :3]).min() > 150.0   # a CubeSat wheel's speeds, not MakSat's
+    verdict = outcome.summary["fdi"]["verdict"]
+    assert verdict["y"] and not any(verdict[a] for a in ("x", "z", "s")), verdict
+    assert [(d.wheel, d.action) for d in traj.decisions[0]] == [("y", "out_of_use"), ("s", "in_use")]
+    assert [(d["wheel"], d["state"]) for d in outcome.summary["reconfiguration"]] == [("y", "given_up"),
+                                                                                   ("s", "in_use")]

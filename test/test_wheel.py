@@ -87,3 +87,31 @@ def test_linear_wheel_matches_nonlinear_small_signal():
         w += dt * tau / p.inertia
     expected = lw.D * dv * np.exp(lw.A * t)   # step response of F_w = D + BC/(s - A)
     np.testing.assert_allclose(rt, expected, atol=2e-6)
+
+
+def test_the_top_speed_is_where_the_drive_no_longer_beats_friction():
+    """Omega_top of the thesis' Type A at 23 C and 8 V: 47.3 rad/s (the FDI envelope's 45 is 0.95 of it), where
+    k_t min(G_d V_limit, I_max) equals the friction; without friction only the overspeed loop bounds it."""
+    from rw_fdi_ros.core.isolation import WHEEL_SPEED_ENVELOPE, speed_envelope
+    from rw_fdi_ros.core.wheel import NOMINAL, WheelParams, emf_current_limit, friction_torque, top_speed
+    p = WheelParams()
+    w = top_speed(p)
+    assert w == pytest.approx(47.345, abs=1e-3)
+    limit = float(emf_current_limit(NOMINAL.bus_voltage, w, p))
+    drive = p.torque_constant * min(p.driver_gain * p.command_limit, limit)
+    assert drive == pytest.approx(float(friction_torque(w, 23.0, p)), rel=1e-9)
+    free = WheelParams(coulomb_friction=0.0, viscous_scale=0.0)
+    assert top_speed(free) == free.overspeed_threshold
+    assert speed_envelope(p) == speed_envelope(None) == WHEEL_SPEED_ENVELOPE == 45.0
+    assert speed_envelope(WheelParams(emf_limit="pwm_saturation")) == 45.0   # the wheel's, not the plant choice's
+    small = WheelParams(coulomb_friction=0.001)
+    assert speed_envelope(small) == pytest.approx(45.0 * top_speed(small) / w)
+
+
+def test_a_units_drag_is_a_share_of_its_types_not_of_the_thesis_wheels():
+    """unit_wheel scales the type's own viscous friction: a small wheel's unit keeps a small wheel's drag."""
+    from rw_fdi_ros.core.wheel import WheelParams, unit_wheel, viscous_coefficient
+    small = WheelParams(viscous_scale=7.8e-4)
+    unit = unit_wheel(small, {"torque_constant": [1.0], "driver_gain": [1.0], "coulomb_friction": [1.0],
+                              "viscous_friction": [1.2]})
+    assert float(viscous_coefficient(23.0, unit)[0]) == pytest.approx(1.2 * float(viscous_coefficient(23.0, small)))

@@ -112,9 +112,10 @@ def hold_command(reference, speed, gain: float = HOLD_GAIN, limit: float = 5.0,
 class TorqueAllocator:
     """Wheel commands of a batch of runs, each with its own wheels in use (``in_use``: (B, N) bool)."""
 
-    def __init__(self, wheels: WheelSet, batch: int = 1, limit: float = 5.0):
+    def __init__(self, wheels: WheelSet, batch: int = 1, limit: float = 5.0, params: WheelParams = WheelParams()):
         self.wheels = wheels
         self.limit = float(limit)
+        self.params = params   # the wheel type whose friction a held wheel's feed-forward cancels
         self.in_use = np.tile(wheels.mask(wheels.active), (batch, 1))
         self.hold_speed = np.full(self.in_use.shape, np.nan)   # [rad/s] per held wheel, NaN for the others
         self.held = np.zeros(self.in_use.shape, bool)
@@ -149,5 +150,6 @@ class TorqueAllocator:
             if wheel_speed is None:
                 raise ValueError("a held wheel's command needs the wheel speeds")
             speed = np.asarray(wheel_speed, float).reshape(u.shape)
-            u[self.held] = hold_command(self.hold_speed[self.held], speed[self.held], limit=self.limit)
+            u[self.held] = hold_command(self.hold_speed[self.held], speed[self.held], limit=self.limit,
+                                         params=self.params)
         return u

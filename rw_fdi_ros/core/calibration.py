@@ -174,9 +174,13 @@ class UnitCalibration:
     """
 
     def __init__(self, samples: int = DEFAULT_SAMPLES, prior: np.ndarray | None = None,
-                 sigma_floor: float = SIGMA_FLOOR, correlation: float = CORRELATION, tolerance=None):
+                 sigma_floor: float | None = None, correlation: float = CORRELATION, tolerance=None,
+                 params: wm.WheelParams = wm.WheelParams()):
+        # params: the wheel type; its ripple sets the prior, its torques the noise floor (SIGMA_FLOOR is the
+        # Type A's: wheel.torque_scale)
         self.samples = int(samples)
-        p0 = prior_variances() if prior is None else np.asarray(prior, float)
+        p0 = prior_variances(params=params) if prior is None else np.asarray(prior, float)
+        sigma_floor = SIGMA_FLOOR * wm.torque_scale(params) if sigma_floor is None else sigma_floor
         width = PHYSICAL + 2
         if p0.shape != (width,) or np.any(p0 <= 0) or not np.all(np.isfinite(p0)):
             raise ValueError(f"calibration prior variances must be {width} finite positive numbers, got {p0.tolist()}")

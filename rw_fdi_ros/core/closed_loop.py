@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .allocation import TorqueAllocator
-from .fdir import HOLDABLE_SPEED, SLEW_RATE, DecisionDelay, DeliveryLog, Reconfiguration
+from .fdir import SLEW_RATE, DecisionDelay, DeliveryLog, Reconfiguration
+from .isolation import speed_envelope
 from .magnetorquers import Dumper
 from .onboard import OnboardVerdict
 from .controller_design import design_controller
@@ -32,7 +33,9 @@ class Fdir:
     fdi_period: float = 1.0
     identification: bool = False   # also identify each alarmed wheel's fault (the isolation node's code)
     slew_rate: float = SLEW_RATE   # [rad/s] the slews the wheels in use must still take (fdir.momentum_shortfall)
-    holdable: float = HOLDABLE_SPEED   # [rad/s] what a wheel in use may be asked to hold (inf: every wheel given up)
+    # [rad/s] what a wheel in use may be asked to hold (inf: every wheel given up); None: the wheel type's
+    # envelope (isolation.speed_envelope: the thesis' type 45)
+    holdable: float | None = None
     watched: dict = None           # observers judged beside, acted on by nothing (onboard.watched_observers)
 
 
@@ -112,7 +115,7 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
                   magnetic_field=magnetic_field)
     dumper = Dumper([s.magnetorquers for s in scenarios]) if plant.in_orbit else None
     wheel = plant.datasheet
-    allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit)
+    allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit, wheel)
     gains = gains or design_controller(plant.vehicle).gains
     # the controllers' integrators hold the body-axis command of the wheels' holding voltages
     pid = PidController(gains, control_period, initial_tcv=plant.tcv @ plant.spin_axes.T, wheel=wheel)
@@ -121,11 +124,13 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
     onboard = reconfig = delays = None
     if fdir is not None:
         onboard = OnboardVerdict(plant.wheels.names, fdir.curves, plant.batch, fdir.fdi_period,
-                                 fdir.calibration_samples, identification=fdir.identification, watched=fdir.watched)
-        reconfig = [Reconfiguration(plant.wheels, fdir.holdable, fdir.slew_rate, plant.inertia, wheel.inertia)
+                                 fdir.calibration_samples, identification=fdir.identification, watched=fdir.watched,
+                                 wheel=plant.vehicle.wheel)   # the FDI's nominal model: the datasheet's
+        holdable = speed_envelope(wheel) if fdir.holdable is None else fdir.holdable
+        reconfig = [Reconfiguration(plant.wheels, holdable, fdir.slew_rate, plant.inertia, wheel.inertia)
                     for _ in scenarios]
         delays = [DecisionDelay() for _ in scenarios]
-        delivery = DeliveryLog()
+        delivery = DeliveryLog(params=plant.vehicle.wheel)
     rec = {k: [] for k in ("attitude", "setpoint", "body_rate", "wheel_speed", "tcv", "reaction_torque",
                            "fault_effect", "in_use", "wheel_angle", "axis_command", "wheel_command",
                            "magnetic_field", "dipole")}

@@ -35,7 +35,7 @@ from .allocation import distribution
 from .isolation import WHEEL_SPEED_ENVELOPE
 from .spacecraft import INERTIA
 from .telemetry import model_reaction_torque
-from .wheel import WheelParams
+from .wheel import WheelParams, torque_scale
 from .wheel_set import WheelSet
 
 DECISION_DELAY = 1.0   # [s] from the FDI sample a decision is made on to the first command it shapes
@@ -199,7 +199,7 @@ def momentum_shortfall(wheels: WheelSet, in_use, wheel_speed, body_momentum=(0.0
             f"momentum{slew} (holds {holdable:g})")
 
 
-def delivered_share(tcv, wheel_speed, reaction_torque) -> float:
+def delivered_share(tcv, wheel_speed, reaction_torque, params: WheelParams = WheelParams()) -> float:
     """The share a^ of its nominal motor torque a wheel gave over control samples (arrays (n,)): the command
     in force ``tcv`` [V] and the wheel's ``wheel_speed`` [rad/s] and ``reaction_torque`` [N m] it led to,
 
@@ -216,16 +216,19 @@ def delivered_share(tcv, wheel_speed, reaction_torque) -> float:
         Wheel speed [rad/s].
     reaction_torque : array_like, shape (n,)
         Measured reaction torque r [N m].
+    params : WheelParams
+        The wheel type (its nominal model).
 
     Returns
     -------
     float
         a^ (dimensionless, 1 for a healthy wheel), or NaN.
     """
-    model, tau_m, _ = model_reaction_torque(np.asarray(tcv, float), np.asarray(wheel_speed, float))
+    model, tau_m, _ = model_reaction_torque(np.asarray(tcv, float), np.asarray(wheel_speed, float), params)
     tau_f = model + tau_m
     power = float(np.sum(tau_m * tau_m))
-    if power < len(np.atleast_1d(tau_m)) * 1e-8:   # |tau_m| under 1e-4 N m on average
+    # |tau_m| under 1e-4 N m on average (the Type A's; another type's scaled by its torque, wheel.torque_scale)
+    if power < len(np.atleast_1d(tau_m)) * (1e-4 * torque_scale(params)) ** 2:
         return float("nan")
     return float(np.sum(tau_m * (tau_f - np.asarray(reaction_torque, float))) / power)
 
@@ -233,10 +236,11 @@ def delivered_share(tcv, wheel_speed, reaction_torque) -> float:
 class DeliveryLog:
     """The last DELIVERY_SAMPLES control samples of a batch: the command in force and the wheel speed and
     reaction torque it led to, (B, N) each, for :func:`delivered_share` at a decision (the core loop and the
-    wheel allocation node keep one alike)."""
+    wheel allocation node keep one alike); ``params``: the wheel type (its nominal model and command limit)."""
 
-    def __init__(self, samples: int = DELIVERY_SAMPLES):
+    def __init__(self, samples: int = DELIVERY_SAMPLES, params: WheelParams = WheelParams()):
         self.rows = deque(maxlen=samples)
+        self.params = params
 
     def add(self, tcv, wheel_speed, reaction_torque):
         self.rows.append(tuple(np.atleast_2d(np.asarray(x, float)) for x in (tcv, wheel_speed, reaction_torque)))
@@ -245,10 +249,11 @@ class DeliveryLog:
         if not self.rows:
             return float("nan")
         u, w, r = (np.array([row[k][b, wheel_index] for row in self.rows]) for k in range(3))
-        return delivered_share(u, w, r)
+        return delivered_share(u, w, r, self.params)
 
-    def saturated(self, wheel_index: int, b: int = 0, limit: float = WheelParams().command_limit) -> bool:
-        """Whether every command of the samples kept was at the voltage ``limit`` [V]."""
+    def saturated(self, wheel_index: int, b: int = 0, limit: float | None = None) -> bool:
+        """Whether every command of the samples kept was at the voltage ``limit`` [V] (None: the wheel type's)."""
+        limit = self.params.command_limit if limit is None else limit
         return bool(self.rows) and all(abs(row[0][b, wheel_index]) >= limit - 1e-9 for row in self.rows)
 
     def of(self, names, b: int = 0) -> "Delivered":

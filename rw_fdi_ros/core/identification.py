@@ -67,9 +67,7 @@ MIN_SAMPLES = 5
 # driven samples a current loss needs to be told from a bus drop once its driver is off: one for the family's
 # parameter, one for the ripple's amplitude, one to tell them apart
 MIN_DRIVEN = 3
-# [rad/s] an unpowered wheel below this speed is at rest: its coulomb friction's smoothing speed, twice
-AT_REST_SPEED = 2.0 * wm.WheelParams().coulomb_smoothing_speed
-FREE_UNIT = 1e-3 * SIGMA_FLOOR ** 2   # [N^2 m^2] a ridge only: the unit's shares all but free (noise estimate)
+FREE_UNIT_SHARE = 1e-3   # of the floor^2: a ridge only, the unit's shares all but free (noise estimate)
 
 
 def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams(), grid=BUS_VOLTAGE_GRID):
@@ -97,7 +95,7 @@ def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams()
 
 
 def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, scales=None, free_motor_torque=None,
-                       fraction=None):
+                       fraction=None, viscous_scale: float = 1.0):
     """Predicted reaction torque of every grid point of every family, (sum of grid sizes, n), families
     in KINDS order, for n FDI samples of one wheel.
 
@@ -108,7 +106,8 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
 
     ``fraction`` (H,), for one sample (n = 1): how far each of H ramps has come towards the grid value,
     theta = theta_0 + phi (theta_grid - theta_0); then (H, sum of grid sizes). The bus family's torque at a
-    voltage between two grid points is interpolated (the grid is 0.01 V).
+    voltage between two grid points is interpolated (the grid is 0.01 V). ``viscous_scale``: the wheel type's
+    viscous friction over eq. 2.15's law (WheelParams.viscous_scale; the thesis' type 1).
 
     Parameters
     ----------
@@ -135,14 +134,15 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
     tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
     bus = np.atleast_2d(np.asarray(bus_torque, float)).T          # (len(BUS_VOLTAGE_GRID), n)
     if fraction is None:      # grid points down axis 0, samples along axis 1
-        limiter, tv = CURRENT_LIMITER_GRID[:, None], _VISCOUS_GRID[:, None]
+        limiter, tv = CURRENT_LIMITER_GRID[:, None], viscous_scale * _VISCOUS_GRID[:, None]
     else:                     # ramps down axis 0, grid points along axis 1, the one sample along axis 2
         phi = np.asarray(fraction, float)[:, None]
         limiter = (1.0 + phi * (CURRENT_LIMITER_GRID - 1.0))[..., None]
-        tv = wm.viscous_coefficient(TEMPERATURE_GRID[0] + phi * (TEMPERATURE_GRID - TEMPERATURE_GRID[0]))[..., None]
+        tv = viscous_scale * wm.viscous_coefficient(TEMPERATURE_GRID[0] + phi * (TEMPERATURE_GRID
+                                                                                 - TEMPERATURE_GRID[0]))[..., None]
         volts = BUS_VOLTAGE_GRID[0] + phi * (BUS_VOLTAGE_GRID - BUS_VOLTAGE_GRID[0])
         bus = np.interp(volts, BUS_VOLTAGE_GRID[::-1], bus[::-1, 0])[..., None]
-    viscous = _VISCOUS_NOMINAL * w
+    viscous = viscous_scale * _VISCOUS_NOMINAL * w
     coulomb = tf - viscous
     if scales is None:
         out = np.concatenate([-limiter * tm + tf, -tm + tv * w + coulomb, -bus + tf], axis=-2)
@@ -156,7 +156,8 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
     return out if fraction is None else out[..., 0]
 
 
-def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, free_motor_torque=None):
+def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, free_motor_torque=None,
+                       viscous_scale: float = 1.0):
     """dr^/d(d_kt, d_Gd, b_v, b_c) of every grid point, (sum of grid sizes, n, 4): the directions in which
     what the calibration does not know of the unit moves each family's prediction (to first order).
 
@@ -172,6 +173,8 @@ def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, f
         tau_m at every voltage of BUS_VOLTAGE_GRID [N m].
     free_motor_torque : float or array_like, shape (n,), optional
         tau_m where the bridge does not clip, else 0 [N m]; None: ``motor_torque``.
+    viscous_scale : float, optional
+        The wheel type's viscous friction over eq. 2.15's law.
 
     Returns
     -------
@@ -182,12 +185,12 @@ def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, f
     bus = np.atleast_2d(np.asarray(bus_torque, float)).T
     free = _free(tm, free_motor_torque)
     n, temperatures, limiters = len(tm), len(TEMPERATURE_GRID), CURRENT_LIMITER_GRID[:, None]
-    viscous = _VISCOUS_NOMINAL * w
+    viscous = viscous_scale * _VISCOUS_NOMINAL * w
     motor = np.concatenate([-limiters * tm[None], np.broadcast_to(-tm[None], (temperatures, n)), -bus])
     gain = np.concatenate([-limiters * free[None], np.broadcast_to(-free[None], (temperatures, n)),
                            -_bus_free(tm, free, bus)])
     visc = np.concatenate([np.broadcast_to(viscous[None], (len(CURRENT_LIMITER_GRID), n)),
-                           _VISCOUS_GRID[:, None] * w[None],
+                           viscous_scale * _VISCOUS_GRID[:, None] * w[None],
                            np.broadcast_to(viscous[None], (len(BUS_VOLTAGE_GRID), n))])
     return np.stack([motor, gain, visc, np.broadcast_to((tf - viscous)[None], (_SIZE, n))], axis=-1)
 
@@ -256,11 +259,14 @@ class ProfileSums:
     (RAMP_SHARE, RAMP_LENGTH). A sample costs O(grid) once every ramp is over (O(ramps x grid) before) and the
     memory does not grow with the samples; the unit's directions are taken at the grid value for a ramp too (a
     difference of second order). ``unit``: what is known of the wheel's unit (calibration.UnitShares); None for
-    the datasheet wheel.
+    the datasheet wheel; ``viscous_scale``: the wheel type's (family_predictions); ``floor``: the smallest misfit
+    taken for real [N m] (SIGMA_FLOOR of the Type A, wheel.torque_scale of another type).
     """
 
-    def __init__(self, unit: UnitShares | None = None):
+    def __init__(self, unit: UnitShares | None = None, viscous_scale: float = 1.0, floor: float = SIGMA_FLOOR):
         self.unit = unit
+        self.viscous_scale = float(viscous_scale)
+        self.floor = float(floor)
         self.scales = None if unit is None else unit.scales()
         width = 2 if unit is None else 6
         self.sq = np.zeros(_SIZE)
@@ -320,7 +326,7 @@ class ProfileSums:
             self.driven = self.elapsed
             self.n_driven += 1
         self.prior_on = tm == 0.0    # its driver off (set_ripple_prior)
-        e = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free)[:, 0]
+        e = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free, viscous_scale=self.viscous_scale)[:, 0]
         ripple = np.array([np.imag(p), np.real(p)])
         if self.unit is None:
             x = ripple[None, :]
@@ -328,14 +334,15 @@ class ProfileSums:
         else:
             x = np.empty((_SIZE, 6))
             x[:, :2] = ripple
-            x[:, 2:] = unit_sensitivities(tm, tf, w, bus[None, :], free)[:, 0]
+            x[:, 2:] = unit_sensitivities(tm, tf, w, bus[None, :], free, self.viscous_scale)[:, 0]
             self.gram += x[:, :, None] * x[:, None, :]
         self.cross += e[:, None] * x
         self.sq += e * e
         growing = int(np.count_nonzero(_LENGTH_LONGEST_FIRST > self.elapsed))   # phi < 1
         if growing:
             phi = ramp_fractions(self.elapsed)[_LONGEST_FIRST[:growing]]
-            e_ramp = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free, fraction=phi)
+            e_ramp = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free, fraction=phi,
+                                            viscous_scale=self.viscous_scale)
             self.ramp_sq[:growing] += e_ramp * e_ramp - e * e
             self.ramp_cross[:growing] += (e_ramp - e)[:, :, None] * x[None]
         self.n += 1
@@ -478,12 +485,13 @@ def decide(sums: ProfileSums) -> Identification:
     known = sums.rss()                  # the unit at its mean (the datasheet wheel without a unit)
     if not np.all(np.isfinite(known)):
         return Identification(UNKNOWN, samples=n)
-    s2 = max(float(known.min()) / max(n - 3, 1), SIGMA_FLOOR ** 2)
+    floor2 = sums.floor ** 2
+    s2 = max(float(known.min()) / max(n - 3, 1), floor2)
     rss_all = known
     if sums.unit is not None:
         # the noise from the fit where the unit is free (a unit taken at a wrong mean is no noise),
         # then every family with the unit held to what the calibration knows
-        s2 = max(float(sums.rss(FREE_UNIT).min()) / max(n - 7, 1), SIGMA_FLOOR ** 2)
+        s2 = max(float(sums.rss(FREE_UNIT_SHARE * floor2).min()) / max(n - 7, 1), floor2)
         rss_all = sums.rss(CORRELATION * s2)
     if not np.all(np.isfinite(rss_all)):
         return Identification(UNKNOWN, samples=n)
@@ -542,7 +550,8 @@ def _interval(sizes, rss, s2, step, neighbours: bool = True) -> tuple:
 
 
 def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor,
-             unit: UnitShares | None = None, free_motor_torque=None, times=None) -> Identification:
+             unit: UnitShares | None = None, free_motor_torque=None, times=None,
+             viscous_scale: float = 1.0, floor: float = SIGMA_FLOOR) -> Identification:
     """Kind and size of one wheel's fault from its n FDI samples since the onset (whole arrays; ``times`` [s]
     default: 1 s apart).
 
@@ -566,13 +575,17 @@ def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_to
         tau_m where the bridge does not clip, else 0 [N m].
     times : array_like, shape (n,), optional
         Sample times [s].
+    viscous_scale : float, optional
+        The wheel type's viscous friction over eq. 2.15's law.
+    floor : float, optional
+        The smallest misfit taken for real [N m] (SIGMA_FLOOR times the type's wheel.torque_scale).
 
     Returns
     -------
     Identification
         As :func:`decide` gives it.
     """
-    sums = ProfileSums(unit)
+    sums = ProfileSums(unit, viscous_scale, floor)
     free = [None] * len(reaction_torque) if free_motor_torque is None else free_motor_torque
     times = range(len(reaction_torque)) if times is None else times
     for *row, t in zip(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor, free,
@@ -581,7 +594,7 @@ def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_to
     return decide(sums)
 
 
-def onset_index(errors, ripple_phasors) -> int:
+def onset_index(errors, ripple_phasors, floor: float = SIGMA_FLOOR) -> int:
     """Where a fault's effect in the model error ``errors`` begins (the index of its first sample).
 
     First the single change point of a step in white noise with the aliased commutation ripple as
@@ -601,6 +614,8 @@ def onset_index(errors, ripple_phasors) -> int:
         Model error r - r^ of each FDI sample [N m].
     ripple_phasors : array_like of complex, shape (n,)
         The samples' ripple phasors p [N m].
+    floor : float, optional
+        The smallest misfit taken for real [N m] (SIGMA_FLOOR times the type's wheel.torque_scale).
 
     Returns
     -------
@@ -622,7 +637,7 @@ def onset_index(errors, ripple_phasors) -> int:
             best, best_rss = k, rss
     ripple, *_ = np.linalg.lstsq(columns[:best, :2], e[:best], rcond=None)
     left = e - columns[:, :2] @ ripple
-    level = 3.0 * max(float(np.sqrt(np.mean(left[:best] ** 2))), SIGMA_FLOOR)
+    level = 3.0 * max(float(np.sqrt(np.mean(left[:best] ** 2))), floor)
     away = np.nonzero(np.abs(left[best:]) > level)[0]
     return best + int(away[0]) if away.size else best
 
@@ -644,8 +659,11 @@ class FaultIdentifier:
     a wheel's fault is identified on the unit known at its first alarm."""
 
     BACKLOG = 60   # FDI samples: the 40-sample window and the persistence the alarm lags by, and a margin
-    def __init__(self, wheels=("x", "y", "z"), calibration_samples: int = 0, lazy: bool = False):
+    def __init__(self, wheels=("x", "y", "z"), calibration_samples: int = 0, lazy: bool = False,
+                 params: wm.WheelParams = wm.WheelParams()):
         self.wheels = tuple(wheels)
+        self.params = params   # the wheel type: its viscous law, its calibration regressors, its rest
+        self.floor = SIGMA_FLOOR * wm.torque_scale(params)   # its torques' noise floor
         self.calibration_samples = int(calibration_samples)
         # lazy: decide only when asked (identifications()), for a reader that wants the last answer of a run
         # (the core loop's onboard verdict): the same answers, without the grid fits of every sample between
@@ -654,7 +672,7 @@ class FaultIdentifier:
 
     def reset(self):
         """Forget everything of the run, the units learnt included: a new run starts."""
-        self.calibrations = ({a: UnitCalibration(self.calibration_samples) for a in self.wheels}
+        self.calibrations = ({a: UnitCalibration(self.calibration_samples, params=self.params) for a in self.wheels}
                              if self.calibration_samples else None)
         self.faulted = {a: False for a in self.wheels}   # alarmed once this run: its calibration learns no more
         self.samples = 0
@@ -687,14 +705,15 @@ class FaultIdentifier:
                 x = None
                 if calibration is not None and np.isfinite(error):
                     x = regressors(sample.motor_torque[i], sample.friction_torque[i], sample.wheel_speed[i],
-                                   sample.ripple_phasor[i], free)
+                                   sample.ripple_phasor[i], free, params=self.params)
                     self.faulted[a] = self.faulted[a] or bool(alarmed.get(a))
                     if not calibration.frozen and not self.faulted[a]:   # learns while its wheel is healthy
                         calibration.update(error, x)
                 if not alarmed.get(a):
                     self.backlog[a].append((row, error, x, time))
                     continue
-                self.sums[a] = ProfileSums(None if calibration is None else calibration.unit())
+                self.sums[a] = ProfileSums(None if calibration is None else calibration.unit(),
+                                           self.params.viscous_scale, self.floor)
                 self._add_since_onset(a, list(self.backlog[a]) + [(row, error, x, time)], calibration)
                 self.backlog[a].clear()
             tcv = getattr(sample, "tcv", None)
@@ -703,7 +722,7 @@ class FaultIdentifier:
                 # temperature; once at rest it shows nothing (every family gives 0), and its fault's size is
                 # the one it had when last seen
                 self.unpowered.add(a)
-                if abs(float(sample.wheel_speed[i])) < AT_REST_SPEED:
+                if abs(float(sample.wheel_speed[i])) < 2.0 * self.params.coulomb_smoothing_speed:   # at rest
                     if self.latest[a] is not None and not self.latest[a].unpowered:
                         self.latest[a] = replace(self.latest[a], unpowered=True)
                     continue
@@ -740,7 +759,7 @@ class FaultIdentifier:
         # corrected when they came; a calibration still learning gives its posterior so far)
         mean = None if calibration is None else calibration.so_far().mean[:PHYSICAL]
         errors = [e if mean is None else e - float(z[:PHYSICAL] @ mean) for _, e, z, _ in past]
-        onset = onset_index(errors, [r[5] for r, _, _, _ in past])
+        onset = onset_index(errors, [r[5] for r, _, _, _ in past], self.floor)
         self.sums[a].set_ripple_prior(errors[:onset], [r[5] for r, _, _, _ in past[:onset]])
         for earlier, _, _, time in past[onset + 1:-1]:
             self.sums[a].add(earlier, time)

@@ -32,20 +32,46 @@ DECISION_OBSERVERS = {"speed_aware": "model", "thesis": "elman"}
 WHEEL_SPEED_ENVELOPE = 45.0
 
 
-def in_envelope(wheel_speed) -> np.ndarray:
+def speed_envelope(params=None) -> float:
+    """The operating envelope's speed [rad/s] of a wheel type: the thesis' type's share of its top speed,
+    WHEEL_SPEED_ENVELOPE / Omega_top = 45 / 47.3 (core/wheel.top_speed), of this type's Omega_top; the thesis'
+    type (None, or any of its EMF-limit choices: the envelope is the wheel's, not the plant choice's) gets
+    WHEEL_SPEED_ENVELOPE itself.
+
+    Parameters
+    ----------
+    params : WheelParams, optional
+        The wheel type; None: the thesis' (Table 2.2).
+
+    Returns
+    -------
+    float
+        The largest |speed| judged [rad/s].
+    """
+    from dataclasses import replace
+    from .wheel import WheelParams, top_speed
+    if params is None:
+        return WHEEL_SPEED_ENVELOPE
+    thesis = replace(WheelParams(), emf_limit=params.emf_limit)
+    return WHEEL_SPEED_ENVELOPE if params == thesis else WHEEL_SPEED_ENVELOPE * top_speed(params) / top_speed(thesis)
+
+
+def in_envelope(wheel_speed, envelope: float = WHEEL_SPEED_ENVELOPE) -> np.ndarray:
     """Per wheel: whether its FDI sample's speed [rad/s] lies in the operating envelope.
 
     Parameters
     ----------
     wheel_speed : float or array_like
         Wheel speed [rad/s], e.g. (N,).
+    envelope : float
+        The largest |speed| judged [rad/s] (:func:`speed_envelope` of the wheel type).
 
     Returns
     -------
     ndarray of bool
-        |speed| <= WHEEL_SPEED_ENVELOPE, ``wheel_speed``'s shape.
+        |speed| <= ``envelope``, ``wheel_speed``'s shape.
     """
-    return np.abs(np.asarray(wheel_speed, float)) <= WHEEL_SPEED_ENVELOPE
+    return np.abs(np.asarray(wheel_speed, float)) <= envelope
 
 
 def decision_observer(method: str) -> str:

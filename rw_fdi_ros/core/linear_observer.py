@@ -116,7 +116,7 @@ class LinearObserver:
         return estimate
 
 
-def estimate_series(tcv, reaction_torque, period: float = 1.0):
+def estimate_series(tcv, reaction_torque, period: float = 1.0, wheel: LinearWheel | None = None):
     """Estimates for whole sampled series (time first); the offline tools use this.
 
     Parameters
@@ -127,11 +127,13 @@ def estimate_series(tcv, reaction_torque, period: float = 1.0):
         Measured reaction torque y [N m], the shape of ``tcv``.
     period : float, optional
         Sample period [s].
+    wheel : LinearWheel, optional
+        The linearised wheel type (wheel.linearised_wheel); None: the thesis'.
 
     Returns
     -------
     ndarray, shape (n, ...)
         The estimate y^ [N m] at each sample (from the state before that sample's y).
     """
-    obs = LinearObserver(period)
+    obs = LinearObserver(period, wheel)
     return np.array([obs.update(u, y) for u, y in zip(tcv, reaction_torque)])

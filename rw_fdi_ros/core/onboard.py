@@ -18,12 +18,13 @@ from dataclasses import fields
 import numpy as np
 
 from .calibration import UnitCalibration, regressors
-from .residuals import SignedResidual
+from .residuals import SignedResidual, ripple_share
 from .threshold_file import ThresholdCurves
 from .identification import FaultIdentifier
 from .observer_plugin import PluginRun
-from .isolation import LatchedVerdict, ObserverChannel, in_envelope
+from .isolation import LatchedVerdict, ObserverChannel, in_envelope, speed_envelope
 from .telemetry import TelemetrySampler
+from .wheel import WheelParams
 
 
 class OnboardVerdict:
@@ -31,20 +32,24 @@ class OnboardVerdict:
 
     def __init__(self, names, curves: ThresholdCurves, batch: int, fdi_period: float = 1.0,
                  calibration_samples: int = 0, persistence: int | None = None, identification: bool = False,
-                 watched: dict | None = None):
+                 watched: dict | None = None, wheel: WheelParams = WheelParams()):
         self.names = tuple(names)
+        self.wheel = wheel   # the wheel type: the nominal model, its ripple, its calibration and its envelope
+        self.envelope = speed_envelope(wheel)
         self.fdi_period_ns = int(round(fdi_period * 1e9))
-        self.sampler = TelemetrySampler(fdi_period, "mean", identification=identification)
+        self.sampler = TelemetrySampler(fdi_period, "mean", wheel, identification=identification)
         # lazy: FDIR does not act on the identification; the run's answer is read at its end (identified)
-        self.identifiers = ([FaultIdentifier(self.names, calibration_samples, lazy=True) for _ in range(batch)]
-                            if identification else None)
+        self.identifiers = ([FaultIdentifier(self.names, calibration_samples, lazy=True, params=wheel)
+                             for _ in range(batch)] if identification else None)
         self.calibration_samples = calibration_samples
-        self.filters = [[SignedResidual(calibration=UnitCalibration(calibration_samples) if calibration_samples
-                                        else None) for _ in self.names] for _ in range(batch)]
+        self.filters = [[SignedResidual(share=ripple_share(wheel),
+                                        calibration=UnitCalibration(calibration_samples, params=wheel)
+                                        if calibration_samples else None) for _ in self.names] for _ in range(batch)]
         self.channels = [ObserverChannel("model", curves, persistence, self.names) for _ in range(batch)]
         self.verdicts = [LatchedVerdict(True, self.names) for _ in range(batch)]
         # observers judged beside the decision, acted on by nothing (their figures in service)
-        self.watch = ObserverWatch(self.names, watched, batch, calibration_samples, persistence) if watched else None
+        self.watch = (ObserverWatch(self.names, watched, batch, calibration_samples, persistence, wheel)
+                      if watched else None)
 
     def add(self, stamp_ns: int, tcv, reaction_torque, wheel_speed):
         """Control-rate sample (B, N) arrays in; on an FDI stamp, per run {wheel: first alarm [s] of a
@@ -53,10 +58,10 @@ class OnboardVerdict:
         if sample is None:
             return None
         x = (regressors(sample.motor_torque, sample.friction_torque, sample.wheel_speed, sample.ripple_phasor,
-                        sample.free_motor_torque) if self.calibration_samples else None)
+                        sample.free_motor_torque, params=self.wheel) if self.calibration_samples else None)
         if self.watch is not None:
             self.watch.add(sample, x)
-        judged = in_envelope(sample.wheel_speed)
+        judged = in_envelope(sample.wheel_speed, self.envelope)
         out = []
         for b, (filters, channel, verdict) in enumerate(zip(self.filters, self.channels, self.verdicts)):
             rows = [f.update(sample.reaction_torque[b, i], sample.model_torque[b, i], sample.ripple_phasor[b, i],
@@ -93,11 +98,11 @@ class ObserverWatch:
     ``make(batch)``, a callable ``(sample) -> (B, N) r^`` made once per batch (:func:`watched_observers`)."""
 
     def __init__(self, names, observers: dict, batch: int, calibration_samples: int = 0,
-                 persistence: int | None = None):
-        self.names = tuple(names)
+                 persistence: int | None = None, wheel: WheelParams = WheelParams()):
+        self.names = tuple(names)   # wheel: the wheel type (its ripple bound and calibration)
         self.estimators = {slot: make(batch) for slot, (make, _, _) in observers.items()}
-        self.filters = {slot: [[SignedResidual(uncertainty_gain=gains[i],
-                                               calibration=UnitCalibration(calibration_samples)
+        self.filters = {slot: [[SignedResidual(share=ripple_share(wheel), uncertainty_gain=gains[i],
+                                               calibration=UnitCalibration(calibration_samples, params=wheel)
                                                if calibration_samples else None)
                                 for i in range(len(self.names))] for _ in range(batch)]
                         for slot, (_, gains, _) in observers.items()}
@@ -150,18 +155,21 @@ class _PluginRuns:
         return np.array([run.step(_run_of(sample, b)) for b, run in enumerate(self.runs)])
 
 
-def watched_observers(names, models, curves: dict, period: float, calibration_samples: int = 0) -> dict:
+def watched_observers(names, models, curves: dict, period: float, calibration_samples: int = 0,
+                      wheel: WheelParams | None = None) -> dict:
     """slot -> (estimator factory ``make(batch)``, kappa per wheel, curves) of the observers of ``curves`` on the
     wheel set ``names``: the model observer (the sample's nominal model torque), the Luenberger observer
     (linear_observer.py, every run at once), the Elman network of each wheel (elman.WheelRecall) and the
-    plug-ins of ``models`` (observer_plugin.ObserverModels)."""
+    plug-ins of ``models`` (observer_plugin.ObserverModels); ``wheel``: the wheel type the Luenberger observer
+    linearises (None: the thesis')."""
     from functools import partial
     from .elman import network_wheel
     from .linear_observer import LinearObserver, uncertainty_gain
+    from .wheel import linearised_wheel
     nets = [models[network_wheel(a, models)] for a in names]
 
     def linear(batch):
-        observer = LinearObserver(period)
+        observer = LinearObserver(period, None if wheel is None else linearised_wheel(params=wheel))
         return lambda sample: observer.update(sample.tcv, sample.reaction_torque)
 
     table = {"elman": (partial(_ElmanRecalls, nets), [n.uncertainty_gain for n in nets]),

@@ -162,7 +162,7 @@ def window_mean(values, window: int = WINDOW):
 
 
 def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW, uncertainty_gains=None,
-                           regressors=None, calibration_samples: int = 0):
+                           regressors=None, calibration_samples: int = 0, params=None):
     """(residuals, bounds) of whole series (time first, one column per axis) through :class:`SignedResidual`;
     with ``calibration_samples`` > 0 each wheel learns its unit from its first samples (``regressors``:
     (n, axes, 6), calibration.regressors).
@@ -183,6 +183,8 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
         calibration.regressors of the samples [N m]; needed with ``calibration_samples`` > 0.
     calibration_samples : int, optional
         FDI samples each wheel learns its unit from; 0: no calibration.
+    params : WheelParams, optional
+        The wheel type (its ripple B/2, :func:`ripple_share`, and its calibration); None: the thesis'.
 
     Returns
     -------
@@ -192,19 +194,21 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
         What each may hold unfaulted [N m].
     """
     from .calibration import UnitCalibration
+    from .wheel import WheelParams
     actual, estimate, phasor = (np.asarray(x) for x in (actual, estimate, ripple_phasor))
     res, bound = np.empty(actual.shape), np.empty(actual.shape)
     uncertainty_gains = np.zeros(actual.shape[1]) if uncertainty_gains is None else uncertainty_gains
     for j in range(actual.shape[1]):
-        f = SignedResidual(window, uncertainty_gain=uncertainty_gains[j],
-                           calibration=UnitCalibration(calibration_samples) if calibration_samples else None)
+        f = SignedResidual(window, ripple_share(params), uncertainty_gain=uncertainty_gains[j],
+                           calibration=UnitCalibration(calibration_samples, params=params or WheelParams())
+                           if calibration_samples else None)
         x = regressors[:, j] if calibration_samples else [None] * len(actual)
         rows = [f.update(a, e, p, r) for a, e, p, r in zip(actual[:, j], estimate[:, j], phasor[:, j], x)]
         res[:, j], bound[:, j] = [r[0] for r in rows], [r[1] for r in rows]
     return res, bound
 
 
-def demand_ratio(actual, estimate, ripple_phasor, active: float = 1e-3) -> float | None:
+def demand_ratio(actual, estimate, ripple_phasor, active: float | None = None, params=None) -> float | None:
     """One fault-free run of one wheel: the largest (|residual| - ripple bound) / mean(|r|) over the
     samples where mean(|r|) > ``active`` N m (a manoeuvre), i.e. how much the observer erred per unit of
     the torque it was asked for (series (n,) of r, r^ and the ripple phasor); None: no manoeuvre.
@@ -218,16 +222,21 @@ def demand_ratio(actual, estimate, ripple_phasor, active: float = 1e-3) -> float
     ripple_phasor : array_like of complex, shape (n,)
         The FDI samples' ripple phasors [N m].
     active : float, optional
-        Torque demand mean(|r|) above which a sample counts [N m].
+        Torque demand mean(|r|) above which a sample counts [N m]; None: 1e-3 N m for the Type A, scaled by
+        another type's torque (wheel.torque_scale).
+    params : WheelParams, optional
+        The wheel type (its ripple bound and torques); None: the thesis'.
 
     Returns
     -------
     float or None
         The largest ratio (dimensionless), None when no sample is active.
     """
+    from .wheel import WheelParams, torque_scale
+    active = 1e-3 * torque_scale(params or WheelParams()) if active is None else active
     r = np.asarray(actual, float)[:, None]
     res, bound = signed_residual_series(r, np.asarray(estimate, float)[:, None],
-                                        np.asarray(ripple_phasor)[:, None])
+                                        np.asarray(ripple_phasor)[:, None], params=params)
     demand = window_mean(np.abs(r))
     busy = demand > active
     return float(((np.abs(res) - bound)[busy] / demand[busy]).max()) if busy.any() else None

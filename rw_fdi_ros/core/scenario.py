@@ -21,7 +21,7 @@ from .orbit import CircularOrbit, OrbitError, TleOrbit
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
 from .wheel_set import AXIS_WHEELS, DEFAULT_WHEEL_SET, WHEEL_SETS
 from .vehicle import (DEFAULT_VEHICLE, DISPERSION_LIMITS, THESIS, UNIT_SPREAD_MAX, Dispersions, Vehicle,
-                      VehicleError, check_wheel_type, load_vehicle)
+                      VehicleError, load_vehicle)
 from .wheel import NOMINAL, UNIT_PARAMETERS, WheelParams, unit_wheel
 from .yaml_text import YamlError, read_yaml
 
@@ -501,7 +501,6 @@ def _vehicle(origin: str, raw) -> Vehicle | None:
         raise ScenarioError(f"{origin}: vehicle: a shipped vehicle's name, a vehicle file or its mapping, got {raw!r}")
     try:
         vehicle = load_vehicle(source)
-        check_wheel_type(vehicle)
         design_controller(vehicle)   # its targets met, or refused now with the reason
     except VehicleError as exc:
         raise ScenarioError(f"{origin}: vehicle: {exc}") from None

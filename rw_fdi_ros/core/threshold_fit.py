@@ -136,7 +136,8 @@ def rate_carried(runs: int, share: float = 0.5, axes: int = 3) -> float:
     return axes / (share * max(runs, 1) * EXTRAPOLATION)
 
 
-def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", "y", "z"), share: float = 1.0) -> dict:
+def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", "y", "z"), share: float = 1.0,
+             floor: float = -np.inf) -> dict:
     """Band c per axis for a per-run false-alarm probability ``share`` x ``false_alarm_rate`` over all axes.
 
     ``statistics``: (runs, axes) run statistics of fault-free fitting runs (run_statistic). Each
@@ -144,7 +145,7 @@ def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", 
     alpha on its uncertainty gain kappa, tools/design/train.uncertainty_gain); the upper half of its run
     maxima is fitted with a Gumbel law (the limit law of maxima of light-tailed sequences; :func:`gumbel_fit`), whose
     (1 - alpha/n) quantile is c: an empirical quantile of a few hundred runs cannot reach 1e-3.
-    Never below the largest fitting-run statistic.
+    Never below the largest fitting-run statistic, nor below ``floor``.
 
     Parameters
     ----------
@@ -156,6 +157,9 @@ def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", 
         The axes' (wheels') names, in the columns' order.
     share : float, optional
         Share of ``false_alarm_rate`` the bands spend.
+    floor : float, optional
+        The smallest band [N m]: what no residual can promise less than (its observer's unmodelled noise,
+        wheel.bearing_noise_mean); fitting runs whose ripple bound always covered it do not show it.
 
     Returns
     -------
@@ -172,7 +176,7 @@ def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", 
     out = {}
     for i, a in enumerate(axes):
         mu, beta = gumbel_fit(s[:, i])
-        out[a] = {"band": max(gumbel_quantile(mu, beta, 1.0 - per_axis), float(s[:, i].max())),
+        out[a] = {"band": max(gumbel_quantile(mu, beta, 1.0 - per_axis), float(s[:, i].max()), floor),
                   "gumbel_mu": mu, "gumbel_beta": beta, "fitting_max": float(s[:, i].max())}
     return out
 

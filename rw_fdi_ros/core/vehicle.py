@@ -18,14 +18,15 @@ A vehicle that cannot fly is refused with its reason, one line naming the field:
   (tau_max = G_d k_t V_limit, one wheel's torque at its command limit). A quick necessary condition; the
   sufficient one is controller_design.design_controller, which a scenario naming the vehicle runs.
 
-The wheels themselves must be the thesis' type (Table 2.2) for now (:func:`check_wheel_type`): the
-controllers' volts per torque, the allocation's hold feed-forward and the whole FDI model that wheel; a
-vehicle file whose wheel differs is read and checked, and refused for flight by name.
+The wheel type is the vehicle's everywhere a wheel is modelled: the plant, the controllers' volts per
+torque, the allocation's command limit and hold feed-forward, FDIR's delivered share and envelope, and the
+whole FDI (nominal model, ripple bound, calibration, identification, envelope speed); the nodes take it as
+their ``wheel_type`` parameter (:func:`wheel_parameter`).
 """
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -407,18 +408,34 @@ def check_flyable(vehicle: Vehicle, where: str = "vehicle") -> None:
                            f"limiter ({vehicle.wheel.overspeed_threshold:g} rad/s)")
 
 
-def check_wheel_type(vehicle: Vehicle) -> None:
-    """VehicleError unless ``vehicle``'s wheels are the thesis' type (Table 2.2; its emf_limit is a plant
-    choice): the controllers' volts per torque and command limit in the graph, the allocation's hold
-    feed-forward and the FDI's nominal model, ripple bound, calibration, identification and networks are that
-    wheel's for now, so another wheel is refused by name rather than flown with its constants. Body, wheel
-    set, controller targets, rods and dispersions may differ."""
-    datasheet = WheelParams()
-    if replace(vehicle.wheel, emf_limit=datasheet.emf_limit) != datasheet:
-        differ = [k for k in WHEEL_UNITS if k != "emf_limit" and getattr(vehicle.wheel, k) != getattr(datasheet, k)]
-        raise VehicleError(f"vehicle {vehicle.name}: its wheel differs from the thesis' type (Table 2.2: "
-                           f"{', '.join(differ[:4])}{', ...' if len(differ) > 4 else ''}); the controllers, the "
-                           "allocation and the FDI model that wheel for now, so no other is flown (docs/vehicles.md)")
+def wheel_parameter(wheel: WheelParams, wheel_type: str = "") -> str:
+    """The nodes' ``wheel_type`` parameter for ``wheel``: its datasheet as a vehicle file writes it, every value
+    with its unit, as ``name=value; name=value; ...`` (a plain string through every YAML layer of a launch: a
+    mapping would be retyped); '' for the thesis' Type A (the nodes' default)."""
+    if wheel == WheelParams():
+        return ""
+    words = re.sub(r"[;=#:]", " ", wheel_type).strip()   # a make and model in words only
+    parts = [f"type={words}"] if words else []
+    for name, unit in WHEEL_UNITS.items():
+        value = getattr(wheel, name)
+        parts.append(f"{name}={value if unit is None else _with_unit(float(value) if unit else value, unit)}")
+    return "; ".join(parts)
+
+
+def wheel_from_parameter(text: str) -> WheelParams:
+    """The WheelParams of a ``wheel_type`` parameter (:func:`wheel_parameter`; '' the thesis' Type A);
+    VehicleError, one line naming the field, for one that does not read."""
+    if not text.strip():
+        return WheelParams()
+    raw = {}
+    for part in text.split(";"):
+        name, sep, value = part.partition("=")
+        if not sep or not name.strip():
+            raise VehicleError(f"wheel_type: {part.strip()!r} is not name=value (name=value; name=value; ...)")
+        if name.strip() in raw:
+            raise VehicleError(f"wheel_type.{name.strip()}: given twice")
+        raw[name.strip()] = value.strip()
+    return _wheel("wheel_type", raw)
 
 
 def shipped_vehicles() -> dict:

@@ -314,6 +314,53 @@ def holding_tcv(speed, temperature=23.0, params: WheelParams = WheelParams()):
     return friction_torque(speed, temperature, params) / (params.driver_gain * params.torque_constant)
 
 
+def bearing_noise_mean(params: WheelParams = WheelParams(), seconds: float = 40.0) -> float:
+    """The largest |mean| of eq. 2.16's bearing noise A sin(w_a t), A = J theta_a w_a^2, over any ``seconds``
+    [N m]: A min(1, 2 / (w_a seconds)). The nominal model leaves this noise out, so no residual averaged over
+    that window can promise less (the Type A over 40 s: 3.9e-6 N m)."""
+    amplitude = params.inertia * params.noise_angle * params.noise_frequency ** 2
+    return float(amplitude * min(1.0, 2.0 / max(params.noise_frequency * seconds, 1e-12)))
+
+
+def torque_scale(params: WheelParams = WheelParams()) -> float:
+    """tau_max / tau_max of the thesis' Type A, tau_max = G_d k_t V_limit (27.6 mN m): how much smaller or larger
+    this wheel type's torques are. What the FDI takes as a torque too small to matter (noise floors, a command
+    too small to judge a wheel by) was set on the Type A and scales with it."""
+    thesis = WheelParams()
+    return float(params.driver_gain * params.torque_constant * params.command_limit
+                 / (thesis.driver_gain * thesis.torque_constant * thesis.command_limit))
+
+
+def top_speed(params: WheelParams = WheelParams(), op: OperatingPoint = NOMINAL) -> float:
+    """Omega_top [rad/s]: the highest speed the wheel holds at the full command at the operating point ``op``,
+    where the motor torque the bridge can drive, k_t min(G_d V_limit, I_max(V_bus, Omega)) (eqs. 2.9-2.14),
+    no longer exceeds the friction (eqs. 2.15-2.16); at most the overspeed threshold w_s. The thesis' Type A
+    at 23 C: 47.3 rad/s, friction-bound. Found by bisection (the surplus falls with speed).
+
+    Parameters
+    ----------
+    params : WheelParams
+        The wheel type (scalar fields).
+    op : OperatingPoint
+        The bus voltage and temperature (default: normal operation, Table 2.3).
+
+    Returns
+    -------
+    float
+        Omega_top [rad/s].
+    """
+    def surplus(w):
+        drive = min(params.driver_gain * params.command_limit, float(emf_current_limit(op.bus_voltage, w, params)))
+        return params.torque_constant * drive - float(friction_torque(w, op.temperature, params))
+    low, high = 0.0, float(params.overspeed_threshold)
+    if surplus(high) >= 0.0:
+        return high
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if surplus(mid) >= 0.0 else (low, mid)
+    return low
+
+
 # Unit-to-unit variation: the parameters that differ between wheels of one type and drift over life,
 # with the default 1-sigma spread of each unit's value over the datasheet's (a share). Bearing drag
 # depends on lubricant quantity, state and temperature and differs by tens of per cent between
@@ -341,14 +388,14 @@ def unit_wheel(base: WheelParams, scales: dict) -> WheelParams:
     Returns
     -------
     WheelParams
-        ``base`` with ``torque_constant``, ``driver_gain``, ``coulomb_friction`` and ``viscous_scale`` as
-        arrays of the scales' shape.
+        ``base`` with ``torque_constant``, ``driver_gain``, ``coulomb_friction`` and ``viscous_scale`` (the type's
+        own scale times the unit's) as arrays of the scales' shape.
     """
     from dataclasses import replace
     return replace(base, torque_constant=base.torque_constant * np.asarray(scales["torque_constant"], float),
                    driver_gain=base.driver_gain * np.asarray(scales["driver_gain"], float),
                    coulomb_friction=base.coulomb_friction * np.asarray(scales["coulomb_friction"], float),
-                   viscous_scale=np.asarray(scales["viscous_friction"], float))
+                   viscous_scale=base.viscous_scale * np.asarray(scales["viscous_friction"], float))
 
 
 @dataclass(frozen=True)

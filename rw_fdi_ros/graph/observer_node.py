@@ -20,7 +20,7 @@ from sensor_msgs.msg import JointState
 
 from ..core.calibration import UnitCalibration, calibration_samples, regressors
 from ..core.detection import METHODS, WINDOW
-from ..core.residuals import ResidualFilter, SignedResidual
+from ..core.residuals import ResidualFilter, SignedResidual, ripple_share
 from ..core.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
 from ..core.sampling import SAMPLINGS
 from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
@@ -29,6 +29,7 @@ from . import topics as T
 from .convert import fdi_sample_of
 from .gate import GatedPublisher
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError
+from .wheel_type import declare_wheel_type
 
 
 class ObserverNode(GraphNode):
@@ -45,6 +46,7 @@ class ObserverNode(GraphNode):
         self.declare_parameter("estimate_readers", 0)   # readers of the estimate (the recorder) before it goes
         # [s] from each run's start the observer learns its own wheel (core/calibration.py); 0: the datasheet's
         self.declare_parameter("unit_calibration_time", 0.0)
+        self.wheel = declare_wheel_type(self)   # the wheel type: its ripple bound and calibration regressors
         self.compute, self.callback, self.callback_cpu = [], [], []   # s: observe() / callback wall / CPU
         try:
             self.names = wheel_set(self.param("wheel_set")).names
@@ -95,9 +97,9 @@ class ObserverNode(GraphNode):
 
     def signed_residual(self, uncertainty_gain: float = 0.0) -> SignedResidual:
         """A wheel's speed-aware residual, learning its unit when the node calibrates."""
-        return SignedResidual(self.param("window"), uncertainty_gain=uncertainty_gain,
-                              calibration=UnitCalibration(self.calibration_samples) if self.calibration_samples
-                              else None)
+        return SignedResidual(self.param("window"), ripple_share(self.wheel), uncertainty_gain=uncertainty_gain,
+                              calibration=UnitCalibration(self.calibration_samples, params=self.wheel)
+                              if self.calibration_samples else None)
 
     def regressors(self, sample, i: int):
         """Wheel ``i``'s calibration regressors of ``sample`` (None when the node does not calibrate)."""
@@ -109,7 +111,7 @@ class ObserverNode(GraphNode):
             self.get_logger().warn(f"{T.FDI_TELEMETRY} without free_motor_torque: calibrating with one motor share "
                                    "(k_t G_d), which misfits where the bridge clips at the EMF limit")
         return regressors(sample.motor_torque[i], sample.friction_torque[i], sample.wheel_speed[i],
-                          sample.ripple_phasor[i], free)
+                          sample.ripple_phasor[i], free, params=self.wheel)
 
     def _on_telemetry(self, msg):
         t0, c0 = time.perf_counter(), time.thread_time()

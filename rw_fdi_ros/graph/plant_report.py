@@ -15,6 +15,7 @@ from std_msgs.msg import Header, String
 from ..core.environment import MAGNETOMETER_NOISE
 from ..core.scenario import FAULT_KINDS
 from ..core.telemetry import TelemetrySampler
+from ..core.wheel import WheelParams
 from ..core.wheel_set import joint_name
 from ..storage.cdr import clock_cdr, joint_state_cdr
 from . import topics as T
@@ -50,14 +51,15 @@ class PlantReport:
     attitude, clock, wheel state, fault effect (from the first onset), FDI telemetry (every FDI
     period) and ground truth (on change and every ``truth_period``), and /plant/done at the end."""
 
-    def __init__(self, scenario_text: str, names, units: dict, fdi_period: float, truth_period: float = 1.0):
+    def __init__(self, scenario_text: str, names, units: dict, fdi_period: float, truth_period: float = 1.0,
+                 wheel: WheelParams = WheelParams()):
         self.scenario_text = scenario_text
         self.names = tuple(names)
         self.joints = tuple(joint_name(n) for n in self.names)
         self.units = units
         self.truth_period = truth_period
-        # the FDI's nominal wheel model is the datasheet's, whatever the plant's emf-limit choice
-        self.telemetry = TelemetrySampler(fdi_period, "mean", identification=True)
+        # the FDI's nominal wheel model is the vehicle's datasheet (``wheel``), whatever the plant's emf-limit choice
+        self.telemetry = TelemetrySampler(fdi_period, "mean", wheel, identification=True)
         self.truth_key = None
         self.truth_due = 0.0
 

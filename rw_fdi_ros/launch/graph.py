@@ -16,6 +16,7 @@ from ..core.detection import observers_of
 from ..core.plant import Plant
 from ..core.plant_choices import DEFAULT, PlantChoices
 from ..core.spacecraft import BODY_AXES
+from ..core.vehicle import wheel_parameter
 from ..core.scenario import Scenario
 from ..core.wheel_set import joint_name, wheel_set
 from ..graph import topics as T
@@ -126,6 +127,9 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     # (the thesis' vehicle: the nodes' own defaults, the same numbers)
     vehicle = scenario.vehicle
     design = design_controller(vehicle).gains if vehicle is not None else None
+    # the wheel type of every node that models the wheels ('' the thesis' Type A: the nodes' default)
+    wheel_type = wheel_parameter(scenario.spacecraft.wheel, scenario.spacecraft.wheel_type)
+    typed = {"wheel_type": wheel_type} if wheel_type else {}
     nodes = [NodeSpec("plant", "plant", {
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
@@ -135,12 +139,12 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "joint": T.ATTITUDE_JOINTS[i], "control_period": period, "initial_tcv": float(hold[i]),
             "setpoint_times": [float(t) for t in times], "setpoints": [float(v) for v in values[:, i]],
-            **({} if design is None else {"kp": float(design.kp[i]), "ki": float(design.ki[i]),
-                                          "kd": float(design.kd[i])})}))
+            **typed, **({} if design is None else {"kp": float(design.kp[i]), "ki": float(design.ki[i]),
+                                                   "kd": float(design.kd[i])})}))
     nodes.append(NodeSpec("wheel_allocation", "wheel_allocation", {
         "wheel_set": choices.wheel_set, "control_period": period,
         "fdir": fdi is not None and fdi.fdir,
-        "fdi_period": choices.fdi_period,
+        "fdi_period": choices.fdi_period, **typed,
         **({} if vehicle is None else {"body_inertia": [float(v) for v in vehicle.inertia_matrix.ravel()],
                                        "wheel_inertia": float(vehicle.wheel.inertia)})}))
     if scenario.magnetorquers is not None:
@@ -150,7 +154,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
             "start_speed": rods.start_speed, "stop_speed": rods.stop_speed, "enabled": rods.enabled,
             **({} if vehicle is None else {"wheel_inertia": float(vehicle.wheel.inertia)})}))
     if fdi is not None:
-        nodes += fdi_nodes(fdi, choices, await_bus_grid=True)   # the plant sends a grid with every report
+        nodes += fdi_nodes(fdi, choices, await_bus_grid=True, wheel_type=wheel_type)   # a grid with every report
     if live is not None:
         nodes.append(NodeSpec("live_view", "live_view", {
             "port": int(live), "wheel_set": choices.wheel_set, "fdi": fdi is not None,
@@ -252,7 +256,7 @@ def with_reader_counts(nodes):
     return nodes
 
 
-def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
+def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False, wheel_type: str = ""):
     """An Elman observer per wheel of the set, the linear observer, the model observer (speed_aware) and the
     isolation node (told the run's choices), as ``fdi`` (FdiConfig or its mapping) says. Without models or
     thresholds given, the nodes take the shipped set of the method themselves (a real ROS 2 install's share/).
@@ -266,6 +270,8 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
     await_bus_grid : bool
         Every report of the FDI telemetry comes with its bus-voltage grid: the isolation node waits for it
         from the first report (else only once it has seen the grid's publisher, which may come late).
+    wheel_type : str
+        The vehicle's wheel type (core/vehicle.wheel_parameter; '' the thesis' Type A, the nodes' default).
 
     Returns
     -------
@@ -275,7 +281,8 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
     fdi = FdiConfig.of(fdi).for_vehicle(choices.vehicle)
     nodes = []
     common = {"fdi_method": fdi.method, "fdi_period": choices.fdi_period, "fdi_sampling": choices.fdi_sampling,
-              "unit_calibration_time": fdi.unit_calibration, "wheel_set": choices.wheel_set}
+              "unit_calibration_time": fdi.unit_calibration, "wheel_set": choices.wheel_set,
+              **({"wheel_type": wheel_type} if wheel_type else {})}
     for axis in wheel_set(choices.wheel_set).names:
         params = {"wheel": joint_name(axis), **common}
         if fdi.models or fdi.thresholds or fdi.vehicle:   # else the node's own default, the thesis' shipped set
@@ -291,7 +298,8 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False):
             **({"observer_state": str(Path(state).resolve())} if state else {})}))
     iso = {**choices.as_dict(), "fdi_method": fdi.method, "persistence": int(fdi.persistence or 0),
            "unit_calibration_time": fdi.unit_calibration, "await_bus_grid": bool(await_bus_grid),
-           **({"decision": fdi.decision} if fdi.decision else {}), **plugin_parameters(fdi)}
+           **({"decision": fdi.decision} if fdi.decision else {}), **plugin_parameters(fdi),
+           **({"wheel_type": wheel_type} if wheel_type else {})}
     if fdi.models or fdi.thresholds or fdi.vehicle:
         iso.update({f"thresholds_{obs}": str(fdi.threshold_path(obs)) for obs in observers_of(fdi.method)})
     iso.update({f"thresholds_{slot}": str(fdi.threshold_path(slot).resolve()) for slot in fdi.plugin_slots})

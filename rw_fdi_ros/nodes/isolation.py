@@ -50,7 +50,7 @@ from ..core.calibration import calibration_samples
 from ..core.identification import FaultIdentifier
 from ..core.observer_plugin import is_plugin_slot
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor, stamp_order
-from ..core.isolation import (WHEEL_SPEED_ENVELOPE, LatchedVerdict, ObserverChannel, decision_of, in_envelope,
+from ..core.isolation import (LatchedVerdict, ObserverChannel, decision_of, in_envelope, speed_envelope,
                               stamp_seconds)
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.wheel_set import joint_name, wheel_set
@@ -60,6 +60,7 @@ from ..graph.convert import fdi_sample_of, stamp_ns, time_msg
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 from ..graph.gate import GatedPublisher
 from ..graph.sync import StampSync
+from ..graph.wheel_type import declare_wheel_type
 
 
 def _status(name, axis, residual, threshold, alarm, first, extra=(), identification=None, unjudged=None, note=None,
@@ -162,7 +163,10 @@ class IsolationNode(GraphNode):
         self.pub_ident = gate(DiagnosticArray, T.IDENTIFICATION)
         self.gates = [self.pub_diag, self.pub_ident] + [p for pubs in self.pubs.values() for p in pubs.values()]
         self.done_samples = {}   # stamp -> observer (or 'telemetry') -> what arrived for that stamp
-        self.identifier = FaultIdentifier(self.names, calibration_samples(calibration, plant.fdi_period))
+        self.wheel = declare_wheel_type(self)   # the wheel type: its identification and envelope
+        self.speed_envelope = speed_envelope(self.wheel)
+        self.identifier = FaultIdentifier(self.names, calibration_samples(calibration, plant.fdi_period),
+                                          params=self.wheel)
         self.inputs = {part: InputMonitor(f"{part} residuals" if part in self.channels else "FDI telemetry",
                                           plant.fdi_period) for part in (*self.channels, "telemetry")}
         self.last_input = time.monotonic()
@@ -313,7 +317,8 @@ class IsolationNode(GraphNode):
             self._publish_observer(obs, stamp, rows, silent=True)
             handled[obs] = rows
         # /diagnostics: latched, and not judged for a wheel outside the operating envelope
-        self.envelope = dict(zip(self.names, in_envelope(sample.wheel_speed) if sample.wheel_speed is not None
+        self.envelope = dict(zip(self.names, in_envelope(sample.wheel_speed, self.speed_envelope)
+                                 if sample.wheel_speed is not None
                                  else [True] * len(self.names)))
         self.speeds = sample.wheel_speed
         decided = self.verdict.update(self.decision.combine(handled), self.envelope)
@@ -387,7 +392,7 @@ class IsolationNode(GraphNode):
             if unjudged is None and not self.envelope[a]:
                 speed = self.speeds[self.names.index(a)]
                 unjudged = (f"outside the operating envelope (wheel speed {speed:.1f} rad/s, "
-                            f"judged within +-{WHEEL_SPEED_ENVELOPE:g})")
+                            f"judged within +-{self.speed_envelope:.4g})")
             status = _status(f"{T.VERDICT_STATUS} {a} ({self.decision.phrase})", a, *main[a],
                              extra=extra, identification=found, note=note, unjudged=unjudged,
                              latched=self.verdict.latched[a])

@@ -13,6 +13,7 @@ the back-EMF: it is the thesis' baseline beside the Elman and model observers.
 from __future__ import annotations
 
 from ..core.linear_observer import LinearObserver, uncertainty_gain
+from ..core.wheel import linearised_wheel
 from ..graph.observer_node import WheelsObserverNode
 from ..graph.runtime import main_for
 
@@ -31,7 +32,8 @@ class LinearObserverNode(WheelsObserverNode):
         self.declare_parameter("speed_up", 4.0)      # observer pole / wheel pole (thesis 3.3)
 
     def reset(self):
-        self.observer = LinearObserver(self.param("fdi_period"), speed_up=self.param("speed_up"))
+        self.observer = LinearObserver(self.param("fdi_period"), linearised_wheel(params=self.wheel),
+                                       speed_up=self.param("speed_up"))
         super().reset()
 
     def estimate(self, sample):

@@ -19,6 +19,7 @@ from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, vector_cdr
 from ..graph.gate import GatedPublisher
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from ..graph.wheel_type import declare_wheel_type
 
 
 class PidControllerNode(GraphNode):
@@ -49,7 +50,8 @@ class PidControllerNode(GraphNode):
         self.schedule = (np.asarray(times, float), np.asarray(values, float)) if len(times) else None
         gains = type(design)(kp=self.param("kp"), ki=self.param("ki"), kd=self.param("kd"),
                              setpoint_weight=self.param("setpoint_weight"))
-        self.pid = PidController(gains, self.param("control_period"), initial_tcv=self.param("initial_tcv"))
+        self.pid = PidController(gains, self.param("control_period"), initial_tcv=self.param("initial_tcv"),
+                                 wheel=declare_wheel_type(self))   # its volts per torque and command limit
         self.axis, self.index = axis, i
         self.pub = GatedPublisher(self.create_publisher(Vector3Stamped, T.tcv_command(axis), T.RELIABLE),
                                   self.param("min_subscribers"))

@@ -109,7 +109,7 @@ class PlantNode(GraphNode):
         # this run's units (ground truth): datasheet values unless the scenario draws them
         self.report = PlantReport(scenario.effective_text(self.choices.scenario_dict()), self.names,
                                   run_units(self.plant.wheel, 0, len(self.names)), self.choices.fdi_period,
-                                  self.param("truth_period"))
+                                  self.param("truth_period"), scenario.spacecraft.wheel)
 
         self.publishers_by_topic = {}   # the table's topic name -> its publisher (resolved in our namespace)
 

@@ -40,15 +40,15 @@ from sensor_msgs.msg import JointState
 
 from ..core.allocation import TorqueAllocator
 from ..core.fdir import DecisionDelay, DeliveryLog, Reconfiguration
-from ..core.isolation import stamp_seconds
+from ..core.isolation import speed_envelope, stamp_seconds
 from ..core.spacecraft import BODY_AXES, INERTIA, inertia_times
-from ..core.wheel import WheelParams
 from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr, read_joint_state_cdr, read_vector_cdr
 from ..graph import topics as T
 from ..graph.convert import stamp_ns, wheel_states_msg
 from ..graph.gate import GatedPublisher
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from ..graph.wheel_type import declare_wheel_type
 
 OPERATOR = "operator command"
 class WheelAllocationNode(GraphNode):
@@ -68,7 +68,8 @@ class WheelAllocationNode(GraphNode):
         # the vehicle (core/vehicle.py): its inertia I [kg m^2], the diagonal (3) or the matrix row by row (9),
         # and the wheels' J [kg m^2]: what the momentum checks of a reconfiguration read
         self.declare_parameter("body_inertia", [float(v) for v in INERTIA])
-        self.declare_parameter("wheel_inertia", WheelParams().inertia)
+        self.wheel = declare_wheel_type(self)   # its command limit, hold feed-forward, nominal model and envelope
+        self.declare_parameter("wheel_inertia", self.wheel.inertia)
         self.declare_parameter("fdir_readers", 0)                # of /fdir/wheels (the recorder) before it goes
         self.declare_parameter("diagnostics_readers", 0)         # of /diagnostics before FDIR's state goes there
         try:
@@ -78,13 +79,13 @@ class WheelAllocationNode(GraphNode):
         self.joints = tuple(joint_name(n) for n in self.wheels.names)
         self.period = self.param("control_period")
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
-        self.allocator = TorqueAllocator(self.wheels)
+        self.allocator = TorqueAllocator(self.wheels, limit=self.wheel.command_limit, params=self.wheel)
         inertia = np.asarray(self.param("body_inertia"), float)
         if inertia.size not in (3, 9) or not np.all(np.isfinite(inertia)) or self.param("wheel_inertia") <= 0:
             raise NodeError("parameter body_inertia: 3 numbers (the diagonal) or 9 (the matrix, row by row) "
                             "[kg m^2], and wheel_inertia > 0", EXIT_BAD_INPUT)
         self.body_inertia = inertia if inertia.size == 3 else inertia.reshape(3, 3)
-        self.reconfiguration = Reconfiguration(self.wheels, body_inertia=self.body_inertia,
+        self.reconfiguration = Reconfiguration(self.wheels, speed_envelope(self.wheel), body_inertia=self.body_inertia,
                                                wheel_inertia=self.param("wheel_inertia"))
         self.delay = DecisionDelay()
         self.operator = list(self.param("out_of_use") or [])   # joints the operator took out, not yet applied
@@ -95,7 +96,7 @@ class WheelAllocationNode(GraphNode):
         self.axis_commands = {}     # stamp -> {axis index: value}
         self.state = {}             # stamp -> (wheel speeds, body rate): what a decision's momentum check reads
         self.commands_sent = {}     # stamp -> the wheel commands sent for it (in force over the next step)
-        self.delivery = DeliveryLog()   # what the wheels gave for their commands, as the core loop keeps it
+        self.delivery = DeliveryLog(params=self.wheel)   # what the wheels gave for their commands (as the core loop)
         self.verdict_ns = -1        # the latest /diagnostics stamp in
         self.waiting_since = None   # wall time a complete command started waiting for a verdict
         self.blind_said = False

@@ -27,6 +27,7 @@ import numpy as np
 from ...fdi_config import FdiConfig
 from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import held_speeds
+from ...core.isolation import speed_envelope
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.spacecraft import BODY_AXES
 from ...core.vehicle import DEFAULT_VEHICLE
@@ -107,7 +108,8 @@ def run_figures(traj, b: int, scenario: Scenario) -> dict:
     late = np.nonzero(error[i0:] >= POINTING_DEG)[0]
     recover = float(traj.time[i0 + late[-1]] + 0.1 - fault.onset) if len(late) else 0.0
     given_up = [w for t, w, a in decisions if a == "out_of_use"]
-    out.update(wheel=lost, onset=fault.onset, holdable=bool(np.abs(need).max() <= 45.0),
+    envelope = speed_envelope(scenario.spacecraft.wheel)   # the FDI's envelope of the wheel type (45 rad/s, Type A)
+    out.update(wheel=lost, onset=fault.onset, holdable=bool(np.abs(need).max() <= envelope),
                need_rad_s=float(np.abs(need).max()), peak_deg=float(error[i0:].max()), recover_s=recover,
                recovered=recover <= RECOVERY_S, reconfigured=lost in given_up,
                kept=any(w == lost and a == "kept_in_use" for _, w, a in decisions),

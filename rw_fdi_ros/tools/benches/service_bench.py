@@ -177,7 +177,7 @@ def fdir_for(units: bool, give_up: bool = False, vehicle: str = DEFAULT_VEHICLE,
     watched = None
     if watch is not None and not give_up:
         models, every = replace(watch, unit_calibration=CALIBRATION_S if units else 0.0).for_vehicle(vehicle).load()
-        watched = watched_observers(names, models, every, FDI_PERIOD, calibration)
+        watched = watched_observers(names, models, every, FDI_PERIOD, calibration, _vehicle(vehicle)[0].wheel)
     return Fdir(curves["model"], calibration, identification=True, watched=watched, **policy)
 
 

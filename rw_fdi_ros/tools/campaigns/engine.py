@@ -47,7 +47,7 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     wheels = wheel_set(choices.wheel_set)
     names, joints = wheels.names, tuple(joint_name(n) for n in wheels.names)
     report = PlantReport(scenario.effective_text(choices.scenario_dict()), names,
-                         run_units(units, run, wheels.count), choices.fdi_period)
+                         run_units(units, run, wheels.count), choices.fdi_period, wheel=scenario.spacecraft.wheel)
     orbit, rods = scenario.environment is not None, scenario.magnetorquers is not None
     reading_every = magnetometer_steps(choices.control_period) if orbit else None
     writer = BagWriter(bag)

@@ -24,13 +24,13 @@ from ..design.offline import plant_conditions
 from .run import RunOutcome
 
 
-def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0):
+def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0, wheel_type: str = ""):
     """Player + the FDI nodes of the method (graph.fdi_nodes) + a recorder of their outputs, for ``bags``
-    in order."""
+    in order; ``wheel_type``: the wheel type their vehicle flew (core/vehicle.wheel_parameter)."""
     choices = PlantChoices(**plant)
     fdi = FdiConfig.of(fdi)
     # every bag with a grid per report (any bag of today's recorder): each report waits for its own
-    nodes = fdi_nodes(fdi, choices, await_bus_grid=all(_has_bus_grid(b) for b in bags))
+    nodes = fdi_nodes(fdi, choices, await_bus_grid=all(_has_bus_grid(b) for b in bags), wheel_type=wheel_type)
     for node in nodes:
         node.parameters["end_with_run"] = False   # they stay for the next bag; the launcher stops them
     nodes.append(NodeSpec("player", "player", {"bags": [str(b) for b in bags], "rate": float(rate),
@@ -41,6 +41,21 @@ def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0
                                                    "record_plant": False, "wheel_set": choices.wheel_set,
                                                    **plugin_parameters(fdi)}))
     return with_reader_counts(nodes)
+
+
+def _wheel_type(bag) -> str:
+    """The wheel_type parameter of the vehicle a bag's run flew (the bags of one replay share their plant
+    choices, the vehicle among them)."""
+    from ...core.scenario import ScenarioError, parse_scenario
+    from ...core.vehicle import wheel_parameter
+    text = read_bag(bag, topics=["/scenario"]).scenario_text
+    if not text:
+        return ""
+    try:
+        spacecraft = parse_scenario(text, origin=f"{bag} /scenario").spacecraft
+    except ScenarioError as exc:
+        raise BagError(str(exc)) from None
+    return wheel_parameter(spacecraft.wheel, spacecraft.wheel_type)
 
 
 def _has_bus_grid(bag) -> bool:
@@ -69,6 +84,7 @@ def replay_bags(bags, out_bags, fdi=None, rate: float = 0.0, keep_logs: bool = F
     if not readable:
         return outcomes
     plant = plant_conditions([bags[i] for i in readable])
+    wheel_type = _wheel_type(bags[readable[0]])   # one plant, so one vehicle
     fdi = FdiConfig.of(fdi)
     groups = [readable]
     retried = False
@@ -77,7 +93,7 @@ def replay_bags(bags, out_bags, fdi=None, rate: float = 0.0, keep_logs: bool = F
         for i in todo:
             if out_bags[i].exists():
                 shutil.rmtree(out_bags[i])
-        nodes = replay_nodes([bags[i] for i in todo], [out_bags[i] for i in todo], fdi, plant, rate)
+        nodes = replay_nodes([bags[i] for i in todo], [out_bags[i] for i in todo], fdi, plant, rate, wheel_type)
         with DomainLease() as lease:
             work = Path(tempfile.mkdtemp(prefix=f"rw_fdi_replay_{bags[todo[0]].name}_"))
             limit = watchdog if watchdog is not None else 120.0 + 60.0 * len(todo)

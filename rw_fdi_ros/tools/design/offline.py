@@ -22,6 +22,7 @@ from ...core.elman import ElmanWeights, ModelError, network_wheel, network_wheel
 from ...core.linear_observer import estimate_series, uncertainty_gain
 from ...core.observer_plugin import PluginRun
 from ...core.plant_choices import FDI_PERIOD, FDI_SAMPLING, PlantChoices
+from ...core.wheel import WheelParams, bearing_noise_mean, linearised_wheel
 from ...core.wheel_set import AXIS_WHEELS, wheel_set
 
 
@@ -81,7 +82,9 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     elman = np.stack([recall_series(m, samples.tcv[:, i], wheel_speed=speed[:, i], reaction_torque=r[:, i],
                                     model_torque=None if model is None else model[:, i])
                       for i, m in enumerate(nets)], axis=1)
-    est = {"elman": elman, "linear": estimate_series(samples.tcv, r, period), "model": samples.model_torque}
+    params = getattr(samples, "wheel_params", WheelParams())   # the wheel type the plant modelled
+    linear = estimate_series(samples.tcv, r, period, linearised_wheel(params=params))
+    est = {"elman": elman, "linear": linear, "model": samples.model_torque}
     gains = {"elman": [m.uncertainty_gain for m in nets], "linear": [uncertainty_gain(a) for a in wheels],
              "model": [0.0] * len(wheels)}
     for cls, state in getattr(models, "plugins", ()):   # a user's observers (core/observer_plugin.py)
@@ -94,10 +97,10 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
         if samples.motor_torque is None:
             raise ValueError("calibration needs FDI samples with the nominal motor and friction torque")
         x = regressors(samples.motor_torque, samples.friction_torque, samples.wheel_speed, samples.ripple_phasor,
-                       samples.free_motor_torque)
+                       samples.free_motor_torque, params=params)
     for k, v in est.items():
         residual[k], bound[k] = signed_residual_series(r, v, samples.ripple_phasor, window, gains[k], x,
-                                                       calibration_samples)
+                                                       calibration_samples, params)
     return ObserverRun(samples.time, r, est, residual, bound, method, wheels)
 
 
@@ -166,6 +169,10 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
         # a band per wheel in use in the fitting runs (x, y, z; a pyramid's four): counts are the set's
         fitted = wheel_set(PlantChoices.from_recorded(plant).wheel_set).active
         cols = [runs[0].wheels.index(a) for a in fitted]
+        # the bearing noise (eq. 2.16) no observer models, over the residual's window: the smallest band of a
+        # datasheet wheel (a calibrated one's bound carries the calibration's noise floor)
+        noise_floor = (-np.inf if unit_calibration else
+                       bearing_noise_mean(getattr(samples_list[0], "wheel_params", WheelParams()), window * FDI_PERIOD))
         kappa_of = {cls.slot: any(g > 0 for a, g in zip(runs[0].wheels, PluginRun(cls, runs[0].wheels, FDI_PERIOD,
                                                                                    state).uncertainty_gains())
                                   if a in fitted)
@@ -176,7 +183,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
             # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain), and so does a
             # plug-in with a kappa (the same rule); the model observer's band gets the whole
             share = 0.5 if obs in ("elman", "linear") or kappa_of.get(obs) else 1.0
-            bands = fit_band(stats, false_alarm_rate, axes=fitted, share=share)
+            bands = fit_band(stats, false_alarm_rate, axes=fitted, share=share, floor=noise_floor)
             ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in fitted},
                             sample_period=FDI_PERIOD, window=window, sigmas=float("nan"), seeds=seeds, plant=plant,
                             model=describe[obs], method="speed_aware", persistence=p,
@@ -217,18 +224,19 @@ def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -
 
 
 def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True, wheels=AXIS_WHEELS,
-                   decision=None):
+                   decision=None, envelope: float | None = None):
     """metrics.Series of what /diagnostics says: the ``decision``'s rows (core/isolation.DecisionRule; None: the
     method's decision observer) of ``series`` (observer -> Series, :func:`fdi_series`) through the isolation
     node's LatchedVerdict, a wheel outside the operating envelope at a sample (``wheel_speed``: (n, N) of the
     FDI samples) not judged there. A vote's first alarm is the node's: the K-th earliest first alarm of the
-    observers alarming."""
-    from ...core.isolation import LatchedVerdict, decision_of, in_envelope
+    observers alarming. ``envelope``: the wheel type's (isolation.speed_envelope; None: the thesis')."""
+    from ...core.isolation import WHEEL_SPEED_ENVELOPE, LatchedVerdict, decision_of, in_envelope
+    envelope = WHEEL_SPEED_ENVELOPE if envelope is None else envelope
     from ..metrics import Series
     decision = decision or decision_of("", method)
     s = series[decision.lead]
     n = len(s.time)
-    judged = np.ones(s.alarm.shape, bool) if wheel_speed is None else in_envelope(wheel_speed)
+    judged = np.ones(s.alarm.shape, bool) if wheel_speed is None else in_envelope(wheel_speed, envelope)
     # each observer's flags and the sample of its first alarm per wheel (AlarmRule.first_alarm: its first in
     # the run; n where it never alarms)
     flags = {o: series[o].alarm.reshape(n, len(wheels)) for o in decision.observers}
@@ -251,7 +259,8 @@ def identification_series(samples, alarm, calibration_samples: int = 0, last_onl
     one), decided once at the end (FaultIdentifier lazy: the same answer without a grid fit per sample)."""
     from ...core.identification import FaultIdentifier
     wheels = getattr(samples, "wheels", AXIS_WHEELS)
-    identifier = FaultIdentifier(wheels, calibration_samples, lazy=last_only)
+    identifier = FaultIdentifier(wheels, calibration_samples, lazy=last_only,
+                                 params=getattr(samples, "wheel_params", WheelParams()))
     answers = [identifier.update(row, {a: bool(alarm[k, i]) for i, a in enumerate(wheels)})
                for k, row in enumerate(samples.rows())]
     return [identifier.identifications()] if last_only else answers

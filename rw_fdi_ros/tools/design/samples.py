@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.telemetry import sample_telemetry
+from ...core.wheel import WheelParams
 from ...graph.convert import fdi_sample_of, stamp_ns, telemetry_wheels
 from ...core.wheel_set import AXIS_WHEELS
 from ...graph.topics import FAULT_EFFECT, FDI_BUS_GRID, FDI_TELEMETRY
@@ -18,7 +19,8 @@ from ...storage.bag import BagError, bag_is_complete, read_bag
 class FdiSamples:
     """One run at the FDI period, (n, wheels) arrays: tcv [V], reaction torque [N m], and for the
     speed-aware observers wheel speed [rad/s], the nominal model's torque [N m] and the ripple phasor;
-    ``wheels``: the names of the columns (the run's wheel set's)."""
+    ``wheels``: the names of the columns (the run's wheel set's); ``wheel_params``: the wheel type the plant
+    modelled them with (the vehicle's datasheet), which the offline observers model them with too."""
 
     bag: Path | None
     seed: int | None
@@ -34,6 +36,7 @@ class FdiSamples:
     free_motor_torque: np.ndarray | None = None
     bus_motor_torque: np.ndarray | None = None    # (n, wheels, bus grid)
     wheels: tuple = AXIS_WHEELS
+    wheel_params: WheelParams = WheelParams()
 
     def rows(self):
         """The samples one by one as telemetry.FdiSample (what the nodes see)."""
@@ -47,15 +50,16 @@ class FdiSamples:
 
 def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0,
                         sampling: str = "mean", bag=None, seed=None, identification: bool = False,
-                        wheels=AXIS_WHEELS) -> FdiSamples:
-    """Control-rate series (time first) -> FdiSamples through the plant's TelemetrySampler
-    (``identification``: with the terms fault identification fits)."""
-    rows = sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed, period, sampling,
+                        wheels=AXIS_WHEELS, wheel_params: WheelParams = WheelParams()) -> FdiSamples:
+    """Control-rate series (time first) -> FdiSamples through the plant's TelemetrySampler, its nominal model
+    the wheel type ``wheel_params`` (``identification``: with the terms fault identification fits)."""
+    rows = sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed, period, sampling, wheel_params,
                             identification=identification)
-    return samples_from_rows(rows, bag, seed, wheels)
+    return samples_from_rows(rows, bag, seed, wheels, wheel_params)
 
 
-def samples_from_rows(rows, bag=None, seed=None, wheels=AXIS_WHEELS) -> FdiSamples:
+def samples_from_rows(rows, bag=None, seed=None, wheels=AXIS_WHEELS,
+                      wheel_params: WheelParams = WheelParams()) -> FdiSamples:
     """A list of telemetry.FdiSample -> FdiSamples (arrays over time)."""
     stamps = np.array([row.stamp_ns for row in rows], np.int64)
     def stack(name):
@@ -67,7 +71,7 @@ def samples_from_rows(rows, bag=None, seed=None, wheels=AXIS_WHEELS) -> FdiSampl
                       wheel_speed=stack("wheel_speed"), model_torque=stack("model_torque"),
                       ripple_phasor=stack("ripple_phasor"), motor_torque=stack("motor_torque"),
                       friction_torque=stack("friction_torque"), free_motor_torque=stack("free_motor_torque"),
-                      bus_motor_torque=stack("bus_motor_torque"), wheels=tuple(wheels))
+                      bus_motor_torque=stack("bus_motor_torque"), wheels=tuple(wheels), wheel_params=wheel_params)
 
 
 def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: bool = True,
@@ -98,11 +102,22 @@ def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: 
         raise BagError(f"{data.path}: FDI telemetry every {np.median(steps) * 1e-9:g} s, not every {period:g} s")
     if not speed_aware:   # the thesis' observers see tcv and reaction torque only
         rows = [type(r)(r.stamp_ns, r.tcv, r.reaction_torque) for r in rows]
-    seed = None
+    seed, params = None, WheelParams()
     if data.scenario_text:
         import yaml
         seed = (yaml.safe_load(data.scenario_text) or {}).get("seed")
-    return samples_from_rows(rows, bag=data.path, seed=seed, wheels=wheels)
+        params = recorded_wheel(data)
+    return samples_from_rows(rows, bag=data.path, seed=seed, wheels=wheels, wheel_params=params)
+
+
+def recorded_wheel(data) -> WheelParams:
+    """The wheel type a bag's run flew, as its datasheet gives it (the FDI's nominal model, whatever the plant's
+    emf-limit choice): its /scenario holds the whole vehicle (BagError, one line, for one that does not read)."""
+    from ...core.scenario import ScenarioError, parse_scenario
+    try:
+        return parse_scenario(data.scenario_text, origin=f"{data.path} /scenario").spacecraft.wheel
+    except ScenarioError as exc:
+        raise BagError(str(exc)) from None
 
 
 def bag_dirs(root) -> list:

@@ -39,7 +39,8 @@ def _run_batch(draws) -> list:
     traj = simulate(scenarios, fdir=sb.fdir_for(draws[0].units, vehicle=draws[0].vehicle))
     stamps = np.round(traj.time * 1e9).astype(np.int64)
     return [(d, samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
-                                    seed=d.seed, wheels=traj.wheel_names)) for b, d in enumerate(draws)]
+                                    seed=d.seed, wheels=traj.wheel_names, wheel_params=scenarios[0].spacecraft.wheel))
+            for b, d in enumerate(draws)]
 
 
 def family_runs(seeds, units: str = "mixed", fault_free: bool = False, executor=None, desc: str = "runs") -> list:

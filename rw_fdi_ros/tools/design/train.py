@@ -121,7 +121,7 @@ def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALS
                            recall_series(weights, s.tcv[:, axis], s.reaction_torque[0, axis], s.wheel_speed[:, axis],
                                          model_torque=None if getattr(s, "model_torque", None) is None
                                          else s.model_torque[:, axis]),
-                           s.ripple_phasor[:, axis]) for s in samples]
+                           s.ripple_phasor[:, axis], params=getattr(s, "wheel_params", None)) for s in samples]
     kappa = demand_gain([x for x in ratios if x is not None], false_alarm_rate)
     if not kappa < 10.0:   # ElmanWeights refuses such a model: say so now, not when a node loads it
         raise ValueError(f"wheel {wheel or samples[0].wheels[axis]}: the network errs by {kappa:.3g} x the torque "

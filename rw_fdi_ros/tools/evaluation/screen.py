@@ -13,7 +13,7 @@ import numpy as np
 
 from ...core.calibration import calibration_samples
 from ...core.closed_loop import simulate
-from ...core.isolation import in_envelope
+from ...core.isolation import in_envelope, speed_envelope
 from ...graph.topics import DIAGNOSTICS
 from ..metrics import VERDICT, RunEval, decision_slot, judge, observers_of_runs
 from ..design.offline import fdi_series, identification_series, observe, verdict_series
@@ -54,7 +54,8 @@ def simulated_runs(scenarios, identification: bool = False, check=None, progress
             if on_run is not None:
                 on_run(scenario, traj, b)
             samples = samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
-                                          seed=scenario.seed, identification=identification, wheels=traj.wheel_names)
+                                          seed=scenario.seed, identification=identification, wheels=traj.wheel_names,
+                                          wheel_params=scenario.spacecraft.wheel)
             onset = min((f.onset for f in scenario.faults), default=None)
             after = traj.time >= onset if onset is not None else np.zeros(len(traj.time), bool)
             yield scenario, samples, (np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any()
@@ -105,10 +106,12 @@ def judge_run(scenario, samples, peak, weights, curves, persistence: int | None 
     each would give, beside (metrics.decision_slot)."""
     series = fdi_series(observe(samples, weights, calibration_samples=calibration_samples), curves, persistence)
     method = next(iter(curves.values())).method
-    series[VERDICT] = verdict_series(series, method, samples.wheel_speed, wheels=samples.wheels, decision=decision)
+    envelope = speed_envelope(samples.wheel_params)
+    series[VERDICT] = verdict_series(series, method, samples.wheel_speed, wheels=samples.wheels, decision=decision,
+                                     envelope=envelope)
     for other in (d for d in other_decisions if set(d.observers) <= set(series)):   # those of this method
         series[decision_slot(other.label)] = verdict_series(series, method, samples.wheel_speed,
-                                                            wheels=samples.wheels, decision=other)
+                                                            wheels=samples.wheels, decision=other, envelope=envelope)
     found = {}
     if identification and len(samples.time):
         last = identification_series(samples, series[VERDICT].alarm, calibration_samples, last_only=True)[-1]
@@ -123,7 +126,7 @@ def envelope_health(samples) -> dict:
     judged), in health_from_bag's form: {/diagnostics: {axis: {cannot_judge: samples, first_s, message}}}."""
     if samples.wheel_speed is None or not len(samples.time):
         return {}
-    outside = ~in_envelope(samples.wheel_speed)
+    outside = ~in_envelope(samples.wheel_speed, speed_envelope(samples.wheel_params))
     return {DIAGNOSTICS: {a: {"cannot_judge": {"samples": int(outside[:, i].sum()),
                                                "first_s": float(samples.time[int(np.argmax(outside[:, i]))]),
                                                "message": "outside the operating envelope"}}
