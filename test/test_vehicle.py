@@ -400,7 +400,8 @@ def test_the_recovery_bench_flies_a_vehicle_with_its_wheels_left_taking_over():
     """bench recovery --vehicle: the pyramid's runs (no standby wheel: no cell with a second fault on one), its
     FDI acting, the three wheels left holding the lost one's momentum; the thesis' cells unchanged."""
     from rw_fdi_ros.tools.benches import recovery_bench as rb
-    assert rb.cells_of() == rb.CELLS and all(c.second is None for c in rb.cells_of("microsat_pyramid"))
+    assert [c for _, c in rb.cells_of()] == list(rb.CELLS)
+    assert all(c.second is None for _, c in rb.cells_of("microsat_pyramid"))
     scenarios = rb.cell_scenarios(rb.CELLS[2], 3, 2, rb.SEED_BASES["tuning"], "microsat_pyramid")
     assert {s.wheel_set().name for s in scenarios} == {"pyramid"} and all(
         s.spacecraft.name == "microsat_pyramid" for s in scenarios)

@@ -62,7 +62,8 @@ def _options() -> dict:
            help="figures: the benches to re-measure, comma-separated (detection, operations, "
                 "identification_units, recovery, service, service_observers, dumping, reproduce, graph, study, "
                 "vehicle_detection, "
-                "vehicle_recovery, vehicle_service; default all)")
+                "vehicle_recovery, vehicle_service, cubesat_detection, cubesat_recovery, cubesat_service; default "
+                "all)")
     option("--vehicle", default="maksat", metavar="NAME",
            help="detection, identification, units, operations, recovery, service: the shipped vehicle the runs fly, "
                 "with its shipped FDI (config/fdi/vehicles; default %(default)s, the thesis' spacecraft)")
@@ -180,7 +181,7 @@ def _recovery(args) -> dict:
     from ...tools.benches.recovery_bench import bench_recovery, cells_of
     vehicle = _checked_vehicle(args)
     runs = args.runs_per_cell or 100
-    total = sum(args.fault_free_runs if c.kind is None else runs for c in cells_of(vehicle))
+    total = sum(args.fault_free_runs if c.kind is None else runs for _, c in cells_of(vehicle))
     with tqdm(total=total, desc="recovery bench (core loop)", unit="run", file=sys.stderr) as bar:
         return bench_recovery(runs_per_cell=runs, fault_free_runs=args.fault_free_runs, seeds=args.seed_set,
                               out=args.out or _vehicle_out(args, "recovery"), progress=bar.update,

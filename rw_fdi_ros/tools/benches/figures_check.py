@@ -42,6 +42,11 @@ SMALL = {
     "vehicle_recovery": {"runs_per_cell": 6, "fault_free_runs": 40, "vehicle": "microsat_pyramid"},
     "vehicle_service": {"runs": 24, "fault_free_runs": 40, "max_hours": 0.5, "given_up_runs": 16,
                         "vehicle": "microsat_pyramid"},
+    # the shipped CubeSat's row: a wheel type of its own (docs/vehicles.md)
+    "cubesat_detection": {"fault_free_runs": 60, "runs_per_cell": 20, "vehicle": "cubesat_6u"},
+    "cubesat_recovery": {"runs_per_cell": 6, "fault_free_runs": 40, "vehicle": "cubesat_6u"},
+    "cubesat_service": {"runs": 24, "fault_free_runs": 40, "max_hours": 0.5, "given_up_runs": 16,
+                        "vehicle": "cubesat_6u"},
 }
 RECORDS = {"detection": "reports/detection/detection.json", "operations": "reports/operations/operations.json",
            "identification_units": "reports/identification_units/identification.json",
@@ -50,7 +55,10 @@ RECORDS = {"detection": "reports/detection/detection.json", "operations": "repor
            "dumping": "reports/dumping/dumping.json",
            "vehicle_detection": "reports/vehicles/microsat_pyramid/detection/detection.json",
            "vehicle_recovery": "reports/vehicles/microsat_pyramid/recovery/recovery.json",
-           "vehicle_service": "reports/vehicles/microsat_pyramid/service/service.json"}
+           "vehicle_service": "reports/vehicles/microsat_pyramid/service/service.json",
+           "cubesat_detection": "reports/vehicles/cubesat_6u/detection/detection.json",
+           "cubesat_recovery": "reports/vehicles/cubesat_6u/recovery/recovery.json",
+           "cubesat_service": "reports/vehicles/cubesat_6u/service/service.json"}
 
 
 @dataclass(frozen=True)
@@ -70,16 +78,17 @@ def _cell(name, observer, figure, key="observers"):
     return lambda r: r["cells"][name][key][observer][figure]
 
 
-def _summed(names, figure):
+def _summed(chosen, figure):
+    """The rate ``figure`` over the recovery report's cells ``chosen(cell)`` picks."""
     def extract(r):
-        cells = [r["cells"][n]["figures"][figure] for n in names if n in r["cells"]]
+        cells = [c["figures"][figure] for c in r["cells"].values() if chosen(c["cell"])]
         return rate(x for c in cells for x in [True] * c["k"] + [False] * (c["n"] - c["k"]))
     return extract
 
 
-SINGLE_FAULTS = [f"{kind}, wheels {speeds} rad/s" for speeds in ("20-30", "10-22")
-                 for kind in ("bus 4 V", "bus 5.5 V", "current loss 40 %", "temperature +150 C", "current loss 10 %",
-                              "temperature +30 C")]
+def single_fault(cell: dict) -> bool:
+    """The recovery bench's single-fault cells (a fault, no second one), at whatever wheel speeds."""
+    return cell.get("kind") is not None and cell.get("second") is None
 FIGURES = [
     Figure("false alarms, fault-free, datasheet", "false alarms, the decision observer", "detection",
            lambda r: r["cells"]["fault_free"]["methods"]["speed_aware"]["model"]["false_alarm"]),
@@ -97,9 +106,9 @@ FIGURES = [
              lambda r, c=cell: r["cells"][c]["kind_right_observable"])
       for cell in ("current loss 8-45 %", "temperature +25 to +150 C", "bus 4.0-5.5 V")],
     Figure("single faults on an active wheel recovered", "recovered, 12 single-fault cells", "recovery",
-           _summed(SINGLE_FAULTS, "recovered")),
+           _summed(single_fault, "recovered")),
     Figure("single faults on an active wheel recovered", "a healthy wheel acted on", "recovery",
-           _summed(SINGLE_FAULTS, "healthy_given_up")),
+           _summed(single_fault, "healthy_given_up")),
     Figure("**in service**", "pointing kept", "service", lambda r: r["figures"]["pointing_kept"]),
     Figure("**in service**", "the faulty wheel and no other acted on", "service",
            lambda r: r["figures"]["acted_right"]),
@@ -139,12 +148,24 @@ FIGURES = [
     Figure("**another vehicle**", "microsat: current loss 10 % right, observable", "vehicle_detection",
            lambda r: r["cells"]["current loss 10 %"]["methods"]["speed_aware"]["verdict"]["correct_observable"]),
     Figure("**another vehicle**", "microsat: single faults recovered", "vehicle_recovery",
-           _summed(SINGLE_FAULTS, "recovered")),
+           _summed(single_fault, "recovered")),
     Figure("**another vehicle**", "microsat in service: the faulty wheel and no other acted on", "vehicle_service",
            lambda r: r["figures"]["acted_right"]),
     Figure("**another vehicle**", "microsat in service: pointing kept", "vehicle_service",
            lambda r: r["figures"]["pointing_kept"]),
     Figure("**another vehicle**", "microsat in service: reconfigurations without a fault", "vehicle_service",
+           lambda r: r["figures"]["reconfigured_fault_free_600s"]),
+    Figure("**a wheel type of its own**", "cubesat: false alarms", "cubesat_detection",
+           lambda r: r["cells"]["fault_free"]["methods"]["speed_aware"]["verdict"]["false_alarm"]),
+    Figure("**a wheel type of its own**", "cubesat: current loss 10 % right, observable", "cubesat_detection",
+           lambda r: r["cells"]["current loss 10 %"]["methods"]["speed_aware"]["verdict"]["correct_observable"]),
+    Figure("**a wheel type of its own**", "cubesat: single faults recovered", "cubesat_recovery",
+           _summed(single_fault, "recovered")),
+    Figure("**a wheel type of its own**", "cubesat in service: the faulty wheel and no other acted on",
+           "cubesat_service", lambda r: r["figures"]["acted_right"]),
+    Figure("**a wheel type of its own**", "cubesat in service: pointing kept", "cubesat_service",
+           lambda r: r["figures"]["pointing_kept"]),
+    Figure("**a wheel type of its own**", "cubesat in service: reconfigurations without a fault", "cubesat_service",
            lambda r: r["figures"]["reconfigured_fault_free_600s"]),
     *[Figure("judging a recorded bag", f"judging a bag: {how}", "study",
              lambda r, how=how: next(v for k, v in r["judge_s_per_bag"].items() if k.startswith(how)), None, "s")
@@ -177,6 +198,9 @@ BENCH_FUNCTIONS = {
     "vehicle_detection": (".detection_bench", "bench_detection", "detection.json"),
     "vehicle_recovery": (".recovery_bench", "bench_recovery", "recovery.json"),
     "vehicle_service": (".service_bench", "bench_service", "service.json"),
+    "cubesat_detection": (".detection_bench", "bench_detection", "detection.json"),
+    "cubesat_recovery": (".recovery_bench", "bench_recovery", "recovery.json"),
+    "cubesat_service": (".service_bench", "bench_service", "service.json"),
 }
 
 

@@ -19,7 +19,7 @@ Seeds: evaluation from 86,000,000 (the figures of record); the design was looked
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +30,7 @@ from ...core.fdir import held_speeds
 from ...core.isolation import speed_envelope
 from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.spacecraft import BODY_AXES
-from ...core.vehicle import DEFAULT_VEHICLE
+from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
 from ...core.wheel_set import WHEEL_SETS
 from ..metrics import rate
 from .kit import bench_scenario, bench_wheels, fault_wheel, format_rate, write_report, write_runs_table
@@ -67,9 +67,26 @@ CELLS = (
 
 
 def cells_of(vehicle: str = DEFAULT_VEHICLE) -> tuple:
-    """The cells of ``vehicle``: all of CELLS, but the second fault on the standby wheel where there is none."""
+    """(index in CELLS, cell) of ``vehicle``: all of CELLS, but the second fault on the standby wheel where there
+    is none; the wheel speeds its own (:func:`vehicle_speeds`)."""
     standby = bool(bench_wheels(vehicle).standby)
-    return tuple(c for c in CELLS if c.second is None or standby)
+    return tuple((i, vehicle_cell(c, vehicle)) for i, c in enumerate(CELLS) if c.second is None or standby)
+
+
+def vehicle_speeds(speeds: tuple, vehicle: str) -> tuple:
+    """A cell's wheel speeds on ``vehicle``: Table 2.3's 20-30 rad/s is its initial wheel-speed dispersion
+    (lo, hi), and the slower 10-22 rad/s its (lo / 2, hi - 0.8 (hi - lo)), as they are for the thesis' vehicle."""
+    lo, hi = load_vehicle(vehicle).dispersions.wheel_speed
+    return (lo, hi) if speeds == (20.0, 30.0) else (lo / 2.0, hi - 0.8 * (hi - lo))
+
+
+def vehicle_cell(cell: Cell, vehicle: str) -> Cell:
+    """``cell`` with ``vehicle``'s wheel speeds, and its name saying them (the thesis' vehicle: itself)."""
+    speeds = vehicle_speeds(cell.speeds, vehicle)
+    if speeds == cell.speeds:
+        return cell
+    name = cell.name.replace(f"{cell.speeds[0]:g}-{cell.speeds[1]:g} rad/s", f"{speeds[0]:g}-{speeds[1]:g} rad/s")
+    return replace(cell, name=name, speeds=speeds)
 
 
 def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int, vehicle: str = DEFAULT_VEHICLE) -> list:
@@ -156,7 +173,7 @@ def bench_recovery(runs_per_cell: int = 100, fault_free_runs: int = 1000, seeds:
     from ..campaigns.campaign import LocalExecutor
     seed_base = SEED_BASES[seeds]
     t0 = time.monotonic()
-    cells_run = cells_of(vehicle)
+    cells_run = [c for _, c in cells_of(vehicle)]
     sizes = [fault_free_runs if cell.kind is None else runs_per_cell for cell in cells_run]
     work = [(i, seed_base, range(start, min(start + BATCH, n)), vehicle) for i, n in enumerate(sizes)
             for start in range(0, n, BATCH)]
@@ -190,8 +207,8 @@ def _batch(work) -> tuple:
     i, seed_base, seeds, vehicle = work
     _, curves = FdiConfig().for_vehicle(vehicle).load()
     # a cell's seeds follow its index among all CELLS: a vehicle's runs are the thesis' seeds where they share it
-    cell = cells_of(vehicle)[i]
-    scenarios = cell_scenarios(cell, seeds.stop, CELLS.index(cell), seed_base, vehicle)[seeds.start:]
+    index, cell = cells_of(vehicle)[i]
+    scenarios = cell_scenarios(cell, seeds.stop, index, seed_base, vehicle)[seeds.start:]
     traj = simulate(scenarios, fdir=Fdir(curves["model"]))
     return i, [run_figures(traj, b, s) for b, s in enumerate(scenarios)]
 
@@ -202,13 +219,15 @@ def _stat(s) -> str:
 
 def format_recovery(report: dict) -> str:
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
+    envelope = speed_envelope(load_vehicle(vehicle).wheel)
     lines = ["# The redundant wheel takes over (`rw-fdi bench recovery`)" if vehicle == DEFAULT_VEHICLE else
              f"# The wheels left take over (`rw-fdi bench recovery --vehicle {vehicle}`)", "",
              f"Measured {report['date']}, {report['seed_set']} seeds from {report['seed_base']:,}; "
              f"{report['seconds'] / 60:.0f} min on this machine. Wheel set {report['wheel_set']}; the core loop with "
              "the FDI verdict and FDIR in it. Recovered: within 0.2 deg on every axis from at most 60 s after the "
              "onset to the end of the 400-s run. Holdable: at the onset, the wheels in use after the reconfiguration "
-             "can hold the spacecraft's momentum within 45 rad/s. Given up: 0 V from the decision on. Kept: in "
+             f"can hold the spacecraft's momentum within {envelope:.4g} rad/s (the FDI's envelope of the wheel "
+             "type). Given up: 0 V from the decision on. Kept: in "
              "use beside s, all four sharing the work (the three left could not hold the momentum and still slew; "
              "it gives at least half its torque). Held: confirmed, relieved of control and held at its speed (a "
              "momentum store): it gives less than half its torque. 95 % Wilson intervals.", "",

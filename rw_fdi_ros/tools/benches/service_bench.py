@@ -58,6 +58,7 @@ from ...core.identification import UNKNOWN
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Scenario, parse_scenario
 from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
+from ...core.wheel import torque_scale
 from ..campaigns.campaign import LocalExecutor
 from ..metrics import IDENTIFIED_KIND, judge_size
 from ..metrics import rate
@@ -78,7 +79,9 @@ BATCH = 25
 ACTED = ("out_of_use", "held", "kept_in_use")
 # what FDIR says when the momentum (or the wheels left) cannot keep the pointing (core/fdir.py)
 MOMENTUM_REASONS = ("pointing is lost", "no wheel left")
-VISIBLE_TORQUE = 2e-4   # [N m] a fault effect well above every residual bound: certainly visible
+# [N m] a fault effect well above every residual bound: certainly visible (the Type A's; another wheel type's
+# scaled by its torque, wheel.torque_scale: run_figures' visible_torque)
+VISIBLE_TORQUE = 2e-4
 
 
 @dataclass(frozen=True)
@@ -225,7 +228,8 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
         i = names.index(f0["wheel"])
         effect = np.abs(traj.fault_effect[:, b, i])
         out["fault_effect_peak"] = float(effect[after].max(initial=0.0))
-        shown = after & (effect > VISIBLE_TORQUE)
+        out["visible_torque"] = visible = VISIBLE_TORQUE * torque_scale(scenario_.spacecraft.wheel)
+        shown = after & (effect > visible)
         # a ramp may hide for minutes (a bus drop shows once the wheel needs the voltage): when it showed
         out["visible_s"] = float(traj.time[np.argmax(shown)]) if shown.any() else None
         out["acted_right"] = bool(f0["wheel"] in acted and not (acted - faulty))
@@ -357,8 +361,8 @@ def summarize(all_runs: list) -> dict:
     hours = sum(r["duration"] if not r["faults"] else r["faults"][0]["onset"] for r in all_runs) / 3600.0
     before = sum(len(r["reconfigured_before_fault"]) > 0 for r in all_runs)
     faulty = [r for r in runs if r["faults"]]
-    visible = [r for r in faulty if r["fault_effect_peak"] > VISIBLE_TORQUE]
-    hidden = [r for r in faulty if r["fault_effect_peak"] <= VISIBLE_TORQUE]
+    visible = [r for r in faulty if r["fault_effect_peak"] > r.get("visible_torque", VISIBLE_TORQUE)]
+    hidden = [r for r in faulty if r["fault_effect_peak"] <= r.get("visible_torque", VISIBLE_TORQUE)]
     ident = [r["identification"] for r in faulty if "identification" in r]
     right = [i for i in ident if i["kind_right"]]
     delays = np.array([r["delay_s"] for r in faulty if r["delay_s"] is not None])
