@@ -336,3 +336,16 @@ def test_a_benchs_fault_goes_on_a_wheel_in_use_of_its_set():
     skew, pyramid = WHEEL_SETS["orthogonal_skew"], WHEEL_SETS["pyramid"]
     assert {skew.names[fault_wheel(s, skew)] for s in range(100)} == set(skew.active) == {"x", "y", "z"}
     assert {fault_wheel(s, pyramid) for s in range(100)} == {0, 1, 2, 3}
+
+
+def test_a_held_wheel_whose_drive_gives_next_to_nothing_is_said_not_to_keep_its_speed():
+    """Bus 4 V on x at 30 rad/s: held (its momentum does not fit the wheels left), giving under 5 % of its torque,
+    it brakes to the speed its bus can drive; the decision says so rather than promise the speed it is held at."""
+    curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
+    scenario = Scenario("t", duration=260.0, seed=5, faults=(Fault("bus_voltage", 0, 150.0, 4.0),),
+                        initial={"wheel_speed": (30.0, 25.0, 24.0)}, plant={"wheel_set": "orthogonal_skew"})
+    traj = simulate([scenario], fdir=Fdir(curves))
+    held = traj.decisions[0][0]
+    assert (held.wheel, held.action) == ("x", "held") and "too little to hold that speed" in held.reason
+    speed_held = float(held.reason.split("held at ")[1].split(" rad/s")[0])
+    assert traj.wheel_speed[-1, 0, 0] < 0.5 * speed_held   # it did not keep it

@@ -50,6 +50,9 @@ SLEW_RATE = np.deg2rad(0.5)
 # less (a bus drop above the speed its bus can drive: it gives next to nothing and sheds its momentum) would
 # leave the controllers a fifth of their gain about its axis, and is held instead
 KEEPABLE_SHARE = 0.5
+# a wheel held that gives under this share of its motor torque cannot keep even the speed it is held at (a bus drop
+# above the speed its bus can drive brakes it: seed 801,772,787 went from 26.6 to 7.2 rad/s in 30 s): said
+STARVED_SHARE = 0.05
 DELIVERY_SAMPLES = 10   # control samples (one FDI period) the share is measured over before a decision
 # [s] a wheel in use after a reconfiguration commanded at the voltage limit for this long gives all it can and is
 # still short: the wheels in use cannot take the momentum (a slew's start saturates a command for seconds; a
@@ -341,7 +344,9 @@ class Reconfiguration:
             if short and not force:
                 speed = float(wheel_speed[self.wheels.index(wheel)])
                 self.held[wheel] = speed
-                weak = (f"it gives {100 * max(delivered, 0.0):.0f} % of its torque, too little to keep in use; "
+                weak = (f"it gives {100 * max(delivered, 0.0):.0f} % of its torque, too little to keep in use"
+                        + (", too little to hold that speed: it sheds momentum down to the speed its drive can hold, "
+                           "which the wheels in use take" if delivered < STARVED_SHARE else "") + "; "
                         if spare is not None else "")
                 out = [Decision(t, wheel, "held", f"{reason}; relieved of control and held at {speed:.1f} rad/s "
                                                   f"as a momentum store ({weak}were it given up, {short})")]
