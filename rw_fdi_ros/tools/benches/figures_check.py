@@ -89,6 +89,22 @@ def _summed(chosen, figure):
 def single_fault(cell: dict) -> bool:
     """The recovery bench's single-fault cells (a fault, no second one), at whatever wheel speeds."""
     return cell.get("kind") is not None and cell.get("second") is None
+def _vehicle_figures(row: str, short: str, bench: str) -> list:
+    """A shipped vehicle's row: detection, recovery and in-service figures from benches ``<bench>_detection``,
+    ``_recovery`` and ``_service``."""
+    verdict = lambda r, cell, key: r["cells"][cell]["methods"]["speed_aware"]["verdict"][key]   # noqa: E731
+    return [
+        Figure(row, f"{short}: false alarms", f"{bench}_detection", lambda r: verdict(r, "fault_free", "false_alarm")),
+        Figure(row, f"{short}: current loss 10 % right, observable", f"{bench}_detection",
+               lambda r: verdict(r, "current loss 10 %", "correct_observable")),
+        Figure(row, f"{short}: single faults recovered", f"{bench}_recovery", _summed(single_fault, "recovered")),
+        *[Figure(row, f"{short} in service: {label}", f"{bench}_service", lambda r, key=key: r["figures"][key])
+          for label, key in (("the faulty wheel and no other acted on", "acted_right"),
+                             ("pointing kept", "pointing_kept"),
+                             ("reconfigurations without a fault", "reconfigured_fault_free_600s"))],
+    ]
+
+
 FIGURES = [
     Figure("false alarms, fault-free, datasheet", "false alarms, the decision observer", "detection",
            lambda r: r["cells"]["fault_free"]["methods"]["speed_aware"]["model"]["false_alarm"]),
@@ -143,30 +159,8 @@ FIGURES = [
            lambda r: r["groupings"][next(iter(r["groupings"]))]["real_time_factor"], None, "x"),
     Figure("the recorded graph", "real time, one node per process", "graph",
            lambda r: r["groupings"]["none"]["real_time_factor"], None, "x"),
-    Figure("**another vehicle**", "microsat: false alarms", "vehicle_detection",
-           lambda r: r["cells"]["fault_free"]["methods"]["speed_aware"]["verdict"]["false_alarm"]),
-    Figure("**another vehicle**", "microsat: current loss 10 % right, observable", "vehicle_detection",
-           lambda r: r["cells"]["current loss 10 %"]["methods"]["speed_aware"]["verdict"]["correct_observable"]),
-    Figure("**another vehicle**", "microsat: single faults recovered", "vehicle_recovery",
-           _summed(single_fault, "recovered")),
-    Figure("**another vehicle**", "microsat in service: the faulty wheel and no other acted on", "vehicle_service",
-           lambda r: r["figures"]["acted_right"]),
-    Figure("**another vehicle**", "microsat in service: pointing kept", "vehicle_service",
-           lambda r: r["figures"]["pointing_kept"]),
-    Figure("**another vehicle**", "microsat in service: reconfigurations without a fault", "vehicle_service",
-           lambda r: r["figures"]["reconfigured_fault_free_600s"]),
-    Figure("**a wheel type of its own**", "cubesat: false alarms", "cubesat_detection",
-           lambda r: r["cells"]["fault_free"]["methods"]["speed_aware"]["verdict"]["false_alarm"]),
-    Figure("**a wheel type of its own**", "cubesat: current loss 10 % right, observable", "cubesat_detection",
-           lambda r: r["cells"]["current loss 10 %"]["methods"]["speed_aware"]["verdict"]["correct_observable"]),
-    Figure("**a wheel type of its own**", "cubesat: single faults recovered", "cubesat_recovery",
-           _summed(single_fault, "recovered")),
-    Figure("**a wheel type of its own**", "cubesat in service: the faulty wheel and no other acted on",
-           "cubesat_service", lambda r: r["figures"]["acted_right"]),
-    Figure("**a wheel type of its own**", "cubesat in service: pointing kept", "cubesat_service",
-           lambda r: r["figures"]["pointing_kept"]),
-    Figure("**a wheel type of its own**", "cubesat in service: reconfigurations without a fault", "cubesat_service",
-           lambda r: r["figures"]["reconfigured_fault_free_600s"]),
+    *_vehicle_figures("**another vehicle**", "microsat", "vehicle"),
+    *_vehicle_figures("**a wheel type of its own**", "cubesat", "cubesat"),
     *[Figure("judging a recorded bag", f"judging a bag: {how}", "study",
              lambda r, how=how: next(v for k, v in r["judge_s_per_bag"].items() if k.startswith(how)), None, "s")
       for how in ("core engine", "replay through the FDI graph")],
