@@ -45,6 +45,7 @@ def test_the_shipped_default_is_the_thesis_spacecraft():
     assert v.disturbance_sigma == DISTURBANCE_SIGMA
     assert v.dispersions == Dispersions() and v.dispersions.unit_spreads == DEFAULT_UNIT_SPREAD
     assert (v.controller.overshoot, v.controller.settling_time, v.controller.pointing) == (0.2, 30.0, 0.2)
+    assert not v.controller.friction_feedforward   # the thesis' PID integrators hold the friction
 
 
 @pytest.mark.parametrize("name", sorted(shipped_vehicles()))
@@ -124,6 +125,7 @@ BAD = [
     ("name", "  ", "name: a name (text)"),
     ("controller", None, "missing 'controller'"),
     ("controller.overshoot", 1.5, "controller.overshoot: a share below 1"),
+    ("controller.friction_feedforward", "yes please", "controller.friction_feedforward: true or false"),
     ("disturbance_sigma", "-1e-5 N m", "disturbance_sigma: must be >= 0"),
     ("magnetorquers.stop_speed", "40 rad/s", "magnetorquers.stop_speed: 40 rad/s is above start_speed 35"),
     ("magnetorquers.gain", "-0.002 1/s", "magnetorquers.gain: must be > 0"),
@@ -371,6 +373,23 @@ def test_one_command_makes_the_fdi_of_a_vehicle_and_every_command_takes_it(tmp_p
         assert judged.returncode == 0, judged.stderr
         words = next(line for line in judged.stdout.splitlines() if " verdict " in line).split()
         assert int(words[words.index("correct") + 1]) == 2, judged.stdout
+
+
+def test_the_calibrated_bands_of_a_vehicle_are_fitted_on_runs_as_in_service(tmp_path):
+    """A calibrated observer learns its unit at the speed it then holds: its bands are fitted where the speed moves
+    on (the in-service family's fault-free draws: 600 s, manoeuvres every 60-900 s, drawn units), flown from the
+    vehicle file `defaults` writes, without FDIR."""
+    from rw_fdi_ros.tools.design.vehicle_defaults import service_unit_runs
+    vehicle_file = tmp_path / "vehicle.yaml"
+    vehicle_file.write_text(yaml.safe_dump(to_mapping(load_vehicle("cubesat_6u")), sort_keys=False))
+    seeds = (60_000_000, 60_000_001)
+    samples, plant = service_unit_runs(vehicle_file, seeds)
+    assert [s.seed for s in samples] == list(seeds) and plant["vehicle"] == "cubesat_6u"
+    for s in samples:
+        assert s.time[-1] == pytest.approx(600.0, abs=1.0) and list(s.wheels) == ["x", "y", "z", "s"]
+        assert s.wheel_params.inertia == load_vehicle("cubesat_6u").wheel.inertia   # its own wheel type
+        # slews after the calibration move the wheels to speeds it never saw (a one-slew run's hold still)
+        assert np.ptp(s.wheel_speed[150:, :3], axis=0).max() > 1.0
 
 
 def test_a_bad_vehicle_file_stops_the_defaults_before_any_run(tmp_path):

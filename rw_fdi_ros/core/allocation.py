@@ -21,6 +21,14 @@ couple the axes; scaling keeps its direction and loses only magnitude.
 A wheel FDIR holds (fdir.py: confirmed faulty, but the wheels in use could
 not take its momentum) is out of the allocation and gets the speed-hold
 command of :func:`hold_command` instead, from its measured speed.
+
+Friction feed-forward (a vehicle's choice, vehicle.ControllerTargets): the
+wheels' modelled friction is cancelled from their measured speeds
+(:func:`friction_feedforward`), so the controllers' integrators no longer
+have to find it, which they do slowly: on a light body a wheel crossing
+zero speed flips its coulomb friction, and a wheel given up coasts on its
+friction until it stops, and either step costs the pointing until the
+integrator has caught up.
 """
 from __future__ import annotations
 
@@ -109,13 +117,50 @@ def hold_command(reference, speed, gain: float = HOLD_GAIN, limit: float = 5.0,
     return np.minimum(np.maximum(u, -limit), limit)
 
 
+def friction_feedforward(speed, in_use, coasting, dist, spin_axes, params: WheelParams = WheelParams()) -> np.ndarray:
+    """u_ff (B, N) [V]: the commands that cancel the wheels' modelled friction at their measured speeds,
+
+        u_ff = m u_f(Omega) + D G (c u_f(Omega))        (m: wheels in use, c: wheels coasting)
+
+    u_f the datasheet wheel's friction-cancelling voltage at 23 C (wheel.holding_tcv). A wheel in use cancels
+    its own friction. A wheel that coasts (out of use and not commanded: given up, or at rest standing by, where
+    u_f = 0) passes its friction to the body as it slows; the wheels in use give the body the torque its own
+    motor would have given at u_f, its spin axis times u_f distributed over them by D (:func:`distribution`).
+
+    Parameters
+    ----------
+    speed : array_like, shape (B, N)
+        Measured wheel speeds Omega [rad/s].
+    in_use : array_like of bool, shape (B, N)
+        m: the wheels the allocation commands.
+    coasting : array_like of bool, shape (B, N)
+        c: the wheels not commanded at all (a held wheel is neither: its own command cancels its friction).
+    dist : array_like, shape (B, N, 3)
+        D of each run.
+    spin_axes : array_like, shape (3, N)
+        G.
+    params : WheelParams
+        The wheel type whose friction is modelled.
+
+    Returns
+    -------
+    ndarray, shape (B, N)
+        u_ff [V], not limited.
+    """
+    u_f = holding_tcv(np.asarray(speed, float), 23.0, params)
+    axis_volts = np.einsum("kn,bn->bk", np.asarray(spin_axes, float), np.where(coasting, u_f, 0.0))   # (B, 3)
+    return np.where(in_use, u_f, 0.0) + np.einsum("bnk,bk->bn", dist, axis_volts)
+
+
 class TorqueAllocator:
     """Wheel commands of a batch of runs, each with its own wheels in use (``in_use``: (B, N) bool)."""
 
-    def __init__(self, wheels: WheelSet, batch: int = 1, limit: float = 5.0, params: WheelParams = WheelParams()):
+    def __init__(self, wheels: WheelSet, batch: int = 1, limit: float = 5.0, params: WheelParams = WheelParams(),
+                 feedforward: bool = False):
         self.wheels = wheels
         self.limit = float(limit)
         self.params = params   # the wheel type whose friction a held wheel's feed-forward cancels
+        self.feedforward = bool(feedforward)   # every wheel's friction cancelled (friction_feedforward)
         self.in_use = np.tile(wheels.mask(wheels.active), (batch, 1))
         self.hold_speed = np.full(self.in_use.shape, np.nan)   # [rad/s] per held wheel, NaN for the others
         self.held = np.zeros(self.in_use.shape, bool)
@@ -145,7 +190,10 @@ class TorqueAllocator:
         """u (B, N) [V] for the controllers' axis commands v (B, 3) [V], within the voltage limit; a held
         wheel's command from its ``wheel_speed`` (B, N) [rad/s] (needed once a wheel is held)."""
         v = np.asarray(axis_commands, float).reshape(len(self.in_use), 3)
-        u = limited(np.einsum("bnk,bk->bn", self._dist, v), self.limit)
+        u = np.einsum("bnk,bk->bn", self._dist, v)
+        if self.feedforward:
+            u = u + self.friction_commands(wheel_speed)
+        u = limited(u, self.limit)
         if self._holding:
             if wheel_speed is None:
                 raise ValueError("a held wheel's command needs the wheel speeds")
@@ -153,3 +201,21 @@ class TorqueAllocator:
             u[self.held] = hold_command(self.hold_speed[self.held], speed[self.held], limit=self.limit,
                                          params=self.params)
         return u
+
+    def friction_commands(self, wheel_speed) -> np.ndarray:
+        """u_ff (B, N) [V] at ``wheel_speed`` (B, N) for the wheels as they are used now (:func:`friction_feedforward`;
+        zeros without the feed-forward): what the controllers' integrators need not hold."""
+        if not self.feedforward:
+            return np.zeros(self.in_use.shape)
+        if wheel_speed is None:
+            raise ValueError("the friction feed-forward needs the wheel speeds")
+        speed = np.asarray(wheel_speed, float).reshape(self.in_use.shape)
+        return friction_feedforward(speed, self.in_use, ~self.in_use & ~self.held, self._dist, self.wheels.matrix,
+                                    self.params)
+
+    def integrator_start(self, tcv, wheel_speed) -> np.ndarray:
+        """(B, 3) [V]: the body-axis command the controllers' integrators start from, so that the first
+        commands hold the wheels as the plant starts them (its holding voltages ``tcv`` (B, N) at
+        ``wheel_speed`` (B, N)): what the feed-forward does not already give, G (tcv - u_ff)."""
+        tcv = np.asarray(tcv, float).reshape(self.in_use.shape)
+        return (tcv - self.friction_commands(wheel_speed)) @ np.asarray(self.wheels.matrix, float).T

@@ -115,10 +115,12 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
                   magnetic_field=magnetic_field)
     dumper = Dumper([s.magnetorquers for s in scenarios]) if plant.in_orbit else None
     wheel = plant.datasheet
-    allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit, wheel)
+    allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit, wheel,
+                                feedforward=plant.vehicle.controller.friction_feedforward)
     gains = gains or design_controller(plant.vehicle).gains
     # the controllers' integrators hold the body-axis command of the wheels' holding voltages
-    pid = PidController(gains, control_period, initial_tcv=plant.tcv @ plant.spin_axes.T, wheel=wheel)
+    pid = PidController(gains, control_period, initial_tcv=allocator.integrator_start(plant.tcv, plant.wheel_speed),
+                        wheel=wheel)
     schedules = [s.setpoint_schedule() for s in scenarios]
     steps = int(round(duration / control_period))
     onboard = reconfig = delays = None

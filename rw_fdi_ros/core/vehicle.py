@@ -75,6 +75,9 @@ class ControllerTargets:
     overshoot: float = 0.20        # largest overshoot of a set-point step, a share
     settling_time: float = 30.0    # [s] 5 % settling time of a step of the largest set-point change
     pointing: float = 0.2          # [deg] pointing requirement on every axis
+    # the wheels' modelled friction cancelled by feed-forward (allocation.friction_feedforward); the thesis
+    # has none: its PID integrators hold the friction
+    friction_feedforward: bool = False
 
 
 @dataclass(frozen=True)
@@ -341,9 +344,14 @@ def _positive(where: str, raw, units: dict, may_be_zero=()) -> dict:
 
 
 def _controller(where: str, raw) -> ControllerTargets:
-    values = _positive(where, _mapping(where, raw, CONTROLLER_UNITS), CONTROLLER_UNITS)
+    raw = _mapping(where, raw, {*CONTROLLER_UNITS, "friction_feedforward"})
+    values = _positive(where, {k: v for k, v in raw.items() if k != "friction_feedforward"}, CONTROLLER_UNITS)
     if values.get("overshoot", 0.0) >= 1.0:
         raise VehicleError(f"{where}.overshoot: a share below 1, got {values['overshoot']:g}")
+    if "friction_feedforward" in raw:
+        if not isinstance(raw["friction_feedforward"], bool):
+            raise VehicleError(f"{where}.friction_feedforward: true or false, got {raw['friction_feedforward']!r}")
+        values["friction_feedforward"] = raw["friction_feedforward"]
     return ControllerTargets(**values)
 
 
@@ -494,7 +502,9 @@ def to_mapping(vehicle: Vehicle) -> dict:
                       "standby": list(ws.standby)},
         "controller": {"overshoot": vehicle.controller.overshoot,
                        "settling_time": _with_unit(vehicle.controller.settling_time, "s"),
-                       "pointing": _with_unit(vehicle.controller.pointing, "deg")},
+                       "pointing": _with_unit(vehicle.controller.pointing, "deg"),
+                       # written where set: a vehicle without it records as it did before the option
+                       **({"friction_feedforward": True} if vehicle.controller.friction_feedforward else {})},
         "magnetorquers": {**{k: _with_unit(getattr(vehicle.magnetorquers, k), u)
                              for k, u in MAGNETORQUER_UNITS.items()}, "enabled": vehicle.magnetorquers.enabled},
         "dispersions": {"initial_attitude": _range(d.attitude_deg, "deg"),

@@ -11,6 +11,7 @@ from pathlib import Path
 import yaml
 
 from ..fdi_config import FdiConfig
+from ..core.allocation import TorqueAllocator
 from ..core.controller_design import design_controller
 from ..core.detection import observers_of
 from ..core.plant import Plant
@@ -122,7 +123,10 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     period = choices.control_period
     times, values = scenario.setpoint_schedule()
     start = Plant(scenario, wheels=choices.wheel_set)   # the plant's own units and wheels at t = 0
-    hold = start.tcv[0] @ start.spin_axes.T   # the body-axis command that holds them (closed_loop.simulate's)
+    feedforward = start.vehicle.controller.friction_feedforward
+    # the body-axis command that holds them (closed_loop.simulate's, less the allocation's friction feed-forward)
+    hold = TorqueAllocator(start.wheels, 1, start.datasheet.command_limit, start.datasheet,
+                           feedforward).integrator_start(start.tcv, start.wheel_speed)[0]
     # a vehicle file's spacecraft: its controllers designed on its inertia, its FDIR's momentum checks on it
     # (the thesis' vehicle: the nodes' own defaults, the same numbers)
     vehicle = scenario.vehicle
@@ -144,7 +148,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     nodes.append(NodeSpec("wheel_allocation", "wheel_allocation", {
         "wheel_set": choices.wheel_set, "control_period": period,
         "fdir": fdi is not None and fdi.fdir,
-        "fdi_period": choices.fdi_period, **typed,
+        "fdi_period": choices.fdi_period, **typed, **({"friction_feedforward": True} if feedforward else {}),
         **({} if vehicle is None else {"body_inertia": [float(v) for v in vehicle.inertia_matrix.ravel()],
                                        "wheel_inertia": float(vehicle.wheel.inertia)})}))
     if scenario.magnetorquers is not None:

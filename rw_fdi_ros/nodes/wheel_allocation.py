@@ -24,7 +24,9 @@ that period's step, as the wheels stand after its decisions), where an operator'
 diagnostic_aggregator finds them beside the FDI's verdict (config/diagnostics/).
 A wheel given up is never commanded again; a held one (its momentum
 more than the wheels in use could take) gets only the speed-hold command,
-from its speed of the same step (allocation.hold_command).
+from its speed of the same step (allocation.hold_command). With
+``friction_feedforward`` (a vehicle's choice) every command adds the wheels'
+modelled friction at that step's speeds (allocation.friction_feedforward).
 """
 from __future__ import annotations
 
@@ -70,6 +72,9 @@ class WheelAllocationNode(GraphNode):
         self.declare_parameter("body_inertia", [float(v) for v in INERTIA])
         self.wheel = declare_wheel_type(self)   # its command limit, hold feed-forward, nominal model and envelope
         self.declare_parameter("wheel_inertia", self.wheel.inertia)
+        # the wheels' modelled friction cancelled from their speeds (the vehicle's controller.friction_feedforward;
+        # core/allocation.friction_feedforward): every command then waits for its step's wheel speeds
+        self.declare_parameter("friction_feedforward", False)
         self.declare_parameter("fdir_readers", 0)                # of /fdir/wheels (the recorder) before it goes
         self.declare_parameter("diagnostics_readers", 0)         # of /diagnostics before FDIR's state goes there
         try:
@@ -79,7 +84,8 @@ class WheelAllocationNode(GraphNode):
         self.joints = tuple(joint_name(n) for n in self.wheels.names)
         self.period = self.param("control_period")
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
-        self.allocator = TorqueAllocator(self.wheels, limit=self.wheel.command_limit, params=self.wheel)
+        self.allocator = TorqueAllocator(self.wheels, limit=self.wheel.command_limit, params=self.wheel,
+                                         feedforward=self.param("friction_feedforward"))
         inertia = np.asarray(self.param("body_inertia"), float)
         if inertia.size not in (3, 9) or not np.all(np.isfinite(inertia)) or self.param("wheel_inertia") <= 0:
             raise NodeError("parameter body_inertia: 3 numbers (the diagonal) or 9 (the matrix, row by row) "
@@ -198,7 +204,8 @@ class WheelAllocationNode(GraphNode):
                 return
             t = stamp_seconds(stamp)
             due = self.delay.due(t) + [(j.removeprefix("reaction_wheel_"), OPERATOR) for j in self.operator]
-            watched = bool(self.reconfiguration.decisions)   # after a reconfiguration: review on this step's state
+            # after a reconfiguration: review on this step's state; the feed-forward reads its speeds
+            watched = bool(self.reconfiguration.decisions) or self.allocator.feedforward
             if (due or watched) and any(x is None for x in self.state.get(stamp, (None,))):
                 self.delay.pending[:0] = [(t, w) for w in due if w[1] != OPERATOR]
                 return   # the momentum check and a held wheel read this step's state: it comes with the attitude

@@ -24,37 +24,43 @@ from pathlib import Path
 import numpy as np
 
 from ...core.elman import standby
+from ...core.vehicle import DEFAULT_VEHICLE
 
 WINDOW = 300            # [FDI samples] a training window: two of each 600-s run
 TRAIN_MAX_S = 1800.0    # [s] the longest training run (the family's 2-h and 6-h draws shortened)
 SEEDS = {"train": 93_000_000, "fit": 93_500_000}   # disjoint from every bench's (service: 90-92 M)
 
 
-def _run_batch(draws) -> list:
-    """(draw, FdiSamples) of one batch of draws flown with the family's FDIR on the core loop, every sample."""
+def _run_batch(draws, act: bool = True) -> list:
+    """(draw, FdiSamples) of one batch of draws flown on the core loop, every sample: with the family's FDIR
+    (the vehicle's shipped FDI), or, ``act`` False, with no FDIR (what a vehicle's FDI is first fitted on)."""
     from ...core.closed_loop import simulate
     from ..benches import service_bench as sb
     from .samples import samples_from_series
     scenarios = [sb.scenario(d) for d in draws]
-    traj = simulate(scenarios, fdir=sb.fdir_for(draws[0].units, vehicle=draws[0].vehicle))
+    traj = simulate(scenarios, fdir=sb.fdir_for(draws[0].units, vehicle=draws[0].vehicle) if act else None)
     stamps = np.round(traj.time * 1e9).astype(np.int64)
     return [(d, samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
                                     seed=d.seed, wheels=traj.wheel_names, wheel_params=scenarios[0].spacecraft.wheel))
             for b, d in enumerate(draws)]
 
 
-def family_runs(seeds, units: str = "mixed", fault_free: bool = False, executor=None, desc: str = "runs") -> list:
+def family_runs(seeds, units: str = "mixed", fault_free: bool = False, executor=None, desc: str = "runs",
+                vehicle: str = DEFAULT_VEHICLE, act: bool = True) -> list:
     """(draw, FdiSamples) of the in-service family's draws of ``seeds`` (at most TRAIN_MAX_S long; ``units``
-    'mixed' as drawn, 'datasheet' or 'units' for all; ``fault_free``: its fault-free 600-s runs)."""
+    'mixed' as drawn, 'datasheet' or 'units' for all; ``fault_free``: its fault-free 600-s runs) flying
+    ``vehicle`` (a shipped name or a vehicle file's absolute path); ``act`` False: flown without FDIR."""
+    from functools import partial
     from tqdm import tqdm
     from ..benches import service_bench as sb
     from ..campaigns.campaign import LocalExecutor
-    draws = [sb.draw(s, TRAIN_MAX_S, fault_free=fault_free) for s in seeds]
+    draws = [sb.draw(s, TRAIN_MAX_S, fault_free=fault_free, vehicle=str(vehicle)) for s in seeds]
     if units != "mixed":
         draws = [replace(d, units=units == "units") for d in draws]
     out = []
     with tqdm(total=len(draws), desc=desc, unit="run", file=sys.stderr) as bar:
-        for done in (executor or LocalExecutor()).map_unordered(_run_batch, sb.batches(draws), processes=True):
+        for done in (executor or LocalExecutor()).map_unordered(partial(_run_batch, act=act), sb.batches(draws),
+                                                                  processes=True):
             out += done
             bar.update(len(done))
     return sorted(out, key=lambda x: x[0].seed)

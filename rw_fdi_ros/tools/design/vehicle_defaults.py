@@ -4,8 +4,10 @@ On the core loop (rw-fdi screen's: the graph's numbers, no bags), the speed-awar
 
 1. the controllers designed to the vehicle's targets (core/controller_design.py; the runs fly them);
 2. fault-free runs of the vehicle: training (seeds 1000-1039), fitting (1040-1139), held-out (5000-5099);
-   runs of drawn wheel units for the calibrated bands (60,000,000-60,000,299) and their held-out runs
-   (5,200-5,299): training, fitting and checking never share a run;
+   for the calibrated bands, fault-free 600-s runs of drawn wheel units as in service (the in-service
+   family's draws, tools/benches/service_bench.py: manoeuvres every 60-900 s, a share in orbit; seeds
+   60,000,000-60,000,299) and their held-out runs (5,200-5,299): training, fitting and checking never
+   share a run;
 3. a speed-aware Elman network per wheel in use (a standby wheel runs its type's), its uncertainty gain;
 4. the three observers' bands for the designed per-run false-alarm rate, for datasheet wheels and for
    observers that learn their wheel over the first 150 s (``unit_calibrated/``);
@@ -57,6 +59,20 @@ def vehicle_scenarios(vehicle_file: Path, out: Path) -> dict:
     return paths
 
 
+def service_unit_runs(vehicle_file: Path, seeds, executor=None, desc: str = "unit runs") -> tuple:
+    """(FdiSamples, plant choices) of the in-service family's fault-free 600-s draws of ``seeds`` on drawn wheel
+    units of the vehicle (tools/benches/service_bench.draw: manoeuvres every 60-900 s, a share in orbit with
+    dumping), flown without FDIR. A calibrated observer learns its unit at the speed it holds then; it is in
+    service, after slews to other speeds and through dumps, that what it could not learn shows (viscous against
+    coulomb friction), so its bands are fitted there, not on one-slew runs."""
+    from ...core.plant_choices import PlantChoices
+    from ..benches import service_bench as sb
+    from .service_training import family_runs
+    runs = family_runs(seeds, "units", True, executor, desc, vehicle=Path(vehicle_file).resolve(), act=False)
+    plant = PlantChoices.of_recording(sb.scenario(runs[0][0]).plant_choices().scenario_dict()).as_dict()
+    return [s for _, s in runs], plant
+
+
 def held_out_alarms(samples, models, thresholds_dir, calibration: float = 0.0) -> dict:
     """observer -> (runs with any alarm, runs) of fault-free ``samples`` under the bands in ``thresholds_dir``."""
     from ...core.calibration import calibration_samples
@@ -92,12 +108,11 @@ def vehicle_defaults(vehicle_source, out, train_runs: int = 40, fit_runs: int = 
                                                executor, desc="training + fitting runs")
     heldout, _ = simulated_fault_free_runs(scenarios["fault_free"], range(HELDOUT_SEED, HELDOUT_SEED + heldout_runs),
                                            executor, desc="held-out runs")
-    units, units_plant = simulated_fault_free_runs(scenarios["fault_free_units"],
-                                                   range(UNITS_SEED, UNITS_SEED + unit_runs), executor,
-                                                   desc="unit runs (calibrated bands)")
-    units_heldout, _ = simulated_fault_free_runs(scenarios["fault_free_units"],
-                                                 range(UNITS_HELDOUT_SEED, UNITS_HELDOUT_SEED + unit_heldout_runs),
-                                                 executor, desc="held-out unit runs")
+    units, units_plant = service_unit_runs(vehicle_file, range(UNITS_SEED, UNITS_SEED + unit_runs), executor,
+                                           "in-service unit runs (calibrated bands)")
+    units_heldout, _ = service_unit_runs(vehicle_file, range(UNITS_HELDOUT_SEED,
+                                                             UNITS_HELDOUT_SEED + unit_heldout_runs),
+                                         executor, "held-out in-service unit runs")
     train, fit = fitting[:train_runs], fitting[train_runs:]
     stages["runs_s"] = time.monotonic() - t
 
@@ -156,8 +171,9 @@ def format_report(r: dict) -> str:
     lines = [f"# FDI of vehicle {r['vehicle']}", "",
              f"Made from nothing by `{r['command']}` on the core loop (the graph's numbers). Wheel set "
              f"{r['wheel_set']}; fault-free runs of {DURATION:g} s drawn from the vehicle's dispersions. Seeds: "
-             f"training {seeds('training')}, fitting {seeds('fitting')}, held-out {seeds('held_out')}; drawn "
-             f"units: fitting {seeds('unit_fitting')}, held-out {seeds('unit_held_out')}.", "",
+             f"training {seeds('training')}, fitting {seeds('fitting')}, held-out {seeds('held_out')}. The calibrated "
+             f"bands: fault-free 600-s runs of drawn units as in service (manoeuvres every 60-900 s, a share in "
+             f"orbit), seeds {seeds('unit_fitting')}, held-out {seeds('unit_held_out')}.", "",
              "## Controllers (designed to the vehicle's targets)", "",
              "| axis | k_p | k_i | k_d | w_n [rad/s] | settling [s] | overshoot |", "|---|---|---|---|---|---|---|"]
     for i, axis in enumerate("xyz"):
