@@ -126,6 +126,8 @@ BAD = [
     ("controller", None, "missing 'controller'"),
     ("controller.overshoot", 1.5, "controller.overshoot: a share below 1"),
     ("controller.friction_feedforward", "yes please", "controller.friction_feedforward: true or false"),
+    ("residual_dipole", {"unit": "A m2", "vector": [0, 0, 0]}, "residual_dipole.unit: must be 'A m^2'"),
+    ("residual_dipole", {"unit": "A m^2", "vector": [0, 0]}, "residual_dipole.vector: expected 3 numbers"),
     ("disturbance_sigma", "-1e-5 N m", "disturbance_sigma: must be >= 0"),
     ("magnetorquers.stop_speed", "40 rad/s", "magnetorquers.stop_speed: 40 rad/s is above start_speed 35"),
     ("magnetorquers.gain", "-0.002 1/s", "magnetorquers.gain: must be > 0"),
@@ -390,6 +392,21 @@ def test_the_calibrated_bands_of_a_vehicle_are_fitted_on_runs_as_in_service(tmp_
         assert s.wheel_params.inertia == load_vehicle("cubesat_6u").wheel.inertia   # its own wheel type
         # slews after the calibration move the wheels to speeds it never saw (a one-slew run's hold still)
         assert np.ptp(s.wheel_speed[150:, :3], axis=0).max() > 1.0
+
+
+def test_in_orbit_the_body_carries_its_vehicles_residual_dipole_unless_the_scenario_says():
+    """The magnetic disturbance m_res x b is the vehicle's: the CubeSat's 0.005 A m^2 per axis, not the thesis'
+    0.5 (2.5 times its rods' 0.2 A m^2: no dumping could win); a scenario's environment may still name its own."""
+    cubesat = load_vehicle("cubesat_6u")
+    assert cubesat.residual_dipole == (0.005, 0.005, 0.005) and THESIS.residual_dipole == (0.5, 0.5, 0.5)
+    text = "name: t\nduration: 20\nvehicle: cubesat_6u\nenvironment: {epoch: 2026-01-01T00:00:00%s}\nfaults: []\n"
+    own = Plant(parse_scenario(text % "", origin="t.yaml"))
+    said = Plant(parse_scenario(text % ", residual_dipole: [0.1, 0, 0]", origin="t.yaml"))
+    thesis = Plant(parse_scenario("name: t\nduration: 20\nenvironment: {epoch: 2026-01-01T00:00:00}\nfaults: []\n",
+                                  origin="t.yaml"))
+    np.testing.assert_array_equal(own.environment.residual, [[0.005, 0.005, 0.005]])
+    np.testing.assert_array_equal(said.environment.residual, [[0.1, 0.0, 0.0]])
+    np.testing.assert_array_equal(thesis.environment.residual, [[0.5, 0.5, 0.5]])
 
 
 def test_a_bad_vehicle_file_stops_the_defaults_before_any_run(tmp_path):

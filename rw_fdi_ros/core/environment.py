@@ -69,7 +69,7 @@ class OrbitEnvironment:
 
     orbit: CircularOrbit | TleOrbit = CircularOrbit()
     epoch: datetime | None = None    # None: the TLE's own epoch, else DEFAULT_EPOCH
-    residual_dipole: tuple = DEFAULT_RESIDUAL_DIPOLE
+    residual_dipole: tuple | None = None   # [A m^2]; None: the vehicle's (vehicle.Vehicle.residual_dipole)
 
     def start(self) -> datetime:
         if self.epoch is not None:
@@ -139,7 +139,7 @@ class Environments:
     """The environment of a batch of runs (None where a run has none), asked once per control period.
     The runs share one grid (one duration), so a step interpolates the whole batch at once."""
 
-    def __init__(self, environments, seeds, duration: float, field_model: str = "igrf"):
+    def __init__(self, environments, seeds, duration: float, field_model: str = "igrf", residual_dipoles=None):
         self.environments = list(environments)
         self.seeds = [int(s) for s in seeds]
         self.tracks = [None if e is None else e.track(duration, field_model) for e in self.environments]
@@ -150,8 +150,11 @@ class Environments:
         self.position = np.array([t.position if t is not None else np.full((len(times), 3), 1e30)
                                   for t in self.tracks])
         self.field = np.array([t.field if t is not None else np.zeros((len(times), 3)) for t in self.tracks])
-        self.residual = np.array([e.residual_dipole if e is not None else (0.0, 0.0, 0.0)
-                                  for e in self.environments], float)
+        # each run's own dipole, else its vehicle's (``residual_dipoles``), else the thesis' default
+        vehicles = residual_dipoles or [DEFAULT_RESIDUAL_DIPOLE] * len(self.environments)
+        self.residual = np.array([(0.0, 0.0, 0.0) if e is None else e.residual_dipole
+                                  if e.residual_dipole is not None else v
+                                  for e, v in zip(self.environments, vehicles)], float)
 
     def state(self, t: float, attitude):
         """(position, field) in body axes (B, 3) at ``t`` for the batch's attitudes (B, 3), linear between

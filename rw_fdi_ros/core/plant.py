@@ -158,7 +158,8 @@ class Plant:
     def environment(self) -> Environments | None:
         if self.in_orbit and self._environment is None:
             self._environment = Environments([s.environment for s in self.scenarios],
-                                             [s.seed for s in self.scenarios], self.duration, self.field_model)
+                                             [s.seed for s in self.scenarios], self.duration, self.field_model,
+                                             [s.spacecraft.residual_dipole for s in self.scenarios])
         return self._environment
 
     def command_dipole(self, dipole):

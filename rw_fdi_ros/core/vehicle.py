@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .environment import DEFAULT_RESIDUAL_DIPOLE
 from .magnetorquers import MomentumDumping
 from .spacecraft import DISTURBANCE_SIGMA, INERTIA
 from .wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, UNIT_PARAMETERS, WheelParams
@@ -60,7 +61,7 @@ DISPERSION_LIMITS = {"attitude_deg": 180.0, "body_rate": 1.0, "setpoint_change_d
 UNIT_SPREAD_MAX = 0.3   # scenario.UNIT_SPREAD_MAX: cut at 3 sigma, every unit's scale stays positive
 FAULT_SIZE_UNITS = {"current_limiter": "", "temperature": "C", "bus_voltage": "V"}
 TOP_KEYS = {"name", "description", "sources", "inertia", "disturbance_sigma", "wheel", "wheel_set", "controller",
-            "magnetorquers", "dispersions"}
+            "magnetorquers", "dispersions", "residual_dipole"}
 
 
 class VehicleError(ValueError):
@@ -113,6 +114,9 @@ class Vehicle:
     magnetorquers: MomentumDumping = MomentumDumping()
     dispersions: Dispersions = Dispersions()
     disturbance_sigma: float = DISTURBANCE_SIGMA   # [N m] per axis, eq. 2.34
+    # [A m^2] body axes: what it carries magnetised into orbit (environment.py), where a scenario's
+    # environment does not say; optional in a file (the thesis' value: its worst-case magnetic torque)
+    residual_dipole: tuple = DEFAULT_RESIDUAL_DIPOLE
     # words, not physics: two vehicles that fly alike are equal
     description: str = field(default="", compare=False)
     wheel_type: str = field(default="", compare=False)    # the wheel's make and model, as its datasheet names it
@@ -230,6 +234,19 @@ def _inertia(where: str, raw) -> tuple:
     matrix = np.array([[_number(f"{where}.matrix[{i}][{j}]", v) for j, v in enumerate(r)] for i, r in enumerate(rows)])
     check_inertia(where, matrix)
     return tuple(tuple(float(v) for v in r) for r in matrix)
+
+
+def _residual_dipole(where: str, raw) -> tuple:
+    raw = _mapping(where, raw, {"unit", "vector"})
+    if raw.get("unit") != "A m^2":
+        raise VehicleError(f"{where}.unit: must be 'A m^2', got {raw.get('unit')!r}")
+    vector = raw.get("vector")
+    if not (isinstance(vector, list) and len(vector) == 3):
+        raise VehicleError(f"{where}.vector: expected 3 numbers (body x, y, z)")
+    values = tuple(_number(f"{where}.vector[{i}]", v) for i, v in enumerate(vector))
+    if max(map(abs, values)) > 100.0:
+        raise VehicleError(f"{where}.vector: beyond 100 A m^2 per axis, got {values}")
+    return tuple(float(v) for v in values)
 
 
 def check_inertia(where: str, matrix) -> None:
@@ -393,6 +410,8 @@ def vehicle_of(raw, where: str = "vehicle") -> Vehicle:
         dispersions=_dispersions(f"{where}.dispersions", raw["dispersions"]),
         disturbance_sigma=_positive(where, {"disturbance_sigma": raw["disturbance_sigma"]},
                                     {"disturbance_sigma": "N m"}, ("disturbance_sigma",))["disturbance_sigma"],
+        **({"residual_dipole": _residual_dipole(f"{where}.residual_dipole", raw["residual_dipole"])}
+           if "residual_dipole" in raw else {}),
         description=_text(raw.get("description")), wheel_type=_text(raw["wheel"].get("type")),
         sources=tuple((str(k), _text(v)) for k, v in sources.items()))
     check_flyable(vehicle, where)
@@ -496,6 +515,9 @@ def to_mapping(vehicle: Vehicle) -> dict:
         "name": vehicle.name, "description": vehicle.description,
         "inertia": {"unit": "kg m^2", "matrix": [list(r) for r in vehicle.inertia]},
         "disturbance_sigma": _with_unit(vehicle.disturbance_sigma, "N m"),
+        # written where it is not the thesis' default: a vehicle without it records as it did before
+        **({"residual_dipole": {"unit": "A m^2", "vector": list(vehicle.residual_dipole)}}
+           if tuple(vehicle.residual_dipole) != tuple(DEFAULT_RESIDUAL_DIPOLE) else {}),
         "wheel": wheel,
         "wheel_set": {"name": ws.name, "wheels": [{"name": n, "spin_axis": list(a)}
                                                   for n, a in zip(ws.names, ws.spin_axes)],
