@@ -49,7 +49,7 @@ from ..core.threshold_file import ThresholdError
 from ..core.calibration import calibration_samples
 from ..core.identification import FaultIdentifier
 from ..core.observer_plugin import is_plugin_slot
-from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor, stamp_order
+from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
 from ..core.isolation import (LatchedVerdict, ObserverChannel, decision_of, in_envelope, speed_envelope,
                               stamp_seconds)
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
@@ -59,6 +59,7 @@ from ..graph import topics as T
 from ..graph.convert import fdi_sample_of, stamp_ns, time_msg
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 from ..graph.gate import GatedPublisher
+from ..graph.report_pairing import ReportGridPairing
 from ..graph.sync import StampSync
 from ..graph.wheel_type import declare_wheel_type
 
@@ -172,8 +173,8 @@ class IsolationNode(GraphNode):
         self.last_input = time.monotonic()
         self.last_row = {}   # observer -> wall time of its last row
         self.silent_said = False
-        # the report and its bus-voltage grid come on two topics, in either order: paired by stamp
-        self.bus_grids, self.reports = {}, {}   # stamp -> the grid; stamp -> (the report, since) waiting for it
+        # the report and its bus-voltage grid come on two topics, in either order (graph/report_pairing.py)
+        self.pairing = ReportGridPairing(self.inputs["telemetry"].period_ns, self._on_report)
         self.said_no_grid = False
         # else only once the grid's publisher is seen: discovery may bring the report's publisher first
         self.await_bus_grid = self.param("await_bus_grid")
@@ -228,59 +229,13 @@ class IsolationNode(GraphNode):
         self.compute_cpu.append(time.thread_time() - c0)
 
     def _on_telemetry(self, msg):
-        stamp = stamp_ns(msg.header.stamp)
-        monitor = self.inputs["telemetry"]
-        order = stamp_order(monitor.last_ns, stamp, monitor.period_ns)
-        if order == NEW_RUN:   # a new run's stamps start again: no half of the last run pairs with its own
-            self._flush_reports()
-            self.bus_grids = {t: m for t, m in self.bus_grids.items() if t <= stamp}
         # reports are decided in order, each with its grid: the two topics arrive in either order, and a report
         # may come before the grid of the one before it (a loaded machine)
         awaited = self.await_bus_grid or self.sub_bus_grid.get_publisher_count() > 0
-        if awaited and order != OUT_OF_ORDER and stamp not in self.reports:
-            self.reports[stamp] = (msg, time.monotonic())
-            self._drain_reports()
-            return
-        self._on_report(msg, self.bus_grids.pop(stamp, None))   # late or twice: dropped, and said
-        if order != OUT_OF_ORDER:   # the grids of earlier stamps (their reports lost) are of no use now
-            self.bus_grids = {t: m for t, m in self.bus_grids.items() if t > stamp}
+        self.pairing.report(msg, stamp_ns(msg.header.stamp), awaited)
 
     def _on_bus_grid(self, msg):
-        stamp = stamp_ns(msg.header.stamp)
-        last = self.inputs["telemetry"].last_ns
-        if stamp not in self.reports and last is not None and stamp <= last and \
-                stamp_order(last, stamp, self.inputs["telemetry"].period_ns) != NEW_RUN:
-            return   # its report was decided without it
-        self.bus_grids[stamp] = msg
-        while len(self.bus_grids) > 100:   # a grid whose report never came (a broken input): not kept forever
-            del self.bus_grids[next(iter(self.bus_grids))]
-        self._drain_reports()
-
-    def _drain_reports(self):
-        """Decide the waiting reports, oldest first, while the oldest has its grid, or a later grid says its own
-        was lost (one publisher on one reliable topic: the grids come in order)."""
-        while self.reports:
-            stamp = min(self.reports)
-            if stamp in self.bus_grids:
-                grid = self.bus_grids.pop(stamp)
-            elif any(t > stamp for t in self.bus_grids):
-                grid = None   # its identification skipped, said once
-            else:
-                return
-            self._on_report(self.reports.pop(stamp)[0], grid)
-            self.bus_grids = {t: m for t, m in self.bus_grids.items() if t > stamp}   # theirs lost with them
-
-    def _flush_reports(self, waited: float | None = None):
-        """Decide the waiting reports, oldest first, with their grid if it came: all, or those that waited
-        ``waited`` wall seconds (a grid stream that went silent), then the rest as their grids allow."""
-        now = time.monotonic()
-        for stamp in sorted(self.reports):
-            msg, since = self.reports[stamp]
-            if waited is not None and now - since <= waited:
-                break
-            del self.reports[stamp]
-            self._on_report(msg, self.bus_grids.pop(stamp, None))
-        self._drain_reports()
+        self.pairing.grid(msg, stamp_ns(msg.header.stamp))
 
     def _on_report(self, msg, bus_grid):
         t0, c0 = time.perf_counter(), time.thread_time()
@@ -436,7 +391,7 @@ class IsolationNode(GraphNode):
 
     def _watch_inputs(self):
         """Samples an observer never completed are decided without it; silence of every input is said."""
-        self._flush_reports(waited=self.param("input_timeout"))   # a grid that never came
+        self.pairing.flush(waited=self.param("input_timeout"))   # a grid that never came
         if not self.live:   # a replay's player paces on /diagnostics and fails a stalled replay itself
             return
         now, timeout = time.monotonic(), self.param("input_timeout")
