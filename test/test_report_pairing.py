@@ -66,3 +66,29 @@ def test_without_a_grid_publisher_a_report_is_decided_at_once():
     p.grid("g2", 2 * S)
     p.report("r2", 2 * S, awaited=False)
     assert decided == [("r1", None), ("r2", "g2")]
+
+
+def test_a_runs_lost_first_grid_does_not_lose_the_rest_of_its_grids():
+    """A new run is seen by a stamp back at the first period; where that grid is lost, the grid topic follows the
+    report topic into the new run instead of filing every later grid under the last run."""
+    p, decided = _pairing()
+    for k in (1, 2, 3):
+        p.report(f"a{k}", k * S, awaited=True)
+        p.grid(f"ga{k}", k * S)
+    p.report("b1", 1 * S, awaited=True)       # gb1 lost
+    p.report("b2", 2 * S, awaited=True)
+    p.grid("gb2", 2 * S)
+    p.report("b3", 3 * S, awaited=True)
+    p.grid("gb3", 3 * S)
+    assert decided[3:] == [("b1", None), ("b2", "gb2"), ("b3", "gb3")]
+
+
+def test_a_copy_of_a_waiting_report_does_not_overtake_the_reports_before_it():
+    p, decided = _pairing()
+    p.report("r1", 1 * S, awaited=True)
+    p.report("r2", 2 * S, awaited=True)
+    p.report("r2 copy", 2 * S, awaited=True)
+    assert decided == []
+    p.grid("g1", 1 * S)
+    p.grid("g2", 2 * S)
+    assert decided == [("r1", "g1"), ("r2", "g2")]

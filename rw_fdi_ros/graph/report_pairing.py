@@ -16,7 +16,7 @@ GRIDS_KEPT = 100   # grids whose report never came (a broken input): not kept fo
 
 
 class ReportGridPairing:
-    """Hands each report to ``decide(report, grid or None, key)`` in order, once its grid came, or once a later
+    """Hands each report to ``decide(report, grid or None)`` in order, once its grid came, or once a later
     grid says its own was lost (one publisher on one reliable topic: the grids come in order); ``awaited``:
     whether a report waits for its grid at all (else it is decided at once, with the grid if it came first)."""
 
@@ -30,14 +30,18 @@ class ReportGridPairing:
 
     def report(self, msg, stamp: int, awaited: bool) -> None:
         order = stamp_order(self.last_report_ns, stamp, self.period_ns)   # as the reports come, decided or not
+        if order == OUT_OF_ORDER and self.grid_run > self.report_run:
+            order = NEW_RUN   # the grids began a run whose first report was lost: this one is of that run
         if order == NEW_RUN:   # a new run: the last run's reports decided with what they have, its grids dropped
             self.flush()
-            self.report_run += 1
+            self.report_run = max(self.report_run + 1, self.grid_run)
             self.grids = {k: g for k, g in self.grids.items() if k[0] >= self.report_run}
         if order != OUT_OF_ORDER:
             self.last_report_ns = stamp
         key = (self.report_run, stamp)
-        if awaited and order != OUT_OF_ORDER and key not in self.reports:
+        if key in self.reports:
+            return   # a copy of a report still waiting: the first one is decided, in its turn, with its grid
+        if awaited and order != OUT_OF_ORDER:
             self.reports[key] = (msg, time.monotonic())
             self._drain()
             return
@@ -47,8 +51,11 @@ class ReportGridPairing:
 
     def grid(self, msg, stamp: int) -> None:
         order = stamp_order(self.last_grid_ns, stamp, self.period_ns)
+        if (order == OUT_OF_ORDER or self.last_grid_ns is None) and self.report_run > self.grid_run:
+            order = NEW_RUN   # the reports began a run whose first grid was lost (or came before any grid)
         if order == NEW_RUN:
-            self.grid_run += 1
+            self.grid_run = max(self.grid_run + 1, self.report_run) if self.last_grid_ns is not None \
+                else self.report_run
         if order != OUT_OF_ORDER:
             self.last_grid_ns = stamp
         key = (self.grid_run, stamp)
