@@ -139,15 +139,21 @@ def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, u
     return card
 
 
+def family_plant(draw) -> dict:
+    """The plant choices a family draw is flown under, as a bag of it records them (what bands are fitted for)."""
+    from ...core.plant_choices import PlantChoices
+    from ..benches import service_bench as sb
+    return PlantChoices.of_recording(sb.scenario(draw).plant_choices().scenario_dict()).as_dict()
+
+
 def fit_service_bands(fit_runs, fit_unit_runs, out_dir) -> dict:
     """The bands of every observer of the set in ``out_dir`` fitted on the family's fault-free 600-s runs:
     datasheet ones there, calibrated ones (150 s, on unit runs) in its unit_calibrated/ (config/fdi's layout)."""
-    from ...core.plant_choices import PlantChoices
     from ..benches import service_bench as sb
     from .offline import fit_thresholds, load_models
     out_dir = Path(out_dir)
     models = load_models(out_dir)
-    plant = PlantChoices.of_recording(sb.scenario(fit_runs[0][0]).plant_choices().scenario_dict()).as_dict()
+    plant = family_plant(fit_runs[0][0])
     bands = {"datasheet": fit_thresholds([s for _, s in fit_runs], models, out_dir, model_ref="model_set.json",
                                          plant=plant)}
     if fit_unit_runs:

@@ -65,12 +65,9 @@ def service_unit_runs(vehicle_file: Path, seeds, executor=None, desc: str = "uni
     dumping), flown without FDIR. A calibrated observer learns its unit at the speed it holds then; it is in
     service, after slews to other speeds and through dumps, that what it could not learn shows (viscous against
     coulomb friction), so its bands are fitted there, not on one-slew runs."""
-    from ...core.plant_choices import PlantChoices
-    from ..benches import service_bench as sb
-    from .service_training import family_runs
+    from .service_training import family_plant, family_runs
     runs = family_runs(seeds, "units", True, executor, desc, vehicle=Path(vehicle_file).resolve(), act=False)
-    plant = PlantChoices.of_recording(sb.scenario(runs[0][0]).plant_choices().scenario_dict()).as_dict()
-    return [s for _, s in runs], plant
+    return [s for _, s in runs], family_plant(runs[0][0])
 
 
 def held_out_alarms(samples, models, thresholds_dir, calibration: float = 0.0) -> dict:
