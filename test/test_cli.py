@@ -157,6 +157,15 @@ def test_a_scheduler_that_does_not_answer_is_one_line(monkeypatch):
     assert said.startswith("--scheduler tcp://127.0.0.1:1: no Dask scheduler answered within 1 s") and "\n" not in said
 
 
+@pytest.mark.parametrize("argv", [["defaults", "--hidden", "10"], ["defaults", "--vehicle", "cubesat_6u",
+                                                                    "--loss", "huber", "--window", "150"]])
+def test_the_networks_design_options_are_only_for_the_set_trained_for_service(argv, capsys):
+    from rw_fdi_ros.cli import main
+    assert main(argv) == 2
+    said = capsys.readouterr().err.strip()
+    assert said.startswith("rw-fdi: error: --") and "only with --service" in said and "\n" not in said
+
+
 def test_screen_json_and_table_give_the_counts_and_one_row_a_run(tmp_path, capsys):
     """`screen --json` prints the counts per scenario and observer; `--table` writes one CSV row per run with
     each observer's verdict and the identification (issue 38: every run is a row)."""

@@ -57,6 +57,26 @@ def test_training_learns_a_wheel_like_response():
         assert w.w_hh.shape == (25, 25)
 
 
+def test_the_design_choices_size_and_loss():
+    """`defaults --service --hidden N --loss huber`: the network has N hidden units, and the Huber loss is the
+    squared error within HUBER_DELTA of the scaled torque and linear beyond (its first epoch's value checked
+    against that, from the same start as the squared error's)."""
+    from rw_fdi_ros.tools.design.train import HUBER_DELTA
+    rng = np.random.default_rng(6)
+    u = np.repeat(rng.uniform(-3, 3, (3, 10)), 10, axis=1)
+    r = np.cumsum(-0.004 * np.diff(u, axis=1, prepend=0.0), axis=1)
+    w, mse = train_axis(u, r, mode="recall", epochs=2, hidden=10)
+    assert w.w_hh.shape == (10, 10) and w.w_ih.shape == (10, 2)
+    _, huber = train_axis(u, r, mode="recall", epochs=2, hidden=10, loss="huber")
+    # the same start (seed 0): the first epoch's e from the squared error, e^2 mean = mse[0]
+    e_sq = mse[0]
+    assert huber[0] <= 0.5 * e_sq + 1e-12          # 0.5 e^2 within the band, less beyond it
+    assert torch.nn.functional.huber_loss(torch.tensor([2 * HUBER_DELTA]), torch.zeros(1),
+                                          delta=HUBER_DELTA).item() == pytest.approx(1.5 * HUBER_DELTA**2)
+    with pytest.raises(ValueError, match="loss 'l1': one of mse, huber"):
+        train_axis(u, r, mode="recall", epochs=1, loss="l1")
+
+
 def test_save_load_roundtrip_is_npz_without_pickle(tmp_path):
     w = weights()
     w.save(tmp_path / "m.npz", {"axis": "x"})

@@ -128,8 +128,8 @@ def test_an_unpowered_wheel_counts_until_it_comes_to_rest():
 
 def test_a_wheel_given_up_has_its_ripple_of_the_healthy_samples_phase():
     """Once its driver is off, the ripple is one regressor kappa w^T (Im p, Re p), w the healthy samples' fit and
-    kappa free (a current loss scales the ripple with the motor torque): checked against that fit done directly,
-    and the true ripple scaled by the limiter share leaves nothing."""
+    kappa within [0, KAPPA_MAX] (a current loss scales the ripple with the motor torque, down): checked against
+    that fit done directly, and the true ripple scaled by the limiter share leaves nothing."""
     ripple = (3e-3, -2e-3)
     before = wheel_rows("current_limiter", 1.0, n=20, seed=8, ripple=ripple)
     after = wheel_rows("current_limiter", 0.6, n=4, seed=9, ripple=tuple(0.6 * c for c in ripple))
@@ -145,8 +145,11 @@ def test_a_wheel_given_up_has_its_ripple_of_the_healthy_samples_phase():
     for k in (0, 200, 400, 600):        # limiter 1.0, 0.8, 0.6, 0.4
         share = idf.CURRENT_LIMITER_GRID[k]
         e = after[0] + (share * after[1] - after[2])
-        kappa = (z @ e) / (z @ z)
+        kappa = np.clip((z @ e) / (z @ z), 0.0, idf.KAPPA_MAX)
         assert rss[k] == pytest.approx(np.sum((e - kappa * z) ** 2), rel=1e-6, abs=1e-15)
+        if k in (0, 600):   # a wrong share would need an amplitude the wheel cannot have (-8 and 5 x its own)
+            free = (z @ e) / (z @ z)
+            assert not 0.0 <= free <= idf.KAPPA_MAX and rss[k] > np.sum((e - free * z) ** 2)
     assert rss[400] < 1e-20 and rss[0] > 1e-8
     sums.prior_on = False      # the four samples alone hold the ripple's two coefficients: less is left
     assert sums.rss()[0][0] < rss[0]

@@ -68,3 +68,40 @@ def test_a_node_interrupted_while_importing_ends_quietly():
         proc.kill()
     assert proc.returncode == 128 + signal.SIGINT, (proc.returncode, err[-2000:])
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err[-2000:]
+
+
+DONE_WRITER_LEAVES = """
+import time, rclpy
+from std_msgs.msg import Header
+from rw_fdi_ros.graph import runtime, topics as T
+rclpy.init(args=[])
+follower = runtime.GraphNode("follower")
+follower.follow_run_end(grace=1.0)
+plant = rclpy.create_node("plant")
+done = plant.create_publisher(Header, T.PLANT_DONE, T.LATCHED)
+executor = rclpy.executors.SingleThreadedExecutor()
+executor.add_node(follower)
+executor.add_node(plant)
+t0 = time.monotonic()
+while time.monotonic() - t0 < 4.0:   # the plant is there, and says nothing: the run goes on
+    executor.spin_once(timeout_sec=0.05)
+    assert not follower.run_ended(), "ended while the plant was there"
+plant.destroy_publisher(done)        # it leaves, its done lost
+t1 = time.monotonic()
+while not follower.run_ended() and time.monotonic() - t1 < 30.0:
+    executor.spin_once(timeout_sec=0.05)
+print("ended after", round(time.monotonic() - t1, 2) if follower.run_ended() else None, flush=True)
+"""
+
+
+def test_a_node_whose_done_never_comes_ends_once_the_plant_has_left():
+    """The launch test's pid_controller that never exited: the plant's /plant/done lost on a loaded machine
+    (its writer gone before this reader acknowledged it) must not keep a node, and `ros2 launch`, waiting."""
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(150 + os.getpid() % 60))
+    done = subprocess.run([sys.executable, "-c", DONE_WRITER_LEAVES], capture_output=True, text=True, timeout=90,
+                          env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    ended = done.stdout.split("ended after", 1)[1].strip()
+    assert ended != "None", done.stderr[-2000:]
+    assert 1.0 <= float(ended) < 5.0, ended   # its grace after the writer left, looked at once a second
+    assert "its writer left without this node hearing it" in done.stderr

@@ -65,8 +65,12 @@ CORRELATION = 10.0     # interval widening for serially correlated 1 s samples
 SIGMA_FLOOR = 5e-5
 MIN_SAMPLES = 5
 # driven samples a current loss needs to be told from a bus drop once its driver is off: one for the family's
-# parameter, one for the ripple's amplitude, one to tell them apart
-MIN_DRIVEN = 3
+# parameter, one to tell them apart (the ripple's amplitude is bounded, KAPPA_MAX, and takes none; 3 with it
+# free; chosen on the tuning seeds: docs/fdir.md)
+MIN_DRIVEN = 2
+# the ripple's amplitude once a wheel's driver is off, in units of its healthy samples' (set_ripple_prior): a
+# current loss or a bus drop scales the real ripple down (kappa <= 1); twice, for the scatter of that estimate
+KAPPA_MAX = 2.0
 FREE_UNIT_SHARE = 1e-3   # of the floor^2: a ridge only, the unit's shares all but free (noise estimate)
 
 
@@ -294,7 +298,9 @@ class ProfileSums:
             r_k = r^_k(theta) + kappa w^T (Im p_k, Re p_k) + e_k,
 
         as p is the nominal motor torque's phasor and a current loss or a bus drop scales the real one (kappa in
-        [0, 1]; the healthy wheel 1). Fewer than four samples, or a ripple they cannot resolve, set nothing."""
+        [0, 1]; the healthy wheel 1): it is held within [0, KAPPA_MAX] (a prior of that scale on a unit), else a
+        few driven samples' misfit went into an amplitude hundreds of times the wheel's. Fewer than four
+        samples, or a ripple they cannot resolve, set nothing."""
         e = np.asarray(errors, float)
         p = np.asarray(ripple_phasors, complex)
         x = np.column_stack([p.imag, p.real, np.ones(e.size)])
@@ -364,11 +370,17 @@ class ProfileSums:
             if not ripple:
                 return np.maximum(sq, 0.0)
             c = cross[..., :nr]
+            if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
+                g = float(ripple_gram.reshape(-1)[0])
+                kappa = np.clip(c[..., 0] / g, 0.0, KAPPA_MAX)
+                return np.maximum(sq - 2.0 * kappa * c[..., 0] + kappa * kappa * g, 0.0)
             return np.maximum(sq - np.einsum("hij,hij->hi", c @ np.linalg.inv(ripple_gram), c), 0.0)
         width = gram.shape[-1]
         keep = slice(0, width) if ripple else slice(nr, width)
         penalty = np.zeros((width, width))
         penalty[nr:, nr:] = noise_variance * np.linalg.inv(self.unit.covariance + 1e-12 * np.eye(4))
+        if nr == 1:   # its driver off: kappa held to its scale by a prior N(0, KAPPA_MAX^2)
+            penalty[0, 0] = noise_variance / KAPPA_MAX**2
         # one (k, k) inverse per grid point serves all its ramps: c^T (G + Pi)^-1 c as batched products,
         # five times faster than a solve per ramp
         inverse = np.linalg.inv((gram + penalty)[:, keep, keep])        # (grid, k, k)

@@ -78,15 +78,19 @@ class GraphNode(Node):
         last stamp (``self.last_handled``): the done stamp itself, or with ``period`` the last
         multiple of it. ``grace`` wall seconds after done is only a safety net. Parameter
         ``end_with_run`` false keeps the node for the next run (bag replay of many runs through one
-        graph); whoever started it stops it."""
+        graph); whoever started it stops it. A done that never arrives (its writer gone before this reader
+        acknowledged it, on a loaded machine) ends the node ``grace`` seconds after the writer left."""
         from std_msgs.msg import Header
         from . import topics as T
         from .convert import stamp_ns
         self.last_handled = -1
         self._run_end = None
+        self._done_writer = None   # (seen, gone since [monotonic s] or None, next look [monotonic s])
         self.declare_parameter("end_with_run", True)
         if not self.param("end_with_run"):
             return
+        self._done_writer = [False, None, 0.0]
+        self._run_end_grace = grace
 
         period_ns = int(round(period * 1e9))
 
@@ -99,7 +103,33 @@ class GraphNode(Node):
 
     def run_ended(self) -> bool:
         end = getattr(self, "_run_end", None)
-        return end is not None and (self.last_handled >= end[0] or time.monotonic() > end[1])
+        if end is None:
+            return self._done_writer_left()
+        return self.last_handled >= end[0] or time.monotonic() > end[1]
+
+    def _done_writer_left(self) -> bool:
+        """Whether the writer of /plant/done (the plant, the player) was here and has been gone ``grace``
+        seconds without this node hearing its done: nothing more will come. Looked at once a second."""
+        watch = getattr(self, "_done_writer", None)
+        now = time.monotonic()
+        if watch is None:
+            return False
+        if watch[1] is not None and now - watch[1] > self._run_end_grace:
+            return True
+        if now < watch[2]:
+            return False
+        from . import topics as T
+        watch[2] = now + 1.0
+        if self.count_publishers(relative(T.PLANT_DONE)) > 0:
+            watch[0], watch[1] = True, None
+            return False
+        if not watch[0]:
+            return False
+        if watch[1] is None:
+            watch[1] = now
+            self.get_logger().warn(f"{T.PLANT_DONE}: its writer left without this node hearing it; ending "
+                                   f"{self._run_end_grace:.0f} s after")
+        return now - watch[1] > self._run_end_grace
 
     def finish(self, code: int = EXIT_OK, message: str = ""):
         if self.exit_code is None:

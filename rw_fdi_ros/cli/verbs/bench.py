@@ -21,9 +21,9 @@ def _options() -> dict:
 
     option("--service-runs", type=COUNT, default=1000,
            help="service: in-service runs, each drawn from its seed (default 1000)")
-    option("--given-up-runs", type=COUNT, default=300,
+    option("--given-up-runs", type=number(int, 0), default=300,
            help="service: seeds whose faulty draws run with FDIR giving up every wheel it confirms, for the "
-                "identification of a wheel given up (default 300: about 200 runs)")
+                "identification of a wheel given up (default 300: about 200 runs; 0: none)")
     option("--max-hours", type=number(float, 0, 6, low_open=True), default=None,
            help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h); scaling: "
                 "the same (default 0.25)")

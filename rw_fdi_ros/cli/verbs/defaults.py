@@ -32,9 +32,19 @@ def add_arguments(parser) -> None:
                         help="with --vehicle: runs of drawn wheel units the calibrated bands are fitted on")
     parser.add_argument("--epochs", type=COUNT, default=None,
                         help="speed-aware set (default 1000; the thesis set: 300)")
+    parser.add_argument("--hidden", type=COUNT, default=None,
+                        help="with --service: the network's hidden units (default 25, the thesis')")
+    parser.add_argument("--window", type=COUNT, default=None,
+                        help="with --service: the training window in FDI samples (default 300: two of a 600-s run)")
+    parser.add_argument("--loss", choices=["mse", "huber"], default=None,
+                        help="with --service: the training loss (default mse, the thesis')")
 
 
 def main(args) -> int:
+    if args.service is None:
+        given = [f"--{k}" for k in ("hidden", "window", "loss") if getattr(args, k) is not None]
+        if given:
+            raise ValueError(f"{', '.join(given)} only with --service (the set trained for service)")
     if args.vehicle is not None:
         return _vehicle(args)
     if args.service is not None:
@@ -73,7 +83,9 @@ def _service(args) -> int:
     from ...tools.design.service_training import service_defaults
     out = args.out or f"fdi_service_{args.service}"
     report = service_defaults(out, train_runs=args.train_runs, fit_runs=args.fit_runs, units=args.service,
-                              epochs=args.epochs or 1000, executor=executor(args))
+                              epochs=args.epochs or 1000, executor=executor(args),
+                              **{k: getattr(args, k) for k in ("hidden", "window", "loss")
+                                 if getattr(args, k) is not None})
     print(f"service-trained FDI in {out} ({report['seconds'] / 60:.1f} min): one network of the wheel type on "
           + ", ".join(f"{n} windows of {a}" for a, n in report["windows"].items())
           + "; kappa " + ", ".join(f"{a} {k:.3f}" for a, k in report["uncertainty_gain"].items()))

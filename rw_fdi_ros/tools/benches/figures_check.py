@@ -133,6 +133,8 @@ FIGURES = [
            lambda r: r["figures"]["given_up"]["kind_right"]),
     Figure("**in service**", "kind or the drive named, wheel given up", "service",
            lambda r: r["figures"]["given_up"]["kind_narrowed"]),
+    Figure("**in service**", "kind identified where the physics tells it, wheel given up", "service",
+           lambda r: r["figures"]["given_up"]["kind_right_told_apart"]),
     Figure("**in service**", "reconfigurations without a fault, 600-s runs", "service",
            lambda r: r["figures"]["reconfigured_fault_free_600s"]),
     Figure("**every observer in service**", "Elman trained for service: the faulty wheel and no other alarmed",

@@ -11,7 +11,8 @@ samples. As all the wheels of a set are of one type, one network is trained on e
 pooled (a type network) and each wheel of the set runs it, its kappa measured on its own windows.
 
 Design choices (compared on the family's tuning seeds, docs/fdi.md "Learned observers in service"):
-the training runs' wheels (``units``: datasheet only, or the family's mix of units and datasheet).
+what it learns (r, or the nominal model's error), the training runs' wheels (``units``: datasheet only, or
+the family's mix of units and datasheet), the hidden units, the window and the loss.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.elman import standby
+from ...core.elman import HIDDEN, standby
 from ...core.vehicle import DEFAULT_VEHICLE
 
 WINDOW = 300            # [FDI samples] a training window: two of each 600-s run
@@ -86,11 +87,11 @@ def healthy_windows(draw, samples, length: int = WINDOW) -> dict:
     return out
 
 
-def _pooled(runs) -> tuple:
-    """(windows by wheel, pooled arrays (windows, WINDOW) of tcv, torque, speed) of ``runs``."""
+def _pooled(runs, window: int = WINDOW) -> tuple:
+    """(windows by wheel, pooled arrays (windows, window) of tcv, torque, speed) of ``runs``."""
     by_wheel = {}
     for d, s in runs:
-        for wheel, windows in healthy_windows(d, s).items():
+        for wheel, windows in healthy_windows(d, s, window).items():
             by_wheel.setdefault(wheel, []).extend(windows)
     pooled = [w for windows in by_wheel.values() for w in windows]
     return by_wheel, tuple(np.stack([w[j] for w in pooled]) for j in (0, 1, 2, 4))   # tcv, torque, speed, model
@@ -105,15 +106,17 @@ class _Window:
 
 
 def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, units: str = "mixed",
-                       model_error: bool = True) -> dict:
+                       model_error: bool = True, hidden: int = HIDDEN, window: int = WINDOW,
+                       loss: str = "mse") -> dict:
     """One network for the wheel type on every wheel's healthy windows of ``train_runs`` pooled, saved as each
     wheel of ``names``' (its kappa from its own windows, or the largest where it has none); the card.
     ``model_error``: it learns the nominal model's error r - r_model (a grey box: its estimate r_model plus its
-    output), else r itself."""
+    output), else r itself; ``hidden``, ``window`` and ``loss`` as train.train_axis and healthy_windows."""
     from .train import train_axis, uncertainty_gain
     t0 = time.monotonic()
-    by_wheel, (u, r, w, m) = _pooled(train_runs)
-    weights, losses = train_axis(u, r - m if model_error else r, "recall", epochs, seed=seed, wheel_speed=w)
+    by_wheel, (u, r, w, m) = _pooled(train_runs, window)
+    weights, losses = train_axis(u, r - m if model_error else r, "recall", epochs, seed=seed, wheel_speed=w,
+                                 hidden=hidden, loss=loss)
     weights.model_error = model_error
     kappas = {}
     for wheel in names:
@@ -125,7 +128,8 @@ def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, u
     out_dir.mkdir(parents=True, exist_ok=True)
     card = {"mode": "recall", "speed_aware": True, "epochs": epochs, "training": "service",
             "learns": "the nominal model's error r - r_model" if model_error else "r",
-            "units": units, "window": WINDOW, "seeds": sorted({d.seed for d, _ in train_runs}),
+            "units": units, "window": window, "hidden": hidden, "loss": loss,
+            "seeds": sorted({d.seed for d, _ in train_runs}),
             "windows": {a: len(v) for a, v in by_wheel.items()}, "wheels": list(names),
             "type_network": "one network trained on every wheel's healthy windows pooled", "axes": {},
             "final_loss": losses[-1]}
@@ -164,21 +168,25 @@ def fit_service_bands(fit_runs, fit_unit_runs, out_dir) -> dict:
 
 
 def service_defaults(out, train_runs: int = 60, fit_runs: int = 100, units: str = "mixed", epochs: int = 1000,
-                     executor=None, fit=None, model_error: bool = True) -> dict:
+                     executor=None, fit=None, model_error: bool = True, hidden: int = HIDDEN,
+                     window: int = WINDOW, loss: str = "mse") -> dict:
     """A speed-aware FDI directory trained and fitted for service from nothing (`rw-fdi defaults --service`):
     the type network on ``train_runs`` family draws (seeds from SEEDS['train'], wheels as ``units`` says), every
     observer's bands on ``fit_runs`` fault-free 600-s family runs of datasheet wheels and as many of units
-    calibrated 150 s (seeds from SEEDS['fit'] and +10,000); ``fit``: those fitting runs, already flown. The
-    report (seeds, windows, kappa, bands) -> out/service_report.json."""
+    calibrated 150 s (seeds from SEEDS['fit'] and +10,000); ``fit``: those fitting runs, already flown;
+    ``hidden``, ``window``, ``loss``: the network's design (train_type_network). The report (seeds, windows,
+    kappa, bands) -> out/service_report.json."""
     t0 = time.monotonic()
     base = SEEDS["fit"]
     fit = fit or (family_runs(range(base, base + fit_runs), "datasheet", True, executor, "fitting runs, datasheet"),
                   family_runs(range(base + 10_000, base + 10_000 + fit_runs), "units", True, executor,
                               "fitting runs, units"))
     train = family_runs(range(SEEDS["train"], SEEDS["train"] + train_runs), units, False, executor, "training runs")
-    card = train_type_network(train, out, tuple(fit[0][0][1].wheels), epochs, units=units, model_error=model_error)
+    card = train_type_network(train, out, tuple(fit[0][0][1].wheels), epochs, units=units, model_error=model_error,
+                              hidden=hidden, window=window, loss=loss)
     bands = fit_service_bands(*fit, out)
     report = {"command": "rw-fdi defaults --service", "units": units, "epochs": epochs, "model_error": model_error,
+              "hidden": hidden, "window": window, "loss": loss,
               "train_seeds": [SEEDS["train"], SEEDS["train"] + train_runs - 1],
               "fit_seeds": {"datasheet": [base, base + fit_runs - 1],
                             "units": [base + 10_000, base + 10_000 + fit_runs - 1]},

@@ -1,0 +1,140 @@
+"""Whether the physics can tell a current loss from a bus drop on a wheel's driven samples.
+
+Both faults act only through the motor current (core/wheel.motor_current): a current loss scales the
+bridge current, I = c I_B(u, Omega), and a bus drop caps it, I = min(I_B(u, Omega), I_emf(V_bus, Omega)) in
+the motoring quadrant (eqs. 2.9-2.14). At one operating point, u and Omega alike in every sample, a share
+and a cap give the same current, and nothing the wheel shows can say which it was; only samples at
+several commands or speeds can. A wheel given up (its driver off) shows no current at all from then on,
+so what its few driven samples hold is all there is.
+
+This asks the physics, not the identifier: the true fault's noise-free motor torque on the driven
+samples against the other family's closest: healthy up to a sample j of its own (any), from there its
+parameter free to ramp linearly over the samples left, as a fault may,
+
+    D = min_{j, theta_a, theta_b} [ sum_{k<j} (k_t I_other(u_k, Omega_k; healthy) - k_t I_k)^2
+          + sum_{k>=j} (k_t I_other(u_k, Omega_k; theta_a + (theta_b - theta_a) s_k) - k_t I_k)^2 ] / sigma^2,
+    s_k = (t_k - t_j) / (t_n - t_j),
+
+with sigma the identifier's noise floor for the wheel type (identification.SIGMA_FLOOR times
+wheel.torque_scale). The identifier names one of them where
+its margin reaches identification.DECISIVE (25); on noisy samples that margin scatters about D, so the two
+are told apart where it does so in 95 % of runs, D >= TOLD_APART = (5 + 1.645)^2 = 44. The commutation
+ripple is left out: its mean over a 1-s FDI sample at the speeds of service is (B/2) tau_m times at most
+2 / (N Omega T), a few 1e-6 N m, which moves sqrt(D) by well under one per sample.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from . import wheel as wm
+from .identification import DECISIVE, SIGMA_FLOOR
+
+# where the search starts: every ramp between two values of a coarse grid, then refined by least squares
+# (geometric: dense near the healthy value, where a small fault's torque is steep in its parameter)
+_GRIDS = {"current_loss": 1.0 - np.geomspace(1e-4, 1.0, 48), "bus_voltage": 8.0 - np.geomspace(1e-3, 6.5, 48)}
+HEALTHY = {"current_loss": wm.NOMINAL.current_limiter, "bus_voltage": wm.NOMINAL.bus_voltage}   # Table 2.3
+# each family's range, the identifier's grids' (identification.CURRENT_LIMITER_GRID, BUS_VOLTAGE_GRID)
+_BOUNDS = {"current_loss": (0.0, 1.0), "bus_voltage": (1.5, HEALTHY["bus_voltage"])}
+# D at which the identifier's margin reaches DECISIVE in 95 % of runs (one-sided normal quantile 1.645)
+TOLD_APART = (np.sqrt(DECISIVE) + 1.645) ** 2
+REFINED = 8         # the best starts (a beginning and a ramp) refined by least squares
+
+
+def _shares(t):
+    """s_k = (t_k - t_0) / (t_n - t_0): where a ramp over the samples is at each (0 for one sample)."""
+    span = t[-1] - t[0]
+    return (t - t[0]) / span if span > 0 else np.zeros_like(t)
+
+
+def _ramps(table, truth, t) -> tuple:
+    """(rss (G, G) of every ramp from grid value a to grid value b over the samples, rounded to the grid in
+    between; the best (a, b)) of ``table`` (n, G) torques against ``truth`` (n,)."""
+    g = table.shape[1]
+    s, rows, ends = _shares(t), np.arange(len(truth)), np.arange(g)
+    rss = np.empty((g, g))
+    for a in range(g):
+        idx = np.rint(a + (ends[:, None] - a) * s[None, :]).astype(int)
+        rss[a] = ((table[rows[None, :], idx] - truth[None, :]) ** 2).sum(axis=1)
+    return rss, np.unravel_index(int(rss.argmin()), rss.shape)
+
+
+def drive_current(kind: str, tcv, wheel_speed, value, params: wm.WheelParams = wm.WheelParams()):
+    """Motor current [A] of a wheel with a ``kind`` fault ('current_loss': limiter share, 'bus_voltage':
+    bus [V]) of ``value`` at commands ``tcv`` [V] and speeds ``wheel_speed`` [rad/s] (broadcasting)."""
+    if kind == "current_loss":
+        return wm.motor_current(tcv, wheel_speed, HEALTHY["bus_voltage"], value, params)
+    if kind == "bus_voltage":
+        return wm.motor_current(tcv, wheel_speed, value, 1.0, params)
+    raise ValueError(f"{kind!r} is not a drive fault (current_loss, bus_voltage)")
+
+
+def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
+                        params: wm.WheelParams = wm.WheelParams(), period: float | None = None) -> float:
+    """D of the module docstring: how far the closest fault of the other drive family stays from a ``kind``
+    fault of ``values`` (its parameter at each sample, a ramp included) on samples (``tcv`` [V],
+    ``wheel_speed`` [rad/s], ``times`` [s], ascending), in units of the identifier's noise floor squared (the
+    wheel type's); inf
+    without samples. With ``period`` [s] the samples are the control steps and D is taken on their means
+    over each FDI period (the sample stamped k period the mean of the steps after (k - 1) period up to it),
+    what the FDI sees; without, each sample is one FDI sample."""
+    u, w, t, v = (np.asarray(x, float).ravel() for x in (tcv, wheel_speed, times, values))
+    if u.size == 0:
+        return float("inf")
+    kt = params.torque_constant
+    sigma = SIGMA_FLOOR * wm.torque_scale(params)   # the identifier's floor for this wheel type
+    # where each FDI sample's steps begin in the arrays, and its mean
+    first = (np.flatnonzero(np.diff(np.ceil(t / period - 1e-9), prepend=-np.inf)) if period
+             else np.arange(u.size))
+    count = np.diff(np.append(first, u.size))
+
+    def mean(x):
+        return np.add.reduceat(x, first, axis=0) / count.reshape((-1,) + (1,) * (x.ndim - 1))
+    truth = mean(kt * drive_current(kind, u, w, v, params))
+    other = "bus_voltage" if kind == "current_loss" else "current_loss"
+    grid, low, high = _GRIDS[other], *_BOUNDS[other]
+    healthy = mean(kt * drive_current(other, u, w, HEALTHY[other], params))
+    before = np.concatenate([[0.0], np.cumsum((healthy - truth) ** 2)])   # the healthy wheel's misfit up to j
+    n, sample_t = truth.size, mean(t)
+
+    def misfit(j, x):
+        """(FDI-sample torques of the ramp x = (theta_a, theta_b) from sample j on - truth) / sigma."""
+        c = first[j]
+        theta = np.clip(x[0] + (x[1] - x[0]) * _shares(t[c:]), low, high)
+        torque = np.add.reduceat(kt * drive_current(other, u[c:], w[c:], theta, params), first[j:] - c)
+        return (torque / count[j:] - truth[j:]) / sigma
+
+    starts = {}   # j -> [(misfit, (theta_a, theta_b))]: where a search from j begins
+    # 1. each sample's own parameter (the one that gives its torque exactly, on a fine grid) and how steep the
+    # torque is in it there; a line through them, weighted by the steepness, from every j
+    fine = np.linspace(low, high, 1001)
+    torques = mean(kt * drive_current(other, u[:, None], w[:, None], fine[None, :], params))      # (n, F)
+    at = np.abs(torques - truth[:, None]).argmin(axis=1)
+    own = fine[at]
+    slope = np.abs(torques[np.arange(n), np.minimum(at + 1, fine.size - 1)]
+                   - torques[np.arange(n), np.maximum(at - 1, 0)]) / (2 * (fine[1] - fine[0]))
+    for j in range(n):
+        sj, weight = _shares(sample_t[j:]), slope[j:] ** 2
+        x = np.column_stack([1.0 - sj, sj]) * np.sqrt(weight)[:, None]
+        line = np.linalg.lstsq(x, own[j:] * np.sqrt(weight), rcond=None)[0] if weight.sum() > 0 else own[[j, -1]]
+        starts[j] = [(before[j] / sigma**2 + float((misfit(j, line) ** 2).sum()), tuple(line))]
+    # 2. every ramp between two values of a coarse grid (rounded to the grid in between)
+    table = mean(kt * drive_current(other, u[:, None], w[:, None], grid[None, :], params))   # (n, G)
+    for j in range(n):
+        rss, (a, b) = _ramps(table[j:], truth[j:], sample_t[j:])
+        starts[j].append(((before[j] + float(rss[a, b])) / sigma**2, (grid[a], grid[b])))
+    best = min(m for cands in starts.values() for m, _ in cands)
+    # 3. least squares from the best starts, exact
+    ranked = sorted(((m, j, x) for j, cands in starts.items() for m, x in cands), key=lambda c: c[0])
+    for _, j, x in ranked[:REFINED]:
+        fit = least_squares(lambda y, j=j: misfit(j, y), np.clip(x, low, high), bounds=(low, high),
+                            x_scale=(high - low) / 100)
+        best = min(best, before[j] / sigma**2 + float((misfit(j, fit.x) ** 2).sum()))
+    return best
+
+
+def told_apart(misfit: float) -> bool:
+    """Whether a drive fault whose other family stays ``misfit`` (D) away is told from it: with noise at the
+    floor the identifier's margin is about (sqrt(D) + z)^2, z standard normal, so it reaches DECISIVE in 95 %
+    of runs where D >= TOLD_APART."""
+    return bool(misfit >= TOLD_APART)
