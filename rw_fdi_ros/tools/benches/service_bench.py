@@ -590,7 +590,8 @@ def format_service(report: dict) -> str:
                       f"| kind right where the physics tells it (temperature, and drive faults told apart) | "
                       f"{format_rate(g['kind_right_told_apart'])} | >= 95 % |",
                       f"| kind right, drive faults told apart | {format_rate(g['drive_right_told_apart'])} | |",
-                      f"| 'current loss or bus drop' said, drive faults the physics does not tell apart | "
+                      f"| 'current loss or bus drop' said (or the kind named right), drive faults the physics does "
+                      f"not tell apart | "
                       f"{format_rate(g['drive_said_not_told_apart'])} | said |"]
         lines += [
                   f"| a wrong kind named | {g.get('kind_wrong', '-')} of {g['given_up']} | 0 |",
