@@ -97,3 +97,16 @@ def test_control_steps_are_compared_as_the_fdi_samples_they_make():
     at_means = other_family_misfit("bus_voltage", np.full(4, 3.0), np.full(4, 25.0), np.arange(1.0, 5.0),
                                    np.full(4, 5.0))
     assert at_means < 1.0 and told_apart(inside)
+
+
+def test_a_latent_bus_drop_is_a_current_loss_beginning_where_the_command_rises():
+    # a bus at 5.2 V caps nothing at 1.4 V and 25 rad/s; the command rises to 5 V at 2.3 s, inside an FDI sample,
+    # and from then on the cap gives 0.28 A: a current loss beginning at that control step, share 0.28 / 0.95,
+    # gives every step the same current, so nothing tells them apart (onsets on a sample's edge only: D = 459)
+    t = np.round(np.arange(0.1, 6.05, 0.1), 6)
+    u, w, bus = np.where(t > 2.3 + 1e-9, 5.0, 1.4), np.full(t.size, 25.0), np.full(t.size, 5.2)
+    assert drive_current("bus_voltage", 1.4, 25.0, 5.2) == drive_current("bus_voltage", 1.4, 25.0, 8.0)
+    assert other_family_misfit("bus_voltage", u, w, t, bus, period=1.0) < 1.0
+    # a command that moves under the cap after it (3 V for a sample) tells them apart again
+    u[(t > 4.0) & (t <= 5.0)] = 3.0
+    assert told_apart(other_family_misfit("bus_voltage", u, w, t, bus, period=1.0))

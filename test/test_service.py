@@ -127,3 +127,32 @@ def test_the_family_flies_another_vehicle_with_its_wheels_and_its_fdi():
     s = sb.scenario(draws[0])
     assert s.spacecraft.name == "microsat_pyramid" and s.wheel_set().name == "pyramid"
     assert sb.fdir_for(False, vehicle="microsat_pyramid").curves.plant["vehicle"] == "microsat_pyramid"
+
+
+def test_a_report_re_identified_keeps_every_act_and_refuses_a_record_that_moved(tmp_path):
+    """`bench service --reidentify`: after a change to the identifier the runs with an identification and the
+    given-up runs are simulated again and the rest kept; FDIR does not read the identifier, so a re-simulated
+    run that acts otherwise than its record means more changed, and is refused, the report left as it was."""
+    import json
+    import pytest
+    report = sb.bench_service(runs=1, seeds="net", out=tmp_path, max_hours=0.15, fault_free_runs=0, given_up_runs=0)
+    flight = [r for r in report["runs"] if "identification" in r and not r["give_up"]]
+    assert flight and flight[0]["identification"]["kind"] == "current_loss"
+    again = sb.reidentify(tmp_path)
+    def text(figures):   # NaN intervals of empty rates compare equal as text
+        return json.dumps(figures, sort_keys=True, default=float)
+    assert text(again["figures"]) == text(report["figures"])
+    assert "--reidentify" in again["rejudged"] and "--reidentify" in (tmp_path / "service.md").read_text()
+    record = json.loads((tmp_path / "service.json").read_text())
+    moved = next(r for r in record["runs"] if r["seed"] == flight[0]["seed"] and not r["give_up"])
+    moved["decisions"] = [[t, w, a, "worded otherwise"] for t, w, a, _ in moved["decisions"]]   # only the words
+    moved["worst_deg"] *= 1.0 + 1e-13   # and the last bits, which the runs batched beside it move
+    (tmp_path / "service.json").write_text(json.dumps(record))
+    assert text(sb.reidentify(tmp_path)["figures"]) == text(again["figures"])
+    record = json.loads((tmp_path / "service.json").read_text())
+    moved = next(r for r in record["runs"] if r["seed"] == flight[0]["seed"] and not r["give_up"])
+    moved["decisions"] = moved["decisions"][1:] + [[1.0, "s", "out_of_use", "moved"]]
+    (tmp_path / "service.json").write_text(json.dumps(record))
+    with pytest.raises(sb.RecordMismatch, match=f"1 runs act .*seed {flight[0]['seed']}: acts"):
+        sb.reidentify(tmp_path)
+    assert json.loads((tmp_path / "service.json").read_text()) == record

@@ -9,7 +9,9 @@ so what its few driven samples hold is all there is.
 
 This asks the physics, not the identifier: the true fault's noise-free motor torque on the driven
 samples against the other family's closest: healthy up to a sample j of its own (any), from there its
-parameter free to ramp linearly over the samples left, as a fault may,
+parameter free to ramp linearly over the samples left, as a fault may (j may also be any control step of the
+sample the true fault first shows in: faults do not begin on a sample's edge, and a latent bus drop shows
+where the command rises, as a current loss beginning at that step would),
 
     D = min_{j, theta_a, theta_b} [ sum_{k<j} (k_t I_other(u_k, Omega_k; healthy) - k_t I_k)^2
           + sum_{k>=j} (k_t I_other(u_k, Omega_k; theta_a + (theta_b - theta_a) s_k) - k_t I_k)^2 ] / sigma^2,
@@ -39,6 +41,7 @@ _BOUNDS = {"current_loss": (0.0, 1.0), "bus_voltage": (1.5, HEALTHY["bus_voltage
 # D at which the identifier's margin reaches DECISIVE in 95 % of runs (one-sided normal quantile 1.645)
 TOLD_APART = (np.sqrt(DECISIVE) + 1.645) ** 2
 REFINED = 8         # the best starts (a beginning and a ramp) refined by least squares
+SHOWS = 0.1         # [floors] a control step's torque off the healthy wheel's by more: the fault shows
 
 
 def _shares(t):
@@ -74,10 +77,14 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
     """D of the module docstring: how far the closest fault of the other drive family stays from a ``kind``
     fault of ``values`` (its parameter at each sample, a ramp included) on samples (``tcv`` [V],
     ``wheel_speed`` [rad/s], ``times`` [s], ascending), in units of the identifier's noise floor squared (the
-    wheel type's); inf
-    without samples. With ``period`` [s] the samples are the control steps and D is taken on their means
-    over each FDI period (the sample stamped k period the mean of the steps after (k - 1) period up to it),
-    what the FDI sees; without, each sample is one FDI sample."""
+    wheel type's); inf without samples.
+
+    With ``period`` [s] the samples are the control steps and D is taken on their means over each FDI period
+    (the sample stamped k period the mean of the steps after (k - 1) period up to it), what the FDI sees;
+    without, each sample is one FDI sample. The other family begins at the first step of any FDI sample, or
+    at any step of the sample the fault first shows in: a fault does not begin on a sample's edge, and a
+    latent one (a bus drop shows once the wheel needs the voltage) first shows where the command rises,
+    inside a sample, as a current loss beginning at that step would."""
     u, w, t, v = (np.asarray(x, float).ravel() for x in (tcv, wheel_speed, times, values))
     if u.size == 0:
         return float("inf")
@@ -87,24 +94,33 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
     first = (np.flatnonzero(np.diff(np.ceil(t / period - 1e-9), prepend=-np.inf)) if period
              else np.arange(u.size))
     count = np.diff(np.append(first, u.size))
+    sample_of = np.repeat(np.arange(first.size), count)      # step -> its FDI sample
 
     def mean(x):
         return np.add.reduceat(x, first, axis=0) / count.reshape((-1,) + (1,) * (x.ndim - 1))
-    truth = mean(kt * drive_current(kind, u, w, v, params))
+    truth_steps = kt * drive_current(kind, u, w, v, params)
+    truth = mean(truth_steps)
     other = "bus_voltage" if kind == "current_loss" else "current_loss"
     grid, low, high = _GRIDS[other], *_BOUNDS[other]
-    healthy = mean(kt * drive_current(other, u, w, HEALTHY[other], params))
+    healthy_steps = kt * drive_current(other, u, w, HEALTHY[other], params)
+    healthy = mean(healthy_steps)
     before = np.concatenate([[0.0], np.cumsum((healthy - truth) ** 2)])   # the healthy wheel's misfit up to j
     n, sample_t = truth.size, mean(t)
 
-    def misfit(j, x):
-        """(FDI-sample torques of the ramp x = (theta_a, theta_b) from sample j on - truth) / sigma."""
-        c = first[j]
+    def misfit(c, x):
+        """(FDI-sample torques, healthy before step c, the ramp x = (theta_a, theta_b) from it on - truth) /
+        sigma, from c's sample on."""
+        j = sample_of[c]
         theta = np.clip(x[0] + (x[1] - x[0]) * _shares(t[c:]), low, high)
-        torque = np.add.reduceat(kt * drive_current(other, u[c:], w[c:], theta, params), first[j:] - c)
+        torque = np.add.reduceat(kt * drive_current(other, u[c:], w[c:], theta, params),
+                                 np.maximum(first[j:] - c, 0))
+        torque[0] += healthy_steps[first[j]:c].sum()
         return (torque / count[j:] - truth[j:]) / sigma
 
-    starts = {}   # j -> [(misfit, (theta_a, theta_b))]: where a search from j begins
+    def cost(c, x):
+        return before[sample_of[c]] / sigma**2 + float((misfit(c, x) ** 2).sum())
+
+    starts = {}   # j -> [(misfit, (theta_a, theta_b))]: where a search from sample j begins
     # 1. each sample's own parameter (the one that gives its torque exactly, on a fine grid) and how steep the
     # torque is in it there; a line through them, weighted by the steepness, from every j
     fine = np.linspace(low, high, 1001)
@@ -117,19 +133,24 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
         sj, weight = _shares(sample_t[j:]), slope[j:] ** 2
         x = np.column_stack([1.0 - sj, sj]) * np.sqrt(weight)[:, None]
         line = np.linalg.lstsq(x, own[j:] * np.sqrt(weight), rcond=None)[0] if weight.sum() > 0 else own[[j, -1]]
-        starts[j] = [(before[j] / sigma**2 + float((misfit(j, line) ** 2).sum()), tuple(line))]
+        starts[j] = [(cost(first[j], line), tuple(line))]
     # 2. every ramp between two values of a coarse grid (rounded to the grid in between)
     table = mean(kt * drive_current(other, u[:, None], w[:, None], grid[None, :], params))   # (n, G)
     for j in range(n):
         rss, (a, b) = _ramps(table[j:], truth[j:], sample_t[j:])
         starts[j].append(((before[j] + float(rss[a, b])) / sigma**2, (grid[a], grid[b])))
-    best = min(m for cands in starts.values() for m, _ in cands)
-    # 3. least squares from the best starts, exact
-    ranked = sorted(((m, j, x) for j, cands in starts.items() for m, x in cands), key=lambda c: c[0])
-    for _, j, x in ranked[:REFINED]:
-        fit = least_squares(lambda y, j=j: misfit(j, y), np.clip(x, low, high), bounds=(low, high),
+    candidates = [(m, first[j], x) for j, cands in starts.items() for m, x in cands]
+    # 3. the other family beginning inside the sample the fault first shows in, from that sample's starts
+    shows = np.flatnonzero(np.abs(truth_steps - healthy_steps) > SHOWS * sigma)
+    if shows.size:
+        j = sample_of[shows[0]]
+        candidates += [(cost(c, x), c, x) for c in range(first[j] + 1, first[j] + count[j]) for _, x in starts[j]]
+    best = min(m for m, _, _ in candidates)
+    # 4. least squares from the best starts, exact
+    for _, c, x in sorted(candidates, key=lambda c: c[0])[:REFINED]:
+        fit = least_squares(lambda y, c=c: misfit(c, y), np.clip(x, low, high), bounds=(low, high),
                             x_scale=(high - low) / 100)
-        best = min(best, before[j] / sigma**2 + float((misfit(j, fit.x) ** 2).sum()))
+        best = min(best, cost(c, fit.x))
     return best
 
 

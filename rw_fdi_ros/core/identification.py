@@ -71,6 +71,7 @@ MIN_DRIVEN = 2
 # the ripple's amplitude once a wheel's driver is off, in units of its healthy samples' (set_ripple_prior): a
 # current loss or a bus drop scales the real ripple down (kappa <= 1); twice, for the scatter of that estimate
 KAPPA_MAX = 2.0
+ONSET_HEALTHY = 4   # samples before a fault's onset its healthy fit needs (onset_index: a constant, the ripple)
 FREE_UNIT_SHARE = 1e-3   # of the floor^2: a ridge only, the unit's shares all but free (noise estimate)
 
 
@@ -222,9 +223,36 @@ _SLICES = dict(zip(KINDS, np.split(np.arange(sum(map(len, GRIDS.values()))),
 # more than the samples kept before an alarm) and the seconds from that sample to its end, so at ``elapsed``
 # seconds from the first sample phi = a + (1 - a) min(elapsed / D, 1). The step (phi = 1 throughout) is first.
 RAMP_START_SHARES = (0.0, 0.2, 0.4, 0.55, 0.7, 0.8, 0.9, 0.95)
-RAMP_SECONDS = (10.0, 20.0, 30.0, 45.0, 60.0, 90.0, 120.0, 160.0, 200.0, 250.0, 300.0, 400.0)
-RAMP_SHARE = np.array([1.0] + [a for a in RAMP_START_SHARES for _ in RAMP_SECONDS])
-RAMP_LENGTH = np.array([0.0] + [d for _ in RAMP_START_SHARES for d in RAMP_SECONDS])
+RAMP_SECONDS = (10.0, 15.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 105.0, 120.0, 135.0, 150.0, 165.0,
+                180.0, 200.0, 225.0, 250.0, 275.0, 300.0, 350.0, 400.0)
+# a slow ramp whose first tenth or so passed unseen before the first sample counted (a wheel held at one operating
+# point from its alarm on): between the step's 0 and 0.2, on the ramps of a minute and longer only, where a shorter
+# one would let a current loss mimic a bus ramp's few driven samples (chosen on the tuning seeds: docs/fdir.md)
+SLOW_START_SHARES = (0.03, 0.06, 0.1, 0.15)
+SLOW_SECONDS = 60.0
+_RAMPS = ([(a, d) for a in RAMP_START_SHARES for d in RAMP_SECONDS]
+          + [(a, d) for a in SLOW_START_SHARES for d in RAMP_SECONDS if d >= SLOW_SECONDS])
+RAMP_SHARE = np.array([1.0] + [a for a, _ in _RAMPS])
+RAMP_LENGTH = np.array([0.0] + [d for _, d in _RAMPS])
+
+
+def _ramp_neighbours() -> list:
+    """Ramp index -> the ramps next to it (itself included): at its length and the lengths either side, the
+    ramps of its share and of the shares either side of it there; the step (index 0) has none."""
+    lengths = sorted(set(RAMP_LENGTH[1:]))
+    out = [np.array([], int)]
+    for a, d in zip(RAMP_SHARE[1:], RAMP_LENGTH[1:]):
+        i, near = lengths.index(d), []
+        for length in lengths[max(i - 1, 0):i + 2]:
+            row = np.flatnonzero(RAMP_LENGTH == length)
+            row = row[np.argsort(RAMP_SHARE[row])]
+            k = int(np.searchsorted(RAMP_SHARE[row], a))
+            near += list(row[max(k - 1, 0):k + 1 + int(k < row.size and RAMP_SHARE[row][k] == a)])
+        out.append(np.unique(near))
+    return out
+
+
+_NEIGHBOURS = _ramp_neighbours()
 RAMP_NOTED_S = 30.0   # [s] a shorter ramp is reported as the step it all but is
 
 
@@ -550,12 +578,9 @@ def _interval(sizes, rss, s2, step, neighbours: bool = True) -> tuple:
     never narrower than the grid's own resolution (half a ``step`` either side) nor outside the grid."""
     inside = rss - rss.min() <= CHI2_95 * s2 * CORRELATION
     best = int(rss.min(axis=1).argmin())
-    if best and neighbours:
-        share, length = divmod(best - 1, len(RAMP_SECONDS))
-        for i in range(max(share - 1, 0), min(share + 2, len(RAMP_START_SHARES))):
-            for j in range(max(length - 1, 0), min(length + 2, len(RAMP_SECONDS))):
-                h = 1 + i * len(RAMP_SECONDS) + j
-                inside[h, rss[h].argmin()] = True
+    if neighbours:
+        for h in _NEIGHBOURS[best]:
+            inside[h, rss[h].argmin()] = True
     ends = float(sizes[inside].min()), float(sizes[inside].max())
     bounds = float(sizes.min()), float(sizes.max())
     return max(ends[0] - step / 2, bounds[0]), min(ends[1] + step / 2, bounds[1])
@@ -609,16 +634,20 @@ def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_to
 def onset_index(errors, ripple_phasors, floor: float = SIGMA_FLOOR) -> int:
     """Where a fault's effect in the model error ``errors`` begins (the index of its first sample).
 
-    First the single change point of a step in white noise with the aliased commutation ripple as
-    nuisance (Basseville & Nikiforov, Detection of Abrupt Changes, 1993, sec. 2.2):
+    First the single change point of a step in white noise with the aliased commutation ripple and a
+    constant (what the model leaves of a unit not yet calibrated) as nuisance (Basseville & Nikiforov,
+    Detection of Abrupt Changes, 1993, sec. 2.2):
 
-        e_j = alpha Im p_j + beta Re p_j + delta 1[j >= k] + noise,    k^ = argmin_k RSS_k
+        e_j = c + alpha Im p_j + beta Re p_j + delta 1[j >= k] + noise,    k^ = argmin_k RSS_k
 
     then, as a fault's effect is a step only while the spacecraft holds (a large one grows over the
-    seconds before its alarm), the first sample from k^ on that leaves the ripple fit of the samples
-    before k^ by more than 3 max(s, sigma_floor) (s: their residual's rms). Without the ripple terms
-    the change point followed the ripple: near an alias speed it swings a healthy wheel's error by as
-    much as a small fault for tens of seconds.
+    seconds before its alarm, a ramp over minutes), the change point of a growing effect lies inside
+    it: back from k^ while the sample before leaves the healthy fit (c, alpha, beta) of the samples
+    before it by more than 3 max(s, sigma_floor) (s: their residual's rms), and forward from there to
+    the first sample that leaves the fit of the samples before it. Without the ripple terms the change
+    point followed the ripple: near an alias speed it swings a healthy wheel's error by as much as a
+    small fault for tens of seconds; without the walk back a wheel given up seconds after its onset
+    lost one of its three or four driven samples (docs/fdir.md).
 
     Parameters
     ----------
@@ -639,18 +668,30 @@ def onset_index(errors, ripple_phasors, floor: float = SIGMA_FLOOR) -> int:
     n = e.size
     if n < 2:
         return 0
-    best, best_rss = 0, np.inf
-    columns = np.column_stack([p.imag, p.real, np.zeros(n)])
-    for k in range(min(3, n - 1), n):   # at least 3 samples before the step: the ripple fit needs them
-        columns[:, 2] = np.arange(n) >= k
+    healthy = np.column_stack([np.ones(n), p.imag, p.real])
+    fewest = min(ONSET_HEALTHY, n - 1)   # samples before the step: the healthy fit needs them
+    best, best_rss = fewest, np.inf
+    columns = np.column_stack([healthy, np.zeros(n)])
+    for k in range(fewest, n):
+        columns[:, 3] = np.arange(n) >= k
         fit, *_ = np.linalg.lstsq(columns, e, rcond=None)
         rss = float(np.sum((e - columns @ fit) ** 2))
         if rss < best_rss:
             best, best_rss = k, rss
-    ripple, *_ = np.linalg.lstsq(columns[:best, :2], e[:best], rcond=None)
-    left = e - columns[:, :2] @ ripple
-    level = 3.0 * max(float(np.sqrt(np.mean(left[:best] ** 2))), floor)
-    away = np.nonzero(np.abs(left[best:]) > level)[0]
+
+    def departure(k):
+        """|e - the healthy fit of the samples before k| and the level a sample must pass to leave it."""
+        fit, *_ = np.linalg.lstsq(healthy[:k], e[:k], rcond=None)
+        left = np.abs(e - healthy @ fit)
+        return left, 3.0 * max(float(np.sqrt(np.mean(left[:k] ** 2))), floor)
+
+    while best > fewest:
+        left, level = departure(best - 1)
+        if left[best - 1] <= level:
+            break
+        best -= 1
+    left, level = departure(best)
+    away = np.nonzero(left[best:] > level)[0]
     return best + int(away[0]) if away.size else best
 
 

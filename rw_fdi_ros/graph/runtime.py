@@ -11,6 +11,7 @@ import json
 import os
 import sys
 import time
+from dataclasses import dataclass
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
@@ -25,6 +26,16 @@ EXIT_TIMEOUT = 3
 # SIGALRM, which the launcher reads as "done, teardown hung" (launch/launcher.py TEARDOWN_HUNG)
 POLL_PERIOD = 0.005   # [s] wall time between two GraphNode.poll calls of a node while callbacks keep coming
 TEARDOWN_TIMEOUT = int(os.environ.get("RW_FDI_TEARDOWN_TIMEOUT", "10"))   # the environment: tests
+
+
+@dataclass
+class _WriterWatch:
+    """The writer of /plant/done as a node following the run end last looked: seen once, gone since [monotonic s]
+    (None while it is here), and when to look next [monotonic s]."""
+
+    seen: bool = False
+    gone_since: float | None = None
+    next_look: float = 0.0
 
 
 class NodeError(RuntimeError):
@@ -85,11 +96,11 @@ class GraphNode(Node):
         from .convert import stamp_ns
         self.last_handled = -1
         self._run_end = None
-        self._done_writer = None   # (seen, gone since [monotonic s] or None, next look [monotonic s])
+        self._done_writer = None
         self.declare_parameter("end_with_run", True)
         if not self.param("end_with_run"):
             return
-        self._done_writer = [False, None, 0.0]
+        self._done_writer = _WriterWatch()
         self._run_end_grace = grace
 
         period_ns = int(round(period * 1e9))
@@ -114,22 +125,22 @@ class GraphNode(Node):
         now = time.monotonic()
         if watch is None:
             return False
-        if watch[1] is not None and now - watch[1] > self._run_end_grace:
+        if watch.gone_since is not None and now - watch.gone_since > self._run_end_grace:
             return True
-        if now < watch[2]:
+        if now < watch.next_look:
             return False
         from . import topics as T
-        watch[2] = now + 1.0
+        watch.next_look = now + 1.0
         if self.count_publishers(relative(T.PLANT_DONE)) > 0:
-            watch[0], watch[1] = True, None
+            watch.seen, watch.gone_since = True, None
             return False
-        if not watch[0]:
+        if not watch.seen:
             return False
-        if watch[1] is None:
-            watch[1] = now
+        if watch.gone_since is None:
+            watch.gone_since = now
             self.get_logger().warn(f"{T.PLANT_DONE}: its writer left without this node hearing it; ending "
                                    f"{self._run_end_grace:.0f} s after")
-        return now - watch[1] > self._run_end_grace
+        return now - watch.gone_since > self._run_end_grace
 
     def finish(self, code: int = EXIT_OK, message: str = ""):
         if self.exit_code is None:

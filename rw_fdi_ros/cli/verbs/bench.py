@@ -24,6 +24,10 @@ def _options() -> dict:
     option("--given-up-runs", type=number(int, 0), default=300,
            help="service: seeds whose faulty draws run with FDIR giving up every wheel it confirms, for the "
                 "identification of a wheel given up (default 300: about 200 runs; 0: none)")
+    option("--reidentify", action="store_true",
+           help="service: re-measure the identification of the report in --out after a change to the identifier "
+                "(its runs with an identification and its given-up runs simulated again, each checked to act and "
+                "point as recorded; every other run kept)")
     option("--max-hours", type=number(float, 0, 6, low_open=True), default=None,
            help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h); scaling: "
                 "the same (default 0.25)")
@@ -198,6 +202,8 @@ def _dumping(args) -> dict:
 def _service(args) -> dict:
     from tqdm import tqdm
     from ...tools.benches.service_bench import GIVEN_UP_SEEDS, SEED_BASES, bench_service, given_up_draws
+    if args.reidentify:
+        return _reidentify(args)
     base = SEED_BASES[args.seed_set] + GIVEN_UP_SEEDS
     vehicle = _checked_vehicle(args)
     from ...fdi_config import FdiConfig
@@ -215,6 +221,24 @@ def _service(args) -> dict:
                              executor=executor(args), progress=bar.update, max_hours=args.max_hours,
                              fault_free_runs=args.fault_free_runs, given_up_runs=args.given_up_runs,
                              vehicle=vehicle, watch=watch)
+
+
+def _reidentify(args) -> dict:
+    from tqdm import tqdm
+    from ...tools.benches.service_bench import RecordMismatch, reidentify
+    if args.every_observer or args.plugins or args.thresholds:
+        raise SystemExit("rw-fdi bench service: --reidentify re-measures a report as it was run; give only --out "
+                         "(and --jobs / --scheduler)")
+    out = _out(args, "service")
+    from pathlib import Path
+    if not (Path(out) / "service.json").is_file():
+        raise SystemExit(f"rw-fdi bench service: {out}/service.json: no service report to re-identify (run "
+                         "`rw-fdi bench service` first)")
+    with tqdm(desc=f"service bench: re-identifying {out} (core loop)", unit="run", file=sys.stderr) as bar:
+        try:
+            return reidentify(out, executor(args), bar.update)
+        except (FileNotFoundError, ValueError, RecordMismatch) as e:
+            raise SystemExit(f"rw-fdi bench service: {e}") from None
 
 
 def _scaling(args) -> dict:
@@ -268,7 +292,7 @@ BENCHES = [
      "faults of every kind, size, wheel, onset and ramp, second faults, orbit with dumping, 600 s to 6 h; "
      "reconfigurations without a fault, the right wheel acted on, pointing kept, identification; core loop)",
      ("--service-runs", "--fault-free-runs", "--given-up-runs", "--max-hours", "--seed-set", "--vehicle", "--out",
-      "--every-observer", "--observer", "--thresholds", *POOL), _service),
+      "--reidentify", "--every-observer", "--observer", "--thresholds", *POOL), _service),
     ("scaling", "in-service runs per second on 1 and 2 local workers (or a Dask cluster's) and the wall time "
      "projected for 100,000 in-service runs (core loop)", ("--scaling-runs", "--max-hours", "--scheduler"),
      _scaling),

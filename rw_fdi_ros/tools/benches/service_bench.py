@@ -41,6 +41,7 @@ from 92,000,000; within each, the fault-free 600-s runs from +500,000 and the gi
 """
 from __future__ import annotations
 
+import json
 import time
 from collections import defaultdict
 from dataclasses import dataclass
@@ -495,6 +496,78 @@ def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path =
               "fault_free_seeds": [free_base, free_base + fault_free_runs - 1] if fault_free_runs else None,
               "given_up_seeds": [given_base, given_base + given_up_runs - 1] if given_up_runs else None,
               "figures": summarize(results), "runs": results}
+    return write_report(report, out, "service", format_service)
+
+
+class RecordMismatch(RuntimeError):
+    """A run re-simulated for its identification acted or pointed otherwise than its record: more changed than
+    the identifier, and the whole bench must be run again."""
+
+
+# what a re-simulated run must repeat of its record: FDIR does not read the identifier, so its acts (when, which
+# wheel, what; their reasons' wording may have changed) and pointing are the same wheel for wheel
+_UNMOVED = ("acts", "pointing_kept", "worst_deg", "action", "acted_right", "delay_s")
+
+
+def _same(a, b) -> bool:
+    """Equal, floats to 1e-9 relative: a batch of other runs beside it moves a run's numbers in the last bits."""
+    if isinstance(a, float) and isinstance(b, float):
+        return abs(a - b) <= 1e-9 * max(abs(a), abs(b), 1e-12)
+    return a == b
+
+
+def _unmoved(run: dict) -> dict:
+    """What of ``run`` a change to the identifier cannot move (_UNMOVED), as the report's JSON holds it."""
+    return json.loads(json.dumps({"acts": [x[:3] for x in run["decisions"]],
+                                  **{k: run.get(k) for k in _UNMOVED[1:]}}))
+
+
+def reidentify(out: str | Path = "reports/service", executor=None, progress=None) -> dict:
+    """Re-measure the identification of the service report in ``out`` after a change to the identifier: its runs
+    that carry an identification (a single fault acted on) and its given-up runs simulated again, every other
+    run kept as measured (the fault-free ones, the faults never acted on). Each flight run re-simulated must
+    repeat its record's decisions and pointing (_UNMOVED), else RecordMismatch: then more than the identifier
+    changed. Minutes instead of the bench's hour and a half, as the long fault-free runs are not flown again."""
+    out = Path(out)
+    path = out / "service.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no service report to re-identify (run `rw-fdi bench service` first)")
+    report = json.loads(path.read_text())
+    report.pop("text", None)
+    report.pop("ok", None)
+    if any("observers" in r for r in report["runs"]):
+        raise ValueError(f"{path}: a report of every observer (--every-observer); re-identify the decision's "
+                         "report, or run that bench again")
+    vehicle = report.get("vehicle", DEFAULT_VEHICLE)
+    max_duration = None if report.get("max_hours") is None else 3600.0 * report["max_hours"]
+    flight = [r["seed"] for r in report["runs"] if "identification" in r and not r.get("give_up")]
+    given = range(report["given_up_seeds"][0], report["given_up_seeds"][1] + 1) if report.get("given_up_seeds") \
+        else ()
+    t0 = time.monotonic()
+    new = run_service(flight, executor, progress, max_duration, (), given, vehicle)
+    old = {r["seed"]: r for r in report["runs"] if not r.get("give_up") and not r.get("fault_free_family")}
+    moved = {}
+    for r in new:
+        if not r.get("give_up"):
+            now, then = _unmoved(r), _unmoved(old[r["seed"]])
+            what = [k for k in _UNMOVED if not _same(now[k], then[k])]
+            moved.update({r["seed"]: what} if what else {})
+    if moved:
+        # kept for a look: the runs took minutes to an hour
+        (out / "service_reidentify_refused.json").write_text(json.dumps(new, indent=1))
+        seed, what = next(iter(moved.items()))
+        raise RecordMismatch(f"{len(moved)} runs act or point otherwise than recorded (seed {seed}: "
+                             f"{', '.join(what)}; the runs in {out / 'service_reidentify_refused.json'}): more than "
+                             "the identifier changed; run `rw-fdi bench service` again")
+    again = {(r["seed"], bool(r.get("give_up"))) for r in new}
+    report["runs"] = sorted([r for r in report["runs"] if (r["seed"], bool(r.get("give_up"))) not in again] + new,
+                            key=lambda r: r["seed"])
+    report["figures"] = summarize(report["runs"])
+    report["rejudged"] = (report.get("rejudged", "") + f" Identification re-measured {time.strftime('%Y-%m-%d')} "
+                          f"({(time.monotonic() - t0) / 60:.0f} min, `rw-fdi bench service --reidentify`): "
+                          f"the {len(flight)} flight runs with an identification and the given-up runs simulated "
+                          "again, each flight run's decisions and pointing as recorded; every other run as "
+                          "measured.").strip()
     return write_report(report, out, "service", format_service)
 
 
