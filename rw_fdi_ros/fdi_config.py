@@ -228,6 +228,15 @@ class FdiConfig:
         from .core.observer_plugin import ObserverModels
         return ObserverModels(self.load_models(), self.load_plugins()), self.load_thresholds()
 
+    def loaded(self, fdi_period: float = 1.0):
+        """The core/pipeline.LoadedFdi of this configuration: what the core loop's FDI pipeline runs, as the
+        isolation node runs it (its bands, models, decision, persistence and unit calibration)."""
+        from .core.calibration import calibration_samples
+        from .core.pipeline import LoadedFdi
+        models, curves = self.load()
+        return LoadedFdi(curves, models, self.decision_rule, self.persistence,
+                         calibration_samples(self.unit_calibration, fdi_period))
+
 
 def checked_curves(path, observer: str, method: str, unit_calibration: float = 0.0, plant=None,
                    duration: float | None = None):

@@ -80,3 +80,42 @@ def fdi_runs(tmp_path_factory):
               for k, o in results.items()}
     print(json.dumps(report, indent=1, default=str))
     return results
+
+
+def verdict_of_flags(flags: dict, decision, speed=None):
+    """(n, 3) alarms of core/pipeline.Verdict stepped over observers' alarm flags {observer: (n, 3) bool}, each
+    row's first alarm that observer's first flag up (as ObserverChannel gives it), ``speed`` (n, 3) [rad/s]."""
+    import numpy as np
+    from rw_fdi_ros.core.pipeline import Verdict
+    verdict = Verdict("xyz", decision)
+    n = len(next(iter(flags.values())))
+    out = np.zeros((n, 3), bool)
+    for k in range(n):
+        rows_of = {o: {a: (0.0, 1.0, bool(f[k, i]), float(np.argmax(f[:, i])) if f[:k + 1, i].any() else None)
+                       for i, a in enumerate("xyz")} for o, f in flags.items()}
+        decided = verdict.decide(rows_of, None if speed is None else speed[k])
+        out[k] = [decided[a][2] for a in "xyz"]
+    return out
+
+
+BIN = Path(sys.executable).parent   # the venv's rw-fdi
+KALMAN = f"{ROOT}/examples/kalman_observer/kalman_observer.py:KalmanObserver"   # the worked plug-in example
+
+
+def cli(*args, timeout=300):
+    import subprocess
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    return subprocess.run([str(BIN / "rw-fdi"), *args], capture_output=True, text=True, timeout=timeout, env=env)
+
+
+@pytest.fixture(scope="session")
+def kalman_fdi(tmp_path_factory):
+    """The worked example trained and fitted by the commands a user runs (small: 6 and 12 runs)."""
+    out = tmp_path_factory.mktemp("kalman_fdi")
+    r = cli("train", "--observer", KALMAN, "--simulate", "fault_free", "--seeds", "61000000..61000005",
+            "--out", str(out), "--jobs", "1")
+    assert r.returncode == 0, r.stderr
+    r2 = cli("fit-thresholds", "--observer", KALMAN, "--simulate", "fault_free", "--seeds", "60000000..60000011",
+             "--false-alarm-rate", "0.005", "--out", str(out), "--jobs", "1")
+    assert r2.returncode == 0, r2.stderr
+    return out, r.stdout + r2.stdout

@@ -1,5 +1,6 @@
 """The decision (core/isolation.DecisionRule): what makes /diagnostics is one observer's alarm or a vote of them,
-set in configuration and on the command line, the same in the isolation node and the offline tools."""
+set in configuration and on the command line,
+the same in the isolation node and the offline tools (core/pipeline.Verdict)."""
 import subprocess
 import sys
 
@@ -8,8 +9,8 @@ import pytest
 
 from rw_fdi_ros.core.isolation import DecisionRule, decision_of
 from rw_fdi_ros.fdi_config import FdiConfig
-from rw_fdi_ros.tools.design.offline import verdict_series
-from rw_fdi_ros.tools.metrics import Series
+
+from conftest import verdict_of_flags
 
 
 def _rows(alarms: dict, firsts: dict) -> dict:
@@ -55,15 +56,13 @@ def test_the_default_decision_is_the_methods():
 
 def test_the_offline_verdict_of_a_vote_is_the_nodes():
     """Flags of three observers through verdict_series: the vote's alarm, latched, up at the second alarm."""
-    t = np.arange(8.0)
     flags = {o: np.zeros((8, 3), bool) for o in ("model", "elman", "linear")}
     flags["model"][2:, 0] = True
     flags["elman"][5:7, 0] = True   # the second vote on x at 5 s, gone at 7 s: the verdict stays (latched)
     flags["linear"][1:, 1] = True   # y: one observer only
-    series = {o: Series(t, np.zeros((8, 3)), np.ones((8, 3)), f) for o, f in flags.items()}
-    v = verdict_series(series, "speed_aware", decision=decision_of("2of3", "speed_aware"))
-    assert v.alarm[:, 0].tolist() == [False] * 5 + [True] * 3 and not v.alarm[:, 1:].any()
-    assert verdict_series(series, "speed_aware", decision=decision_of("linear", "speed_aware")).alarm[:, 1].sum() == 7
+    v = verdict_of_flags(flags, decision_of("2of3", "speed_aware"))
+    assert v[:, 0].tolist() == [False] * 5 + [True] * 3 and not v[:, 1:].any()
+    assert verdict_of_flags(flags, decision_of("linear", "speed_aware"))[:, 1].sum() == 7
 
 
 def test_the_command_line_takes_a_decision_and_refuses_a_wrong_one(tmp_path):

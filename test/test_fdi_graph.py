@@ -234,16 +234,16 @@ def test_model_observer_refuses_the_thesis_method():
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     with DomainLease() as lease:
         env["ROS_DOMAIN_ID"] = str(lease.domain_id)
-        r = subprocess.run([str(BIN / "model_observer"), "--ros-args", "-p", "fdi_method:=thesis"],
+        r = subprocess.run([str(BIN / "model_observer"), "--ros-args", "-p", "fdi.method:=thesis"],
                            capture_output=True, text=True, timeout=60, env=env)
-    assert r.returncode == 2 and "needs fdi_method speed_aware" in r.stderr, r.stderr
+    assert r.returncode == 2 and "needs fdi.method speed_aware" in r.stderr, r.stderr
 
 
 def test_screen_without_ros_agrees_with_the_thesis_pattern():
     """The ROS-free screen (same code as the nodes), thesis method: Elman holds the current-loss alarm,
     linear loses it."""
     from rw_fdi_ros.tools.evaluation.screen import screen
-    out, runs = screen(load_scenario("current_0p6_x"), range(12, 15), {"method": "thesis"})
+    out, runs = screen(load_scenario("current_0p6_x"), range(12, 15), {"method": "thesis", "fdir": False})
     assert [r.seed for r in runs] == [12, 13, 14]
     assert out["elman"]["held"] == 3 and out["elman"]["lost"] == 0
     assert out["linear"]["lost"] >= 2 and out["linear"]["lost"] > out["linear"]["held"]

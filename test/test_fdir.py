@@ -4,6 +4,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from rw_fdi_ros.core.pipeline import LoadedFdi
 from rw_fdi_ros.core.allocation import TorqueAllocator, distribution, limited
 from rw_fdi_ros.core.closed_loop import Fdir, simulate
 from rw_fdi_ros.core.threshold_file import ThresholdCurves
@@ -108,7 +109,7 @@ def test_a_light_body_keeps_its_pointing_as_a_given_up_wheel_coasts_to_rest_with
     for feedforward in (True, False):
         vehicle = replace(scenario.vehicle, controller=replace(scenario.vehicle.controller,
                                                                friction_feedforward=feedforward))
-        traj = simulate(replace(scenario, vehicle=vehicle), fdir=Fdir(curves["model"]))
+        traj = simulate(replace(scenario, vehicle=vehicle), fdir=Fdir(LoadedFdi(curves)))
         assert [(d.wheel, d.action) for d in traj.decisions[0]][:1] == [("y", "out_of_use")]
         after = traj.time >= scenario.faults[0].onset + 60.0
         worst[feedforward] = float(np.degrees(np.abs(traj.error[after, 0])).max())
@@ -305,14 +306,14 @@ def test_the_loop_reconfigures_on_a_confirmed_failure_and_points_again():
     0 V from the decision on."""
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     scenario = _scenario(300.0, [Fault("current_limiter", 0, 150.0, 0.6)], seed=11)
-    traj = simulate([scenario], fdir=Fdir(curves))
+    traj = simulate([scenario], fdir=Fdir(LoadedFdi({"model": curves})))
     decisions = traj.decisions[0]
     assert [(d.wheel, d.action) for d in decisions] == [("x", "kept_in_use"), ("s", "in_use")]
     assert 150.0 < decisions[0].time < 160.0 and "more for a slew" in decisions[0].reason
     assert traj.in_use[-1, 0].tolist() == [True, True, True, True]
     error = np.degrees(np.abs(traj.error[:, 0])).max(axis=1)
     assert error[traj.time >= 210.0].max() < 0.2
-    gentle = simulate([scenario], fdir=Fdir(curves, slew_rate=np.deg2rad(0.05)))
+    gentle = simulate([scenario], fdir=Fdir(LoadedFdi({"model": curves}), slew_rate=np.deg2rad(0.05)))
     decisions = gentle.decisions[0]
     assert [(d.wheel, d.action) for d in decisions] == [("x", "out_of_use"), ("s", "in_use")]
     after = gentle.time > decisions[0].time   # a sample shows the command held over the step before it
@@ -368,7 +369,7 @@ def test_a_wheel_whose_momentum_the_others_cannot_take_is_held_and_the_pointing_
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     scenario = Scenario("t", duration=400.0, seed=5, faults=(Fault("bus_voltage", 0, 150.0, 5.5),),
                         initial={"wheel_speed": (30.0, 25.0, 24.0)}, plant={"wheel_set": "orthogonal_skew"})
-    traj = simulate([scenario], fdir=Fdir(curves))
+    traj = simulate([scenario], fdir=Fdir(LoadedFdi({"model": curves})))
     assert [(d.wheel, d.action) for d in traj.decisions[0]] == [("x", "held"), ("s", "in_use")]
     assert "% of its torque" in traj.decisions[0][0].reason
     assert traj.wheel_speed[-1, 0, 0] == pytest.approx(bus_fault_visible_above(5.5), abs=0.5)
@@ -394,7 +395,7 @@ def test_a_held_wheel_whose_drive_gives_next_to_nothing_is_said_not_to_keep_its_
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     scenario = Scenario("t", duration=260.0, seed=5, faults=(Fault("bus_voltage", 0, 150.0, 4.0),),
                         initial={"wheel_speed": (30.0, 25.0, 24.0)}, plant={"wheel_set": "orthogonal_skew"})
-    traj = simulate([scenario], fdir=Fdir(curves))
+    traj = simulate([scenario], fdir=Fdir(LoadedFdi({"model": curves})))
     held = traj.decisions[0][0]
     assert (held.wheel, held.action) == ("x", "held") and "too little to hold that speed" in held.reason
     speed_held = float(held.reason.split("held at ")[1].split(" rad/s")[0])

@@ -13,6 +13,7 @@ given up, 0 V: test_launch_file.py; an operator's parameter: test_wheel_allocati
 import numpy as np
 import pytest
 
+from rw_fdi_ros.core.pipeline import LoadedFdi
 from rw_fdi_ros.core.allocation import hold_command
 from rw_fdi_ros.core.closed_loop import Fdir, simulate
 from rw_fdi_ros.core.threshold_file import ThresholdCurves
@@ -42,7 +43,7 @@ def run(tmp_path_factory):
     outcome = run_with_fdi(str(path), out_dir=root / "bags")
     assert outcome.ok, outcome.reason
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
-    return outcome, simulate([load_scenario(str(path))], fdir=Fdir(curves))
+    return outcome, simulate([load_scenario(str(path))], fdir=Fdir(LoadedFdi({"model": curves})))
 
 
 def test_the_graph_reconfigures_as_the_core_loop_does(run):
@@ -95,7 +96,7 @@ def test_in_orbit_the_rods_follow_the_reconfiguration_as_in_the_core_loop(tmp_pa
     outcome = run_with_fdi(str(path), out_dir=tmp_path / "bags")
     assert outcome.ok, outcome.reason
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
-    traj = simulate([load_scenario(str(path))], fdir=Fdir(curves))
+    traj = simulate([load_scenario(str(path))], fdir=Fdir(LoadedFdi({"model": curves})))
     assert [(d.wheel, d.action) for d in traj.decisions[0]] == [("x", "kept_in_use"), ("s", "in_use")]
     data = read_bag(outcome.bag, topics=[T.ATTITUDE, T.DIPOLE_COMMAND])
     _, attitude, _, _ = data.joint_states(T.ATTITUDE)

@@ -23,7 +23,7 @@ import pytest
 
 from colcon_ws import colcon_env
 from launch_api import launch_env, ros2_launch_command, use_launch
-from rw_fdi_ros.launch.graph import DEFAULT_GROUPING, graph_nodes, misread_by_yaml, processes
+from rw_fdi_ros.launch.graph import DEFAULT_GROUPING, flat_parameters, graph_nodes, misread_by_yaml, processes
 from rw_fdi_ros.storage.compare import bag_differences
 from rw_fdi_ros.launch.launcher import DomainLease
 from rw_fdi_ros.tools.campaigns.run import resolve_scenario
@@ -309,7 +309,7 @@ def test_rcl_reads_our_launchers_parameters_from_the_files_launch_ros_writes(ove
     got = rcl_reads([(name, path) for name, _, path in files])
     for spec in ours:
         typed = {k: [_rcl_type(v), list(v) if isinstance(v, (list, tuple)) else v]
-                 for k, v in spec.parameters.items() if not (isinstance(v, (list, tuple)) and not v)}
+                 for k, v in flat_parameters(spec.parameters).items() if not (isinstance(v, (list, tuple)) and not v)}
         assert got[spec.name] == typed, spec.name
     if fdi is not None:
         assert {"elman_observer_x", "elman_observer_y", "elman_observer_z", "linear_observer",
@@ -317,7 +317,8 @@ def test_rcl_reads_our_launchers_parameters_from_the_files_launch_ros_writes(ove
     assert "recorder" in got if bag else "recorder" not in got
     if fdi and fdi.get("plugins"):   # a user's observer: its node, judged and recorded
         assert got["kalman_observer"]["observer"] == ["STRING", KALMAN]
-        assert got["isolation"]["plugin_observers"] == got["recorder"]["plugin_observers"] == ["STRING", "kalman"]
+        assert got["isolation"]["fdi.plugins"] == got["kalman_observer"]["fdi.plugins"] == ["STRING_ARRAY", [KALMAN]]
+        assert got["recorder"]["plugin_observers"] == ["STRING", "kalman"]
 
 
 RETYPED = ["y", "n", "Y", "yes", "no", "on", "off", "true", "False", "1.5", "7", "0x10", "1e3", "~", "null", "",

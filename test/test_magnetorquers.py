@@ -4,6 +4,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from rw_fdi_ros.core.pipeline import LoadedFdi
 from rw_fdi_ros.core.closed_loop import simulate
 from rw_fdi_ros.core.magnetorquers import (Dumper, MomentumDumping, cross_product_dipole, saturate,
                                            wheel_momentum)
@@ -113,7 +114,7 @@ def test_after_a_reconfiguration_the_rods_dump_the_wheels_in_use():
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     scenario = parse_scenario(_orbit().replace("duration: 600.0", "duration: 300.0")
                               + "faults:\n  - {kind: current_limiter, wheel: x, onset: 150.0, value: 0.6}\n")
-    traj = simulate([scenario], fdir=Fdir(curves))
+    traj = simulate([scenario], fdir=Fdir(LoadedFdi({"model": curves})))
     decisions = traj.decisions[0]
     # x at 38 rad/s holds more momentum than y, z and s could take and slew: kept in use beside s
     assert [(d.wheel, d.action) for d in decisions] == [("x", "kept_in_use"), ("s", "in_use")]

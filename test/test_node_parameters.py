@@ -24,7 +24,9 @@ NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime", "wh
          "wheel_allocation": ["wheel_allocation", "runtime", "wheel_type"],
          "momentum_dumping": ["momentum_dumping", "runtime"], "live_view": ["live_view", "runtime"],
          "plugin_observer": ["plugin_observer", "observer_node", "runtime", "wheel_type"]}
-LOOPED = {"plant": {"fault.<wheel>.<kind>"}, "isolation": {*DEFAULT.as_dict(), "thresholds_<slot>"}}
+LOOPED = {"plant": {"fault.<wheel>.<kind>"}, "isolation": {*DEFAULT.as_dict(), "fdi.*"},
+          # the FDI configuration (graph/fdi_parameters.declare_fdi): one row, its fields in their own table
+          **{node: {"fdi.*"} for node in ("elman_observer", "linear_observer", "model_observer", "plugin_observer")}}
 TYPES = {bool: "bool", int: "int", float: "double", str: "string"}
 ARRAYS = {"DOUBLE_ARRAY": "double[]", "STRING_ARRAY": "string[]", "BOOL": "bool"}
 
@@ -112,14 +114,14 @@ def test_every_numeric_parameter_has_a_range_and_the_table_states_it():
 
 
 @pytest.mark.parametrize("args, said", [
-    (["isolation", "-p", "persistence:=-2"], "Parameter persistence out of range. Min: 0, Max: 1000, value: -2"),
+    (["isolation", "-p", "fdi.persistence:=-2"], "parameter fdi.persistence must be a whole number of FDI samples"),
     (["pid_controller", "-p", "initial_tcv:=9.0"], "initial_tcv out of range"),
     (["plant", "-p", "fault.y.current_limiter:=3.0"], "fault.y.current_limiter out of range"),
     (["recorder", "-p", "drain_timeout:=0.0"], "drain_timeout out of range"),
     (["plant", "-p", "fault.w.bus_voltage:=4.0"], "parameter fault.w.bus_voltage: no such fault; wheel set"),
     (["plant", "-p", "fault.x.voltage:=4.0"], "parameter fault.x.voltage: no such fault"),
-    (["isolation", "-p", "decision_observer:=linear"], "decision_observer is now decision"),
-    (["isolation", "-p", "decision:=4of3"], "decision must be one of elman, linear, model or a vote")])
+    (["isolation", "-p", "fdi.decision:=4of3"], "fdi.decision must be one of elman, linear, model or a vote"),
+    (["model_observer", "-p", "fdi.unit_calibration:=-1.0"], "parameter fdi.unit_calibration must be a finite number")])
 def test_a_node_refuses_a_parameter_out_of_its_range_in_one_line(args, said, tmp_path):
     import os
     import subprocess

@@ -5,7 +5,6 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,9 +14,7 @@ from rw_fdi_ros.core.observer_plugin import (ObserverError, ObserverModels, Plug
                                              save_state, load_state)
 from rw_fdi_ros.fdi_config import FdiConfig
 
-ROOT = Path(__file__).resolve().parents[1]
-KALMAN = f"{ROOT}/examples/kalman_observer/kalman_observer.py:KalmanObserver"
-BIN = Path(sys.executable).parent
+from conftest import KALMAN, ROOT, cli
 
 
 class ModelCopy(WheelObserver):
@@ -99,24 +96,6 @@ def fault_free_samples():
     from rw_fdi_ros.tools.evaluation.screen import simulated_samples
     scenario = load_scenario("fault_free").with_seed(61_000_500)
     return simulated_samples([scenario])[scenario.seed]
-
-
-def cli(*args, timeout=300):
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    return subprocess.run([str(BIN / "rw-fdi"), *args], capture_output=True, text=True, timeout=timeout, env=env)
-
-
-@pytest.fixture(scope="module")
-def kalman_fdi(tmp_path_factory):
-    """The worked example trained and fitted by the commands a user runs (small: 6 and 12 runs)."""
-    out = tmp_path_factory.mktemp("kalman_fdi")
-    r = cli("train", "--observer", KALMAN, "--simulate", "fault_free", "--seeds", "61000000..61000005",
-            "--out", str(out), "--jobs", "1")
-    assert r.returncode == 0, r.stderr
-    r2 = cli("fit-thresholds", "--observer", KALMAN, "--simulate", "fault_free", "--seeds", "60000000..60000011",
-             "--false-alarm-rate", "0.005", "--out", str(out), "--jobs", "1")
-    assert r2.returncode == 0, r2.stderr
-    return out, r.stdout + r2.stdout
 
 
 def test_train_and_fit_thresholds_write_its_state_and_bands_beside_ours(kalman_fdi):

@@ -1,12 +1,12 @@
-"""Every observer judged in service beside the decision (core/onboard.ObserverWatch, `bench service
---every-observer`, issue 36 item 2): it changes nothing FDIR does, and each observer's alarms in the core loop are
+"""Every observer judged in service beside the decision (core/pipeline.FdiPipeline's watch, `bench service
+--every-observer`): it changes nothing FDIR does, and each observer's alarms in the core loop are
 those the offline tools (and so the nodes) give on the same FDI samples, calibrated units included."""
 import numpy as np
 import pytest
 
 from rw_fdi_ros.core.calibration import calibration_samples
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.onboard import watched_observers
+from rw_fdi_ros.core.pipeline import LoadedFdi, observer_estimators
 from rw_fdi_ros.fdi_config import FdiConfig
 from rw_fdi_ros.tools.benches import service_bench as sb
 from rw_fdi_ros.tools.design.offline import decisions, observe
@@ -22,7 +22,7 @@ def test_the_watch_changes_nothing_fdir_does_and_gives_the_offline_alarms(units)
     scenarios = [sb.scenario(d) for d in draws]
     names = scenarios[0].wheel_set().names
     plain = simulate(scenarios, fdir=sb.fdir_for(units, vehicle=draws[0].vehicle))
-    watched = simulate(scenarios, fdir=sb.fdir_for(units, watch=FdiConfig(), names=names))
+    watched = simulate(scenarios, fdir=sb.fdir_for(units, watch=FdiConfig()))
     assert [[(d.time, d.wheel, d.action) for d in r] for r in plain.decisions] == \
            [[(d.time, d.wheel, d.action) for d in r] for r in watched.decisions]
     np.testing.assert_array_equal(plain.attitude, watched.attitude)
@@ -63,9 +63,9 @@ def test_the_bench_reads_every_observer_and_the_plugins_beside():
 def test_a_model_alone_gives_the_watch_nothing_more_to_load(tmp_path):
     names = ("x", "y", "z", "s")
     models, curves = FdiConfig().load()
-    watched = watched_observers(names, models, {"model": curves["model"]}, 1.0)
-    make, gains, c = watched["model"]
-    assert gains == [0.0] * 4 and c is curves["model"]
+    watched = observer_estimators(names, models, ("model",), 1.0)
+    make, gains = watched["model"]
+    assert gains == [0.0] * 4 and list(watched) == ["model"]
 
 
 def test_a_plugin_is_watched_in_service_as_its_node_runs_it():
@@ -76,14 +76,12 @@ def test_a_plugin_is_watched_in_service_as_its_node_runs_it():
     draws = [sb.Draw(92_000_920 + k, 420.0, bool(k), False, (60.0, 120.0), 5.0, (FAULT,)) for k in range(2)]
     for d in draws:
         scenario = sb.scenario(d)
-        names = scenario.wheel_set().names
         fdir = sb.fdir_for(d.units)
         models, curves = FdiConfig(unit_calibration=sb.CALIBRATION_S if d.units else 0.0).load()
-        watched = watched_observers(names, ObserverModels(models, [(ModelCopy, {})]),
-                                    {"model": curves["model"], "model_copy": curves["model"]}, 1.0,
-                                    fdir.calibration_samples)
+        watch = LoadedFdi({"model": curves["model"], "model_copy": curves["model"]},
+                          ObserverModels(models, [(ModelCopy, {})]), calibration_samples=fdir.fdi.calibration_samples)
         from dataclasses import replace
-        traj = simulate([scenario], fdir=replace(fdir, watched=watched))
+        traj = simulate([scenario], fdir=replace(fdir, watch=watch))
         assert traj.watched[0]["model_copy"] == traj.watched[0]["model"] and traj.watched[0]["model"]["y"]
 
 

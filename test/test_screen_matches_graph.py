@@ -124,22 +124,54 @@ def test_calibrated_observers_give_the_screen_verdicts_on_varied_wheels(both):
     assert alarms == 2 and all(graph[1].summary["fdi"][obs]["y"] for obs in ("elman", "model"))
 
 
-def test_a_vote_decides_the_graph_as_it_decides_the_screen(tmp_path):
-    """`decision: 2of3` in the isolation node: /diagnostics alarms a wheel where two of the three observers
-    do, at the screen's samples, and says who decided."""
-    from rw_fdi_ros.core.isolation import decision_of
+FDIR_SCENARIO = """name: fdir_vote
+duration: 180.0
+seed: 20000300
+initial: {wheel_speed: [30.0, 19.0, 17.0]}
+faults:
+  - {kind: bus_voltage, wheel: x, onset: 60.0, value: 4.5, ramp: 40.0}
+  - {kind: current_limiter, wheel: y, onset: 90.0, value: 0.4}
+"""
+
+
+def recorded_states(acts) -> list:
+    """What /fdir/wheels records of FDIR's acts (graph/convert.wheel_states_msg, read back by the run summary):
+    per wheel and act time, the wheel's state after that time's acts (``at_limit`` is said, it changes no state)
+    and the last act's reason."""
+    state, out = {}, {}
+    for t, wheel, action, reason in acts:
+        if action != "at_limit":
+            state[wheel] = "given_up" if action == "out_of_use" else action
+        out[(t, wheel)] = (state.get(wheel, "in_use"), reason)
+    return sorted((t, w, st, r) for (t, w), (st, r) in out.items())
+
+
+@pytest.mark.parametrize("deciding", ["2of3", "kalman"])
+def test_the_decision_and_fdir_act_in_the_screen_as_in_the_graph(deciding, tmp_path, kalman_fdi):
+    """`--decision 2of3`, and the Kalman plug-in deciding, with FDIR on: the graph and `rw-fdi screen --fdir` (the
+    core loop's FDI pipeline) give the same verdict, the same reconfiguration and the same identification."""
     from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.bag import read_bag
-    path = scenario_files(tmp_path)[1]
-    outcome = run_with_fdi(str(path), out_dir=tmp_path / "bags", fdi={"fdir": False, "decision": "2of3"})
+    from rw_fdi_ros.tools.evaluation.screen import screen
+    from conftest import KALMAN
+    path = tmp_path / "fdir_vote.yaml"
+    path.write_text(FDIR_SCENARIO)
+    fdi = (FdiConfig(decision="2of3") if deciding == "2of3"
+           else FdiConfig(thresholds=str(kalman_fdi[0]), plugins=(KALMAN,), decision="kalman"))
+    outcome = run_with_fdi(str(path), out_dir=tmp_path / "bags", fdi=fdi)
     assert outcome.ok, outcome.reason
-    weights, curves = FdiConfig().load()
-    run = screen_runs([load_scenario(str(path))], weights, curves, decision=decision_of("2of3", "speed_aware"))[0]
+    scenario = load_scenario(str(path))
+    _, (run,) = screen(scenario, [scenario.seed], fdi)
     live, flags = outcome.summary["fdi"]["verdict"], run.series["verdict"].alarm
     for i, a in enumerate(AXIS_WHEELS):
         assert bool(live[a]) == bool(flags[:, i].any()), (a, live[a])
         if live[a]:
             assert live[a][0][0] == pytest.approx(float(run.series["verdict"].time[flags[:, i].argmax()]), abs=1e-9)
-    assert flags.any()   # something was decided
+    assert flags[:, 0].any(), "the bus drop on x was decided: the comparison is not between two silent FDIs"
+    graph_acts = sorted((d["time"], d["wheel"], d["state"], d["reason"]) for d in outcome.summary["reconfiguration"])
+    assert graph_acts == recorded_states(run.reconfiguration) and graph_acts, graph_acts
+    assert {a: {k: v for k, v in found.items() if k not in ("message", "samples")}
+            for a, found in outcome.summary["fdi"]["identification"].items()} == run.identification
     _, last = read_bag(outcome.bag, [T.DIAGNOSTICS]).topic(T.DIAGNOSTICS)[-1]
-    assert all(s.name.endswith("(2 of 3 observers)") for s in T.verdict_statuses(last))
+    said = "(2 of 3 observers)" if deciding == "2of3" else "(kalman observer)"
+    assert all(s.name.endswith(said) for s in T.verdict_statuses(last))

@@ -126,7 +126,7 @@ def test_the_family_flies_another_vehicle_with_its_wheels_and_its_fdi():
         [(d.duration, d.faults and d.faults[0]["kind"]) for d in (sb.draw(d.seed) for d in draws[:20])]
     s = sb.scenario(draws[0])
     assert s.spacecraft.name == "microsat_pyramid" and s.wheel_set().name == "pyramid"
-    assert sb.fdir_for(False, vehicle="microsat_pyramid").curves.plant["vehicle"] == "microsat_pyramid"
+    assert sb.fdir_for(False, vehicle="microsat_pyramid").fdi.curves["model"].plant["vehicle"] == "microsat_pyramid"
 
 
 def test_a_report_re_identified_keeps_every_act_and_refuses_a_record_that_moved(tmp_path):

@@ -7,6 +7,8 @@ import sys
 
 import numpy as np
 import pytest
+
+from rw_fdi_ros.fdi_config import FdiConfig
 import yaml
 
 from rw_fdi_ros.core.closed_loop import simulate
@@ -206,13 +208,18 @@ def test_the_launcher_gives_a_shipped_vehicles_nodes_its_own_fdi():
     nodes = {n.name: n.parameters for n in graph_nodes(scenario, "m", None, fdi={})}
     own = fdi_dir("speed_aware", "microsat_pyramid")
     assert own.name == "microsat_pyramid" and own.parent.name == "vehicles"
+
+    def read_back(params):   # what each node's graph/fdi_parameters.declare_fdi gives
+        return FdiConfig(**{k: tuple(v) if k == "plugins" else v for k, v in params["fdi"].items()})
     for wheel in ("p1", "p2", "p3", "p4"):
-        assert nodes[f"elman_observer_{wheel}"]["model"] == str(own / f"elman_{wheel}.npz")
-    assert nodes["isolation"]["thresholds_model"] == str(own / "thresholds_model.json")
+        assert read_back(nodes[f"elman_observer_{wheel}"]).model_path(wheel) == own / f"elman_{wheel}.npz"
+    assert read_back(nodes["isolation"]).threshold_path("model") == own / "thresholds_model.json"
     calibrated = {n.name: n.parameters for n in graph_nodes(scenario, "m", None, fdi={"unit_calibration": 150.0})}
-    assert calibrated["isolation"]["thresholds_model"] == str(own / "unit_calibrated" / "thresholds_model.json")
+    assert read_back(calibrated["isolation"]).threshold_path("model") == \
+        own / "unit_calibrated" / "thresholds_model.json"
     thesis = {n.name: n.parameters for n in graph_nodes(parse_scenario("name: t\n"), "t", None, fdi={})}
-    assert "model" not in thesis["elman_observer_x"] and "thresholds_model" not in thesis["isolation"]
+    assert "vehicle" not in thesis["isolation"]["fdi"]
+    assert read_back(thesis["isolation"]).threshold_path("model") == fdi_dir("speed_aware") / "thresholds_model.json"
 
 
 def test_the_fdi_refuses_bands_fitted_for_another_vehicle():

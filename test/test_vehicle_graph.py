@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
+from rw_fdi_ros.core.pipeline import LoadedFdi
 from rw_fdi_ros.core.closed_loop import Fdir, simulate
 from rw_fdi_ros.core.scenario import load_scenario
 from rw_fdi_ros.core.threshold_file import ThresholdCurves
@@ -33,7 +34,7 @@ def test_a_coupled_vehicle_flies_the_same_run_in_the_graph_as_in_the_core_loop(t
     outcome = run_with_fdi(str(path), out_dir=tmp_path / "bags", fdi={"thresholds": str(tmp_path / "fdi")})
     assert outcome.ok, outcome.reason
     curves = ThresholdCurves.load(tmp_path / "fdi" / "thresholds_model.json", "model")
-    traj = simulate([load_scenario(str(path))], fdir=Fdir(curves))
+    traj = simulate([load_scenario(str(path))], fdir=Fdir(LoadedFdi({"model": curves})))
     data = read_bag(outcome.bag, topics=[T.ATTITUDE, T.SCENARIO])
     _, attitude, _, _ = data.joint_states(T.ATTITUDE)
     np.testing.assert_allclose(attitude, traj.attitude[:, 0], rtol=0, atol=1e-12)   # the same run, products of inertia
@@ -81,7 +82,7 @@ def test_a_cubesat_with_a_wheel_type_of_its_own_flies_the_core_loops_run_in_the_
     _, curves = FdiConfig().for_vehicle("cubesat_6u").load()
     scenario = load_scenario(str(path))
     assert scenario.spacecraft.wheel.inertia == pytest.approx(2.94e-5)
-    traj = simulate([scenario], fdir=Fdir(curves["model"]))
+    traj = simulate([scenario], fdir=Fdir(LoadedFdi(curves)))
     data = read_bag(outcome.bag, topics=[T.ATTITUDE, T.WHEELS])
     _, attitude, _, _ = data.joint_states(T.ATTITUDE)
     np.testing.assert_allclose(attitude, traj.attitude[:, 0], rtol=0, atol=1e-12)

@@ -9,8 +9,9 @@ import pytest
 
 from rw_fdi_ros.core.isolation import LatchedVerdict, decision_observer
 from rw_fdi_ros.launch.launcher import DomainLease
-from rw_fdi_ros.tools.metrics import Series
-from rw_fdi_ros.tools.design.offline import verdict_series
+from rw_fdi_ros.core.isolation import decision_of
+
+from conftest import verdict_of_flags
 
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
@@ -35,15 +36,13 @@ def test_a_confirmed_failure_stays_until_reset_and_the_thesis_behaviour_does_not
 
 
 def test_the_offline_verdict_is_the_decision_observers_alarm_latched():
-    t = np.arange(6.0)
     alarm = np.zeros((6, 3), bool)
     alarm[2:4, 1] = True          # y alarms at 2 s, drops at 4 s
-    series = {"model": Series(t, np.zeros((6, 3)), np.ones((6, 3)), alarm),
-              "elman": Series(t, np.zeros((6, 3)), np.ones((6, 3)), np.ones((6, 3), bool))}
-    v = verdict_series(series, "speed_aware")
-    assert v.alarm[:, 1].tolist() == [False, False, True, True, True, True]
-    assert not v.alarm[:, 0].any() and not v.alarm[:, 2].any()   # the Elman network does not decide
-    assert verdict_series(series, "thesis").alarm.all()
+    flags = {"model": alarm, "elman": np.ones((6, 3), bool)}
+    v = verdict_of_flags(flags, decision_of("", "speed_aware"))
+    assert v[:, 1].tolist() == [False, False, True, True, True, True]
+    assert not v[:, 0].any() and not v[:, 2].any()   # the Elman network does not decide
+    assert verdict_of_flags(flags, decision_of("", "thesis")).all()
     assert decision_observer("speed_aware") == "model" and decision_observer("thesis") == "elman"
     with pytest.raises(ValueError, match="fdi_method must be one of"):
         decision_observer("vote")
@@ -89,17 +88,15 @@ def test_an_operator_resets_the_verdict_through_a_ros_2_service():
 def test_a_wheel_outside_the_operating_envelope_is_not_judged_but_a_confirmed_failure_stays():
     from rw_fdi_ros.core.isolation import WHEEL_SPEED_ENVELOPE, in_envelope
     assert in_envelope([0.0, -WHEEL_SPEED_ENVELOPE, 30.0]).all() and not in_envelope([60.0, 0, 0])[0]
-    t = np.arange(6.0)
     alarm = np.zeros((6, 3), bool)
     alarm[1:, 0] = True           # x alarms from 1 s: outside the envelope until 3 s, so confirmed at 3 s
     alarm[4:, 1] = True           # y alarms at 4 s while outside the envelope: never confirmed
     speed = np.full((6, 3), 25.0)
     speed[:3, 0] = 60.0
     speed[3:, 1] = 60.0
-    series = {"model": Series(t, np.zeros((6, 3)), np.ones((6, 3)), alarm)}
-    v = verdict_series(series, "speed_aware", speed)
-    assert v.alarm[:, 0].tolist() == [False, False, False, True, True, True]
-    assert not v.alarm[:, 1].any()
+    v = verdict_of_flags({"model": alarm}, decision_of("", "speed_aware"), speed)
+    assert v[:, 0].tolist() == [False, False, False, True, True, True]
+    assert not v[:, 1].any()
     held = LatchedVerdict()
     held.update(rows([True, False, False], [1.0, None, None]))
     out = held.update(rows([False, False, False], [1.0, None, None]), {"x": False, "y": True, "z": True})

@@ -3,7 +3,7 @@
 Used for controller design, fast tests and campaigns; the graph runs the
 identical step sequence across processes (plant step k -> controllers ->
 allocation -> plant step k+1). With ``fdir`` the FDI's verdict is made in
-the loop too (onboard.py) and reconfigures the wheels (fdir.py).
+the loop too (pipeline.py) and reconfigures the wheels (fdir.py).
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from .allocation import TorqueAllocator
 from .fdir import SLEW_RATE, DecisionDelay, DeliveryLog, Reconfiguration
 from .isolation import speed_envelope
 from .magnetorquers import Dumper
-from .onboard import OnboardVerdict
+from .pipeline import FdiPipeline, LoadedFdi
 from .controller_design import design_controller
 from .pid import PidController, PidGains
 from .plant import Plant
@@ -26,17 +26,17 @@ from .wheel import WheelParams
 
 @dataclass
 class Fdir:
-    """What the loop's FDIR decides on: the model observer's bands, its unit calibration [FDI samples]."""
+    """What the loop's FDIR decides on: the FDI (bands, models, decision, persistence, unit calibration), as the
+    graph's isolation node decides."""
 
-    curves: object                 # threshold_file.ThresholdCurves of the model observer
-    calibration_samples: int = 0
+    fdi: LoadedFdi                 # pipeline.LoadedFdi (FdiConfig.loaded)
     fdi_period: float = 1.0
     identification: bool = False   # also identify each alarmed wheel's fault (the isolation node's code)
     slew_rate: float = SLEW_RATE   # [rad/s] the slews the wheels in use must still take (fdir.momentum_shortfall)
     # [rad/s] what a wheel in use may be asked to hold (inf: every wheel given up); None: the wheel type's
     # envelope (isolation.speed_envelope: the thesis' type 45)
     holdable: float | None = None
-    watched: dict = None           # observers judged beside, acted on by nothing (onboard.watched_observers)
+    watch: LoadedFdi = None        # observers judged beside, acted on by nothing (pipeline.FdiPipeline)
 
 
 @dataclass
@@ -125,9 +125,9 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
     steps = int(round(duration / control_period))
     onboard = reconfig = delays = None
     if fdir is not None:
-        onboard = OnboardVerdict(plant.wheels.names, fdir.curves, plant.batch, fdir.fdi_period,
-                                 fdir.calibration_samples, identification=fdir.identification, watched=fdir.watched,
-                                 wheel=plant.vehicle.wheel)   # the FDI's nominal model: the datasheet's
+        onboard = FdiPipeline(plant.wheels.names, fdir.fdi, plant.batch, fdir.fdi_period,
+                              identification=fdir.identification, watch=fdir.watch,
+                              wheel=plant.vehicle.wheel)   # the FDI's nominal model: the datasheet's
         holdable = speed_envelope(wheel) if fdir.holdable is None else fdir.holdable
         reconfig = [Reconfiguration(plant.wheels, holdable, fdir.slew_rate, plant.inertia, wheel.inertia)
                     for _ in scenarios]
@@ -175,7 +175,7 @@ def simulate(scenarios, gains: PidGains | None = None, wheel: WheelParams | None
     return Trajectory(time=time, wheel_names=plant.wheels.names,
                       decisions=[r.decisions for r in reconfig] if reconfig else None,
                       identified=onboard.identified if onboard is not None and fdir.identification else None,
-                      watched=onboard.watch.intervals if onboard is not None and onboard.watch else None,
+                      watched=onboard.intervals if onboard is not None and onboard.watch else None,
                       operating_point={k: np.array([op[k] for op in operating_point]) for k in operating_point[0]},
                       **{k: np.array(v) for k, v in rec.items()})
 

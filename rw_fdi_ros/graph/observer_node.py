@@ -19,7 +19,7 @@ import numpy as np
 from sensor_msgs.msg import JointState
 
 from ..core.calibration import UnitCalibration, calibration_samples, regressors
-from ..core.detection import METHODS, WINDOW
+from ..core.detection import WINDOW
 from ..core.residuals import ResidualFilter, SignedResidual, ripple_share
 from ..core.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
 from ..core.sampling import SAMPLINGS
@@ -29,6 +29,7 @@ from . import topics as T
 from .convert import fdi_sample_of
 from .gate import GatedPublisher
 from .runtime import EXIT_BAD_INPUT, GraphNode, NodeError
+from .fdi_parameters import declare_fdi
 from .wheel_type import declare_wheel_type
 
 
@@ -37,15 +38,16 @@ class ObserverNode(GraphNode):
 
     def __init__(self, name: str):
         super().__init__(name)
-        self.declare_parameter("fdi_method", "speed_aware")  # speed_aware (ours) or thesis
         self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)  # the wheels the telemetry reports (wheel_set.py)
         self.declare_parameter("fdi_period", 1.0)       # [s] FDI sample period (and discretisation period)
         self.declare_parameter("fdi_sampling", "mean")  # mean over the FDI period, or 'instant' (thesis)
         self.declare_parameter("window", WINDOW)        # residual moving-average length [samples]
         self.declare_parameter("min_subscribers", 0)    # readers of residual and bound before the first sample goes
         self.declare_parameter("estimate_readers", 0)   # readers of the estimate (the recorder) before it goes
-        # [s] from each run's start the observer learns its own wheel (core/calibration.py); 0: the datasheet's
-        self.declare_parameter("unit_calibration_time", 0.0)
+        try:   # the run's FDI (graph/fdi_parameters.py): its method, files and unit calibration
+            self.fdi = declare_fdi(self)
+        except ValueError as exc:
+            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
         self.wheel = declare_wheel_type(self)   # the wheel type: its ripple bound and calibration regressors
         self.compute, self.callback, self.callback_cpu = [], [], []   # s: observe() / callback wall / CPU
         try:
@@ -54,26 +56,17 @@ class ObserverNode(GraphNode):
             raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
         self.joints = tuple(joint_name(n) for n in self.names)
         self.out_joints = self.joints   # the wheels this node's messages carry (an Elman node: its own)
-        self.method = self.param("fdi_method")
-        if self.method not in METHODS:
-            raise NodeError(f"parameter fdi_method must be one of {', '.join(METHODS)}, got {self.method!r}",
-                            EXIT_BAD_INPUT)
+        self.method = self.fdi.method
         self.speed_aware = self.method == "speed_aware"
         if self.speed_aware and self.param("fdi_sampling") != "mean":
-            raise NodeError("fdi_method speed_aware needs fdi_sampling 'mean' (its ripple bound is a mean)",
+            raise NodeError("fdi.method speed_aware needs fdi_sampling 'mean' (its ripple bound is a mean)",
                             EXIT_BAD_INPUT)
         self.sampling = self.param("fdi_sampling")
         if self.sampling not in SAMPLINGS:
             raise NodeError(f"parameter fdi_sampling must be one of {', '.join(SAMPLINGS)}, got {self.sampling!r}",
                             EXIT_BAD_INPUT)
-        seconds = self.param("unit_calibration_time")
-        if not (np.isfinite(seconds) and seconds >= 0.0):
-            raise NodeError(f"parameter unit_calibration_time must be a finite number >= 0, got {seconds!r}",
-                            EXIT_BAD_INPUT)
-        if seconds and not self.speed_aware:
-            raise NodeError("unit_calibration_time needs fdi_method speed_aware (the thesis' residual is unsigned)",
-                            EXIT_BAD_INPUT)
-        self.calibration_samples = calibration_samples(seconds, self.param("fdi_period"))
+        # [s] from each run's start the observer learns its own wheel (core/calibration.py); 0: the datasheet's
+        self.calibration_samples = calibration_samples(self.fdi.unit_calibration, self.param("fdi_period"))
         self.said_no_free = False   # telemetry without free_motor_torque is said once
         self.input = InputMonitor("FDI telemetry", self.param("fdi_period"))
 
@@ -177,7 +170,7 @@ class WheelsObserverNode(ObserverNode):
         super().__init__(name)
         self.declare_own_parameters()   # a plug-in's node learns its slot here
         if self.needs_speed and not self.speed_aware:
-            raise NodeError(f"the {self.slot} observer needs fdi_method speed_aware (it reads the wheel speed)",
+            raise NodeError(f"the {self.slot} observer needs fdi.method speed_aware (it reads the wheel speed)",
                             EXIT_BAD_INPUT)
         self.reset()
         self.start(T.estimate_topic(self.slot), T.residual_topic(self.slot), T.bound_topic(self.slot))

@@ -254,6 +254,20 @@ def residual_inputs(method: str = "speed_aware", wheel_set: str = DEFAULT_WHEEL_
             for f in (residual_topic, bound_topic)]
 
 
+def _fdi_observers(p) -> tuple:
+    """(method, plug-in slots) of an FDI node's ``fdi.*`` parameters (graph/fdi_parameters.py)."""
+    from ..fdi_config import FdiConfig
+    given = dict(p.get("fdi") or {})
+    fdi = FdiConfig(method=given.get("method", "speed_aware"), plugins=tuple(given.get("plugins") or ()))
+    return fdi.method, fdi.plugin_slots
+
+
+def _fdi_slots(p) -> tuple:
+    """Every observer slot of an FDI node's ``fdi.*`` parameters: the method's, then the plug-ins'."""
+    method, plugins = _fdi_observers(p)
+    return (*observers_of(method), *plugins)
+
+
 def _wheel_set(p) -> str:
     return p.get("wheel_set") or DEFAULT_WHEEL_SET
 
@@ -271,9 +285,8 @@ READS = {
     "plugin_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
     "momentum_dumping": lambda p: [MAGNETOMETER, WHEELS] + ([FDIR_WHEELS] if p.get("fdir", True) else [])
                                   + _run_end(p),
-    "isolation": lambda p: [FDI_TELEMETRY, FDI_BUS_GRID,
-                            *residual_inputs(p.get("fdi_method", "speed_aware"), _wheel_set(p), plugin_slots(p))]
-                           + _run_end(p),
+    "isolation": lambda p: [FDI_TELEMETRY, FDI_BUS_GRID, *residual_inputs(_fdi_observers(p)[0], _wheel_set(p),
+                                                                          _fdi_observers(p)[1])] + _run_end(p),
     "recorder": lambda p: [r[0] for r in recorded_rows(p.get("record_plant", True), p.get("fdi_period", 0.0) > 0,
                                                        p.get("extra_topics"), p.get("fdi_method", "speed_aware"),
                                                        _wheel_set(p), p.get("orbit", False),
@@ -305,9 +318,7 @@ WAITS = {
     "model_observer": lambda p: _observer_waits("model", None),
     "plugin_observer": lambda p: _observer_waits(p["slot"], None),
     "isolation": lambda p: {"diagnostics_readers": [DIAGNOSTICS],
-                            "min_subscribers": [IDENTIFICATION, *(t for obs in (*observers_of(p.get("fdi_method",
-                                                                                                    "speed_aware")),
-                                                                                 *plugin_slots(p))
+                            "min_subscribers": [IDENTIFICATION, *(t for obs in _fdi_slots(p)
                                                                   for t in fdi_output_topics(obs).values())]},
     "player": lambda p: {"min_subscribers": [FDI_TELEMETRY], "bus_grid_readers": [FDI_BUS_GRID]},
     "recorder": lambda p: {},   # what it sends (/recorder/closed) is latched

@@ -21,6 +21,7 @@ from ..core.vehicle import wheel_parameter
 from ..core.scenario import Scenario
 from ..core.wheel_set import joint_name, wheel_set
 from ..graph import topics as T
+from ..graph.fdi_parameters import fdi_parameters
 
 CONTROL_PERIOD = DEFAULT.control_period
 
@@ -218,6 +219,30 @@ def misread_by_yaml(value: str) -> bool:
     return False
 
 
+def flat_parameters(parameters: dict, prefix: str = "") -> dict:
+    """``parameters`` with a nested set (``{"fdi": {"method": ...}}``) under the dotted names rcl gives them.
+
+    Parameters
+    ----------
+    parameters : dict
+        A node's parameters, as a params file holds them.
+    prefix : str
+        The enclosing set's dotted name ('' at the top).
+
+    Returns
+    -------
+    dict
+        dotted name -> value.
+    """
+    out = {}
+    for name, value in parameters.items():
+        if isinstance(value, dict):
+            out.update(flat_parameters(value, f"{prefix}{name}."))
+        else:
+            out[f"{prefix}{name}"] = value
+    return out
+
+
 def checked_strings(nodes):
     """``nodes``, after checking that none of their string parameters is one a YAML layer between a
     launch file and rcl would retype (our names are joint names, method names and absolute paths):
@@ -234,7 +259,7 @@ def checked_strings(nodes):
         ``nodes`` themselves.
     """
     for node in nodes:
-        for name, value in node.parameters.items():
+        for name, value in flat_parameters(node.parameters).items():
             if isinstance(value, str) and misread_by_yaml(value):
                 raise ValueError(f"{node.name}: parameter {name}={value!r} would be read as another type by "
                                  "YAML on its way to the node")
@@ -284,14 +309,10 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False, wheel_ty
     """
     fdi = FdiConfig.of(fdi).for_vehicle(choices.vehicle)
     nodes = []
-    common = {"fdi_method": fdi.method, "fdi_period": choices.fdi_period, "fdi_sampling": choices.fdi_sampling,
-              "unit_calibration_time": fdi.unit_calibration, "wheel_set": choices.wheel_set,
-              **({"wheel_type": wheel_type} if wheel_type else {})}
+    common = {**fdi_parameters(fdi), "fdi_period": choices.fdi_period, "fdi_sampling": choices.fdi_sampling,
+              "wheel_set": choices.wheel_set, **({"wheel_type": wheel_type} if wheel_type else {})}
     for axis in wheel_set(choices.wheel_set).names:
-        params = {"wheel": joint_name(axis), **common}
-        if fdi.models or fdi.thresholds or fdi.vehicle:   # else the node's own default, the thesis' shipped set
-            params["model"] = str(fdi.model_path(axis))
-        nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", params))
+        nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", {"wheel": joint_name(axis), **common}))
     for obs in observers_of(fdi.method)[1:]:   # linear_observer, model_observer: every wheel each
         nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer", dict(common)))
     from ..core.observer_plugin import find_state
@@ -300,12 +321,7 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False, wheel_ty
         nodes.append(NodeSpec(f"{cls.slot}_observer", "plugin_observer", {
             **common, "observer": spec, "slot": cls.slot,
             **({"observer_state": str(Path(state).resolve())} if state else {})}))
-    iso = {**choices.as_dict(), "fdi_method": fdi.method, "persistence": int(fdi.persistence or 0),
-           "unit_calibration_time": fdi.unit_calibration, "await_bus_grid": bool(await_bus_grid),
-           **({"decision": fdi.decision} if fdi.decision else {}), **plugin_parameters(fdi),
+    iso = {**choices.as_dict(), **fdi_parameters(fdi), "await_bus_grid": bool(await_bus_grid),
            **({"wheel_type": wheel_type} if wheel_type else {})}
-    if fdi.models or fdi.thresholds or fdi.vehicle:
-        iso.update({f"thresholds_{obs}": str(fdi.threshold_path(obs)) for obs in observers_of(fdi.method)})
-    iso.update({f"thresholds_{slot}": str(fdi.threshold_path(slot).resolve()) for slot in fdi.plugin_slots})
     nodes.append(NodeSpec("isolation", "isolation", iso))
     return nodes

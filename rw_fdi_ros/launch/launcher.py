@@ -129,7 +129,11 @@ def stop_processes(procs, grace: float = 3.0, sig=signal.SIGINT):
 
 
 class _QuotingDumper(yaml.SafeDumper):
-    """Quotes every string: rcl's YAML reads a bare 'y' (the axis) as a boolean."""
+    """Quotes every string: rcl's YAML reads a bare 'y' (the axis) as a boolean. Writes no alias: rcl refuses
+    them, and the nodes share one ``fdi`` parameter set."""
+
+    def ignore_aliases(self, data):
+        return True
 
 
 _QuotingDumper.add_representer(str, lambda d, v: d.represent_scalar("tag:yaml.org,2002:str", v, style="'"))

@@ -11,8 +11,7 @@ and publishes the estimate, the residual and the ripple bound: the signed
 from __future__ import annotations
 
 from ..core.residuals import ResidualFilter
-from ..core.elman import REGENERATE, ElmanWeights, ModelError, WheelRecall, network_path
-from ..paths import fdi_dir
+from ..core.elman import REGENERATE, ElmanWeights, ModelError, WheelRecall
 from ..graph import topics as T
 from ..graph.observer_node import ObserverNode
 from ..graph.runtime import EXIT_BAD_INPUT, NodeError, main_for
@@ -24,16 +23,15 @@ class ElmanObserverNode(ObserverNode):
     def __init__(self, name: str | None = None):   # name: another than node_name (composition)
         super().__init__(name or self.node_name)
         self.declare_parameter("wheel", self.joints[0])   # the wheel joint this network watches
-        self.declare_parameter("model", "")            # npz; empty: the shipped one of fdi_method
         try:
             axis = T.axis_of_joint(self.param("wheel"), self.joints)
         except ValueError as exc:
             raise NodeError(f"parameter wheel {exc}", EXIT_BAD_INPUT) from None
         try:
-            path = self.param("model") or str(network_path(fdi_dir(self.method), axis))
+            path = self.fdi.model_path(axis)   # FdiConfig's rule: fdi.models, else the vehicle's shipped set
             weights = ElmanWeights.load(path)
             if weights.speed_aware != self.speed_aware:
-                raise ModelError(f"{path}: a {weights.inputs}-input network cannot run fdi_method={self.method!r} "
+                raise ModelError(f"{path}: a {weights.inputs}-input network cannot run fdi.method={self.method!r} "
                                  f"({'3 inputs with the wheel speed' if self.speed_aware else '2 inputs'} needed); "
                                  f"{REGENERATE}")
         except ModelError as exc:

@@ -1,17 +1,17 @@
 """isolation: residuals against thresholds, persistence, which wheel is faulty and since when.
 
-For each observer of the method (elman, linear, model; core/detection.observers_of)
-and axis it compares |residual| of FDI sample k with the threshold at k plus the observer's ripple bound and raises
-the axis' alarm after ``persistence`` consecutive samples above
-(core/isolation.py, evaluation.md). Alarmed axes are the faulty wheels. It
-publishes per observer the thresholds, the alarm flags and a DiagnosticArray
-with residual, threshold, margin and first alarm per wheel, and /diagnostics
-with one status per wheel, decided by the ``decision``: one observer (the method's
-by default: the model observer speed-aware, the Elman network for the thesis method;
-core/isolation.py says why) or a vote of them (``2of3``: a wheel at least two alarm),
-stamped with the sim clock. A wheel the decision alarms is a confirmed failure: /diagnostics holds it
-(latched) until the ``~/reset`` service (std_srvs/Trigger) clears it. Every output of stamp k is made from
-the inputs of stamp k alone, so the same run gives the same messages.
+It runs stages 2-5 of the FDI pipeline (core/pipeline.Isolation, the very object the core loop and the
+offline judge step): each observer's residual and ripple bound, as its node publishes them, against its
+band for P consecutive samples (ObserverChannel); the decision (one observer, or a vote ``KofN``); the
+latched verdict within the operating envelope; the identification. What it runs is the run's FDI, the
+``fdi.*`` parameter set (graph/fdi_parameters.py, docs/graph.md "The FDI configuration"): its bands found
+and checked by FdiConfig's one rule. It publishes per observer the thresholds, the alarm flags and a
+DiagnosticArray with residual, threshold, margin and first alarm per wheel, and /diagnostics with one
+status per wheel, decided by ``fdi.decision`` (the method's decision observer by default: the model
+observer speed-aware, the Elman network for the thesis method; core/fdi/decision.py says why), stamped with
+the sim clock. A wheel the decision alarms is a confirmed failure: /diagnostics holds it (latched) until the
+``~/reset`` service (std_srvs/Trigger) clears it. Every output of stamp k is made from the inputs of stamp k
+alone, so the same run gives the same messages.
 
 It also identifies the fault of every alarmed wheel (core/identification.py):
 it reads the FDI telemetry (with the identification terms) and from the
@@ -43,15 +43,10 @@ from sensor_msgs.msg import JointState, PointCloud2
 
 import numpy as np
 
-from ..fdi_config import FdiConfig, checked_curves
-from ..core.detection import METHODS, observers_of
-from ..core.threshold_file import ThresholdError
 from ..core.calibration import calibration_samples
-from ..core.identification import FaultIdentifier
-from ..core.observer_plugin import is_plugin_slot
 from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
-from ..core.isolation import (LatchedVerdict, ObserverChannel, decision_of, in_envelope, speed_envelope,
-                              stamp_seconds)
+from ..core.isolation import stamp_seconds
+from ..core.pipeline import Isolation
 from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.wheel_set import joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr
@@ -61,6 +56,7 @@ from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 from ..graph.gate import GatedPublisher
 from ..graph.report_pairing import ReportGridPairing
 from ..graph.sync import StampSync
+from ..graph.fdi_parameters import declare_fdi
 from ..graph.wheel_type import declare_wheel_type
 
 
@@ -97,16 +93,6 @@ class IsolationNode(GraphNode):
 
     def __init__(self, name: str | None = None):   # name: another than node_name (composition)
         super().__init__(name or self.node_name)
-        self.declare_parameter("thresholds_elman", "")     # empty: the shipped thresholds_<observer>.json
-        self.declare_parameter("thresholds_linear", "")    # of the method
-        self.declare_parameter("thresholds_model", "")     # (speed_aware only)
-        self.declare_parameter("fdi_method", "speed_aware")  # speed_aware (ours) or thesis
-        self.declare_parameter("persistence", 0)            # samples above the threshold; 0: the file's
-        self.declare_parameter("unit_calibration_time", 0.0)  # [s] the observers learn their wheel (as theirs)
-        self.declare_parameter("decision", "")             # an observer or a vote KofN; empty: the method's
-        self.declare_parameter("decision_observer", "")    # before `decision`: refused, not silently ignored
-        self.declare_parameter("plugin_observers", "")     # slots of a user's observers (comma-separated), each
-        # with its thresholds_<slot> parameter (declared below) and its residuals on /fdi/<slot>/...
         self.declare_parameter("latch", True)               # a confirmed failure stays until ~/reset
         self.declare_parameter("await_bus_grid", False)     # each report waits for its grid from the first on
         self.declare_parameter("input_timeout", 10.0)       # wall s an input may be silent before it is said
@@ -119,40 +105,24 @@ class IsolationNode(GraphNode):
             plant = PlantChoices(**{k: self.param(k) for k in DEFAULT_CHOICES.as_dict()})
         except PlantChoiceError as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
-        method = self.param("fdi_method")
-        if method not in METHODS:
-            raise NodeError(f"parameter fdi_method must be one of {', '.join(METHODS)}, got {method!r}", EXIT_BAD_INPUT)
-        calibration = self.calibration_time = self.param("unit_calibration_time")
+        try:   # the run's FDI (graph/fdi_parameters.py): its bands by FdiConfig's rule, checked against the plant
+            fdi = declare_fdi(self)
+            self.fdi = fdi = fdi.for_vehicle(fdi.vehicle or plant.vehicle)
+            curves = fdi.load_thresholds(plant)
+            decision = fdi.decision_rule
+        except ValueError as exc:   # ThresholdError, ObserverError: one line naming the file or the plug-in
+            raise NodeError(str(exc), EXIT_BAD_INPUT) from None
+        calibration = self.calibration_time = fdi.unit_calibration
         self.wheel_set = plant.wheel_set
         self.names = wheel_set(plant.wheel_set).names   # every wheel of the set, the redundant one included
         self.joints = tuple(joint_name(n) for n in self.names)
-        self.channels = {}
         self.compute, self.compute_cpu = [], []
-        plugins = T.plugin_slots({"plugin_observers": self.param("plugin_observers")})
-        for slot in plugins:
-            if not is_plugin_slot(slot):
-                raise NodeError(f"parameter plugin_observers: {slot!r} is not a plug-in's slot", EXIT_BAD_INPUT)
-            self.declare_parameter(f"thresholds_{slot}", "")
-            if not self.param(f"thresholds_{slot}"):
-                raise NodeError(f"parameter thresholds_{slot}: the bands of plug-in observer {slot} (a "
-                                "thresholds_<slot>.json `rw-fdi fit-thresholds --observer` wrote) must be given",
-                                EXIT_BAD_INPUT)
-        for obs in (*observers_of(method), *plugins):
-            try:   # the shipped set of the method, by FdiConfig's rule, unless a file is given
-                path = self.param(f"thresholds_{obs}") or FdiConfig(method, unit_calibration=calibration,
-                                                                    vehicle=plant.vehicle).threshold_path(obs)
-                curves = checked_curves(path, obs, method, calibration, plant)
-            except ThresholdError as exc:
-                raise NodeError(str(exc), EXIT_BAD_INPUT) from None
-            self.channels[obs] = ObserverChannel(obs, curves, self.param("persistence") or None, self.names)
-        if self.param("decision_observer"):
-            raise NodeError(f"parameter decision_observer is now decision (an observer or a vote KofN): set "
-                            f"decision:={self.param('decision_observer')}", EXIT_BAD_INPUT)
-        try:   # core/isolation.decision_of: one observer's alarms, or a vote of them
-            self.decision = decision_of(self.param("decision"), method, tuple(self.channels))
-        except ValueError as exc:
-            raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
-        self.verdict = LatchedVerdict(self.param("latch"), self.names)
+        self.wheel = declare_wheel_type(self)   # the wheel type: its identification and envelope
+        # the FDI pipeline's stages 2-5 (core/pipeline.py), the core loop's and the offline judge's too
+        self.isolation = Isolation(self.names, curves, decision, fdi.persistence, self.param("latch"), self.wheel,
+                                   calibration_samples(calibration, plant.fdi_period), identification=True)
+        self.channels, self.decision = self.isolation.channels, self.isolation.decision
+        self.verdict, self.identifier = self.isolation.verdict, self.isolation.identifier
         # the operator's command that clears every confirmed failure (std_srvs/Trigger, as FDIR resets go)
         from std_srvs.srv import Trigger
         self.create_service(Trigger, "~/reset", self._on_reset)
@@ -164,10 +134,6 @@ class IsolationNode(GraphNode):
         self.pub_ident = gate(DiagnosticArray, T.IDENTIFICATION)
         self.gates = [self.pub_diag, self.pub_ident] + [p for pubs in self.pubs.values() for p in pubs.values()]
         self.done_samples = {}   # stamp -> observer (or 'telemetry') -> what arrived for that stamp
-        self.wheel = declare_wheel_type(self)   # the wheel type: its identification and envelope
-        self.speed_envelope = speed_envelope(self.wheel)
-        self.identifier = FaultIdentifier(self.names, calibration_samples(calibration, plant.fdi_period),
-                                          params=self.wheel)
         self.inputs = {part: InputMonitor(f"{part} residuals" if part in self.channels else "FDI telemetry",
                                           plant.fdi_period) for part in (*self.channels, "telemetry")}
         self.last_input = time.monotonic()
@@ -222,7 +188,7 @@ class IsolationNode(GraphNode):
         t0, c0 = time.perf_counter(), time.thread_time()
         if not self._accept(observer, stamp):
             return
-        rows = self.channels[observer].update(stamp, residual, bound)
+        rows = self.isolation.observe(observer, stamp, residual, bound)
         self._publish_observer(observer, stamp, rows, note=self.inputs[observer].take_note(stamp))
         self._arrived(stamp, observer, rows)
         self.compute.append(time.perf_counter() - t0)   # the whole callback, publishing included
@@ -272,12 +238,9 @@ class IsolationNode(GraphNode):
             self._publish_observer(obs, stamp, rows, silent=True)
             handled[obs] = rows
         # /diagnostics: latched, and not judged for a wheel outside the operating envelope
-        self.envelope = dict(zip(self.names, in_envelope(sample.wheel_speed, self.speed_envelope)
-                                 if sample.wheel_speed is not None
-                                 else [True] * len(self.names)))
+        self.envelope = self.verdict.judged(sample.wheel_speed)
         self.speeds = sample.wheel_speed
-        decided = self.verdict.update(self.decision.combine(handled), self.envelope)
-        alarmed = {a: decided[a][2] for a in self.names}
+        decided = self.isolation.decide(handled, sample.wheel_speed)
         finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
                                                         sample.ripple_phasor, sample.bus_motor_torque,
                                                         sample.model_torque, sample.motor_torque,
@@ -288,7 +251,7 @@ class IsolationNode(GraphNode):
             self.said_no_grid = True
             self.get_logger().warn(f"{T.FDI_TELEMETRY} at {stamp * 1e-9:g} s without its {T.FDI_BUS_GRID}: fault "
                                    "identification skips the samples that lack it")
-        identified = (self.identifier.update(sample, alarmed) if finite and sample.bus_motor_torque is not None
+        identified = (self.isolation.identify(sample, decided) if finite and sample.bus_motor_torque is not None
                       else dict(self.identifier.latest))
         self._publish_diagnostics(stamp, handled, decided, identified,
                                   [o for o in self.decision.observers if o in silent])
@@ -347,7 +310,7 @@ class IsolationNode(GraphNode):
             if unjudged is None and not self.envelope[a]:
                 speed = self.speeds[self.names.index(a)]
                 unjudged = (f"outside the operating envelope (wheel speed {speed:.1f} rad/s, "
-                            f"judged within +-{self.speed_envelope:.4g})")
+                            f"judged within +-{self.verdict.envelope:.4g})")
             status = _status(f"{T.VERDICT_STATUS} {a} ({self.decision.phrase})", a, *main[a],
                              extra=extra, identification=found, note=note, unjudged=unjudged,
                              latched=self.verdict.latched[a])
@@ -363,7 +326,7 @@ class IsolationNode(GraphNode):
                 status.level = DiagnosticStatus.STALE
                 status.values.append(KeyValue(key="judged", value="false"))
                 status.message = (f"cannot judge: the threshold curves end at {channel.curves.horizon:g} s "
-                                  f"({self.param(f'thresholds_{self.decision.lead}') or 'shipped'})")
+                                  f"({self.fdi.threshold_path(self.decision.lead)})")
             msg.status.append(status)
         self.pub_diag.publish(msg)
         self.pub_ident.publish(ident)

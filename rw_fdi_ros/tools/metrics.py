@@ -49,6 +49,8 @@ class RunEval:
     # what the FDI said about itself (health_from_bag): status topic -> wheel -> cannot_judge / input_trouble
     health: dict = field(default_factory=dict)
     wheels: tuple = AXIS_WHEELS   # the run's wheel names (its wheel set's), the order of the series' columns
+    # FDIR's acts, [(time [s], wheel, action, reason)] (fdir.Decision; the graph's /fdir/wheels states)
+    reconfiguration: list = field(default_factory=list)
 
     @property
     def faulty_wheels(self):
@@ -233,6 +235,9 @@ def run_row(run: RunEval) -> dict:
     row["identification"] = {wheel: {k[len("fault_"):]: found.get(k) for k in ("fault_kind", "fault_size",
                                                                           "fault_size_low", "fault_size_high")}
                              for wheel, found in sorted(run.identification.items())}
+    if run.reconfiguration:   # FDIR acted in the loop (screen --fdir)
+        row["reconfiguration"] = [{"time_s": t, "wheel": w, "action": a, "reason": r}
+                                  for t, w, a, r in run.reconfiguration]
     return row
 
 

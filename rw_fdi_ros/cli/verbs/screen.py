@@ -11,6 +11,9 @@ PARENTS = ("fdi_files", "method", "unit", "decision", "observers", "cluster")
 def add_arguments(parser) -> None:
     parser.add_argument("--scenario", nargs="+", required=True)
     parser.add_argument("--seeds", default="100..129", help="A..B inclusive")
+    parser.add_argument("--fdir", action="store_true",
+                        help="reconfigure on the verdict in the core loop, as `rw-fdi run` does (default: detection "
+                             "alone, every wheel kept in use)")
     parser.add_argument("--json", action="store_true",
                         help="print the counts per scenario and observer as JSON instead of text")
     parser.add_argument("--table", default=None, metavar="CSV",

@@ -1,6 +1,6 @@
 """`rw-fdi bench recovery`: the redundant wheel takes over from a wheel the FDI confirmed faulty.
 
-Each run is the core loop with the FDI's verdict made in it (core/onboard.py) and the
+Each run is the core loop with the FDI's verdict made in it (core/pipeline.py) and the
 reconfiguration it decides (core/fdir.py): three orthogonal wheels and the standby wheel s
 along (1, 1, 1)/sqrt(3) (wheel set ``orthogonal_skew``). One fault on wheel seed mod 3 at an
 onset drawn from the seed; the pointing requirement is 0.2 deg on every axis.
@@ -198,18 +198,18 @@ def bench_recovery(runs_per_cell: int = 100, fault_free_runs: int = 1000, seeds:
               "recovery_s": RECOVERY_S, "cells": cells}
     report = write_report(report, out, "recovery", format_recovery)
     if vehicle == DEFAULT_VEHICLE:   # the thesis' figure: a bus drop on x, s taking over
-        plot_before_after(Path(out) / "pointing_before_after.png", Fdir(FdiConfig().load()[1]["model"]))
+        plot_before_after(Path(out) / "pointing_before_after.png", Fdir(FdiConfig().loaded()))
     return report
 
 
 def _batch(work) -> tuple:
     """(cell index, the figures of its runs ``seeds``): one batch of the core loop, what a worker computes."""
     i, seed_base, seeds, vehicle = work
-    _, curves = FdiConfig().for_vehicle(vehicle).load()
+    fdi = FdiConfig().for_vehicle(vehicle).loaded()
     # a cell's seeds follow its index among all CELLS: a vehicle's runs are the thesis' seeds where they share it
     index, cell = cells_of(vehicle)[i]
     scenarios = cell_scenarios(cell, seeds.stop, index, seed_base, vehicle)[seeds.start:]
-    traj = simulate(scenarios, fdir=Fdir(curves["model"]))
+    traj = simulate(scenarios, fdir=Fdir(fdi))
     return i, [run_figures(traj, b, s) for b, s in enumerate(scenarios)]
 
 

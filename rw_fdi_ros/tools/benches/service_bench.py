@@ -31,7 +31,7 @@ to give up every wheel it confirms (``Fdir.holdable`` infinite, no slew margin, 
 and keeping), measured for identification only.
 
 With ``watch`` (``--every-observer``) every observer of an FDI configuration (ours, and a user's plug-ins) is
-judged beside the decision on the same runs, acted on by nothing (core/onboard.ObserverWatch): its false alarms
+judged beside the decision on the same runs, acted on by nothing (core/pipeline.FdiPipeline watch): its false alarms
 on fault-free 600-s runs and per 100 h, the faulty wheel and no other alarmed, no healthy wheel alarmed while or
 after the spacecraft reconfigured, the alarm held to the end, the delay (docs/fdi.md "Learned observers in
 service").
@@ -52,7 +52,6 @@ import numpy as np
 import yaml
 
 from ...fdi_config import FdiConfig
-from ...core.calibration import calibration_samples
 from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import SATURATED_S
 from ...core.identifiability import TOLD_APART, other_family_misfit, told_apart
@@ -169,21 +168,19 @@ def scenario(d: Draw) -> Scenario:
 
 
 def fdir_for(units: bool, give_up: bool = False, vehicle: str = DEFAULT_VEHICLE, watch: FdiConfig | None = None,
-             names=None) -> Fdir:
-    """The onboard FDIR of the family, the shipped FDI of ``vehicle``; ``give_up``: made to give up every wheel
-    it confirms (no holding, no keeping), for the identification of a wheel whose driver goes off at its
-    decision. ``watch``: every observer of that FDI configuration (ours, and its plug-ins) judged beside on the
-    wheels ``names``, acted on by nothing (onboard.ObserverWatch)."""
+             fdi: FdiConfig | None = None) -> Fdir:
+    """The onboard FDIR of the family: ``fdi`` (default: the shipped FDI of ``vehicle``), calibrated to the units
+    where they vary; ``give_up``: made to give up every wheel it confirms (no holding, no keeping), for the
+    identification of a wheel whose driver goes off at its decision. ``watch``: every observer of that FDI
+    configuration (ours, and its plug-ins) judged beside, acted on by nothing (pipeline.FdiPipeline)."""
     from dataclasses import replace
-    from ...core.onboard import watched_observers
-    calibration = calibration_samples(CALIBRATION_S) if units else 0
-    _, curves = FdiConfig(unit_calibration=CALIBRATION_S if units else 0.0).for_vehicle(vehicle).load()
+    calibration = CALIBRATION_S if units else 0.0
+    loaded = replace(fdi or FdiConfig(), unit_calibration=calibration).for_vehicle(vehicle).loaded(FDI_PERIOD)
     policy = {"holdable": float("inf"), "slew_rate": 0.0} if give_up else {}
     watched = None
     if watch is not None and not give_up:
-        models, every = replace(watch, unit_calibration=CALIBRATION_S if units else 0.0).for_vehicle(vehicle).load()
-        watched = watched_observers(names, models, every, FDI_PERIOD, calibration, _vehicle(vehicle)[0].wheel)
-    return Fdir(curves["model"], calibration, identification=True, watched=watched, **policy)
+        watched = replace(watch, unit_calibration=calibration).for_vehicle(vehicle).loaded(FDI_PERIOD)
+    return Fdir(loaded, identification=True, watch=watched, **policy)
 
 
 def judged_mask(time, scenario_: Scenario, start: float) -> np.ndarray:
@@ -302,7 +299,7 @@ def observer_figures(watched: dict, d: Draw, decisions: list) -> dict:
 def _simulate(draws: list, watch: FdiConfig | None = None) -> list:
     """One batch (equal duration, wheels and orbit): the runs' figures; ``watch``: every observer's too."""
     scenarios = [scenario(d) for d in draws]
-    fdir = fdir_for(draws[0].units, draws[0].give_up, draws[0].vehicle, watch, scenarios[0].wheel_set().names)
+    fdir = fdir_for(draws[0].units, draws[0].give_up, draws[0].vehicle, watch)
     # a given-up run (at most 30 min) keeps every control step: what its driven FDI samples averaged
     traj = simulate(scenarios, fdir=fdir, every=1 if draws[0].give_up else EVERY)
     return [run_figures(traj, b, d, s) for b, (d, s) in enumerate(zip(draws, scenarios))]

@@ -206,70 +206,77 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     return report
 
 
-def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -> dict:
-    """observer -> metrics.Series (|residual|, threshold + bound, alarm), stepped through the isolation
-    node's ObserverChannel: what the node would publish for this run (P: the curves' own unless given)."""
-    from ...core.isolation import ObserverChannel
-    from ..metrics import Series
-    stamps = np.round(run.time * 1e9).astype(np.int64)
-    out = {}
+def judge(run: ObserverRun, curves: dict, samples=None, decision=None, persistence: int | None = None,
+          calibration_samples: int = 0, identification: bool = False, other_decisions=()) -> tuple:
+    """Stages 2-5 of the FDI pipeline (core/pipeline.Isolation, the isolation node's) stepped over one run's
+    residuals: what the node would publish for this run.
+
+    Parameters
+    ----------
+    run : ObserverRun
+        The observers' residuals and bounds (:func:`observe`).
+    curves : dict
+        observer -> ThresholdCurves of the observers judged.
+    samples : FdiSamples, optional
+        The run's FDI samples: the wheel speeds (the operating envelope) and, with ``identification``, the terms
+        the identification fits; None: every sample judged.
+    decision : DecisionRule, optional
+        Who decides /diagnostics; None: the method's decision observer.
+    persistence : int, optional
+        P; None: the curves' own.
+    calibration_samples : int
+        FDI samples the identification learns each wheel's unit from.
+    identification : bool
+        Identify the verdict's alarmed wheels (decided once, at the end).
+    other_decisions : sequence of DecisionRule
+        The verdicts these would give, beside (metrics.decision_slot); those of other observers are left out.
+
+    Returns
+    -------
+    series : dict
+        observer -> metrics.Series (|residual|, threshold + bound, alarm); ``verdict``: what /diagnostics says
+        (the lead observer's residual and threshold, the latched alarm).
+    identified : dict
+        wheel -> the last Identification or None ({} without ``identification``).
+    """
+    from ...core.pipeline import Isolation, Verdict
+    from ..metrics import VERDICT, Series, decision_slot
     for obs, c in curves.items():
         c.check_method(run.method, origin=f"thresholds_{obs}")
-        channel = ObserverChannel(obs, c, persistence, run.wheels)
-        rows = [channel.update(int(s), r, b) for s, r, b in zip(stamps, run.residual[obs], run.bound[obs])]
-        def col(j):
-            return np.array([[row[a][j] for a in run.wheels] for row in rows]).reshape(len(rows), len(run.wheels))
-        out[obs] = Series(run.time, np.abs(col(0)), col(1), col(2).astype(bool))
-    return out
-
-
-def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = True, wheels=AXIS_WHEELS,
-                   decision=None, envelope: float | None = None):
-    """metrics.Series of what /diagnostics says: the ``decision``'s rows (core/isolation.DecisionRule; None: the
-    method's decision observer) of ``series`` (observer -> Series, :func:`fdi_series`) through the isolation
-    node's LatchedVerdict, a wheel outside the operating envelope at a sample (``wheel_speed``: (n, N) of the
-    FDI samples) not judged there. A vote's first alarm is the node's: the K-th earliest first alarm of the
-    observers alarming. ``envelope``: the wheel type's (isolation.speed_envelope; None: the thesis')."""
-    from ...core.isolation import WHEEL_SPEED_ENVELOPE, LatchedVerdict, decision_of, in_envelope
-    envelope = WHEEL_SPEED_ENVELOPE if envelope is None else envelope
-    from ..metrics import Series
-    decision = decision or decision_of("", method)
-    s = series[decision.lead]
-    n = len(s.time)
-    judged = np.ones(s.alarm.shape, bool) if wheel_speed is None else in_envelope(wheel_speed, envelope)
-    # each observer's flags and the sample of its first alarm per wheel (AlarmRule.first_alarm: its first in
-    # the run; n where it never alarms)
-    flags = {o: series[o].alarm.reshape(n, len(wheels)) for o in decision.observers}
-    first = {o: np.where(f.any(axis=0), f.argmax(axis=0), n) for o, f in flags.items()}
-    verdict = LatchedVerdict(latch, wheels)
-    alarm = np.zeros((n, len(wheels)), bool)
-    for k in range(n):
-        rows_of = {o: {a: (0.0, 0.0, bool(f[k, i]), float(s.time[first[o][i]]) if first[o][i] <= k else None)
-                       for i, a in enumerate(wheels)} for o, f in flags.items()}
-        rows = verdict.update(decision.combine(rows_of), dict(zip(wheels, judged[k])))
-        alarm[k] = [rows[a][2] for a in wheels]
-    return Series(s.time, s.residual, s.threshold, alarm)
-
-
-def identification_series(samples, alarm, calibration_samples: int = 0, last_only: bool = False) -> list:
-    """Per FDI sample, axis -> Identification or None: the isolation node's FaultIdentifier fed
-    with ``samples`` (FdiSamples with the identification terms) and ``alarm`` ((n, 3) flags of the
-    decision observer, as :func:`fdi_series` gives them), learning the units over the first
-    ``calibration_samples`` as the isolation node does. ``last_only``: only the run's last answer (a list of
-    one), decided once at the end (FaultIdentifier lazy: the same answer without a grid fit per sample)."""
-    from ...core.identification import FaultIdentifier
-    wheels = getattr(samples, "wheels", AXIS_WHEELS)
-    identifier = FaultIdentifier(wheels, calibration_samples, lazy=last_only,
-                                 params=getattr(samples, "wheel_params", WheelParams()))
-    answers = [identifier.update(row, {a: bool(alarm[k, i]) for i, a in enumerate(wheels)})
-               for k, row in enumerate(samples.rows())]
-    return [identifier.identifications()] if last_only else answers
+    wheels, n = run.wheels, len(run.time)
+    isolation = Isolation(wheels, curves, decision, persistence, wheel=getattr(samples, "wheel_params", None),
+                          calibration_samples=calibration_samples, identification=identification, lazy=True)
+    verdicts = {VERDICT: isolation.verdict,
+                **{decision_slot(d.label): Verdict(wheels, d, True, isolation.verdict.envelope)
+                   for d in other_decisions if set(d.observers) <= set(curves)}}
+    speeds = None if samples is None else samples.wheel_speed
+    rows = samples.rows() if identification else None
+    stamps = np.round(run.time * 1e9).astype(np.int64)
+    table = {obs: np.empty((n, len(wheels), 3)) for obs in curves}
+    alarm = {slot: np.zeros((n, len(wheels)), bool) for slot in verdicts}
+    for k, stamp in enumerate(stamps):
+        rows_of = {obs: isolation.observe(obs, int(stamp), run.residual[obs][k], run.bound[obs][k]) for obs in curves}
+        speed = None if speeds is None else speeds[k]
+        for slot, verdict in verdicts.items():
+            decided = verdict.decide(rows_of, speed)
+            alarm[slot][k] = [decided[a][2] for a in wheels]
+            if slot == VERDICT and rows is not None:
+                isolation.identify(next(rows), decided)
+        for obs, r in rows_of.items():
+            table[obs][k] = [r[a][:3] for a in wheels]
+    series = {obs: Series(run.time, np.abs(t[:, :, 0]), t[:, :, 1], t[:, :, 2].astype(bool))
+              for obs, t in table.items()}
+    lead = series[isolation.decision.lead]
+    series.update({slot: Series(run.time, lead.residual, lead.threshold, a) for slot, a in alarm.items()})
+    return series, isolation.identified()
 
 
 def decisions(run: ObserverRun, curves: dict, persistence: int | None = None) -> dict:
-    """observer -> axis -> (alarm flags, first alarm time) of :func:`fdi_series`."""
+    """observer -> axis -> (alarm flags, first alarm time) of the observers' series (:func:`judge`)."""
+    from ..metrics import VERDICT
     out = {}
-    for obs, s in fdi_series(run, curves, persistence).items():
+    series, _ = judge(run, curves, persistence=persistence)
+    for obs, s in ((o, v) for o, v in series.items() if o != VERDICT):
         out[obs] = {}
         for i, a in enumerate(run.wheels):
             flags = s.alarm[:, i]

@@ -11,12 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core.calibration import calibration_samples
-from ...core.closed_loop import simulate
+from ...core.closed_loop import Fdir, simulate
 from ...core.isolation import in_envelope, speed_envelope
 from ...graph.topics import DIAGNOSTICS
-from ..metrics import VERDICT, RunEval, decision_slot, judge, observers_of_runs
-from ..design.offline import fdi_series, identification_series, observe, verdict_series
+from ..metrics import RunEval, judge as judge_verdict, observers_of_runs
+from ..design.offline import judge, observe
 from ..design.samples import samples_from_series
 
 BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
@@ -30,25 +29,27 @@ def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_cal
 
 
 def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None,
-                identification: bool = False, calibration_samples: int = 0, decision=None) -> list:
+                identification: bool = False, calibration_samples: int = 0, decision=None, fdir=None) -> list:
     """RunEval of every scenario (one seed each; equal durations within a batch); ``decision``: what makes
-    the verdict (core/isolation.DecisionRule; None: the method's decision observer)."""
+    the verdict (core/isolation.DecisionRule; None: the method's decision observer); ``fdir``
+    (closed_loop.Fdir): the core loop reconfigures on its FDI's verdict, as the graph's allocation does."""
     return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress, identification,
-                       calibration_samples, decision=decision)["fdi"]
+                       calibration_samples, decision=decision, fdir=fdir)["fdi"]
 
 
-def simulated_runs(scenarios, identification: bool = False, check=None, progress=None, on_run=None):
+def simulated_runs(scenarios, identification: bool = False, check=None, progress=None, on_run=None, fdir=None):
     """(scenario, FdiSamples, fault effect peak per wheel) of every scenario, by the core closed loop in
     batches of BATCH (equal durations and plant choices within a batch): the FDI samples the plant
     node would report. ``check(plant_choices)`` runs before each batch is simulated; ``on_run(scenario,
-    trajectory, index)`` sees each run's whole trajectory (what else a bench counts of it)."""
+    trajectory, index)`` sees each run's whole trajectory (what else a bench counts of it); ``fdir``
+    (closed_loop.Fdir): reconfigure on the FDI's verdict in the loop."""
     for start in range(0, len(scenarios), BATCH):
         batch = scenarios[start:start + BATCH]
         choices = batch[0].plant_choices()
         if check:
             check(choices)
         traj = simulate(batch, wheel=batch[0].datasheet(choices), control_period=choices.control_period,
-                        wheel_momentum_coupling=choices.wheel_momentum_coupling)
+                        wheel_momentum_coupling=choices.wheel_momentum_coupling, fdir=fdir)
         stamps = np.round(traj.time * 1e9).astype(np.int64)
         for b, scenario in enumerate(batch):
             if on_run is not None:
@@ -72,26 +73,34 @@ def simulated_samples(scenarios) -> dict:
 
 def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None,
                 identification: bool = False, calibration_samples: int = 0, on_run=None, decision=None,
-                other_decisions=()) -> dict:
+                other_decisions=(), fdir=None) -> dict:
     """name -> [RunEval] for several FDI sets {name: (weights, curves[, calibration samples])} judged on the
     same simulated runs (a set's own calibration samples, else ``calibration_samples``).
 
     Besides each observer's series, ``verdict``: what /diagnostics says (the decision observer's alarm,
-    latched: offline.verdict_series). ``identification``: also identify the faults of the wheels the
+    latched: offline.judge). ``identification``: also identify the faults of the wheels the
     verdict names (the isolation node's FaultIdentifier), into RunEval.identification. ``on_run``: as in
-    :func:`simulated_runs`; ``decision``, ``other_decisions``: as in :func:`judge_run`."""
+    :func:`simulated_runs`; ``decision``, ``other_decisions``: as in :func:`judge_run`; ``fdir``: FDIR in the
+    loop (closed_loop.Fdir), its acts into RunEval.reconfiguration."""
     out = {name: [] for name in fdi_sets}
+    acts = {}
+
+    def seen(scenario, traj, b):
+        acts["run"] = [(d.time, d.wheel, d.action, d.reason) for d in traj.decisions[b]] if traj.decisions else []
+        if on_run is not None:
+            on_run(scenario, traj, b)
 
     def check(choices):
         for entry in fdi_sets.values():
             for c in entry[1].values():
                 c.check_compatible(choices, origin=f"thresholds_{c.observer}.json")
                 c.check_horizon(max(s.duration for s in scenarios), origin=f"thresholds_{c.observer}.json")
-    for scenario, samples, peak in simulated_runs(scenarios, identification, check, progress, on_run):
+    for scenario, samples, peak in simulated_runs(scenarios, identification, check, progress, seen, fdir):
         for name, (weights, curves, *own) in fdi_sets.items():
-            out[name].append(judge_run(scenario, samples, peak, weights, curves, persistence, identification,
-                                       own[0] if own else calibration_samples, decision=decision,
-                                       other_decisions=other_decisions))
+            run = judge_run(scenario, samples, peak, weights, curves, persistence, identification,
+                            own[0] if own else calibration_samples, decision=decision, other_decisions=other_decisions)
+            run.reconfiguration = acts["run"]
+            out[name].append(run)
     return out
 
 
@@ -100,22 +109,14 @@ def judge_run(scenario, samples, peak, weights, curves, persistence: int | None 
               decision=None, other_decisions=()) -> RunEval:
     """The RunEval of one run from its FDI samples, by the observer and isolation nodes' code: each
     observer's series, ``verdict`` (what /diagnostics says: the ``decision``'s alarm, latched, None: the
-    method's decision observer; offline.verdict_series) and with ``identification`` the faults of the wheels
+    method's decision observer; offline.judge) and with ``identification`` the faults of the wheels
     the verdict names (the isolation node's FaultIdentifier; the samples must carry the bus grid). ``peak``:
     |fault effect| per wheel after the first onset. ``other_decisions`` (core/isolation.DecisionRule): the verdict
     each would give, beside (metrics.decision_slot)."""
-    series = fdi_series(observe(samples, weights, calibration_samples=calibration_samples), curves, persistence)
-    method = next(iter(curves.values())).method
-    envelope = speed_envelope(samples.wheel_params)
-    series[VERDICT] = verdict_series(series, method, samples.wheel_speed, wheels=samples.wheels, decision=decision,
-                                     envelope=envelope)
-    for other in (d for d in other_decisions if set(d.observers) <= set(series)):   # those of this method
-        series[decision_slot(other.label)] = verdict_series(series, method, samples.wheel_speed,
-                                                            wheels=samples.wheels, decision=other, envelope=envelope)
-    found = {}
-    if identification and len(samples.time):
-        last = identification_series(samples, series[VERDICT].alarm, calibration_samples, last_only=True)[-1]
-        found = {a: v.values() for a, v in last.items() if v is not None}
+    series, last = judge(observe(samples, weights, calibration_samples=calibration_samples), curves, samples,
+                         decision, persistence, calibration_samples, identification and len(samples.time) > 0,
+                         other_decisions)
+    found = {a: v.values() for a, v in last.items() if v is not None}
     return RunEval(bag=bag or f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name, seed=scenario.seed,
                    faults=list(scenario.faults), series=series, fault_effect_peak=peak, identification=found,
                    health=envelope_health(samples), wheels=samples.wheels)
@@ -140,7 +141,7 @@ def summarize(runs) -> dict:
         o = {"runs": len(runs), "any_alarm": 0, "false_alarm": 0, "correct": 0, "wrong_axis": 0, "held": 0,
              "lost": 0, "delays": []}
         for r in runs:
-            v = judge(r, obs)
+            v = judge_verdict(r, obs)
             o["any_alarm"] += bool(v["alarmed_wheels"])
             o["false_alarm"] += v["false_alarm"]
             if "axes" in v:
@@ -156,12 +157,17 @@ def summarize(runs) -> dict:
 
 def screen(scenario, seeds, fdi=None, progress=None, executor=None) -> tuple:
     """(counts per observer over ``seeds`` of one scenario (see :func:`summarize`), the runs (RunEval) in seed
-    order) under ``fdi`` (FdiConfig; None: the shipped FDI), in batches of BATCH runs on ``executor`` (local
-    processes by default, or a Dask cluster: the same runs whatever the executor, each a function of its seed);
+    order) under ``fdi`` (FdiConfig; None: the shipped FDI, detection alone; its ``fdir``: FDIR reconfigures
+    in the loop as in the graph, the runs' acts in RunEval.reconfiguration), in batches of BATCH runs on
+    ``executor`` (local processes by default, or a Dask cluster: the same runs whatever the executor, each a
+    function of its seed);
     ``progress(n)`` is told each batch of runs done."""
     from ...fdi_config import FdiConfig
     from ..campaigns.campaign import LocalExecutor
-    fdi = FdiConfig.of(fdi)
+    fdi = FdiConfig(fdir=False) if fdi is None else FdiConfig.of(fdi)
+    if fdi.fdir and fdi.method != "speed_aware":
+        raise ValueError("FDIR in the core loop (screen --fdir) runs the speed_aware FDI; the thesis method's "
+                         "reconfiguration runs in the graph (rw-fdi run --fdi-method thesis)")
     seeds = list(seeds)
     executor = executor or LocalExecutor()
     size = min(BATCH, max(1, -(-len(seeds) // getattr(executor, "jobs", 8))))   # every worker busy on a few seeds
@@ -179,10 +185,11 @@ def screen(scenario, seeds, fdi=None, progress=None, executor=None) -> tuple:
 def _screen_batch(work) -> list:
     """The RunEval of one batch (scenario, seeds, FdiConfig): what a worker computes."""
     scenario, seeds, fdi = work
-    weights, curves = fdi.load()
-    return screen_runs([scenario.with_seed(s) for s in seeds], weights, curves, fdi.persistence,
-                       identification=True, calibration_samples=calibration_samples(fdi.unit_calibration),
-                       decision=fdi.decision_rule)
+    loaded = fdi.loaded(scenario.plant_choices().fdi_period)
+    fdir = Fdir(loaded, scenario.plant_choices().fdi_period, identification=True) if fdi.fdir else None
+    return screen_runs([scenario.with_seed(s) for s in seeds], loaded.models, loaded.curves, fdi.persistence,
+                       identification=True, calibration_samples=loaded.calibration_samples,
+                       decision=fdi.decision_rule, fdir=fdir)
 
 
 def format_screen(name, out) -> str:
