@@ -5,6 +5,9 @@ import os
 from pathlib import Path
 
 PACKAGE = "rw_fdi_ros"
+# the vehicle flown unless a scenario names one (config/vehicles/maksat.yaml, the thesis' MakSat): its FDI is
+# config/fdi itself, another vehicle's config/fdi/vehicles/<name> (core/vehicle.py takes the name from here)
+DEFAULT_VEHICLE = "maksat"
 _SOURCE_ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -85,7 +88,6 @@ def fdi_dir(method: str = "speed_aware", vehicle: str | None = None) -> Path:
     Path
         The directory.
     """
-    from .core.vehicle import DEFAULT_VEHICLE
     base = config_dir() / "fdi"
     if vehicle is not None and vehicle != DEFAULT_VEHICLE:
         base = base / "vehicles" / vehicle

@@ -129,7 +129,7 @@ def test_a_varied_wheel_is_judged_against_its_own_unit():
     several times smaller than the datasheet's after the window."""
     from rw_fdi_ros.core.scenario import parse_scenario
     from rw_fdi_ros.tools.design.offline import observe
-    from rw_fdi_ros.tools.evaluation.screen import simulated_runs
+    from rw_fdi_ros.tools.design.samples import simulated_runs
     weights, _ = FdiConfig().load()
     scenario = parse_scenario("duration: 300\nseed: 7\nwheels: {variation: true, spread: {viscous_friction: 0.3}}\n"
                               "faults: []\n")

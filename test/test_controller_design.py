@@ -1,14 +1,15 @@
 """The controllers of a vehicle designed to its targets (core/controller_design.py): MakSat's are the thesis'
 gains exactly, a heavier body gets slower poles that still meet its targets, and targets nobody meets are
-refused with the axis and the best design."""
+refused with the axis and the best design where a run starts (parsing a scenario designs nothing)."""
 from dataclasses import replace
 
 import numpy as np
 import pytest
 import yaml
 
+from rw_fdi_ros.cli import main
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.controller_design import design_controller
+from rw_fdi_ros.core.controller_design import design_controller, scenario_design
 from rw_fdi_ros.core.pid import design_gains
 from rw_fdi_ros.core.scenario import Scenario, ScenarioError, SetpointChange, parse_scenario
 from rw_fdi_ros.core.vehicle import THESIS, ControllerTargets
@@ -47,7 +48,7 @@ def test_a_heavier_body_is_held_to_what_its_wheels_can_do():
     assert error[traj.time >= 0.5 * max(design.settling_time)].max() > 0.05 * 5.0   # not settled long before
 
 
-def test_targets_nobody_meets_are_refused_with_the_best_design(tmp_path):
+def test_targets_nobody_meets_are_refused_with_the_best_design(tmp_path, capsys):
     strict = replace(THESIS, name="strict", controller=ControllerTargets(overshoot=0.005))
     with pytest.raises(ValueError, match=r"vehicle strict: controller: no design settles in 30 s with at most 0% "
                                          r"overshoot about x; the best settles in \d+ s \(w_n [0-9.]+ rad/s"):
@@ -55,5 +56,39 @@ def test_targets_nobody_meets_are_refused_with_the_best_design(tmp_path):
     raw = yaml.safe_load((config_dir() / "vehicles" / "maksat.yaml").read_text())
     raw["name"], raw["controller"]["overshoot"] = "strict", 0.005
     (tmp_path / "strict.yaml").write_text(yaml.safe_dump(raw))
-    with pytest.raises(ScenarioError, match="vehicle: vehicle strict: controller: no design settles"):
-        parse_scenario("name: s\nvehicle: strict.yaml\n", origin=str(tmp_path / "s.yaml"))
+    (tmp_path / "s.yaml").write_text("name: s\nvehicle: strict.yaml\n")
+    scenario = parse_scenario("name: s\nvehicle: strict.yaml\n", origin=str(tmp_path / "s.yaml"))   # no design
+    with pytest.raises(ScenarioError, match="s.yaml: vehicle: vehicle strict: controller: no design settles"):
+        scenario_design(scenario, str(tmp_path / "s.yaml"))
+    with pytest.raises(ValueError, match="vehicle strict: controller: no design settles"):
+        simulate(scenario)
+    # where a run starts, one line before anything runs: `rw-fdi vehicle`, `run` (and the launch file), `screen`
+    for argv in (["vehicle", str(tmp_path / "strict.yaml")], ["run", "--scenario", str(tmp_path / "s.yaml"),
+                                                              "--out", str(tmp_path / "bags")],
+                 ["screen", "--scenario", str(tmp_path / "s.yaml"), "--seeds", "1..1", "--jobs", "1"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "vehicle strict: controller: no design settles" in err, (argv, err)
+    assert not (tmp_path / "bags").exists()
+
+
+def test_parsing_a_recorded_scenario_designs_nothing_and_simulates_nothing(monkeypatch):
+    """A bag's verdict is read from its /scenario: parsing it, vehicle and all, runs no simulation."""
+    from types import SimpleNamespace
+
+    from rw_fdi_ros.core import closed_loop, controller_design
+    from rw_fdi_ros.tools.bag_series import scenario_of
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a simulation while parsing a scenario")
+    monkeypatch.setattr(closed_loop, "simulate", refuse)
+    monkeypatch.setattr(controller_design, "step_responses", refuse)
+    vehicle = replace(_scaled(1.5, "unseen"), controller=ControllerTargets(settling_time=45.0))
+    calls = design_controller.cache_info()
+    raw = {"name": "rec", "duration": 30.0, "seed": 2, "vehicle": vehicle.as_dict()}
+    recorded = parse_scenario(yaml.safe_dump(raw))
+    text = recorded.effective_text(recorded.plant_choices().scenario_dict())   # what the run's bag records
+    scenario = scenario_of(SimpleNamespace(path="bag", scenario_text=text))
+    assert scenario.vehicle == vehicle
+    after = design_controller.cache_info()
+    assert (after.hits, after.misses) == (calls.hits, calls.misses)   # not designed, not even from the cache

@@ -59,7 +59,7 @@ def test_the_speed_aware_model_error_term_covers_held_out_runs():
     from rw_fdi_ros.core.linear_observer import UNCERTAINTY_GAIN, estimate_series
     from rw_fdi_ros.core.scenario import load_scenario
     from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
-    from rw_fdi_ros.tools.evaluation.screen import simulated_runs
+    from rw_fdi_ros.tools.design.samples import simulated_runs
     runs = [s for _, s, _ in simulated_runs([load_scenario("fault_free").with_seed(k) for k in range(5000, 5010)])]
     from rw_fdi_ros.core.residuals import demand_ratio
     for i, a in enumerate(AXIS_WHEELS):

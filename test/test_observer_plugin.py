@@ -93,7 +93,7 @@ def test_a_state_that_is_not_data_is_refused_and_data_comes_back(tmp_path):
 @pytest.fixture(scope="module")
 def fault_free_samples():
     from rw_fdi_ros.core.scenario import load_scenario
-    from rw_fdi_ros.tools.evaluation.screen import simulated_samples
+    from rw_fdi_ros.tools.design.samples import simulated_samples
     scenario = load_scenario("fault_free").with_seed(61_000_500)
     return simulated_samples([scenario])[scenario.seed]
 

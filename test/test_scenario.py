@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.scenario import (ScenarioError, available_scenarios, load_scenario, operating_point_at,
-                                      parse_scenario)
+from rw_fdi_ros.core.faults import operating_point_at
+from rw_fdi_ros.core.scenario import ScenarioError, available_scenarios, load_scenario, parse_scenario
 
 SHIPPED = {"fault_free", "bus_4v_x", "bus_5v5_x", "current_0p6_x", "temperature_150_x", "bus_x_current_z",
            "ripple_40_x"}

@@ -39,7 +39,7 @@ def test_a_network_of_the_model_error_that_learnt_nothing_is_the_model_observer(
     from rw_fdi_ros.core.observer_plugin import ObserverModels
     from rw_fdi_ros.core.scenario import load_scenario
     from rw_fdi_ros.tools.design.offline import observe
-    from rw_fdi_ros.tools.evaluation.screen import simulated_samples
+    from rw_fdi_ros.tools.design.samples import simulated_samples
     rng = np.random.default_rng(0)
     w = ElmanWeights.random(rng, speed_scale=45.0, torque_scale=1e-3)
     w.w_ho[:] = 0.0

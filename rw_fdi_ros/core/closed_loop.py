@@ -60,7 +60,7 @@ class Trajectory:
     wheel_angle: np.ndarray = None      # rotor angle [rad] (steps + 1, B, N)
     axis_command: np.ndarray = None     # the controllers' body-axis commands v of each sample [V] (steps + 1, B, 3)
     wheel_command: np.ndarray = None    # the allocation's wheel commands u of each sample [V] (steps + 1, B, N)
-    operating_point: dict = None        # fault kind -> (steps + 1, B, N), core.scenario.operating_point_at
+    operating_point: dict = None        # fault kind -> (steps + 1, B, N), core.faults.operating_point_at
     magnetic_field: np.ndarray = None   # in orbit: the magnetometer's last reading [T] (steps + 1, B, 3)
     dipole: np.ndarray = None           # in orbit: the magnetorquers' dipole in force [A m^2] (steps + 1, B, 3)
 

@@ -23,6 +23,7 @@ from functools import lru_cache
 import numpy as np
 
 from .pid import PidGains, design_gains
+from .scenario import Scenario, ScenarioError, SetpointChange
 from .vehicle import Vehicle, VehicleError
 
 # [rad/s] the thesis' 0.3 first, then slower: a heavier body's loop must ask less torque per radian
@@ -44,8 +45,7 @@ def step_responses(vehicle: Vehicle, gains: list) -> tuple:
     """(settling time [s], overshoot [share]) arrays (len(gains), 3) of the vehicle's design step under each
     PidGains of ``gains``: the worst of the step up and down, the wheels starting at the low and the high end
     of their range."""
-    from .closed_loop import simulate           # the loop imports this module's users: import here
-    from .scenario import Scenario, SetpointChange
+    from .closed_loop import simulate           # the loop defaults to this module's design: import here
     step = max(abs(v) for v in vehicle.dispersions.setpoint_change_deg)
     horizon = max(3.0 * vehicle.controller.settling_time, 60.0)
     cases = [(sign, speed) for sign in (1.0, -1.0) for speed in vehicle.dispersions.wheel_speed]
@@ -96,3 +96,34 @@ def design_controller(vehicle: Vehicle) -> ControllerDesign:
                            f"{targets.overshoot:.0%})")
     return ControllerDesign(gains, tuple(float(v) for v in w), tuple(float(v) for v in settled),
                             tuple(float(v) for v in over))
+
+
+def scenario_design(scenario: Scenario, origin: str | None = None) -> ControllerDesign | None:
+    """The controllers of the vehicle a scenario names, designed before its run starts (once: cached).
+
+    Parsing a scenario designs nothing (a bag's verdict is read without a simulation); the commands that
+    run one call this first, so a vehicle whose targets cannot be met is refused in one line before any run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario to run.
+    origin : str, optional
+        Where it came from (a path or a name), for the message; None: its name.
+
+    Returns
+    -------
+    ControllerDesign or None
+        Its vehicle's design; None when it names no vehicle (the thesis' MakSat, whose design is the thesis').
+
+    Raises
+    ------
+    ScenarioError
+        One line naming the scenario, the axis and the best design, when no design meets the targets.
+    """
+    if scenario.vehicle is None:
+        return None
+    try:
+        return design_controller(scenario.vehicle)
+    except VehicleError as exc:
+        raise ScenarioError(f"{origin or 'scenario ' + scenario.name}: vehicle: {exc}") from None

@@ -29,8 +29,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from . import wheel as wm
-from .scenario import FAULT_KINDS, NOMINAL_VALUES, Scenario, operating_points
 from .environment import Environments, magnetometer_steps
+from .faults import FAULT_KINDS, NOMINAL_VALUES, operating_points
 from .spacecraft import body_acceleration, disturbance_torque
 from .wheel_set import WheelSet, wheel_set as named_wheel_set
 
@@ -110,8 +110,9 @@ class Plant:
                  substeps=1, inertia=None, disturbance=True, wheel_momentum_coupling=True,
                  wheels: WheelSet | str | None = None, duration: float | None = None,
                  magnetic_field: str | None = None):
-        """``wheel``, ``inertia``: the wheel type and the body's inertia; None: the scenarios' vehicle's."""
-        if isinstance(scenarios, Scenario):
+        """``scenarios``: one scenario.Scenario or a list of them; ``wheel``, ``inertia``: the wheel type and the
+        body's inertia; None: the scenarios' vehicle's."""
+        if hasattr(scenarios, "faults"):   # one scenario, not a batch (duck-typed: the physics imports no scenario)
             scenarios = [scenarios]
         self.scenarios = list(scenarios)
         self.vehicle = vehicle = batch_vehicle(self.scenarios)

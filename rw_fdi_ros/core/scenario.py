@@ -13,20 +13,17 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .controller_design import design_controller
 from .environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
+from .faults import FAULT_KINDS, Fault
 from .geomagnetic import IGRF_YEARS
 from .magnetorquers import MomentumDumping
 from .orbit import CircularOrbit, OrbitError, TleOrbit
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
-from .wheel_set import AXIS_WHEELS, DEFAULT_WHEEL_SET, WHEEL_SETS
+from .wheel_set import AXIS_WHEELS, WHEEL_SETS
 from .vehicle import (DEFAULT_VEHICLE, DISPERSION_LIMITS, THESIS, UNIT_SPREAD_MAX, Dispersions, Vehicle,
                       VehicleError, load_vehicle)
-from .wheel import NOMINAL, UNIT_PARAMETERS, WheelParams, unit_wheel
+from .wheel import UNIT_PARAMETERS, WheelParams, unit_wheel
 from .yaml_text import YamlError, read_yaml
-
-FAULT_KINDS = ("bus_voltage", "current_limiter", "temperature", "ripple_gain")
-NOMINAL_VALUES = {k: getattr(NOMINAL, k) for k in FAULT_KINDS}
 
 # Thesis Table 2.3 ranges drawn per axis (the default vehicle's dispersions, vehicle.py).
 ATTITUDE_RANGE_DEG = Dispersions().attitude_deg
@@ -41,35 +38,6 @@ PLANT_KEYS = set(SCENARIO_KEYS) | {"vehicle"}
 
 class ScenarioError(ValueError):
     """A scenario that cannot be run; the message is one line, fit for a user."""
-
-
-@dataclass(frozen=True)
-class Fault:
-    """One fault on one wheel: from ``onset`` the field ``kind`` moves to ``value``.
-
-    ``ramp`` > 0 moves it linearly from nominal to ``value`` over that many seconds.
-    """
-
-    kind: str
-    wheel: int
-    onset: float
-    value: float
-    ramp: float = 0.0
-
-    def value_at(self, t):
-        nominal = NOMINAL_VALUES[self.kind]
-        if t < self.onset:
-            return nominal
-        if self.ramp > 0.0:
-            share = min((t - self.onset) / self.ramp, 1.0)
-            return nominal + share * (self.value - nominal)
-        return self.value
-
-    def as_dict(self, wheel_names=None) -> dict:
-        """``wheel_names``: the run's wheel set's names (default: the default set's, x y z s)."""
-        names = wheel_names or WHEEL_SETS[DEFAULT_WHEEL_SET].names
-        return {"kind": self.kind, "wheel": names[self.wheel], "onset": self.onset,
-                "value": self.value, "ramp": self.ramp}
 
 
 @dataclass(frozen=True)
@@ -267,55 +235,6 @@ def setpoint_at(times, values, t):
     return values[max(i, 0)]
 
 
-def operating_point_at(faults, t, count: int = 3):
-    """Per-wheel operating point of ``count`` wheels at time t: dict kind -> array (count,), thesis
-    Table 2.3 when healthy.
-
-    Parameters
-    ----------
-    faults : iterable of Fault
-        One run's faults.
-    t : float
-        Time [s].
-    count : int, optional
-        Wheels in the run, N.
-
-    Returns
-    -------
-    dict of str to ndarray
-        FAULT_KINDS -> (N,): ``bus_voltage`` [V], ``current_limiter`` (share), ``temperature`` [C],
-        ``ripple_gain`` (multiplier).
-    """
-    return {k: v[0] for k, v in operating_points([faults], t, count).items()}
-
-
-def operating_points(fault_lists, t, count: int = 3):
-    """:func:`operating_point_at` of a batch of runs (one fault list each): dict kind -> array (B, count).
-
-    Parameters
-    ----------
-    fault_lists : list of iterable of Fault
-        Each run's faults, B of them.
-    t : float
-        Time [s].
-    count : int, optional
-        Wheels per run, N.
-
-    Returns
-    -------
-    dict of str to ndarray
-        FAULT_KINDS -> (B, N), in the units of :func:`operating_point_at`.
-    """
-    op = {k: np.full((len(fault_lists), count), NOMINAL_VALUES[k]) for k in FAULT_KINDS}
-    for b, faults in enumerate(fault_lists):
-        # by onset, and only those begun: a later fault of one kind on one wheel takes over from its onset,
-        # it does not undo an earlier one before then
-        for f in sorted(faults, key=lambda f: f.onset):
-            if t >= f.onset:
-                op[f.kind][b, f.wheel] = f.value_at(t)
-    return op
-
-
 # -- parsing -----------------------------------------------------------------
 def _num(where, value, lo=None, hi=None):
     if isinstance(value, str):   # YAML 1.1 reads 1e12 (no dot) as text: take what the user meant
@@ -501,7 +420,6 @@ def _vehicle(origin: str, raw) -> Vehicle | None:
         raise ScenarioError(f"{origin}: vehicle: a shipped vehicle's name, a vehicle file or its mapping, got {raw!r}")
     try:
         vehicle = load_vehicle(source)
-        design_controller(vehicle)   # its targets met, or refused now with the reason
     except VehicleError as exc:
         raise ScenarioError(f"{origin}: vehicle: {exc}") from None
     return vehicle

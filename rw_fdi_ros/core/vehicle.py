@@ -16,7 +16,7 @@ A vehicle that cannot fly is refused with its reason, one line naming the field:
   set-point change theta in the settling time T needs, bang-bang, alpha = 4 theta / T^2 about an axis,
   so I_kk alpha must not exceed what the active wheels give about it, tau_max sum_i |g_ik|
   (tau_max = G_d k_t V_limit, one wheel's torque at its command limit). A quick necessary condition; the
-  sufficient one is controller_design.design_controller, which a scenario naming the vehicle runs.
+  sufficient one is controller_design.design_controller, which a run of the vehicle makes before it starts.
 
 The wheel type is the vehicle's everywhere a wheel is modelled: the plant, the controllers' volts per
 torque, the allocation's command limit and hold feed-forward, FDIR's delivered share and envelope, and the
@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..paths import DEFAULT_VEHICLE, config_dir
 from .environment import DEFAULT_RESIDUAL_DIPOLE
 from .magnetorquers import MomentumDumping
 from .spacecraft import DISTURBANCE_SIGMA, INERTIA
@@ -38,7 +39,6 @@ from .wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, UNIT_PARAMETERS, WheelParams
 from .wheel_set import WHEEL_SETS, WheelSet
 from .yaml_text import YamlError, read_yaml
 
-DEFAULT_VEHICLE = "maksat"
 # every WheelParams field with its unit as a vehicle file writes it ("": a pure number; None: a named choice)
 WHEEL_UNITS = {
     "driver_gain": "A/V", "driver_bandwidth": "rad/s", "torque_constant": "N m/A", "emf_constant": "V/(rad/s)",
@@ -467,7 +467,6 @@ def wheel_from_parameter(text: str) -> WheelParams:
 
 def shipped_vehicles() -> dict:
     """name -> path of the vehicle files shipped in config/vehicles."""
-    from ..paths import config_dir
     folder = config_dir() / "vehicles"
     return {p.stem: p for p in sorted(folder.glob("*.yaml"))} if folder.is_dir() else {}
 

@@ -13,7 +13,7 @@ from sensor_msgs.msg import MagneticField
 from std_msgs.msg import Header, String
 
 from ..core.environment import MAGNETOMETER_NOISE
-from ..core.scenario import FAULT_KINDS
+from ..core.faults import FAULT_KINDS
 from ..core.telemetry import TelemetrySampler
 from ..core.wheel import WheelParams
 from ..core.wheel_set import joint_name
@@ -71,7 +71,7 @@ class PlantReport:
              fault_effect, operating_point: dict, faults, magnetic_field=None) -> list:
         """(topic, CDR bytes or message) of one step, in the order they go out (the controllers' input
         first: they compute while the rest goes out). Wheel arrays (N,), body arrays (3,);
-        ``operating_point`` kind -> (N,); ``faults`` the run's core.scenario.Fault list; in orbit the
+        ``operating_point`` kind -> (N,); ``faults`` the run's core.faults.Fault list; in orbit the
         magnetometer's reading (3,) [T] on its steps."""
         out = [(T.ATTITUDE, joint_state_cdr(stamp, T.ATTITUDE_JOINTS, attitude, body_rate)),
                (T.CLOCK, clock_cdr(stamp)),

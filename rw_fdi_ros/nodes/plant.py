@@ -27,7 +27,8 @@ from sensor_msgs.msg import JointState, MagneticField, PointCloud2
 from std_msgs.msg import Header, String
 
 from ..core.plant import Plant
-from ..core.scenario import FAULT_KINDS, NOMINAL_VALUES, Fault, ScenarioError, load_scenario
+from ..core.faults import FAULT_KINDS, NOMINAL_VALUES, Fault
+from ..core.scenario import ScenarioError, load_scenario
 from ..core.wheel_set import joint_name
 from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, read_vector_cdr

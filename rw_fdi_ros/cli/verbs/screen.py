@@ -25,11 +25,14 @@ def main(args) -> int:
     seeds = parse_seeds(args.seeds, "--seeds")   # before the imports: a bad option answers at once
     import json
     from tqdm import tqdm
+    from ...core.controller_design import scenario_design
     from ...core.scenario import load_scenario
     from ...tools.benches.kit import write_runs_table
     from ...tools.evaluation.screen import format_screen, screen
     from ...tools.metrics import run_row
     scenarios = [load_scenario(name) for name in args.scenario]
+    for name, scenario in zip(args.scenario, scenarios):
+        scenario_design(scenario, name)   # its vehicle's controllers, or one line before any run
     fdis = [fdi_config(args).for_vehicle(s.spacecraft.name) for s in scenarios]   # each its vehicle's FDI
     for scenario, fdi in zip(scenarios, fdis):
         fdi.check(scenario.plant_choices(), scenario.duration)

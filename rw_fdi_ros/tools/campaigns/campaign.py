@@ -16,6 +16,7 @@ from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ...core.controller_design import scenario_design
 from ...core.scenario import load_scenario
 from ...extras import require
 from ...storage.bag import bag_is_complete
@@ -141,6 +142,7 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
     check_engine(engine, fdi)
     out_dir = Path(out_dir)
     scenario = load_scenario(scenario_ref)
+    scenario_design(scenario, scenario_ref)   # its vehicle's controllers, or one line before any run
     seeds = list(range(seed_start, seed_start + runs))
     todo, skipped = pending(scenario_ref, runs, seed_start, out_dir)
     executor = executor or LocalExecutor()

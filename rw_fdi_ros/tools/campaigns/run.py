@@ -8,6 +8,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...core.controller_design import scenario_design
 from ...core.scenario import Scenario, load_scenario
 from ...launch.graph import DEFAULT_GROUPING, graph_nodes
 from ...launch.launcher import DomainLease, GraphProcesses, cleanup
@@ -31,8 +32,10 @@ def bag_name(scenario: Scenario) -> str:
 
 
 def resolve_scenario(ref: str, seed: int | None = None):
-    """(scenario, absolute file path the nodes can load) for a name or a path."""
+    """(scenario, absolute file path the nodes can load) for a name or a path; a vehicle whose controllers
+    cannot meet its targets is refused here, in one line, before any node starts."""
     scenario = load_scenario(ref)
+    scenario_design(scenario, ref)
     path = Path(ref) if Path(ref).is_file() else None
     if path is None:
         from ...core.scenario import scenario_dir

@@ -1,4 +1,5 @@
-"""FDI samples out of bags: the 1 s samples the observers see (core/telemetry.py, as the nodes make them)."""
+"""FDI samples out of bags, or of runs of the core loop: the 1 s samples the observers see (core/telemetry.py, as
+the nodes make them)."""
 from __future__ import annotations
 
 import sys
@@ -7,12 +8,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ...core.closed_loop import simulate
+from ...core.controller_design import scenario_design
 from ...core.telemetry import sample_telemetry
 from ...core.wheel import WheelParams
 from ...graph.convert import fdi_sample_of, stamp_ns, telemetry_wheels
 from ...core.wheel_set import AXIS_WHEELS
 from ...graph.topics import FAULT_EFFECT, FDI_BUS_GRID, FDI_TELEMETRY
 from ...storage.bag import BagError, bag_is_complete, read_bag
+
+BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
 
 
 @dataclass
@@ -200,8 +205,8 @@ def simulated_fault_free_runs(ref, seeds, pool=None, desc: str = "fitting runs (
     from ...core.plant_choices import PlantChoices
     from ...core.scenario import Scenario, load_scenario
     from ..campaigns.campaign import LocalExecutor
-    from ..evaluation.screen import BATCH, simulated_samples
     scenario = ref if isinstance(ref, Scenario) else load_scenario(ref)
+    scenario_design(scenario, None if isinstance(ref, Scenario) else ref)   # one line before any run
     if scenario.faults:
         raise ValueError(f"scenario {scenario.name}: thresholds and networks are fitted on fault-free runs, "
                          "this scenario has faults")
@@ -216,3 +221,37 @@ def simulated_fault_free_runs(ref, seeds, pool=None, desc: str = "fitting runs (
             bar.update(len(done))
     plant = PlantChoices.of_recording(scenario.plant_choices().scenario_dict()).as_dict()
     return [by_seed[k] for k in seeds], plant
+
+
+def simulated_runs(scenarios, identification: bool = False, check=None, progress=None, on_run=None, fdir=None):
+    """(scenario, FdiSamples, fault effect peak per wheel) of every scenario, by the core closed loop in
+    batches of BATCH (equal durations and plant choices within a batch): the FDI samples the plant
+    node would report. ``check(plant_choices)`` runs before each batch is simulated; ``on_run(scenario,
+    trajectory, index)`` sees each run's whole trajectory (what else a bench counts of it); ``fdir``
+    (closed_loop.Fdir): reconfigure on the FDI's verdict in the loop."""
+    for start in range(0, len(scenarios), BATCH):
+        batch = scenarios[start:start + BATCH]
+        choices = batch[0].plant_choices()
+        if check:
+            check(choices)
+        traj = simulate(batch, wheel=batch[0].datasheet(choices), control_period=choices.control_period,
+                        wheel_momentum_coupling=choices.wheel_momentum_coupling, fdir=fdir)
+        stamps = np.round(traj.time * 1e9).astype(np.int64)
+        for b, scenario in enumerate(batch):
+            if on_run is not None:
+                on_run(scenario, traj, b)
+            samples = samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
+                                          seed=scenario.seed, identification=identification, wheels=traj.wheel_names,
+                                          wheel_params=scenario.spacecraft.wheel)
+            onset = min((f.onset for f in scenario.faults), default=None)
+            after = traj.time >= onset if onset is not None else np.zeros(len(traj.time), bool)
+            yield scenario, samples, (np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any()
+                                      else np.zeros(len(traj.wheel_names)))
+        if progress:
+            progress(len(batch))
+
+
+def simulated_samples(scenarios) -> dict:
+    """seed -> the FdiSamples of each scenario's run by the core loop (:func:`simulated_runs`): an executor's
+    unit of work."""
+    return {scenario.seed: samples for scenario, samples, _ in simulated_runs(scenarios)}

@@ -11,14 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core.closed_loop import Fdir, simulate
+from ...core.closed_loop import Fdir
 from ...core.isolation import in_envelope, speed_envelope
 from ...graph.topics import DIAGNOSTICS
 from ..metrics import RunEval, judge as judge_verdict, observers_of_runs
 from ..design.offline import judge, observe
-from ..design.samples import samples_from_series
-
-BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
+from ..design.samples import BATCH, simulated_runs
 
 
 def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_calibration: float = 0.0):
@@ -35,40 +33,6 @@ def screen_runs(scenarios, weights, curves, persistence: int | None = None, prog
     (closed_loop.Fdir): the core loop reconfigures on its FDI's verdict, as the graph's allocation does."""
     return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress, identification,
                        calibration_samples, decision=decision, fdir=fdir)["fdi"]
-
-
-def simulated_runs(scenarios, identification: bool = False, check=None, progress=None, on_run=None, fdir=None):
-    """(scenario, FdiSamples, fault effect peak per wheel) of every scenario, by the core closed loop in
-    batches of BATCH (equal durations and plant choices within a batch): the FDI samples the plant
-    node would report. ``check(plant_choices)`` runs before each batch is simulated; ``on_run(scenario,
-    trajectory, index)`` sees each run's whole trajectory (what else a bench counts of it); ``fdir``
-    (closed_loop.Fdir): reconfigure on the FDI's verdict in the loop."""
-    for start in range(0, len(scenarios), BATCH):
-        batch = scenarios[start:start + BATCH]
-        choices = batch[0].plant_choices()
-        if check:
-            check(choices)
-        traj = simulate(batch, wheel=batch[0].datasheet(choices), control_period=choices.control_period,
-                        wheel_momentum_coupling=choices.wheel_momentum_coupling, fdir=fdir)
-        stamps = np.round(traj.time * 1e9).astype(np.int64)
-        for b, scenario in enumerate(batch):
-            if on_run is not None:
-                on_run(scenario, traj, b)
-            samples = samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
-                                          seed=scenario.seed, identification=identification, wheels=traj.wheel_names,
-                                          wheel_params=scenario.spacecraft.wheel)
-            onset = min((f.onset for f in scenario.faults), default=None)
-            after = traj.time >= onset if onset is not None else np.zeros(len(traj.time), bool)
-            yield scenario, samples, (np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any()
-                                      else np.zeros(len(traj.wheel_names)))
-        if progress:
-            progress(len(batch))
-
-
-def simulated_samples(scenarios) -> dict:
-    """seed -> the FdiSamples of each scenario's run by the core loop (:func:`simulated_runs`): an executor's
-    unit of work."""
-    return {scenario.seed: samples for scenario, samples, _ in simulated_runs(scenarios)}
 
 
 def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progress=None,

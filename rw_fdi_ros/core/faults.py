@@ -1,0 +1,95 @@
+"""The fault vocabulary: the kinds of wheel fault, their nominal values, one fault, and the operating point
+they make of a wheel at a time.
+
+Shared by the plant (which acts on the operating point) and the scenario (which schedules the faults), so
+the physics does not import the scenario.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .wheel import NOMINAL
+from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
+
+FAULT_KINDS = ("bus_voltage", "current_limiter", "temperature", "ripple_gain")
+NOMINAL_VALUES = {k: getattr(NOMINAL, k) for k in FAULT_KINDS}
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One fault on one wheel: from ``onset`` the field ``kind`` moves to ``value``.
+
+    ``ramp`` > 0 moves it linearly from nominal to ``value`` over that many seconds.
+    """
+
+    kind: str
+    wheel: int
+    onset: float
+    value: float
+    ramp: float = 0.0
+
+    def value_at(self, t):
+        nominal = NOMINAL_VALUES[self.kind]
+        if t < self.onset:
+            return nominal
+        if self.ramp > 0.0:
+            share = min((t - self.onset) / self.ramp, 1.0)
+            return nominal + share * (self.value - nominal)
+        return self.value
+
+    def as_dict(self, wheel_names=None) -> dict:
+        """``wheel_names``: the run's wheel set's names (default: the default set's, x y z s)."""
+        names = wheel_names or WHEEL_SETS[DEFAULT_WHEEL_SET].names
+        return {"kind": self.kind, "wheel": names[self.wheel], "onset": self.onset,
+                "value": self.value, "ramp": self.ramp}
+
+
+def operating_point_at(faults, t, count: int = 3):
+    """Per-wheel operating point of ``count`` wheels at time t: dict kind -> array (count,), thesis
+    Table 2.3 when healthy.
+
+    Parameters
+    ----------
+    faults : iterable of Fault
+        One run's faults.
+    t : float
+        Time [s].
+    count : int, optional
+        Wheels in the run, N.
+
+    Returns
+    -------
+    dict of str to ndarray
+        FAULT_KINDS -> (N,): ``bus_voltage`` [V], ``current_limiter`` (share), ``temperature`` [C],
+        ``ripple_gain`` (multiplier).
+    """
+    return {k: v[0] for k, v in operating_points([faults], t, count).items()}
+
+
+def operating_points(fault_lists, t, count: int = 3):
+    """:func:`operating_point_at` of a batch of runs (one fault list each): dict kind -> array (B, count).
+
+    Parameters
+    ----------
+    fault_lists : list of iterable of Fault
+        Each run's faults, B of them.
+    t : float
+        Time [s].
+    count : int, optional
+        Wheels per run, N.
+
+    Returns
+    -------
+    dict of str to ndarray
+        FAULT_KINDS -> (B, N), in the units of :func:`operating_point_at`.
+    """
+    op = {k: np.full((len(fault_lists), count), NOMINAL_VALUES[k]) for k in FAULT_KINDS}
+    for b, faults in enumerate(fault_lists):
+        # by onset, and only those begun: a later fault of one kind on one wheel takes over from its onset,
+        # it does not undo an earlier one before then
+        for f in sorted(faults, key=lambda f: f.onset):
+            if t >= f.onset:
+                op[f.kind][b, f.wheel] = f.value_at(t)
+    return op
