@@ -32,6 +32,7 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
+from ...core.identification import KINDS, NONE, UNKNOWN, Identification, kind_name
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault
@@ -44,7 +45,7 @@ from ..metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
 SEED_BASE = 30_000_000
-KIND_ORDER = ("current_loss", "temperature", "bus_voltage", "unknown", "none")
+KIND_ORDER = (*KINDS, UNKNOWN, NONE)
 
 CELLS = (
     Cell("current loss 40 %", "current_limiter", 0.6, thesis_size=True),
@@ -108,7 +109,8 @@ def cell_identification(runs, observable_level: dict, strict_bus: bool = False) 
     rows, observable = [], []
     for r in runs:
         for a, v in judge_identification(r, strict_bus).items():
-            v["unit_limited"] = (r.identification.get(a) or {}).get("fault_size_unit_limited") == "true"
+            found = Identification.from_values(r.identification.get(a) or {})
+            v["unit_limited"] = found is not None and found.unit_limited
             seen = bool(r.fault_effect_peak[r.wheels.index(a)] > max(observable_level[k]
                                                                      for k in fitted_for(a, observable_level)))
             rows.append(v)
@@ -179,13 +181,13 @@ def confusion_matrix(report: dict, thesis_only: bool = True):
     """(true kinds, identified kinds, counts (true, identified)) summed over the cells."""
     true_kinds = KIND_ORDER[:3]
     counts = np.zeros((3, len(KIND_ORDER)), int)
-    kind_of = {"current_limiter": 0, "temperature": 1, "bus_voltage": 2}
     for c in report["cells"].values():
         if thesis_only and not c["cell"]["thesis_size"]:
             continue
-        row = kind_of[c["cell"]["kind"]]
+        row = true_kinds.index(c["cell"]["kind"])
+        seen = {kind_name(k): n for k, n in c["confusion_observable"].items()}   # a report of former names too
         for j, k in enumerate(KIND_ORDER):
-            counts[row, j] += c["confusion_observable"][k]
+            counts[row, j] += seen[k]
     return true_kinds, KIND_ORDER, counts
 
 

@@ -29,15 +29,16 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import wheel as wm
-from .identification import DECISIVE, SIGMA_FLOOR
+from .. import wheel as wm
+from .decision import DECISIVE
+from .families import SIGMA_FLOOR
 
 # where the search starts: every ramp between two values of a coarse grid, then refined by least squares
 # (geometric: dense near the healthy value, where a small fault's torque is steep in its parameter)
-_GRIDS = {"current_loss": 1.0 - np.geomspace(1e-4, 1.0, 48), "bus_voltage": 8.0 - np.geomspace(1e-3, 6.5, 48)}
-HEALTHY = {"current_loss": wm.NOMINAL.current_limiter, "bus_voltage": wm.NOMINAL.bus_voltage}   # Table 2.3
+_GRIDS = {"current_limiter": 1.0 - np.geomspace(1e-4, 1.0, 48), "bus_voltage": 8.0 - np.geomspace(1e-3, 6.5, 48)}
+HEALTHY = {"current_limiter": wm.NOMINAL.current_limiter, "bus_voltage": wm.NOMINAL.bus_voltage}   # Table 2.3
 # each family's range, the identifier's grids' (identification.CURRENT_LIMITER_GRID, BUS_VOLTAGE_GRID)
-_BOUNDS = {"current_loss": (0.0, 1.0), "bus_voltage": (1.5, HEALTHY["bus_voltage"])}
+_BOUNDS = {"current_limiter": (0.0, 1.0), "bus_voltage": (1.5, HEALTHY["bus_voltage"])}
 # D at which the identifier's margin reaches DECISIVE in 95 % of runs (one-sided normal quantile 1.645)
 TOLD_APART = (np.sqrt(DECISIVE) + 1.645) ** 2
 REFINED = 8         # the best starts (a beginning and a ramp) refined by least squares
@@ -63,13 +64,13 @@ def _ramps(table, truth, t) -> tuple:
 
 
 def drive_current(kind: str, tcv, wheel_speed, value, params: wm.WheelParams = wm.WheelParams()):
-    """Motor current [A] of a wheel with a ``kind`` fault ('current_loss': limiter share, 'bus_voltage':
+    """Motor current [A] of a wheel with a ``kind`` fault ('current_limiter': limiter share, 'bus_voltage':
     bus [V]) of ``value`` at commands ``tcv`` [V] and speeds ``wheel_speed`` [rad/s] (broadcasting)."""
-    if kind == "current_loss":
+    if kind == "current_limiter":
         return wm.motor_current(tcv, wheel_speed, HEALTHY["bus_voltage"], value, params)
     if kind == "bus_voltage":
         return wm.motor_current(tcv, wheel_speed, value, 1.0, params)
-    raise ValueError(f"{kind!r} is not a drive fault (current_loss, bus_voltage)")
+    raise ValueError(f"{kind!r} is not a drive fault (current_limiter, bus_voltage)")
 
 
 def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
@@ -100,7 +101,7 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
         return np.add.reduceat(x, first, axis=0) / count.reshape((-1,) + (1,) * (x.ndim - 1))
     truth_steps = kt * drive_current(kind, u, w, v, params)
     truth = mean(truth_steps)
-    other = "bus_voltage" if kind == "current_loss" else "current_loss"
+    other = "bus_voltage" if kind == "current_limiter" else "current_limiter"
     grid, low, high = _GRIDS[other], *_BOUNDS[other]
     healthy_steps = kt * drive_current(other, u, w, HEALTHY[other], params)
     healthy = mean(healthy_steps)
