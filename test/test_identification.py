@@ -396,3 +396,28 @@ def test_a_fault_still_growing_is_given_its_size_now_and_said_growing():
     assert found.kind == "current_limiter" and found.growing and found.message().endswith("(still growing)")
     assert abs(found.size - path[-1]) <= 0.02 and found.low <= path[-1] <= found.high, (found, path[-1])
     assert found.at_s == 149.0
+
+
+def test_a_bag_s_identification_reads_through_the_decoder_with_the_names_now():
+    """identification_from_bag on an old bag's /fdi/identification: the kind under its former name comes out as
+    the scenario's, the judge reads it, and a wheel never alarmed is left out."""
+    from types import SimpleNamespace as NS
+
+    from rw_fdi_ros.core.scenario import Fault
+    from rw_fdi_ros.tools.bag_series import identification_from_bag
+    from rw_fdi_ros.tools.metrics import RunEval, run_row
+
+    def status(axis, message, **values):
+        return NS(hardware_id=f"reaction_wheel_{axis}", message=message,
+                  values=[NS(key=k, value=v) for k, v in values.items()])
+    last = NS(status=[status("x", "current loss, limiter 0.60 [0.59, 0.61]", fault_kind="current_loss",
+                             fault_size="0.6", fault_size_low="0.59", fault_size_high="0.61", fault_unit="datasheet",
+                             fault_size_unit_limited="false", samples="40"),
+                      status("y", "no alarm", fault_kind="none")])
+    found = identification_from_bag(NS(last=lambda topic: last))
+    assert set(found) == {"x"} and found["x"]["fault_kind"] == "current_limiter" and found["x"]["samples"] == "40"
+    run = RunEval("b", "current_0p6_x", 1, [Fault("current_limiter", 0, 10.0, 0.6)], {}, identification=found,
+                  wheels=("x", "y", "z"))
+    assert judge_identification(run)["x"]["kind_right"]
+    assert run_row(run)["identification"] == {"x": {"kind": "current_limiter", "size": "0.6", "size_low": "0.59",
+                                                     "size_high": "0.61"}}

@@ -53,12 +53,12 @@ from .identifier import FaultIdentifier
 from .onset import ONSET_HEALTHY, onset_index
 from .ramps import (RAMP_LENGTH, RAMP_NOTED_S, RAMP_SECONDS, RAMP_SHARE, RAMP_START_SHARES, SLOW_SECONDS,
                     SLOW_START_SHARES, ramp_fractions)
-from .result import FORMER_NAMES, MIN_SAMPLES, NONE, Identification, kind_name
+from .result import FORMER_NAMES, MIN_SAMPLES, NONE, SPOKEN, Identification, kind_name
 from .sums import KAPPA_MAX, ProfileSums
 
 __all__ = ["BUS_VOLTAGE_GRID", "CHI2_95", "CORRELATION", "CURRENT_LIMITER_GRID", "DECISIVE", "DRIVE", "EXPLAINED",
            "FORMER_NAMES", "FREE_UNIT_SHARE", "FaultIdentifier", "GRIDS", "Identification", "KAPPA_MAX", "KINDS",
            "MIN_DRIVEN", "MIN_SAMPLES", "NONE", "ONSET_HEALTHY", "ProfileSums", "RAMP_LENGTH", "RAMP_NOTED_S",
            "RAMP_SECONDS", "RAMP_SHARE", "RAMP_START_SHARES", "SIGMA_FLOOR", "SLOW_SECONDS", "SLOW_START_SHARES",
-           "TEMPERATURE_GRID", "UNITS", "UNKNOWN", "bus_motor_torque", "decide", "family_predictions", "identify",
-           "kind_name", "onset_index", "ramp_fractions", "unit_sensitivities"]
+           "SPOKEN", "TEMPERATURE_GRID", "UNITS", "UNKNOWN", "bus_motor_torque", "decide", "family_predictions",
+           "identify", "kind_name", "onset_index", "ramp_fractions", "unit_sensitivities"]

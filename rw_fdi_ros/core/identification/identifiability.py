@@ -64,8 +64,26 @@ def _ramps(table, truth, t) -> tuple:
 
 
 def drive_current(kind: str, tcv, wheel_speed, value, params: wm.WheelParams = wm.WheelParams()):
-    """Motor current [A] of a wheel with a ``kind`` fault ('current_limiter': limiter share, 'bus_voltage':
-    bus [V]) of ``value`` at commands ``tcv`` [V] and speeds ``wheel_speed`` [rad/s] (broadcasting)."""
+    """Motor current of a wheel with a ``kind`` fault of ``value`` at the commands and speeds given.
+
+    Parameters
+    ----------
+    kind : str
+        'current_limiter' (``value``: the limiter share) or 'bus_voltage' (``value``: the bus [V]).
+    tcv : float or array_like
+        Torque command voltage u [V].
+    wheel_speed : float or array_like
+        Wheel speed Omega [rad/s], broadcasting with ``tcv`` and ``value``.
+    value : float or array_like
+        The fault's parameter, in its kind's unit.
+    params : WheelParams, optional
+        The wheel type.
+
+    Returns
+    -------
+    ndarray or float
+        Motor current I_m [A].
+    """
     if kind == "current_limiter":
         return wm.motor_current(tcv, wheel_speed, HEALTHY["bus_voltage"], value, params)
     if kind == "bus_voltage":
@@ -85,7 +103,30 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
     without, each sample is one FDI sample. The other family begins at the first step of any FDI sample, or
     at any step of the sample the fault first shows in: a fault does not begin on a sample's edge, and a
     latent one (a bus drop shows once the wheel needs the voltage) first shows where the command rises,
-    inside a sample, as a current loss beginning at that step would."""
+    inside a sample, as a current loss beginning at that step would.
+
+    Parameters
+    ----------
+    kind : str
+        The true drive fault: 'current_limiter' or 'bus_voltage'.
+    tcv : array_like, shape (n,)
+        Torque command voltage u of each sample [V].
+    wheel_speed : array_like, shape (n,)
+        Omega of each sample [rad/s].
+    times : array_like, shape (n,)
+        The samples' times [s], ascending.
+    values : array_like, shape (n,)
+        The true fault's parameter at each sample, in its kind's unit.
+    params : WheelParams, optional
+        The wheel type (its noise floor: SIGMA_FLOOR times wheel.torque_scale).
+    period : float, optional
+        The FDI period [s] when the samples are control steps; None: each sample is one FDI sample.
+
+    Returns
+    -------
+    float
+        D, in noise floors squared; inf without samples.
+    """
     u, w, t, v = (np.asarray(x, float).ravel() for x in (tcv, wheel_speed, times, values))
     if u.size == 0:
         return float("inf")
@@ -158,5 +199,16 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
 def told_apart(misfit: float) -> bool:
     """Whether a drive fault whose other family stays ``misfit`` (D) away is told from it: with noise at the
     floor the identifier's margin is about (sqrt(D) + z)^2, z standard normal, so it reaches DECISIVE in 95 %
-    of runs where D >= TOLD_APART."""
+    of runs where D >= TOLD_APART.
+
+    Parameters
+    ----------
+    misfit : float
+        D of :func:`other_family_misfit`, in noise floors squared.
+
+    Returns
+    -------
+    bool
+        D >= TOLD_APART.
+    """
     return bool(misfit >= TOLD_APART)

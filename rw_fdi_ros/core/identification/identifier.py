@@ -63,8 +63,21 @@ class FaultIdentifier:
         self.backlog = {a: deque(maxlen=self.BACKLOG) for a in self.wheels}
 
     def update(self, sample, alarmed: dict) -> dict:
-        """``sample``: a telemetry.FdiSample with the identification terms; ``alarmed``: wheel -> bool.
-        Returns wheel -> Identification (None for a wheel never alarmed)."""
+        """Take one FDI sample of every wheel; identify each alarmed wheel's fault on it.
+
+        Parameters
+        ----------
+        sample : telemetry.FdiSample
+            The sample, with the identification terms.
+        alarmed : dict of str to bool
+            Wheel -> whether the verdict names it at this sample.
+
+        Returns
+        -------
+        dict of str to Identification or None
+            Wheel -> its identification (None for a wheel never alarmed; a lazy identifier's may be stale:
+            :meth:`identifications`).
+        """
         stamp = getattr(sample, "stamp_ns", None)
         time = self.samples if stamp is None else 1e-9 * stamp     # [s] (1 s samples where it has no stamp)
         self.samples += 1
@@ -110,8 +123,13 @@ class FaultIdentifier:
         return dict(self.latest)
 
     def identifications(self) -> dict:
-        """wheel -> the Identification of the samples so far (None for a wheel never alarmed); what update
-        returns, the lazy identifier's decided now."""
+        """What update returns, the lazy identifier's decided now.
+
+        Returns
+        -------
+        dict of str to Identification or None
+            Wheel -> the Identification of the samples so far (None for a wheel never alarmed).
+        """
         for a in list(self.stale):
             self._resolve(a)
         return dict(self.latest)

@@ -62,7 +62,15 @@ class ProfileSums:
         as p is the nominal motor torque's phasor and a current loss or a bus drop scales the real one (kappa in
         [0, 1]; the healthy wheel 1): it is held within [0, KAPPA_MAX] (a prior of that scale on a unit), else a
         few driven samples' misfit went into an amplitude hundreds of times the wheel's. Fewer than four
-        samples, or a ripple they cannot resolve, set nothing."""
+        samples, or a ripple they cannot resolve, set nothing.
+
+        Parameters
+        ----------
+        errors : array_like, shape (n,)
+            The healthy samples' model error r - r^ [N m].
+        ripple_phasors : array_like of complex, shape (n,)
+            Their ripple phasors p [N m].
+        """
         e = np.asarray(errors, float)
         p = np.asarray(ripple_phasors, complex)
         x = np.column_stack([p.imag, p.real, np.ones(e.size)])
@@ -83,8 +91,16 @@ class ProfileSums:
         return cross @ shape.T, shape @ gram @ shape.T, 1
 
     def add(self, row, time: float | None = None):
-        """``row``: (reaction torque, motor torque, friction torque, wheel speed, bus torques, phasor[, free
-        motor torque]); ``time`` [s]: the sample's (default: its index, 1 s samples)."""
+        """Add one FDI sample.
+
+        Parameters
+        ----------
+        row : tuple
+            (reaction torque, motor torque, friction torque [N m], wheel speed [rad/s], bus torques (G,) [N m],
+            ripple phasor [N m][, free motor torque [N m]]).
+        time : float, optional
+            The sample's time [s]; default: its index (1 s samples).
+        """
         r, tm, tf, w, bus, p, *rest = row
         free = rest[0] if rest else None
         time = float(self.n if time is None else time)
@@ -122,7 +138,18 @@ class ProfileSums:
     def rss(self, noise_variance: float | None = None) -> np.ndarray:
         """RSS of every ramp and grid point, (ramps, grid), the ripple projected out; with ``noise_variance``
         (c s^2) and a unit, the unit's uncertainty too (penalised by its prior), else the unit taken at its
-        mean."""
+        mean.
+
+        Parameters
+        ----------
+        noise_variance : float, optional
+            c s^2 [N^2 m^2]: the unit's uncertainty's penalty scale; None: the unit at its mean.
+
+        Returns
+        -------
+        ndarray, shape (H, S)
+            RSS [N^2 m^2] per ramp and grid point (S: every family's grid, KINDS order).
+        """
         sq = self.sq[None] + self.ramp_sq[_RAMP_ORDER]
         cross = self.cross[None] + self.ramp_cross[_RAMP_ORDER]          # (ramps, grid, width)
         cross, gram, nr = self._ripple_columns(cross, self.gram)
@@ -152,12 +179,34 @@ class ProfileSums:
     def seen(self, kind: str) -> float:
         """[s] from the first sample to the last that shows ``kind``'s parameter: a current loss or a bus drop
         shows only through the motor torque, so not once the wheel's driver is off (every later sample is the
-        same at every grid point, and a ramp's size there would be an extrapolation)."""
+        same at every grid point, and a ramp's size there would be an extrapolation).
+
+        Parameters
+        ----------
+        kind : str
+            One of KINDS.
+
+        Returns
+        -------
+        float
+            The time [s] from the first sample counted.
+        """
         return self.elapsed if kind == "temperature" else self.driven
 
     def sizes_now(self, kind: str) -> np.ndarray:
         """theta at the last sample that shows it (:meth:`seen`) of every ramp and grid point of ``kind``'s
-        family, (ramps, grid)."""
+        family.
+
+        Parameters
+        ----------
+        kind : str
+            One of KINDS.
+
+        Returns
+        -------
+        ndarray, shape (H, G)
+            theta per ramp and grid point of the kind's grid, in its unit.
+        """
         grid = GRIDS[kind]
         phi = ramp_fractions(self.seen(kind))[:, None]
         return grid[0] + phi * (grid[None] - grid[0])

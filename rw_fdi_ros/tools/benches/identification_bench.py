@@ -32,7 +32,7 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
-from ...core.identification import KINDS, NONE, UNKNOWN, Identification, kind_name
+from ...core.identification import KINDS, NONE, SPOKEN, UNKNOWN, Identification, kind_name
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault
@@ -191,6 +191,11 @@ def confusion_matrix(report: dict, thesis_only: bool = True):
     return true_kinds, KIND_ORDER, counts
 
 
+def _spoken(kind: str) -> str:
+    """A kind as a table's or a figure's label says it ('current loss' for current_limiter)."""
+    return SPOKEN.get(kind, kind.replace("_", " "))
+
+
 def plot_confusion(report: dict, path: Path) -> Path:
     import matplotlib
     matplotlib.use("Agg")
@@ -205,8 +210,8 @@ def plot_confusion(report: dict, path: Path) -> Path:
             for j in range(len(cols)):
                 ax.text(j, i, f"{counts[i, j]}", ha="center", va="center",
                         color="white" if share[i, j] > 0.5 else "black")
-        ax.set_xticks(range(len(cols)), [c.replace("_", " ") for c in cols], rotation=20)
-        ax.set_yticks(range(len(rows)), [r.replace("_", " ") for r in rows])
+        ax.set_xticks(range(len(cols)), [_spoken(c) for c in cols], rotation=20)
+        ax.set_yticks(range(len(rows)), [_spoken(r) for r in rows])
         ax.set_xlabel("identified (none: never alarmed)")
         ax.set_ylabel("true kind")
         ax.set_title(f"observable runs, {title}")
@@ -261,9 +266,9 @@ def format_identification(report: dict) -> str:
     for thesis_only, title in _panels(report):
         rows, cols, counts = confusion_matrix(report, thesis_only)
         lines += ["", f"## Confusion, observable runs, {title} (rows: truth)", "",
-                  "| true \\ identified | " + " | ".join(c.replace("_", " ") for c in cols) + " |",
+                  "| true \\ identified | " + " | ".join(_spoken(c) for c in cols) + " |",
                   "|---" * (len(cols) + 1) + "|"]
         for i, r in enumerate(rows):
-            lines.append(f"| {r.replace('_', ' ')} | " + " | ".join(str(v) for v in counts[i]) + " |")
+            lines.append(f"| {_spoken(r)} | " + " | ".join(str(v) for v in counts[i]) + " |")
     lines += ["", "![confusion](confusion.png)"]
     return "\n".join(lines) + "\n"
