@@ -179,7 +179,7 @@ def test_screen_json_and_table_give_the_counts_and_one_row_a_run(tmp_path, capsy
     assert counts["current_0p6_x"]["verdict"]["runs"] == 2 and counts["current_0p6_x"]["verdict"]["correct"] == 2
     rows = list(csv.DictReader(table.open()))
     assert [r["seed"] for r in rows] == ["1", "2"]
-    assert all(r["verdict.correct"] == "True" and r["identification.x.kind"] == "current_loss" for r in rows)
+    assert all(r["verdict.correct"] == "True" and r["identification.x.kind"] == "current_limiter" for r in rows)
 
 
 def test_the_scaling_bench_times_the_same_runs_on_each_worker_count(monkeypatch):

@@ -79,9 +79,10 @@ def test_speed_aware_observers_isolate_the_faulty_wheels(runs, case, observer):
 
 
 @pytest.mark.parametrize("case, expected", [
-    ("current_0p6_x", {"x": ("current_loss", 0.6, 0.06)}), ("temperature_150_x", {"x": ("temperature", 173.0, 10.0)}),
+    ("current_0p6_x", {"x": ("current_limiter", 0.6, 0.06)}),
+    ("temperature_150_x", {"x": ("temperature", 173.0, 10.0)}),
     ("bus_5v5_x", {"x": ("bus_voltage", 5.5, 0.55)}),
-    ("bus_x_current_z", {"x": ("bus_voltage", 5.5, 0.55), "z": ("current_loss", 0.6, 0.06)})])
+    ("bus_x_current_z", {"x": ("bus_voltage", 5.5, 0.55), "z": ("current_limiter", 0.6, 0.06)})])
 def test_the_isolation_node_identifies_each_fault_kind_and_size(runs, case, expected):
     """The wheel's /diagnostics status and /fdi/identification carry kind, size and interval."""
     data = read_bag(runs[case].bag, topics=[T.DIAGNOSTICS, T.IDENTIFICATION])

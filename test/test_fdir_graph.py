@@ -72,7 +72,7 @@ def test_the_graph_reconfigures_as_the_core_loop_does(run):
     assert verdict["x"] and verdict["s"] and not verdict["y"] and not verdict["z"]
     found = summary["fdi"]["identification"]["x"]   # held, x stays driven: identified on all its samples
     # held at one speed, a bus drop caps the current as a limiter does: a fault of x's driver, either way
-    assert found["fault_kind"] in ("bus_voltage", "current_loss") and "switched off" not in found["message"], found
+    assert found["fault_kind"] in ("bus_voltage", "current_limiter") and "switched off" not in found["message"], found
 
 
 ORBIT = """name: fdir_orbit

@@ -1,9 +1,10 @@
-"""Whether the physics tells a current loss from a bus drop (core/identifiability.py), against closed forms."""
+"""Whether the physics tells a current loss from a bus drop (core/identification/identifiability.py), against
+closed forms."""
 import numpy as np
 import pytest
 
 from rw_fdi_ros.core import wheel as wm
-from rw_fdi_ros.core.identifiability import TOLD_APART, drive_current, other_family_misfit, told_apart
+from rw_fdi_ros.core.identification.identifiability import TOLD_APART, drive_current, other_family_misfit, told_apart
 from rw_fdi_ros.core.identification import DECISIVE
 
 P = wm.WheelParams()
@@ -14,11 +15,11 @@ def test_at_one_operating_point_a_share_and_a_cap_are_the_same_wheel():
     # EMF limit is 0.665 A at that speed gives the same current, so nothing can tell them apart
     u, w, t = np.full(4, 5.0), np.full(4, 25.0), np.arange(4.0)
     share = 0.7
-    assert drive_current("current_loss", 5.0, 25.0, share) == pytest.approx(0.7 * P.driver_gain * 5.0)
+    assert drive_current("current_limiter", 5.0, 25.0, share) == pytest.approx(0.7 * P.driver_gain * 5.0)
     buses = np.arange(8.0, 1.5, -0.001)
     twin = buses[np.argmin(np.abs(wm.emf_current_limit(buses, 25.0, P) - share * P.driver_gain * 5.0))]
     assert drive_current("bus_voltage", u, w, twin) == pytest.approx(np.full(4, 0.665), abs=2e-4)
-    assert other_family_misfit("current_loss", u, w, t, np.full(4, share)) < DECISIVE
+    assert other_family_misfit("current_limiter", u, w, t, np.full(4, share)) < DECISIVE
     assert not told_apart(other_family_misfit("bus_voltage", u, w, t, np.full(4, twin)))
 
 
@@ -28,7 +29,7 @@ def test_commands_that_vary_under_the_cap_tell_them_apart():
     # 1, 2, 3 ... V, a cap that ramps could follow a share's rise: the order is part of the evidence)
     u, w, t = np.array([1.0, 5.0, 2.0, 4.0, 3.0]), np.full(5, 25.0), np.arange(5.0)
     assert told_apart(other_family_misfit("bus_voltage", u, w, t, np.full(5, 5.0)))
-    assert told_apart(other_family_misfit("current_loss", u, w, t, np.full(5, 0.5)))
+    assert told_apart(other_family_misfit("current_limiter", u, w, t, np.full(5, 0.5)))
 
 
 def test_told_apart_is_the_identifiers_margin_reached_in_95_percent_of_runs():
@@ -46,7 +47,7 @@ def test_the_misfit_grows_with_the_samples_that_show_it():
 
 
 def test_no_samples_and_other_kinds():
-    assert other_family_misfit("current_loss", [], [], [], []) == float("inf")
+    assert other_family_misfit("current_limiter", [], [], [], []) == float("inf")
     with pytest.raises(ValueError, match="not a drive fault"):
         drive_current("temperature", 1.0, 10.0, 100.0)
 
@@ -54,9 +55,9 @@ def test_no_samples_and_other_kinds():
 def _brute_force(kind, u, w, t, values, other_grid):
     """D by exhaustion: every beginning j and every ramp between two values of a fine grid."""
     from rw_fdi_ros.core.identification import SIGMA_FLOOR
-    other = "bus_voltage" if kind == "current_loss" else "current_loss"
+    other = "bus_voltage" if kind == "current_limiter" else "current_limiter"
     truth = P.torque_constant * drive_current(kind, u, w, values)
-    healthy = P.torque_constant * drive_current(other, u, w, 1.0 if other == "current_loss" else 8.0)
+    healthy = P.torque_constant * drive_current(other, u, w, 1.0 if other == "current_limiter" else 8.0)
     best = np.inf
     for j in range(u.size):
         s = (t[j:] - t[j]) / max(t[-1] - t[j], 1e-9)
@@ -68,7 +69,7 @@ def _brute_force(kind, u, w, t, values, other_grid):
 
 @pytest.mark.parametrize("kind, values, u, w", [
     ("bus_voltage", [4.9553] * 3, [3.42, 4.92, 5.0], [24.58, 23.59, 22.71]),     # a step, the speed falling
-    ("current_loss", [0.8571] * 4, [2.45, 2.67, 2.81, 2.89], [29.91, 29.75, 29.7, 29.72]),
+    ("current_limiter", [0.8571] * 4, [2.45, 2.67, 2.81, 2.89], [29.91, 29.75, 29.7, 29.72]),
     ("bus_voltage", [7.0, 6.0, 5.0, 4.5], [1.0, 5.0, 2.0, 5.0], [20.0, 20.5, 21.0, 21.5]),   # a ramp
 ])
 def test_the_search_finds_what_exhaustion_finds(kind, values, u, w):

@@ -1,4 +1,4 @@
-"""Fault identification (core/identification.py) against the wheel model's own answers."""
+"""Fault identification (core/identification/) against the wheel model's own answers."""
 import numpy as np
 import pytest
 
@@ -7,7 +7,7 @@ from rw_fdi_ros.fdi_config import FdiConfig
 from rw_fdi_ros.core import calibration
 from rw_fdi_ros.core import identification as idf
 from rw_fdi_ros.core import wheel as wm
-from rw_fdi_ros.core.scenario import load_scenario
+from rw_fdi_ros.core.scenario import FAULT_KINDS, load_scenario
 from rw_fdi_ros.tools.metrics import judge_identification
 from rw_fdi_ros.tools.evaluation.screen import screen_runs
 
@@ -46,7 +46,7 @@ def sample(row, tcv=1.0):
 
 
 @pytest.mark.parametrize("kind, scenario_kind, value", [
-    ("current_loss", "current_limiter", 0.6), ("current_loss", "current_limiter", 0.9),
+    ("current_limiter", "current_limiter", 0.6), ("current_limiter", "current_limiter", 0.9),
     ("temperature", "temperature", 173.0), ("temperature", "temperature", 53.0),
     ("bus_voltage", "bus_voltage", 5.5), ("bus_voltage", "bus_voltage", 4.0)])
 def test_each_kind_is_recovered_exactly_with_unknown_ripple(kind, scenario_kind, value):
@@ -74,7 +74,7 @@ def test_one_operating_point_cannot_tell_a_current_loss_from_a_bus_drop():
     current are the same wheel: the identifier must not pick one."""
     found = idf.identify(*wheel_rows("current_limiter", 0.7, constant=True, noise=idf.SIGMA_FLOOR))
     assert found.kind == "unknown" and not found.healthy
-    assert found.best_guess in ("current_loss", "bus_voltage") and found.between == idf.DRIVE
+    assert found.best_guess in ("current_limiter", "bus_voltage") and found.between == idf.DRIVE
     assert found.message().startswith("current loss or bus drop, its driven samples do not tell which")
     assert found.rss["temperature"] > 1e3 * found.rss[found.best_guess]   # the friction law is ruled out
 
@@ -102,7 +102,7 @@ def test_identifier_starts_at_the_onset_and_forgets_nothing():
     batch = idf.identify(*(np.array(col) for col in zip(*rows[31:])))
     assert (out["x"].kind, out["x"].size, out["x"].low, out["x"].high) == (batch.kind, batch.size, batch.low,
                                                                            batch.high)
-    assert out["x"].kind == "current_loss" and out["x"].size == pytest.approx(0.5)
+    assert out["x"].kind == "current_limiter" and out["x"].size == pytest.approx(0.5)
     assert out["x"].rss == pytest.approx(batch.rss, rel=1e-9, abs=1e-18)
 
 
@@ -176,13 +176,13 @@ def test_a_wheel_given_up_after_a_few_driven_samples_is_identified_from_them(dri
     # the sample at the step left out (and the one after, where the ripple hides the change)
     assert driven - 2 <= ident.sums["x"].n_driven <= driven - 1
     if ident.sums["x"].n_driven < idf.MIN_DRIVEN:
-        assert found.kind == "unknown" and found.between == idf.DRIVE and found.best_guess == "current_loss"
+        assert found.kind == "unknown" and found.between == idf.DRIVE and found.best_guess == "current_limiter"
         assert found.unpowered and "do not tell which" in found.message()
         ident.sums["x"].prior_on = False     # the free ripple takes the driven samples: nothing left to explain
         alone = idf.decide(ident.sums["x"])
         assert alone.explained < idf.EXPLAINED and alone.between == ()
         return
-    assert found.unpowered and found.kind == "current_loss", found.message()
+    assert found.unpowered and found.kind == "current_limiter", found.message()
     assert found.low <= 0.6 <= found.high and found.size == pytest.approx(0.6, abs=0.02)
     assert found.at_s == pytest.approx(29.0 + driven)        # the last driven sample's (1 s samples from 0)
 
@@ -217,7 +217,7 @@ UNIT_SHARES = np.array([0.03, -0.03, 0.25, -0.15])
 
 
 @pytest.mark.parametrize("kind, scenario_kind, value, tolerance", [
-    ("current_loss", "current_limiter", 0.82, 0.01), ("temperature", "temperature", 71.0, 3.0),
+    ("current_limiter", "current_limiter", 0.82, 0.01), ("temperature", "temperature", 71.0, 3.0),
     ("bus_voltage", "bus_voltage", 4.6, 0.05)])
 def test_a_unit_that_is_not_the_datasheet_is_identified_on_its_own_model(kind, scenario_kind, value, tolerance):
     """A unit 3 % / -3 % / +25 % / -15 % off the datasheet: judged as the datasheet wheel the size is off
@@ -258,26 +258,26 @@ def test_the_identifier_learns_the_unit_before_the_alarm():
                                      model_torque=np.array([-(tm - tf), 0, 0]), free_motor_torque=np.array([f, 0, 0]))
             out = ident.update(sample, {"x": k == 1})
     assert ident.calibrations["x"].frozen
-    assert out["x"].unit == "calibrated" and out["x"].kind == "current_loss"
+    assert out["x"].unit == "calibrated" and out["x"].kind == "current_limiter"
     assert abs(out["x"].size - 0.82) <= 0.01 and out["x"].low <= 0.82 <= out["x"].high, out["x"]
     ident.clear()   # an operator's reset forgets the fault, not the unit
     assert out is not None and ident.sums["x"] is None and ident.calibrations["x"].frozen
 
 
 @pytest.mark.parametrize("found, text", [
-    (idf.Identification("current_loss", 0.62, 0.58, 0.66), "current loss, limiter 0.62 [0.58, 0.66]"),
+    (idf.Identification("current_limiter", 0.62, 0.58, 0.66), "current loss, limiter 0.62 [0.58, 0.66]"),
     (idf.Identification("temperature", 173.0, 171.0, 175.0), "temperature 173 C [171, 175]"),
     (idf.Identification("temperature", 215.0, 200.0, 215.0), "temperature >= 200 C"),
     (idf.Identification("bus_voltage", 2.0, 1.5, 2.6), "bus voltage <= 2.60 V"),
     (idf.Identification("unknown", samples=40, explained=0.5, best_guess="bus_voltage"),
      "unknown fault (closest: bus voltage, explains 50 %)"),
-    (idf.Identification("unknown", samples=6, explained=0.99, best_guess="current_loss", between=idf.DRIVE,
+    (idf.Identification("unknown", samples=6, explained=0.99, best_guess="current_limiter", between=idf.DRIVE,
                         unpowered=True),
      "current loss or bus drop, its driven samples do not tell which (closest: current loss, explains 99 %) (its "
      "driver off: its spin-down counted, its rest not)"),
     (idf.Identification("bus_voltage", 4.61, 4.58, 4.64, ramp_s=200.0, growing=True),
      "bus voltage 4.61 V [4.58, 4.64] (still growing)"),
-    (idf.Identification("current_loss", 0.6, 0.59, 0.61, ramp_s=110.0), "current loss, limiter 0.60 [0.59, 0.61] "
+    (idf.Identification("current_limiter", 0.6, 0.59, 0.61, ramp_s=110.0), "current loss, limiter 0.60 [0.59, 0.61] "
      "(grew over ~110 s)")])
 def test_messages_read_at_a_glance(found, text):
     assert found.message() == text
@@ -286,11 +286,53 @@ def test_messages_read_at_a_glance(found, text):
                                    "fault_size_at_s", "fault_kind_between"}
 
 
+@pytest.mark.parametrize("found", [
+    idf.Identification("current_limiter", 0.6213456789, 0.58, 0.66, samples=12, unit="calibrated",
+                       unit_limited=True, ramp_s=110.0, growing=True, at_s=412.0),
+    idf.Identification("bus_voltage", 4.2, 1.5, 4.4, unit="type", at_s=1e-5),
+    idf.Identification("unknown", samples=3),
+    idf.Identification("unknown", samples=9, between=idf.DRIVE, at_s=77.25)])
+def test_the_decoder_is_the_inverse_of_the_values(found):
+    """from_values(values()) gives back every field values() carries, and the same values to the digit."""
+    decoded = idf.Identification.from_values(found.values())
+    assert decoded.values() == found.values()
+    for name in ("kind", "unit", "unit_limited", "growing", "between"):
+        assert getattr(decoded, name) == getattr(found, name)
+    for name in ("size", "low", "high", "ramp_s", "at_s"):
+        assert getattr(decoded, name) == pytest.approx(getattr(found, name), rel=1e-5, nan_ok=True)
+    # the isolation node adds the samples on /fdi/identification
+    assert idf.Identification.from_values({**found.values(), "samples": str(found.samples)}).samples == found.samples
+
+
+def test_a_status_without_an_identification_decodes_to_none():
+    assert idf.Identification.from_values({"fault_kind": "none"}) is None
+    assert idf.Identification.from_values({"residual": "1e-4", "threshold": "2e-4"}) is None
+
+
+def test_an_old_bag_s_kind_names_read_as_the_scenario_s():
+    """A status recorded when the identifier called a current limiter fault 'current_loss' (and before the keys
+    of ramps, stamps and 'between' existed) reads with the scenario's name, the keys it lacks at their defaults."""
+    old = {"fault_kind": "current_loss", "fault_size": "0.6", "fault_size_low": "0.59", "fault_size_high": "0.61",
+           "fault_unit": "datasheet", "fault_size_unit_limited": "false", "samples": "40"}
+    found = idf.Identification.from_values(old)
+    assert (found.kind, found.size, found.low, found.high, found.samples) == ("current_limiter", 0.6, 0.59, 0.61, 40)
+    assert found.ramp_s == 0.0 and not found.growing and np.isnan(found.at_s) and found.between == ()
+    assert found.values()["fault_kind"] == "current_limiter"
+    between = idf.Identification.from_values({"fault_kind": "unknown", "fault_kind_between": "current_loss or "
+                                              "bus_voltage"})
+    assert between.between == idf.DRIVE
+    assert idf.kind_name("current_loss") == "current_limiter" and idf.kind_name("temperature") == "temperature"
+
+
+def test_the_identifier_names_each_kind_as_the_scenario_does():
+    assert set(idf.KINDS) <= set(FAULT_KINDS)
+
+
 def test_screen_identifies_the_thesis_faults_with_the_node_code():
     """Three 400 s runs through the core loop, the shipped FDI and the isolation node's identifier."""
     runs = screen_runs([load_scenario("current_0p6_x").with_seed(12), load_scenario("temperature_150_x").with_seed(13),
                         load_scenario("bus_4v_x").with_seed(3)], *FdiConfig().load(), identification=True)
-    for run, (kind, value, tolerance) in zip(runs, [("current_loss", 0.6, 0.01), ("temperature", 173.0, 2.0),
+    for run, (kind, value, tolerance) in zip(runs, [("current_limiter", 0.6, 0.01), ("temperature", 173.0, 2.0),
                                                     ("bus_voltage", 4.0, 0.05)]):
         verdict = judge_identification(run)["x"]
         assert verdict["kind_right"], (run.scenario, run.identification)
@@ -298,7 +340,7 @@ def test_screen_identifies_the_thesis_faults_with_the_node_code():
         # a healthy wheel is never given a fault kind (here bus 4 V on X upsets the body so much that
         # the Elman observer alarms on Z too: its identification says the wheel fits a healthy one)
         for a, found in run.identification.items():
-            assert a == "x" or found["fault_kind"] == "unknown", (run.scenario, a, found)
+            assert a == "x" or idf.Identification.from_values(found).kind == "unknown", (run.scenario, a, found)
 
 
 def test_a_calibration_a_fault_interrupted_learns_no_more_after_a_reset():
@@ -321,7 +363,7 @@ def test_a_calibration_a_fault_interrupted_learns_no_more_after_a_reset():
     calibration = ident.calibrations["x"]
     assert not calibration.frozen and calibration.n == 55   # the samples before the first alarm only
     assert out["x"].unit == "type"
-    assert out["x"].best_guess == "current_loss" and out["x"].low <= 0.8 <= out["x"].high, out["x"]
+    assert out["x"].best_guess == "current_limiter" and out["x"].low <= 0.8 <= out["x"].high, out["x"]
 
 
 def ramp_rows(kind, value, ramp_s, n, seed=7):
@@ -351,6 +393,31 @@ def test_a_fault_still_growing_is_given_its_size_now_and_said_growing():
     """A current loss ramping to a limiter share of 0.5 over 300 s, seen for 150 s: now at 0.75, still growing."""
     rows, path = ramp_rows("current_limiter", 0.5, 300.0, 150)
     found = idf.identify(*rows)
-    assert found.kind == "current_loss" and found.growing and found.message().endswith("(still growing)")
+    assert found.kind == "current_limiter" and found.growing and found.message().endswith("(still growing)")
     assert abs(found.size - path[-1]) <= 0.02 and found.low <= path[-1] <= found.high, (found, path[-1])
     assert found.at_s == 149.0
+
+
+def test_a_bag_s_identification_reads_through_the_decoder_with_the_names_now():
+    """identification_from_bag on an old bag's /fdi/identification: the kind under its former name comes out as
+    the scenario's, the judge reads it, and a wheel never alarmed is left out."""
+    from types import SimpleNamespace as NS
+
+    from rw_fdi_ros.core.scenario import Fault
+    from rw_fdi_ros.tools.bag_series import identification_from_bag
+    from rw_fdi_ros.tools.metrics import RunEval, run_row
+
+    def status(axis, message, **values):
+        return NS(hardware_id=f"reaction_wheel_{axis}", message=message,
+                  values=[NS(key=k, value=v) for k, v in values.items()])
+    last = NS(status=[status("x", "current loss, limiter 0.60 [0.59, 0.61]", fault_kind="current_loss",
+                             fault_size="0.6", fault_size_low="0.59", fault_size_high="0.61", fault_unit="datasheet",
+                             fault_size_unit_limited="false", samples="40"),
+                      status("y", "no alarm", fault_kind="none")])
+    found = identification_from_bag(NS(last=lambda topic: last))
+    assert set(found) == {"x"} and found["x"]["fault_kind"] == "current_limiter" and found["x"]["samples"] == "40"
+    run = RunEval("b", "current_0p6_x", 1, [Fault("current_limiter", 0, 10.0, 0.6)], {}, identification=found,
+                  wheels=("x", "y", "z"))
+    assert judge_identification(run)["x"]["kind_right"]
+    assert run_row(run)["identification"] == {"x": {"kind": "current_limiter", "size": "0.6", "size_low": "0.59",
+                                                     "size_high": "0.61"}}

@@ -143,7 +143,7 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     assert said["x"][0][0] >= 40.0, verdict   # alarm intervals: none before the onset
     assert verdict["verdict"]["x"][0][1] is None   # confirmed, held to the end
     found = verdict["identification"]["x"]   # x kept in use beside s, driven: identified on all its samples
-    assert found["fault_kind"] == "current_loss" and "switched off" not in found["message"], found
+    assert found["fault_kind"] == "current_limiter" and "switched off" not in found["message"], found
     # FDIR acted on it: x kept in use beside the redundant s brought in, said on /fdir/wheels (recorded)
     states = {s.hardware_id: {kv.key: kv.value for kv in s.values}["state"] for s in data.last(T.FDIR_WHEELS).status}
     assert states["reaction_wheel_x"] == "kept_in_use" and states["reaction_wheel_s"] == "in_use", states

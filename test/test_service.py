@@ -35,7 +35,7 @@ def test_a_fault_on_a_datasheet_wheel_then_slews_keeps_the_pointing_and_is_ident
     assert [(w, a) for _, w, a, _ in run["decisions"]] == [("x", "kept_in_use"), ("s", "in_use")]
     assert run["acted_right"] and run["pointing_kept"] and run["worst_deg"] < 0.2
     ident = run["identification"]
-    assert ident["kind"] == "current_loss" and ident["size_right"] and ident["covered"], ident
+    assert ident["kind"] == "current_limiter" and ident["size_right"] and ident["covered"], ident
 
 
 def test_a_ramping_fault_on_a_calibrated_unit_is_named_once_it_stops_growing():
@@ -137,7 +137,7 @@ def test_a_report_re_identified_keeps_every_act_and_refuses_a_record_that_moved(
     import pytest
     report = sb.bench_service(runs=1, seeds="net", out=tmp_path, max_hours=0.15, fault_free_runs=0, given_up_runs=0)
     flight = [r for r in report["runs"] if "identification" in r and not r["give_up"]]
-    assert flight and flight[0]["identification"]["kind"] == "current_loss"
+    assert flight and flight[0]["identification"]["kind"] == "current_limiter"
     again = sb.reidentify(tmp_path)
     def text(figures):   # NaN intervals of empty rates compare equal as text
         return json.dumps(figures, sort_keys=True, default=float)

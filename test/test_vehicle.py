@@ -482,10 +482,12 @@ def test_the_operations_bench_flies_a_vehicle_with_its_fdi():
 
 
 def test_the_identification_bench_identifies_a_vehicles_faults_with_its_fdi():
+    from rw_fdi_ros.core.identification import Identification
     from rw_fdi_ros.tools.benches import identification_bench as ib
     runs = ib._chunk(0, range(0, 2), vehicle="microsat_pyramid")["speed_aware"]   # current loss 40 %
     assert all(r.wheels == ("p1", "p2", "p3", "p4") for r in runs)
-    assert all(r.identification[r.wheels[r.faults[0].wheel]]["fault_kind"] == "current_loss" for r in runs)
+    assert all(Identification.from_values(r.identification[r.wheels[r.faults[0].wheel]]).kind == "current_limiter"
+               for r in runs)
     units = ib.units_scenarios(2, 3, "microsat_pyramid")
     assert all(s.spacecraft.name == "microsat_pyramid" and s.wheels == {"variation": True} for s in units)
     assert ib.units_scenarios(2, 3) == ib.units_scenarios(2, 3, "maksat")

@@ -21,7 +21,7 @@ P0 = diag(s_kt^2, s_Gd^2, s_v^2, s_c^2, (g_max B/2)^2, (g_max B/2)^2):
 
     Sigma = (P0^-1 + X'X / s^2)^-1,    b^ = Sigma X'e / s^2,    s^2 = c max(RSS / (n - 6), sigma_floor^2)
 
-(c: serial correlation of 1 s samples, as in identification.py). What the data cannot tell apart
+(c: serial correlation of 1 s samples, as in identification/decision.py). What the data cannot tell apart
 (viscous from coulomb friction while the speed barely moves; the motor torque scale from the
 friction while the wheel only holds, tau_m ~ tau_f) stays near the prior, and the correction's own
 uncertainty at the present operating point,
@@ -49,7 +49,7 @@ from . import wheel as wm
 PARAMETERS = wm.UNIT_PARAMETERS   # d_kt, d_Gd, b_v, b_c
 PHYSICAL = len(PARAMETERS)
 NUISANCE = ("ripple_re", "ripple_im")
-CORRELATION = 10.0     # noise variance widening for serially correlated 1 s samples (identification.py)
+CORRELATION = 10.0     # noise variance widening for serially correlated 1 s samples (identification/decision.py)
 # [N m] per FDI sample: the bearing noise (1.5e-5 N m peak, eq. 2.16) and what the unit model leaves out in
 # slews; the posterior then holds the true unit in its 95 % region on 95.7 % of wheels (docs/fdi.md)
 SIGMA_FLOOR = 2.5e-5

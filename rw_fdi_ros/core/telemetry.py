@@ -71,7 +71,7 @@ class FdiSample:
     wheel_speed: np.ndarray | None = None     # [rad/s]
     model_torque: np.ndarray | None = None    # nominal wheel model's reaction torque [N m]
     ripple_phasor: np.ndarray | None = None   # mean of tau_m e^{i N theta} (complex) [N m]
-    # the nominal model's terms: calibration (calibration.py) and fault identification (identification.py)
+    # the nominal model's terms: calibration (calibration.py) and fault identification (identification/)
     motor_torque: np.ndarray | None = None     # nominal tau_m(u, Omega; 8 V) [N m]
     friction_torque: np.ndarray | None = None  # nominal tau_f(Omega; 23 C) [N m]
     free_motor_torque: np.ndarray | None = None  # nominal tau_m where the bridge does not clip, else 0 [N m]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.identification import Identification
 from ..core.scenario import Scenario
 from ..graph import topics as T
 from .metrics import OBSERVERS, Series
@@ -137,8 +138,9 @@ def series_from_bag(data) -> dict:
 
 
 def identification_from_bag(data) -> dict:
-    """axis -> the last /fdi/identification status of that wheel as a dict (message + values);
-    wheels never alarmed (or a bag without the topic) are left out.
+    """axis -> the last /fdi/identification status of that wheel as a dict (message + values), its
+    identification read by Identification.from_values and written again (a former kind name reads as the name
+    now); wheels never alarmed (or a bag without the topic) are left out.
 
     Parameters
     ----------
@@ -156,8 +158,9 @@ def identification_from_bag(data) -> dict:
     out = {}
     for status in last.status:
         values = {kv.key: kv.value for kv in status.values}
-        if values.get("fault_kind", "none") != "none":
-            out[status.hardware_id.rsplit("_", 1)[-1]] = {"message": status.message, **values}
+        found = Identification.from_values(values)
+        if found is not None:
+            out[status.hardware_id.rsplit("_", 1)[-1]] = {"message": status.message, **values, **found.values()}
     return out
 
 

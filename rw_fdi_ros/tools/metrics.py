@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.identification import NONE, UNKNOWN, Identification
 from ..core.plant_choices import FDI_PERIOD
 from ..core.wheel_set import AXIS_WHEELS, fitted_for
 from ..graph import topics as T
@@ -222,7 +223,7 @@ def run_row(run: RunEval) -> dict:
     dict
         seed, scenario, category, faults (kind, wheel, onset [s], value, ramp [s]), per observer
         alarmed, false_alarm, correct and delay_s [s], and identification (wheel -> kind, size, size_low,
-        size_high, as recorded: strings).
+        size_high, as recorded: strings; Identification.brief).
     """
     row = {"seed": run.seed, "scenario": run.scenario, "category": run.category,
            "faults": [{"kind": f.kind, "wheel": run.wheels[f.wheel], "onset": f.onset, "value": f.value,
@@ -232,17 +233,12 @@ def run_row(run: RunEval) -> dict:
         delays = [f["delay"] for f in v.get("axes", {}).values() if f["detected"]]
         row[obs] = {"alarmed": v["alarmed_wheels"], "false_alarm": v["false_alarm"], "correct": v.get("correct"),
                     "delay_s": min(delays) if delays else None}
-    row["identification"] = {wheel: {k[len("fault_"):]: found.get(k) for k in ("fault_kind", "fault_size",
-                                                                          "fault_size_low", "fault_size_high")}
-                             for wheel, found in sorted(run.identification.items())}
+    found = {wheel: Identification.from_values(values) for wheel, values in sorted(run.identification.items())}
+    row["identification"] = {wheel: f.brief() for wheel, f in found.items() if f is not None}
     if run.reconfiguration:   # FDIR acted in the loop (screen --fdir)
         row["reconfiguration"] = [{"time_s": t, "wheel": w, "action": a, "reason": r}
                                   for t, w, a, r in run.reconfiguration]
     return row
-
-
-# scenario fault kind -> identified kind; the tolerance a size estimate must meet (issue 11)
-IDENTIFIED_KIND = {"current_limiter": "current_loss", "temperature": "temperature", "bus_voltage": "bus_voltage"}
 
 
 def size_tolerance(kind: str, value: float, strict_bus: bool = False) -> float:
@@ -342,14 +338,12 @@ def judge_identification(run: RunEval, strict_bus: bool = False) -> dict:
         a = run.wheels[f.wheel]
         if f.kind in DISTURBANCE_KINDS or sum(g.wheel == f.wheel for g in run.faults) > 1:
             continue
-        found = run.identification.get(a) or {}
-        kind = found.get("fault_kind", "none")
-        truth = IDENTIFIED_KIND[f.kind]
-        row = {"true_kind": truth, "kind": kind, "identified": kind not in ("none", "unknown"),
-               "kind_right": kind == truth}
+        found = Identification.from_values(run.identification.get(a) or {})
+        kind = NONE if found is None else found.kind
+        row = {"true_kind": f.kind, "kind": kind, "identified": kind not in (NONE, UNKNOWN),
+               "kind_right": kind == f.kind}   # the identifier names a kind as the scenario does
         if row["kind_right"]:
-            size, low, high = (float(found[k]) for k in ("fault_size", "fault_size_low", "fault_size_high"))
-            row.update(judge_size(f, size, low, high, float(found.get("fault_size_at_s", "nan")), strict_bus))
+            row.update(judge_size(f, found.size, found.low, found.high, found.at_s, strict_bus))
         out[a] = row
     return out
 

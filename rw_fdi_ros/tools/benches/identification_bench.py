@@ -32,6 +32,7 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.calibration import calibration_samples
+from ...core.identification import KINDS, NONE, SPOKEN, UNKNOWN, Identification, kind_name
 from ...core.isolation import decision_observer
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault
@@ -44,7 +45,7 @@ from ..metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
 SEED_BASE = 30_000_000
-KIND_ORDER = ("current_loss", "temperature", "bus_voltage", "unknown", "none")
+KIND_ORDER = (*KINDS, UNKNOWN, NONE)
 
 CELLS = (
     Cell("current loss 40 %", "current_limiter", 0.6, thesis_size=True),
@@ -108,7 +109,8 @@ def cell_identification(runs, observable_level: dict, strict_bus: bool = False) 
     rows, observable = [], []
     for r in runs:
         for a, v in judge_identification(r, strict_bus).items():
-            v["unit_limited"] = (r.identification.get(a) or {}).get("fault_size_unit_limited") == "true"
+            found = Identification.from_values(r.identification.get(a) or {})
+            v["unit_limited"] = found is not None and found.unit_limited
             seen = bool(r.fault_effect_peak[r.wheels.index(a)] > max(observable_level[k]
                                                                      for k in fitted_for(a, observable_level)))
             rows.append(v)
@@ -179,14 +181,19 @@ def confusion_matrix(report: dict, thesis_only: bool = True):
     """(true kinds, identified kinds, counts (true, identified)) summed over the cells."""
     true_kinds = KIND_ORDER[:3]
     counts = np.zeros((3, len(KIND_ORDER)), int)
-    kind_of = {"current_limiter": 0, "temperature": 1, "bus_voltage": 2}
     for c in report["cells"].values():
         if thesis_only and not c["cell"]["thesis_size"]:
             continue
-        row = kind_of[c["cell"]["kind"]]
+        row = true_kinds.index(c["cell"]["kind"])
+        seen = {kind_name(k): n for k, n in c["confusion_observable"].items()}   # a report of former names too
         for j, k in enumerate(KIND_ORDER):
-            counts[row, j] += c["confusion_observable"][k]
+            counts[row, j] += seen[k]
     return true_kinds, KIND_ORDER, counts
+
+
+def _spoken(kind: str) -> str:
+    """A kind as a table's or a figure's label says it ('current loss' for current_limiter)."""
+    return SPOKEN.get(kind, kind.replace("_", " "))
 
 
 def plot_confusion(report: dict, path: Path) -> Path:
@@ -203,8 +210,8 @@ def plot_confusion(report: dict, path: Path) -> Path:
             for j in range(len(cols)):
                 ax.text(j, i, f"{counts[i, j]}", ha="center", va="center",
                         color="white" if share[i, j] > 0.5 else "black")
-        ax.set_xticks(range(len(cols)), [c.replace("_", " ") for c in cols], rotation=20)
-        ax.set_yticks(range(len(rows)), [r.replace("_", " ") for r in rows])
+        ax.set_xticks(range(len(cols)), [_spoken(c) for c in cols], rotation=20)
+        ax.set_yticks(range(len(rows)), [_spoken(r) for r in rows])
         ax.set_xlabel("identified (none: never alarmed)")
         ax.set_ylabel("true kind")
         ax.set_title(f"observable runs, {title}")
@@ -259,9 +266,9 @@ def format_identification(report: dict) -> str:
     for thesis_only, title in _panels(report):
         rows, cols, counts = confusion_matrix(report, thesis_only)
         lines += ["", f"## Confusion, observable runs, {title} (rows: truth)", "",
-                  "| true \\ identified | " + " | ".join(c.replace("_", " ") for c in cols) + " |",
+                  "| true \\ identified | " + " | ".join(_spoken(c) for c in cols) + " |",
                   "|---" * (len(cols) + 1) + "|"]
         for i, r in enumerate(rows):
-            lines.append(f"| {r.replace('_', ' ')} | " + " | ".join(str(v) for v in counts[i]) + " |")
+            lines.append(f"| {_spoken(r)} | " + " | ".join(str(v) for v in counts[i]) + " |")
     lines += ["", "![confusion](confusion.png)"]
     return "\n".join(lines) + "\n"

@@ -54,14 +54,14 @@ import yaml
 from ...fdi_config import FdiConfig
 from ...core.closed_loop import Fdir, simulate
 from ...core.fdir import SATURATED_S
-from ...core.identifiability import TOLD_APART, other_family_misfit, told_apart
+from ...core.identification.identifiability import TOLD_APART, other_family_misfit, told_apart
 from ...core.identification import DRIVE, UNKNOWN
 from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Scenario, parse_scenario
 from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
 from ...core.wheel import torque_scale
 from ..campaigns.campaign import LocalExecutor
-from ..metrics import IDENTIFIED_KIND, judge_size
+from ..metrics import judge_size
 from ..metrics import rate
 from .kit import format_rate, write_report
 
@@ -238,7 +238,7 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
         single = sum(f["wheel"] == f0["wheel"] for f in d.faults) == 1
         found = (traj.identified[b] or {}).get(f0["wheel"]) if traj.identified else None
         if single and f0["wheel"] in acted:
-            truth = IDENTIFIED_KIND[f0["kind"]]
+            truth = f0["kind"]   # the identifier names a kind as the scenario does
             row = {"true_kind": truth, "kind": found.kind if found else "none",
                    "message": found.message() if found else "never alarmed"}
             row["kind_right"] = row["kind"] == truth
@@ -260,7 +260,7 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
 def _drive_misfit(traj, b: int, i: int, scenario_, kind: str, onset: float, given_up_at: float) -> float:
     """How far the other drive family stays from the run's drive fault on the FDI samples its wheel was driven
     with the fault, from the onset to its give-up, each the mean of its control steps (D,
-    core/identifiability.py)."""
+    core/identification/identifiability.py)."""
     driven = (traj.time >= onset) & (traj.time < given_up_at)
     fault = scenario_.faults[0]
     return other_family_misfit(kind, traj.tcv[driven, b, i], traj.wheel_speed[driven, b, i], traj.time[driven],
@@ -655,7 +655,8 @@ def format_service(report: dict) -> str:
                   f"{format_rate(g['kind_narrowed']) if 'kind_narrowed' in g else '-'} | |"]
         if "drive" in g:
             lines += [f"| current losses and bus drops the physics tells apart on their driven samples (the other "
-                      f"family at least D = {TOLD_APART:.0f} noise floors^2 away, core/identifiability.py) | "
+                      f"family at least D = {TOLD_APART:.0f} noise floors^2 away, "
+                      "core/identification/identifiability.py) | "
                       f"{g['drive_told_apart']} of {g['drive']} | |",
                       f"| kind right where the physics tells it (temperature, and drive faults told apart) | "
                       f"{format_rate(g['kind_right_told_apart'])} | >= 95 % |",

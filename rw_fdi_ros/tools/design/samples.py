@@ -35,7 +35,7 @@ class FdiSamples:
     wheel_speed: np.ndarray | None = None
     model_torque: np.ndarray | None = None
     ripple_phasor: np.ndarray | None = None
-    # what fault identification fits (core/identification.py), when asked for
+    # what fault identification fits (core/identification/), when asked for
     motor_torque: np.ndarray | None = None
     friction_torque: np.ndarray | None = None
     free_motor_torque: np.ndarray | None = None

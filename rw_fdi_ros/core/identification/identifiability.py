@@ -29,15 +29,16 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import wheel as wm
-from .identification import DECISIVE, SIGMA_FLOOR
+from .. import wheel as wm
+from .decision import DECISIVE
+from .families import SIGMA_FLOOR
 
 # where the search starts: every ramp between two values of a coarse grid, then refined by least squares
 # (geometric: dense near the healthy value, where a small fault's torque is steep in its parameter)
-_GRIDS = {"current_loss": 1.0 - np.geomspace(1e-4, 1.0, 48), "bus_voltage": 8.0 - np.geomspace(1e-3, 6.5, 48)}
-HEALTHY = {"current_loss": wm.NOMINAL.current_limiter, "bus_voltage": wm.NOMINAL.bus_voltage}   # Table 2.3
+_GRIDS = {"current_limiter": 1.0 - np.geomspace(1e-4, 1.0, 48), "bus_voltage": 8.0 - np.geomspace(1e-3, 6.5, 48)}
+HEALTHY = {"current_limiter": wm.NOMINAL.current_limiter, "bus_voltage": wm.NOMINAL.bus_voltage}   # Table 2.3
 # each family's range, the identifier's grids' (identification.CURRENT_LIMITER_GRID, BUS_VOLTAGE_GRID)
-_BOUNDS = {"current_loss": (0.0, 1.0), "bus_voltage": (1.5, HEALTHY["bus_voltage"])}
+_BOUNDS = {"current_limiter": (0.0, 1.0), "bus_voltage": (1.5, HEALTHY["bus_voltage"])}
 # D at which the identifier's margin reaches DECISIVE in 95 % of runs (one-sided normal quantile 1.645)
 TOLD_APART = (np.sqrt(DECISIVE) + 1.645) ** 2
 REFINED = 8         # the best starts (a beginning and a ramp) refined by least squares
@@ -63,13 +64,31 @@ def _ramps(table, truth, t) -> tuple:
 
 
 def drive_current(kind: str, tcv, wheel_speed, value, params: wm.WheelParams = wm.WheelParams()):
-    """Motor current [A] of a wheel with a ``kind`` fault ('current_loss': limiter share, 'bus_voltage':
-    bus [V]) of ``value`` at commands ``tcv`` [V] and speeds ``wheel_speed`` [rad/s] (broadcasting)."""
-    if kind == "current_loss":
+    """Motor current of a wheel with a ``kind`` fault of ``value`` at the commands and speeds given.
+
+    Parameters
+    ----------
+    kind : str
+        'current_limiter' (``value``: the limiter share) or 'bus_voltage' (``value``: the bus [V]).
+    tcv : float or array_like
+        Torque command voltage u [V].
+    wheel_speed : float or array_like
+        Wheel speed Omega [rad/s], broadcasting with ``tcv`` and ``value``.
+    value : float or array_like
+        The fault's parameter, in its kind's unit.
+    params : WheelParams, optional
+        The wheel type.
+
+    Returns
+    -------
+    ndarray or float
+        Motor current I_m [A].
+    """
+    if kind == "current_limiter":
         return wm.motor_current(tcv, wheel_speed, HEALTHY["bus_voltage"], value, params)
     if kind == "bus_voltage":
         return wm.motor_current(tcv, wheel_speed, value, 1.0, params)
-    raise ValueError(f"{kind!r} is not a drive fault (current_loss, bus_voltage)")
+    raise ValueError(f"{kind!r} is not a drive fault (current_limiter, bus_voltage)")
 
 
 def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
@@ -84,7 +103,30 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
     without, each sample is one FDI sample. The other family begins at the first step of any FDI sample, or
     at any step of the sample the fault first shows in: a fault does not begin on a sample's edge, and a
     latent one (a bus drop shows once the wheel needs the voltage) first shows where the command rises,
-    inside a sample, as a current loss beginning at that step would."""
+    inside a sample, as a current loss beginning at that step would.
+
+    Parameters
+    ----------
+    kind : str
+        The true drive fault: 'current_limiter' or 'bus_voltage'.
+    tcv : array_like, shape (n,)
+        Torque command voltage u of each sample [V].
+    wheel_speed : array_like, shape (n,)
+        Omega of each sample [rad/s].
+    times : array_like, shape (n,)
+        The samples' times [s], ascending.
+    values : array_like, shape (n,)
+        The true fault's parameter at each sample, in its kind's unit.
+    params : WheelParams, optional
+        The wheel type (its noise floor: SIGMA_FLOOR times wheel.torque_scale).
+    period : float, optional
+        The FDI period [s] when the samples are control steps; None: each sample is one FDI sample.
+
+    Returns
+    -------
+    float
+        D, in noise floors squared; inf without samples.
+    """
     u, w, t, v = (np.asarray(x, float).ravel() for x in (tcv, wheel_speed, times, values))
     if u.size == 0:
         return float("inf")
@@ -100,7 +142,7 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
         return np.add.reduceat(x, first, axis=0) / count.reshape((-1,) + (1,) * (x.ndim - 1))
     truth_steps = kt * drive_current(kind, u, w, v, params)
     truth = mean(truth_steps)
-    other = "bus_voltage" if kind == "current_loss" else "current_loss"
+    other = "bus_voltage" if kind == "current_limiter" else "current_limiter"
     grid, low, high = _GRIDS[other], *_BOUNDS[other]
     healthy_steps = kt * drive_current(other, u, w, HEALTHY[other], params)
     healthy = mean(healthy_steps)
@@ -157,5 +199,16 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
 def told_apart(misfit: float) -> bool:
     """Whether a drive fault whose other family stays ``misfit`` (D) away is told from it: with noise at the
     floor the identifier's margin is about (sqrt(D) + z)^2, z standard normal, so it reaches DECISIVE in 95 %
-    of runs where D >= TOLD_APART."""
+    of runs where D >= TOLD_APART.
+
+    Parameters
+    ----------
+    misfit : float
+        D of :func:`other_family_misfit`, in noise floors squared.
+
+    Returns
+    -------
+    bool
+        D >= TOLD_APART.
+    """
     return bool(misfit >= TOLD_APART)

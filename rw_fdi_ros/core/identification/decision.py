@@ -1,0 +1,148 @@
+"""The decision: from a wheel's profile sums, which family (if any) its fault is and how large, with an interval
+(the package's docstring has the rule).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..calibration import UnitShares
+from .families import DRIVE, GRIDS, KINDS, SIGMA_FLOOR, UNKNOWN, _SLICES
+from .ramps import RAMP_LENGTH, RAMP_SHARE, _NEIGHBOURS, ramp_fractions
+from .result import MIN_SAMPLES, Identification
+from .sums import ProfileSums
+
+EXPLAINED = 0.9        # share of the nominal misfit a family must explain to be named
+DECISIVE = 25.0        # likelihood-ratio margin over every other family (in s^2)
+CHI2_95 = 3.841        # chi2 with 1 degree of freedom, 95 %
+CORRELATION = 10.0     # interval widening for serially correlated 1 s samples
+# driven samples a current loss needs to be told from a bus drop once its driver is off: one for the family's
+# parameter, one to tell them apart (the ripple's amplitude is bounded, KAPPA_MAX, and takes none; 3 with it
+# free; chosen on the tuning seeds: docs/fdir.md)
+MIN_DRIVEN = 2
+FREE_UNIT_SHARE = 1e-3   # of the floor^2: a ridge only, the unit's shares all but free (noise estimate)
+
+
+def decide(sums: ProfileSums) -> Identification:
+    """Kind and size from the profile sums of one wheel's samples (the package's docstring); the size is the fault's
+    at the last sample (a ramp may still be growing).
+
+    Parameters
+    ----------
+    sums : ProfileSums
+        The wheel's sums since the fault's onset.
+
+    Returns
+    -------
+    Identification
+        Kind, size (in the kind's unit: share, [C] or [V]) and interval; ``unknown`` under MIN_SAMPLES.
+    """
+    n = sums.n
+    if n < MIN_SAMPLES:
+        return Identification(UNKNOWN, samples=n)
+    known = sums.rss()                  # the unit at its mean (the datasheet wheel without a unit)
+    if not np.all(np.isfinite(known)):
+        return Identification(UNKNOWN, samples=n)
+    floor2 = sums.floor ** 2
+    s2 = max(float(known.min()) / max(n - 3, 1), floor2)
+    rss_all = known
+    if sums.unit is not None:
+        # the noise from the fit where the unit is free (a unit taken at a wrong mean is no noise),
+        # then every family with the unit held to what the calibration knows
+        s2 = max(float(sums.rss(FREE_UNIT_SHARE * floor2).min()) / max(n - 7, 1), floor2)
+        rss_all = sums.rss(CORRELATION * s2)
+    if not np.all(np.isfinite(rss_all)):
+        return Identification(UNKNOWN, samples=n)
+    fits = {k: rss_all[:, _SLICES[k]] for k in KINDS}
+    nominal = fits["current_limiter"][0, 0]          # grid[0] of every family is the healthy wheel, whatever the ramp
+    best = min(KINDS, key=lambda k: fits[k].min())
+    rss = fits[best]
+    ramp, point = np.unravel_index(int(rss.argmin()), rss.shape)
+    rss_min = float(rss[ramp, point])
+    explained = 1.0 - rss_min / nominal if nominal > 0 else 0.0
+    margin = min((fits[k].min() - rss_min) / s2 for k in KINDS if k != best)
+    now, step = sums.sizes_now(best), abs(GRIDS[best][1] - GRIDS[best][0])
+    low, high = _interval(now, rss, s2, step)
+    out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best,
+                         {k: float(fits[k].min()) for k in KINDS})
+    out.healthy = point == 0
+    out.at_s = float(sums.start + sums.seen(best))
+    phi = ramp_fractions(sums.seen(best))[ramp]
+    out.growing = bool(phi < 1.0)
+    if RAMP_LENGTH[ramp] > 0.0:
+        out.ramp_s = float(RAMP_LENGTH[ramp] / (1.0 - RAMP_SHARE[ramp]))
+    if sums.unit is not None:
+        out.unit = sums.unit.source
+        # the interval were the unit known exactly, both without the ramps' neighbours (they are the same)
+        alone = _interval(now, known[:, _SLICES[best]], s2, step, neighbours=False)
+        held = _interval(now, rss, s2, step, neighbours=False)
+        out.unit_limited = (held[1] - held[0]) > 2.0 * (alone[1] - alone[0])
+    # a current loss and a bus drop differ only in how the motor torque varies with the command and speed: under
+    # MIN_DRIVEN driven samples (a wheel given up at once) that is no evidence, whatever the spin-down's count
+    few_driven = best in DRIVE and sums.n_driven < MIN_DRIVEN
+    if explained < EXPLAINED or margin < DECISIVE or out.healthy or few_driven:
+        out.kind = UNKNOWN
+        # the fault is in the drive, which of its two the samples cannot say: said so, not hidden in 'unknown'
+        drive_only = best in DRIVE and all((fits[k].min() - rss_min) / s2 >= DECISIVE for k in KINDS if k not in DRIVE)
+        if explained >= EXPLAINED and not out.healthy and drive_only:
+            out.between = DRIVE
+    return out
+
+
+def _interval(sizes, rss, s2, step, neighbours: bool = True) -> tuple:
+    """{theta : RSS(theta) - RSS_min <= chi2_1(0.95) s^2 c} over every ramp (``sizes``: theta at the last sample
+    of each ramp and grid point), widened to the best size of each ramp next to the best one on the ramps'
+    grid (the fault's own ramp lies between grid ramps, and a neighbour's size is as near it as the best's),
+    never narrower than the grid's own resolution (half a ``step`` either side) nor outside the grid."""
+    inside = rss - rss.min() <= CHI2_95 * s2 * CORRELATION
+    best = int(rss.min(axis=1).argmin())
+    if neighbours:
+        for h in _NEIGHBOURS[best]:
+            inside[h, rss[h].argmin()] = True
+    ends = float(sizes[inside].min()), float(sizes[inside].max())
+    bounds = float(sizes.min()), float(sizes.max())
+    return max(ends[0] - step / 2, bounds[0]), min(ends[1] + step / 2, bounds[1])
+
+
+def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor,
+             unit: UnitShares | None = None, free_motor_torque=None, times=None,
+             viscous_scale: float = 1.0, floor: float = SIGMA_FLOOR) -> Identification:
+    """Kind and size of one wheel's fault from its n FDI samples since the onset (whole arrays; ``times`` [s]
+    default: 1 s apart).
+
+    Parameters
+    ----------
+    reaction_torque : array_like, shape (n,)
+        Measured reaction torque r [N m], the FDI period means.
+    motor_torque : array_like, shape (n,)
+        The nominal wheel's tau_m [N m].
+    friction_torque : array_like, shape (n,)
+        The nominal wheel's tau_f [N m].
+    wheel_speed : array_like, shape (n,)
+        Omega [rad/s].
+    bus_torque : array_like, shape (n, G)
+        tau_m at every voltage of BUS_VOLTAGE_GRID [N m].
+    ripple_phasor : array_like of complex, shape (n,)
+        The ripple phasor p [N m].
+    unit : UnitShares, optional
+        What is known of the wheel's unit; None for the datasheet wheel.
+    free_motor_torque : array_like, shape (n,), optional
+        tau_m where the bridge does not clip, else 0 [N m].
+    times : array_like, shape (n,), optional
+        Sample times [s].
+    viscous_scale : float, optional
+        The wheel type's viscous friction over eq. 2.15's law.
+    floor : float, optional
+        The smallest misfit taken for real [N m] (SIGMA_FLOOR times the type's wheel.torque_scale).
+
+    Returns
+    -------
+    Identification
+        As :func:`decide` gives it.
+    """
+    sums = ProfileSums(unit, viscous_scale, floor)
+    free = [None] * len(reaction_torque) if free_motor_torque is None else free_motor_torque
+    times = range(len(reaction_torque)) if times is None else times
+    for *row, t in zip(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor, free,
+                       times):
+        sums.add(tuple(row), t)
+    return decide(sums)
