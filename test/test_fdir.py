@@ -6,7 +6,8 @@ import pytest
 
 from rw_fdi_ros.core.pipeline import LoadedFdi
 from rw_fdi_ros.core.allocation import TorqueAllocator, distribution, limited
-from rw_fdi_ros.core.closed_loop import Fdir, simulate
+from rw_fdi_ros.core.flight import Fdir
+from rw_fdi_ros.core.closed_loop import simulate
 from rw_fdi_ros.core.threshold_file import ThresholdCurves
 from rw_fdi_ros.core.fdir import (SATURATED_S, DecisionDelay, DeliveryLog, Reconfiguration, held_speeds,
                                   momentum_shortfall, slew_excursion)

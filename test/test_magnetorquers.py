@@ -108,7 +108,7 @@ def test_after_a_reconfiguration_the_rods_dump_the_wheels_in_use():
     """In orbit, dumping from the start, a 40 % current loss on x at 150 s: the FDI confirms x and s comes in
     beside it; from then on the dipole is the law's for the momentum of all four wheels in use, and the
     pointing comes back within 0.2 deg."""
-    from rw_fdi_ros.core.closed_loop import Fdir
+    from rw_fdi_ros.core.flight import Fdir
     from rw_fdi_ros.core.threshold_file import ThresholdCurves
     from rw_fdi_ros.paths import fdi_dir
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")

@@ -1,7 +1,9 @@
 """PID design (eq. 2.36) and pointing over the Table 2.3 envelope, in the core without ROS."""
 import numpy as np
 
-from rw_fdi_ros.core.closed_loop import simulate, step_metrics
+from rw_fdi_ros.core.flight import step_metrics
+
+from rw_fdi_ros.core.closed_loop import simulate
 from rw_fdi_ros.core.pid import design_gains, thesis_form
 from rw_fdi_ros.core.scenario import Scenario
 from rw_fdi_ros.core.spacecraft import INERTIA

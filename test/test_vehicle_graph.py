@@ -8,7 +8,8 @@ import pytest
 import yaml
 
 from rw_fdi_ros.core.pipeline import LoadedFdi
-from rw_fdi_ros.core.closed_loop import Fdir, simulate
+from rw_fdi_ros.core.flight import Fdir
+from rw_fdi_ros.core.closed_loop import simulate
 from rw_fdi_ros.core.scenario import load_scenario
 from rw_fdi_ros.core.threshold_file import ThresholdCurves
 from rw_fdi_ros.graph import topics as T

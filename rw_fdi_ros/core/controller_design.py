@@ -22,6 +22,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .flight import fly
 from .pid import PidGains, design_gains
 from .scenario import Scenario, ScenarioError, SetpointChange
 from .vehicle import Vehicle, VehicleError
@@ -45,7 +46,6 @@ def step_responses(vehicle: Vehicle, gains: list) -> tuple:
     """(settling time [s], overshoot [share]) arrays (len(gains), 3) of the vehicle's design step under each
     PidGains of ``gains``: the worst of the step up and down, the wheels starting at the low and the high end
     of their range."""
-    from .closed_loop import simulate           # the loop defaults to this module's design: import here
     step = max(abs(v) for v in vehicle.dispersions.setpoint_change_deg)
     horizon = max(3.0 * vehicle.controller.settling_time, 60.0)
     cases = [(sign, speed) for sign in (1.0, -1.0) for speed in vehicle.dispersions.wheel_speed]
@@ -55,7 +55,7 @@ def step_responses(vehicle: Vehicle, gains: list) -> tuple:
             for sign, speed in cases for _ in gains]
     stacked = PidGains(*(np.array([getattr(g, k) for g in gains] * len(cases)) for k in ("kp", "ki", "kd")),
                        setpoint_weight=gains[0].setpoint_weight)
-    traj = simulate(runs, gains=stacked, disturbance=False)
+    traj = fly(runs, stacked, disturbance=False)
     signs = np.repeat([sign for sign, _ in cases], len(gains))[:, None]
     attitude = np.degrees(traj.attitude) * signs                  # (K, 4G, 3), each from 0 to +step
     outside = np.abs(attitude - step) > SETTLING_BAND * step

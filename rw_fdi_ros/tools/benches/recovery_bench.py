@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from ...fdi_config import FdiConfig
-from ...core.closed_loop import Fdir, simulate
+from ...core.flight import Fdir
+from ...core.closed_loop import simulate
 from ...core.fdir import held_speeds
 from ...core.isolation import speed_envelope
 from ...core.scenario import Fault, Manoeuvres, Scenario

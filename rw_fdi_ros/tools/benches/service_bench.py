@@ -52,7 +52,8 @@ import numpy as np
 import yaml
 
 from ...fdi_config import FdiConfig
-from ...core.closed_loop import Fdir, simulate
+from ...core.flight import Fdir
+from ...core.closed_loop import simulate
 from ...core.fdir import SATURATED_S
 from ...core.identification.identifiability import TOLD_APART, other_family_misfit, told_apart
 from ...core.identification import DRIVE, UNKNOWN

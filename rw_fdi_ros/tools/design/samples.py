@@ -228,7 +228,7 @@ def simulated_runs(scenarios, identification: bool = False, check=None, progress
     batches of BATCH (equal durations and plant choices within a batch): the FDI samples the plant
     node would report. ``check(plant_choices)`` runs before each batch is simulated; ``on_run(scenario,
     trajectory, index)`` sees each run's whole trajectory (what else a bench counts of it); ``fdir``
-    (closed_loop.Fdir): reconfigure on the FDI's verdict in the loop."""
+    (flight.Fdir): reconfigure on the FDI's verdict in the loop."""
     for start in range(0, len(scenarios), BATCH):
         batch = scenarios[start:start + BATCH]
         choices = batch[0].plant_choices()

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core.closed_loop import Fdir
+from ...core.flight import Fdir
 from ...core.isolation import in_envelope, speed_envelope
 from ...graph.topics import DIAGNOSTICS
 from ..metrics import RunEval, judge as judge_verdict, observers_of_runs
@@ -30,7 +30,7 @@ def screen_runs(scenarios, weights, curves, persistence: int | None = None, prog
                 identification: bool = False, calibration_samples: int = 0, decision=None, fdir=None) -> list:
     """RunEval of every scenario (one seed each; equal durations within a batch); ``decision``: what makes
     the verdict (core/isolation.DecisionRule; None: the method's decision observer); ``fdir``
-    (closed_loop.Fdir): the core loop reconfigures on its FDI's verdict, as the graph's allocation does."""
+    (flight.Fdir): the core loop reconfigures on its FDI's verdict, as the graph's allocation does."""
     return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress, identification,
                        calibration_samples, decision=decision, fdir=fdir)["fdi"]
 
@@ -45,7 +45,7 @@ def screen_sets(scenarios, fdi_sets: dict, persistence: int | None = None, progr
     latched: offline.judge). ``identification``: also identify the faults of the wheels the
     verdict names (the isolation node's FaultIdentifier), into RunEval.identification. ``on_run``: as in
     :func:`simulated_runs`; ``decision``, ``other_decisions``: as in :func:`judge_run`; ``fdir``: FDIR in the
-    loop (closed_loop.Fdir), its acts into RunEval.reconfiguration."""
+    loop (flight.Fdir), its acts into RunEval.reconfiguration."""
     out = {name: [] for name in fdi_sets}
     acts = {}
 
