@@ -8,7 +8,7 @@ latched verdict within the operating envelope; the identification. What it runs 
 and checked by FdiConfig's one rule. It publishes per observer the thresholds, the alarm flags and a
 DiagnosticArray with residual, threshold, margin and first alarm per wheel, and /diagnostics with one
 status per wheel, decided by ``fdi.decision`` (the method's decision observer by default: the model
-observer speed-aware, the Elman network for the thesis method; core/fdi/decision.py says why), stamped with
+observer speed-aware, the Elman network for the thesis method; core/fdi/verdict.py says why), stamped with
 the sim clock. A wheel the decision alarms is a confirmed failure: /diagnostics holds it (latched) until the
 ``~/reset`` service (std_srvs/Trigger) clears it. Every output of stamp k is made from the inputs of stamp k
 alone, so the same run gives the same messages.
