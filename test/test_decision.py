@@ -9,7 +9,7 @@ import pytest
 from rw_fdi_ros.core.isolation import DecisionRule, decision_of
 from rw_fdi_ros.fdi_config import FdiConfig
 from rw_fdi_ros.tools.design.offline import verdict_series
-from rw_fdi_ros.tools.metrics import Series
+from rw_fdi_ros.scoring.metrics import Series
 
 
 def _rows(alarms: dict, firsts: dict) -> dict:

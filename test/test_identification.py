@@ -8,7 +8,7 @@ from rw_fdi_ros.core import calibration
 from rw_fdi_ros.core import identification as idf
 from rw_fdi_ros.core import wheel as wm
 from rw_fdi_ros.core.scenario import load_scenario
-from rw_fdi_ros.tools.metrics import judge_identification
+from rw_fdi_ros.scoring.metrics import judge_identification
 from rw_fdi_ros.tools.evaluation.screen import screen_runs
 
 P = wm.WheelParams()

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from rw_fdi_ros.core.isolation import LatchedVerdict, decision_observer
-from rw_fdi_ros.launch.launcher import DomainLease
-from rw_fdi_ros.tools.metrics import Series
+from rw_fdi_ros.runner.launcher import DomainLease
+from rw_fdi_ros.scoring.metrics import Series
 from rw_fdi_ros.tools.design.offline import verdict_series
 
 

@@ -106,17 +106,17 @@ def _out(args, what: str) -> str:
 
 
 def _graph(args) -> dict:
-    from ...tools.benches.bench import bench_graph
+    from ...tools.benches.speed_bench import bench_graph
     return bench_graph(duration=args.duration, seed=args.seed)
 
 
 def _fdi(args) -> dict:
-    from ...tools.benches.bench import bench_fdi
+    from ...tools.benches.speed_bench import bench_fdi
     return bench_fdi(duration=args.duration, seed=args.seed)
 
 
 def _study(args) -> dict:
-    from ...tools.benches.bench import bench_study
+    from ...tools.benches.speed_bench import bench_study
     return bench_study(runs=args.runs, duration=args.duration, seed=args.seed, jobs=args.jobs)
 
 

@@ -25,7 +25,7 @@ def main(args) -> int:
     from ...core.scenario import load_scenario
     from ...tools.benches.kit import write_runs_table
     from ...tools.evaluation.screen import format_screen, screen
-    from ...tools.metrics import run_row
+    from ...scoring.metrics import run_row
     scenarios = [load_scenario(name) for name in args.scenario]
     fdis = [fdi_config(args).for_vehicle(s.spacecraft.name) for s in scenarios]   # each its vehicle's FDI
     for scenario, fdi in zip(scenarios, fdis):

@@ -5,7 +5,7 @@ Runs nobody tuned for: seeds from 10,000,000 on (training and fitting use
 faults on every wheel (wheel = seed mod 3) with onsets drawn uniformly in
 [60, 300] s from the seed, 400 s runs of the Table 2.3 envelope. Each cell is
 simulated once by the core loop (screen) and judged by both FDI methods with
-the node code and the shared verdict (tools.metrics.judge).
+the node code and the shared verdict (scoring.metrics.judge).
 
 Targets (issue 10): false alarms <= 0.5 % on fault-free and ripple runs;
 correctness >= 99 % at the thesis sizes over observable runs; detection >= 95 %
@@ -22,7 +22,7 @@ from pathlib import Path
 from ...fdi_config import FdiConfig
 from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.isolation import decision_of
-from ..metrics import observable_level, observers_of_runs
+from ...scoring.metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
 from .kit import (VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, configured, fdi_phrase,
                   format_rate, screen_cells, workers, write_cells_table, write_report)

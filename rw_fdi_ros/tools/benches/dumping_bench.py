@@ -33,7 +33,7 @@ from ...core.wheel import WheelParams
 from ...core.spacecraft import BODY_AXES
 from .kit import (SpeedAwareChunk, cell_figures, fault_wheel, format_rate, screen_cells, workers, write_cells_table,
                   write_report)
-from ..metrics import observable_level
+from ...scoring.metrics import observable_level
 
 SEED_BASE = 87_000_000   # docs/fdi.md "Seeds": no other bench, training or fitting uses them
 POINTING_LIMIT_DEG = 0.2

@@ -6,7 +6,7 @@ every wheel (wheel = seed mod 3) with onsets uniform in [60, 300] s, 400 s
 runs. Each run is simulated by the core loop and goes through the node code:
 observers, isolation (ObserverChannel) and the isolation node's
 FaultIdentifier, started by the decision observer's alarm. The last
-identification of the run is judged (tools.metrics.judge_identification).
+identification of the run is judged (scoring.metrics.judge_identification).
 
 Observable: the fault's effect on the reaction torque exceeds the nominal
 model observer's band (what the wheel physically shows; a bus drop on a slow
@@ -37,10 +37,10 @@ from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault
 from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.wheel_set import fitted_for
-from ..metrics import rate
+from ...scoring.metrics import rate
 from .kit import (bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios, format_rate, screen_cells,
                   write_cells_table)
-from ..metrics import judge_identification
+from ...scoring.metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
 SEED_BASE = 30_000_000

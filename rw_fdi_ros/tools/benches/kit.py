@@ -14,7 +14,7 @@ from ...fdi_config import FdiConfig
 from ...core.scenario import Fault, Scenario, parse_scenario
 from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
-from ..metrics import alarm_before_onset, judge, observable, rate
+from ...scoring.metrics import alarm_before_onset, judge, observable, rate
 from ..evaluation.screen import screen_sets
 
 SEED_BASE = 10_000_000         # the detection bench's; every bench passes its own
@@ -212,7 +212,7 @@ def write_cells_table(judged: dict, cell_names, out, name: str) -> Path:
     """The judged runs of :func:`screen_cells` as <out>/<name>_runs.csv: one row a run and FDI set, its cell and
     set named beside metrics.run_row's columns (seed, faults, each observer's verdict and delay, the
     identification)."""
-    from ..metrics import RunEval, run_row
+    from ...scoring.metrics import RunEval, run_row
     rows = [{"cell": cell_names[i], "fdi": fdi, **run_row(r)} for i, by_fdi in sorted(judged.items())
             for fdi, runs in by_fdi.items() for r in runs if isinstance(r, RunEval)]
     Path(out).mkdir(parents=True, exist_ok=True)

@@ -29,7 +29,7 @@ from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.vehicle import DEFAULT_VEHICLE
 from .kit import (VOTES, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, configured, fault_wheel,
                   fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report)
-from ..metrics import observable_level
+from ...scoring.metrics import observable_level
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
 # manoeuvres of the 400-s runs: after the thesis' change at 0 s, one every 100-300 s (up to three more)

@@ -32,7 +32,7 @@ from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.spacecraft import BODY_AXES
 from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
 from ...core.wheel_set import WHEEL_SETS
-from ..metrics import rate
+from ...scoring.metrics import rate
 from .kit import bench_scenario, bench_wheels, fault_wheel, format_rate, write_report, write_runs_table
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}

@@ -62,8 +62,8 @@ from ...core.scenario import Scenario, parse_scenario
 from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
 from ...core.wheel import torque_scale
 from ..campaigns.campaign import LocalExecutor
-from ..metrics import IDENTIFIED_KIND, judge_size
-from ..metrics import rate
+from ...scoring.metrics import IDENTIFIED_KIND, judge_size
+from ...scoring.metrics import rate
 from .kit import format_rate, write_report
 
 SEED_BASES = {"tuning": 90_000_000, "evaluation": 91_000_000, "net": 92_000_000}

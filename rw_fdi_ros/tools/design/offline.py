@@ -210,7 +210,7 @@ def fdi_series(run: ObserverRun, curves: dict, persistence: int | None = None) -
     """observer -> metrics.Series (|residual|, threshold + bound, alarm), stepped through the isolation
     node's ObserverChannel: what the node would publish for this run (P: the curves' own unless given)."""
     from ...core.isolation import ObserverChannel
-    from ..metrics import Series
+    from ...scoring.metrics import Series
     stamps = np.round(run.time * 1e9).astype(np.int64)
     out = {}
     for obs, c in curves.items():
@@ -232,7 +232,7 @@ def verdict_series(series: dict, method: str, wheel_speed=None, latch: bool = Tr
     observers alarming. ``envelope``: the wheel type's (isolation.speed_envelope; None: the thesis')."""
     from ...core.isolation import WHEEL_SPEED_ENVELOPE, LatchedVerdict, decision_of, in_envelope
     envelope = WHEEL_SPEED_ENVELOPE if envelope is None else envelope
-    from ..metrics import Series
+    from ...scoring.metrics import Series
     decision = decision or decision_of("", method)
     s = series[decision.lead]
     n = len(s.time)

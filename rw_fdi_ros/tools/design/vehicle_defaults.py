@@ -28,7 +28,7 @@ import yaml
 from ...core.controller_design import design_controller
 from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE_SPEED_AWARE
 from ...core.vehicle import load_vehicle, to_mapping
-from ..metrics import wilson
+from ...scoring.metrics import wilson
 from .offline import alarmed_runs, fit_thresholds, load_models, observe, threshold_set
 from .samples import simulated_fault_free_runs
 from .train import EPOCHS, train_models

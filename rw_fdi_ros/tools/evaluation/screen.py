@@ -3,7 +3,7 @@
 The core closed loop (the plant and PID code the nodes run) simulates a
 batch of runs; TelemetrySampler, the observers and ObserverChannel (the code
 the observer and isolation nodes run) make the series the isolation node
-would publish, and tools.metrics.judge (the verdict `rw-fdi evaluate` uses)
+would publish, and scoring.metrics.judge (the verdict `rw-fdi evaluate` uses)
 judges them. The graph gives the same verdicts (test_screen_matches_graph.py);
 use it for large samples, `rw-fdi evaluate` on recorded bags for replays.
 """
@@ -15,7 +15,7 @@ from ...core.calibration import calibration_samples
 from ...core.closed_loop import simulate
 from ...core.isolation import in_envelope, speed_envelope
 from ...graph.topics import DIAGNOSTICS
-from ..metrics import VERDICT, RunEval, decision_slot, judge, observers_of_runs
+from ...scoring.metrics import VERDICT, RunEval, decision_slot, judge, observers_of_runs
 from ..design.offline import fdi_series, identification_series, observe, verdict_series
 from ..design.samples import samples_from_series
 
