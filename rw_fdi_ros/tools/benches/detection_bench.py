@@ -24,8 +24,8 @@ from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.isolation import decision_of
 from ...scoring.metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
-from .kit import (VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, configured, fdi_phrase,
-                  format_rate, screen_cells, workers, write_cells_table, write_report)
+from .kit import (DETECTION_FIELDS, VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, configured,
+                  fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report)
 
 
 CELLS = (
@@ -76,7 +76,7 @@ def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: s
     and observer its :func:`cell_figures`; ``judged[i]``: set name -> the judged runs of cell i."""
     # every slot the runs were judged by: the observers, the verdict and the other decisions' verdicts, each
     # against the set's one observable level
-    return {cell.name: {"cell": cell.__dict__,
+    return {cell.name: {"cell": cell.as_dict(DETECTION_FIELDS),
                         "seeds": [seed_base + 100_000 * i, seed_base + 100_000 * i + sizes[i] - 1],
                         key: {name: {obs: cell_figures(runs, obs, next(iter(levels[name].values())))
                                      for obs in observers_of_runs(runs)}

@@ -38,8 +38,8 @@ from ...core.scenario import Fault
 from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.wheel_set import fitted_for
 from ...scoring.metrics import rate
-from .kit import (bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios, format_rate, screen_cells,
-                  write_cells_table)
+from .kit import (DETECTION_FIELDS, bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios,
+                  format_rate, screen_cells, write_cells_table)
 from ...scoring.metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
@@ -154,7 +154,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
         write_cells_table(judged, [c.name for c in CELLS], out, "identification")
         for i, cell in enumerate(CELLS):
             first = SEED_BASE + 100_000 * i
-            cells[cell.name] = {"cell": cell.__dict__, "seeds": [first, first + sizes[i] - 1],
+            cells[cell.name] = {"cell": cell.as_dict(DETECTION_FIELDS), "seeds": [first, first + sizes[i] - 1],
                                 **cell_identification(judged[i]["speed_aware"], level)}
     report = {"schema": "rw_fdi_ros/identification_bench/1", "seconds": time.monotonic() - t0,
               "jobs": workers(executor),
