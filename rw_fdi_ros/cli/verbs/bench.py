@@ -210,7 +210,7 @@ def _service(args) -> dict:
     watch = _bench_fdi(args) or (FdiConfig() if args.every_observer else None)
     if watch is not None:   # both calibrations' bands of every observer, before any run (the family flies both)
         from dataclasses import replace
-        from ...tools.benches.service_bench import CALIBRATION_S
+        from ...tools.campaigns.service_family import CALIBRATION_S
         for seconds in (0.0, CALIBRATION_S):
             replace(watch, unit_calibration=seconds).for_vehicle(vehicle).load()
     given_up = len(given_up_draws(range(base, base + args.given_up_runs), vehicle))   # the faulty draws among them

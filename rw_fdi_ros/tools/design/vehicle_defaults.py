@@ -61,7 +61,7 @@ def vehicle_scenarios(vehicle_file: Path, out: Path) -> dict:
 
 def service_unit_runs(vehicle_file: Path, seeds, executor=None, desc: str = "unit runs") -> tuple:
     """(FdiSamples, plant choices) of the in-service family's fault-free 600-s draws of ``seeds`` on drawn wheel
-    units of the vehicle (tools/benches/service_bench.draw: manoeuvres every 60-900 s, a share in orbit with
+    units of the vehicle (tools/campaigns/service_family.draw: manoeuvres every 60-900 s, a share in orbit with
     dumping), flown without FDIR. A calibrated observer learns its unit at the speed it holds then; it is in
     service, after slews to other speeds and through dumps, that what it could not learn shows (viscous against
     coulomb friction), so its bands are fitted there, not on one-slew runs."""
