@@ -236,13 +236,13 @@ def run_row(run: RunEval) -> dict:
     return row
 
 
-# scenario fault kind -> identified kind; the tolerance a size estimate must meet (issue 11)
+# scenario fault kind -> identified kind; the tolerance a size estimate must meet
 IDENTIFIED_KIND = {"current_limiter": "current_loss", "temperature": "temperature", "bus_voltage": "bus_voltage"}
 
 
 def size_tolerance(kind: str, value: float, strict_bus: bool = False) -> float:
     """Temperature within 10 C, limiter share and bus voltage within 10 % of the true value (``strict_bus``:
-    the bus within 0.1 V, issue 26's target).
+    the bus within 0.1 V, the target of the units and operations benches).
 
     Parameters
     ----------

@@ -7,7 +7,7 @@ faults on every wheel (wheel = seed mod 3) with onsets drawn uniformly in
 simulated once by the core loop (screen) and judged by both FDI methods with
 the node code and the shared verdict (scoring.metrics.judge).
 
-Targets (issue 10): false alarms <= 0.5 % on fault-free and ripple runs;
+Targets: false alarms <= 0.5 % on fault-free and ripple runs;
 correctness >= 99 % at the thesis sizes over observable runs; detection >= 95 %
 for a 10 % current loss and +30 C with median delay <= 10 s; alarm held to the
 end in >= 99 % of detections.

@@ -10,10 +10,10 @@ identification of the run is judged (scoring.metrics.judge_identification).
 
 Observable: the fault's effect on the reaction torque exceeds the nominal
 model observer's band (what the wheel physically shows; a bus drop on a slow
-wheel shows nothing). Targets (issue 11): kind right in >= 95 % of observable
+wheel shows nothing). Targets: kind right in >= 95 % of observable
 runs at the thesis sizes; size within 10 % (temperature 10 C) in >= 90 %.
 
-``--units`` (issue 26, item 3): units, not the datasheet. Wheels drawn at the
+``--units``: units, not the datasheet. Wheels drawn at the
 default spreads, the FDI calibrated over the first 150 s (config/fdi/
 unit_calibrated), faults after it (onsets uniform in 160-300 s) with sizes
 drawn from the seed over a range (off every grid), seeds from 31,000,000.

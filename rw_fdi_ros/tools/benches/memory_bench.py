@@ -1,4 +1,4 @@
-"""Peak memory of reading a run back, against the run's length (issue 15: bounded by design).
+"""Peak memory of reading a run back, against the run's length (bounded by design, whatever the length).
 
 Records a fault-free run with the FDI live for each length, then measures, each in a fresh
 process, the peak resident memory of what reads the bag afterwards:

@@ -10,7 +10,7 @@ observer's alarm, latched; core/isolation.py).
 Seeds: the tuning set from 80,000,000 (what the decision rule was chosen on), the evaluation set from
 81,000,000 (the figures of record); training, fitting and every other bench use other ranges.
 
-Targets (issue 26): false alarms <= 0.5 % of 400-s runs with up to three manoeuvres at random times
+Targets: false alarms <= 0.5 % of 400-s runs with up to three manoeuvres at random times
 (n >= 1000) and <= 1 in 100 simulated hours of continuous operations; a confirmed fault held to the end
 >= 99 %; isolation of bus drops that tumble their axis >= 99 % over observable runs; a 10 % current loss
 and +30 C detected >= 95 % with a median delay <= 10 s, also when a manoeuvre follows the fault.

@@ -1,4 +1,4 @@
-"""`rw-fdi bench service`: FDIR in service, every capability at once (issue 34).
+"""`rw-fdi bench service`: FDIR in service, every capability at once.
 
 Each run is drawn from its seed as a spacecraft in service meets it, all at once:
 

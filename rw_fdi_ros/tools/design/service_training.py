@@ -1,4 +1,4 @@
-"""Elman networks trained for service (issue 36 item 1): on what a spacecraft in service shows its wheels.
+"""Elman networks trained for service: on what a spacecraft in service shows its wheels.
 
 The shipped networks learnt one slew at t = 0 on three datasheet wheels; in service the wheels see
 manoeuvres at any time, reconfigurations (the standby wheel brought in, the others taking a lost wheel's

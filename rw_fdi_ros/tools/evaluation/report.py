@@ -92,7 +92,7 @@ def headline(figures: dict) -> list:
     return rows
 
 
-NOT_IN_THESIS = "not in the thesis"   # the model observer is ours (issue 17)
+NOT_IN_THESIS = "not in the thesis"   # the model observer is ours, not the thesis'
 
 
 def _thesis_reliability(obs: str) -> str:
