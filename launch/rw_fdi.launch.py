@@ -1,11 +1,11 @@
 """ROS 2 launch file for users with a full ROS 2 install (`ros2 launch rw_fdi_ros rw_fdi.launch.py`).
 
-It builds the same graph as `rw-fdi run` from rw_fdi_ros.launch.graph.graph_nodes,
+It builds the same graph as `rw-fdi run` from rw_fdi_ros.runner.graph.graph_nodes,
 so both launchers start identical nodes with identical parameters: plant,
 three controllers, the wheel allocation (reconfiguring on the FDI's confirmed
 verdict; ``fdir:=false`` keeps every wheel in use), the FDI nodes (``fdi:=false``
 leaves them out) and, with ``bag``, the recorder; ``compose`` groups them into processes as our launcher
-does (launch/graph.GROUPINGS: one composed process by default, ``compose:=none`` one per node). Parameters
+does (runner/graph.GROUPINGS: one composed process by default, ``compose:=none`` one per node). Parameters
 go as they are: graph_nodes names wheels and
 axes by joint (``reaction_wheel_y``, ``attitude_y``) and paths absolutely, and
 refuses any string a YAML layer would retype (a bare ``y`` is a boolean to rcl).
@@ -27,7 +27,7 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction, RegisterEventH
 from launch.event_handlers import OnProcessExit
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
-from rw_fdi_ros.launch.graph import DEFAULT_GROUPING, GROUPINGS
+from rw_fdi_ros.runner.graph import DEFAULT_GROUPING, GROUPINGS
 from rw_fdi_ros.paths import fastdds_profiles
 
 
@@ -38,10 +38,10 @@ class RunFailed(RuntimeError):
 
 def _nodes(context):
     import tempfile
-    from rw_fdi_ros.tools.campaigns.run import resolve_scenario
-    from rw_fdi_ros.launch.graph import graph_nodes, processes
-    from rw_fdi_ros.launch.launcher import write_params_file
-    from rw_fdi_ros.launch.shm import clean_zombie_files
+    from rw_fdi_ros.runner.scenario_run import resolve_scenario
+    from rw_fdi_ros.runner.graph import graph_nodes, processes
+    from rw_fdi_ros.runner.launcher import write_params_file
+    from rw_fdi_ros.runner.shm import clean_zombie_files
     clean_zombie_files()   # Fast DDS files of killed processes (what `fastdds shm clean` removes)
     seed = int(LaunchConfiguration("seed").perform(context))
     scenario, path = resolve_scenario(LaunchConfiguration("scenario").perform(context), seed if seed >= 0 else None)

@@ -129,16 +129,6 @@ def fastdds_profiles() -> str | None:
     return os.environ.get("FASTDDS_DEFAULT_PROFILES_FILE") or (str(profiles) if profiles.is_file() else None)
 
 
-def bags_dir() -> Path:
-    """Where the runs' bags go.
-
-    Returns
-    -------
-    Path
-        $RW_FDI_BAGS where set, else bags/ under the current directory.
-    """
-    return Path(os.environ.get("RW_FDI_BAGS", Path.cwd() / "bags"))
-
 
 def shown_path(path, base) -> str:
     """``path`` relative to ``base`` when it lies inside it: a report names no path of the machine that

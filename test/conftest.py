@@ -20,7 +20,7 @@ import pytest  # noqa: E402
 
 from rw_fdi_ros.core.scenario import load_scenario  # noqa: E402
 from rw_fdi_ros.core.wheel import bus_fault_visible_above  # noqa: E402
-from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi  # noqa: E402
+from rw_fdi_ros.runner.fdi_run import run_with_fdi  # noqa: E402
 
 
 # The modules that start ROS graphs or process pools (each already keeps both cores busy) are marked

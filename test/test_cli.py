@@ -196,7 +196,7 @@ def test_the_scaling_bench_times_the_same_runs_on_each_worker_count(monkeypatch)
     assert [jobs for _, jobs, _ in seen] == [1, 2] and seen[0][0] == seen[1][0] == list(range(93_000_000, 93_000_003))
     assert seen[0][2] == 900.0 and report["ok"] and len(report["rows"]) == 2
     family = report["family_h_per_run"]
-    assert abs(family - 2202.0 / 3600.0) < 1e-9   # service_bench.DURATIONS: 0.7 x 600 s + ... + 0.03 x 6 h
+    assert abs(family - 2202.0 / 3600.0) < 1e-9   # service_family.DURATIONS: 0.7 x 600 s + ... + 0.03 x 6 h
     for row in report["rows"]:
         assert abs(row["projected_h"] * 3600.0 * row["simulated_h_per_wall_s"] - 100_000 * family) < 1e-6
     assert "100,000 runs in" in report["text"]

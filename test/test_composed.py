@@ -1,6 +1,6 @@
 """The composed graph: several nodes per process (ROS 2 composition as rclpy has it), one bag.
 
-The same seeds through every grouping of launch/graph.GROUPINGS, with the FDI nodes and FDIR acting:
+The same seeds through every grouping of runner/graph.GROUPINGS, with the FDI nodes and FDIR acting:
 the bags are the one-node-per-process graph's, message for message (so every topic of the full graph, FDI
 nodes included, is a function of the seed: compared decoded, as rclpy leaves the CDR padding after strings
 uninitialised). A node that fails in a composed
@@ -16,14 +16,14 @@ from pathlib import Path
 import pytest
 import yaml
 
-from rw_fdi_ros.launch.graph import DEFAULT_GROUPING, GROUPINGS, graph_nodes, processes
-from rw_fdi_ros.launch.launcher import DomainLease, GraphProcesses
+from rw_fdi_ros.runner.graph import DEFAULT_GROUPING, GROUPINGS, graph_nodes, processes
+from rw_fdi_ros.runner.launcher import DomainLease, GraphProcesses
 from rw_fdi_ros.storage.bag import read_bag
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.compare import bag_differences
-from rw_fdi_ros.tools.bag_series import verdict_messages
-from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
-from rw_fdi_ros.tools.campaigns.run import resolve_scenario
+from rw_fdi_ros.scoring.bag_series import verdict_messages
+from rw_fdi_ros.runner.fdi_run import run_with_fdi
+from rw_fdi_ros.runner.scenario_run import resolve_scenario
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 

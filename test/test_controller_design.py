@@ -77,7 +77,7 @@ def test_parsing_a_recorded_scenario_designs_nothing_and_simulates_nothing(monke
     from types import SimpleNamespace
 
     from rw_fdi_ros.core import closed_loop, controller_design
-    from rw_fdi_ros.tools.bag_series import scenario_of
+    from rw_fdi_ros.scoring.bag_series import scenario_of
 
     def refuse(*args, **kwargs):
         raise AssertionError("a simulation while parsing a scenario")

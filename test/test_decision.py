@@ -55,7 +55,7 @@ def test_the_default_decision_is_the_methods():
 
 
 def test_the_offline_verdict_of_a_vote_is_the_nodes():
-    """Flags of three observers through verdict_series: the vote's alarm, latched, up at the second alarm."""
+    """Flags of three observers through the pipeline's Verdict: the vote's alarm, latched, up at the second alarm."""
     flags = {o: np.zeros((8, 3), bool) for o in ("model", "elman", "linear")}
     flags["model"][2:, 0] = True
     flags["elman"][5:7, 0] = True   # the second vote on x at 5 s, gone at 7 s: the verdict stays (latched)

@@ -82,7 +82,7 @@ def test_in_orbit_the_bags_hold_the_magnetometer_and_the_rods(recorded):
     assert all(15e-6 < (m.magnetic_field.x ** 2 + m.magnetic_field.y ** 2 + m.magnetic_field.z ** 2) ** 0.5 < 60e-6
                for m in fields)
     assert all(max(abs(d.vector.x), abs(d.vector.y), abs(d.vector.z)) > 1.0 for d in dipoles)
-    from rw_fdi_ros.tools.campaigns.summary import format_summary, run_summary
+    from rw_fdi_ros.runner.summary import format_summary, run_summary
     summary = run_summary(bag)   # what a person reads after the run: one dump, on the whole run
     assert summary["momentum_dumps"] == [[0.0, 30.0]]
     assert "momentum dumping: 1 dump (rods on 0-30 s)" in format_summary(summary)

@@ -12,8 +12,8 @@ from rw_fdi_ros.core.sampling import FdiSampler, sample_series
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.bag import read_bag, read_series
 from rw_fdi_ros.storage.writer import BagWriter
-from rw_fdi_ros.tools.metrics import RunEval, aggregate, judge, observers_of_runs
-from rw_fdi_ros.tools.bag_series import scenario_of, series_from_bag
+from rw_fdi_ros.scoring.metrics import RunEval, aggregate, judge, observers_of_runs
+from rw_fdi_ros.scoring.bag_series import scenario_of, series_from_bag
 
 N = 101   # samples 0..100 s
 WHEELS = "xyz"
@@ -81,7 +81,7 @@ def test_a_bag_is_judged_by_the_observers_it_holds(tmp_path):
     assert observers_of_runs([r, full]) == ["elman", "linear"]   # what every run was judged by
     assert judge(full, "model")["correct"] and judge(r, "linear")["correct"]
     # a speed-aware bag (non-zero ripple bound) without a model slot predates the three slots: said so
-    from rw_fdi_ros.tools.campaigns.fdi import fdi_verdict, format_verdict, verdict_topics
+    from rw_fdi_ros.runner.verdict import fdi_verdict, format_verdict, verdict_topics
     old = make_bag(tmp_path / "old", FAULT_X, {"x": [(62, 1000)]}, observers=("elman", "linear"), linear_bound=1e-5)
     said = format_verdict(fdi_verdict(read_series(old, verdict_topics())))
     assert "its linear observer is the model observer" in said
@@ -154,7 +154,7 @@ def test_false_alarm_before_onset_of_faulty_runs(tmp_path):
 
 
 def test_severity_in_the_thesis_units():
-    from rw_fdi_ros.tools.metrics import severity
+    from rw_fdi_ros.scoring.metrics import severity
     assert severity("bus_voltage", 5.5) == pytest.approx(31.25)      # "2.5 V off"
     assert severity("bus_voltage", 6.4) == pytest.approx(20.0)       # "VBus 20 % off"
     assert severity("current_limiter", 0.5) == pytest.approx(50.0)
@@ -213,25 +213,25 @@ def test_fdi_sampler_mean_and_instant():
 
 
 def test_the_verdict_code_needs_no_ros():
-    """tools/metrics.py and bag_series.py say "no ROS": importing them (and the topic table they read) loads
+    """scoring/metrics.py and bag_series.py say "no ROS": importing them (and the topic table they read) loads
     no rclpy."""
     import subprocess
     import sys
-    probe = ("import sys, rw_fdi_ros.tools.metrics, rw_fdi_ros.tools.bag_series, rw_fdi_ros.graph.topics; "
+    probe = ("import sys, rw_fdi_ros.scoring.metrics, rw_fdi_ros.scoring.bag_series, rw_fdi_ros.graph.topics; "
              "print('rclpy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0 and out.stdout.strip() == "False", out.stderr
 
 
 def test_alarm_intervals_are_the_runs_of_the_flag():
-    from rw_fdi_ros.tools.metrics import alarm_intervals
+    from rw_fdi_ros.scoring.metrics import alarm_intervals
     t = np.arange(8.0)
     assert alarm_intervals(t, [0, 1, 1, 0, 0, 1, 1, 1]) == [(1.0, 3.0), (5.0, None)]
     assert alarm_intervals(t, [0] * 8) == [] and alarm_intervals(t, [1] * 8) == [(0.0, None)]
 
 
 def test_a_figure_line_keeps_every_bucket_extreme_in_bounded_points():
-    from rw_fdi_ros.tools.campaigns.fdi import envelope
+    from rw_fdi_ros.runner.residual_figure import envelope
     t = np.arange(100_000) * 1.0
     y = np.sin(t / 500.0)
     y[12_345], y[77_777] = 5.0, -4.0                    # spikes a plain stride would drop
@@ -246,7 +246,7 @@ def test_reliability_and_observability_go_by_the_runs_wheels():
     """A four-wheel run (the standby s beside x, y, z): reliability has a figure per wheel of the run, and s,
     without a fitted level of its own, is judged observable against the widest of its type's."""
     from rw_fdi_ros.core.scenario import Fault
-    from rw_fdi_ros.tools.metrics import Series, observable, reliability
+    from rw_fdi_ros.scoring.metrics import Series, observable, reliability
     time = np.arange(5.0)
     residual = np.tile([1.0, 1.0, 3.0, 0.0], (5, 1))
     series = Series(time, residual, np.full((5, 4), 2.0), np.zeros((5, 4), bool))
@@ -268,7 +268,7 @@ def test_a_benchs_judged_runs_are_one_row_each(tmp_path):
 
     from rw_fdi_ros.core.scenario import Fault
     from rw_fdi_ros.tools.benches.kit import write_cells_table
-    from rw_fdi_ros.tools.metrics import Series
+    from rw_fdi_ros.scoring.metrics import Series
     time = np.arange(5.0)
     alarm = np.zeros((5, 3), bool)
     alarm[3:, 1] = True

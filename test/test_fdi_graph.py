@@ -21,11 +21,11 @@ from conftest import CASE_DURATION
 from rw_fdi_ros.core.detection import observers_of
 from rw_fdi_ros.core.scenario import load_scenario
 from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
-from rw_fdi_ros.launch.launcher import DomainLease
+from rw_fdi_ros.runner.launcher import DomainLease
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.paths import config_dir, fdi_dir
 from rw_fdi_ros.storage.bag import read_bag
-from rw_fdi_ros.tools.bag_series import verdict_messages
+from rw_fdi_ros.scoring.bag_series import verdict_messages
 from rw_fdi_ros.tools.design.offline import load_models, observe
 from rw_fdi_ros.tools.design.samples import fdi_samples
 
@@ -284,8 +284,8 @@ def _set_value(msg, wheel, key, value):
 def test_the_fdi_reports_its_own_health_under_bad_inputs(runs, tmp_path):
     """Dropped, delayed, duplicated and NaN observer inputs: the statuses say so (never OK while a
     wheel could not be judged), a healthy wheel gets no fault verdict, an alarm is held, not lost."""
-    from rw_fdi_ros.tools.campaigns.fdi import fdi_verdict, format_verdict, verdict_topics
-    from rw_fdi_ros.tools.bag_series import health_from_bag
+    from rw_fdi_ros.runner.verdict import fdi_verdict, format_verdict, verdict_topics
+    from rw_fdi_ros.scoring.bag_series import health_from_bag
     from rw_fdi_ros.tools.campaigns.replay import replay_bag
     from rw_fdi_ros.storage.bag import read_series
     s = 10**9

@@ -22,7 +22,7 @@ from rw_fdi_ros.core.scenario import load_scenario
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.paths import fdi_dir
 from rw_fdi_ros.storage.bag import read_bag
-from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
+from rw_fdi_ros.runner.fdi_run import run_with_fdi
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 

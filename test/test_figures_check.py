@@ -4,7 +4,7 @@ import json
 from pathlib import Path
 
 from rw_fdi_ros.tools.benches import figures_check as fc
-from rw_fdi_ros.tools.metrics import rate
+from rw_fdi_ros.scoring.metrics import rate
 
 ROOT = Path(__file__).resolve().parents[1]
 

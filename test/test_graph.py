@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rw_fdi_ros.launch.graph import graph_nodes
-from rw_fdi_ros.launch.launcher import DomainLease, GraphProcesses
+from rw_fdi_ros.runner.graph import graph_nodes
+from rw_fdi_ros.runner.launcher import DomainLease, GraphProcesses
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.bag import read_bag
-from rw_fdi_ros.tools.campaigns.run import resolve_scenario, run_scenario
+from rw_fdi_ros.runner.scenario_run import resolve_scenario, run_scenario
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
@@ -289,7 +289,7 @@ def test_nodes_alone_reject_a_joint_they_do_not_have():
 def test_a_campaign_starts_a_hung_graph_over_once(monkeypatch, tmp_path):
     """A watchdog failure (every process alive, none finishing) gets one more graph; others do not."""
     from rw_fdi_ros.tools.campaigns import campaign
-    from rw_fdi_ros.tools.campaigns.run import RunOutcome
+    from rw_fdi_ros.runner.scenario_run import RunOutcome
     calls = []
 
     def fake_run(ref, seed, out_dir, **kwargs):

@@ -8,7 +8,7 @@ from rw_fdi_ros.core import calibration
 from rw_fdi_ros.core import identification as idf
 from rw_fdi_ros.core import wheel as wm
 from rw_fdi_ros.core.scenario import FAULT_KINDS, load_scenario
-from rw_fdi_ros.tools.metrics import judge_identification
+from rw_fdi_ros.scoring.metrics import judge_identification
 from rw_fdi_ros.tools.evaluation.screen import screen_runs
 
 P = wm.WheelParams()
@@ -404,8 +404,8 @@ def test_a_bag_s_identification_reads_through_the_decoder_with_the_names_now():
     from types import SimpleNamespace as NS
 
     from rw_fdi_ros.core.scenario import Fault
-    from rw_fdi_ros.tools.bag_series import identification_from_bag
-    from rw_fdi_ros.tools.metrics import RunEval, run_row
+    from rw_fdi_ros.scoring.bag_series import identification_from_bag
+    from rw_fdi_ros.scoring.metrics import RunEval, run_row
 
     def status(axis, message, **values):
         return NS(hardware_id=f"reaction_wheel_{axis}", message=message,

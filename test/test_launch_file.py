@@ -23,10 +23,10 @@ import pytest
 
 from colcon_ws import colcon_env
 from launch_api import launch_env, ros2_launch_command, use_launch
-from rw_fdi_ros.launch.graph import DEFAULT_GROUPING, flat_parameters, graph_nodes, misread_by_yaml, processes
+from rw_fdi_ros.runner.graph import DEFAULT_GROUPING, flat_parameters, graph_nodes, misread_by_yaml, processes
 from rw_fdi_ros.storage.compare import bag_differences
-from rw_fdi_ros.launch.launcher import DomainLease
-from rw_fdi_ros.tools.campaigns.run import resolve_scenario
+from rw_fdi_ros.runner.launcher import DomainLease
+from rw_fdi_ros.runner.scenario_run import resolve_scenario
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
@@ -120,7 +120,7 @@ def launch_fault(ws: Path, work: Path, duration: float, *arguments, bag_name: st
 def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_verdict(colcon_workspace, tmp_path):
     from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.bag import bag_info, read_series
-    from rw_fdi_ros.tools.campaigns.fdi import fdi_verdict, verdict_topics
+    from rw_fdi_ros.runner.verdict import fdi_verdict, verdict_topics
     launch, scenario, bag = launch_fault(colcon_workspace, tmp_path, 90)
     code, output = launch.run()
     assert code == 0, output[-3000:]
@@ -333,7 +333,7 @@ def test_a_string_a_yaml_layer_would_retype_is_refused_before_any_node_starts():
     scenario, path = resolve_scenario("fault_free")
     assert all(p["output"].startswith("/") for p in [n.parameters for n in graph_nodes(scenario, path, Path("1e3"))
                                                      if n.name == "recorder"])
-    from rw_fdi_ros.launch.graph import NodeSpec, checked_strings
+    from rw_fdi_ros.runner.graph import NodeSpec, checked_strings
     with pytest.raises(ValueError, match="probe: parameter axis='y'"):
         checked_strings([NodeSpec("probe", "plant", {"axis": "y"})])
 
@@ -341,8 +341,8 @@ def test_a_string_a_yaml_layer_would_retype_is_refused_before_any_node_starts():
 def test_strings_yaml_would_retype_reach_a_node_intact_through_our_params_file(tmp_path):
     """Our own launcher hands parameters over as a --params-file too: every string quoted, so a node
     started with it gets back every string as a string (and numbers as numbers)."""
-    from rw_fdi_ros.launch.graph import NodeSpec
-    from rw_fdi_ros.launch.launcher import write_params_file
+    from rw_fdi_ros.runner.graph import NodeSpec
+    from rw_fdi_ros.runner.launcher import write_params_file
     values = {f"p{i}": v for i, v in enumerate(RETYPED)} | {"number": 2.5, "count": 3, "flag": True}
     path = write_params_file([NodeSpec("probe", "plant", values)], tmp_path / "params.yaml")
     got = rcl_reads([("probe", str(path))])["probe"]
@@ -367,8 +367,8 @@ def test_use_sim_time_and_a_users_parameters_file_reach_every_node(tmp_path):
 def test_a_namespace_puts_every_node_under_it_and_our_params_file_reaches_them_there(tmp_path):
     """namespace:=sc1 (or an including file's PushRosNamespace): every node of the launch file is /sc1/<name>,
     and our params file keys each node by /**/<name>, which rcl matches in any namespace (read back by rcl)."""
-    from rw_fdi_ros.launch.graph import NodeSpec
-    from rw_fdi_ros.launch.launcher import write_params_file
+    from rw_fdi_ros.runner.graph import NodeSpec
+    from rw_fdi_ros.runner.launcher import write_params_file
     nodes = launch_nodes({"scenario": "fault_free", "namespace": "sc1", "use_sim_time": "true"})
     assert nodes and all(a.expanded_node_namespace == "/sc1" for a in nodes), [a.expanded_node_namespace
                                                                              for a in nodes]

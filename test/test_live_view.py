@@ -120,7 +120,7 @@ def test_a_whole_run_with_a_live_view_reaches_a_client_and_records_its_bag(tmp_p
     import socket
     import threading
     from websockets.sync.client import connect
-    from rw_fdi_ros.tools.campaigns.run import run_scenario
+    from rw_fdi_ros.runner.scenario_run import run_scenario
     with socket.socket() as s:   # a free port now (the server binds it a moment later)
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]

@@ -9,10 +9,10 @@ import threading
 
 import pytest
 
-from rw_fdi_ros.launch.launcher import DomainLease
+from rw_fdi_ros.runner.launcher import DomainLease
 from rw_fdi_ros.storage.bag import bag_custom_data, read_bag
 from rw_fdi_ros.storage.compare import bag_differences
-from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
+from rw_fdi_ros.runner.fdi_run import run_with_fdi
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 

@@ -126,7 +126,7 @@ def test_a_node_refuses_a_parameter_out_of_its_range_in_one_line(args, said, tmp
     import os
     import subprocess
     import sys
-    from rw_fdi_ros.launch.launcher import DomainLease
+    from rw_fdi_ros.runner.launcher import DomainLease
     with DomainLease() as lease:
         env = dict(os.environ, ROS_DOMAIN_ID=str(lease.domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
         run = subprocess.run([sys.executable, "-m", f"rw_fdi_ros.nodes.{args[0]}", "--ros-args", *args[1:]],

@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from rw_fdi_ros.launch.launcher import TEARDOWN_HUNG
+from rw_fdi_ros.runner.launcher import TEARDOWN_HUNG
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 

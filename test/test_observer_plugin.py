@@ -147,9 +147,9 @@ def test_it_runs_as_a_node_of_the_graph_with_the_screens_verdict(kalman_fdi, tmp
     screen does, and its topics are in the bag."""
     from rw_fdi_ros.core.scenario import load_scenario
     from rw_fdi_ros.storage.bag import bag_info
-    from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
+    from rw_fdi_ros.runner.fdi_run import run_with_fdi
     from rw_fdi_ros.tools.evaluation.screen import screen_runs
-    from rw_fdi_ros.tools.metrics import judge
+    from rw_fdi_ros.scoring.metrics import judge
     out, _ = kalman_fdi
     scenario = tmp_path / "loss_y.yaml"
     scenario.write_text("name: loss_y\nduration: 130.0\nseed: 61000900\n"
@@ -222,7 +222,7 @@ def test_a_state_file_of_another_observer_is_refused(tmp_path):
 
 @pytest.mark.graph
 def test_the_node_says_a_state_of_another_observer_and_a_plugins_failure_in_one_line(tmp_path):
-    from rw_fdi_ros.launch.launcher import DomainLease
+    from rw_fdi_ros.runner.launcher import DomainLease
     path = save_state(tmp_path, ModelCopy, "x:ModelCopy", {"gain": [1.0]})
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", PYTHONPATH=str(ROOT / "test"))
     with DomainLease() as lease:

@@ -9,6 +9,7 @@ from rw_fdi_ros.core.closed_loop import simulate
 from rw_fdi_ros.core.pipeline import LoadedFdi, observer_estimators
 from rw_fdi_ros.fdi_config import FdiConfig
 from rw_fdi_ros.tools.benches import service_bench as sb
+from rw_fdi_ros.tools.campaigns import service_family as family
 from rw_fdi_ros.tools.design.offline import decisions, observe
 from rw_fdi_ros.tools.design.samples import samples_from_series
 
@@ -27,9 +28,9 @@ def test_the_watch_changes_nothing_fdir_does_and_gives_the_offline_alarms(units)
            [[(d.time, d.wheel, d.action) for d in r] for r in watched.decisions]
     np.testing.assert_array_equal(plain.attitude, watched.attitude)
     assert any(plain.decisions[1]), "the faulty run reconfigures: the watch is judged through it"
-    config = FdiConfig(unit_calibration=sb.CALIBRATION_S if units else 0.0)
+    config = FdiConfig(unit_calibration=family.CALIBRATION_S if units else 0.0)
     models, curves = config.load()
-    calibration = calibration_samples(sb.CALIBRATION_S) if units else 0
+    calibration = calibration_samples(family.CALIBRATION_S) if units else 0
     stamps = np.round(watched.time * 1e9).astype(np.int64)
     for b in range(len(draws)):
         samples = samples_from_series(stamps, watched.tcv[:, b], watched.reaction_torque[:, b],
@@ -77,7 +78,7 @@ def test_a_plugin_is_watched_in_service_as_its_node_runs_it():
     for d in draws:
         scenario = sb.scenario(d)
         fdir = sb.fdir_for(d.units)
-        models, curves = FdiConfig(unit_calibration=sb.CALIBRATION_S if d.units else 0.0).load()
+        models, curves = FdiConfig(unit_calibration=family.CALIBRATION_S if d.units else 0.0).load()
         watch = LoadedFdi({"model": curves["model"], "model_copy": curves["model"]},
                           ObserverModels(models, [(ModelCopy, {})]), calibration_samples=fdir.fdi.calibration_samples)
         from dataclasses import replace

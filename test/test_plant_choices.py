@@ -46,7 +46,7 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
 
     from rw_fdi_ros.tools.design.samples import simulated_fault_free_runs
     from rw_fdi_ros.core.scenario import load_scenario
-    from rw_fdi_ros.launch.graph import graph_nodes
+    from rw_fdi_ros.runner.graph import graph_nodes
     from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.writer import BagWriter
     from rw_fdi_ros.tools.evaluation.evaluate import _check_bag

@@ -20,7 +20,7 @@ from rw_fdi_ros.tools.campaigns.campaign import DaskExecutor, LocalExecutor, run
 from rw_fdi_ros.tools.evaluation.evaluate import evaluate
 from rw_fdi_ros.tools.evaluation.report import validate_report
 from rw_fdi_ros.tools.evaluation.reproduce import plan, reproduce
-from rw_fdi_ros.tools.campaigns.run import short_step_topics
+from rw_fdi_ros.runner.scenario_run import short_step_topics
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
@@ -93,7 +93,7 @@ def _same_fdi_result(live_bag, replayed_bag):
 def test_replay_equals_the_live_result(study):
     """Bags replayed one after another through one graph (the FDI nodes start over at each run) give
     exactly the FDI result recorded live in each; so does a replay paced by the wall clock."""
-    from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
+    from rw_fdi_ros.runner.fdi_run import run_with_fdi
     from rw_fdi_ros.tools.campaigns.replay import replay_bag, replay_bags
     out, _ = study
     scenario = next((out / "scenarios").glob("current_*pct_*.yaml"))

@@ -5,7 +5,7 @@ with a small current loss, a small temperature rise and a ripple increase on
 its three wheels (a Latin square: every kind on every wheel), onsets spread
 over 30-54 s, and the 5 speed-aware runs (300 s, a fault-free one among them)
 that test_fdi_graph judges too (conftest.fdi_runs). Same alarmed
-wheels, same first-alarm times, same verdict from tools.metrics.judge, for
+wheels, same first-alarm times, same verdict from scoring.metrics.judge, for
 every observer, and the same fault identification. Two more, of varied
 wheels, with the observers calibrated to their units (core/calibration.py).
 """
@@ -19,8 +19,8 @@ from conftest import CASES
 from rw_fdi_ros.core.calibration import calibration_samples
 from rw_fdi_ros.core.scenario import load_scenario
 from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
-from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
-from rw_fdi_ros.tools.metrics import judge
+from rw_fdi_ros.runner.fdi_run import run_with_fdi
+from rw_fdi_ros.scoring.metrics import judge
 from rw_fdi_ros.tools.evaluation.screen import screen_runs
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)

@@ -5,6 +5,7 @@ import numpy as np
 from rw_fdi_ros.core.calibration import UnitCalibration
 from rw_fdi_ros.core.vehicle import load_vehicle
 from rw_fdi_ros.tools.benches import service_bench as sb
+from rw_fdi_ros.tools.campaigns import service_family as family
 
 MANOEUVRES = (100.0, 200.0)
 
@@ -68,7 +69,7 @@ def test_the_in_service_family_draws_every_case_from_its_seed():
     assert {f["kind"] for f in faults} == set(sb.FAULT_KINDS) and {f["wheel"] for f in faults} >= {"x", "y", "z", "s"}
     assert any(f["ramp"] for f in faults) and any(not f["ramp"] for f in faults)
     assert any(d.units for d in draws) and any(not d.units for d in draws) and any(d.orbit for d in draws)
-    assert {d.duration for d in draws} == {dur for dur, _ in sb.DURATIONS}
+    assert {d.duration for d in draws} == {dur for dur, _ in family.DURATIONS}
     assert any(len(d.faults) == 2 for d in draws) and any(not d.faults for d in draws)
     for d in draws:
         for f in d.faults:

@@ -64,9 +64,9 @@ def test_the_service_trained_set_runs_in_the_graph_with_the_screens_verdict(tmp_
     from rw_fdi_ros.core.scenario import load_scenario
     from rw_fdi_ros.fdi_config import FdiConfig
     from rw_fdi_ros.paths import config_dir
-    from rw_fdi_ros.tools.campaigns.fdi import run_with_fdi
+    from rw_fdi_ros.runner.fdi_run import run_with_fdi
     from rw_fdi_ros.tools.evaluation.screen import screen_runs
-    from rw_fdi_ros.tools.metrics import judge
+    from rw_fdi_ros.scoring.metrics import judge
     scenario = tmp_path / "loss_z.yaml"
     scenario.write_text("name: loss_z\nduration: 130.0\nseed: 61000901\n"
                         "faults: [{kind: current_limiter, wheel: z, onset: 50.0, value: 0.8}]\n")

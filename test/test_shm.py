@@ -1,9 +1,9 @@
-"""Fast DDS shared-memory files of dead processes (launch/shm.py): what goes and what stays."""
+"""Fast DDS shared-memory files of dead processes (runner/shm.py): what goes and what stays."""
 import fcntl
 import os
 import time
 
-from rw_fdi_ros.launch.shm import clean_zombie_files, zombie_files
+from rw_fdi_ros.runner.shm import clean_zombie_files, zombie_files
 
 
 def _touch(path, age=0.0):

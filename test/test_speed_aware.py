@@ -10,7 +10,7 @@ from rw_fdi_ros.core.isolation import ObserverChannel
 from rw_fdi_ros.core.plant import Plant
 from rw_fdi_ros.core.scenario import Fault, Scenario, parse_scenario
 from rw_fdi_ros.core.telemetry import TelemetrySampler, model_reaction_torque
-from rw_fdi_ros.tools.metrics import wilson
+from rw_fdi_ros.scoring.metrics import wilson
 
 
 def drive(plant, steps, tcv_of_k):

@@ -10,10 +10,10 @@ import sys
 import pytest
 
 from rw_fdi_ros.core.plant_choices import DEFAULT
-from rw_fdi_ros.launch.graph import NodeSpec, graph_nodes, with_reader_counts
+from rw_fdi_ros.runner.graph import NodeSpec, graph_nodes, with_reader_counts
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.tools.campaigns.replay import replay_nodes
-from rw_fdi_ros.tools.campaigns.run import resolve_scenario
+from rw_fdi_ros.runner.scenario_run import resolve_scenario
 
 
 def run_graph(fdi: bool, recording: bool):
@@ -111,7 +111,7 @@ def test_one_count_for_topics_with_different_readers_is_refused(monkeypatch):
 
 
 def test_graph_building_tools_import_no_rclpy():
-    code = ("import sys, rw_fdi_ros.graph.topics, rw_fdi_ros.launch.graph, rw_fdi_ros.tools.campaigns.replay\n"
+    code = ("import sys, rw_fdi_ros.graph.topics, rw_fdi_ros.runner.graph, rw_fdi_ros.tools.campaigns.replay\n"
             "assert 'rclpy' not in sys.modules, 'rclpy imported'")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
@@ -120,7 +120,7 @@ def test_graph_building_tools_import_no_rclpy():
 def test_a_live_view_is_one_more_reader_of_what_the_bag_records_and_its_own_process():
     """The live view (rw-fdi run --live) reads every recorded topic: each publisher waits for it too,
     and it runs in a process of its own in every grouping but "all" (never inside the lockstep's)."""
-    from rw_fdi_ros.launch.graph import GROUPINGS, processes
+    from rw_fdi_ros.runner.graph import GROUPINGS, processes
     scenario, path = resolve_scenario("bus_5v5_x", 3)
     plain = counts(graph_nodes(scenario, path, "bags/demo", fdi={}))
     nodes = graph_nodes(scenario, path, "bags/demo", fdi={}, live=0)

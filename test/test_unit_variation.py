@@ -94,7 +94,7 @@ def test_bad_wheel_specs_are_one_line_errors(wheels, words):
 def test_a_run_records_its_units_in_the_scenario_and_the_ground_truth(tmp_path):
     from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.bag import read_bag
-    from rw_fdi_ros.tools.campaigns.run import run_scenario
+    from rw_fdi_ros.runner.scenario_run import run_scenario
     path = tmp_path / "varied.yaml"
     path.write_text("name: varied\nduration: 10\nseed: 4\nwheels: {variation: true}\nfaults: []\n")
     outcome = run_scenario(str(path), out_dir=tmp_path)

@@ -189,7 +189,7 @@ def test_a_scenario_flies_its_vehicle_and_the_bag_records_it(tmp_path):
 
 def test_the_launcher_gives_the_nodes_the_vehicle(tmp_path):
     from rw_fdi_ros.core.pid import design_gains
-    from rw_fdi_ros.launch.graph import graph_nodes
+    from rw_fdi_ros.runner.graph import graph_nodes
     _vehicle_file(tmp_path)
     scenario = parse_scenario("name: h\nduration: 10\nvehicle: heavy.yaml\n", origin=str(tmp_path / "h.yaml"))
     nodes = {n.name: n.parameters for n in graph_nodes(scenario, "h", None, fdi=None)}
@@ -203,7 +203,7 @@ def test_the_launcher_gives_the_nodes_the_vehicle(tmp_path):
 def test_the_launcher_gives_a_shipped_vehicles_nodes_its_own_fdi():
     """A scenario naming the microsatellite: each Elman node runs its wheel's network and the isolation node
     its bands, all from config/fdi/vehicles/microsat_pyramid; the thesis' runs keep the nodes' own defaults."""
-    from rw_fdi_ros.launch.graph import graph_nodes
+    from rw_fdi_ros.runner.graph import graph_nodes
     scenario = parse_scenario("name: m\nduration: 10\nvehicle: microsat_pyramid\n")
     nodes = {n.name: n.parameters for n in graph_nodes(scenario, "m", None, fdi={})}
     own = fdi_dir("speed_aware", "microsat_pyramid")
@@ -241,7 +241,7 @@ def test_another_wheel_type_flies_and_every_node_is_told_it(tmp_path):
     """A vehicle's own wheel type: the scenario flies it, the nodes that model the wheel get it as their
     wheel_type parameter (read back equal), the thesis' type leaves them at their default."""
     from rw_fdi_ros.core.vehicle import wheel_from_parameter
-    from rw_fdi_ros.launch.graph import graph_nodes
+    from rw_fdi_ros.runner.graph import graph_nodes
     raw = _raw()
     raw["name"], raw["wheel"]["torque_constant"] = "other_wheel", "0.035 N m/A"
     (tmp_path / "other_wheel.yaml").write_text(yaml.safe_dump(raw))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rw_fdi_ros.core.isolation import LatchedVerdict, decision_observer
-from rw_fdi_ros.launch.launcher import DomainLease
+from rw_fdi_ros.runner.launcher import DomainLease
 from rw_fdi_ros.core.isolation import decision_of
 
 from conftest import verdict_of_flags

@@ -1,5 +1,5 @@
 """Calibration of an observer to its own wheel: the unit's deviation from the datasheet, learnt from
-the first healthy minutes of a run (issue 17).
+the first healthy minutes of a run.
 
 Wheels of one type differ (wheel.DEFAULT_UNIT_SPREAD): to first order a unit whose torque constant
 and driver gain are (1 + d_kt) and (1 + d_Gd) times the datasheet's, whose viscous and coulomb

@@ -1,7 +1,7 @@
 """Whether an FDI node's input stream lets it judge: the order of its stamps and the finiteness of its values.
 
-A monitor that cannot judge must say so, never read OK (issue 15). Each FDI
-sample stamp t_k = k T_FDI arrives once, in order. What can go wrong with a
+A monitor that cannot judge must say so, never read OK: a silent monitor would
+pass for a healthy wheel. Each FDI sample stamp t_k = k T_FDI arrives once, in order. What can go wrong with a
 stream, and what the FDI nodes do about it:
 
 - a stamp back at a run's first sample (t <= T_FDI): a new run starts (a

@@ -1,4 +1,4 @@
-"""The isolation logic of one observer over three wheels, sample by sample (evaluation.md).
+"""The isolation logic of one observer over the N wheels of a set, sample by sample (evaluation.md).
 
 The isolation node and the offline tools (screen, evaluation, calibration
 checks) both step :class:`ObserverChannel`, so a verdict computed offline is

@@ -133,7 +133,7 @@ class Plant:
         self.disturbance = disturbance
         self.wheel_momentum_coupling = bool(wheel_momentum_coupling)
         # in orbit (environment.py): the track is computed on first use (the first sample), not for a look at
-        # the initial state (launch/graph.py)
+        # the initial state (runner/graph.py)
         self.duration = float(duration or max(s.duration for s in self.scenarios))
         self.field_model = magnetic_field or self.scenarios[0].plant_choices().magnetic_field
         self.in_orbit = any(s.environment is not None for s in self.scenarios)

@@ -23,7 +23,7 @@ EXIT_BAD_INPUT = 2
 EXIT_TIMEOUT = 3
 # after its work is done (bag closed, last message acknowledged) a node gets this long to tear its DDS
 # entities down; a teardown stuck past it dumps every thread's stack to the log and the process ends by
-# SIGALRM, which the launcher reads as "done, teardown hung" (launch/launcher.py TEARDOWN_HUNG)
+# SIGALRM, which the launcher reads as "done, teardown hung" (runner/launcher.py TEARDOWN_HUNG)
 POLL_PERIOD = 0.005   # [s] wall time between two GraphNode.poll calls of a node while callbacks keep coming
 TEARDOWN_TIMEOUT = int(os.environ.get("RW_FDI_TEARDOWN_TIMEOUT", "10"))   # the environment: tests
 

@@ -14,7 +14,7 @@ sim time.
 
 Who reads what is a table here too (READS), and how many readers each
 publisher waits for before its first message is derived from it for a
-given graph (WAITS, reader_counts; launch/graph.py sets the parameters).
+given graph (WAITS, reader_counts; runner/graph.py sets the parameters).
 rclpy is imported only for the QoS profiles, on first use.
 """
 from __future__ import annotations
@@ -232,7 +232,7 @@ def live_rows(p: dict) -> list:
 # -- who reads what ----------------------------------------------------------------------------------
 # A node holds its first messages until its topic's readers are matched (DDS drops what goes out before;
 # graph/gate.py), so how many readers each topic has in a graph is derived here, from what each node
-# subscribes to, and handed to the publishers as parameters (launch/graph.py): a node added to READS is
+# subscribes to, and handed to the publishers as parameters (runner/graph.py): a node added to READS is
 # waited for, and a node missing from it is an error, not a silent stall. Parameters (NodeSpec.parameters)
 # are read with the nodes' own defaults.
 
@@ -326,7 +326,7 @@ WAITS = {
 
 
 def reads(node) -> list:
-    """The topics ``node`` (anything with ``executable`` and ``parameters``: launch.graph.NodeSpec) reads."""
+    """The topics ``node`` (anything with ``executable`` and ``parameters``: runner.graph.NodeSpec) reads."""
     if node.executable not in READS:
         raise ValueError(f"node {node.name}: what {node.executable} reads is not in graph/topics.py READS, "
                          "so nothing would wait for it")

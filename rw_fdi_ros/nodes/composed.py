@@ -8,7 +8,7 @@ parameters (the params file's NAME entry) and topics, all spun by one
 executor in one thread (runtime.spin_nodes). The process ends when every
 node has ended with the run, or at once, with that node's exit code, when
 one fails. No node name remapping is given on the command line: it would
-rename every node of the process. launch/graph.py chooses the grouping
+rename every node of the process. runner/graph.py chooses the grouping
 (GROUPINGS); our launcher and the launch file start the same processes.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""linear_observer: the Luenberger observer of the three wheels at once (thesis 3.3).
+"""linear_observer: the Luenberger observer of the N wheels of the set at once (thesis 3.3).
 
 The full-order observer of the linearised wheel, poles 4x the wheel pole,
 discretised (ZOH) at the node's FDI period (core/linear_observer.py), estimates

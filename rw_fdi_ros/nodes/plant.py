@@ -54,7 +54,7 @@ class PlantNode(GraphNode):
         self.declare_parameter("magnetic_field", "")     # core/geomagnetic.py, in orbit; empty: the scenario's
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
-        # readers to wait for before the first step, per topic (launch/graph.py derives them from topics.READS)
+        # readers to wait for before the first step, per topic (runner/graph.py derives them from topics.READS)
         self.declare_parameter("attitude_readers", 3)    # the controllers (+ wheel allocation, recorder)
         self.declare_parameter("wheels_readers", 0)      # of /wheels: the wheel allocation (+ recorder)
         self.declare_parameter("fdi_readers", 0)         # of the FDI telemetry: the FDI nodes (+ recorder)

@@ -20,7 +20,7 @@ def main(args) -> int:
     verdict: each a stream over the file, so memory does not grow with the run's length."""
     from ...graph import topics as T
     from ...storage.bag import bag_info, read_series
-    from ...tools.campaigns.summary import format_summary, run_summary
+    from ...runner.summary import format_summary, run_summary
     info = bag_info(args.bag)
     if args.json:
         return _json(args, info)
@@ -39,8 +39,9 @@ def main(args) -> int:
         if T.PLANT_DONE not in info.counts:   # what a script checks after a launch that ended early
             print(f"  run interrupted: no {T.PLANT_DONE} (the plant did not reach the run's end)")
     if T.fdi_output_topics("elman")["alarm"] in info.counts:
-        from ...tools.bag_series import health_from_bag, plugin_slots_of
-        from ...tools.campaigns.fdi import fdi_verdict, format_verdict, plot_residuals, verdict_topics
+        from ...scoring.bag_series import health_from_bag, plugin_slots_of
+        from ...runner.residual_figure import plot_residuals
+        from ...runner.verdict import fdi_verdict, format_verdict, verdict_topics
         data = read_series(args.bag, verdict_topics(plugin_slots_of(info.counts)))
         verdict = {**fdi_verdict(data), "health": health_from_bag(args.bag)}
         print(f"fault detection and isolation:\n{format_verdict(verdict)}")
@@ -59,11 +60,11 @@ def _json(args, info) -> int:
                           "last_s": info.span[t][1] * 1e-9} for t in sorted(info.counts)},
            "summary": None, "fdi": None}
     if T.ATTITUDE in info.counts and T.SCENARIO in info.counts:
-        from ...tools.campaigns.summary import run_summary
+        from ...runner.summary import run_summary
         out["summary"] = run_summary(args.bag)
     if T.fdi_output_topics("elman")["alarm"] in info.counts and T.SCENARIO in info.counts:
-        from ...tools.bag_series import health_from_bag, plugin_slots_of
-        from ...tools.campaigns.fdi import fdi_verdict, verdict_topics
+        from ...scoring.bag_series import health_from_bag, plugin_slots_of
+        from ...runner.verdict import fdi_verdict, verdict_topics
         out["fdi"] = {**fdi_verdict(read_series(args.bag, verdict_topics(plugin_slots_of(info.counts)))),
                       "health": health_from_bag(args.bag)}
     print(dumps(out))

@@ -106,17 +106,17 @@ def _out(args, what: str) -> str:
 
 
 def _graph(args) -> dict:
-    from ...tools.benches.bench import bench_graph
+    from ...tools.benches.speed_bench import bench_graph
     return bench_graph(duration=args.duration, seed=args.seed)
 
 
 def _fdi(args) -> dict:
-    from ...tools.benches.bench import bench_fdi
+    from ...tools.benches.speed_bench import bench_fdi
     return bench_fdi(duration=args.duration, seed=args.seed)
 
 
 def _study(args) -> dict:
-    from ...tools.benches.bench import bench_study
+    from ...tools.benches.speed_bench import bench_study
     return bench_study(runs=args.runs, duration=args.duration, seed=args.seed, jobs=args.jobs)
 
 
@@ -210,7 +210,7 @@ def _service(args) -> dict:
     watch = _bench_fdi(args) or (FdiConfig() if args.every_observer else None)
     if watch is not None:   # both calibrations' bands of every observer, before any run (the family flies both)
         from dataclasses import replace
-        from ...tools.benches.service_bench import CALIBRATION_S
+        from ...tools.campaigns.service_family import CALIBRATION_S
         for seconds in (0.0, CALIBRATION_S):
             replace(watch, unit_calibration=seconds).for_vehicle(vehicle).load()
     given_up = len(given_up_draws(range(base, base + args.given_up_runs), vehicle))   # the faulty draws among them

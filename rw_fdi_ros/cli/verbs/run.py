@@ -33,8 +33,8 @@ def add_arguments(parser) -> None:
 
 
 def main(args) -> int:
-    from ...tools.campaigns.run import resolve_scenario, run_scenario
-    from ...tools.campaigns.summary import format_summary
+    from ...runner.scenario_run import resolve_scenario, run_scenario
+    from ...runner.summary import format_summary
     scenario, _ = resolve_scenario(args.scenario, args.seed)   # a bad scenario is the first thing to say
     writable_dir(args.out, "--out")
     if args.live is not None:   # the live view node's server: said here, before any node starts
@@ -47,7 +47,8 @@ def main(args) -> int:
     wheels = scenario.wheel_set()
     nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
     if args.fdi:
-        from ...tools.campaigns.fdi import format_verdict, run_with_fdi
+        from ...runner.fdi_run import run_with_fdi
+        from ...runner.verdict import format_verdict
         fdi = fdi_config(args).for_vehicle(scenario.spacecraft.name)
         fdi.check(scenario.plant_choices(emf_limit=args.emf_limit), scenario.duration)
         nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "

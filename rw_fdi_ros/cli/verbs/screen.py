@@ -29,7 +29,7 @@ def main(args) -> int:
     from ...core.scenario import load_scenario
     from ...tools.benches.kit import write_runs_table
     from ...tools.evaluation.screen import format_screen, screen
-    from ...tools.metrics import run_row
+    from ...scoring.metrics import run_row
     scenarios = [load_scenario(name) for name in args.scenario]
     for name, scenario in zip(args.scenario, scenarios):
         scenario_design(scenario, name)   # its vehicle's controllers, or one line before any run

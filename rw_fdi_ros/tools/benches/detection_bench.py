@@ -5,9 +5,9 @@ Runs nobody tuned for: seeds from 10,000,000 on (training and fitting use
 faults on every wheel (wheel = seed mod 3) with onsets drawn uniformly in
 [60, 300] s from the seed, 400 s runs of the Table 2.3 envelope. Each cell is
 simulated once by the core loop (screen) and judged by both FDI methods with
-the node code and the shared verdict (tools.metrics.judge).
+the node code and the shared verdict (scoring.metrics.judge).
 
-Targets (issue 10): false alarms <= 0.5 % on fault-free and ripple runs;
+Targets: false alarms <= 0.5 % on fault-free and ripple runs;
 correctness >= 99 % at the thesis sizes over observable runs; detection >= 95 %
 for a 10 % current loss and +30 C with median delay <= 10 s; alarm held to the
 end in >= 99 % of detections.
@@ -22,10 +22,10 @@ from pathlib import Path
 from ...fdi_config import FdiConfig
 from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.isolation import decision_of
-from ..metrics import observable_level, observers_of_runs
+from ...scoring.metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
-from .kit import (VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, configured, fdi_phrase,
-                  format_rate, screen_cells, workers, write_cells_table, write_report)
+from .kit import (DETECTION_FIELDS, VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, configured,
+                  fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report)
 
 
 CELLS = (
@@ -76,7 +76,7 @@ def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: s
     and observer its :func:`cell_figures`; ``judged[i]``: set name -> the judged runs of cell i."""
     # every slot the runs were judged by: the observers, the verdict and the other decisions' verdicts, each
     # against the set's one observable level
-    return {cell.name: {"cell": cell.__dict__,
+    return {cell.name: {"cell": cell.as_dict(DETECTION_FIELDS),
                         "seeds": [seed_base + 100_000 * i, seed_base + 100_000 * i + sizes[i] - 1],
                         key: {name: {obs: cell_figures(runs, obs, next(iter(levels[name].values())))
                                      for obs in observers_of_runs(runs)}

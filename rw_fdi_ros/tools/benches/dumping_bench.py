@@ -17,7 +17,8 @@ momentum-dumping law the nodes run; the FDI by screen):
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -31,9 +32,9 @@ from ...core.magnetorquers import DumpLog, MomentumDumping
 from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.wheel import WheelParams
 from ...core.spacecraft import BODY_AXES
-from .kit import (SpeedAwareChunk, cell_figures, fault_wheel, format_rate, screen_cells, workers, write_cells_table,
-                  write_report)
-from ..metrics import observable_level
+from .kit import (Cell, SpeedAwareChunk, cell_figures, fault_wheel, format_rate, screen_cells, workers,
+                  write_cells_table, write_report)
+from ...scoring.metrics import observable_level
 
 SEED_BASE = 87_000_000   # docs/fdi.md "Seeds": no other bench, training or fitting uses them
 POINTING_LIMIT_DEG = 0.2
@@ -133,25 +134,19 @@ def plot_day(traj, report: dict, path: Path):
 
 # -- the FDI through dumping ----------------------------------------------------------------------------
 
-@dataclass(frozen=True)
-class Cell:
-    name: str
-    kind: str | None = None        # None: fault-free
-    value: float = 0.0
-    duration: float = 6 * 3600.0
-    wheel_speed: float | None = None   # every wheel's initial speed [rad/s]; None: Table 2.3's 20-30
-    environment: OrbitEnvironment = field(default_factory=OrbitEnvironment)
+# a cell of this bench: 6-h runs
+dumping_cell = partial(Cell, duration=6 * 3600.0)
 
 
 DUMP_START = 38.0   # the fault cells' initial wheel speed: above the start speed, a dump begins at once
 # 3x the residual dipole: the wheels drift 3x faster and are dumped 3x as often
 STRONG = OrbitEnvironment(residual_dipole=(1.5, 1.5, 1.5))
 CELLS = (
-    Cell("operations in orbit with dumping, 6-h runs"),
-    Cell("the same, a residual dipole of 2.6 A m^2", environment=STRONG),
+    dumping_cell("operations in orbit with dumping, 6-h runs"),
+    dumping_cell("the same, a residual dipole of 2.6 A m^2", environment=STRONG),
     # a fault cell's onset lies inside the run's first dump (cell_scenarios)
-    Cell("current loss 10 % during a dump", "current_limiter", 0.9, duration=1800.0, wheel_speed=DUMP_START),
-    Cell("temperature +30 C during a dump", "temperature", 53.0, duration=1800.0, wheel_speed=DUMP_START),
+    dumping_cell("current loss 10 % during a dump", "current_limiter", 0.9, duration=1800.0, wheel_speed=DUMP_START),
+    dumping_cell("temperature +30 C during a dump", "temperature", 53.0, duration=1800.0, wheel_speed=DUMP_START),
 )
 
 

@@ -18,7 +18,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..metrics import rate
+from ...scoring.metrics import rate
 from .kit import format_rate
 
 # the small samples: (bench, its keyword arguments); the whole check about 8 minutes on 2 cores (the graph

@@ -6,14 +6,14 @@ every wheel (wheel = seed mod 3) with onsets uniform in [60, 300] s, 400 s
 runs. Each run is simulated by the core loop and goes through the node code:
 observers, isolation (ObserverChannel) and the isolation node's
 FaultIdentifier, started by the decision observer's alarm. The last
-identification of the run is judged (tools.metrics.judge_identification).
+identification of the run is judged (scoring.metrics.judge_identification).
 
 Observable: the fault's effect on the reaction torque exceeds the nominal
 model observer's band (what the wheel physically shows; a bus drop on a slow
-wheel shows nothing). Targets (issue 11): kind right in >= 95 % of observable
+wheel shows nothing). Targets: kind right in >= 95 % of observable
 runs at the thesis sizes; size within 10 % (temperature 10 C) in >= 90 %.
 
-``--units`` (issue 26, item 3): units, not the datasheet. Wheels drawn at the
+``--units``: units, not the datasheet. Wheels drawn at the
 default spreads, the FDI calibrated over the first 150 s (config/fdi/
 unit_calibrated), faults after it (onsets uniform in 160-300 s) with sizes
 drawn from the seed over a range (off every grid), seeds from 31,000,000.
@@ -38,10 +38,10 @@ from ...core.plant_choices import FDI_PERIOD
 from ...core.scenario import Fault
 from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.wheel_set import fitted_for
-from ..metrics import rate
-from .kit import (bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios, format_rate, screen_cells,
-                  write_cells_table)
-from ..metrics import judge_identification
+from ...scoring.metrics import rate
+from .kit import (DETECTION_FIELDS, bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios,
+                  format_rate, screen_cells, write_cells_table)
+from ...scoring.metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
 SEED_BASE = 30_000_000
@@ -156,7 +156,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
         write_cells_table(judged, [c.name for c in CELLS], out, "identification")
         for i, cell in enumerate(CELLS):
             first = SEED_BASE + 100_000 * i
-            cells[cell.name] = {"cell": cell.__dict__, "seeds": [first, first + sizes[i] - 1],
+            cells[cell.name] = {"cell": cell.as_dict(DETECTION_FIELDS), "seeds": [first, first + sizes[i] - 1],
                                 **cell_identification(judged[i]["speed_aware"], level)}
     report = {"schema": "rw_fdi_ros/identification_bench/1", "seconds": time.monotonic() - t0,
               "jobs": workers(executor),

@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import json
 import sys
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from ...fdi_config import FdiConfig
-from ...core.scenario import Fault, Scenario, parse_scenario
+from ...core.environment import OrbitEnvironment
+from ...core.scenario import Fault, Manoeuvres, Scenario, parse_scenario
 from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
-from ..metrics import alarm_before_onset, judge, observable, rate
+from ...scoring.metrics import alarm_before_onset, judge, observable, rate
 from ..evaluation.screen import screen_sets
 
 SEED_BASE = 10_000_000         # the detection bench's; every bench passes its own
@@ -23,13 +24,44 @@ ONSET_RANGE = (60.0, 300.0)
 
 @dataclass(frozen=True)
 class Cell:
+    """One row of a bench: the runs of one fault (or none) under one set of conditions.
+
+    Every bench builds its cells from this one type, varies the fields it names and leaves the others at
+    their defaults; its report holds only its own fields (:meth:`as_dict`). ``None``: the bench's own."""
     name: str
-    kind: str | None          # None: fault-free
+    kind: str | None = None         # None: fault-free
     value: float = 0.0
-    ramp: float = 0.0
-    disturbance: bool = False  # a change that must not alarm (ripple)
-    thesis_size: bool = False  # one of the thesis' headline sizes (Table 4.2)
+    ramp: float = 0.0               # [s] over which the fault grows to its value
+    disturbance: bool = False       # a change that must not alarm (ripple)
+    thesis_size: bool = False       # one of the thesis' headline sizes (Table 4.2)
     target_detection: bool = False  # the small sizes with a detection target
+    onset_range: tuple | None = None   # (earliest, latest) fault onset [s]
+    duration: float | None = None      # [s]
+    wheel_speed: float | None = None   # every wheel's initial speed [rad/s]; None: Table 2.3's 20-30
+    speeds: tuple = (20.0, 30.0)       # initial wheel speeds, uniform per wheel [rad/s]
+    second: tuple | None = None        # (kind, value) of a later fault on the standby wheel, 100 s after
+    manoeuvres: Manoeuvres | None = None
+    tumbles: bool = False              # a bus drop that can leave its axis without control
+    environment: OrbitEnvironment = field(default_factory=OrbitEnvironment)
+
+    def as_dict(self, names) -> dict:
+        """The fields ``names``, in that order: what a bench's report says of its cell.
+
+        Parameters
+        ----------
+        names : sequence of str
+            Field names.
+
+        Returns
+        -------
+        dict
+            Name to value.
+        """
+        return {name: getattr(self, name) for name in names}
+
+
+# what the detection and identification benches vary and report of a cell
+DETECTION_FIELDS = ("name", "kind", "value", "ramp", "disturbance", "thesis_size", "target_detection")
 
 
 def fault_wheel(seed: int, wheels: WheelSet = WHEEL_SETS[DEFAULT_WHEEL_SET]) -> int:
@@ -212,7 +244,7 @@ def write_cells_table(judged: dict, cell_names, out, name: str) -> Path:
     """The judged runs of :func:`screen_cells` as <out>/<name>_runs.csv: one row a run and FDI set, its cell and
     set named beside metrics.run_row's columns (seed, faults, each observer's verdict and delay, the
     identification)."""
-    from ..metrics import RunEval, run_row
+    from ...scoring.metrics import RunEval, run_row
     rows = [{"cell": cell_names[i], "fdi": fdi, **run_row(r)} for i, by_fdi in sorted(judged.items())
             for fdi, runs in by_fdi.items() for r in runs if isinstance(r, RunEval)]
     Path(out).mkdir(parents=True, exist_ok=True)

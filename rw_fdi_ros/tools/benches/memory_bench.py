@@ -1,4 +1,4 @@
-"""Peak memory of reading a run back, against the run's length (issue 15: bounded by design).
+"""Peak memory of reading a run back, against the run's length (bounded by design, whatever the length).
 
 Records a fault-free run with the FDI live for each length, then measures, each in a fresh
 process, the peak resident memory of what reads the bag afterwards:
@@ -102,6 +102,6 @@ def _series_mb(hours: float) -> float:
     """What the verdict and the figure keep: per FDI sample one row of each Vector3Stamped topic they
     read (a stamp and 3 float64: 32 bytes), twice (as read, then sorted by stamp)."""
     from ...core.plant_choices import FDI_PERIOD
-    from ..campaigns.fdi import verdict_topics
+    from ...runner.verdict import verdict_topics
     vector_topics = len(verdict_topics()) - 2   # all but /scenario and /fdi/identification
     return 2 * hours * 3600.0 / FDI_PERIOD * vector_topics * 32 / 2**20

@@ -19,7 +19,8 @@ Seeds: evaluation from 86,000,000 (the figures of record); the design was looked
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -33,8 +34,8 @@ from ...core.scenario import Fault, Manoeuvres, Scenario
 from ...core.spacecraft import BODY_AXES
 from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
 from ...core.wheel_set import WHEEL_SETS
-from ..metrics import rate
-from .kit import bench_scenario, bench_wheels, fault_wheel, format_rate, write_report, write_runs_table
+from ...scoring.metrics import rate
+from .kit import Cell, bench_scenario, bench_wheels, fault_wheel, format_rate, write_report, write_runs_table
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}
 POINTING_DEG = 0.2
@@ -44,25 +45,18 @@ BATCH = 50
 ACTED = ("out_of_use", "held", "kept_in_use")   # what FDIR does with a wheel it confirmed faulty
 
 
-@dataclass(frozen=True)
-class Cell:
-    name: str
-    kind: str | None = None
-    value: float = 0.0
-    speeds: tuple = (20.0, 30.0)        # initial wheel speeds, uniform per wheel [rad/s]
-    onset_range: tuple = (120.0, 280.0)
-    second: tuple | None = None         # (kind, value) of a later fault on the standby wheel, 100 s after
-    manoeuvres: Manoeuvres | None = None
-
-
+# a cell of this bench: the fault's onset in 120-280 s
+recovery_cell = partial(Cell, onset_range=(120.0, 280.0))
+# what this bench varies and reports of a cell
+FIELDS = ("name", "kind", "value", "speeds", "onset_range", "second", "manoeuvres")
 FAULTS = (("bus 4 V", "bus_voltage", 4.0), ("bus 5.5 V", "bus_voltage", 5.5),
           ("current loss 40 %", "current_limiter", 0.6), ("temperature +150 C", "temperature", 173.0),
           ("current loss 10 %", "current_limiter", 0.9), ("temperature +30 C", "temperature", 53.0))
 CELLS = (
-    *(Cell(f"{name}, wheels 20-30 rad/s", kind, value) for name, kind, value in FAULTS),
-    *(Cell(f"{name}, wheels 10-22 rad/s", kind, value, speeds=(10.0, 22.0)) for name, kind, value in FAULTS),
-    Cell("fault-free operations", manoeuvres=Manoeuvres(interval_s=(100.0, 300.0))),
-    Cell("current loss 40 %, then +150 C on s", "current_limiter", 0.6, speeds=(10.0, 22.0),
+    *(recovery_cell(f"{name}, wheels 20-30 rad/s", kind, value) for name, kind, value in FAULTS),
+    *(recovery_cell(f"{name}, wheels 10-22 rad/s", kind, value, speeds=(10.0, 22.0)) for name, kind, value in FAULTS),
+    recovery_cell("fault-free operations", manoeuvres=Manoeuvres(interval_s=(100.0, 300.0))),
+    recovery_cell("current loss 40 %, then +150 C on s", "current_limiter", 0.6, speeds=(10.0, 22.0),
          onset_range=(100.0, 180.0), second=("temperature", 173.0)),
 )
 
@@ -187,7 +181,8 @@ def bench_recovery(runs_per_cell: int = 100, fault_free_runs: int = 1000, seeds:
     cells = {}
     for i, cell in enumerate(cells_run):
         runs = sorted(by_cell[i], key=lambda r: r["seed"])
-        cells[cell.name] = {"cell": {**cell.__dict__, "manoeuvres": cell.manoeuvres and cell.manoeuvres.__dict__},
+        manoeuvres = cell.manoeuvres and cell.manoeuvres.__dict__
+        cells[cell.name] = {"cell": {**cell.as_dict(FIELDS), "manoeuvres": manoeuvres},
                             "seeds": [runs[0]["seed"], runs[-1]["seed"]], "figures": summarize(cell, runs),
                             "runs": runs}
     Path(out).mkdir(parents=True, exist_ok=True)

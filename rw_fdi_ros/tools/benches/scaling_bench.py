@@ -1,9 +1,9 @@
 """`rw-fdi bench scaling`: in-service runs per second on 1 and 2 workers, and what 100,000 would take.
 
-The runs are the service bench's family (service_bench.draw), on seeds of their own (93,000,000 on),
+The runs are the service bench's family (campaigns/service_family.draw), on seeds of their own (93,000,000 on),
 shortened to ``max_hours`` so that the bench takes a minute or two; the time of a run grows with its
 simulated time, so the projection for 100,000 runs of the whole family (600 s to 6 h, 0.61 h each on
-average: service_bench.DURATIONS) goes by simulated hours per wall second. Each worker count runs the
+average: service_family.DURATIONS) goes by simulated hours per wall second. Each worker count runs the
 same runs, on local processes, or on a Dask cluster given its scheduler (its own worker count).
 """
 from __future__ import annotations
@@ -12,7 +12,8 @@ import os
 import time
 
 from ..campaigns.campaign import DaskExecutor, LocalExecutor
-from .service_bench import DURATIONS, draw, run_service
+from ..campaigns.service_family import DURATIONS, draw
+from .service_bench import run_service
 
 SEED_BASE = 93_000_000
 PROJECTED_RUNS = 100_000

@@ -1,4 +1,4 @@
-"""`rw-fdi bench service`: FDIR in service, every capability at once (issue 34).
+"""`rw-fdi bench service`: FDIR in service, every capability at once.
 
 Each run is drawn from its seed as a spacecraft in service meets it, all at once:
 
@@ -43,145 +43,38 @@ from __future__ import annotations
 
 import json
 import time
-from collections import defaultdict
-from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from ...fdi_config import FdiConfig
-from ...core.flight import Fdir
 from ...core.closed_loop import simulate
 from ...core.fdir import SATURATED_S
 from ...core.identification.identifiability import TOLD_APART, other_family_misfit, told_apart
 from ...core.identification import DRIVE, UNKNOWN
 from ...core.plant_choices import FDI_PERIOD
-from ...core.scenario import Scenario, parse_scenario
-from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
+from ...core.scenario import Scenario
+from ...core.vehicle import DEFAULT_VEHICLE
 from ...core.wheel import torque_scale
 from ..campaigns.campaign import LocalExecutor
-from ..metrics import judge_size
-from ..metrics import rate
+from ..campaigns.service_family import FAULT_FREE_S, FAULT_KINDS, Draw, batches, draw, fdir_for, scenario
+from ...scoring.metrics import judge_size
+from ...scoring.metrics import rate
 from .kit import format_rate, write_report
 
 SEED_BASES = {"tuning": 90_000_000, "evaluation": 91_000_000, "net": 92_000_000}
 FAULT_FREE_SEEDS = 500_000   # the fault-free runs' seeds: the set's base plus this
 GIVEN_UP_SEEDS = 700_000     # the given-up runs' seeds: the set's base plus this
 GIVEN_UP_MAX_S = 1800.0      # [s] the given-up runs' longest
-FAULT_FREE_S = 600.0
 POINTING_DEG = 0.2
 SETTLE_S = 60.0          # [s] after an onset and after a set-point change, not judged
-CALIBRATION_S = 150.0    # [s] the shipped unit_calibrated bands
-DURATIONS = ((600.0, 0.7), (1800.0, 0.15), (7200.0, 0.12), (21600.0, 0.03))   # [s], share of runs
-FAULT_KINDS = ("current_limiter", "temperature", "bus_voltage")   # the kinds drawn, in the draw's order
 EVERY = 10               # record every 10th control sample (1 s): hours of four wheels in memory
-BATCH = 25
 ACTED = ("out_of_use", "held", "kept_in_use")
 # what FDIR says when the momentum (or the wheels left) cannot keep the pointing (core/fdir.py)
 MOMENTUM_REASONS = ("pointing is lost", "no wheel left")
 # [N m] a fault effect well above every residual bound: certainly visible (the Type A's; another wheel type's
 # scaled by its torque, wheel.torque_scale: run_figures' visible_torque)
 VISIBLE_TORQUE = 2e-4
-
-
-@dataclass(frozen=True)
-class Draw:
-    """What one in-service run is, before it is a Scenario (the report lists these)."""
-
-    seed: int
-    duration: float
-    units: bool
-    orbit: bool
-    interval_s: tuple
-    size_deg: float
-    faults: tuple    # ({kind, wheel, onset, value, ramp}, ...)
-    fault_free: bool = False   # drawn as one of the fault-free 600-s runs (draw(fault_free=True))
-    give_up: bool = False      # run with FDIR made to give up every wheel it confirms (fdir_for)
-    vehicle: str = DEFAULT_VEHICLE   # the spacecraft (a shipped name): its wheel set, fault sizes, slews, FDI
-
-
-@lru_cache(maxsize=None)
-def _vehicle(name: str):
-    """The vehicle of a draw (a shipped name), and what the family draws from it: its wheel set, the in-service
-    fault sizes and the largest set-point change [deg] (MakSat: Table 2.3's 5 deg, the four-wheel set)."""
-    vehicle = load_vehicle(name)
-    return vehicle, vehicle.wheel_set, vehicle.dispersions.fault_ranges, max(
-        abs(v) for v in vehicle.dispersions.setpoint_change_deg)
-
-
-def draw(seed: int, max_duration: float | None = None, fault_free: bool = False,
-         vehicle: str = DEFAULT_VEHICLE) -> Draw:
-    """The in-service run of ``seed`` (module docstring); ``max_duration`` [s] shortens the longer ones (the
-    rest of the draw unchanged); ``fault_free``: a 600-s run of the family without a fault (the false
-    reconfiguration figure needs a thousand of them); ``vehicle``: the spacecraft's name (its wheels, sizes)."""
-    _, wheels, ranges, largest = _vehicle(vehicle)
-    rng = np.random.default_rng([int(seed), 34])
-    durations, shares = zip(*DURATIONS)
-    duration = float(rng.choice(durations, p=shares))
-    if fault_free:
-        duration = FAULT_FREE_S
-    if max_duration is not None:
-        duration = min(duration, float(max_duration))
-    units = bool(rng.random() < 0.5)
-    orbit = bool(rng.random() < 0.2)
-    low = float(rng.uniform(60.0, 300.0))
-    interval = (round(low, 1), round(float(min(900.0, low + rng.uniform(0.0, 600.0))), 1))
-    size = round(float(rng.uniform(min(1.0, largest), largest)), 2)
-    faults = []
-    if rng.random() < 2.0 / 3.0 and not fault_free:
-        earliest = CALIBRATION_S + 5.0 if units else 20.0
-        if units and rng.random() < 0.15:   # right after the calibration
-            onset = rng.uniform(earliest, earliest + 20.0)
-        else:
-            onset = rng.uniform(earliest, duration - 240.0)
-        wheel = str(rng.choice(wheels.active))
-        faults.append(_fault(rng, wheel, onset, ranges))
-        if rng.random() < 0.2 and onset + 100.0 < duration - 240.0:
-            others = [w for w in wheels.names if w != wheel]
-            second = rng.uniform(onset + 100.0, min(onset + 600.0, duration - 240.0))
-            faults.append(_fault(rng, str(rng.choice(others)), second, ranges))
-    return Draw(int(seed), duration, units, orbit, interval, size, tuple(faults), bool(fault_free), vehicle=vehicle)
-
-
-def _fault(rng, wheel: str, onset: float, ranges: dict) -> dict:
-    kind = str(rng.choice(FAULT_KINDS))
-    value = round(float(rng.uniform(*ranges[kind])), 4)
-    ramp = 0.0 if rng.random() < 0.5 else round(float(rng.uniform(50.0, 300.0)), 1)
-    return {"kind": kind, "wheel": wheel, "onset": round(float(onset), 1), "value": value, "ramp": ramp}
-
-
-def scenario(d: Draw) -> Scenario:
-    """The Scenario of a draw, through the scenario file's own checks (and its text, as a bag records it)."""
-    raw = {"name": "service", "duration": d.duration, "seed": d.seed,
-           "description": "in service: every capability at once (rw-fdi bench service)",
-           **({"plant": {"wheel_set": _vehicle(d.vehicle)[1].name}} if d.vehicle == DEFAULT_VEHICLE
-              else {"vehicle": d.vehicle}),
-           "manoeuvres": {"interval_s": list(d.interval_s), "size_deg": [-d.size_deg, d.size_deg]},
-           "faults": [dict(f) for f in d.faults]}
-    if d.units:
-        raw["wheels"] = {"variation": True}
-    if d.orbit:
-        raw["environment"] = {"epoch": "2026-01-01T00:00:00"}
-        raw["magnetorquers"] = {}
-    return parse_scenario(yaml.safe_dump(raw, sort_keys=False), origin=f"service seed {d.seed}")
-
-
-def fdir_for(units: bool, give_up: bool = False, vehicle: str = DEFAULT_VEHICLE, watch: FdiConfig | None = None,
-             fdi: FdiConfig | None = None) -> Fdir:
-    """The onboard FDIR of the family: ``fdi`` (default: the shipped FDI of ``vehicle``), calibrated to the units
-    where they vary; ``give_up``: made to give up every wheel it confirms (no holding, no keeping), for the
-    identification of a wheel whose driver goes off at its decision. ``watch``: every observer of that FDI
-    configuration (ours, and its plug-ins) judged beside, acted on by nothing (pipeline.FdiPipeline)."""
-    from dataclasses import replace
-    calibration = CALIBRATION_S if units else 0.0
-    loaded = replace(fdi or FdiConfig(), unit_calibration=calibration).for_vehicle(vehicle).loaded(FDI_PERIOD)
-    policy = {"holdable": float("inf"), "slew_rate": 0.0} if give_up else {}
-    watched = None
-    if watch is not None and not give_up:
-        watched = replace(watch, unit_calibration=calibration).for_vehicle(vehicle).loaded(FDI_PERIOD)
-    return Fdir(loaded, identification=True, watch=watched, **policy)
 
 
 def judged_mask(time, scenario_: Scenario, start: float) -> np.ndarray:
@@ -304,18 +197,6 @@ def _simulate(draws: list, watch: FdiConfig | None = None) -> list:
     # a given-up run (at most 30 min) keeps every control step: what its driven FDI samples averaged
     traj = simulate(scenarios, fdir=fdir, every=1 if draws[0].give_up else EVERY)
     return [run_figures(traj, b, d, s) for b, (d, s) in enumerate(zip(draws, scenarios))]
-
-
-def batches(draws: list, size: int = BATCH) -> list:
-    """Draws grouped by what a batch must share (duration, units, orbit), longest first, in batches."""
-    groups = defaultdict(list)
-    for d in draws:
-        groups[(d.duration, d.units, d.orbit, d.give_up, d.vehicle)].append(d)
-    out = []
-    for key in sorted(groups, key=lambda k: -k[0]):   # longest first: the pool's tail is short runs
-        members = groups[key]
-        out += [members[i:i + size] for i in range(0, len(members), size)]
-    return out
 
 
 def given_up_draws(seeds, vehicle: str = DEFAULT_VEHICLE) -> list:

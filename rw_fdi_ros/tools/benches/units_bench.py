@@ -12,7 +12,7 @@ Seeds from 40,000,000 (varied) and 41,000,000 (datasheet), disjoint from
 every fit and tuning; faults on wheel seed mod 3 with onsets uniform in
 160-300 s: after the window calibration assumes healthy.
 
-Targets (issue 17): calibrated, false alarms <= 0.5 % and detection >= 95 %
+Targets: calibrated, false alarms <= 0.5 % and detection >= 95 %
 at 10 % current loss and +30 C on varied wheels; on the datasheet wheel the
 best method at least matches the model-based baseline.
 """

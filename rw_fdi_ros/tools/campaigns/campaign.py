@@ -21,7 +21,7 @@ from ...core.scenario import load_scenario
 from ...extras import require
 from ...storage.bag import bag_is_complete
 from .engine import batches, check_engine, record_batch
-from .run import bag_name, resolve_scenario, run_scenario, short_step_topics
+from ...runner.scenario_run import bag_name, resolve_scenario, run_scenario, short_step_topics
 
 
 @dataclass
@@ -153,7 +153,7 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
 
     def attempt(seed):
         if fdi:
-            from .fdi import run_with_fdi
+            from ...runner.fdi_run import run_with_fdi
             return run_with_fdi(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
         return run_scenario(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
 

@@ -15,13 +15,13 @@ from pathlib import Path
 
 from ...fdi_config import FdiConfig
 from ...core.plant_choices import PlantChoices
-from ...launch.graph import NodeSpec, fdi_nodes, plugin_parameters, with_reader_counts
-from ...launch.graph import DEFAULT_GROUPING
-from ...launch.launcher import DomainLease, GraphProcesses, cleanup
+from ...runner.graph import NodeSpec, fdi_nodes, plugin_parameters, with_reader_counts
+from ...runner.graph import DEFAULT_GROUPING
+from ...runner.launcher import DomainLease, GraphProcesses, cleanup
 from ...graph import topics as T
 from ...storage.bag import BagError, bag_is_complete, message_counts, read_bag
 from ..design.offline import plant_conditions
-from .run import RunOutcome
+from ...runner.scenario_run import RunOutcome
 
 
 def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0, wheel_type: str = ""):
@@ -69,7 +69,7 @@ def replay_bags(bags, out_bags, fdi=None, rate: float = 0.0, keep_logs: bool = F
                 grouping: str = DEFAULT_GROUPING) -> list:
     """Replay ``bags`` (recorded under the same plant choices) through one graph of the FDI ``fdi`` (FdiConfig
     or its mapping; None: the shipped one) (``grouping``: which nodes
-    share a process, launch/graph.GROUPINGS); the FDI outputs of bag i go to ``out_bags[i]``. Returns one
+    share a process, runner/graph.GROUPINGS); the FDI outputs of bag i go to ``out_bags[i]``. Returns one
     RunOutcome per bag, in order. A graph that fails part way keeps the bags it finished; the first
     unfinished bag gets a graph alone and the rest another, so a bad bag fails alone."""
     bags, out_bags = [Path(b) for b in bags], [Path(b) for b in out_bags]

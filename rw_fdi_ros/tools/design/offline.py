@@ -240,7 +240,7 @@ def judge(run: ObserverRun, curves: dict, samples=None, decision=None, persisten
         wheel -> the last Identification or None ({} without ``identification``).
     """
     from ...core.pipeline import Isolation, Verdict
-    from ..metrics import VERDICT, Series, decision_slot
+    from ...scoring.metrics import VERDICT, Series, decision_slot
     for obs, c in curves.items():
         c.check_method(run.method, origin=f"thresholds_{obs}")
     wheels, n = run.wheels, len(run.time)
@@ -273,7 +273,7 @@ def judge(run: ObserverRun, curves: dict, samples=None, decision=None, persisten
 
 def decisions(run: ObserverRun, curves: dict, persistence: int | None = None) -> dict:
     """observer -> axis -> (alarm flags, first alarm time) of the observers' series (:func:`judge`)."""
-    from ..metrics import VERDICT
+    from ...scoring.metrics import VERDICT
     out = {}
     series, _ = judge(run, curves, persistence=persistence)
     for obs, s in ((o, v) for o, v in series.items() if o != VERDICT):

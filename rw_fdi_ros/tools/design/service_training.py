@@ -1,9 +1,9 @@
-"""Elman networks trained for service (issue 36 item 1): on what a spacecraft in service shows its wheels.
+"""Elman networks trained for service: on what a spacecraft in service shows its wheels.
 
 The shipped networks learnt one slew at t = 0 on three datasheet wheels; in service the wheels see
 manoeuvres at any time, reconfigurations (the standby wheel brought in, the others taking a lost wheel's
 share), momentum dumps that take them through zero, and units that are not the datasheet. Here the
-training runs are draws of the in-service family itself (tools/benches/service_bench.draw: its own seeds,
+training runs are draws of the in-service family itself (tools/campaigns/service_family.draw: its own seeds,
 flown with the onboard FDIR on the core loop, so the reconfigurations happen as in service), and the
 network learns every healthy running stretch of every wheel: the samples of a faulty wheel from its first
 onset on and of a wheel at rest and unpowered (standby) are left out, the rest cut into windows of WINDOW
@@ -26,6 +26,7 @@ import numpy as np
 
 from ...core.elman import HIDDEN, standby
 from ...core.vehicle import DEFAULT_VEHICLE
+from ..campaigns import service_family as family
 
 WINDOW = 300            # [FDI samples] a training window: two of each 600-s run
 TRAIN_MAX_S = 1800.0    # [s] the longest training run (the family's 2-h and 6-h draws shortened)
@@ -36,10 +37,9 @@ def _run_batch(draws, act: bool = True) -> list:
     """(draw, FdiSamples) of one batch of draws flown on the core loop, every sample: with the family's FDIR
     (the vehicle's shipped FDI), or, ``act`` False, with no FDIR (what a vehicle's FDI is first fitted on)."""
     from ...core.closed_loop import simulate
-    from ..benches import service_bench as sb
     from .samples import samples_from_series
-    scenarios = [sb.scenario(d) for d in draws]
-    traj = simulate(scenarios, fdir=sb.fdir_for(draws[0].units, vehicle=draws[0].vehicle) if act else None)
+    scenarios = [family.scenario(d) for d in draws]
+    traj = simulate(scenarios, fdir=family.fdir_for(draws[0].units, vehicle=draws[0].vehicle) if act else None)
     stamps = np.round(traj.time * 1e9).astype(np.int64)
     return [(d, samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
                                     seed=d.seed, wheels=traj.wheel_names, wheel_params=scenarios[0].spacecraft.wheel))
@@ -53,14 +53,13 @@ def family_runs(seeds, units: str = "mixed", fault_free: bool = False, executor=
     ``vehicle`` (a shipped name or a vehicle file's absolute path); ``act`` False: flown without FDIR."""
     from functools import partial
     from tqdm import tqdm
-    from ..benches import service_bench as sb
     from ..campaigns.campaign import LocalExecutor
-    draws = [sb.draw(s, TRAIN_MAX_S, fault_free=fault_free, vehicle=str(vehicle)) for s in seeds]
+    draws = [family.draw(s, TRAIN_MAX_S, fault_free=fault_free, vehicle=str(vehicle)) for s in seeds]
     if units != "mixed":
         draws = [replace(d, units=units == "units") for d in draws]
     out = []
     with tqdm(total=len(draws), desc=desc, unit="run", file=sys.stderr) as bar:
-        for done in (executor or LocalExecutor()).map_unordered(partial(_run_batch, act=act), sb.batches(draws),
+        for done in (executor or LocalExecutor()).map_unordered(partial(_run_batch, act=act), family.batches(draws),
                                                                   processes=True):
             out += done
             bar.update(len(done))
@@ -146,14 +145,12 @@ def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, u
 def family_plant(draw) -> dict:
     """The plant choices a family draw is flown under, as a bag of it records them (what bands are fitted for)."""
     from ...core.plant_choices import PlantChoices
-    from ..benches import service_bench as sb
-    return PlantChoices.of_recording(sb.scenario(draw).plant_choices().scenario_dict()).as_dict()
+    return PlantChoices.of_recording(family.scenario(draw).plant_choices().scenario_dict()).as_dict()
 
 
 def fit_service_bands(fit_runs, fit_unit_runs, out_dir) -> dict:
     """The bands of every observer of the set in ``out_dir`` fitted on the family's fault-free 600-s runs:
     datasheet ones there, calibrated ones (150 s, on unit runs) in its unit_calibrated/ (config/fdi's layout)."""
-    from ..benches import service_bench as sb
     from .offline import fit_thresholds, load_models
     out_dir = Path(out_dir)
     models = load_models(out_dir)
@@ -163,7 +160,7 @@ def fit_service_bands(fit_runs, fit_unit_runs, out_dir) -> dict:
     if fit_unit_runs:
         bands["unit_calibrated"] = fit_thresholds([s for _, s in fit_unit_runs], models, out_dir / "unit_calibrated",
                                                   model_ref="../model_set.json", plant=plant,
-                                                  unit_calibration=sb.CALIBRATION_S)
+                                                  unit_calibration=family.CALIBRATION_S)
     return bands
 
 

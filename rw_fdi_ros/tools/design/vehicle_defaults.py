@@ -28,7 +28,7 @@ import yaml
 from ...core.controller_design import design_controller
 from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE_SPEED_AWARE
 from ...core.vehicle import load_vehicle, to_mapping
-from ..metrics import wilson
+from ...scoring.metrics import wilson
 from .offline import alarmed_runs, fit_thresholds, load_models, observe, threshold_set
 from .samples import simulated_fault_free_runs
 from .train import EPOCHS, train_models
@@ -61,7 +61,7 @@ def vehicle_scenarios(vehicle_file: Path, out: Path) -> dict:
 
 def service_unit_runs(vehicle_file: Path, seeds, executor=None, desc: str = "unit runs") -> tuple:
     """(FdiSamples, plant choices) of the in-service family's fault-free 600-s draws of ``seeds`` on drawn wheel
-    units of the vehicle (tools/benches/service_bench.draw: manoeuvres every 60-900 s, a share in orbit with
+    units of the vehicle (tools/campaigns/service_family.draw: manoeuvres every 60-900 s, a share in orbit with
     dumping), flown without FDIR. A calibrated observer learns its unit at the speed it holds then; it is in
     service, after slews to other speeds and through dumps, that what it could not learn shows (viscous against
     coulomb friction), so its bands are fitted there, not on one-slew runs."""

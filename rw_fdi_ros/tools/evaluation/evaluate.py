@@ -24,10 +24,11 @@ from ...core.elman import ModelError
 from ...graph import topics as T
 from ...storage.bag import BagError, bag_is_complete, read_bag, read_series
 from ..campaigns.campaign import LocalExecutor, _progress
-from ..campaigns.run import short_step_topics
+from ...runner.scenario_run import short_step_topics
 from ...paths import shown_path
-from ..metrics import RunEval, aggregate, observable_level, health_rows, identification_figures
-from ..bag_series import fdi_output_topics, health_from_bag, identification_from_bag, scenario_of, series_from_bag
+from ...scoring.metrics import RunEval, aggregate, observable_level, health_rows, identification_figures
+from ...scoring.bag_series import (fdi_output_topics, health_from_bag, identification_from_bag, scenario_of,
+                                   series_from_bag)
 from ...core.plant_choices import PlantChoices
 from ..design.offline import model_card
 from ..campaigns.replay import replay_bags, replay_finished

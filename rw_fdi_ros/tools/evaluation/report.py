@@ -92,7 +92,7 @@ def headline(figures: dict) -> list:
     return rows
 
 
-NOT_IN_THESIS = "not in the thesis"   # the model observer is ours (issue 17)
+NOT_IN_THESIS = "not in the thesis"   # the model observer is ours, not the thesis'
 
 
 def _thesis_reliability(obs: str) -> str:
@@ -105,7 +105,7 @@ def write_markdown(report: dict, path: Path):
     lines = ["# rw_fdi_ros evaluation report", "",
              f"{report['runs']} runs evaluated by bag replay through the observer and isolation nodes; "
              f"persistence P = {report['persistence']}; models `{report['models']}`, thresholds "
-             f"`{report['thresholds']}`. Definitions: `shared/spec/evaluation.md` and `rw_fdi_ros/tools/metrics.py`. "
+             f"`{report['thresholds']}`. Definitions: `shared/spec/evaluation.md` and `rw_fdi_ros/scoring/metrics.py`. "
              "Ranges are median [min, max].", ""]
     prov = report.get("provenance")
     if prov:

@@ -3,7 +3,7 @@
 The core closed loop (the plant and PID code the nodes run) simulates a
 batch of runs; TelemetrySampler, the observers and ObserverChannel (the code
 the observer and isolation nodes run) make the series the isolation node
-would publish, and tools.metrics.judge (the verdict `rw-fdi evaluate` uses)
+would publish, and scoring.metrics.judge (the verdict `rw-fdi evaluate` uses)
 judges them. The graph gives the same verdicts (test_screen_matches_graph.py);
 use it for large samples, `rw-fdi evaluate` on recorded bags for replays.
 """
@@ -14,7 +14,7 @@ import numpy as np
 from ...core.flight import Fdir
 from ...core.isolation import in_envelope, speed_envelope
 from ...graph.topics import DIAGNOSTICS
-from ..metrics import RunEval, judge as judge_verdict, observers_of_runs
+from ...scoring.metrics import RunEval, judge as judge_verdict, observers_of_runs
 from ..design.offline import judge, observe
 from ..design.samples import BATCH, simulated_runs
 

@@ -209,7 +209,7 @@ def _namespace_args(namespace: str) -> list:
 
 
 def process_command(process, params_file, python: str = sys.executable, namespace: str = "") -> list:
-    """The command line of one process of the graph (launch.graph.ProcessSpec): a node's own, or the composed
+    """The command line of one process of the graph (runner.graph.ProcessSpec): a node's own, or the composed
     executable with NAME=EXECUTABLE per node (no name remapping: it would rename all of them).
 
     Parameters
@@ -235,7 +235,7 @@ def process_command(process, params_file, python: str = sys.executable, namespac
 
 
 class GraphProcesses:
-    """Start a list of :class:`NodeSpec` as processes (``grouping``: launch.graph.GROUPINGS) and supervise them.
+    """Start a list of :class:`NodeSpec` as processes (``grouping``: runner.graph.GROUPINGS) and supervise them.
     Nodes are named by their node name (``run(main=...)``); what failed is named by its process."""
 
     def __init__(self, nodes, domain_id: int, work_dir: Path, python: str = sys.executable,

@@ -90,7 +90,7 @@ def observers_of_runs(runs) -> list:
     return [obs for obs in (*OBSERVERS, *plugins, VERDICT, *extra) if runs and all(obs in r.series for r in runs)]
 
 
-VERDICT = "verdict"   # the series of /diagnostics' verdict beside the observers' (offline.verdict_series)
+VERDICT = "verdict"   # the series of /diagnostics' verdict beside the observers' (offline.judge)
 
 
 def decision_slot(label: str) -> str:
@@ -243,7 +243,7 @@ def run_row(run: RunEval) -> dict:
 
 def size_tolerance(kind: str, value: float, strict_bus: bool = False) -> float:
     """Temperature within 10 C, limiter share and bus voltage within 10 % of the true value (``strict_bus``:
-    the bus within 0.1 V, issue 26's target).
+    the bus within 0.1 V, the target of the units and operations benches).
 
     Parameters
     ----------

@@ -5,11 +5,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.spacecraft import BODY_AXES
-from ...core.scenario import parse_scenario, setpoint_at
-from ...core.environment import MAGNETOMETER_PERIOD
-from ...core.magnetorquers import DumpLog
-from ...graph.topics import ATTITUDE, DIPOLE_COMMAND, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
+from ..core.spacecraft import BODY_AXES
+from ..core.scenario import parse_scenario, setpoint_at
+from ..core.environment import MAGNETOMETER_PERIOD
+from ..core.magnetorquers import DumpLog
+from ..graph.topics import ATTITUDE, DIPOLE_COMMAND, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
 
 # what run_summary reads of a bag
 SUMMARY_TOPICS = [SCENARIO, ATTITUDE, FAULT_EFFECT, FDIR_WHEELS, DIPOLE_COMMAND]
@@ -23,8 +23,8 @@ def run_summary(path) -> dict:
 
     One pass over the bag folding each sample into the figures (the last error, running maxima):
     memory does not grow with the run's length."""
-    from ...storage.bag import BagInfo, iter_messages, typestore
-    from ...storage.cdr import read_joint_state_cdr, read_vector_cdr
+    from ..storage.bag import BagInfo, iter_messages, typestore
+    from ..storage.cdr import read_joint_state_cdr, read_vector_cdr
     info = BagInfo(path=Path(path))
     scenario, waiting = None, []   # attitude rows that came before the scenario (latched, at the start)
     last, peak, effect = None, None, None

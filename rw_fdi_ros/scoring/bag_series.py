@@ -1,4 +1,4 @@
-"""A recorded run read back as what the judge takes (tools.metrics): the FDI's series, identification,
+"""A recorded run read back as what the judge takes (scoring.metrics): the FDI's series, identification,
 health and ground truth of a bag, streamed (no ROS)."""
 from __future__ import annotations
 

@@ -21,7 +21,7 @@ def _timing_reports(log_dir: Path):
 def bench_graph(duration: float = 400.0, seed: int = 1) -> dict:
     """Real-time factor of a recorded fault-free run and where the time goes: the default grouping of the
     nodes into processes (composed) and every node its own process, in the same sitting."""
-    from ...launch.graph import DEFAULT_GROUPING
+    from ...runner.graph import DEFAULT_GROUPING
     report = {"sim_seconds": duration, "groupings": {}}
     texts = []
     for grouping in (DEFAULT_GROUPING, "none"):
@@ -34,7 +34,7 @@ def bench_graph(duration: float = 400.0, seed: int = 1) -> dict:
 
 
 def _bench_graph_run(duration: float, seed: int, grouping: str) -> dict:
-    from ..campaigns.run import run_scenario
+    from ...runner.scenario_run import run_scenario
     os.environ["RW_FDI_TIMING"] = "1"
     out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_"))
     scenario = out / "bench.yaml"
@@ -93,7 +93,7 @@ def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     from ...core.linear_observer import LinearObserver
     from ...core.telemetry import TelemetrySampler
     from ...paths import config_dir
-    from ..campaigns.fdi import run_with_fdi
+    from ...runner.fdi_run import run_with_fdi
     from ..design.offline import load_models
     rng = np.random.default_rng(0)
     u, r = rng.uniform(-5, 5, (20000, 3)), rng.uniform(-0.01, 0.01, (20000, 3))
@@ -154,7 +154,7 @@ def bench_study(runs: int = 8, duration: float = 400.0, seed: int = 1, jobs: int
     one (evaluate.REPLAY_CHUNK) and the figure includes its share of graph start-up."""
     import shutil
     import time
-    from ...launch.graph import DEFAULT_GROUPING
+    from ...runner.graph import DEFAULT_GROUPING
     from ...paths import config_dir
     from ..campaigns.campaign import LocalExecutor, run_campaign
     from ..campaigns.replay import replay_bags

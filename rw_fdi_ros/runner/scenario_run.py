@@ -8,12 +8,12 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...core.controller_design import scenario_design
-from ...core.scenario import Scenario, load_scenario
-from ...launch.graph import DEFAULT_GROUPING, graph_nodes
-from ...launch.launcher import DomainLease, GraphProcesses, cleanup
-from ...graph import topics as T
-from ...storage.bag import BagError, message_counts
+from ..core.controller_design import scenario_design
+from ..core.scenario import Scenario, load_scenario
+from .graph import DEFAULT_GROUPING, graph_nodes
+from .launcher import DomainLease, GraphProcesses, cleanup
+from ..graph import topics as T
+from ..storage.bag import BagError, message_counts
 from .summary import run_summary
 
 
@@ -38,7 +38,7 @@ def resolve_scenario(ref: str, seed: int | None = None):
     scenario_design(scenario, ref)
     path = Path(ref) if Path(ref).is_file() else None
     if path is None:
-        from ...core.scenario import scenario_dir
+        from ..core.scenario import scenario_dir
         path = scenario_dir() / f"{ref}.yaml"
     if seed is not None:
         scenario = scenario.with_seed(seed)
@@ -60,7 +60,7 @@ def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | 
                  progress=None, live: int | None = None, namespace: str = "",
                  domain_id: int | None = None) -> RunOutcome:
     """Run the whole graph once, recording ``out_dir/<name>``; never raises for a failed run. ``grouping``:
-    which nodes share a process (launch/graph.GROUPINGS); ``progress(simulated_s, duration_s)``: told how
+    which nodes share a process (runner/graph.GROUPINGS); ``progress(simulated_s, duration_s)``: told how
     far the run is, each wall second; ``live``: the port of a live view in Foxglove (None: none);
     ``namespace``: every node's (the graph's topics under it); ``domain_id``: a ROS domain shared with other
     graphs (None: a private one, leased)."""
