@@ -12,8 +12,8 @@ import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from .core.detection import METHODS, PERSISTENCE_MAX, observers_of
-from .core.threshold_file import ThresholdError
+from .core.fdi.detection import METHODS, PERSISTENCE_MAX, observers_of
+from .core.fdi.threshold_file import ThresholdError
 
 
 @dataclass(frozen=True)
@@ -23,7 +23,7 @@ class FdiConfig:
     Attributes
     ----------
     method : str
-        'speed_aware' (ours) or 'thesis' (core/detection.METHODS).
+        'speed_aware' (ours) or 'thesis' (core/fdi/detection.METHODS).
     models, thresholds : str or None
         Directories of ``elman_<wheel>.npz`` and ``thresholds_<observer>.json``; None: the rule above.
     persistence : int or None
@@ -34,12 +34,12 @@ class FdiConfig:
         Whether the wheel allocation acts on the verdict (reconfiguration); False: detection alone.
     decision : str or None
         What makes /diagnostics: an observer of the method, or a vote 'KofN' of its N observers
-        (core/isolation.decision_of); None: the method's decision observer.
+        (core/fdi/verdict.decision_of); None: the method's decision observer.
     vehicle : str or None
         Whose shipped FDI the defaults are (paths.fdi_dir): the run's vehicle (:meth:`for_vehicle`); None: the
         thesis' MakSat (config/fdi).
     plugins : tuple of str
-        Observers of the user's beside ours (core/observer_plugin.py: entry point names, ``module:Class`` or
+        Observers of the user's beside ours (core/fdi/observer_plugin.py: entry point names, ``module:Class`` or
         ``file.py:Class``), speed_aware only; their state and bands in the thresholds directory
         (``observer_<slot>.json``, ``thresholds_<slot>.json``).
     """
@@ -55,7 +55,7 @@ class FdiConfig:
     plugins: tuple = ()
 
     def __post_init__(self):
-        from .core.observer_plugin import absolute_spec   # a worker elsewhere finds a file.py:Class spec too
+        from .core.fdi.observer_plugin import absolute_spec   # a worker elsewhere finds a file.py:Class spec too
         object.__setattr__(self, "plugins", tuple(absolute_spec(p) for p in self.plugins or ()))
         if self.plugins and self.method != "speed_aware":
             raise ValueError("--observer needs --fdi-method speed_aware (a plug-in's residual is signed, with the "
@@ -85,8 +85,8 @@ class FdiConfig:
 
     @property
     def decision_rule(self):
-        """The core/isolation.DecisionRule of this configuration (ValueError for one the method has not)."""
-        from .core.isolation import decision_of
+        """The core/fdi/verdict.DecisionRule of this configuration (ValueError for one the method has not)."""
+        from .core.fdi.verdict import decision_of
         try:
             return decision_of(self.decision or "", self.method, self.observers if self.plugins else None)
         except ValueError as exc:
@@ -96,7 +96,7 @@ class FdiConfig:
         """This configuration for a run of ``vehicle`` (its name): the shipped FDI of that vehicle for what no
         file is given (the given files as they are: their bands refuse another vehicle, checked_curves)."""
         from dataclasses import replace
-        from .core.vehicle import DEFAULT_VEHICLE
+        from .core.mission.vehicle import DEFAULT_VEHICLE
         return replace(self, vehicle=None if vehicle == DEFAULT_VEHICLE else vehicle)
 
     @property
@@ -113,7 +113,7 @@ class FdiConfig:
         once per configuration (finding an entry point reads every installed package's metadata)."""
         if "_plugin_classes" in self.__dict__:
             return self.__dict__["_plugin_classes"]
-        from .core.observer_plugin import ObserverError, load_observer
+        from .core.fdi.observer_plugin import ObserverError, load_observer
         classes = tuple(load_observer(spec) for spec in self.plugins)
         slots = [c.slot for c in classes]
         if len(set(slots)) != len(slots):
@@ -134,7 +134,7 @@ class FdiConfig:
     def load_plugins(self) -> tuple:
         """((class, state), ...) of the plug-ins: each with its trained state (ObserverError for one that
         trains and has none)."""
-        from .core.observer_plugin import ObserverError, load_state, state_path, trains
+        from .core.fdi.observer_plugin import ObserverError, load_state, state_path, trains
         out = []
         for spec, cls in zip(self.plugins, self.plugin_classes()):
             state = load_state(self.plugin_dirs, cls.slot)
@@ -150,7 +150,7 @@ class FdiConfig:
         """``models``; else the networks the given bands were fitted with where they lie beside them (a
         directory `rw-fdi defaults` wrote); else the vehicle's shipped set; bands of your own given alone for a
         vehicle without one: the method's (what `fit-thresholds` fits with by default)."""
-        from .core.elman import MODEL_SET
+        from .core.fdi.elman import MODEL_SET
         from .paths import fdi_dir
         if self.models:
             return Path(self.models)
@@ -170,8 +170,8 @@ class FdiConfig:
         return own if self.unit_calibration > 0 and own.is_dir() else base
 
     def model_path(self, wheel: str) -> Path:
-        """The network ``wheel`` runs (its own, or its type's: core/elman.network_path)."""
-        from .core.elman import network_path
+        """The network ``wheel`` runs (its own, or its type's: core/fdi/elman.network_path)."""
+        from .core.fdi.elman import network_path
         return network_path(self.models_dir, wheel)
 
     def threshold_path(self, observer: str) -> Path:
@@ -180,7 +180,7 @@ class FdiConfig:
     def load_models(self) -> dict:
         """wheel -> ElmanWeights of the wheels the set was trained for, each a network of this method (ModelError
         names the file)."""
-        from .core.elman import REGENERATE, ElmanWeights, ModelError, network_wheels
+        from .core.fdi.elman import REGENERATE, ElmanWeights, ModelError, network_wheels
         if not self.models_dir.is_dir() and self.vehicle is not None:
             raise ModelError(f"no shipped {self.method} FDI for vehicle {self.vehicle} ({self.models_dir}): make it "
                              "with `rw-fdi defaults --vehicle FILE --out DIR` (speed_aware) and give --models DIR")
@@ -204,7 +204,7 @@ class FdiConfig:
     def check(self, plant=None, duration: float | None = None):
         """Load what the FDI nodes will load, before any process starts: one-line ModelError/ThresholdError.
         ``plant``: the run's PlantChoices (default: the defaults); ``duration`` [s]: the run's length."""
-        from .core.plant_choices import DEFAULT
+        from .core.mission.plant_choices import DEFAULT
         if self.unit_calibration and duration is not None and self.unit_calibration >= duration:
             raise ThresholdError(f"--unit-calibration {self.unit_calibration:g} s is not shorter than the "
                                  f"{duration:g} s run: the observers would spend all of it learning their wheels "
@@ -217,7 +217,7 @@ class FdiConfig:
         """This configuration with the method its models are made for (thesis: two-input networks): what
         replays and evaluations of given models take. ModelError for a missing or broken model."""
         from dataclasses import replace
-        from .core.elman import ElmanWeights, network_wheels
+        from .core.fdi.elman import ElmanWeights, network_wheels
         speed_aware = all(ElmanWeights.load(self.model_path(a)).speed_aware for a in network_wheels(self.models_dir))
         return replace(self, method="speed_aware" if speed_aware else "thesis",
                        unit_calibration=self.unit_calibration if speed_aware else 0.0)
@@ -225,14 +225,14 @@ class FdiConfig:
     def load(self) -> tuple:
         """(ObserverModels: the Elman weights by wheel and the plug-ins, {observer: ThresholdCurves}) for the
         core loop (screen, evaluate, benches)."""
-        from .core.observer_plugin import ObserverModels
+        from .core.fdi.observer_plugin import ObserverModels
         return ObserverModels(self.load_models(), self.load_plugins()), self.load_thresholds()
 
     def loaded(self, fdi_period: float = 1.0):
-        """The core/pipeline.LoadedFdi of this configuration: what the core loop's FDI pipeline runs, as the
+        """The core/fdi/pipeline.LoadedFdi of this configuration: what the core loop's FDI pipeline runs, as the
         isolation node runs it (its bands, models, decision, persistence and unit calibration)."""
-        from .core.calibration import calibration_samples
-        from .core.pipeline import LoadedFdi
+        from .core.fdi.calibration import calibration_samples
+        from .core.fdi.pipeline import LoadedFdi
         models, curves = self.load()
         return LoadedFdi(curves, models, self.decision_rule, self.persistence,
                          calibration_samples(self.unit_calibration, fdi_period))
@@ -264,7 +264,7 @@ def checked_curves(path, observer: str, method: str, unit_calibration: float = 0
     ThresholdCurves
         The loaded curves (ThresholdError, naming the file, where a check fails).
     """
-    from .core.threshold_file import ThresholdCurves
+    from .core.fdi.threshold_file import ThresholdCurves
     path = str(path)
     curves = ThresholdCurves.load(path, observer)
     curves.check_method(method, origin=path)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 PACKAGE = "rw_fdi_ros"
 # the vehicle flown unless a scenario names one (config/vehicles/maksat.yaml, the thesis' MakSat): its FDI is
-# config/fdi itself, another vehicle's config/fdi/vehicles/<name> (core/vehicle.py takes the name from here)
+# config/fdi itself, another vehicle's config/fdi/vehicles/<name> (core/mission/vehicle.py takes the name from here)
 DEFAULT_VEHICLE = "maksat"
 _SOURCE_ROOT = Path(__file__).resolve().parents[1]
 

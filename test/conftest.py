@@ -18,8 +18,8 @@ from concurrent.futures import ThreadPoolExecutor  # noqa: E402
 
 import pytest  # noqa: E402
 
-from rw_fdi_ros.core.scenario import load_scenario  # noqa: E402
-from rw_fdi_ros.core.wheel import bus_fault_visible_above  # noqa: E402
+from rw_fdi_ros.core.mission.scenario import load_scenario  # noqa: E402
+from rw_fdi_ros.core.physics.wheel import bus_fault_visible_above  # noqa: E402
 from rw_fdi_ros.runner.fdi_run import run_with_fdi  # noqa: E402
 
 
@@ -83,10 +83,10 @@ def fdi_runs(tmp_path_factory):
 
 
 def verdict_of_flags(flags: dict, decision, speed=None):
-    """(n, 3) alarms of core/pipeline.Verdict stepped over observers' alarm flags {observer: (n, 3) bool}, each
+    """(n, 3) alarms of core/fdi/pipeline.Verdict stepped over observers' alarm flags {observer: (n, 3) bool}, each
     row's first alarm that observer's first flag up (as ObserverChannel gives it), ``speed`` (n, 3) [rad/s]."""
     import numpy as np
-    from rw_fdi_ros.core.pipeline import Verdict
+    from rw_fdi_ros.core.fdi.pipeline import Verdict
     verdict = Verdict("xyz", decision)
     n = len(next(iter(flags.values())))
     out = np.zeros((n, 3), bool)

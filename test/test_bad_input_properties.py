@@ -8,7 +8,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from rw_fdi_ros.cli.options import parse_seeds
-from rw_fdi_ros.core.scenario import Scenario, ScenarioError, parse_scenario
+from rw_fdi_ros.core.mission.scenario import Scenario, ScenarioError, parse_scenario
 
 FIELDS = ["name", "description", "duration", "seed", "faults", "setpoints", "initial", "plant", "wheels"]
 FAULT_FIELDS = ["kind", "wheel", "onset", "value", "ramp"]

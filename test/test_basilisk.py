@@ -2,7 +2,7 @@
 
 Basilisk runs in its own environment (.venv-bsk, made by scripts/setup_basilisk.sh:
 its pins clash with ours) through test/basilisk/bsk_run.py; our side is
-core.plant.Plant with torque noise and disturbance off, driven by the command
+core.physics.plant.Plant with torque noise and disturbance off, driven by the command
 voltage that gives the same motor torque (tcv = tau_m / (G_d k_t), far from
 every current limit at 20-30 rad/s and 8 V).
 """
@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.plant import Plant
-from rw_fdi_ros.core.scenario import parse_scenario
-from rw_fdi_ros.core.spacecraft import INERTIA
-from rw_fdi_ros.core.wheel import WheelParams, viscous_coefficient
-from rw_fdi_ros.core.wheel_set import WHEEL_SETS
+from rw_fdi_ros.core.physics.plant import Plant
+from rw_fdi_ros.core.mission.scenario import parse_scenario
+from rw_fdi_ros.core.physics.spacecraft import INERTIA
+from rw_fdi_ros.core.physics.wheel import WheelParams, viscous_coefficient
+from rw_fdi_ros.core.physics.wheel_set import WHEEL_SETS
 
 ROOT = Path(__file__).resolve().parents[1]
 BSK_PYTHON = ROOT / ".venv-bsk" / "bin" / "python"

@@ -1,13 +1,13 @@
-"""Unit calibration (core/calibration.py): the Bayesian least squares against its closed form, the
+"""Unit calibration (core/fdi/calibration.py): the Bayesian least squares against its closed form, the
 learning window, and on the core loop a varied wheel judged against its own unit."""
 import numpy as np
 import pytest
 
 from rw_fdi_ros.fdi_config import FdiConfig
 
-from rw_fdi_ros.core.calibration import (UnitCalibration, calibration_samples, prior_variances, regressors,
+from rw_fdi_ros.core.fdi.calibration import (UnitCalibration, calibration_samples, prior_variances, regressors,
                                          tolerances)
-from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves, ThresholdError
 
 
 def synthetic(n, b, noise, seed=0):
@@ -80,7 +80,7 @@ def test_the_driver_gain_is_told_from_the_torque_constant_where_the_bridge_clips
     """Wheel-model data of a unit with k_t +3 % and G_d -5 %: unclipped the torque scales with their
     product, clipped at the EMF limit with k_t alone; the four-share calibration finds each, and the
     identification's view of the unit (UnitShares) carries them."""
-    from rw_fdi_ros.core import wheel as wm
+    from rw_fdi_ros.core.physics import wheel as wm
     rng = np.random.default_rng(3)
     n = 150
     u, w = rng.uniform(-2.0, 5.0, n), rng.uniform(35.0, 50.0, n)   # high speed: large commands clip
@@ -127,7 +127,7 @@ def test_bad_priors_and_mismatched_bands_are_refused(tmp_path):
 def test_a_varied_wheel_is_judged_against_its_own_unit():
     """Core loop: on wheels drawn around the datasheet, the calibrated nominal model leaves a residual
     several times smaller than the datasheet's after the window."""
-    from rw_fdi_ros.core.scenario import parse_scenario
+    from rw_fdi_ros.core.mission.scenario import parse_scenario
     from rw_fdi_ros.tools.design.offline import observe
     from rw_fdi_ros.tools.design.samples import simulated_runs
     weights, _ = FdiConfig().load()

@@ -5,7 +5,7 @@ import argparse
 import pytest
 
 from rw_fdi_ros.cli import VERBS, build_parser
-from rw_fdi_ros.core.detection import FALSE_ALARM_RATE
+from rw_fdi_ros.core.fdi.detection import FALSE_ALARM_RATE
 
 SHARED = {"--persistence": ["run", "evaluate", "screen", "fit-thresholds", "reproduce"],
           "--models": ["run", "evaluate", "screen", "fit-thresholds"],

@@ -51,7 +51,7 @@ def test_joint_state_cdr_decodes_as_rclpy_would_and_reads_back(position, velocit
 
 def _telemetry_sample(wheels: int = 3):
     import numpy as np
-    from rw_fdi_ros.core.telemetry import TelemetrySampler
+    from rw_fdi_ros.core.fdi.telemetry import TelemetrySampler
     rng = np.random.default_rng(1)
     sampler = TelemetrySampler(1.0, identification=True)
     rows = [sampler.add(k * 100_000_000, rng.uniform(-5, 5, wheels), rng.normal(0, 1e-2, wheels),
@@ -127,7 +127,7 @@ def test_a_legacy_text_report_still_reads():
     import base64
     import numpy as np
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-    from rw_fdi_ros.core.telemetry import BUS_GRID_KEY, report_columns
+    from rw_fdi_ros.core.fdi.telemetry import BUS_GRID_KEY, report_columns
     from rw_fdi_ros.graph.convert import fdi_sample_of, telemetry_wheels, time_msg
     sample, names = _telemetry_sample(), ("x", "y", "z")
     msg = DiagnosticArray()

@@ -1,13 +1,13 @@
-"""The decision (core/isolation.DecisionRule): what makes /diagnostics is one observer's alarm or a vote of them,
+"""The decision (core/fdi/verdict.DecisionRule): what makes /diagnostics is one observer's alarm or a vote of them,
 set in configuration and on the command line,
-the same in the isolation node and the offline tools (core/pipeline.Verdict)."""
+the same in the isolation node and the offline tools (core/fdi/pipeline.Verdict)."""
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.isolation import DecisionRule, decision_of
+from rw_fdi_ros.core.fdi.verdict import DecisionRule, decision_of
 from rw_fdi_ros.fdi_config import FdiConfig
 
 from conftest import verdict_of_flags

@@ -6,10 +6,10 @@ import pytest
 
 from rw_fdi_ros.fdi_config import FdiConfig
 
-from rw_fdi_ros.core.detection import AlarmRule, alarm_series
-from rw_fdi_ros.core.residuals import ResidualFilter, residual_series
-from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
-from rw_fdi_ros.core.threshold_fit import fit_threshold_curve
+from rw_fdi_ros.core.fdi.detection import AlarmRule, alarm_series
+from rw_fdi_ros.core.fdi.residuals import ResidualFilter, residual_series
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves, ThresholdError
+from rw_fdi_ros.core.fdi.threshold_fit import fit_threshold_curve
 
 
 def test_residual_is_a_causal_moving_average_of_the_absolute_error():
@@ -72,7 +72,7 @@ def test_threshold_file_roundtrip_and_errors(tmp_path):
 def test_curves_that_cannot_judge_the_run_are_refused(tmp_path):
     """Issue 15: a 3-sample thesis curve held its start-up value for ever and hid a 40 % current loss; a
     negative one alarms at once. Both are refused, naming the file; a speed-aware band holds at any time."""
-    from rw_fdi_ros.core.isolation import ObserverChannel
+    from rw_fdi_ros.core.fdi.verdict import ObserverChannel
     short = ThresholdCurves("elman", {a: np.array([3e-3, 2e-3, 1e-3]) for a in "xyz"})
     short.save(tmp_path / "short.json")
     loaded = ThresholdCurves.load(tmp_path / "short.json")
@@ -97,7 +97,7 @@ def test_curves_that_cannot_judge_the_run_are_refused(tmp_path):
 def test_curves_are_refused_in_another_observer_slot():
     """The shipped model observer's band (~4e-6 N m) on the Luenberger observer's residual (band ~2e-3)
     would alarm on every run: a file is used only for the observer it was fitted for."""
-    from rw_fdi_ros.core.detection import OBSERVERS, observers_of
+    from rw_fdi_ros.core.fdi.detection import OBSERVERS, observers_of
     from rw_fdi_ros.paths import config_dir
     shipped = config_dir() / "fdi"
     for obs in observers_of("speed_aware"):
@@ -124,7 +124,7 @@ def test_fitting_runs_of_different_lengths_are_refused(tmp_path):
 def test_signed_residuals_of_four_wheels_need_no_gains():
     """The series of a four-wheel set (the standby s beside x, y, z): kappa defaults to 0 for every wheel, and a
     constant error e gives the residual e once the window is full, whatever the wheel count."""
-    from rw_fdi_ros.core.residuals import signed_residual_series
+    from rw_fdi_ros.core.fdi.residuals import signed_residual_series
     n = 60
     actual, estimate = np.full((n, 4), 2e-4), np.zeros((n, 4))
     res, bound = signed_residual_series(actual, estimate, np.zeros((n, 4), complex))

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from rw_fdi_ros.core.elman import ElmanObserver, ElmanWeights, ModelError, recall_series
+from rw_fdi_ros.core.fdi.elman import ElmanObserver, ElmanWeights, ModelError, recall_series
 from rw_fdi_ros.tools.design.train import torch_forward, train_axis
 
 
@@ -137,7 +137,7 @@ def test_speed_aware_network_numpy_recall_equals_torch_and_roundtrips(tmp_path):
 def test_speed_aware_network_starts_in_its_steady_state():
     """Constant inputs from t = 0 (the wheel held before the run): the first output already is the
     network's steady state, so the residual window does not carry a start-up transient."""
-    from rw_fdi_ros.core.elman import ElmanWeights, recall_series
+    from rw_fdi_ros.core.fdi.elman import ElmanWeights, recall_series
     w = ElmanWeights.random(np.random.default_rng(5), scale=0.3, speed_scale=33.0, torque_scale=0.03)
     out = recall_series(w, np.full(30, 1.2), 0.0, np.full(30, 25.0))
     assert abs(out[0]) > 1e-4                      # not the zero-state start the thesis network has
@@ -147,7 +147,7 @@ def test_speed_aware_network_starts_in_its_steady_state():
 def test_each_wheel_runs_its_own_network_or_its_types(tmp_path):
     """A model set names the wheels it has networks for (its card's ``wheels``); a wheel without one (a
     standby wheel, at rest while they were trained) runs the first of them; a set without the list is x, y, z."""
-    from rw_fdi_ros.core.elman import network_path, network_wheel, network_wheels
+    from rw_fdi_ros.core.fdi.elman import network_path, network_wheel, network_wheels
     assert network_wheels(tmp_path) == ("x", "y", "z")
     assert network_path(tmp_path, "s").name == "elman_x.npz" and network_path(tmp_path, "z").name == "elman_z.npz"
     (tmp_path / "model_set.json").write_text(json.dumps({"wheels": ["p1", "p2", "p3", "p4"]}))

@@ -119,7 +119,7 @@ def test_a_replay_waits_for_every_reports_grid_when_its_bags_hold_them(recorded,
     """The isolation node is told that every report comes with its grid (not left to discovery, which may
     bring the report's publisher first on a loaded machine: the report judged without its grid); a bag
     without grids (an older recorder) leaves it to what it sees."""
-    from rw_fdi_ros.core.plant_choices import PlantChoices
+    from rw_fdi_ros.core.mission.plant_choices import PlantChoices
     from rw_fdi_ros.tools.campaigns.replay import replay_nodes
     _, out = recorded
     bags = out["mix"]["core"]

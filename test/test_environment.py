@@ -1,14 +1,14 @@
-"""The orbit environment (core/orbit.py, geomagnetic.py, environment.py) against closed-form answers."""
+"""The orbit environment (core/physics/orbit.py, geomagnetic.py, environment.py) against closed-form answers."""
 from datetime import datetime, timezone
 
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.environment import (ENVIRONMENT_STEP, Environments, OrbitEnvironment, body_from_inertial,
+from rw_fdi_ros.core.physics.environment import (ENVIRONMENT_STEP, Environments, OrbitEnvironment, body_from_inertial,
                                          gravity_gradient_torque)
-from rw_fdi_ros.core.geomagnetic import field_inertial
-from rw_fdi_ros.core.orbit import MU_EARTH, CircularOrbit, OrbitError, TleOrbit, sidereal_angle
-from rw_fdi_ros.core.spacecraft import INERTIA
+from rw_fdi_ros.core.physics.geomagnetic import field_inertial
+from rw_fdi_ros.core.physics.orbit import MU_EARTH, CircularOrbit, OrbitError, TleOrbit, sidereal_angle
+from rw_fdi_ros.core.physics.spacecraft import INERTIA
 
 # an ISS element set (2008, the sgp4 package's documentation example)
 ISS = ("1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927",

@@ -8,7 +8,7 @@ from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Vector3Stampe
 from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as Header
 from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
-from rw_fdi_ros.core.sampling import FdiSampler, sample_series
+from rw_fdi_ros.core.fdi.sampling import FdiSampler, sample_series
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.bag import read_bag, read_series
 from rw_fdi_ros.storage.writer import BagWriter
@@ -245,7 +245,7 @@ def test_a_figure_line_keeps_every_bucket_extreme_in_bounded_points():
 def test_reliability_and_observability_go_by_the_runs_wheels():
     """A four-wheel run (the standby s beside x, y, z): reliability has a figure per wheel of the run, and s,
     without a fitted level of its own, is judged observable against the widest of its type's."""
-    from rw_fdi_ros.core.scenario import Fault
+    from rw_fdi_ros.core.mission.scenario import Fault
     from rw_fdi_ros.scoring.metrics import Series, observable, reliability
     time = np.arange(5.0)
     residual = np.tile([1.0, 1.0, 3.0, 0.0], (5, 1))
@@ -266,7 +266,7 @@ def test_a_benchs_judged_runs_are_one_row_each(tmp_path):
     run_row's verdict columns; what is not a judged run (a bench's own per-run notes) is left out."""
     import pandas as pd
 
-    from rw_fdi_ros.core.scenario import Fault
+    from rw_fdi_ros.core.mission.scenario import Fault
     from rw_fdi_ros.tools.benches.kit import write_cells_table
     from rw_fdi_ros.scoring.metrics import Series
     time = np.arange(5.0)

@@ -3,7 +3,7 @@ two workers in processes of their own (`--scheduler`). A screen and the service 
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.scenario import parse_scenario
+from rw_fdi_ros.core.mission.scenario import parse_scenario
 from rw_fdi_ros.tools.benches.service_bench import SEED_BASES, run_service
 from rw_fdi_ros.tools.campaigns.campaign import DaskExecutor, LocalExecutor
 from rw_fdi_ros.tools.evaluation.screen import screen

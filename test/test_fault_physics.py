@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.scenario import Fault, Scenario
-from rw_fdi_ros.core.wheel import WheelParams, bus_fault_visible_above
+from rw_fdi_ros.core.mission.scenario import Fault, Scenario
+from rw_fdi_ros.core.physics.wheel import WheelParams, bus_fault_visible_above
 
 SEEDS = range(20, 26)
 ONSET = 200.0

@@ -3,9 +3,9 @@ import shutil
 
 import pytest
 
-from rw_fdi_ros.core.elman import ModelError
-from rw_fdi_ros.core.plant_choices import DEFAULT
-from rw_fdi_ros.core.threshold_file import ThresholdError
+from rw_fdi_ros.core.fdi.elman import ModelError
+from rw_fdi_ros.core.mission.plant_choices import DEFAULT
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdError
 from rw_fdi_ros.fdi_config import FdiConfig
 from rw_fdi_ros.paths import fdi_dir, thresholds_dir
 

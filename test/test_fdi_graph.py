@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from conftest import CASE_DURATION
-from rw_fdi_ros.core.detection import observers_of
-from rw_fdi_ros.core.scenario import load_scenario
-from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
+from rw_fdi_ros.core.fdi.detection import observers_of
+from rw_fdi_ros.core.mission.scenario import load_scenario
+from rw_fdi_ros.core.physics.wheel_set import AXIS_WHEELS
 from rw_fdi_ros.runner.launcher import DomainLease
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.paths import config_dir, fdi_dir

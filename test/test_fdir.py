@@ -4,18 +4,18 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.pipeline import LoadedFdi
-from rw_fdi_ros.core.allocation import TorqueAllocator, distribution, limited
+from rw_fdi_ros.core.fdi.pipeline import LoadedFdi
+from rw_fdi_ros.core.control.allocation import TorqueAllocator, distribution, limited
 from rw_fdi_ros.core.flight import Fdir
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.threshold_file import ThresholdCurves
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves
 from rw_fdi_ros.core.fdir import (SATURATED_S, DecisionDelay, DeliveryLog, Reconfiguration, held_speeds,
                                   momentum_shortfall, slew_excursion)
-from rw_fdi_ros.core.plant import Plant
-from rw_fdi_ros.core.scenario import Fault, Scenario, ScenarioError, parse_scenario
-from rw_fdi_ros.core.wheel import WheelParams
-from rw_fdi_ros.core.elman import network_wheel
-from rw_fdi_ros.core.wheel_set import AXIS_WHEELS, WHEEL_SETS, WheelSet, fitted_for
+from rw_fdi_ros.core.physics.plant import Plant
+from rw_fdi_ros.core.mission.scenario import Fault, Scenario, ScenarioError, parse_scenario
+from rw_fdi_ros.core.physics.wheel import WheelParams
+from rw_fdi_ros.core.fdi.elman import network_wheel
+from rw_fdi_ros.core.physics.wheel_set import AXIS_WHEELS, WHEEL_SETS, WheelSet, fitted_for
 from rw_fdi_ros.paths import fdi_dir
 
 SKEW = WHEEL_SETS["orthogonal_skew"]
@@ -72,8 +72,8 @@ def test_the_friction_feedforward_cancels_every_wheels_friction_in_closed_form()
     """u_ff = m u_f(Omega) + D G (c u_f(Omega)): each wheel in use its own holding voltage; a coasting wheel's
     friction given back along its spin axis by the wheels in use (x, y, z orthogonal: D is the identity on
     them, so each adds u_f(Omega_s) / sqrt(3)); a held wheel is left to its own hold command."""
-    from rw_fdi_ros.core.allocation import friction_feedforward
-    from rw_fdi_ros.core.wheel import holding_tcv
+    from rw_fdi_ros.core.control.allocation import friction_feedforward
+    from rw_fdi_ros.core.physics.wheel import holding_tcv
     speed = np.array([[30.0, -12.0, 0.4, 25.0]])
     hold = holding_tcv(speed, 23.0)
     a = TorqueAllocator(SKEW, 1, feedforward=True)
@@ -185,7 +185,7 @@ def test_the_share_of_its_torque_a_wheel_gives_is_the_current_loss_family_fit():
     """a^ = sum tau_m (tau_f - r) / sum tau_m^2: exactly a for a wheel whose motor gives a tau_m (closed form),
     NaN where it was asked for no torque; the log keeps the last samples of each wheel of each run."""
     from rw_fdi_ros.core.fdir import DeliveryLog, delivered_share
-    from rw_fdi_ros.core.telemetry import model_reaction_torque
+    from rw_fdi_ros.core.fdi.telemetry import model_reaction_torque
     u, w = np.linspace(0.5, 3.0, 10), np.linspace(20.0, 21.0, 10)
     model, tau_m, _ = model_reaction_torque(u, w)
     tau_f = model + tau_m
@@ -345,8 +345,8 @@ def test_a_scenario_names_the_wheels_of_its_set():
 def test_the_hold_command_cancels_friction_at_the_reference_and_pulls_back_to_it():
     """u = u_f(Omega_ref) + k (Omega_ref - Omega): at the reference the wheel's net torque is zero
     (closed form, eq. 2.15's friction), off it the command pulls it back, and it stays in +-5 V."""
-    from rw_fdi_ros.core.allocation import HOLD_GAIN, hold_command
-    from rw_fdi_ros.core.wheel import friction_torque
+    from rw_fdi_ros.core.control.allocation import HOLD_GAIN, hold_command
+    from rw_fdi_ros.core.physics.wheel import friction_torque
     p = WheelParams()
     u = hold_command(30.0, 30.0)
     assert p.driver_gain * p.torque_constant * u == pytest.approx(float(friction_torque(30.0, 23.0, p)), rel=1e-12)
@@ -366,7 +366,7 @@ def test_a_wheel_whose_momentum_the_others_cannot_take_is_held_and_the_pointing_
     control and s comes in; x slows to the speed its bus can hold (wheel.bus_fault_visible_above: 23.5
     rad/s) and s takes only the momentum it sheds; the pointing is within 0.2 deg again within 60 s of the
     onset."""
-    from rw_fdi_ros.core.wheel import bus_fault_visible_above
+    from rw_fdi_ros.core.physics.wheel import bus_fault_visible_above
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     scenario = Scenario("t", duration=400.0, seed=5, faults=(Fault("bus_voltage", 0, 150.0, 5.5),),
                         initial={"wheel_speed": (30.0, 25.0, 24.0)}, plant={"wheel_set": "orthogonal_skew"})

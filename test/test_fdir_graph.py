@@ -13,12 +13,12 @@ given up, 0 V: test_launch_file.py; an operator's parameter: test_wheel_allocati
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.pipeline import LoadedFdi
-from rw_fdi_ros.core.allocation import hold_command
+from rw_fdi_ros.core.fdi.pipeline import LoadedFdi
+from rw_fdi_ros.core.control.allocation import hold_command
 from rw_fdi_ros.core.flight import Fdir
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.threshold_file import ThresholdCurves
-from rw_fdi_ros.core.scenario import load_scenario
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves
+from rw_fdi_ros.core.mission.scenario import load_scenario
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.paths import fdi_dir
 from rw_fdi_ros.storage.bag import read_bag

@@ -3,9 +3,10 @@ closed forms."""
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core import wheel as wm
-from rw_fdi_ros.core.identification.identifiability import TOLD_APART, drive_current, other_family_misfit, told_apart
-from rw_fdi_ros.core.identification import DECISIVE
+from rw_fdi_ros.core.physics import wheel as wm
+from rw_fdi_ros.core.fdi.identification.identifiability import (TOLD_APART, drive_current, other_family_misfit,
+                                                            told_apart)
+from rw_fdi_ros.core.fdi.identification import DECISIVE
 
 P = wm.WheelParams()
 
@@ -54,7 +55,7 @@ def test_no_samples_and_other_kinds():
 
 def _brute_force(kind, u, w, t, values, other_grid):
     """D by exhaustion: every beginning j and every ramp between two values of a fine grid."""
-    from rw_fdi_ros.core.identification import SIGMA_FLOOR
+    from rw_fdi_ros.core.fdi.identification import SIGMA_FLOOR
     other = "bus_voltage" if kind == "current_limiter" else "current_limiter"
     truth = P.torque_constant * drive_current(kind, u, w, values)
     healthy = P.torque_constant * drive_current(other, u, w, 1.0 if other == "current_limiter" else 8.0)

@@ -4,10 +4,10 @@ import pytest
 
 from rw_fdi_ros.fdi_config import FdiConfig
 
-from rw_fdi_ros.core import calibration
-from rw_fdi_ros.core import identification as idf
-from rw_fdi_ros.core import wheel as wm
-from rw_fdi_ros.core.scenario import FAULT_KINDS, load_scenario
+from rw_fdi_ros.core.fdi import calibration
+from rw_fdi_ros.core.fdi import identification as idf
+from rw_fdi_ros.core.physics import wheel as wm
+from rw_fdi_ros.core.mission.scenario import FAULT_KINDS, load_scenario
 from rw_fdi_ros.scoring.metrics import judge_identification
 from rw_fdi_ros.tools.evaluation.screen import screen_runs
 
@@ -403,7 +403,7 @@ def test_a_bag_s_identification_reads_through_the_decoder_with_the_names_now():
     the scenario's, the judge reads it, and a wheel never alarmed is left out."""
     from types import SimpleNamespace as NS
 
-    from rw_fdi_ros.core.scenario import Fault
+    from rw_fdi_ros.core.mission.scenario import Fault
     from rw_fdi_ros.scoring.bag_series import identification_from_bag
     from rw_fdi_ros.scoring.metrics import RunEval, run_row
 

@@ -1,10 +1,10 @@
-"""An FDI input stream's order and finiteness (core/input_health.py) and the isolation channel's
-handling of a sample it cannot judge (core/isolation.py): closed-form cases."""
+"""An FDI input stream's order and finiteness (core/fdi/input_health.py) and the isolation channel's
+handling of a sample it cannot judge (core/fdi/verdict.py): closed-form cases."""
 import math
 
-from rw_fdi_ros.core.threshold_file import ThresholdCurves
-from rw_fdi_ros.core.input_health import NEW_RUN, NEXT, OUT_OF_ORDER, STALE, WARN, InputMonitor, stamp_order
-from rw_fdi_ros.core.isolation import ObserverChannel
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves
+from rw_fdi_ros.core.fdi.input_health import NEW_RUN, NEXT, OUT_OF_ORDER, STALE, WARN, InputMonitor, stamp_order
+from rw_fdi_ros.core.fdi.verdict import ObserverChannel
 
 S = 10**9
 

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.linear_observer import LinearObserver, discretise, observer_gain
-from rw_fdi_ros.core.wheel import LinearWheel, linearised_wheel
+from rw_fdi_ros.core.fdi.linear_observer import LinearObserver, discretise, observer_gain
+from rw_fdi_ros.core.physics.wheel import LinearWheel, linearised_wheel
 
 THESIS = LinearWheel(A=-0.04987, B=0.01563, C=0.01759, D=-0.00551)
 
@@ -56,12 +56,12 @@ def test_estimates_follow_the_linear_wheel_and_a_bias_decays_at_the_observer_pol
 def test_the_speed_aware_model_error_term_covers_held_out_runs():
     """UNCERTAINTY_GAIN (kappa of the speed-aware bound) was fitted on runs 1000-1139; on the held-out
     fault-free runs 5000-5009 no run errs by more per unit of torque demand, on any wheel."""
-    from rw_fdi_ros.core.linear_observer import UNCERTAINTY_GAIN, estimate_series
-    from rw_fdi_ros.core.scenario import load_scenario
-    from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
+    from rw_fdi_ros.core.fdi.linear_observer import UNCERTAINTY_GAIN, estimate_series
+    from rw_fdi_ros.core.mission.scenario import load_scenario
+    from rw_fdi_ros.core.physics.wheel_set import AXIS_WHEELS
     from rw_fdi_ros.tools.design.samples import simulated_runs
     runs = [s for _, s, _ in simulated_runs([load_scenario("fault_free").with_seed(k) for k in range(5000, 5010)])]
-    from rw_fdi_ros.core.residuals import demand_ratio
+    from rw_fdi_ros.core.fdi.residuals import demand_ratio
     for i, a in enumerate(AXIS_WHEELS):
         ratios = [demand_ratio(s.reaction_torque[:, i], estimate_series(s.tcv, s.reaction_torque)[:, i],
                                s.ripple_phasor[:, i]) for s in runs]

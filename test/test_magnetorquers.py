@@ -1,15 +1,15 @@
-"""The magnetorquers and the momentum-dumping law (core/magnetorquers.py), alone and in the closed loop."""
+"""The magnetorquers and the momentum-dumping law (core/physics/magnetorquers.py), alone and in the closed loop."""
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.pipeline import LoadedFdi
+from rw_fdi_ros.core.fdi.pipeline import LoadedFdi
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.magnetorquers import (Dumper, MomentumDumping, cross_product_dipole, saturate,
+from rw_fdi_ros.core.physics.magnetorquers import (Dumper, MomentumDumping, cross_product_dipole, saturate,
                                            wheel_momentum)
-from rw_fdi_ros.core.scenario import ScenarioError, parse_scenario
-from rw_fdi_ros.core.wheel_set import wheel_set
+from rw_fdi_ros.core.mission.scenario import ScenarioError, parse_scenario
+from rw_fdi_ros.core.physics.wheel_set import wheel_set
 
 
 def test_the_cross_product_dipole_makes_the_torque_across_the_field():
@@ -109,7 +109,7 @@ def test_after_a_reconfiguration_the_rods_dump_the_wheels_in_use():
     beside it; from then on the dipole is the law's for the momentum of all four wheels in use, and the
     pointing comes back within 0.2 deg."""
     from rw_fdi_ros.core.flight import Fdir
-    from rw_fdi_ros.core.threshold_file import ThresholdCurves
+    from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves
     from rw_fdi_ros.paths import fdi_dir
     curves = ThresholdCurves.load(fdi_dir("speed_aware") / "thresholds_model.json", "model")
     scenario = parse_scenario(_orbit().replace("duration: 600.0", "duration: 300.0")

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from rw_fdi_ros.core.plant_choices import DEFAULT
+from rw_fdi_ros.core.mission.plant_choices import DEFAULT
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 

@@ -1,4 +1,4 @@
-"""A user's observer as a plug-in (core/observer_plugin.py, docs/observers.md): found by entry point, dotted path
+"""A user's observer as a plug-in (core/fdi/observer_plugin.py, docs/observers.md): found by entry point, dotted path
 or file; stepped by the offline tools exactly as ours are; trained, fitted and screened by the same commands; the
 worked example (examples/kalman_observer) against its closed form."""
 import json
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_discrete_are
 
-from rw_fdi_ros.core.observer_plugin import (ObserverError, ObserverModels, PluginRun, WheelObserver, load_observer,
+from rw_fdi_ros.core.fdi.observer_plugin import (ObserverError, ObserverModels, PluginRun, WheelObserver, load_observer,
                                              save_state, load_state)
 from rw_fdi_ros.fdi_config import FdiConfig
 
@@ -53,7 +53,7 @@ def test_a_bad_plugin_is_one_line_naming_it(spec, words):
 
 
 def test_a_slot_of_ours_is_refused(tmp_path):
-    (tmp_path / "dup.py").write_text("from rw_fdi_ros.core.observer_plugin import WheelObserver\n"
+    (tmp_path / "dup.py").write_text("from rw_fdi_ros.core.fdi.observer_plugin import WheelObserver\n"
                                      "class Dup(WheelObserver):\n    slot = 'model'\n")
     with pytest.raises(ObserverError, match="not one of elman, linear, model"):
         load_observer(f"{tmp_path}/dup.py:Dup")
@@ -92,7 +92,7 @@ def test_a_state_that_is_not_data_is_refused_and_data_comes_back(tmp_path):
 
 @pytest.fixture(scope="module")
 def fault_free_samples():
-    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.core.mission.scenario import load_scenario
     from rw_fdi_ros.tools.design.samples import simulated_samples
     scenario = load_scenario("fault_free").with_seed(61_000_500)
     return simulated_samples([scenario])[scenario.seed]
@@ -145,7 +145,7 @@ def test_a_bench_judges_it_beside_ours(kalman_fdi, tmp_path):
 def test_it_runs_as_a_node_of_the_graph_with_the_screens_verdict(kalman_fdi, tmp_path):
     """The plug-in's node in the live graph (composed with the FDI nodes) alarms the wheels and at the times the
     screen does, and its topics are in the bag."""
-    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.core.mission.scenario import load_scenario
     from rw_fdi_ros.storage.bag import bag_info
     from rw_fdi_ros.runner.fdi_run import run_with_fdi
     from rw_fdi_ros.tools.evaluation.screen import screen_runs
@@ -184,7 +184,7 @@ def test_a_file_spec_is_made_absolute_and_each_observer_has_its_own_state(tmp_pa
 
 
 def test_a_network_of_the_model_error_without_the_model_torque_is_said():
-    from rw_fdi_ros.core.elman import ElmanWeights, recall_series
+    from rw_fdi_ros.core.fdi.elman import ElmanWeights, recall_series
     w = ElmanWeights.random(np.random.default_rng(1), speed_scale=45.0)
     w.model_error = True
     with pytest.raises(ValueError, match="nominal model's torque"):
@@ -213,7 +213,7 @@ def test_whatever_a_plugin_raises_is_one_line_naming_it(fault_free_samples):
 
 
 def test_a_state_file_of_another_observer_is_refused(tmp_path):
-    from rw_fdi_ros.core.observer_plugin import read_state
+    from rw_fdi_ros.core.fdi.observer_plugin import read_state
     path = save_state(tmp_path, ModelCopy, "x:ModelCopy", {"gain": [1.0]})
     assert read_state(path, "model_copy") == {"gain": [1.0]}
     with pytest.raises(ObserverError, match="not the state of observer kalman"):

@@ -1,12 +1,12 @@
-"""Every observer judged in service beside the decision (core/pipeline.FdiPipeline's watch, `bench service
+"""Every observer judged in service beside the decision (core/fdi/pipeline.FdiPipeline's watch, `bench service
 --every-observer`): it changes nothing FDIR does, and each observer's alarms in the core loop are
 those the offline tools (and so the nodes) give on the same FDI samples, calibrated units included."""
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.calibration import calibration_samples
+from rw_fdi_ros.core.fdi.calibration import calibration_samples
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.pipeline import LoadedFdi, observer_estimators
+from rw_fdi_ros.core.fdi.pipeline import LoadedFdi, observer_estimators
 from rw_fdi_ros.fdi_config import FdiConfig
 from rw_fdi_ros.tools.benches import service_bench as sb
 from rw_fdi_ros.tools.campaigns import service_family as family
@@ -72,7 +72,7 @@ def test_a_model_alone_gives_the_watch_nothing_more_to_load(tmp_path):
 def test_a_plugin_is_watched_in_service_as_its_node_runs_it():
     """A plug-in equal to the model observer (test_observer_plugin.ModelCopy) alarms in the core loop exactly as
     the model observer, run by run and wheel by wheel."""
-    from rw_fdi_ros.core.observer_plugin import ObserverModels
+    from rw_fdi_ros.core.fdi.observer_plugin import ObserverModels
     from test_observer_plugin import ModelCopy
     draws = [sb.Draw(92_000_920 + k, 420.0, bool(k), False, (60.0, 120.0), 5.0, (FAULT,)) for k in range(2)]
     for d in draws:

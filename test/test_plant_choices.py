@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
-from rw_fdi_ros.core.plant_choices import DEFAULT, PlantChoices
-from rw_fdi_ros.core.scenario import ScenarioError, parse_scenario
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves, ThresholdError
+from rw_fdi_ros.core.mission.plant_choices import DEFAULT, PlantChoices
+from rw_fdi_ros.core.mission.scenario import ScenarioError, parse_scenario
 
 
 def test_scenario_sets_wheel_momentum_coupling_and_overrides_win():
@@ -45,7 +45,7 @@ def test_the_fdi_of_a_run_is_judged_under_the_same_choices_wherever_they_are_ass
     from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
     from rw_fdi_ros.tools.design.samples import simulated_fault_free_runs
-    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.core.mission.scenario import load_scenario
     from rw_fdi_ros.runner.graph import graph_nodes
     from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.writer import BagWriter
@@ -87,7 +87,7 @@ def _scenario_bag(path, plant: str):
     """A bag holding only what the plant node records first: its /scenario, under ``plant``."""
     from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__String as String
 
-    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.core.mission.scenario import load_scenario
     from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.storage.writer import BagWriter
     ref = path.with_suffix(".yaml")

@@ -4,9 +4,9 @@ import numpy as np
 from rw_fdi_ros.core.flight import step_metrics
 
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.pid import design_gains, thesis_form
-from rw_fdi_ros.core.scenario import Scenario
-from rw_fdi_ros.core.spacecraft import INERTIA
+from rw_fdi_ros.core.control.pid import design_gains, thesis_form
+from rw_fdi_ros.core.mission.scenario import Scenario
+from rw_fdi_ros.core.physics.spacecraft import INERTIA
 
 
 def test_pole_placement_gives_the_designed_characteristic_polynomial():

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
+from rw_fdi_ros.core.physics.wheel_set import AXIS_WHEELS
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.storage.bag import BagError, read_bag
 from rw_fdi_ros.storage.writer import BagWriter

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.faults import operating_point_at
-from rw_fdi_ros.core.scenario import ScenarioError, available_scenarios, load_scenario, parse_scenario
+from rw_fdi_ros.core.physics.faults import operating_point_at
+from rw_fdi_ros.core.mission.scenario import ScenarioError, available_scenarios, load_scenario, parse_scenario
 
 SHIPPED = {"fault_free", "bus_4v_x", "bus_5v5_x", "current_0p6_x", "temperature_150_x", "bus_x_current_z",
            "ripple_40_x"}
@@ -162,7 +162,7 @@ def test_a_report_path_taken_by_a_file_is_one_line(tmp_path):
 def test_a_second_fault_of_one_kind_on_one_wheel_takes_over_at_its_onset():
     """Bus 5 V from 100 s, then 4 V from 300 s, on x: 8 V before, 5 V between (the later fault did not undo
     the earlier before its onset), 4 V after; a ramp goes from the value in force."""
-    from rw_fdi_ros.core.scenario import Fault
+    from rw_fdi_ros.core.mission.scenario import Fault
     faults = [Fault("bus_voltage", 0, 300.0, 4.0), Fault("bus_voltage", 0, 100.0, 5.0)]
     assert [operating_point_at(faults, t, 4)["bus_voltage"][0] for t in (50.0, 200.0, 400.0)] == [8.0, 5.0, 4.0]
     assert operating_point_at(faults, 200.0, 4)["bus_voltage"][1:].tolist() == [8.0, 8.0, 8.0]

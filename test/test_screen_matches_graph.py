@@ -7,7 +7,7 @@ over 30-54 s, and the 5 speed-aware runs (300 s, a fault-free one among them)
 that test_fdi_graph judges too (conftest.fdi_runs). Same alarmed
 wheels, same first-alarm times, same verdict from scoring.metrics.judge, for
 every observer, and the same fault identification. Two more, of varied
-wheels, with the observers calibrated to their units (core/calibration.py).
+wheels, with the observers calibrated to their units (core/fdi/calibration.py).
 """
 from concurrent.futures import ThreadPoolExecutor
 
@@ -16,9 +16,9 @@ import pytest
 from rw_fdi_ros.fdi_config import FdiConfig
 
 from conftest import CASES
-from rw_fdi_ros.core.calibration import calibration_samples
-from rw_fdi_ros.core.scenario import load_scenario
-from rw_fdi_ros.core.wheel_set import AXIS_WHEELS
+from rw_fdi_ros.core.fdi.calibration import calibration_samples
+from rw_fdi_ros.core.mission.scenario import load_scenario
+from rw_fdi_ros.core.physics.wheel_set import AXIS_WHEELS
 from rw_fdi_ros.runner.fdi_run import run_with_fdi
 from rw_fdi_ros.scoring.metrics import judge
 from rw_fdi_ros.tools.evaluation.screen import screen_runs

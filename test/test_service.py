@@ -2,8 +2,8 @@
 so that a change to one capability cannot silently break another (rw-fdi bench service measures the rates)."""
 import numpy as np
 
-from rw_fdi_ros.core.calibration import UnitCalibration
-from rw_fdi_ros.core.vehicle import load_vehicle
+from rw_fdi_ros.core.fdi.calibration import UnitCalibration
+from rw_fdi_ros.core.mission.vehicle import load_vehicle
 from rw_fdi_ros.tools.benches import service_bench as sb
 from rw_fdi_ros.tools.campaigns import service_family as family
 

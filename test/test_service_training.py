@@ -35,9 +35,9 @@ def test_a_run_shorter_than_a_window_gives_none():
 def test_a_network_of_the_model_error_that_learnt_nothing_is_the_model_observer(tmp_path):
     """A grey-box network (ElmanWeights.model_error) whose output is 0 estimates r_model exactly: its residuals
     are the model observer's, and its weights come back from the file as they went."""
-    from rw_fdi_ros.core.elman import ElmanWeights, recall_series
-    from rw_fdi_ros.core.observer_plugin import ObserverModels
-    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.core.fdi.elman import ElmanWeights, recall_series
+    from rw_fdi_ros.core.fdi.observer_plugin import ObserverModels
+    from rw_fdi_ros.core.mission.scenario import load_scenario
     from rw_fdi_ros.tools.design.offline import observe
     from rw_fdi_ros.tools.design.samples import simulated_samples
     rng = np.random.default_rng(0)
@@ -61,7 +61,7 @@ def test_a_network_of_the_model_error_that_learnt_nothing_is_the_model_observer(
 def test_the_service_trained_set_runs_in_the_graph_with_the_screens_verdict(tmp_path):
     """config/fdi/service's grey-box networks in the Elman nodes (the model torque from the FDI telemetry): the
     graph alarms the wheels and at the times the screen does."""
-    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.core.mission.scenario import load_scenario
     from rw_fdi_ros.fdi_config import FdiConfig
     from rw_fdi_ros.paths import config_dir
     from rw_fdi_ros.runner.fdi_run import run_with_fdi

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.spacecraft import INERTIA, body_acceleration, disturbance_torque
+from rw_fdi_ros.core.physics.spacecraft import INERTIA, body_acceleration, disturbance_torque
 
 
 def test_principal_axis_spin_is_steady():
@@ -51,9 +51,9 @@ def test_wheel_momentum_gyroscopic_torque_closed_form():
 def test_plant_conserves_total_momentum_only_with_coupling(coupling):
     """No external torque: |I w + J Omega| is invariant in the body frame (friction and motor torques
     are internal). The coupled plant keeps it to 1e-9; eq. 2.27 alone does not."""
-    from rw_fdi_ros.core.plant import Plant
-    from rw_fdi_ros.core.scenario import parse_scenario
-    from rw_fdi_ros.core.wheel import WheelParams
+    from rw_fdi_ros.core.physics.plant import Plant
+    from rw_fdi_ros.core.mission.scenario import parse_scenario
+    from rw_fdi_ros.core.physics.wheel import WheelParams
     wheel = WheelParams(noise_angle=0.0)
     scenario = parse_scenario("duration: 100\ninitial: {attitude_deg: [0, 0, 0], body_rate: [0.004, -0.003, 0.002], "
                               "wheel_speed: [22, 25, 28]}\nfaults: []\n")

@@ -2,14 +2,14 @@
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core import wheel as wm
-from rw_fdi_ros.core.residuals import SignedResidual
-from rw_fdi_ros.core.threshold_file import ThresholdCurves
-from rw_fdi_ros.core.threshold_fit import fit_band, gumbel_fit, gumbel_quantile, run_statistic
-from rw_fdi_ros.core.isolation import ObserverChannel
-from rw_fdi_ros.core.plant import Plant
-from rw_fdi_ros.core.scenario import Fault, Scenario, parse_scenario
-from rw_fdi_ros.core.telemetry import TelemetrySampler, model_reaction_torque
+from rw_fdi_ros.core.physics import wheel as wm
+from rw_fdi_ros.core.fdi.residuals import SignedResidual
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves
+from rw_fdi_ros.core.fdi.threshold_fit import fit_band, gumbel_fit, gumbel_quantile, run_statistic
+from rw_fdi_ros.core.fdi.verdict import ObserverChannel
+from rw_fdi_ros.core.physics.plant import Plant
+from rw_fdi_ros.core.mission.scenario import Fault, Scenario, parse_scenario
+from rw_fdi_ros.core.fdi.telemetry import TelemetrySampler, model_reaction_torque
 from rw_fdi_ros.scoring.metrics import wilson
 
 
@@ -133,7 +133,7 @@ def test_channel_compares_magnitude_with_band_plus_bound():
 def test_ripple_reach_bounds_every_monotone_gain_and_no_less():
     """|sum g_k p_k| <= reach(p) for any g in [0, 1] monotone across the window; a step in g can
     exceed |sum p_k| (what a constant-gain bound covers), and the reach is attained by a step."""
-    from rw_fdi_ros.core.residuals import ripple_reach
+    from rw_fdi_ros.core.fdi.residuals import ripple_reach
     rng = np.random.default_rng(3)
     for _ in range(200):
         p = np.exp(1j * np.cumsum(rng.uniform(0.0, 0.4, 40))) * rng.uniform(0.5, 1.0, 40)
@@ -150,8 +150,8 @@ def test_ripple_reach_bounds_every_monotone_gain_and_no_less():
 def test_a_band_is_fitted_only_from_enough_runs_for_the_rate_it_promises():
     """One or two runs cannot carry a 1e-3 band (issue 39): the Gumbel tail reaches at most EXTRAPOLATION times
     beyond 1/n, so 1e-3 per run needs 60 runs for an Elman band (half of alpha) and 30 for the model's."""
-    from rw_fdi_ros.core.threshold_file import ThresholdError
-    from rw_fdi_ros.core.threshold_fit import fitting_runs_needed
+    from rw_fdi_ros.core.fdi.threshold_file import ThresholdError
+    from rw_fdi_ros.core.fdi.threshold_fit import fitting_runs_needed
     assert fitting_runs_needed(1e-3, share=0.5) == 60 and fitting_runs_needed(1e-3) == 30
     assert fitting_runs_needed(0.5) == 10   # never fewer than MIN_FIT_RUNS
     stats = np.random.default_rng(3).gumbel(2e-4, 3e-5, size=(29, 3))

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from rw_fdi_ros.core.plant_choices import DEFAULT
+from rw_fdi_ros.core.mission.plant_choices import DEFAULT
 from rw_fdi_ros.runner.graph import NodeSpec, graph_nodes, with_reader_counts
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.tools.campaigns.replay import replay_nodes

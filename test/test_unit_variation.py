@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.plant import Plant
-from rw_fdi_ros.core.scenario import ScenarioError, parse_scenario
-from rw_fdi_ros.core.wheel import DEFAULT_UNIT_SPREAD, UNIT_PARAMETERS, WheelParams, friction_torque, net_torque
+from rw_fdi_ros.core.physics.plant import Plant
+from rw_fdi_ros.core.mission.scenario import ScenarioError, parse_scenario
+from rw_fdi_ros.core.physics.wheel import DEFAULT_UNIT_SPREAD, UNIT_PARAMETERS, WheelParams, friction_torque, net_torque
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
@@ -70,7 +70,7 @@ def test_a_unit_holds_its_speed_with_its_own_command_and_scales_its_torques():
 
 
 def test_the_recorded_scenario_redoes_the_same_units():
-    from rw_fdi_ros.core.scenario import UNIT_SCALE_RANGE, UNIT_SPREAD_MAX
+    from rw_fdi_ros.core.mission.scenario import UNIT_SCALE_RANGE, UNIT_SPREAD_MAX
     assert UNIT_SCALE_RANGE[0] <= 1 - 3 * UNIT_SPREAD_MAX and 1 + 3 * UNIT_SPREAD_MAX <= UNIT_SCALE_RANGE[1]
     widest = "{spread: {" + ", ".join(f"{n}: {UNIT_SPREAD_MAX}" for n in UNIT_PARAMETERS) + "}}"
     for seed in range(200):   # the widest spreads: some draws land near the 3-sigma cut

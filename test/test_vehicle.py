@@ -1,4 +1,4 @@
-"""The vehicle as data (core/vehicle.py): the shipped file is the thesis' spacecraft, a full inertia moves the
+"""The vehicle as data (core/mission/vehicle.py): the shipped file is the thesis' spacecraft, a full inertia moves the
 body as Euler's equations say, a vehicle file flies through scenarios, the core loop and the launcher, and a bad
 file or a vehicle that cannot fly gets one line naming the field."""
 import copy
@@ -12,18 +12,18 @@ from rw_fdi_ros.fdi_config import FdiConfig
 import yaml
 
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.controller_design import design_controller
-from rw_fdi_ros.core.magnetorquers import MomentumDumping
-from rw_fdi_ros.core.plant import Plant
+from rw_fdi_ros.core.control.controller_design import design_controller
+from rw_fdi_ros.core.physics.magnetorquers import MomentumDumping
+from rw_fdi_ros.core.physics.plant import Plant
 from rw_fdi_ros.core.fdir import slew_excursion
-from rw_fdi_ros.core.plant_choices import PlantChoiceError, PlantChoices
-from rw_fdi_ros.core.scenario import Scenario, ScenarioError, parse_scenario
-from rw_fdi_ros.core.spacecraft import DISTURBANCE_SIGMA, INERTIA, body_acceleration
-from rw_fdi_ros.core.threshold_file import ThresholdCurves, ThresholdError
-from rw_fdi_ros.core.vehicle import (THESIS, Dispersions, VehicleError, load_vehicle, shipped_vehicles, to_mapping,
-                                    vehicle_of)
-from rw_fdi_ros.core.wheel import DEFAULT_UNIT_SPREAD, WheelParams
-from rw_fdi_ros.core.wheel_set import WHEEL_SETS
+from rw_fdi_ros.core.mission.plant_choices import PlantChoiceError, PlantChoices
+from rw_fdi_ros.core.mission.scenario import Scenario, ScenarioError, parse_scenario
+from rw_fdi_ros.core.physics.spacecraft import DISTURBANCE_SIGMA, INERTIA, body_acceleration
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves, ThresholdError
+from rw_fdi_ros.core.mission.vehicle import (THESIS, Dispersions, VehicleError, load_vehicle, shipped_vehicles,
+                                             to_mapping, vehicle_of)
+from rw_fdi_ros.core.physics.wheel import DEFAULT_UNIT_SPREAD, WheelParams
+from rw_fdi_ros.core.physics.wheel_set import WHEEL_SETS
 from rw_fdi_ros.paths import fdi_dir
 
 
@@ -174,7 +174,7 @@ def test_naming_the_default_vehicle_changes_no_number():
 def test_a_scenario_flies_its_vehicle_and_the_bag_records_it(tmp_path):
     path = _vehicle_file(tmp_path)
     (tmp_path / "run.yaml").write_text("name: heavy_run\nduration: 120\nseed: 5\nvehicle: heavy.yaml\n")
-    from rw_fdi_ros.core.scenario import load_scenario
+    from rw_fdi_ros.core.mission.scenario import load_scenario
     scenario = load_scenario(str(tmp_path / "run.yaml"))
     assert scenario.vehicle == load_vehicle(path) and scenario.plant["vehicle"] == "heavy"
     np.testing.assert_array_equal(Plant(scenario).inertia, 2.0 * INERTIA)
@@ -188,7 +188,7 @@ def test_a_scenario_flies_its_vehicle_and_the_bag_records_it(tmp_path):
 
 
 def test_the_launcher_gives_the_nodes_the_vehicle(tmp_path):
-    from rw_fdi_ros.core.pid import design_gains
+    from rw_fdi_ros.core.control.pid import design_gains
     from rw_fdi_ros.runner.graph import graph_nodes
     _vehicle_file(tmp_path)
     scenario = parse_scenario("name: h\nduration: 10\nvehicle: heavy.yaml\n", origin=str(tmp_path / "h.yaml"))
@@ -240,7 +240,7 @@ def test_a_key_given_twice_is_refused_not_overwritten(tmp_path):
 def test_another_wheel_type_flies_and_every_node_is_told_it(tmp_path):
     """A vehicle's own wheel type: the scenario flies it, the nodes that model the wheel get it as their
     wheel_type parameter (read back equal), the thesis' type leaves them at their default."""
-    from rw_fdi_ros.core.vehicle import wheel_from_parameter
+    from rw_fdi_ros.core.mission.vehicle import wheel_from_parameter
     from rw_fdi_ros.runner.graph import graph_nodes
     raw = _raw()
     raw["name"], raw["wheel"]["torque_constant"] = "other_wheel", "0.035 N m/A"
@@ -482,7 +482,7 @@ def test_the_operations_bench_flies_a_vehicle_with_its_fdi():
 
 
 def test_the_identification_bench_identifies_a_vehicles_faults_with_its_fdi():
-    from rw_fdi_ros.core.identification import Identification
+    from rw_fdi_ros.core.fdi.identification import Identification
     from rw_fdi_ros.tools.benches import identification_bench as ib
     runs = ib._chunk(0, range(0, 2), vehicle="microsat_pyramid")["speed_aware"]   # current loss 40 %
     assert all(r.wheels == ("p1", "p2", "p3", "p4") for r in runs)

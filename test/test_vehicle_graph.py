@@ -1,5 +1,5 @@
 """A vehicle of the user's own through the graph: a body with products of inertia flies the same run in the
-graph as in the core loop, with its controllers, its bands and its FDI verdict (core/vehicle.py)."""
+graph as in the core loop, with its controllers, its bands and its FDI verdict (core/mission/vehicle.py)."""
 import subprocess
 import sys
 
@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import yaml
 
-from rw_fdi_ros.core.pipeline import LoadedFdi
+from rw_fdi_ros.core.fdi.pipeline import LoadedFdi
 from rw_fdi_ros.core.flight import Fdir
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.scenario import load_scenario
-from rw_fdi_ros.core.threshold_file import ThresholdCurves
+from rw_fdi_ros.core.mission.scenario import load_scenario
+from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.paths import config_dir
 from rw_fdi_ros.storage.bag import read_bag

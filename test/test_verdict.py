@@ -1,4 +1,4 @@
-"""The verdict users read (/diagnostics): the decision observer's alarm, latched (core/isolation.py)."""
+"""The verdict users read (/diagnostics): the decision observer's alarm, latched (core/fdi/verdict.py)."""
 import os
 import subprocess
 import sys
@@ -7,9 +7,9 @@ import time
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.isolation import LatchedVerdict, decision_observer
+from rw_fdi_ros.core.fdi.verdict import LatchedVerdict, decision_observer
 from rw_fdi_ros.runner.launcher import DomainLease
-from rw_fdi_ros.core.isolation import decision_of
+from rw_fdi_ros.core.fdi.verdict import decision_of
 
 from conftest import verdict_of_flags
 
@@ -86,7 +86,7 @@ def test_an_operator_resets_the_verdict_through_a_ros_2_service():
 
 
 def test_a_wheel_outside_the_operating_envelope_is_not_judged_but_a_confirmed_failure_stays():
-    from rw_fdi_ros.core.isolation import WHEEL_SPEED_ENVELOPE, in_envelope
+    from rw_fdi_ros.core.fdi.verdict import WHEEL_SPEED_ENVELOPE, in_envelope
     assert in_envelope([0.0, -WHEEL_SPEED_ENVELOPE, 30.0]).all() and not in_envelope([60.0, 0, 0])[0]
     alarm = np.zeros((6, 3), bool)
     alarm[1:, 0] = True           # x alarms from 1 s: outside the envelope until 3 s, so confirmed at 3 s

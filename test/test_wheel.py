@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core import wheel as wm
+from rw_fdi_ros.core.physics import wheel as wm
 
 
 def test_viscous_friction_eq_2_15():
@@ -73,7 +73,7 @@ def test_linearised_wheel_thesis_numbers():
 
 def test_linear_wheel_matches_nonlinear_small_signal():
     """eq. 2.22 is the small-signal model: a 0.1 V step from equilibrium, both decay alike."""
-    from rw_fdi_ros.core.wheel import net_torque, WheelParams
+    from rw_fdi_ros.core.physics.wheel import net_torque, WheelParams
     p = WheelParams(coulomb_friction=0.0)
     lw = wm.linearised_wheel(params=p)
     dt, w, dv = 0.01, 25.0, 0.1
@@ -92,8 +92,8 @@ def test_linear_wheel_matches_nonlinear_small_signal():
 def test_the_top_speed_is_where_the_drive_no_longer_beats_friction():
     """Omega_top of the thesis' Type A at 23 C and 8 V: 47.3 rad/s (the FDI envelope's 45 is 0.95 of it), where
     k_t min(G_d V_limit, I_max) equals the friction; without friction only the overspeed loop bounds it."""
-    from rw_fdi_ros.core.isolation import WHEEL_SPEED_ENVELOPE, speed_envelope
-    from rw_fdi_ros.core.wheel import NOMINAL, WheelParams, emf_current_limit, friction_torque, top_speed
+    from rw_fdi_ros.core.fdi.verdict import WHEEL_SPEED_ENVELOPE, speed_envelope
+    from rw_fdi_ros.core.physics.wheel import NOMINAL, WheelParams, emf_current_limit, friction_torque, top_speed
     p = WheelParams()
     w = top_speed(p)
     assert w == pytest.approx(47.345, abs=1e-3)
@@ -110,7 +110,7 @@ def test_the_top_speed_is_where_the_drive_no_longer_beats_friction():
 
 def test_a_units_drag_is_a_share_of_its_types_not_of_the_thesis_wheels():
     """unit_wheel scales the type's own viscous friction: a small wheel's unit keeps a small wheel's drag."""
-    from rw_fdi_ros.core.wheel import WheelParams, unit_wheel, viscous_coefficient
+    from rw_fdi_ros.core.physics.wheel import WheelParams, unit_wheel, viscous_coefficient
     small = WheelParams(viscous_scale=7.8e-4)
     unit = unit_wheel(small, {"torque_constant": [1.0], "driver_gain": [1.0], "coulomb_friction": [1.0],
                               "viscous_friction": [1.2]})

@@ -120,7 +120,7 @@ def test_without_verdicts_it_goes_blind_once_and_stays_blind_until_one_comes(nod
 
 def test_an_operator_overrules_a_wheel_fdir_held():
     from rw_fdi_ros.core.fdir import Reconfiguration
-    from rw_fdi_ros.core.wheel_set import WHEEL_SETS
+    from rw_fdi_ros.core.physics.wheel_set import WHEEL_SETS
     r = Reconfiguration(WHEEL_SETS["orthogonal_skew"])
     speeds = [27.5, 25.0, 24.0, 0.0]
     assert [d.action for d in r.give_up("z", 4.0, "confirmed", speeds)] == ["kept_in_use", "in_use"]
@@ -136,7 +136,7 @@ def test_a_held_wheel_gets_the_speed_hold_command_from_its_own_speed(node):
     held at 20 rad/s, out of control; its command each step is the hold law on that step's speed, the
     others the allocation's."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-    from rw_fdi_ros.core.allocation import hold_command
+    from rw_fdi_ros.core.control.allocation import hold_command
 
     def verdict(faulty, stamp_s):
         msg = DiagnosticArray()

@@ -1,6 +1,6 @@
 """A Kalman-filter residual as a plug-in observer of rw_fdi_ros: the worked example of docs/observers.md.
 
-Each wheel is the thesis' linearised wheel (eq. 2.22, core/wheel.linearised_wheel), held over the FDI
+Each wheel is the thesis' linearised wheel (eq. 2.22, core/physics/wheel.linearised_wheel), held over the FDI
 period (zero-order hold) and driven by noise:
 
     x_{k+1} = phi x_k + gamma u_k + w_k,     Var w = q
@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from rw_fdi_ros.core.observer_plugin import WheelObserver
-from rw_fdi_ros.core.residuals import demand_gain, demand_ratio
-from rw_fdi_ros.core.wheel import linearised_wheel
+from rw_fdi_ros.core.fdi.observer_plugin import WheelObserver
+from rw_fdi_ros.core.fdi.residuals import demand_gain, demand_ratio
+from rw_fdi_ros.core.physics.wheel import linearised_wheel
 
 def discrete_wheel(period: float) -> tuple:
     """(phi, gamma, c, d): the linearised wheel held over ``period`` [s] (ZOH)."""

@@ -33,7 +33,7 @@ def main(argv=None) -> int:
     import signal
     args = build_parser().parse_args(argv)
     signal.signal(signal.SIGTERM, _terminate)
-    from ..core.scenario import ScenarioError
+    from ..core.mission.scenario import ScenarioError
     from ..storage.bag import BagError
     try:
         code = args.func(args)

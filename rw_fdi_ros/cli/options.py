@@ -91,7 +91,7 @@ def fdi_config(args):
 def parents() -> dict:
     """The options several commands share, each defined once as an argparse parent, by name: a command
     lists the names it takes (its PARENTS)."""
-    from ..core.detection import FALSE_ALARM_RATE, METHODS, PERSISTENCE_MAX
+    from ..core.fdi.detection import FALSE_ALARM_RATE, METHODS, PERSISTENCE_MAX
     models = argparse.ArgumentParser(add_help=False)
     models.add_argument("--models", default=None, help="Elman model directory (default: config/fdi)")
     persistence = argparse.ArgumentParser(add_help=False)
@@ -107,7 +107,7 @@ def parents() -> dict:
     unit = argparse.ArgumentParser(add_help=False)
     unit.add_argument("--unit-calibration", type=number(float, 0), default=0.0, metavar="SECONDS",
                       help="the observers learn each wheel's own unit from the first SECONDS of a run, assumed "
-                           "healthy (core/calibration.py; speed_aware only; default 0: the datasheet wheel; "
+                           "healthy (core/fdi/calibration.py; speed_aware only; default 0: the datasheet wheel; "
                            "shipped thresholds for 150)")
     method = argparse.ArgumentParser(add_help=False)
     method.add_argument("--fdi-method", default="speed_aware", choices=list(METHODS),

@@ -5,10 +5,10 @@ the design live apart and this module, above both, joins them.
 """
 from __future__ import annotations
 
-from .controller_design import design_controller
+from .control.controller_design import design_controller
 from .flight import Trajectory, fly
-from .pid import PidGains
-from .plant import batch_vehicle
+from .control.pid import PidGains
+from .physics.plant import batch_vehicle
 
 
 def simulate(scenarios, gains: PidGains | None = None, **kw) -> Trajectory:

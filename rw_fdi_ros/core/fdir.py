@@ -31,12 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .allocation import distribution
-from .isolation import WHEEL_SPEED_ENVELOPE
-from .spacecraft import INERTIA
-from .telemetry import model_reaction_torque
-from .wheel import WheelParams, torque_scale
-from .wheel_set import WheelSet
+from .control.allocation import distribution
+from .fdi.verdict import WHEEL_SPEED_ENVELOPE
+from .physics.spacecraft import INERTIA
+from .fdi.telemetry import model_reaction_torque
+from .physics.wheel import WheelParams, torque_scale
+from .physics.wheel_set import WheelSet
 
 DECISION_DELAY = 1.0   # [s] from the FDI sample a decision is made on to the first command it shapes
 # [rad/s] the speed a wheel can hold and still be judged: the FDI's envelope, just under the 47.3 rad/s at which

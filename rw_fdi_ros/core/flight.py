@@ -12,16 +12,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .allocation import TorqueAllocator
+from .control.allocation import TorqueAllocator
 from .fdir import SLEW_RATE, DecisionDelay, DeliveryLog, Reconfiguration
-from .isolation import speed_envelope
-from .magnetorquers import Dumper
-from .pipeline import FdiPipeline, LoadedFdi
-from .pid import PidController, PidGains
-from .plant import Plant
-from .scenario import Scenario, setpoint_at
-from .spacecraft import inertia_times
-from .wheel import WheelParams
+from .fdi.verdict import speed_envelope
+from .physics.magnetorquers import Dumper
+from .fdi.pipeline import FdiPipeline, LoadedFdi
+from .control.pid import PidController, PidGains
+from .physics.plant import Plant
+from .mission.scenario import Scenario, setpoint_at
+from .physics.spacecraft import inertia_times
+from .physics.wheel import WheelParams
 
 
 @dataclass

@@ -13,7 +13,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 
 from ..core.fdir import Reconfiguration
-from ..core.wheel_set import joint_name
+from ..core.physics.wheel_set import joint_name
 from ..storage.cdr import joint_state_cdr
 from .topics import FDIR_STATUS
 
@@ -48,7 +48,7 @@ def fdi_telemetry_cdr(sample, names) -> bytes:
     """The FDI telemetry report of one sample (sensor_msgs/JointState, CDR): one named channel per wheel and
     quantity (:func:`telemetry_channel`, core.telemetry.report_columns), its value in ``position``; the
     exact doubles, plottable by name (PlotJuggler) or index (Foxglove, the shipped layout)."""
-    from ..core.telemetry import report_columns
+    from ..core.fdi.telemetry import report_columns
     columns = report_columns(sample)
     channels = tuple(telemetry_channel(n, key) for n in names for key in columns)
     return joint_state_cdr(sample.stamp_ns, channels, position=[columns[key][i] for i in range(len(names))
@@ -62,7 +62,7 @@ def bus_grid_msg(sample, names):
     if sample.bus_motor_torque is None:
         return None
     from sensor_msgs.msg import PointCloud2, PointField
-    from ..core.identification import BUS_VOLTAGE_GRID
+    from ..core.fdi.identification import BUS_VOLTAGE_GRID
     table = np.column_stack([BUS_VOLTAGE_GRID, np.asarray(sample.bus_motor_torque, float).T])
     msg = PointCloud2(height=1, width=table.shape[0], is_bigendian=False, point_step=8 * table.shape[1],
                       row_step=8 * table.size, is_dense=True)
@@ -76,7 +76,7 @@ def bus_grid_msg(sample, names):
 def bus_grid_of(msg, names) -> np.ndarray:
     """(N, grid) motor torques [N m] of a :func:`bus_grid_msg` (an rclpy or a rosbags message), wheels in
     ``names`` order; ValueError if it is not that table or not on the identification's grid."""
-    from ..core.identification import BUS_VOLTAGE_GRID
+    from ..core.fdi.identification import BUS_VOLTAGE_GRID
     offsets = {f.name: f.offset for f in msg.fields if f.datatype == 8 and f.count == 1}   # FLOAT64
     step = msg.point_step
     try:
@@ -98,7 +98,7 @@ def fdi_sample_of(msg, names, identification: bool = True, bus_grid=None):
     ``names`` order; ``bus_grid`` its :func:`bus_grid_msg`, if identification reads it
     (``identification=False`` skips the terms only fault identification needs). Reads the text report
     (DiagnosticArray) of bags recorded before the report was numeric, too. ValueError if malformed."""
-    from ..core.telemetry import sample_from_report
+    from ..core.fdi.telemetry import sample_from_report
     if hasattr(msg, "status"):   # legacy: one status per wheel, key -> repr text
         by_wheel = {s.hardware_id: {kv.key: kv.value for kv in s.values} for s in msg.status}
     else:

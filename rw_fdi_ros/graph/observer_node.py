@@ -1,10 +1,10 @@
 """What the observer nodes share: wheel telemetry in, estimate, residual and ripple bound out.
 
 :class:`ObserverNode` reads the FDI telemetry the wheel electronics report
-once per FDI period (/wheels/fdi_telemetry, core/telemetry.py), calls the
+once per FDI period (/wheels/fdi_telemetry, core/fdi/telemetry.py), calls the
 subclass' ``observe`` once per sample and publishes the estimate, the
 residual and the ripple bound (gated until their readers are matched, so no
-sample is lost). Its input stream is checked (core/input_health.py): a sample
+sample is lost). Its input stream is checked (core/fdi/input_health.py): a sample
 stamped back at a run's first sample starts a new run (bag replay feeds many
 runs through one graph: the subclass' ``reset``); a duplicate or late one is
 dropped; a sample with a non-finite input is not observed (it would poison
@@ -18,12 +18,12 @@ import time
 import numpy as np
 from sensor_msgs.msg import JointState
 
-from ..core.calibration import UnitCalibration, calibration_samples, regressors
-from ..core.detection import WINDOW
-from ..core.residuals import ResidualFilter, SignedResidual, ripple_share
-from ..core.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
-from ..core.sampling import SAMPLINGS
-from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
+from ..core.fdi.calibration import UnitCalibration, calibration_samples, regressors
+from ..core.fdi.detection import WINDOW
+from ..core.fdi.residuals import ResidualFilter, SignedResidual, ripple_share
+from ..core.fdi.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
+from ..core.fdi.sampling import SAMPLINGS
+from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr
 from . import topics as T
 from .convert import fdi_sample_of
@@ -65,7 +65,7 @@ class ObserverNode(GraphNode):
         if self.sampling not in SAMPLINGS:
             raise NodeError(f"parameter fdi_sampling must be one of {', '.join(SAMPLINGS)}, got {self.sampling!r}",
                             EXIT_BAD_INPUT)
-        # [s] from each run's start the observer learns its own wheel (core/calibration.py); 0: the datasheet's
+        # [s] from each run's start the observer learns its own wheel (core/fdi/calibration.py); 0: the datasheet's
         self.calibration_samples = calibration_samples(self.fdi.unit_calibration, self.param("fdi_period"))
         self.said_no_free = False   # telemetry without free_motor_torque is said once
         self.input = InputMonitor("FDI telemetry", self.param("fdi_period"))

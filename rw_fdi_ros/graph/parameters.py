@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 
-from ..core.detection import PERSISTENCE_MAX
-from ..core.scenario import FAULT_LIMITS
+from ..core.fdi.detection import PERSISTENCE_MAX
+from ..core.mission.scenario import FAULT_LIMITS
 
 BIG = 1e9               # "no upper bound" for a float, kept finite for the descriptor
 COUNT_MAX = 1_000       # readers, samples

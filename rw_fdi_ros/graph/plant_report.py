@@ -12,11 +12,11 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import MagneticField
 from std_msgs.msg import Header, String
 
-from ..core.environment import MAGNETOMETER_NOISE
-from ..core.faults import FAULT_KINDS
-from ..core.telemetry import TelemetrySampler
-from ..core.wheel import WheelParams
-from ..core.wheel_set import joint_name
+from ..core.physics.environment import MAGNETOMETER_NOISE
+from ..core.physics.faults import FAULT_KINDS
+from ..core.fdi.telemetry import TelemetrySampler
+from ..core.physics.wheel import WheelParams
+from ..core.physics.wheel_set import joint_name
 from ..storage.cdr import clock_cdr, joint_state_cdr
 from . import topics as T
 from .convert import bus_grid_msg, fdi_telemetry_cdr, time_msg
@@ -26,7 +26,7 @@ UNIT_FIELDS = (("torque_constant", "torque_constant"), ("driver_gain", "driver_g
 
 
 def run_units(wheel, run: int, count: int) -> dict:
-    """Ground-truth unit parameters of run ``run``'s ``count`` wheels (core.wheel.WheelParams, scalar or
+    """Ground-truth unit parameters of run ``run``'s ``count`` wheels (core.physics.wheel.WheelParams, scalar or
     (B, N) per parameter): what the truth message says of each wheel."""
     out = {}
     for key, attr in UNIT_FIELDS:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 
-from ..core.input_health import NEW_RUN, OUT_OF_ORDER, stamp_order
+from ..core.fdi.input_health import NEW_RUN, OUT_OF_ORDER, stamp_order
 
 GRIDS_KEPT = 100   # grids whose report never came (a broken input): not kept forever
 

@@ -19,9 +19,9 @@ rclpy is imported only for the QoS profiles, on first use.
 """
 from __future__ import annotations
 
-from ..core.detection import OBSERVERS, observers_of
-from ..core.spacecraft import BODY_AXES
-from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set as named_wheel_set
+from ..core.fdi.detection import OBSERVERS, observers_of
+from ..core.physics.spacecraft import BODY_AXES
+from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set as named_wheel_set
 
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -40,7 +40,7 @@ WHEEL_COMMAND = "/wheels/command"
 # DiagnosticArray, one status per wheel: in use (OK), standby (OK), given up (ERROR) and why; on every
 # reconfiguration decision and at the start (nodes/wheel_allocation.py)
 FDIR_WHEELS = "/fdir/wheels"
-# in orbit (core/environment.py): sensor_msgs/MagneticField, the field in body axes [T] with the noise's
+# in orbit (core/physics/environment.py): sensor_msgs/MagneticField, the field in body axes [T] with the noise's
 # covariance, from the plant once per magnetometer period; and the magnetorquers' dipole in body axes
 # [A m^2] (geometry_msgs/Vector3Stamped, frame body) from the momentum-dumping node for the same stamp
 MAGNETOMETER = "/magnetometer"
@@ -60,7 +60,7 @@ def axis_of_joint(joint: str, joints: tuple) -> str:
         raise ValueError(f"must be one of {', '.join(joints)}, got {joint!r}")
     return joint.rsplit("_", 1)[1]
 # the wheel electronics' report once per FDI period: period means of tcv, reaction torque, speed and the
-# nominal model's terms (core/telemetry.py), a JointState of named channels 'reaction_wheel_<name>/<quantity>',
+# nominal model's terms (core/fdi/telemetry.py), a JointState of named channels 'reaction_wheel_<name>/<quantity>',
 # the value in position (graph/convert.py); beside it, for fault identification only, the motor torque on
 # the bus-voltage grid (a PointCloud2 table: one point per bus voltage, one float64 field per wheel)
 FDI_TELEMETRY = "/wheels/fdi_telemetry"
@@ -174,7 +174,7 @@ def fdi_output_topics(observer: str):
 
 
 def plugin_slots(p) -> tuple:
-    """The slots of a user's observers (core/observer_plugin.py) a node's parameters ``p`` name: its
+    """The slots of a user's observers (core/fdi/observer_plugin.py) a node's parameters ``p`` name: its
     ``plugin_observers``, comma-separated (a string: rcl has no empty string array)."""
     return tuple(x.strip() for x in str(p.get("plugin_observers", "") or "").split(",") if x.strip())
 

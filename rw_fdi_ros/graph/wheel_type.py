@@ -1,11 +1,11 @@
 """The nodes that model the wheels (controllers, allocation, observers, isolation) take the vehicle's wheel type
-as one parameter, ``wheel_type``: its datasheet as the vehicle file writes it (core/vehicle.wheel_parameter, one
+as one parameter, ``wheel_type``: its datasheet as the vehicle file writes it (core/mission/vehicle.wheel_parameter, one
 line of JSON, every value with its unit), '' for the thesis' ITHACO Type A. The launcher sets it from the
 scenario's vehicle."""
 from __future__ import annotations
 
-from ..core.vehicle import VehicleError, wheel_from_parameter
-from ..core.wheel import WheelParams
+from ..core.mission.vehicle import VehicleError, wheel_from_parameter
+from ..core.physics.wheel import WheelParams
 from .runtime import EXIT_BAD_INPUT, NodeError
 
 

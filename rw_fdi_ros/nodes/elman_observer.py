@@ -1,6 +1,6 @@
 """elman_observer: one wheel's Elman network in recall mode (thesis Fig. 4.8), started once per wheel
 with the ``wheel`` parameter (its joint, ``reaction_wheel_x`` / ``_y`` / ``_z`` / ``_s``; the redundant
-wheel, of the same type, runs the network of its type, core/elman.network_wheel).
+wheel, of the same type, runs the network of its type, core/fdi/elman.network_wheel).
 
 Every FDI sample (1 s) it estimates the reaction torque from the command
 voltage, its own previous estimate and (speed-aware method) the wheel speed,
@@ -10,8 +10,8 @@ and publishes the estimate, the residual and the ripple bound: the signed
 """
 from __future__ import annotations
 
-from ..core.residuals import ResidualFilter
-from ..core.elman import REGENERATE, ElmanWeights, ModelError, WheelRecall
+from ..core.fdi.residuals import ResidualFilter
+from ..core.fdi.elman import REGENERATE, ElmanWeights, ModelError, WheelRecall
 from ..graph import topics as T
 from ..graph.observer_node import ObserverNode
 from ..graph.runtime import EXIT_BAD_INPUT, NodeError, main_for

@@ -1,6 +1,6 @@
 """isolation: residuals against thresholds, persistence, which wheel is faulty and since when.
 
-It runs stages 2-5 of the FDI pipeline (core/pipeline.Isolation, the very object the core loop and the
+It runs stages 2-5 of the FDI pipeline (core/fdi/pipeline.Isolation, the very object the core loop and the
 offline judge step): each observer's residual and ripple bound, as its node publishes them, against its
 band for P consecutive samples (ObserverChannel); the decision (one observer, or a vote ``KofN``); the
 latched verdict within the operating envelope; the identification. What it runs is the run's FDI, the
@@ -13,7 +13,7 @@ the sim clock. A wheel the decision alarms is a confirmed failure: /diagnostics 
 ``~/reset`` service (std_srvs/Trigger) clears it. Every output of stamp k is made from the inputs of stamp k
 alone, so the same run gives the same messages.
 
-It also identifies the fault of every alarmed wheel (core/identification.py):
+It also identifies the fault of every alarmed wheel (core/fdi/identification.py):
 it reads the FDI telemetry (with the identification terms) and from the
 fault's onset (found at a wheel's first alarm in the samples before it)
 estimates the fault's kind and size on every sample, on the wheel's own unit
@@ -23,7 +23,7 @@ fault_size_unit_limited and the message) and onto /fdi/identification. Identific
 node of its own, because it refines this node's verdict: one status per wheel,
 made of one stamp's alarm and telemetry.
 
-It monitors its inputs (core/input_health.py) and never reports OK while it
+It monitors its inputs (core/fdi/input_health.py) and never reports OK while it
 could not raise an alarm: an input stamped back at a run's first sample starts
 a new run (bag replay feeds many runs through one graph: that source's alarms
 or identification are forgotten); a duplicate or late one is dropped and said
@@ -43,12 +43,12 @@ from sensor_msgs.msg import JointState, PointCloud2
 
 import numpy as np
 
-from ..core.calibration import calibration_samples
-from ..core.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
-from ..core.isolation import stamp_seconds
-from ..core.pipeline import Isolation
-from ..core.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
-from ..core.wheel_set import joint_name, wheel_set
+from ..core.fdi.calibration import calibration_samples
+from ..core.fdi.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
+from ..core.fdi.verdict import stamp_seconds
+from ..core.fdi.pipeline import Isolation
+from ..core.mission.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
+from ..core.physics.wheel_set import joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr
 from ..graph import topics as T
 from ..graph.convert import fdi_sample_of, stamp_ns, time_msg
@@ -118,7 +118,7 @@ class IsolationNode(GraphNode):
         self.joints = tuple(joint_name(n) for n in self.names)
         self.compute, self.compute_cpu = [], []
         self.wheel = declare_wheel_type(self)   # the wheel type: its identification and envelope
-        # the FDI pipeline's stages 2-5 (core/pipeline.py), the core loop's and the offline judge's too
+        # the FDI pipeline's stages 2-5 (core/fdi/pipeline.py), the core loop's and the offline judge's too
         self.isolation = Isolation(self.names, curves, decision, fdi.persistence, self.param("latch"), self.wheel,
                                    calibration_samples(calibration, plant.fdi_period), identification=True)
         self.channels, self.decision = self.isolation.channels, self.isolation.decision

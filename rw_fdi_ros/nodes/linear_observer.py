@@ -1,19 +1,19 @@
 """linear_observer: the Luenberger observer of the N wheels of the set at once (thesis 3.3).
 
 The full-order observer of the linearised wheel, poles 4x the wheel pole,
-discretised (ZOH) at the node's FDI period (core/linear_observer.py), estimates
+discretised (ZOH) at the node's FDI period (core/fdi/linear_observer.py), estimates
 the reaction torque r^ from the command voltage and the measured torque. The
 residual is the 40-sample mean of |r - r^| (thesis method) or the signed
 40-sample mean of r - r^ with its ripple bound and a model-error term that grows
 with the torque demand, as the Elman network's (speed_aware method; with
 unit_calibration_time the estimate learns the wheel's own unit first,
-core/calibration.py). The linearised model knows neither the wheel speed nor
+core/fdi/calibration.py). The linearised model knows neither the wheel speed nor
 the back-EMF: it is the thesis' baseline beside the Elman and model observers.
 """
 from __future__ import annotations
 
-from ..core.linear_observer import LinearObserver, uncertainty_gain
-from ..core.wheel import linearised_wheel
+from ..core.fdi.linear_observer import LinearObserver, uncertainty_gain
+from ..core.physics.wheel import linearised_wheel
 from ..graph.observer_node import WheelsObserverNode
 from ..graph.runtime import main_for
 

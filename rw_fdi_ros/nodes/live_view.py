@@ -12,7 +12,7 @@ skipped, never the run's end. It stays 2 s after the run's end, so a client gets
 """
 from __future__ import annotations
 
-from ..core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
+from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
 from ..extras import require
 from ..graph import topics as T
 from ..graph.convert import stamp_ns

@@ -2,11 +2,11 @@
 
 With the tachometer measuring the wheel's state the observer needs no state
 estimate: r^ is the nominal Bialke model's reaction torque at the measured
-command voltage and wheel speed (core/telemetry.model_reaction_torque; the
+command voltage and wheel speed (core/fdi/telemetry.model_reaction_torque; the
 wheel electronics report it as model_reaction_torque), the residual the
 signed 40-sample mean of r - r^ with its ripple bound; with
 unit_calibration_time the model learns the wheel's own unit first
-(core/calibration.py). Speed-aware method only: the thesis' observers see no
+(core/fdi/calibration.py). Speed-aware method only: the thesis' observers see no
 wheel speed.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""momentum_dumping: the magnetorquers' flight software, the cross-product law (core/magnetorquers.py).
+"""momentum_dumping: the magnetorquers' flight software, the cross-product law (core/physics/magnetorquers.py).
 
 On each magnetometer reading stamped k (/magnetometer, sensor_msgs/MagneticField, body axes [T]) and
 the wheel state stamped k (/wheels), it answers with the three rods' dipole stamped k
@@ -14,10 +14,10 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import JointState, MagneticField
 
-from ..core.environment import MAGNETOMETER_PERIOD
-from ..core.magnetorquers import Dumper, MomentumDumping
-from ..core.wheel import WheelParams
-from ..core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, joint_name, wheel_set
+from ..core.physics.environment import MAGNETOMETER_PERIOD
+from ..core.physics.magnetorquers import Dumper, MomentumDumping
+from ..core.physics.wheel import WheelParams
+from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, joint_name, wheel_set
 from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, vector_cdr
 from ..graph.convert import stamp_ns
@@ -33,7 +33,7 @@ class MomentumDumpingNode(GraphNode):
     def __init__(self, name: str | None = None):   # name: another than node_name (composition)
         super().__init__(name or self.node_name)
         default = MomentumDumping()
-        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)          # core/wheel_set.py
+        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)          # core/physics/wheel_set.py
         self.declare_parameter("dipole_limit", default.dipole_limit)   # [A m^2] per rod
         self.declare_parameter("gain", default.gain)                   # k [1/s]
         self.declare_parameter("start_speed", default.start_speed)     # [rad/s] a wheel in use above: dump

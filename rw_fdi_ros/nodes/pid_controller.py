@@ -11,10 +11,10 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from ..core.pid import PidController, design_gains
-from ..core.spacecraft import BODY_AXES
-from ..core.scenario import setpoint_at
-from ..core.spacecraft import INERTIA
+from ..core.control.pid import PidController, design_gains
+from ..core.physics.spacecraft import BODY_AXES
+from ..core.mission.scenario import setpoint_at
+from ..core.physics.spacecraft import INERTIA
 from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, vector_cdr
 from ..graph.gate import GatedPublisher

@@ -2,13 +2,13 @@
 
 It publishes the sample of step k (stamped k * control_period), waits until
 the wheel allocation's command stamped k has arrived (one voltage per wheel
-of the set, core/wheel_set.py), advances one control period and publishes
+of the set, core/physics/wheel_set.py), advances one control period and publishes
 step k+1. A command missing for ``command_timeout`` wall seconds stops the
 run with an error.
 
 It also plays the wheel electronics' part for the FDI: from the applied
 command, reaction torque and speed of every control step it makes the FDI
-telemetry (core/telemetry.py) and reports it once per FDI period, so the
+telemetry (core/fdi/telemetry.py) and reports it once per FDI period, so the
 five FDI nodes read one message a second instead of three a step each.
 """
 from __future__ import annotations
@@ -26,10 +26,10 @@ from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import JointState, MagneticField, PointCloud2
 from std_msgs.msg import Header, String
 
-from ..core.plant import Plant
-from ..core.faults import FAULT_KINDS, NOMINAL_VALUES, Fault
-from ..core.scenario import ScenarioError, load_scenario
-from ..core.wheel_set import joint_name
+from ..core.physics.plant import Plant
+from ..core.physics.faults import FAULT_KINDS, NOMINAL_VALUES, Fault
+from ..core.mission.scenario import ScenarioError, load_scenario
+from ..core.physics.wheel_set import joint_name
 from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, read_vector_cdr
 from ..graph.convert import step_stamp_ns
@@ -50,8 +50,8 @@ class PlantNode(GraphNode):
         self.declare_parameter("control_period", 0.0)    # lockstep tick [s]; 0: the scenario's, else 0.1
         self.declare_parameter("emf_limit", "")          # physics.md [choice]; empty: the scenario's, else kf_scaled
         self.declare_parameter("wheel_momentum_coupling", Parameter.Type.BOOL)  # unset: the scenario's, else true
-        self.declare_parameter("wheel_set", "")          # core/wheel_set.py; empty: the scenario's
-        self.declare_parameter("magnetic_field", "")     # core/geomagnetic.py, in orbit; empty: the scenario's
+        self.declare_parameter("wheel_set", "")          # core/physics/wheel_set.py; empty: the scenario's
+        self.declare_parameter("magnetic_field", "")     # core/physics/geomagnetic.py, in orbit; empty: the scenario's
         self.declare_parameter("command_timeout", 5.0)   # wall seconds without a command -> error
         self.declare_parameter("startup_timeout", 60.0)  # wall seconds to discover the graph
         # readers to wait for before the first step, per topic (runner/graph.py derives them from topics.READS)
@@ -78,7 +78,7 @@ class PlantNode(GraphNode):
             wheel = scenario.datasheet(self.choices)
         except (ScenarioError, ValueError) as exc:
             raise NodeError(str(exc), EXIT_BAD_INPUT) from None
-        from ..core.wheel_set import wheel_set
+        from ..core.physics.wheel_set import wheel_set
         self.wheels = wheel_set(self.choices.wheel_set)
         self.names = self.wheels.names
         self.joints = tuple(joint_name(n) for n in self.names)

@@ -1,4 +1,4 @@
-"""plugin_observer: a user's observer (core/observer_plugin.WheelObserver) as a node of the graph.
+"""plugin_observer: a user's observer (core/fdi/observer_plugin.WheelObserver) as a node of the graph.
 
     ros2 run rw_fdi_ros plugin_observer --ros-args -p observer:=my_pkg.kalman:KalmanObserver \
         -p observer_state:=my_fdi/observer_kalman.json
@@ -11,7 +11,7 @@ when told its slot (plugin_observers) and bands (thresholds_<slot>).
 """
 from __future__ import annotations
 
-from ..core.observer_plugin import ObserverError, PluginRun, load_observer, read_state
+from ..core.fdi.observer_plugin import ObserverError, PluginRun, load_observer, read_state
 from ..graph.observer_node import WheelsObserverNode
 from ..graph.runtime import EXIT_BAD_INPUT, EXIT_ERROR, NodeError, main_for
 

@@ -27,8 +27,8 @@ from ..storage.writer import BagWriter
 from ..storage.cdr import header_stamp_ns
 from ..graph.convert import offered_qos
 from ..graph import topics as T
-from ..core.wheel_set import DEFAULT_WHEEL_SET
-from ..core.environment import MAGNETOMETER_PERIOD
+from ..core.physics.wheel_set import DEFAULT_WHEEL_SET
+from ..core.physics.environment import MAGNETOMETER_PERIOD
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
 
 

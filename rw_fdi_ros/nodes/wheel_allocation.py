@@ -3,7 +3,7 @@
 For each plant step k it takes the three controllers' commands stamped k
 (/<axis>/tcv_command) and answers with one torque command voltage per wheel
 of the set on /wheels/command, stamped k: the minimum-norm allocation over
-the wheels in use within the +-5 V limit (core/allocation.py); a wheel out
+the wheels in use within the +-5 V limit (core/control/allocation.py); a wheel out
 of use gets 0 V.
 
 FDIR (core/fdir.py): for a wheel /diagnostics reports ERROR (the FDI's latched,
@@ -40,11 +40,11 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from ..core.allocation import TorqueAllocator
+from ..core.control.allocation import TorqueAllocator
 from ..core.fdir import DecisionDelay, DeliveryLog, Reconfiguration
-from ..core.isolation import speed_envelope, stamp_seconds
-from ..core.spacecraft import BODY_AXES, INERTIA, inertia_times
-from ..core.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
+from ..core.fdi.verdict import speed_envelope, stamp_seconds
+from ..core.physics.spacecraft import BODY_AXES, INERTIA, inertia_times
+from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr, read_joint_state_cdr, read_vector_cdr
 from ..graph import topics as T
 from ..graph.convert import stamp_ns, wheel_states_msg
@@ -58,7 +58,7 @@ class WheelAllocationNode(GraphNode):
 
     def __init__(self, name: str | None = None):   # name: another than node_name (composition)
         super().__init__(name or self.node_name)
-        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)   # core/wheel_set.py
+        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)   # core/physics/wheel_set.py
         self.declare_parameter("control_period", 0.1)            # the lockstep tick [s]
         self.declare_parameter("fdir", True)                     # act on /diagnostics (false: no FDI in the graph)
         self.declare_parameter("fdi_period", 1.0)                # [s] the stamps /diagnostics comes at
@@ -67,13 +67,13 @@ class WheelAllocationNode(GraphNode):
         self.declare_parameter("verdict_timeout", 3.0)
         self.declare_parameter("out_of_use", Parameter.Type.STRING_ARRAY)   # joints the operator took out
         self.declare_parameter("min_subscribers", 1)             # plant (+ recorder) before the first command
-        # the vehicle (core/vehicle.py): its inertia I [kg m^2], the diagonal (3) or the matrix row by row (9),
+        # the vehicle (core/mission/vehicle.py): its inertia I [kg m^2], the diagonal (3) or the matrix row by row (9),
         # and the wheels' J [kg m^2]: what the momentum checks of a reconfiguration read
         self.declare_parameter("body_inertia", [float(v) for v in INERTIA])
         self.wheel = declare_wheel_type(self)   # its command limit, hold feed-forward, nominal model and envelope
         self.declare_parameter("wheel_inertia", self.wheel.inertia)
         # the wheels' modelled friction cancelled from their speeds (the vehicle's controller.friction_feedforward;
-        # core/allocation.friction_feedforward): every command then waits for its step's wheel speeds
+        # core/control/allocation.friction_feedforward): every command then waits for its step's wheel speeds
         self.declare_parameter("friction_feedforward", False)
         self.declare_parameter("fdir_readers", 0)                # of /fdir/wheels (the recorder) before it goes
         self.declare_parameter("diagnostics_readers", 0)         # of /diagnostics before FDIR's state goes there

@@ -11,15 +11,15 @@ from pathlib import Path
 import yaml
 
 from ..fdi_config import FdiConfig
-from ..core.allocation import TorqueAllocator
-from ..core.controller_design import design_controller
-from ..core.detection import observers_of
-from ..core.plant import Plant
-from ..core.plant_choices import DEFAULT, PlantChoices
-from ..core.spacecraft import BODY_AXES
-from ..core.vehicle import wheel_parameter
-from ..core.scenario import Scenario
-from ..core.wheel_set import joint_name, wheel_set
+from ..core.control.allocation import TorqueAllocator
+from ..core.control.controller_design import design_controller
+from ..core.fdi.detection import observers_of
+from ..core.physics.plant import Plant
+from ..core.mission.plant_choices import DEFAULT, PlantChoices
+from ..core.physics.spacecraft import BODY_AXES
+from ..core.mission.vehicle import wheel_parameter
+from ..core.mission.scenario import Scenario
+from ..core.physics.wheel_set import joint_name, wheel_set
 from ..graph import topics as T
 from ..graph.fdi_parameters import fdi_parameters
 
@@ -300,7 +300,7 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False, wheel_ty
         Every report of the FDI telemetry comes with its bus-voltage grid: the isolation node waits for it
         from the first report (else only once it has seen the grid's publisher, which may come late).
     wheel_type : str
-        The vehicle's wheel type (core/vehicle.wheel_parameter; '' the thesis' Type A, the nodes' default).
+        The vehicle's wheel type (core/mission/vehicle.wheel_parameter; '' the thesis' Type A, the nodes' default).
 
     Returns
     -------
@@ -315,7 +315,7 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False, wheel_ty
         nodes.append(NodeSpec(f"elman_observer_{axis}", "elman_observer", {"wheel": joint_name(axis), **common}))
     for obs in observers_of(fdi.method)[1:]:   # linear_observer, model_observer: every wheel each
         nodes.append(NodeSpec(f"{obs}_observer", f"{obs}_observer", dict(common)))
-    from ..core.observer_plugin import find_state
+    from ..core.fdi.observer_plugin import find_state
     for spec, cls in zip(fdi.plugins, fdi.plugin_classes()):   # a user's observers: a plugin_observer node each
         state = find_state(fdi.plugin_dirs, cls.slot)
         nodes.append(NodeSpec(f"{cls.slot}_observer", "plugin_observer", {

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.scenario import parse_scenario
-from ..core.spacecraft import BODY_AXES
+from ..core.mission.scenario import parse_scenario
+from ..core.physics.spacecraft import BODY_AXES
 from ..graph import topics as T
 from ..scoring import bag_series
 from .summary import POINTING_DEG
@@ -87,9 +87,9 @@ def _plot_pointing(data, verdict, ax):
     """The chain in one row: the pointing error per axis against the 0.2 deg requirement, with the fault's
     onset, the verdict's first alarm and each reconfiguration (/fdir/wheels) marked, and in orbit the
     momentum dumps shaded."""
-    from ..core.environment import MAGNETOMETER_PERIOD
-    from ..core.magnetorquers import DumpLog
-    from ..core.scenario import setpoint_at
+    from ..core.physics.environment import MAGNETOMETER_PERIOD
+    from ..core.physics.magnetorquers import DumpLog
+    from ..core.mission.scenario import setpoint_at
     scenario = parse_scenario(data.scenario_text or "{}", origin=f"{data.path}:/scenario")
     times, values = scenario.setpoint_schedule()
     t, attitude, _, _ = data.joint_states(T.ATTITUDE)

@@ -8,8 +8,8 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.controller_design import scenario_design
-from ..core.scenario import Scenario, load_scenario
+from ..core.control.controller_design import scenario_design
+from ..core.mission.scenario import Scenario, load_scenario
 from .graph import DEFAULT_GROUPING, graph_nodes
 from .launcher import DomainLease, GraphProcesses, cleanup
 from ..graph import topics as T
@@ -38,7 +38,7 @@ def resolve_scenario(ref: str, seed: int | None = None):
     scenario_design(scenario, ref)
     path = Path(ref) if Path(ref).is_file() else None
     if path is None:
-        from ..core.scenario import scenario_dir
+        from ..core.mission.scenario import scenario_dir
         path = scenario_dir() / f"{ref}.yaml"
     if seed is not None:
         scenario = scenario.with_seed(seed)

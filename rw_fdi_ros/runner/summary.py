@@ -5,10 +5,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.spacecraft import BODY_AXES
-from ..core.scenario import parse_scenario, setpoint_at
-from ..core.environment import MAGNETOMETER_PERIOD
-from ..core.magnetorquers import DumpLog
+from ..core.physics.spacecraft import BODY_AXES
+from ..core.mission.scenario import parse_scenario, setpoint_at
+from ..core.physics.environment import MAGNETOMETER_PERIOD
+from ..core.physics.magnetorquers import DumpLog
 from ..graph.topics import ATTITUDE, DIPOLE_COMMAND, FAULT_EFFECT, FDIR_WHEELS, SCENARIO
 
 # what run_summary reads of a bag

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.scenario import parse_scenario
+from ..core.mission.scenario import parse_scenario
 from ..graph import topics as T
 from ..scoring import bag_series, metrics
 
 
 def verdict_topics(plugins=()) -> list:
     """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag (with the plug-in slots ``plugins``')."""
-    from ..core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
+    from ..core.physics.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
     bounds = [T.bound_topic(obs, a) for obs in (*T.OBSERVERS, *plugins)
               for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
     return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, T.DIPOLE_COMMAND, *bag_series.fdi_output_topics(plugins), *bounds]
@@ -83,7 +83,7 @@ def judged_line(v: dict) -> str:
 
 
 def observer_label(observer: str) -> str:
-    """What a person calls the observer in the ``observer`` slot (core/detection.OBSERVERS): the Elman
+    """What a person calls the observer in the ``observer`` slot (core/fdi/detection.OBSERVERS): the Elman
     network, the Luenberger observer of the linearised wheel (thesis 3.3), the nominal wheel model at
     the measured command and speed."""
     return "verdict (/diagnostics)" if observer == "verdict" else f"{observer} observer"

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.identification import Identification
-from ..core.scenario import Scenario
+from ..core.fdi.identification import Identification
+from ..core.mission.scenario import Scenario
 from ..graph import topics as T
 from .metrics import OBSERVERS, Series
 
@@ -20,7 +20,7 @@ def fdi_output_topics(plugins=()) -> list:
         Every observer slot's residual topics (the Elman ones per wheel of any set), threshold and alarm
         topics, then /fdi/identification and /scenario.
     """
-    from ..core.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
+    from ..core.physics.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
     slots = (*OBSERVERS, *plugins)
     rows = [T.residual_topic(obs, a) for obs in slots for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
     return rows + [t for obs in slots for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
@@ -42,8 +42,8 @@ def wheels_of_bag(data) -> tuple:
         The wheel set's names, in its order.
     """
     import yaml
-    from ..core.plant_choices import PlantChoices
-    from ..core.wheel_set import wheel_set
+    from ..core.mission.plant_choices import PlantChoices
+    from ..core.physics.wheel_set import wheel_set
     recorded = (yaml.safe_load(data.scenario_text or "") or {}).get("plant") if data.scenario_text else None
     return wheel_set(PlantChoices.from_recorded(recorded).wheel_set).names
 
@@ -83,7 +83,7 @@ def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
 
 
 def observers_in_bag(data) -> list:
-    """The observer slots whose decisions a bag holds (the method's: core/detection.observers_of).
+    """The observer slots whose decisions a bag holds (the method's: core/fdi/detection.observers_of).
 
     Parameters
     ----------
@@ -100,7 +100,7 @@ def observers_in_bag(data) -> list:
 
 
 def plugin_slots_of(topics) -> list:
-    """The slots of a user's observers (core/observer_plugin.py) among ``topics`` (names): those with an
+    """The slots of a user's observers (core/fdi/observer_plugin.py) among ``topics`` (names): those with an
     /fdi/<slot>/alarm that is not one of ours."""
     return sorted({t.split("/")[2] for t in topics if t.startswith("/fdi/") and t.endswith("/alarm")
                    and t.count("/") == 3} - set(OBSERVERS))
@@ -280,7 +280,7 @@ def scenario_of(data) -> Scenario:
     Scenario
         The parsed scenario (ValueError where the bag has no /scenario).
     """
-    from ..core.scenario import parse_scenario
+    from ..core.mission.scenario import parse_scenario
     if not data.scenario_text:
         raise ValueError(f"{data.path}: no /scenario message (no ground truth)")
     return parse_scenario(data.scenario_text, origin=f"{data.path}:/scenario")

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.identification import NONE, UNKNOWN, Identification
-from ..core.plant_choices import FDI_PERIOD
-from ..core.wheel_set import AXIS_WHEELS, fitted_for
+from ..core.fdi.identification import NONE, UNKNOWN, Identification
+from ..core.mission.plant_choices import FDI_PERIOD
+from ..core.physics.wheel_set import AXIS_WHEELS, fitted_for
 from ..graph import topics as T
 
 OBSERVERS = T.OBSERVERS
@@ -94,7 +94,7 @@ VERDICT = "verdict"   # the series of /diagnostics' verdict beside the observers
 
 
 def decision_slot(label: str) -> str:
-    """The series of the verdict another decision (core/isolation.DecisionRule.label, e.g. '2of3') would give,
+    """The series of the verdict another decision (core/fdi/verdict.DecisionRule.label, e.g. '2of3') would give,
     judged beside the run's own: 'verdict 2of3'."""
     return f"{VERDICT} {label}"
 

@@ -129,7 +129,7 @@ def _detection(args) -> dict:
 
 def _checked_vehicle(args) -> str:
     """The shipped vehicle of --vehicle, read (one line naming the field) before any run."""
-    from ...core.vehicle import load_vehicle, shipped_vehicles
+    from ...core.mission.vehicle import load_vehicle, shipped_vehicles
     if args.vehicle not in shipped_vehicles():
         raise ValueError(f"--vehicle {args.vehicle}: the benches fly a shipped vehicle "
                          f"({', '.join(shipped_vehicles())}); for your own, `rw-fdi defaults --vehicle FILE` then "
@@ -140,7 +140,7 @@ def _checked_vehicle(args) -> str:
 def _vehicle_out(args, what: str) -> str:
     """A bench's default report directory: reports/<what>, or reports/vehicles/<vehicle>/<what> on another
     vehicle than the thesis'."""
-    from ...core.vehicle import DEFAULT_VEHICLE
+    from ...core.mission.vehicle import DEFAULT_VEHICLE
     return f"reports/{what}" if args.vehicle == DEFAULT_VEHICLE else f"reports/vehicles/{args.vehicle}/{what}"
 
 

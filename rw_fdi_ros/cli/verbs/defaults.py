@@ -60,7 +60,7 @@ def main(args) -> int:
 
 
 def _vehicle(args) -> int:
-    from ...core.vehicle import load_vehicle
+    from ...core.mission.vehicle import load_vehicle
     from ...tools.design.vehicle_defaults import vehicle_defaults
     vehicle = load_vehicle(args.vehicle)   # a bad file: one line naming the field, before anything runs
     out = args.out or f"fdi_{vehicle.name}"

@@ -34,7 +34,7 @@ def main(args) -> int:
     models = load_models(models_dir)
     if args.plugins:   # a user's observers, with their trained state from --out (or --models)
         from ...fdi_config import FdiConfig
-        from ...core.observer_plugin import ObserverModels
+        from ...core.fdi.observer_plugin import ObserverModels
         models = ObserverModels(models, FdiConfig(models=models_dir, thresholds=args.out, plugins=tuple(args.plugins),
                                                   unit_calibration=args.unit_calibration).load_plugins())
     t0 = time.monotonic()

@@ -9,7 +9,7 @@ def add_arguments(parser) -> None:
 
 
 def main(args) -> int:
-    from ...core.scenario import available_scenarios, load_scenario
+    from ...core.mission.scenario import available_scenarios, load_scenario
     for name in available_scenarios():
         s = load_scenario(name)
         print(f"{name:28s} {s.duration:6.0f} s  {s.description}")

@@ -50,8 +50,8 @@ def main(args) -> int:
 def _train_plugins(args, seeds) -> int:
     """Each --observer's train hook on the fault-free runs; its state -> --out/observer_<slot>.json."""
     import time
-    from ...core.observer_plugin import load_observer, save_state, trains
-    from ...core.plant_choices import FDI_PERIOD
+    from ...core.fdi.observer_plugin import load_observer, save_state, trains
+    from ...core.mission.plant_choices import FDI_PERIOD
     from ...tools.design.samples import load_samples, simulated_fault_free_runs
     classes = [load_observer(spec) for spec in args.plugins]   # a bad spec answers before any run
     pool = executor(args)

@@ -1,4 +1,4 @@
-"""`rw-fdi vehicle`: the shipped vehicles, or one vehicle file checked and summarised (core/vehicle.py)."""
+"""`rw-fdi vehicle`: the shipped vehicles, or one vehicle file checked and summarised (core/mission/vehicle.py)."""
 NAME = "vehicle"
 HELP = ("the shipped vehicles; with a name or a vehicle file, that vehicle checked (one line naming the field "
         "when it is wrong or cannot fly) and summarised")
@@ -14,7 +14,7 @@ def add_arguments(parser) -> None:
 
 def main(args) -> int:
     import yaml
-    from ...core.vehicle import load_vehicle, shipped_vehicles, summary, to_mapping
+    from ...core.mission.vehicle import load_vehicle, shipped_vehicles, summary, to_mapping
     if args.vehicle is None:
         names = shipped_vehicles()
         width = max(map(len, names), default=0)
@@ -22,7 +22,7 @@ def main(args) -> int:
             vehicle = load_vehicle(name)
             print(f"{name:{width}s}  {vehicle.wheel_set.count} wheels, {vehicle.wheel_type}: {vehicle.description}")
         return 0
-    from ...core.controller_design import design_controller
+    from ...core.control.controller_design import design_controller
     vehicle = load_vehicle(args.vehicle)
     if args.yaml:
         print(yaml.safe_dump(to_mapping(vehicle), sort_keys=False))

@@ -20,8 +20,8 @@ from pathlib import Path
 
 
 from ...fdi_config import FdiConfig
-from ...core.vehicle import DEFAULT_VEHICLE
-from ...core.isolation import decision_of
+from ...core.mission.vehicle import DEFAULT_VEHICLE
+from ...core.fdi.verdict import decision_of
 from ...scoring.metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
 from .kit import (DETECTION_FIELDS, VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, configured,

@@ -26,12 +26,12 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.closed_loop import simulate
-from ...core.environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
-from ...core.plant_choices import DEFAULT
-from ...core.magnetorquers import DumpLog, MomentumDumping
-from ...core.scenario import Fault, Manoeuvres, Scenario, load_scenario
-from ...core.wheel import WheelParams
-from ...core.spacecraft import BODY_AXES
+from ...core.physics.environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
+from ...core.mission.plant_choices import DEFAULT
+from ...core.physics.magnetorquers import DumpLog, MomentumDumping
+from ...core.mission.scenario import Fault, Manoeuvres, Scenario, load_scenario
+from ...core.physics.wheel import WheelParams
+from ...core.physics.spacecraft import BODY_AXES
 from .kit import (Cell, SpeedAwareChunk, cell_figures, fault_wheel, format_rate, screen_cells, workers,
                   write_cells_table, write_report)
 from ...scoring.metrics import observable_level

@@ -31,13 +31,13 @@ from pathlib import Path
 import numpy as np
 
 from ...fdi_config import FdiConfig
-from ...core.calibration import calibration_samples
-from ...core.identification import KINDS, NONE, SPOKEN, UNKNOWN, Identification, kind_name
-from ...core.isolation import decision_observer
-from ...core.plant_choices import FDI_PERIOD
-from ...core.scenario import Fault
-from ...core.vehicle import DEFAULT_VEHICLE
-from ...core.wheel_set import fitted_for
+from ...core.fdi.calibration import calibration_samples
+from ...core.fdi.identification import KINDS, NONE, SPOKEN, UNKNOWN, Identification, kind_name
+from ...core.fdi.verdict import decision_observer
+from ...core.mission.plant_choices import FDI_PERIOD
+from ...core.mission.scenario import Fault
+from ...core.mission.vehicle import DEFAULT_VEHICLE
+from ...core.physics.wheel_set import fitted_for
 from ...scoring.metrics import rate
 from .kit import (DETECTION_FIELDS, bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios,
                   format_rate, screen_cells, write_cells_table)

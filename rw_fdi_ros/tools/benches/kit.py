@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 
 from ...fdi_config import FdiConfig
-from ...core.environment import OrbitEnvironment
-from ...core.scenario import Fault, Manoeuvres, Scenario, parse_scenario
-from ...core.vehicle import DEFAULT_VEHICLE
-from ...core.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
+from ...core.physics.environment import OrbitEnvironment
+from ...core.mission.scenario import Fault, Manoeuvres, Scenario, parse_scenario
+from ...core.mission.vehicle import DEFAULT_VEHICLE
+from ...core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
 from ...scoring.metrics import alarm_before_onset, judge, observable, rate
 from ..evaluation.screen import screen_sets
 
@@ -160,7 +160,7 @@ class SpeedAwareChunk:
     ``scenarios(cell_index, seeds, seed_base)`` (a module-level function) makes them, judged by the shipped
     speed-aware FDI; with ``on_run`` (a picklable callable returning objects with a ``seed``) also what
     it says of each run's trajectory, under the name "runs". ``decisions``: the labels of other decisions
-    whose verdicts are judged beside /diagnostics' (core/isolation.decision_of, e.g. '2of3')."""
+    whose verdicts are judged beside /diagnostics' (core/fdi/verdict.decision_of, e.g. '2of3')."""
 
     def __init__(self, scenarios, seed_base: int, on_run=None, decisions=(), vehicle: str = DEFAULT_VEHICLE,
                  fdi: FdiConfig | None = None):
@@ -169,7 +169,7 @@ class SpeedAwareChunk:
         self.fdi = fdi or FdiConfig()   # or ours as configured: a user's observers beside (FdiConfig.plugins)
 
     def __call__(self, cell_index: int, seeds):
-        from ...core.isolation import decision_of
+        from ...core.fdi.verdict import decision_of
         seen = []
         hook = None if self.on_run is None else (lambda sc, traj, b: seen.append(self.on_run(sc, traj, b)))
         out = screen_sets(self.scenarios(cell_index, seeds, self.seed_base),

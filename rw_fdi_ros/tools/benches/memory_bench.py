@@ -101,7 +101,7 @@ def format_memory(rows: list, seed: int) -> str:
 def _series_mb(hours: float) -> float:
     """What the verdict and the figure keep: per FDI sample one row of each Vector3Stamped topic they
     read (a stamp and 3 float64: 32 bytes), twice (as read, then sorted by stamp)."""
-    from ...core.plant_choices import FDI_PERIOD
+    from ...core.mission.plant_choices import FDI_PERIOD
     from ...runner.verdict import verdict_topics
     vector_topics = len(verdict_topics()) - 2   # all but /scenario and /fdi/identification
     return 2 * hours * 3600.0 / FDI_PERIOD * vector_topics * 32 / 2**20

@@ -5,7 +5,7 @@ set-point change at 0 s): set-point changes at random times after it (scenario `
 on every wheel (wheel = seed mod 3) at onsets drawn from the seed, so that manoeuvres follow many of
 them; continuous operations of hours. Each cell is simulated once by the core loop (screen) and judged
 for every observer of the speed-aware FDI and for the verdict users read (/diagnostics: the decision
-observer's alarm, latched; core/isolation.py).
+observer's alarm, latched; core/fdi/verdict.py).
 
 Seeds: the tuning set from 80,000,000 (what the decision rule was chosen on), the evaluation set from
 81,000,000 (the figures of record); training, fitting and every other bench use other ranges.
@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from ...fdi_config import FdiConfig
-from ...core.scenario import Fault, Manoeuvres, Scenario
-from ...core.vehicle import DEFAULT_VEHICLE
+from ...core.mission.scenario import Fault, Manoeuvres, Scenario
+from ...core.mission.vehicle import DEFAULT_VEHICLE
 from .kit import (VOTES, Cell, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, configured, fault_wheel,
                   fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report)
 from ...scoring.metrics import observable_level

@@ -1,6 +1,6 @@
 """`rw-fdi bench recovery`: the redundant wheel takes over from a wheel the FDI confirmed faulty.
 
-Each run is the core loop with the FDI's verdict made in it (core/pipeline.py) and the
+Each run is the core loop with the FDI's verdict made in it (core/fdi/pipeline.py) and the
 reconfiguration it decides (core/fdir.py): three orthogonal wheels and the standby wheel s
 along (1, 1, 1)/sqrt(3) (wheel set ``orthogonal_skew``). One fault on wheel seed mod 3 at an
 onset drawn from the seed; the pointing requirement is 0.2 deg on every axis.
@@ -29,11 +29,11 @@ from ...fdi_config import FdiConfig
 from ...core.flight import Fdir
 from ...core.closed_loop import simulate
 from ...core.fdir import held_speeds
-from ...core.isolation import speed_envelope
-from ...core.scenario import Fault, Manoeuvres, Scenario
-from ...core.spacecraft import BODY_AXES
-from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
-from ...core.wheel_set import WHEEL_SETS
+from ...core.fdi.verdict import speed_envelope
+from ...core.mission.scenario import Fault, Manoeuvres, Scenario
+from ...core.physics.spacecraft import BODY_AXES
+from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle
+from ...core.physics.wheel_set import WHEEL_SETS
 from ...scoring.metrics import rate
 from .kit import Cell, bench_scenario, bench_wheels, fault_wheel, format_rate, write_report, write_runs_table
 
@@ -261,7 +261,7 @@ def plot_before_after(path: Path, fdir: Fdir):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from ...core.scenario import load_scenario
+    from ...core.mission.scenario import load_scenario
     scenario = load_scenario("fdir_bus_x")
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.6), sharey=True)
     for ax, (label, f) in zip(axes, (("before: the faulty wheel x stays in use", None),

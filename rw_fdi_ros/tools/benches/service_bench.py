@@ -31,7 +31,7 @@ to give up every wheel it confirms (``Fdir.holdable`` infinite, no slew margin, 
 and keeping), measured for identification only.
 
 With ``watch`` (``--every-observer``) every observer of an FDI configuration (ours, and a user's plug-ins) is
-judged beside the decision on the same runs, acted on by nothing (core/pipeline.FdiPipeline watch): its false alarms
+judged beside the decision on the same runs, acted on by nothing (core/fdi/pipeline.FdiPipeline watch): its false alarms
 on fault-free 600-s runs and per 100 h, the faulty wheel and no other alarmed, no healthy wheel alarmed while or
 after the spacecraft reconfigured, the alarm held to the end, the delay (docs/fdi.md "Learned observers in
 service").
@@ -50,12 +50,12 @@ import numpy as np
 from ...fdi_config import FdiConfig
 from ...core.closed_loop import simulate
 from ...core.fdir import SATURATED_S
-from ...core.identification.identifiability import TOLD_APART, other_family_misfit, told_apart
-from ...core.identification import DRIVE, UNKNOWN
-from ...core.plant_choices import FDI_PERIOD
-from ...core.scenario import Scenario
-from ...core.vehicle import DEFAULT_VEHICLE
-from ...core.wheel import torque_scale
+from ...core.fdi.identification.identifiability import TOLD_APART, other_family_misfit, told_apart
+from ...core.fdi.identification import DRIVE, UNKNOWN
+from ...core.mission.plant_choices import FDI_PERIOD
+from ...core.mission.scenario import Scenario
+from ...core.mission.vehicle import DEFAULT_VEHICLE
+from ...core.physics.wheel import torque_scale
 from ..campaigns.campaign import LocalExecutor
 from ..campaigns.service_family import FAULT_FREE_S, FAULT_KINDS, Draw, batches, draw, fdir_for, scenario
 from ...scoring.metrics import judge_size

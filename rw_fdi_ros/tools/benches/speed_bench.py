@@ -88,10 +88,10 @@ def _step_times(fn, n=20000):
 def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
     """Compute time of one FDI step per observer, callback times in the live nodes, node memory."""
     import numpy as np
-    from ...core.residuals import SignedResidual
-    from ...core.elman import ElmanObserver
-    from ...core.linear_observer import LinearObserver
-    from ...core.telemetry import TelemetrySampler
+    from ...core.fdi.residuals import SignedResidual
+    from ...core.fdi.elman import ElmanObserver
+    from ...core.fdi.linear_observer import LinearObserver
+    from ...core.fdi.telemetry import TelemetrySampler
     from ...paths import config_dir
     from ...runner.fdi_run import run_with_fdi
     from ..design.offline import load_models

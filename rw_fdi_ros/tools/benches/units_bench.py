@@ -3,10 +3,10 @@
 Every cell of `rw-fdi bench detection` (fault-free, ripple, the target and
 thesis fault sizes, a ramp) on two wheel populations: units drawn around
 Table 2.2 at the default spreads (scenario ``wheels: {variation: true}``,
-core/wheel.DEFAULT_UNIT_SPREAD) and the datasheet wheel itself. Each
+core/physics/wheel.DEFAULT_UNIT_SPREAD) and the datasheet wheel itself. Each
 simulated run is judged by the speed-aware FDI twice: as shipped (the
 observers' model is the datasheet wheel) and calibrated (each observer
-learns its wheel's unit over the first 150 s, core/calibration.py; bands
+learns its wheel's unit over the first 150 s, core/fdi/calibration.py; bands
 `config/fdi/unit_calibrated`, fitted on seeds 60,000,000-60,000,299).
 Seeds from 40,000,000 (varied) and 41,000,000 (datasheet), disjoint from
 every fit and tuning; faults on wheel seed mod 3 with onsets uniform in
@@ -23,9 +23,9 @@ from functools import partial
 from pathlib import Path
 
 from ...fdi_config import FdiConfig
-from ...core.calibration import calibration_samples
-from ...core.plant_choices import FDI_PERIOD
-from ...core.vehicle import DEFAULT_VEHICLE
+from ...core.fdi.calibration import calibration_samples
+from ...core.mission.plant_choices import FDI_PERIOD
+from ...core.mission.vehicle import DEFAULT_VEHICLE
 from .detection_bench import CELLS, cell_results, cell_sizes, observable_levels
 from .kit import (cell_scenarios, configured, fdi_phrase, format_rate, screen_cells, workers, write_cells_table,
                   write_report)

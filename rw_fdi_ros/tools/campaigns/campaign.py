@@ -16,8 +16,8 @@ from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ...core.controller_design import scenario_design
-from ...core.scenario import load_scenario
+from ...core.control.controller_design import scenario_design
+from ...core.mission.scenario import load_scenario
 from ...extras import require
 from ...storage.bag import bag_is_complete
 from .engine import batches, check_engine, record_batch
@@ -194,7 +194,7 @@ def record_campaigns(campaigns, executor=None, desc: str = "core engine", emf_li
     dir, CampaignResult to fill)]; runs of every campaign share batches where their duration and plant
     choices agree (engine.batch_key), so small campaigns (a grid of fault sizes) cost what one large one
     does. The results, filled, in order."""
-    from ...core.scenario import load_scenario
+    from ...core.mission.scenario import load_scenario
     from .engine import batch_key
     executor = executor or LocalExecutor()
     groups, owner = {}, {}

@@ -35,11 +35,11 @@ def _serialized(message) -> bytes:
 def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     """Write run ``run`` of the core-loop trajectory ``traj`` as the graph's recorder would have recorded
     it into ``bag`` (created); the number of messages."""
-    from ...core.environment import magnetometer_steps
+    from ...core.physics.environment import magnetometer_steps
     from ...core.fdir import Reconfiguration
-    from ...core.wheel_set import joint_name, wheel_set
+    from ...core.physics.wheel_set import joint_name, wheel_set
     from ...graph import topics as T
-    from ...core.spacecraft import BODY_AXES
+    from ...core.physics.spacecraft import BODY_AXES
     from ...graph.convert import offered_qos, step_stamp_ns, wheel_states_msg
     from ...graph.plant_report import PlantReport, run_units
     from ...storage.cdr import joint_state_cdr, vector_cdr
@@ -98,9 +98,9 @@ def record_batch(items) -> list:
     """Record one batch: ``items`` = [(scenario ref, seed, bag path, emf_limit)] of equal batch_key;
     [(seed, bag, wall seconds, error or None)]. Module level, so process pools and Dask workers can run it."""
     from ...core.closed_loop import simulate
-    from ...core.plant import units_of
-    from ...core.scenario import load_scenario
-    from ...core.wheel_set import wheel_set
+    from ...core.physics.plant import units_of
+    from ...core.mission.scenario import load_scenario
+    from ...core.physics.wheel_set import wheel_set
     t0 = time.monotonic()
     loaded = {}
     scenarios = [loaded.setdefault(ref, load_scenario(ref)).with_seed(seed) for ref, seed, _, _ in items]

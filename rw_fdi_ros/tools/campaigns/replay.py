@@ -14,7 +14,7 @@ import tempfile
 from pathlib import Path
 
 from ...fdi_config import FdiConfig
-from ...core.plant_choices import PlantChoices
+from ...core.mission.plant_choices import PlantChoices
 from ...runner.graph import NodeSpec, fdi_nodes, plugin_parameters, with_reader_counts
 from ...runner.graph import DEFAULT_GROUPING
 from ...runner.launcher import DomainLease, GraphProcesses, cleanup
@@ -26,7 +26,7 @@ from ...runner.scenario_run import RunOutcome
 
 def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0, wheel_type: str = ""):
     """Player + the FDI nodes of the method (graph.fdi_nodes) + a recorder of their outputs, for ``bags``
-    in order; ``wheel_type``: the wheel type their vehicle flew (core/vehicle.wheel_parameter)."""
+    in order; ``wheel_type``: the wheel type their vehicle flew (core/mission/vehicle.wheel_parameter)."""
     choices = PlantChoices(**plant)
     fdi = FdiConfig.of(fdi)
     # every bag with a grid per report (any bag of today's recorder): each report waits for its own
@@ -46,8 +46,8 @@ def replay_nodes(bags: list, out_bags: list, fdi, plant: dict, rate: float = 0.0
 def _wheel_type(bag) -> str:
     """The wheel_type parameter of the vehicle a bag's run flew (the bags of one replay share their plant
     choices, the vehicle among them)."""
-    from ...core.scenario import ScenarioError, parse_scenario
-    from ...core.vehicle import wheel_parameter
+    from ...core.mission.scenario import ScenarioError, parse_scenario
+    from ...core.mission.vehicle import wheel_parameter
     text = read_bag(bag, topics=["/scenario"]).scenario_text
     if not text:
         return ""

@@ -13,9 +13,9 @@ import yaml
 
 from ...fdi_config import FdiConfig
 from ...core.flight import Fdir
-from ...core.plant_choices import FDI_PERIOD
-from ...core.scenario import Scenario, parse_scenario
-from ...core.vehicle import DEFAULT_VEHICLE, load_vehicle
+from ...core.mission.plant_choices import FDI_PERIOD
+from ...core.mission.scenario import Scenario, parse_scenario
+from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle
 
 FAULT_FREE_S = 600.0
 CALIBRATION_S = 150.0    # [s] the shipped unit_calibrated bands

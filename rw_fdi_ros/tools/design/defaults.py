@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, observers_of
-from ...core.wheel_set import AXIS_WHEELS
+from ...core.fdi.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, observers_of
+from ...core.physics.wheel_set import AXIS_WHEELS
 from ..campaigns.campaign import run_campaign
 from .offline import (alarmed_runs, fdi_method_of, fit_thresholds, load_models, observe, plant_conditions,
                       threshold_set)

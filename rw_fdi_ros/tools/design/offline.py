@@ -13,23 +13,23 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, WINDOW, observers_of
-from ...core.threshold_file import ThresholdCurves, ThresholdError
-from ...core.threshold_fit import fit_band, run_statistic
-from ...core.residuals import residual_series, signed_residual_series
-from ...core.calibration import calibration_samples, regressors
-from ...core.elman import ElmanWeights, ModelError, network_wheel, network_wheels, recall_series
-from ...core.linear_observer import estimate_series, uncertainty_gain
-from ...core.observer_plugin import PluginRun
-from ...core.plant_choices import FDI_PERIOD, FDI_SAMPLING, PlantChoices
-from ...core.wheel import WheelParams, bearing_noise_mean, linearised_wheel
-from ...core.wheel_set import AXIS_WHEELS, wheel_set
+from ...core.fdi.detection import FALSE_ALARM_RATE, PERSISTENCE, PERSISTENCE_SPEED_AWARE, WINDOW, observers_of
+from ...core.fdi.threshold_file import ThresholdCurves, ThresholdError
+from ...core.fdi.threshold_fit import fit_band, run_statistic
+from ...core.fdi.residuals import residual_series, signed_residual_series
+from ...core.fdi.calibration import calibration_samples, regressors
+from ...core.fdi.elman import ElmanWeights, ModelError, network_wheel, network_wheels, recall_series
+from ...core.fdi.linear_observer import estimate_series, uncertainty_gain
+from ...core.fdi.observer_plugin import PluginRun
+from ...core.mission.plant_choices import FDI_PERIOD, FDI_SAMPLING, PlantChoices
+from ...core.physics.wheel import WheelParams, bearing_noise_mean, linearised_wheel
+from ...core.physics.wheel_set import AXIS_WHEELS, wheel_set
 
 
 
 def load_models(models_dir) -> dict:
     """wheel -> ElmanWeights from ``models_dir/elman_<wheel>.npz``, a network per wheel the set was trained
-    for (core/elman.network_wheels; ModelError names the file)."""
+    for (core/fdi/elman.network_wheels; ModelError names the file)."""
     models_dir = Path(models_dir)
     return {a: ElmanWeights.load(models_dir / f"elman_{a}.npz") for a in network_wheels(models_dir)}
 
@@ -61,10 +61,10 @@ def fdi_method_of(models: dict) -> str:
 
 def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PERIOD,
             calibration_samples: int = 0) -> ObserverRun:
-    """The method's observers (core/detection.observers_of) over one run, and the plug-ins of ``models``
-    (core/observer_plugin.ObserverModels) beside them; the method follows the Elman models (thesis: 2 inputs).
+    """The method's observers (core/fdi/detection.observers_of) over one run, and the plug-ins of ``models``
+    (core/fdi/observer_plugin.ObserverModels) beside them; the method follows the Elman models (thesis: 2 inputs).
     ``calibration_samples`` > 0: each speed-aware observer learns each wheel's unit from that many
-    first samples (core/calibration.py)."""
+    first samples (core/fdi/calibration.py)."""
     r = samples.reaction_torque
     method = fdi_method_of(models)
     wheels = getattr(samples, "wheels", AXIS_WHEELS)
@@ -87,7 +87,7 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
     est = {"elman": elman, "linear": linear, "model": samples.model_torque}
     gains = {"elman": [m.uncertainty_gain for m in nets], "linear": [uncertainty_gain(a) for a in wheels],
              "model": [0.0] * len(wheels)}
-    for cls, state in getattr(models, "plugins", ()):   # a user's observers (core/observer_plugin.py)
+    for cls, state in getattr(models, "plugins", ()):   # a user's observers (core/fdi/observer_plugin.py)
         run = PluginRun(cls, wheels, period, state, calibration_samples)
         gains[cls.slot] = run.uncertainty_gains()
         est[cls.slot] = run.series(samples)
@@ -142,7 +142,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     designed per-run ``false_alarm_rate`` at persistence P, returns the bands.
     ``unit_calibration`` [s]: bands for observers that learn their wheel first; ``plant``: the plant
     choices of runs that are not bags (default: read from the bags)."""
-    from ...core.threshold_fit import fit_threshold_curve
+    from ...core.fdi.threshold_fit import fit_threshold_curve
     lengths = sorted({len(s.time) for s in samples_list})
     if len(lengths) > 1:   # the curves would end with the shortest run: a longer run could not be judged
         short = min(samples_list, key=lambda s: len(s.time))
@@ -208,7 +208,7 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
 
 def judge(run: ObserverRun, curves: dict, samples=None, decision=None, persistence: int | None = None,
           calibration_samples: int = 0, identification: bool = False, other_decisions=()) -> tuple:
-    """Stages 2-5 of the FDI pipeline (core/pipeline.Isolation, the isolation node's) stepped over one run's
+    """Stages 2-5 of the FDI pipeline (core/fdi/pipeline.Isolation, the isolation node's) stepped over one run's
     residuals: what the node would publish for this run.
 
     Parameters
@@ -239,7 +239,7 @@ def judge(run: ObserverRun, curves: dict, samples=None, decision=None, persisten
     identified : dict
         wheel -> the last Identification or None ({} without ``identification``).
     """
-    from ...core.pipeline import Isolation, Verdict
+    from ...core.fdi.pipeline import Isolation, Verdict
     from ...scoring.metrics import VERDICT, Series, decision_slot
     for obs, c in curves.items():
         c.check_method(run.method, origin=f"thresholds_{obs}")

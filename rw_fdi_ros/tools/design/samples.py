@@ -1,4 +1,4 @@
-"""FDI samples out of bags, or of runs of the core loop: the 1 s samples the observers see (core/telemetry.py, as
+"""FDI samples out of bags, or of runs of the core loop: the 1 s samples the observers see (core/fdi/telemetry.py, as
 the nodes make them)."""
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 
 from ...core.closed_loop import simulate
-from ...core.controller_design import scenario_design
-from ...core.telemetry import sample_telemetry
-from ...core.wheel import WheelParams
+from ...core.control.controller_design import scenario_design
+from ...core.fdi.telemetry import sample_telemetry
+from ...core.physics.wheel import WheelParams
 from ...graph.convert import fdi_sample_of, stamp_ns, telemetry_wheels
-from ...core.wheel_set import AXIS_WHEELS
+from ...core.physics.wheel_set import AXIS_WHEELS
 from ...graph.topics import FAULT_EFFECT, FDI_BUS_GRID, FDI_TELEMETRY
 from ...storage.bag import BagError, bag_is_complete, read_bag
 
@@ -45,7 +45,7 @@ class FdiSamples:
 
     def rows(self):
         """The samples one by one as telemetry.FdiSample (what the nodes see)."""
-        from ...core.telemetry import FdiSample
+        from ...core.fdi.telemetry import FdiSample
         names = ("wheel_speed", "model_torque", "ripple_phasor", "motor_torque", "friction_torque",
                  "free_motor_torque", "bus_motor_torque")
         for k, t in enumerate(self.time):
@@ -118,7 +118,7 @@ def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: 
 def recorded_wheel(data) -> WheelParams:
     """The wheel type a bag's run flew, as its datasheet gives it (the FDI's nominal model, whatever the plant's
     emf-limit choice): its /scenario holds the whole vehicle (BagError, one line, for one that does not read)."""
-    from ...core.scenario import ScenarioError, parse_scenario
+    from ...core.mission.scenario import ScenarioError, parse_scenario
     try:
         return parse_scenario(data.scenario_text, origin=f"{data.path} /scenario").spacecraft.wheel
     except ScenarioError as exc:
@@ -141,7 +141,7 @@ def bag_dirs(root) -> list:
 def _refuse_faulty(bag, data):
     """A BagError where a bag is not a fault-free run: its scenario's faults (the ground truth), or a wheel
     whose recorded fault effect is not zero (a fault injected live, fault.<wheel>.<kind>)."""
-    from ...core.scenario import ScenarioError, parse_scenario
+    from ...core.mission.scenario import ScenarioError, parse_scenario
     text = data.scenario_text
     if text is None:
         raise BagError(f"{bag}: no /scenario recorded: cannot tell it is fault-free")
@@ -202,8 +202,8 @@ def simulated_fault_free_runs(ref, seeds, pool=None, desc: str = "fitting runs (
     core loop (rw-fdi screen's: the graph's numbers, no bags) on the executor ``pool`` (default: local
     processes), in seed order, and the plant choices they were made under (what a bag of such a run records)."""
     from tqdm import tqdm
-    from ...core.plant_choices import PlantChoices
-    from ...core.scenario import Scenario, load_scenario
+    from ...core.mission.plant_choices import PlantChoices
+    from ...core.mission.scenario import Scenario, load_scenario
     from ..campaigns.campaign import LocalExecutor
     scenario = ref if isinstance(ref, Scenario) else load_scenario(ref)
     scenario_design(scenario, None if isinstance(ref, Scenario) else ref)   # one line before any run

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.elman import HIDDEN, standby
-from ...core.vehicle import DEFAULT_VEHICLE
+from ...core.fdi.elman import HIDDEN, standby
+from ...core.mission.vehicle import DEFAULT_VEHICLE
 from ..campaigns import service_family as family
 
 WINDOW = 300            # [FDI samples] a training window: two of each 600-s run
@@ -144,7 +144,7 @@ def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, u
 
 def family_plant(draw) -> dict:
     """The plant choices a family draw is flown under, as a bag of it records them (what bands are fitted for)."""
-    from ...core.plant_choices import PlantChoices
+    from ...core.mission.plant_choices import PlantChoices
     return PlantChoices.of_recording(family.scenario(draw).plant_choices().scenario_dict()).as_dict()
 
 

@@ -1,6 +1,6 @@
 """Train the three Elman observers (thesis 4.3.3) with torch from fault-free bags.
 
-Two trainings, same network and equations as core/elman.py:
+Two trainings, same network and equations as core/fdi/elman.py:
 - ``teacher`` (the thesis, Fig. 4.9): the delayed *measured* torque is the
   second input; the network is then run in recall mode. The thesis used one
   run; ``--runs 1`` reproduces that.
@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.detection import FALSE_ALARM_RATE
-from ...core.elman import HIDDEN, SETTLE_STEPS, ElmanWeights
+from ...core.fdi.detection import FALSE_ALARM_RATE
+from ...core.fdi.elman import HIDDEN, SETTLE_STEPS, ElmanWeights
 from ...extras import require
 from ...paths import shown_path
 
@@ -124,10 +124,10 @@ def _train_one(args):
 
 def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE,
                      wheel: str | None = None) -> float:
-    """kappa of an Elman network (core/residuals.demand_gain over ``samples``): it models slews less well
+    """kappa of an Elman network (core/fdi/residuals.demand_gain over ``samples``): it models slews less well
     than holding, and its first seconds start from a zero state."""
-    from ...core.residuals import demand_gain, demand_ratio
-    from ...core.elman import recall_series
+    from ...core.fdi.residuals import demand_gain, demand_ratio
+    from ...core.fdi.elman import recall_series
     ratios = [demand_ratio(s.reaction_torque[:, axis],
                            recall_series(weights, s.tcv[:, axis], s.reaction_torque[0, axis], s.wheel_speed[:, axis],
                                          model_torque=None if getattr(s, "model_torque", None) is None
@@ -144,8 +144,8 @@ def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALS
 def trained_wheels(samples, plant: dict | None = None) -> tuple:
     """The wheels a model set has networks for: those in use of the runs' wheel set (``plant``'s
     ``wheel_set``, else the samples' columns); a standby wheel, at rest in every training run, runs the
-    network of its type (core/elman.network_wheel)."""
-    from ...core.wheel_set import wheel_set
+    network of its type (core/fdi/elman.network_wheel)."""
+    from ...core.physics.wheel_set import wheel_set
     names = tuple(samples[0].wheels)
     if any(tuple(s.wheels) != names for s in samples):
         raise ValueError("training runs of different wheel sets: train each set on its own")

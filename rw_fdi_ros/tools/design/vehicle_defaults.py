@@ -2,7 +2,7 @@
 
 On the core loop (rw-fdi screen's: the graph's numbers, no bags), the speed-aware method:
 
-1. the controllers designed to the vehicle's targets (core/controller_design.py; the runs fly them);
+1. the controllers designed to the vehicle's targets (core/control/controller_design.py; the runs fly them);
 2. fault-free runs of the vehicle: training (seeds 1000-1039), fitting (1040-1139), held-out (5000-5099);
    for the calibrated bands, fault-free 600-s runs of drawn wheel units as in service (the in-service
    family's draws, tools/benches/service_bench.py: manoeuvres every 60-900 s, a share in orbit; seeds
@@ -25,9 +25,9 @@ from pathlib import Path
 
 import yaml
 
-from ...core.controller_design import design_controller
-from ...core.detection import FALSE_ALARM_RATE, PERSISTENCE_SPEED_AWARE
-from ...core.vehicle import load_vehicle, to_mapping
+from ...core.control.controller_design import design_controller
+from ...core.fdi.detection import FALSE_ALARM_RATE, PERSISTENCE_SPEED_AWARE
+from ...core.mission.vehicle import load_vehicle, to_mapping
 from ...scoring.metrics import wilson
 from .offline import alarmed_runs, fit_thresholds, load_models, observe, threshold_set
 from .samples import simulated_fault_free_runs
@@ -72,7 +72,7 @@ def service_unit_runs(vehicle_file: Path, seeds, executor=None, desc: str = "uni
 
 def held_out_alarms(samples, models, thresholds_dir, calibration: float = 0.0) -> dict:
     """observer -> (runs with any alarm, runs) of fault-free ``samples`` under the bands in ``thresholds_dir``."""
-    from ...core.calibration import calibration_samples
+    from ...core.fdi.calibration import calibration_samples
     runs = [observe(s, models, calibration_samples=calibration_samples(calibration)) for s in samples]
     return {obs: (k, len(runs)) for obs, k in alarmed_runs(runs, threshold_set(thresholds_dir, "speed_aware")).items()}
 

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from ...fdi_config import FdiConfig
-from ...core.threshold_file import ThresholdError
-from ...core.elman import ModelError
+from ...core.fdi.threshold_file import ThresholdError
+from ...core.fdi.elman import ModelError
 from ...graph import topics as T
 from ...storage.bag import BagError, bag_is_complete, read_bag, read_series
 from ..campaigns.campaign import LocalExecutor, _progress
@@ -29,7 +29,7 @@ from ...paths import shown_path
 from ...scoring.metrics import RunEval, aggregate, observable_level, health_rows, identification_figures
 from ...scoring.bag_series import (fdi_output_topics, health_from_bag, identification_from_bag, scenario_of,
                                    series_from_bag)
-from ...core.plant_choices import PlantChoices
+from ...core.mission.plant_choices import PlantChoices
 from ..design.offline import model_card
 from ..campaigns.replay import replay_bags, replay_finished
 
@@ -102,7 +102,7 @@ def judge_bags(chunk) -> list:
     reason it is skipped)]. Each bag is checked as for a
     replay (_check_bag), then the observer and isolation nodes' code runs on its recorded FDI telemetry
     (screen.judge_run), no replay. Module level: process pools and Dask workers run it."""
-    from ...core.calibration import calibration_samples
+    from ...core.fdi.calibration import calibration_samples
     from ..design.samples import fdi_samples
     from .screen import judge_run
     bags, fdi = chunk
@@ -137,7 +137,7 @@ def evaluate(bags_root, report_dir, fdi=None, executor=None, plots: bool = True,
     """Judge every bag under ``bags_root`` by the FDI nodes under ``fdi`` (FdiConfig or its mapping; None: the
     shipped FDI): ``engine`` 'graph' replays it through them (report/replays/), 'core' runs their code on its
     recorded telemetry (judge_bags: the same verdicts, test_engine.py). The method follows the models (the
-    unit calibration: the observers learn each run's wheels first, core/calibration.py)."""
+    unit calibration: the observers learn each run's wheels first, core/fdi/calibration.py)."""
     from ..campaigns.engine import check_engine
     check_engine(engine)
     report_dir = Path(report_dir)

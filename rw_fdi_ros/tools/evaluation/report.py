@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.wheel_set import AXIS_WHEELS
+from ...core.physics.wheel_set import AXIS_WHEELS
 
 THESIS = {
     "reliability": {"linear": (99, 99, 100), "elman": (97, 100, 96)},

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import yaml
 
-from ...core.wheel_set import AXIS_WHEELS
+from ...core.physics.wheel_set import AXIS_WHEELS
 from ..campaigns.campaign import CampaignResult, pending, record_campaigns, run_campaign
 from ..design.train import EPOCHS
 
@@ -193,8 +193,8 @@ def graph_check(out: Path, jobs, sample: int, executor, models: Path, persistenc
 def reproduce(out, scale_name: str = "small", executor=None, persistence: int | None = None, engine: str = "core",
               graph_sample: int = 1) -> dict:
     from .evaluate import evaluate
-    from ...core.detection import FALSE_ALARM_RATE
-    from ...core.threshold_fit import rate_carried
+    from ...core.fdi.detection import FALSE_ALARM_RATE
+    from ...core.fdi.threshold_fit import rate_carried
     from ..design.offline import fit_thresholds, load_models, plant_conditions
     from ..design.samples import load_samples
     from ..design.train import train_models

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.flight import Fdir
-from ...core.isolation import in_envelope, speed_envelope
+from ...core.fdi.verdict import in_envelope, speed_envelope
 from ...graph.topics import DIAGNOSTICS
 from ...scoring.metrics import RunEval, judge as judge_verdict, observers_of_runs
 from ..design.offline import judge, observe
@@ -29,7 +29,7 @@ def load_fdi(models=None, thresholds=None, method: str = "speed_aware", unit_cal
 def screen_runs(scenarios, weights, curves, persistence: int | None = None, progress=None,
                 identification: bool = False, calibration_samples: int = 0, decision=None, fdir=None) -> list:
     """RunEval of every scenario (one seed each; equal durations within a batch); ``decision``: what makes
-    the verdict (core/isolation.DecisionRule; None: the method's decision observer); ``fdir``
+    the verdict (core/fdi/verdict.DecisionRule; None: the method's decision observer); ``fdir``
     (flight.Fdir): the core loop reconfigures on its FDI's verdict, as the graph's allocation does."""
     return screen_sets(scenarios, {"fdi": (weights, curves)}, persistence, progress, identification,
                        calibration_samples, decision=decision, fdir=fdir)["fdi"]
@@ -75,7 +75,7 @@ def judge_run(scenario, samples, peak, weights, curves, persistence: int | None 
     observer's series, ``verdict`` (what /diagnostics says: the ``decision``'s alarm, latched, None: the
     method's decision observer; offline.judge) and with ``identification`` the faults of the wheels
     the verdict names (the isolation node's FaultIdentifier; the samples must carry the bus grid). ``peak``:
-    |fault effect| per wheel after the first onset. ``other_decisions`` (core/isolation.DecisionRule): the verdict
+    |fault effect| per wheel after the first onset. ``other_decisions`` (core/fdi/verdict.DecisionRule): the verdict
     each would give, beside (metrics.decision_slot)."""
     series, last = judge(observe(samples, weights, calibration_samples=calibration_samples), curves, samples,
                          decision, persistence, calibration_samples, identification and len(samples.time) > 0,

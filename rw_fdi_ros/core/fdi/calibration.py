@@ -44,7 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import wheel as wm
+from ..physics import wheel as wm
 
 PARAMETERS = wm.UNIT_PARAMETERS   # d_kt, d_Gd, b_v, b_c
 PHYSICAL = len(PARAMETERS)

@@ -31,12 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..paths import DEFAULT_VEHICLE, config_dir
-from .environment import DEFAULT_RESIDUAL_DIPOLE
-from .magnetorquers import MomentumDumping
-from .spacecraft import DISTURBANCE_SIGMA, INERTIA
-from .wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, UNIT_PARAMETERS, WheelParams
-from .wheel_set import WHEEL_SETS, WheelSet
+from ...paths import DEFAULT_VEHICLE, config_dir
+from ..physics.environment import DEFAULT_RESIDUAL_DIPOLE
+from ..physics.magnetorquers import MomentumDumping
+from ..physics.spacecraft import DISTURBANCE_SIGMA, INERTIA
+from ..physics.wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, UNIT_PARAMETERS, WheelParams
+from ..physics.wheel_set import WHEEL_SETS, WheelSet
 from .yaml_text import YamlError, read_yaml
 
 # every WheelParams field with its unit as a vehicle file writes it ("": a pure number; None: a named choice)

@@ -38,7 +38,7 @@ class SignedResidual:
     plus the observer's own model error, which grows with the torque the wheel is asked for
     (``uncertainty_gain`` kappa: 0 for the nominal wheel model, measured on the training runs
     for an Elman network, tools/design/train.py), plus, with a ``calibration`` to the wheel's own unit
-    (core/calibration.py), the uncertainty u of its correction to the estimate.
+    (core/fdi/calibration.py), the uncertainty u of its correction to the estimate.
     """
 
     def __init__(self, window: int = WINDOW, share: float | None = None, ripple_gain_max: float = RIPPLE_GAIN_MAX,
@@ -109,7 +109,7 @@ def ripple_share(params=None) -> float:
     float
         B/2 (dimensionless: ripple torque per motor torque).
     """
-    from .wheel import WheelParams
+    from ..physics.wheel import WheelParams
     p = params or WheelParams()
     return p.ripple_amplitude_share * p.ripple_coefficient
 
@@ -194,7 +194,7 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
         What each may hold unfaulted [N m].
     """
     from .calibration import UnitCalibration
-    from .wheel import WheelParams
+    from ..physics.wheel import WheelParams
     actual, estimate, phasor = (np.asarray(x) for x in (actual, estimate, ripple_phasor))
     res, bound = np.empty(actual.shape), np.empty(actual.shape)
     uncertainty_gains = np.zeros(actual.shape[1]) if uncertainty_gains is None else uncertainty_gains
@@ -232,7 +232,7 @@ def demand_ratio(actual, estimate, ripple_phasor, active: float | None = None, p
     float or None
         The largest ratio (dimensionless), None when no sample is active.
     """
-    from .wheel import WheelParams, torque_scale
+    from ..physics.wheel import WheelParams, torque_scale
     active = 1e-3 * torque_scale(params or WheelParams()) if active is None else active
     r = np.asarray(actual, float)[:, None]
     res, bound = signed_residual_series(r, np.asarray(estimate, float)[:, None],

@@ -13,7 +13,7 @@ import numpy as np
 
 from .detection import AlarmRule
 from .threshold_file import ThresholdCurves
-from .wheel_set import AXIS_WHEELS
+from ..physics.wheel_set import AXIS_WHEELS
 
 # The observer whose alarms make the wheel's /diagnostics status and start fault identification, per
 # FDI method. Speed-aware: the nominal wheel model (the physics observer). Its error does not depend on
@@ -28,13 +28,13 @@ DECISION_OBSERVERS = {"speed_aware": "model", "thesis": "elman"}
 # The operating envelope's wheel speeds [rad/s]: the verdict is judged for |speed| <= this and STALE beyond.
 # Validated in operations from 0 (speeds through zero) to 45 rad/s (docs/fdi.md "Operations"); above 47.3 rad/s
 # the nominal wheel cannot hold its speed even at the 5 V command limit (friction exceeds the motor's
-# torque, core/wheel.py), so a wheel there is not in any state the FDI was built for.
+# torque, core/physics/wheel.py), so a wheel there is not in any state the FDI was built for.
 WHEEL_SPEED_ENVELOPE = 45.0
 
 
 def speed_envelope(params=None) -> float:
     """The operating envelope's speed [rad/s] of a wheel type: the thesis' type's share of its top speed,
-    WHEEL_SPEED_ENVELOPE / Omega_top = 45 / 47.3 (core/wheel.top_speed), of this type's Omega_top; the thesis'
+    WHEEL_SPEED_ENVELOPE / Omega_top = 45 / 47.3 (core/physics/wheel.top_speed), of this type's Omega_top; the thesis'
     type (None, or any of its EMF-limit choices: the envelope is the wheel's, not the plant choice's) gets
     WHEEL_SPEED_ENVELOPE itself.
 
@@ -49,7 +49,7 @@ def speed_envelope(params=None) -> float:
         The largest |speed| judged [rad/s].
     """
     from dataclasses import replace
-    from .wheel import WheelParams, top_speed
+    from ..physics.wheel import WheelParams, top_speed
     if params is None:
         return WHEEL_SPEED_ENVELOPE
     thesis = replace(WheelParams(), emf_limit=params.emf_limit)
@@ -142,7 +142,7 @@ class DecisionRule:
 
 def decision_of(text: str, method: str, observers=None) -> DecisionRule:
     """The DecisionRule a configuration names: '' (the method's decision observer), an observer's name, or a
-    vote 'KofN' over the method's N observers (``observers``: those, default core/detection.observers_of).
+    vote 'KofN' over the method's N observers (``observers``: those, default core/fdi/detection.observers_of).
     ValueError naming what it accepts."""
     from .detection import observers_of
     available = tuple(observers or observers_of(method))

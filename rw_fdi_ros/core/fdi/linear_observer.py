@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from .wheel import LinearWheel, linearised_wheel
+from ..physics.wheel import LinearWheel, linearised_wheel
 
 # kappa per wheel of the speed-aware residual bound (residuals.SignedResidual): the linearised model
 # knows no speed, back-EMF or friction law, so its error grows with the torque the wheel is asked for

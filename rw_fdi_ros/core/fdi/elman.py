@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .wheel_set import AXIS_WHEELS, fitted_for
+from ..physics.wheel_set import AXIS_WHEELS, fitted_for
 
 HIDDEN = 25
 INPUTS = 2

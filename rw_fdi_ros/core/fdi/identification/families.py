@@ -1,20 +1,20 @@
 """The three fault families of a wheel: their names, their parameters' grids and the reaction torque each
 grid point predicts.
 
-Each family is a one-parameter family of the nominal Bialke wheel (core/wheel.py) driven by the measured
+Each family is a one-parameter family of the nominal Bialke wheel (core/physics/wheel.py) driven by the measured
 command u and wheel speed Omega, every term the mean over one FDI period of its control-rate values:
 
     current_limiter  a [-]:   r^ = -a tau_m(u, Omega; 8 V) + tau_f(Omega; 23 C)           (limiter)
     temperature      T [C]:   r^ = -tau_m(u, Omega; 8 V) + tau_v(T) Omega + tau_c tanh(.)  (eq. 2.15)
     bus_voltage      V [V]:   r^ = -tau_m(u, Omega; V)   + tau_f(Omega; 23 C)             (eqs. 2.9-2.14)
 
-The names are the scenario's fault kinds (core/scenario.FAULT_KINDS), from the scenario to the report.
+The names are the scenario's fault kinds (core/mission/scenario.FAULT_KINDS), from the scenario to the report.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .. import wheel as wm
+from ...physics import wheel as wm
 
 KINDS = ("current_limiter", "temperature", "bus_voltage")
 UNKNOWN = "unknown"

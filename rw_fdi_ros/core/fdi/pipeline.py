@@ -22,12 +22,12 @@ import numpy as np
 
 from .calibration import UnitCalibration, regressors
 from .identification import FaultIdentifier
-from .isolation import (WHEEL_SPEED_ENVELOPE, DecisionRule, LatchedVerdict, ObserverChannel, decision_of,
+from .verdict import (WHEEL_SPEED_ENVELOPE, DecisionRule, LatchedVerdict, ObserverChannel, decision_of,
                         in_envelope, speed_envelope)
 from .observer_plugin import PluginRun
 from .residuals import SignedResidual, ripple_share
 from .telemetry import TelemetrySampler
-from .wheel import WheelParams
+from ..physics.wheel import WheelParams
 
 
 class Verdict(LatchedVerdict):
@@ -450,7 +450,7 @@ def observer_estimators(names, models, slots, period: float, calibration_samples
         slot -> (``make(batch)``, a factory of a callable ``(sample) -> (B, N) r^``, kappa per wheel).
     """
     from .linear_observer import LinearObserver, uncertainty_gain
-    from .wheel import linearised_wheel
+    from ..physics.wheel import linearised_wheel
 
     def elman():
         from functools import partial

@@ -239,7 +239,7 @@ def load_observer(spec: str) -> type:
     except Exception as exc:   # noqa: BLE001 -- importing a user's module runs its code: whatever it raises
         raise ObserverError(f"observer {spec}: cannot load it ({type(exc).__name__}: {exc})") from None
     if not (isinstance(cls, type) and issubclass(cls, WheelObserver)):
-        raise ObserverError(f"observer {spec}: {cls!r} is not a subclass of rw_fdi_ros.core.observer_plugin."
+        raise ObserverError(f"observer {spec}: {cls!r} is not a subclass of rw_fdi_ros.core.fdi.observer_plugin."
                             "WheelObserver")
     if not is_plugin_slot(cls.slot or ""):
         raise ObserverError(f"observer {spec}: its slot {cls.slot!r} must be lower-case letters, digits and '_' "

@@ -1,7 +1,7 @@
 """Fault identification: which fault a wheel has and how large (thesis 1.2.1, the step it leaves out).
 
 Once a wheel is alarmed, each fault kind is a one-parameter family of the nominal Bialke wheel
-(core/wheel.py) driven by the measured command u and wheel speed Omega, every term the mean over one FDI
+(core/physics/wheel.py) driven by the measured command u and wheel speed Omega, every term the mean over one FDI
 period of its control-rate values (telemetry.TelemetrySampler):
 
     current_limiter  a [-]:   r^ = -a tau_m(u, Omega; 8 V) + tau_f(Omega; 23 C)           (limiter)
@@ -22,7 +22,7 @@ over a grid of theta per family, alpha and beta eliminated by projection, and ov
   chi2_1(0.95) s^2 c}, s^2 = max(RSS_min / (n - 3), sigma_floor^2), c = ``CORRELATION`` for the serial
   correlation of 1 s samples; where it reaches the grid's end only a bound is observable.
 
-On a calibrated unit (core/calibration.py) every family is the unit's (its shares b^ scale k_t, G_d, the
+On a calibrated unit (core/fdi/calibration.py) every family is the unit's (its shares b^ scale k_t, G_d, the
 viscous and coulomb friction), and what the calibration does not know enters as four more regressors
 dr^/db with its posterior N(0, Sigma) as prior: RSS_h(theta) = min || r - r^(theta; b^) - X_r (alpha,
 beta) - X_u(theta) db ||^2 + c s^2 db' Sigma^-1 db.

@@ -13,11 +13,11 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
 
-from .geomagnetic import FIELD_MODELS
-from .sampling import SAMPLINGS as FDI_SAMPLINGS
-from .wheel import EMF_LIMITS
+from ..physics.geomagnetic import FIELD_MODELS
+from ..fdi.sampling import SAMPLINGS as FDI_SAMPLINGS
+from ..physics.wheel import EMF_LIMITS
 from .vehicle import DEFAULT_VEHICLE
-from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
+from ..physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
 
 # what a scenario file may set under `plant:` (the rest is fixed by the graph)
 SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period", "wheel_set", "magnetic_field")
@@ -32,7 +32,7 @@ LEGACY = {"wheel_momentum_coupling": False, "wheel_set": "orthogonal"}
 EQUIVALENT = {("wheel_set", "orthogonal", "orthogonal_skew"), ("magnetic_field", "igrf", "tilted_dipole"),
               ("magnetic_field", "tilted_dipole", "igrf")}
 # what the graph's FDI runs at, whatever the scenario: sample period [s] (the plant's telemetry report,
-# core/telemetry.py) and how control-rate data becomes one FDI sample (core/sampling.py [choice])
+# core/fdi/telemetry.py) and how control-rate data becomes one FDI sample (core/fdi/sampling.py [choice])
 FDI_PERIOD = 1.0
 FDI_SAMPLING = "mean"
 

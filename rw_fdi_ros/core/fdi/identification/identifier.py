@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .. import wheel as wm
+from ...physics import wheel as wm
 from ..calibration import PHYSICAL, UnitCalibration, regressors
 from .decision import decide
 from .families import SIGMA_FLOOR

@@ -16,7 +16,7 @@ the thesis' observers had to guess become known:
   (residuals.ripple_reach widens it to any gain that changes monotonically in the window)
 
 :class:`TelemetrySampler` feeds on the control-rate signals and returns one
-:class:`FdiSample` per FDI period (means over (t - T, t], core/sampling.py).
+:class:`FdiSample` per FDI period (means over (t - T, t], core/fdi/sampling.py).
 The observer nodes and the offline tools both use it.
 """
 from __future__ import annotations
@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from . import wheel as wm
+from ..physics import wheel as wm
 from .sampling import FdiSampler
 
 
@@ -83,7 +83,7 @@ class FdiSample:
 
     def sampled(self, mode: str) -> "FdiSample":
         """This sample as the observers of FDI sampling ``mode`` see it: ``instant`` puts the values at
-        the stamp in place of the period means of tcv and reaction torque (core/sampling.py)."""
+        the stamp in place of the period means of tcv and reaction torque (core/fdi/sampling.py)."""
         if mode == "mean" or self.tcv_instant is None:
             return self
         return replace(self, tcv=self.tcv_instant, reaction_torque=self.reaction_torque_instant)

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .spacecraft import INERTIA
-from .wheel import WheelParams
+from ..physics.spacecraft import INERTIA
+from ..physics.wheel import WheelParams
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Whether the physics can tell a current loss from a bus drop on a wheel's driven samples.
 
-Both faults act only through the motor current (core/wheel.motor_current): a current loss scales the
+Both faults act only through the motor current (core/physics/wheel.motor_current): a current loss scales the
 bridge current, I = c I_B(u, Omega), and a bus drop caps it, I = min(I_B(u, Omega), I_emf(V_bus, Omega)) in
 the motoring quadrant (eqs. 2.9-2.14). At one operating point, u and Omega alike in every sample, a share
 and a cap give the same current, and nothing the wheel shows can say which it was; only samples at
@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .. import wheel as wm
+from ...physics import wheel as wm
 from .decision import DECISIVE
 from .families import SIGMA_FLOOR
 

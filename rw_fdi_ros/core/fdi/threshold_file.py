@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .detection import METHODS, PERSISTENCE, SIGMAS, WINDOW
-from .wheel_set import fitted_for
+from ..physics.wheel_set import fitted_for
 
 class ThresholdError(ValueError):
     """Threshold curves that cannot be used; one line naming the file and the fix."""
@@ -128,7 +128,7 @@ class ThresholdCurves:
         ``plant``: the running :class:`PlantChoices`, or a mapping of the choices to check. A
         choice the file does not record was fitted under its legacy value (plant_choices.LEGACY).
         """
-        from .plant_choices import PlantChoices
+        from ..mission.plant_choices import PlantChoices
         fitted = PlantChoices.from_recorded(self.plant)
         if isinstance(plant, dict):
             keys, running = list(plant), PlantChoices(**{**fitted.as_dict(), **plant})

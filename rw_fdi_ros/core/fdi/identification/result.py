@@ -15,7 +15,7 @@ from .families import BUS_VOLTAGE_GRID, CURRENT_LIMITER_GRID, TEMPERATURE_GRID, 
 from .ramps import RAMP_NOTED_S
 
 MIN_SAMPLES = 5   # samples since the onset under which the identifier is still identifying (no kind yet)
-# a kind's former name -> its name now (core/scenario.FAULT_KINDS): bags recorded before say the former
+# a kind's former name -> its name now (core/mission/scenario.FAULT_KINDS): bags recorded before say the former
 FORMER_NAMES = {"current_loss": "current_limiter"}
 # a kind as a person reads it in a message
 SPOKEN = {"current_limiter": "current loss", "temperature": "temperature", "bus_voltage": "bus voltage"}

@@ -13,16 +13,16 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
-from .faults import FAULT_KINDS, Fault
-from .geomagnetic import IGRF_YEARS
-from .magnetorquers import MomentumDumping
-from .orbit import CircularOrbit, OrbitError, TleOrbit
+from ..physics.environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
+from ..physics.faults import FAULT_KINDS, Fault
+from ..physics.geomagnetic import IGRF_YEARS
+from ..physics.magnetorquers import MomentumDumping
+from ..physics.orbit import CircularOrbit, OrbitError, TleOrbit
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
-from .wheel_set import AXIS_WHEELS, WHEEL_SETS
+from ..physics.wheel_set import AXIS_WHEELS, WHEEL_SETS
 from .vehicle import (DEFAULT_VEHICLE, DISPERSION_LIMITS, THESIS, UNIT_SPREAD_MAX, Dispersions, Vehicle,
                       VehicleError, load_vehicle)
-from .wheel import UNIT_PARAMETERS, WheelParams, unit_wheel
+from ..physics.wheel import UNIT_PARAMETERS, WheelParams, unit_wheel
 from .yaml_text import YamlError, read_yaml
 
 # Thesis Table 2.3 ranges drawn per axis (the default vehicle's dispersions, vehicle.py).
@@ -167,7 +167,7 @@ class Scenario:
     def wheel_set(self, recorded: bool = False):
         """The run's wheels (plant choice ``wheel_set``, wheel_set.py). ``recorded``: this is a bag's
         /scenario, whose plant mapping lacks the choice if it predates it (the three-wheel set then)."""
-        from .wheel_set import wheel_set
+        from ..physics.wheel_set import wheel_set
         return wheel_set(PlantChoices.from_recorded(self.plant).wheel_set if recorded
                          else self.plant_choices().wheel_set)
 
@@ -583,7 +583,7 @@ def scenario_dir() -> Path:
     pathlib.Path
         The directory.
     """
-    from ..paths import config_dir
+    from ...paths import config_dir
     return config_dir() / "scenarios"
 
 

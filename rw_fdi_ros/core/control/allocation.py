@@ -34,8 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .wheel import WheelParams, holding_tcv
-from .wheel_set import WheelSet
+from ..physics.wheel import WheelParams, holding_tcv
+from ..physics.wheel_set import WheelSet
 
 HOLD_GAIN = 2.0   # [V/(rad/s)] speed-hold gain: a 0.7 s time constant on the datasheet wheel, stable at 0.1 s
 
