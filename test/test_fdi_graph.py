@@ -225,7 +225,7 @@ def test_observer_node_alone_with_missing_model(tmp_path):
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     with DomainLease() as lease:
         env["ROS_DOMAIN_ID"] = str(lease.domain_id)
-        r = subprocess.run([str(BIN / "elman_observer"), "--ros-args", "-p", f"model:={tmp_path}/m.npz"],
+        r = subprocess.run([str(BIN / "elman_observer"), "--ros-args", "-p", f"fdi.models:={tmp_path}"],
                            capture_output=True, text=True, timeout=60, env=env)
     assert r.returncode == 2 and "model file not found" in r.stderr and "rw-fdi train" in r.stderr
 
