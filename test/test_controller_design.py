@@ -1,4 +1,4 @@
-"""The controllers of a vehicle designed to its targets (core/control/controller_design.py): MakSat's are the thesis'
+"""The controllers of a vehicle designed to its targets (core/controller_design.py): MakSat's are the thesis'
 gains exactly, a heavier body gets slower poles that still meet its targets, and targets nobody meets are
 refused with the axis and the best design where a run starts (parsing a scenario designs nothing)."""
 from dataclasses import replace
@@ -9,7 +9,7 @@ import yaml
 
 from rw_fdi_ros.cli import main
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.control.controller_design import design_controller, scenario_design
+from rw_fdi_ros.core.controller_design import design_controller, scenario_design
 from rw_fdi_ros.core.control.pid import design_gains
 from rw_fdi_ros.core.mission.scenario import Scenario, ScenarioError, SetpointChange, parse_scenario
 from rw_fdi_ros.core.mission.vehicle import THESIS, ControllerTargets
@@ -78,7 +78,7 @@ def test_parsing_a_recorded_scenario_designs_nothing_and_simulates_nothing(monke
 
     from rw_fdi_ros.core import closed_loop
 
-    from rw_fdi_ros.core.control import controller_design
+    from rw_fdi_ros.core import controller_design
     from rw_fdi_ros.scoring.bag_series import scenario_of
 
     def refuse(*args, **kwargs):

@@ -12,7 +12,7 @@ from rw_fdi_ros.fdi_config import FdiConfig
 import yaml
 
 from rw_fdi_ros.core.closed_loop import simulate
-from rw_fdi_ros.core.control.controller_design import design_controller
+from rw_fdi_ros.core.controller_design import design_controller
 from rw_fdi_ros.core.physics.magnetorquers import MomentumDumping
 from rw_fdi_ros.core.physics.plant import Plant
 from rw_fdi_ros.core.fdir import slew_excursion

@@ -5,7 +5,7 @@ the design live apart and this module, above both, joins them.
 """
 from __future__ import annotations
 
-from .control.controller_design import design_controller
+from .controller_design import design_controller
 from .flight import Trajectory, fly
 from .control.pid import PidGains
 from .physics.plant import batch_vehicle

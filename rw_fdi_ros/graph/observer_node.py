@@ -22,7 +22,7 @@ from ..core.fdi.calibration import UnitCalibration, calibration_samples, regress
 from ..core.fdi.detection import WINDOW
 from ..core.fdi.residuals import ResidualFilter, SignedResidual, ripple_share
 from ..core.fdi.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
-from ..core.fdi.sampling import SAMPLINGS
+from ..core.mission.plant_choices import SAMPLINGS
 from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
 from ..storage.cdr import joint_state_cdr
 from . import topics as T

@@ -12,7 +12,7 @@ import yaml
 
 from ..fdi_config import FdiConfig
 from ..core.control.allocation import TorqueAllocator
-from ..core.control.controller_design import design_controller
+from ..core.controller_design import design_controller
 from ..core.fdi.detection import observers_of
 from ..core.physics.plant import Plant
 from ..core.mission.plant_choices import DEFAULT, PlantChoices

@@ -8,7 +8,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.control.controller_design import scenario_design
+from ..core.controller_design import scenario_design
 from ..core.mission.scenario import Scenario, load_scenario
 from .graph import DEFAULT_GROUPING, graph_nodes
 from .launcher import DomainLease, GraphProcesses, cleanup

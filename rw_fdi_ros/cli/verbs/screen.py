@@ -25,7 +25,7 @@ def main(args) -> int:
     seeds = parse_seeds(args.seeds, "--seeds")   # before the imports: a bad option answers at once
     import json
     from tqdm import tqdm
-    from ...core.control.controller_design import scenario_design
+    from ...core.controller_design import scenario_design
     from ...core.mission.scenario import load_scenario
     from ...tools.benches.kit import write_runs_table
     from ...tools.evaluation.screen import format_screen, screen

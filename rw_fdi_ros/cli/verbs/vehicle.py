@@ -22,7 +22,7 @@ def main(args) -> int:
             vehicle = load_vehicle(name)
             print(f"{name:{width}s}  {vehicle.wheel_set.count} wheels, {vehicle.wheel_type}: {vehicle.description}")
         return 0
-    from ...core.control.controller_design import design_controller
+    from ...core.controller_design import design_controller
     vehicle = load_vehicle(args.vehicle)
     if args.yaml:
         print(yaml.safe_dump(to_mapping(vehicle), sort_keys=False))

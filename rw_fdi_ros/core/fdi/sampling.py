@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-SAMPLINGS = ("mean", "instant")
+from ..mission.plant_choices import SAMPLINGS
+
 
 
 class FdiSampler:

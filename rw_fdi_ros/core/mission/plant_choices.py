@@ -14,10 +14,13 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, fields, replace
 
 from ..physics.geomagnetic import FIELD_MODELS
-from ..fdi.sampling import SAMPLINGS as FDI_SAMPLINGS
 from ..physics.wheel import EMF_LIMITS
 from .vehicle import DEFAULT_VEHICLE
 from ..physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
+
+# how an FDI sample is made of the control-rate samples of its period (fdi/sampling.py): their mean, or the one at
+# the FDI stamp (the thesis')
+SAMPLINGS = ("mean", "instant")
 
 # what a scenario file may set under `plant:` (the rest is fixed by the graph)
 SCENARIO_KEYS = ("emf_limit", "wheel_momentum_coupling", "control_period", "wheel_set", "magnetic_field")
@@ -74,8 +77,8 @@ class PlantChoices:
                                    f"got {self.wheel_momentum_coupling!r}")
         if self.wheel_set not in WHEEL_SETS:
             raise PlantChoiceError(f"wheel_set must be one of {', '.join(WHEEL_SETS)}, got {self.wheel_set!r}")
-        if self.fdi_sampling not in FDI_SAMPLINGS:
-            raise PlantChoiceError(f"fdi_sampling must be one of {', '.join(FDI_SAMPLINGS)}, got {self.fdi_sampling!r}")
+        if self.fdi_sampling not in SAMPLINGS:
+            raise PlantChoiceError(f"fdi_sampling must be one of {', '.join(SAMPLINGS)}, got {self.fdi_sampling!r}")
         for key in ("control_period", "fdi_period"):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 1e-3 <= value <= 10.0:

@@ -16,7 +16,7 @@ from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ...core.control.controller_design import scenario_design
+from ...core.controller_design import scenario_design
 from ...core.mission.scenario import load_scenario
 from ...extras import require
 from ...storage.bag import bag_is_complete

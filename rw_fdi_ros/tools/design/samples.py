@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.closed_loop import simulate
-from ...core.control.controller_design import scenario_design
+from ...core.controller_design import scenario_design
 from ...core.fdi.telemetry import sample_telemetry
 from ...core.physics.wheel import WheelParams
 from ...graph.convert import fdi_sample_of, stamp_ns, telemetry_wheels

@@ -2,7 +2,7 @@
 
 On the core loop (rw-fdi screen's: the graph's numbers, no bags), the speed-aware method:
 
-1. the controllers designed to the vehicle's targets (core/control/controller_design.py; the runs fly them);
+1. the controllers designed to the vehicle's targets (core/controller_design.py; the runs fly them);
 2. fault-free runs of the vehicle: training (seeds 1000-1039), fitting (1040-1139), held-out (5000-5099);
    for the calibrated bands, fault-free 600-s runs of drawn wheel units as in service (the in-service
    family's draws, tools/benches/service_bench.py: manoeuvres every 60-900 s, a share in orbit; seeds
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import yaml
 
-from ...core.control.controller_design import design_controller
+from ...core.controller_design import design_controller
 from ...core.fdi.detection import FALSE_ALARM_RATE, PERSISTENCE_SPEED_AWARE
 from ...core.mission.vehicle import load_vehicle, to_mapping
 from ...scoring.metrics import wilson

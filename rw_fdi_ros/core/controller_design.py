@@ -22,10 +22,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..flight import fly
-from .pid import PidGains, design_gains
-from ..mission.scenario import Scenario, ScenarioError, SetpointChange
-from ..mission.vehicle import Vehicle, VehicleError
+from .flight import fly
+from .control.pid import PidGains, design_gains
+from .mission.scenario import Scenario, ScenarioError, SetpointChange
+from .mission.vehicle import Vehicle, VehicleError
 
 # [rad/s] the thesis' 0.3 first, then slower: a heavier body's loop must ask less torque per radian
 NATURAL_FREQUENCIES = (0.3, 0.25, 0.2, 0.16, 0.13, 0.1, 0.08, 0.065, 0.05, 0.04, 0.03, 0.02)
