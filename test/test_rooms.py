@@ -26,3 +26,49 @@ def test_the_design_tools_import_no_bench():
     design = ("rw_fdi_ros.tools.design.service_training", "rw_fdi_ros.tools.design.vehicle_defaults",
               "rw_fdi_ros.tools.design.defaults", "rw_fdi_ros.tools.design.offline", "rw_fdi_ros.tools.design.samples")
     assert loaded_after(design, "rw_fdi_ros.tools.benches") == []
+
+
+def import_graph() -> dict:
+    """module -> the package's modules it imports (at the top or inside a function), from the source."""
+    import ast
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    files = {".".join(p.relative_to(root).with_suffix("").parts).removesuffix(".__init__"): p
+             for p in (root / "rw_fdi_ros").rglob("*.py")}
+    graph = {}
+    for module, path in files.items():
+        here = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+        graph[module] = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                base = ".".join(here.split(".")[:len(here.split(".")) - node.level + 1]) if node.level else ""
+                source = ".".join(filter(None, (base, node.module)))
+                names = [f"{source}.{a.name}" for a in node.names] + [source]
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            else:
+                continue
+            hit = next((n for n in names if n in files and n != module), None)
+            graph[module] |= {n for n in names if n in files and n != module and not (n == source and hit != n)} \
+                if isinstance(node, ast.ImportFrom) else {n for n in names if n in files}
+    return graph
+
+
+def test_no_module_imports_one_that_imports_it_back():
+    """No circle anywhere in the package's import graph, imports inside functions included (a lazy import is an
+    arrow all the same)."""
+    graph = import_graph()
+    done, stack = set(), []
+
+    def visit(module):
+        stack.append(module)
+        for other in graph[module]:
+            assert other not in stack, " -> ".join(stack[stack.index(other):] + [other])
+            if other not in done:
+                visit(other)
+        stack.pop()
+        done.add(module)
+    for module in graph:
+        if module not in done:
+            visit(module)
+    assert len(graph) > 100 and sum(map(len, graph.values())) > 300   # the graph was read
