@@ -13,10 +13,11 @@ def run_with_fdi(ref: str, seed=None, out_dir="bags", fdi=None, figure: bool = F
     """Run the full graph (plant, PIDs, wheel allocation, observers, isolation, recorder) with the FDI ``fdi``
     (FdiConfig or its mapping; None: the shipped one); attach the FDI verdict. ``fdi.fdir`` False: the wheel
     allocation keeps every wheel in use (detection alone)."""
-    outcome = run_scenario(ref, seed=seed, out_dir=out_dir, fdi=FdiConfig.of(fdi), **kw)
+    fdi = FdiConfig.of(fdi)
+    outcome = run_scenario(ref, seed=seed, out_dir=out_dir, fdi=fdi, **kw)
     if outcome.bag.exists():
         try:
-            data = read_series(outcome.bag, verdict_topics(FdiConfig.of(fdi).plugin_slots))
+            data = read_series(outcome.bag, verdict_topics(fdi.plugin_slots))
             outcome.summary = {**(outcome.summary or {}), "fdi": {**fdi_verdict(data),
                                                                   "health": bag_series.health_from_bag(outcome.bag)}}
             if figure:

@@ -180,7 +180,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
 def plugin_parameters(fdi) -> dict:
     """The ``plugin_observers`` parameter (the slots of the FDI's plug-ins, comma-separated) of the nodes that
     read or record their topics; {} without plug-ins (the nodes' default)."""
-    slots = () if fdi is None else FdiConfig.of(fdi).plugin_slots
+    slots = () if fdi is None else fdi.plugin_slots
     return {"plugin_observers": ",".join(slots)} if slots else {}
 
 
@@ -287,12 +287,12 @@ def with_reader_counts(nodes):
 
 def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False, wheel_type: str = ""):
     """An Elman observer per wheel of the set, the linear observer, the model observer (speed_aware) and the
-    isolation node (told the run's choices), as ``fdi`` (FdiConfig or its mapping) says. Without models or
+    isolation node (told the run's choices), as ``fdi`` (FdiConfig) says. Without models or
     thresholds given, the nodes take the shipped set of the method themselves (a real ROS 2 install's share/).
 
     Parameters
     ----------
-    fdi : FdiConfig or mapping
+    fdi : FdiConfig
         The run's FDI.
     choices : PlantChoices
         The run's plant choices (wheel set, FDI period [s] and sampling).
@@ -307,7 +307,7 @@ def fdi_nodes(fdi, choices: PlantChoices, await_bus_grid: bool = False, wheel_ty
     list of NodeSpec
         The Elman observers, the other observers, then the isolation node.
     """
-    fdi = FdiConfig.of(fdi).for_vehicle(choices.vehicle)
+    fdi = fdi.for_vehicle(choices.vehicle)
     nodes = []
     common = {**fdi_parameters(fdi), "fdi_period": choices.fdi_period, "fdi_sampling": choices.fdi_sampling,
               "wheel_set": choices.wheel_set, **({"wheel_type": wheel_type} if wheel_type else {})}

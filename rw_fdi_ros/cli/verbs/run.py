@@ -83,8 +83,8 @@ def main(args) -> int:
         print(format_summary(outcome.summary))
         if "fdi" in outcome.summary:
             print(f"fault detection and isolation ({args.fdi_method}"
-                  + (f", persistence P = {args.persistence}" if args.persistence else "")
-                  + (f", wheels learnt over the first {args.unit_calibration:g} s" if args.unit_calibration else "")
+                  + (f", persistence P = {fdi.persistence}" if fdi.persistence else "")
+                  + (f", wheels learnt over the first {fdi.unit_calibration:g} s" if fdi.unit_calibration else "")
                   + "):")
             print(format_verdict(outcome.summary["fdi"]))
             print(f"  figure: {outcome.summary.get('figure')}")
