@@ -45,7 +45,20 @@ class ControllerDesign:
 def step_responses(vehicle: Vehicle, gains: list) -> tuple:
     """(settling time [s], overshoot [share]) arrays (len(gains), 3) of the vehicle's design step under each
     PidGains of ``gains``: the worst of the step up and down, the wheels starting at the low and the high end
-    of their range."""
+    of their range.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The vehicle.
+    gains : list of PidGains
+        The candidate gains.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        (settling time [s], overshoot [share]), each (len(gains), 3).
+    """
     step = max(abs(v) for v in vehicle.dispersions.setpoint_change_deg)
     horizon = max(3.0 * vehicle.controller.settling_time, 60.0)
     cases = [(sign, speed) for sign in (1.0, -1.0) for speed in vehicle.dispersions.wheel_speed]
@@ -69,7 +82,18 @@ def step_responses(vehicle: Vehicle, gains: list) -> tuple:
 
 @lru_cache(maxsize=32)
 def design_controller(vehicle: Vehicle) -> ControllerDesign:
-    """The vehicle's gains (module docstring); VehicleError when no natural frequency meets its targets."""
+    """The vehicle's gains (module docstring); VehicleError when no natural frequency meets its targets.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The vehicle.
+
+    Returns
+    -------
+    ControllerDesign
+        The gains, the natural frequency w_n [rad/s], settling time [s] and overshoot of each axis.
+    """
     targets = vehicle.controller
     candidates = [design_gains(vehicle.axis_inertia, natural_frequency=w) for w in NATURAL_FREQUENCIES]
     settling, overshoot = step_responses(vehicle, candidates)

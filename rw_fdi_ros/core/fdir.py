@@ -86,6 +86,13 @@ class Decision:
     reason: str
 
     def message(self) -> str:
+        """One line a person reads: the wheel, what it does, when and why.
+
+        Returns
+        -------
+        str
+            The line.
+        """
         what = {"out_of_use": "taken out of use", "in_use": "brought into use",
                 "kept_in_use": "kept in use", "held": "held at its speed",
                 "at_limit": "at its limit"}[self.action]
@@ -246,21 +253,74 @@ class DeliveryLog:
         self.params = params
 
     def add(self, tcv, wheel_speed, reaction_torque):
+        """Keep one control sample (the oldest one dropped once DELIVERY_SAMPLES are kept).
+
+        Parameters
+        ----------
+        tcv : array_like
+            (B, N) or (N,) commands in force u [V].
+        wheel_speed : array_like
+            (B, N) or (N,) wheel speeds Omega [rad/s].
+        reaction_torque : array_like
+            (B, N) or (N,) reaction torques r [N m].
+        """
         self.rows.append(tuple(np.atleast_2d(np.asarray(x, float)) for x in (tcv, wheel_speed, reaction_torque)))
 
     def share(self, wheel_index: int, b: int = 0) -> float:
+        """The share a^ of its nominal motor torque wheel ``wheel_index`` of run ``b`` gave over the samples kept.
+
+        Parameters
+        ----------
+        wheel_index : int
+            The wheel's index in the set.
+        b : int
+            The run's index in the batch.
+
+        Returns
+        -------
+        float
+            a^ (:func:`delivered_share`); NaN when no sample is kept.
+        """
         if not self.rows:
             return float("nan")
         u, w, r = (np.array([row[k][b, wheel_index] for row in self.rows]) for k in range(3))
         return delivered_share(u, w, r, self.params)
 
     def saturated(self, wheel_index: int, b: int = 0, limit: float | None = None) -> bool:
-        """Whether every command of the samples kept was at the voltage ``limit`` [V] (None: the wheel type's)."""
+        """Whether every command of the samples kept was at the voltage ``limit`` [V] (None: the wheel type's).
+
+        Parameters
+        ----------
+        wheel_index : int
+            The wheel's index in the set.
+        b : int
+            The run's index in the batch.
+        limit : float or None
+            The command limit [V]; None: the wheel type's.
+
+        Returns
+        -------
+        bool
+            False when no sample is kept.
+        """
         limit = self.params.command_limit if limit is None else limit
         return bool(self.rows) and all(abs(row[0][b, wheel_index]) >= limit - 1e-9 for row in self.rows)
 
     def of(self, names, b: int = 0) -> "Delivered":
-        """Run ``b``'s wheels by name (what :meth:`Reconfiguration.review` reads)."""
+        """Run ``b``'s wheels by name (what :meth:`Reconfiguration.review` reads).
+
+        Parameters
+        ----------
+        names : sequence of str
+            The wheels of the set, in its order.
+        b : int
+            The run's index in the batch.
+
+        Returns
+        -------
+        Delivered
+            Run ``b``'s view of the log.
+        """
         return Delivered(self, tuple(names), b)
 
 
@@ -273,9 +333,33 @@ class Delivered:
     b: int = 0
 
     def share(self, wheel: str) -> float:
+        """The share a^ of its nominal motor torque ``wheel`` gave (:meth:`DeliveryLog.share`).
+
+        Parameters
+        ----------
+        wheel : str
+            The wheel's name.
+
+        Returns
+        -------
+        float
+            a^; NaN when no sample is kept.
+        """
         return self.log.share(self.names.index(wheel), self.b)
 
     def saturated(self, wheel: str) -> bool:
+        """Whether every command of ``wheel`` kept was at the voltage limit (:meth:`DeliveryLog.saturated`).
+
+        Parameters
+        ----------
+        wheel : str
+            The wheel's name.
+
+        Returns
+        -------
+        bool
+            Saturated throughout.
+        """
         return self.log.saturated(self.names.index(wheel), self.b)
 
 
@@ -308,7 +392,30 @@ class Reconfiguration:
         not hold the spacecraft's momentum (:func:`momentum_shortfall`), giving the wheel up would lose the
         pointing for certain: it is held instead (relieved of control, kept at its speed now; see the module
         docstring) and the standby wheel brought in, and the decision says why. ``force`` (an operator's
-        command) gives it up all the same, a held wheel too, and says what that costs."""
+        command) gives it up all the same, a held wheel too, and says what that costs.
+
+        Parameters
+        ----------
+        wheel : str
+            The wheel's name.
+        t : float
+            Sim time of the decision [s].
+        reason : str
+            Why (the decision's words).
+        wheel_speed : array_like or None
+            (N,) wheel speeds Omega [rad/s] now; None: the momentum is not checked.
+        body_momentum : array_like
+            (3,) the body's angular momentum [N m s].
+        force : bool
+            An operator's command: given up whatever it costs.
+        delivered : float
+            The share a^ of its nominal motor torque the wheel gave lately (NaN: unknown).
+
+        Returns
+        -------
+        list of Decision
+            The new decisions.
+        """
         self.wheels.index(wheel)   # ValueError naming the wheels for an unknown one
         if wheel in self.given_up or ((wheel in self.kept or wheel in self.held) and not force):
             return []
@@ -376,6 +483,20 @@ class Reconfiguration:
           the voltage limit for SATURATED_S (a unit whose friction takes the whole command below ``holdable``),
           is said, once: the wheels left cannot hold the momentum the reconfiguration left them (a held wheel
           that sheds what its fault does not let it keep), and the pointing is lost until momentum is dumped.
+
+        Parameters
+        ----------
+        t : float
+            Sim time [s].
+        wheel_speed : array_like
+            (N,) wheel speeds Omega [rad/s].
+        delivered : Delivered or None
+            What the wheels gave over the last samples; None: not known at this sample.
+
+        Returns
+        -------
+        list of Decision
+            The new decisions.
         """
         out = []
         for wheel in [w for w in self.wheels.names if w in self.kept and w in self.in_use and delivered is not None]:
@@ -442,7 +563,13 @@ class Reconfiguration:
         return set(self.given_up) | self.kept | set(self.held)
 
     def ordered_in_use(self) -> tuple:
-        """The wheels in use in the set's order."""
+        """The wheels in use in the set's order.
+
+        Returns
+        -------
+        tuple of str
+            The wheels' names.
+        """
         return tuple(n for n in self.wheels.names if n in self.in_use)
 
 
@@ -455,19 +582,49 @@ class DecisionDelay:
         self.requested = set()  # what was put, ever (a confirmed failure is decided once)
 
     def put(self, made_at: float, what):
+        """Put ``what`` to be applied ``delay`` seconds after ``made_at``.
+
+        Parameters
+        ----------
+        made_at : float
+            Sim time the decision was made [s].
+        what : object
+            The decision (the caller's form: a (wheel, reason) pair, an operator's command).
+        """
         self.pending.append((made_at + self.delay, what))
 
     def confirm(self, confirmed: dict, made_at: float, settled=()):
         """Put each wheel of ``confirmed`` (wheel -> first alarm [s], in the set's order) that is not
         ``settled`` and was not put before: a confirmed failure is decided once, the earliest alarm first
-        (ties in the set's order). The core loop and the wheel allocation node both call this."""
+        (ties in the set's order). The core loop and the wheel allocation node both call this.
+
+        Parameters
+        ----------
+        confirmed : dict
+            wheel -> first alarm [s], in the set's order.
+        made_at : float
+            Sim time of the FDI stamp [s].
+        settled : collection of str
+            Wheels already decided on.
+        """
         for wheel, first in sorted(confirmed.items(), key=lambda c: c[1]):
             if wheel not in settled and wheel not in self.requested:
                 self.requested.add(wheel)
                 self.put(made_at, (wheel, confirmed_reason(first)))
 
     def due(self, t: float) -> list:
-        """What is due at sim time ``t`` (in the order it was put), removed from the pending."""
+        """What is due at sim time ``t`` (in the order it was put), removed from the pending.
+
+        Parameters
+        ----------
+        t : float
+            Sim time [s].
+
+        Returns
+        -------
+        list
+            What was put, now due.
+        """
         due = [w for at, w in self.pending if at <= t + 1e-9]
         self.pending = [(at, w) for at, w in self.pending if at > t + 1e-9]
         return due

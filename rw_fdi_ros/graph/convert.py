@@ -19,19 +19,72 @@ from .topics import FDIR_STATUS
 
 
 def time_msg(stamp_ns: int) -> Time:
+    """A builtin_interfaces/Time of a stamp in integer nanoseconds.
+
+    Parameters
+    ----------
+    stamp_ns : int
+        The stamp [ns].
+
+    Returns
+    -------
+    builtin_interfaces.msg.Time
+        The same stamp, seconds and nanoseconds.
+    """
     return Time(sec=int(stamp_ns // 1_000_000_000), nanosec=int(stamp_ns % 1_000_000_000))
 
 
 def stamp_ns(stamp: Time) -> int:
+    """A builtin_interfaces/Time's stamp in integer nanoseconds.
+
+    Parameters
+    ----------
+    stamp : builtin_interfaces.msg.Time
+        The stamp.
+
+    Returns
+    -------
+    int
+        The stamp [ns].
+    """
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
 def step_stamp_ns(step: int, period: float) -> int:
-    """Stamp of lockstep step k: k * period, exact in integer nanoseconds."""
+    """Stamp of lockstep step k: k * period, exact in integer nanoseconds.
+
+    Parameters
+    ----------
+    step : int
+        The step k.
+    period : float
+        The lockstep period [s].
+
+    Returns
+    -------
+    int
+        The stamp [ns].
+    """
     return int(step) * int(round(period * 1e9))
 
 
 def vector_msg(stamp_ns_: int, values, frame_id: str = "body") -> Vector3Stamped:
+    """A geometry_msgs/Vector3Stamped of three values at a stamp.
+
+    Parameters
+    ----------
+    stamp_ns_ : int
+        The stamp [ns].
+    values : array_like
+        (3,) x, y, z.
+    frame_id : str
+        The frame of the header.
+
+    Returns
+    -------
+    geometry_msgs.msg.Vector3Stamped
+        The message.
+    """
     msg = Vector3Stamped()
     msg.header.stamp = time_msg(stamp_ns_)
     msg.header.frame_id = frame_id
@@ -40,14 +93,40 @@ def vector_msg(stamp_ns_: int, values, frame_id: str = "body") -> Vector3Stamped
 
 
 def telemetry_channel(name: str, key: str) -> str:
-    """The FDI telemetry report's channel of wheel ``name``'s quantity ``key`` ('reaction_wheel_x/tcv')."""
+    """The FDI telemetry report's channel of wheel ``name``'s quantity ``key`` ('reaction_wheel_x/tcv').
+
+    Parameters
+    ----------
+    name : str
+        The wheel's name.
+    key : str
+        The quantity's key (core.fdi.telemetry.report_columns).
+
+    Returns
+    -------
+    str
+        The channel's name.
+    """
     return f"{joint_name(name)}/{key}"
 
 
 def fdi_telemetry_cdr(sample, names) -> bytes:
     """The FDI telemetry report of one sample (sensor_msgs/JointState, CDR): one named channel per wheel and
     quantity (:func:`telemetry_channel`, core.telemetry.report_columns), its value in ``position``; the
-    exact doubles, plottable by name (PlotJuggler) or index (Foxglove, the shipped layout)."""
+    exact doubles, plottable by name (PlotJuggler) or index (Foxglove, the shipped layout).
+
+    Parameters
+    ----------
+    sample : core.fdi.telemetry.FdiSample
+        The FDI sample.
+    names : sequence of str
+        The wheels, in the sample's order.
+
+    Returns
+    -------
+    bytes
+        The serialised sensor_msgs/JointState.
+    """
     from ..core.fdi.telemetry import report_columns
     columns = report_columns(sample)
     channels = tuple(telemetry_channel(n, key) for n in names for key in columns)
@@ -58,7 +137,20 @@ def fdi_telemetry_cdr(sample, names) -> bytes:
 def bus_grid_msg(sample, names):
     """The identification's bus-voltage grid of one sample (sensor_msgs/PointCloud2, or None without it): one
     point per bus voltage V, fields ``bus_voltage`` [V] and each wheel's joint name (k_t I_m(u, Omega; V),
-    period means [N m]), float64: a self-describing binary table beside the report, 26 kB a second."""
+    period means [N m]), float64: a self-describing binary table beside the report, 26 kB a second.
+
+    Parameters
+    ----------
+    sample : core.fdi.telemetry.FdiSample
+        The FDI sample.
+    names : sequence of str
+        The wheels, in the sample's order.
+
+    Returns
+    -------
+    sensor_msgs.msg.PointCloud2 or None
+        The grid; None when the sample has no bus-voltage grid.
+    """
     if sample.bus_motor_torque is None:
         return None
     from sensor_msgs.msg import PointCloud2, PointField
@@ -75,7 +167,20 @@ def bus_grid_msg(sample, names):
 
 def bus_grid_of(msg, names) -> np.ndarray:
     """(N, grid) motor torques [N m] of a :func:`bus_grid_msg` (an rclpy or a rosbags message), wheels in
-    ``names`` order; ValueError if it is not that table or not on the identification's grid."""
+    ``names`` order; ValueError if it is not that table or not on the identification's grid.
+
+    Parameters
+    ----------
+    msg : sensor_msgs.msg.PointCloud2
+        A :func:`bus_grid_msg` (rclpy or rosbags).
+    names : sequence of str
+        The wheels, in the order wanted.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, grid) motor torques [N m].
+    """
     from ..core.fdi.identification import BUS_VOLTAGE_GRID
     offsets = {f.name: f.offset for f in msg.fields if f.datatype == 8 and f.count == 1}   # FLOAT64
     step = msg.point_step
@@ -97,7 +202,24 @@ def fdi_sample_of(msg, names, identification: bool = True, bus_grid=None):
     """The core.telemetry.FdiSample of an FDI telemetry report (an rclpy or a rosbags message), wheels in
     ``names`` order; ``bus_grid`` its :func:`bus_grid_msg`, if identification reads it
     (``identification=False`` skips the terms only fault identification needs). Reads the text report
-    (DiagnosticArray) of bags recorded before the report was numeric, too. ValueError if malformed."""
+    (DiagnosticArray) of bags recorded before the report was numeric, too. ValueError if malformed.
+
+    Parameters
+    ----------
+    msg : sensor_msgs.msg.JointState or diagnostic_msgs.msg.DiagnosticArray
+        The FDI telemetry report (numeric, or the legacy text form).
+    names : sequence of str
+        The wheels, in the order wanted.
+    identification : bool
+        Whether the terms only fault identification needs are read.
+    bus_grid : sensor_msgs.msg.PointCloud2 or None
+        The report's bus-voltage grid.
+
+    Returns
+    -------
+    core.fdi.telemetry.FdiSample
+        The sample.
+    """
     from ..core.fdi.telemetry import sample_from_report
     if hasattr(msg, "status"):   # legacy: one status per wheel, key -> repr text
         by_wheel = {s.hardware_id: {kv.key: kv.value for kv in s.values} for s in msg.status}
@@ -115,7 +237,18 @@ def fdi_sample_of(msg, names, identification: bool = True, bus_grid=None):
 
 
 def telemetry_wheels(msg) -> tuple:
-    """The wheel names an FDI telemetry report (either form) holds, in its order."""
+    """The wheel names an FDI telemetry report (either form) holds, in its order.
+
+    Parameters
+    ----------
+    msg : sensor_msgs.msg.JointState or diagnostic_msgs.msg.DiagnosticArray
+        The FDI telemetry report.
+
+    Returns
+    -------
+    tuple of str
+        The wheel names.
+    """
     joints = ([s.hardware_id for s in msg.status] if hasattr(msg, "status")
               else list(dict.fromkeys(c.rpartition("/")[0] for c in msg.name)))
     return tuple(j.removeprefix("reaction_wheel_") for j in joints)
@@ -128,7 +261,22 @@ STATES = {"in_use": DiagnosticStatus.OK, "standby": DiagnosticStatus.OK, "kept_i
 def wheel_states_msg(stamp: int, reconfiguration: Reconfiguration, names) -> DiagnosticArray:
     """/fdir/wheels (and /diagnostics, once per FDI period): one status per wheel of the set (in use, standby,
     kept in use, held, given up and why) as ``reconfiguration`` (core/fdir.py) stands at ``stamp``; the
-    core-loop engine writes the same."""
+    core-loop engine writes the same.
+
+    Parameters
+    ----------
+    stamp : int
+        The stamp [ns].
+    reconfiguration : core.fdir.Reconfiguration
+        FDIR's state of the wheels.
+    names : sequence of str
+        The wheels of the set.
+
+    Returns
+    -------
+    diagnostic_msgs.msg.DiagnosticArray
+        One status per wheel.
+    """
     r = reconfiguration
     msg = DiagnosticArray()
     msg.header.stamp = time_msg(stamp)
@@ -148,7 +296,18 @@ def wheel_states_msg(stamp: int, reconfiguration: Reconfiguration, names) -> Dia
 
 def offered_qos(profile) -> dict:
     """An rclpy QoSProfile in rosbag2's metadata form (version 9: policies by name, durations as sec/nsec),
-    what a recorded topic was offered with: a player offers the same (a latched topic latched again)."""
+    what a recorded topic was offered with: a player offers the same (a latched topic latched again).
+
+    Parameters
+    ----------
+    profile : rclpy.qos.QoSProfile
+        The profile.
+
+    Returns
+    -------
+    dict
+        rosbag2's offered_qos_profiles entry.
+    """
     def duration(d):
         sec, nsec = divmod(int(d.nanoseconds), 1_000_000_000)
         return {"sec": sec, "nsec": nsec}

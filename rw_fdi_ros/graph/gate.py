@@ -15,6 +15,13 @@ class GatedPublisher:
         self.queue = []
 
     def publish(self, msg):
+        """Publish ``msg`` now if the gate is open, else queue it (and try to open the gate).
+
+        Parameters
+        ----------
+        msg : object
+            The message.
+        """
         if self.open:
             self.publisher.publish(msg)
         else:
@@ -22,7 +29,13 @@ class GatedPublisher:
             self.flush()
 
     def flush(self):
-        """Send what waits once enough readers are matched (call it from the node's poll)."""
+        """Send what waits once enough readers are matched (call it from the node's poll).
+
+        Returns
+        -------
+        bool
+            Whether nothing waits any more.
+        """
         if not self.open and self.publisher.get_subscription_count() >= self.min_subscribers:
             self.open = True
             for msg in self.queue:
@@ -31,4 +44,16 @@ class GatedPublisher:
         return not self.queue
 
     def wait_for_all_acked(self, timeout):
+        """rclpy's: wait until every reader acknowledged what was published.
+
+        Parameters
+        ----------
+        timeout : rclpy.duration.Duration
+            How long to wait at most.
+
+        Returns
+        -------
+        bool
+            Whether all were acknowledged in time.
+        """
         return self.publisher.wait_for_all_acked(timeout)

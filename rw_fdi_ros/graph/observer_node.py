@@ -71,7 +71,17 @@ class ObserverNode(GraphNode):
         self.input = InputMonitor("FDI telemetry", self.param("fdi_period"))
 
     def start(self, estimate_topic: str, residual_topic: str, bound_topic: str):
-        """Publishers and subscriptions, once the subclass knows its topics."""
+        """Publishers and subscriptions, once the subclass knows its topics.
+
+        Parameters
+        ----------
+        estimate_topic : str
+            Where r^ goes [N m].
+        residual_topic : str
+            Where the residual goes [N m].
+        bound_topic : str
+            Where the ripple bound goes [N m].
+        """
         def pub(topic, readers):
             return GatedPublisher(self.create_publisher(JointState, topic, T.RELIABLE), self.param(readers))
         self.pub_estimate = pub(estimate_topic, "estimate_readers")
@@ -81,7 +91,18 @@ class ObserverNode(GraphNode):
         self.follow_run_end(period=self.param("fdi_period"))
 
     def observe(self, sample):
-        """(estimate, residual, bound), one value per wheel of ``out_joints``, for one FdiSample."""
+        """(estimate, residual, bound), one value per wheel of ``out_joints``, for one FdiSample.
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (estimate r^, residual, ripple bound) [N m], one value per wheel of ``out_joints``.
+        """
         raise NotImplementedError
 
     def reset(self):
@@ -89,13 +110,37 @@ class ObserverNode(GraphNode):
         raise NotImplementedError
 
     def signed_residual(self, uncertainty_gain: float = 0.0) -> SignedResidual:
-        """A wheel's speed-aware residual, learning its unit when the node calibrates."""
+        """A wheel's speed-aware residual, learning its unit when the node calibrates.
+
+        Parameters
+        ----------
+        uncertainty_gain : float
+            kappa, the observer's model error term (residuals.SignedResidual).
+
+        Returns
+        -------
+        core.fdi.residuals.SignedResidual
+            The residual filter.
+        """
         return SignedResidual(self.param("window"), ripple_share(self.wheel), uncertainty_gain=uncertainty_gain,
                               calibration=UnitCalibration(self.calibration_samples, params=self.wheel)
                               if self.calibration_samples else None)
 
     def regressors(self, sample, i: int):
-        """Wheel ``i``'s calibration regressors of ``sample`` (None when the node does not calibrate)."""
+        """Wheel ``i``'s calibration regressors of ``sample`` (None when the node does not calibrate).
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample.
+        i : int
+            The wheel's index in the sample.
+
+        Returns
+        -------
+        numpy.ndarray or None
+            The regressors (core.fdi.calibration.regressors).
+        """
         if not self.calibration_samples:
             return None
         free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
@@ -151,6 +196,13 @@ class ObserverNode(GraphNode):
             self.finish()
 
     def timing(self):
+        """Figures for ``rw-fdi bench``: the node's compute and callback times.
+
+        Returns
+        -------
+        dict
+            graph.timing.summary of them.
+        """
         from .timing import summary
         return summary(compute=self.compute, callback=self.callback, callback_cpu=self.callback_cpu)
 
@@ -162,7 +214,18 @@ class WheelsObserverNode(ObserverNode):
     slot = ""
 
     def uncertainty_gain(self, wheel: str) -> float:
-        """kappa of a wheel (residuals.SignedResidual): the observer's model error term; 0 by default."""
+        """kappa of a wheel (residuals.SignedResidual): the observer's model error term; 0 by default.
+
+        Parameters
+        ----------
+        wheel : str
+            The wheel's name.
+
+        Returns
+        -------
+        float
+            kappa [-].
+        """
         return 0.0
     needs_speed = False                   # it reads the wheel speed: speed_aware only
 
@@ -183,10 +246,33 @@ class WheelsObserverNode(ObserverNode):
         """The subclass' own parameters, declared before its first reset."""
 
     def estimate(self, sample):
-        """r^ of every wheel for one FdiSample."""
+        """r^ of every wheel for one FdiSample.
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample.
+
+        Returns
+        -------
+        numpy.ndarray
+            (N,) r^ [N m].
+        """
         raise NotImplementedError
 
     def observe(self, sample):
+        """(estimate, residual, bound) of every wheel for one FdiSample: thesis' |r - r^| mean or speed-aware.
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (N,) each: estimate r^ (calibrated when the node calibrates), residual, ripple bound [N m].
+        """
         estimate, torque = self.estimate(sample), sample.reaction_torque
         if not self.speed_aware:
             return (estimate, np.array([f.update(r, e) for f, r, e in zip(self.filters, torque, estimate)]),

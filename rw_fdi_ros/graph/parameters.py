@@ -67,14 +67,42 @@ BY_NODE = {
 
 
 def range_of(node: str, name: str):
-    """(low, high) of parameter ``name`` of executable ``node``, or None when it has none (not numeric)."""
+    """(low, high) of parameter ``name`` of executable ``node``, or None when it has none (not numeric).
+
+    Parameters
+    ----------
+    node : str
+        The executable's name.
+    name : str
+        The parameter's name.
+
+    Returns
+    -------
+    tuple or None
+        (low, high).
+    """
     if name.startswith("fault."):   # live fault injection fault.<axis>.<kind>: the scenario's limits
         return FAULT_LIMITS.get(name.rsplit(".", 1)[-1])
     return BY_NODE.get(node, {}).get(name, RANGES.get(name))
 
 
 def descriptor(node: str, name: str, value):
-    """The ParameterDescriptor with the range of ``name`` for a default ``value`` (int or float), or None."""
+    """The ParameterDescriptor with the range of ``name`` for a default ``value`` (int or float), or None.
+
+    Parameters
+    ----------
+    node : str
+        The executable's name.
+    name : str
+        The parameter's name.
+    value : object
+        Its default value.
+
+    Returns
+    -------
+    rcl_interfaces.msg.ParameterDescriptor or None
+        The descriptor with its range.
+    """
     from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
     limits = range_of(node, name)
     if limits is None or isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -87,11 +115,34 @@ def descriptor(node: str, name: str, value):
 
 
 def finite(value) -> bool:
+    """Whether a parameter's value is finite (anything but a float is).
+
+    Parameters
+    ----------
+    value : object
+        The value.
+
+    Returns
+    -------
+    bool
+        False for a float inf or nan.
+    """
     return not isinstance(value, float) or math.isfinite(value)
 
 
 def range_text(limits) -> str:
-    """How docs/graph.md's table states a range: 'range [0, 1000]'."""
+    """How docs/graph.md's table states a range: 'range [0, 1000]'.
+
+    Parameters
+    ----------
+    limits : tuple
+        (low, high).
+
+    Returns
+    -------
+    str
+        The text.
+    """
     def shown(x):
         return str(x) if isinstance(x, int) else f"{x:g}"
     return f"range [{shown(limits[0])}, {shown(limits[1])}]"

@@ -27,7 +27,22 @@ UNIT_FIELDS = (("torque_constant", "torque_constant"), ("driver_gain", "driver_g
 
 def run_units(wheel, run: int, count: int) -> dict:
     """Ground-truth unit parameters of run ``run``'s ``count`` wheels (core.physics.wheel.WheelParams, scalar or
-    (B, N) per parameter): what the truth message says of each wheel."""
+    (B, N) per parameter): what the truth message says of each wheel.
+
+    Parameters
+    ----------
+    wheel : core.physics.wheel.WheelParams
+        The batch's wheels.
+    run : int
+        The run's index b.
+    count : int
+        The number of wheels N.
+
+    Returns
+    -------
+    dict
+        Truth key -> (N,) values.
+    """
     out = {}
     for key, attr in UNIT_FIELDS:
         value = np.asarray(getattr(wheel, attr), float)
@@ -36,7 +51,20 @@ def run_units(wheel, run: int, count: int) -> dict:
 
 
 def magnetometer_msg(stamp: int, field) -> MagneticField:
-    """sensor_msgs/MagneticField in body axes [T], its covariance the noise's (environment.MAGNETOMETER_NOISE)."""
+    """sensor_msgs/MagneticField in body axes [T], its covariance the noise's (environment.MAGNETOMETER_NOISE).
+
+    Parameters
+    ----------
+    stamp : int
+        The stamp [ns].
+    field : array_like
+        (3,) the reading [T].
+
+    Returns
+    -------
+    sensor_msgs.msg.MagneticField
+        The message.
+    """
     msg = MagneticField()
     msg.header.stamp = time_msg(stamp)
     msg.header.frame_id = "body"
@@ -64,7 +92,13 @@ class PlantReport:
         self.truth_due = 0.0
 
     def start(self) -> list:
-        """(topic, message) before the first step: the scenario as run (latched)."""
+        """(topic, message) before the first step: the scenario as run (latched).
+
+        Returns
+        -------
+        list of tuple
+            (topic, message).
+        """
         return [(T.SCENARIO, String(data=self.scenario_text))]
 
     def step(self, stamp: int, time: float, attitude, body_rate, wheel_angle, wheel_speed, reaction_torque, tcv,
@@ -72,7 +106,40 @@ class PlantReport:
         """(topic, CDR bytes or message) of one step, in the order they go out (the controllers' input
         first: they compute while the rest goes out). Wheel arrays (N,), body arrays (3,);
         ``operating_point`` kind -> (N,); ``faults`` the run's core.faults.Fault list; in orbit the
-        magnetometer's reading (3,) [T] on its steps."""
+        magnetometer's reading (3,) [T] on its steps.
+
+        Parameters
+        ----------
+        stamp : int
+            The step's stamp [ns].
+        time : float
+            The step's time t [s].
+        attitude : array_like
+            (3,) attitude angles [rad].
+        body_rate : array_like
+            (3,) body rates [rad/s].
+        wheel_angle : array_like
+            (N,) wheel angles [rad].
+        wheel_speed : array_like
+            (N,) wheel speeds Omega [rad/s].
+        reaction_torque : array_like
+            (N,) reaction torques r [N m].
+        tcv : array_like
+            (N,) torque command voltages u [V].
+        fault_effect : array_like
+            (N,) the faults' effect on the reaction torque [N m].
+        operating_point : dict
+            kind -> (N,) values.
+        faults : list of core.physics.faults.Fault
+            The run's faults.
+        magnetic_field : array_like or None
+            (3,) magnetometer reading [T], in orbit on its steps.
+
+        Returns
+        -------
+        list of tuple
+            (topic, CDR bytes or message).
+        """
         out = [(T.ATTITUDE, joint_state_cdr(stamp, T.ATTITUDE_JOINTS, attitude, body_rate)),
                (T.CLOCK, clock_cdr(stamp)),
                (T.WHEELS, joint_state_cdr(stamp, self.joints, wheel_angle, wheel_speed, reaction_torque))]
@@ -89,6 +156,20 @@ class PlantReport:
         return out + ([(T.FAULT_TRUTH, truth)] if truth is not None else [])
 
     def done(self, stamp: int, why: str = "completed") -> list:
+        """(topic, message) after the last step: /plant/done at ``stamp``, saying why.
+
+        Parameters
+        ----------
+        stamp : int
+            The last stamp [ns].
+        why : str
+            Why the run ended.
+
+        Returns
+        -------
+        list of tuple
+            (topic, message).
+        """
         return [(T.PLANT_DONE, Header(stamp=time_msg(stamp), frame_id=why))]
 
     def _truth(self, stamp, time, fault_effect, op, faults):

@@ -29,6 +29,17 @@ class ReportGridPairing:
         self.last_decided = None                         # the key of the latest report decided
 
     def report(self, msg, stamp: int, awaited: bool) -> None:
+        """Take an FDI telemetry report: decide it once its grid is in (at once unless ``awaited``).
+
+        Parameters
+        ----------
+        msg : object
+            The report.
+        stamp : int
+            Its stamp [ns].
+        awaited : bool
+            Whether it waits for its grid.
+        """
         order = stamp_order(self.last_report_ns, stamp, self.period_ns)   # as the reports come, decided or not
         if order == OUT_OF_ORDER and self.grid_run > self.report_run:
             order = NEW_RUN   # the grids began a run whose first report was lost: this one is of that run
@@ -50,6 +61,15 @@ class ReportGridPairing:
             self.grids = {k: g for k, g in self.grids.items() if k > key}
 
     def grid(self, msg, stamp: int) -> None:
+        """Take a bus-voltage grid: keep it for its report, and decide the reports it completes.
+
+        Parameters
+        ----------
+        msg : object
+            The grid.
+        stamp : int
+            Its stamp [ns].
+        """
         order = stamp_order(self.last_grid_ns, stamp, self.period_ns)
         if (order == OUT_OF_ORDER or self.last_grid_ns is None) and self.report_run > self.grid_run:
             order = NEW_RUN   # the reports began a run whose first grid was lost (or came before any grid)
@@ -68,7 +88,13 @@ class ReportGridPairing:
 
     def flush(self, waited: float | None = None) -> None:
         """Decide the waiting reports, oldest first, with their grid if it came: all, or those that waited
-        ``waited`` wall seconds (a grid stream that went silent), then the rest as their grids allow."""
+        ``waited`` wall seconds (a grid stream that went silent), then the rest as their grids allow.
+
+        Parameters
+        ----------
+        waited : float or None
+            Decide only the reports that waited longer than this [s] (wall time); None: all.
+        """
         now = time.monotonic()
         for key in sorted(self.reports):
             msg, since = self.reports[key]

@@ -49,7 +49,18 @@ class NodeError(RuntimeError):
 def relative(topic: str) -> str:
     """A graph topic's name relative to the node's namespace ('/attitude' -> 'attitude'): the table's names
     (graph/topics.py) are what a graph without a namespace has, and what a bag records; a node resolves
-    them in its namespace, so two spacecraft share a ROS graph under /sc1 and /sc2 without cross-talk."""
+    them in its namespace, so two spacecraft share a ROS graph under /sc1 and /sc2 without cross-talk.
+
+    Parameters
+    ----------
+    topic : str
+        A graph topic's name, e.g. '/attitude'.
+
+    Returns
+    -------
+    str
+        The name without its leading '/'.
+    """
     return topic[1:] if topic.startswith("/") else topic
 
 
@@ -63,14 +74,63 @@ class GraphNode(Node):
         self.exit_message = ""
 
     def create_publisher(self, msg_type, topic, *args, **kwargs):
+        """rclpy's, with ``topic`` resolved in the node's namespace (:func:`relative`).
+
+        Parameters
+        ----------
+        msg_type : type
+            The message class.
+        topic : str
+            The graph topic's name (graph/topics.py).
+        *args, **kwargs
+            rclpy's (QoS, callback group, ...).
+
+        Returns
+        -------
+        rclpy.publisher.Publisher
+            The publisher.
+        """
         return super().create_publisher(msg_type, relative(topic), *args, **kwargs)
 
     def create_subscription(self, msg_type, topic, *args, **kwargs):
+        """rclpy's, with ``topic`` resolved in the node's namespace (:func:`relative`).
+
+        Parameters
+        ----------
+        msg_type : type
+            The message class.
+        topic : str
+            The graph topic's name (graph/topics.py).
+        *args, **kwargs
+            rclpy's (callback, QoS, callback group, ...).
+
+        Returns
+        -------
+        rclpy.subscription.Subscription
+            The subscription.
+        """
         return super().create_subscription(msg_type, relative(topic), *args, **kwargs)
 
     def declare_parameter(self, name, value=None, descriptor=None, ignore_override=False):
         """rclpy's, with the parameter's range (graph/parameters.py) in its descriptor: a value out of it,
-        or a non-finite float, ends the node with one line naming the parameter before it starts."""
+        or a non-finite float, ends the node with one line naming the parameter before it starts.
+
+        Parameters
+        ----------
+        name : str
+            The parameter's name.
+        value : object, optional
+            Its default value.
+        descriptor : rcl_interfaces.msg.ParameterDescriptor, optional
+            Its descriptor; None: the range graph/parameters.py gives it.
+        ignore_override : bool
+            rclpy's: ignore a value given at start-up.
+
+        Returns
+        -------
+        rclpy.parameter.Parameter
+            The declared parameter.
+        """
         from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
         from .parameters import descriptor as ranged, finite
         descriptor = descriptor or ranged(getattr(type(self), "node_name", self.get_name()), name, value)
@@ -90,7 +150,15 @@ class GraphNode(Node):
         multiple of it. ``grace`` wall seconds after done is only a safety net. Parameter
         ``end_with_run`` false keeps the node for the next run (bag replay of many runs through one
         graph); whoever started it stops it. A done that never arrives (its writer gone before this reader
-        acknowledged it, on a loaded machine) ends the node ``grace`` seconds after the writer left."""
+        acknowledged it, on a loaded machine) ends the node ``grace`` seconds after the writer left.
+
+        Parameters
+        ----------
+        grace : float
+            Wall time after done (or after the done writer left) the node ends at the latest [s].
+        period : float
+            The node's handling period [s]; 0: the done stamp itself is the last one handled.
+        """
         from std_msgs.msg import Header
         from . import topics as T
         from .convert import stamp_ns
@@ -113,6 +181,13 @@ class GraphNode(Node):
         self.create_subscription(Header, T.PLANT_DONE, on_done, T.LATCHED)
 
     def run_ended(self) -> bool:
+        """Whether the run this node follows has ended (see :meth:`follow_run_end`).
+
+        Returns
+        -------
+        bool
+            True once the last stamp is handled, the grace time is over, or the done writer left.
+        """
         end = getattr(self, "_run_end", None)
         if end is None:
             return self._done_writer_left()
@@ -143,10 +218,28 @@ class GraphNode(Node):
         return now - watch.gone_since > self._run_end_grace
 
     def finish(self, code: int = EXIT_OK, message: str = ""):
+        """Mark the node finished with ``code`` (the first call wins).
+
+        Parameters
+        ----------
+        code : int
+            The exit code.
+        message : str
+            One line saying why, for the log.
+        """
         if self.exit_code is None:
             self.exit_code, self.exit_message = code, message
 
     def fail(self, message: str, code: int = EXIT_ERROR):
+        """Mark the node failed: :meth:`finish` with an error code.
+
+        Parameters
+        ----------
+        message : str
+            One line saying why, for the log.
+        code : int
+            The exit code.
+        """
         self.finish(code, message)
 
     def poll(self):
@@ -166,11 +259,28 @@ class GraphNode(Node):
                 pass
 
     def timing(self) -> dict:
-        """Figures for ``rw-fdi bench`` (printed at exit when RW_FDI_TIMING=1)."""
+        """Figures for ``rw-fdi bench`` (printed at exit when RW_FDI_TIMING=1).
+
+        Returns
+        -------
+        dict
+            Figure name -> value; empty here, nodes that time themselves override it.
+        """
         return {}
 
     def param(self, name):
-        """A parameter's value; None for a declared-but-unset typed parameter."""
+        """A parameter's value; None for a declared-but-unset typed parameter.
+
+        Parameters
+        ----------
+        name : str
+            The parameter's name.
+
+        Returns
+        -------
+        object or None
+            Its value.
+        """
         from rclpy.exceptions import ParameterUninitializedException
         try:
             return self.get_parameter(name).value
@@ -194,7 +304,20 @@ class RecorderReady:
 
 
 def spin_node(factory, args=None) -> int:
-    """Create the node, spin it until it finishes or a signal arrives, and return the exit code."""
+    """Create the node, spin it until it finishes or a signal arrives, and return the exit code.
+
+    Parameters
+    ----------
+    factory : callable
+        Returns the GraphNode.
+    args : list of str, optional
+        rclpy's command-line arguments.
+
+    Returns
+    -------
+    int
+        The exit code.
+    """
     return spin_nodes([factory], args)
 
 
@@ -219,7 +342,20 @@ def spin_nodes(factories, args=None) -> int:
     executor until every one has finished, one fails, or a signal arrives; the exit code (the first
     failure's). One factory is a node's own process; several are ROS 2 composition as rclpy has it
     (nodes/composed.py): separate node objects, names, parameters and topics, one executor. A node
-    that finishes is closed at once (a recorder's bag is final) and spins no more."""
+    that finishes is closed at once (a recorder's bag is final) and spins no more.
+
+    Parameters
+    ----------
+    factories : sequence of callable
+        Each returns a GraphNode.
+    args : list of str, optional
+        rclpy's command-line arguments.
+
+    Returns
+    -------
+    int
+        The exit code (the first failure's; 0 when every node finished well).
+    """
     import faulthandler
     import signal
     # `kill -USR1 <pid>` (the launcher does, on a node that does not end) writes where it is to its log
@@ -337,7 +473,18 @@ def _peak_rss_mb() -> float:
 
 
 def main_for(factory):
-    """A console-script entry point for ``factory`` (kept as ``main.factory``: composition makes its nodes)."""
+    """A console-script entry point for ``factory`` (kept as ``main.factory``: composition makes its nodes).
+
+    Parameters
+    ----------
+    factory : callable
+        Returns the GraphNode.
+
+    Returns
+    -------
+    callable
+        ``main(args=None)``, which spins the node and exits with its code.
+    """
     def main(args=None):
         exit_watched(spin_node(factory, args=args if args is not None else sys.argv))
     main.factory = factory
@@ -345,11 +492,24 @@ def main_for(factory):
 
 
 def exit_watched(code: int):
-    """Exit with ``code``; the interpreter's own exit (DDS threads, destructors) is watched too."""
+    """Exit with ``code``; the interpreter's own exit (DDS threads, destructors) is watched too.
+
+    Parameters
+    ----------
+    code : int
+        The exit code.
+    """
     import signal
     signal.alarm(TEARDOWN_TIMEOUT)
     sys.exit(code)
 
 
 def wall_time() -> float:
+    """Monotonic wall time [s] (for timeouts and figures, never for the simulated clock).
+
+    Returns
+    -------
+    float
+        time.monotonic() [s].
+    """
     return time.monotonic()

@@ -3,6 +3,18 @@ import numpy as np
 
 
 def summary(**series) -> dict:
+    """Median, 99th percentile [ms] and count of each series of durations [s] (the empty ones left out).
+
+    Parameters
+    ----------
+    **series : sequence of float
+        name -> durations [s].
+
+    Returns
+    -------
+    dict
+        '<name>_median_ms', '<name>_p99_ms', '<name>_count' -> value.
+    """
     out = {}
     for name, values in series.items():
         if len(values):

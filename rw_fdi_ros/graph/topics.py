@@ -48,14 +48,38 @@ DIPOLE_COMMAND = "/magnetorquers/command"
 
 
 def wheel_joints(wheel_set: str = DEFAULT_WHEEL_SET) -> tuple:
-    """The joint names of a wheel set's wheels, in its order."""
+    """The joint names of a wheel set's wheels, in its order.
+
+    Parameters
+    ----------
+    wheel_set : str
+        The wheel set's name.
+
+    Returns
+    -------
+    tuple of str
+        The joint names, e.g. 'reaction_wheel_x'.
+    """
     return tuple(joint_name(n) for n in named_wheel_set(wheel_set).names)
 
 
 def axis_of_joint(joint: str, joints: tuple) -> str:
     """The axis or wheel name of ``joint`` (one of ``joints``, e.g. 'reaction_wheel_y' -> 'y'). Nodes are
     told their joint by name, never by a bare letter: a YAML layer between a launch file and rcl reads
-    a bare ``y`` or ``n`` as a boolean. ValueError naming the valid joints otherwise."""
+    a bare ``y`` or ``n`` as a boolean. ValueError naming the valid joints otherwise.
+
+    Parameters
+    ----------
+    joint : str
+        The joint's name.
+    joints : tuple of str
+        The valid joint names.
+
+    Returns
+    -------
+    str
+        The axis or wheel name.
+    """
     if joint not in joints:
         raise ValueError(f"must be one of {', '.join(joints)}, got {joint!r}")
     return joint.rsplit("_", 1)[1]
@@ -74,7 +98,18 @@ RECORDER_READY = "/recorder/ready"    # std_msgs/String (latched): the graph's w
 
 
 def tcv_command(axis: str) -> str:
-    """Per-axis controller output: Vector3Stamped with only that axis' component set [V]."""
+    """Per-axis controller output: Vector3Stamped with only that axis' component set [V].
+
+    Parameters
+    ----------
+    axis : str
+        The axis or wheel name.
+
+    Returns
+    -------
+    str
+        The topic's name.
+    """
     return f"/{axis}/tcv_command"
 
 
@@ -119,7 +154,13 @@ def _with_qos(rows):
 
 
 def graph_topics():
-    """(topic, ROS type name, qos) of everything a run records."""
+    """(topic, ROS type name, qos) of everything a run records.
+
+    Returns
+    -------
+    list of tuple
+        (topic, type name, QoS profile).
+    """
     return _with_qos(PLANT_ROWS)
 
 
@@ -132,19 +173,52 @@ FDIR_STATUS = "fdir: reaction wheel"
 
 
 def is_verdict(status) -> bool:
-    """Whether a /diagnostics status is the FDI's verdict on a wheel (not FDIR's state of it)."""
+    """Whether a /diagnostics status is the FDI's verdict on a wheel (not FDIR's state of it).
+
+    Parameters
+    ----------
+    status : diagnostic_msgs.msg.DiagnosticStatus
+        One status of a /diagnostics message.
+
+    Returns
+    -------
+    bool
+        Whether it is a verdict.
+    """
     return status.name.startswith(VERDICT_STATUS)
 
 
 def verdict_statuses(msg) -> list:
     """The FDI verdict statuses of a /diagnostics message (an rclpy or a rosbags one), in its order:
-    FDIR's state of the wheels, on the same topic, left out."""
+    FDIR's state of the wheels, on the same topic, left out.
+
+    Parameters
+    ----------
+    msg : diagnostic_msgs.msg.DiagnosticArray
+        A /diagnostics message.
+
+    Returns
+    -------
+    list
+        Its verdict statuses.
+    """
     return [s for s in msg.status if is_verdict(s)]
 
 
 def writer_counts(record_plant: bool) -> dict:
     """Topic -> its writers in a graph, where more than one: /diagnostics has the isolation node and, in a
-    run (not a replay, ``record_plant`` False), the wheel allocation (FDIR's state), each once per FDI period."""
+    run (not a replay, ``record_plant`` False), the wheel allocation (FDIR's state), each once per FDI period.
+
+    Parameters
+    ----------
+    record_plant : bool
+        A run (True) or a replay of its bag (False).
+
+    Returns
+    -------
+    dict
+        Topic -> number of writers.
+    """
     return {DIAGNOSTICS: 2 if record_plant else 1}
 
 IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel (DiagnosticArray)
@@ -153,29 +227,90 @@ IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel
 # The observers' and the isolation node's per-wheel outputs are JointStates: name = the wheels' joints,
 # effort = the value ([N m]; an alarm 1 or 0). An Elman node watches one wheel: its messages hold that joint.
 def estimate_topic(observer: str, axis: str | None = None) -> str:
-    """Estimated reaction torque [N m]; the Elman nodes publish one per wheel (its own joint)."""
+    """Estimated reaction torque [N m]; the Elman nodes publish one per wheel (its own joint).
+
+    Parameters
+    ----------
+    observer : str
+        The observer's name.
+    axis : str or None
+        The wheel of an Elman node; None: one topic for all the wheels.
+
+    Returns
+    -------
+    str
+        The topic's name.
+    """
     return f"/fdi/{observer}/{axis}/estimate" if axis else f"/fdi/{observer}/estimate"
 
 
 def residual_topic(observer: str, axis: str | None = None) -> str:
-    """Residual [N m]: 40-sample mean of r - r^ (speed_aware, signed) or of |r - r^| (thesis)."""
+    """Residual [N m]: 40-sample mean of r - r^ (speed_aware, signed) or of |r - r^| (thesis).
+
+    Parameters
+    ----------
+    observer : str
+        The observer's name.
+    axis : str or None
+        The wheel of an Elman node; None: one topic for all the wheels.
+
+    Returns
+    -------
+    str
+        The topic's name.
+    """
     return f"/fdi/{observer}/{axis}/residual" if axis else f"/fdi/{observer}/residual"
 
 
 def bound_topic(observer: str, axis: str | None = None) -> str:
-    """What aliased commutation ripple can add to the residual [N m] (speed_aware; 0 for thesis)."""
+    """What aliased commutation ripple can add to the residual [N m] (speed_aware; 0 for thesis).
+
+    Parameters
+    ----------
+    observer : str
+        The observer's name.
+    axis : str or None
+        The wheel of an Elman node; None: one topic for all the wheels.
+
+    Returns
+    -------
+    str
+        The topic's name.
+    """
     return f"/fdi/{observer}/{axis}/ripple_bound" if axis else f"/fdi/{observer}/ripple_bound"
 
 
 def fdi_output_topics(observer: str):
-    """What the isolation node publishes per observer: threshold, alarm (1/0 per axis), status."""
+    """What the isolation node publishes per observer: threshold, alarm (1/0 per axis), status.
+
+    Parameters
+    ----------
+    observer : str
+        The observer's name.
+
+    Returns
+    -------
+    dict
+        'threshold', 'alarm', 'status' -> the topic's name.
+    """
     return {"threshold": f"/fdi/{observer}/threshold", "alarm": f"/fdi/{observer}/alarm",
             "status": f"/fdi/{observer}/status"}
 
 
 def plugin_slots(p) -> tuple:
     """The slots of a user's observers (core/fdi/observer_plugin.py) a node's parameters ``p`` name: its
-    ``plugin_observers``, comma-separated (a string: rcl has no empty string array)."""
+    ``plugin_observers``, comma-separated (a string: rcl has no empty string array).
+
+    Parameters
+    ----------
+    p : dict
+        The node's parameters.
+
+    Returns
+    -------
+    tuple of str
+        The slots' names.
+    """
     return tuple(x.strip() for x in str(p.get("plugin_observers", "") or "").split(",") if x.strip())
 
 
@@ -194,7 +329,22 @@ def _fdi_rows(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET, plu
 
 
 def fdi_topics(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET, plugins=()):
-    """(topic, type, qos) of the FDI half of a graph of FDI ``method`` (None: every slot's), plug-ins beside."""
+    """(topic, type, qos) of the FDI half of a graph of FDI ``method`` (None: every slot's), plug-ins beside.
+
+    Parameters
+    ----------
+    method : str or None
+        The FDI method; None: every observer slot's topics.
+    wheel_set : str
+        The wheel set's name.
+    plugins : sequence of str
+        The plug-in observers' slots.
+
+    Returns
+    -------
+    list of tuple
+        (topic, type name, QoS profile).
+    """
     return _with_qos(_fdi_rows(method, wheel_set, plugins))
 
 
@@ -210,7 +360,32 @@ def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method
     """(topic, type, QoS name) the recorder subscribes to: the plant's topics (with ``record_plant``
     false only REPLAY_RECORDED; in ``orbit`` the magnetometer, with ``magnetorquers`` their command),
     with ``fdi`` those of the FDI of ``method`` on ``wheel_set`` (and of the plug-in slots ``plugins``), and
-    ``extra`` 'name:pkg/msg/Type'."""
+    ``extra`` 'name:pkg/msg/Type'.
+
+    Parameters
+    ----------
+    record_plant : bool
+        A run (True) or a replay (False: only REPLAY_RECORDED of the plant's).
+    fdi : bool
+        Whether the FDI's topics are recorded.
+    extra : sequence of str
+        More topics, 'name:pkg/msg/Type'.
+    method : str
+        The FDI method.
+    wheel_set : str
+        The wheel set's name.
+    orbit : bool
+        An orbit run: the magnetometer is recorded.
+    magnetorquers : bool
+        The magnetorquers' command is recorded (with ``orbit``).
+    plugins : sequence of str
+        The plug-in observers' slots.
+
+    Returns
+    -------
+    list of tuple
+        (topic, type name, QoS name).
+    """
     rows = [r for r in PLANT_ROWS if record_plant or r[0] in REPLAY_RECORDED]
     if record_plant:
         rows += list(ORBIT_ROWS if orbit else ()) + list(MAGNETORQUER_ROWS if magnetorquers else ())
@@ -223,7 +398,18 @@ def recorded_rows(record_plant: bool = True, fdi: bool = False, extra=(), method
 
 def live_rows(p: dict) -> list:
     """(topic, type, QoS name) the live view (nodes/live_view.py) shows for its parameters ``p``: what the
-    run's bag would hold."""
+    run's bag would hold.
+
+    Parameters
+    ----------
+    p : dict
+        The live view's parameters.
+
+    Returns
+    -------
+    list of tuple
+        (topic, type name, QoS name).
+    """
     rows = recorded_rows(True, p.get("fdi", True), (), p.get("fdi_method", "speed_aware"), _wheel_set(p),
                          p.get("orbit", False), p.get("magnetorquers", False), plugin_slots(p))
     return [r for r in rows if r[0] != FDI_BUS_GRID]   # the identification's binary table: nothing to watch
@@ -243,13 +429,41 @@ def _run_end(p) -> list:
 
 def observer_axes(observer: str, wheel_set: str = DEFAULT_WHEEL_SET) -> tuple:
     """The wheels of an observer's own topics: one Elman node per wheel of the set, the others one for
-    all the wheels (None)."""
+    all the wheels (None).
+
+    Parameters
+    ----------
+    observer : str
+        The observer's name.
+    wheel_set : str
+        The wheel set's name.
+
+    Returns
+    -------
+    tuple
+        The wheel names (Elman), or (None,).
+    """
     return named_wheel_set(wheel_set).names if observer == "elman" else (None,)
 
 
 def residual_inputs(method: str = "speed_aware", wheel_set: str = DEFAULT_WHEEL_SET, plugins=()) -> list:
     """What the isolation node of FDI ``method`` reads of its observers (and of the plug-in slots ``plugins``):
-    residual and ripple bound of each."""
+    residual and ripple bound of each.
+
+    Parameters
+    ----------
+    method : str
+        The FDI method.
+    wheel_set : str
+        The wheel set's name.
+    plugins : sequence of str
+        The plug-in observers' slots.
+
+    Returns
+    -------
+    list of str
+        The topics' names.
+    """
     return [f(obs, a) for obs in (*observers_of(method), *plugins) for a in observer_axes(obs, wheel_set)
             for f in (residual_topic, bound_topic)]
 
@@ -326,7 +540,18 @@ WAITS = {
 
 
 def reads(node) -> list:
-    """The topics ``node`` (anything with ``executable`` and ``parameters``: runner.graph.NodeSpec) reads."""
+    """The topics ``node`` (anything with ``executable`` and ``parameters``: runner.graph.NodeSpec) reads.
+
+    Parameters
+    ----------
+    node : runner.graph.NodeSpec
+        The node.
+
+    Returns
+    -------
+    list of str
+        The topics' names.
+    """
     if node.executable not in READS:
         raise ValueError(f"node {node.name}: what {node.executable} reads is not in graph/topics.py READS, "
                          "so nothing would wait for it")
@@ -334,18 +559,55 @@ def reads(node) -> list:
 
 
 def readers(topic: str, nodes) -> int:
-    """How many of ``nodes`` read ``topic``."""
+    """How many of ``nodes`` read ``topic``.
+
+    Parameters
+    ----------
+    topic : str
+        The topic's name.
+    nodes : iterable of runner.graph.NodeSpec
+        The graph's nodes.
+
+    Returns
+    -------
+    int
+        The number of readers.
+    """
     return sum(topic in reads(n) for n in nodes)
 
 
 def waits(node) -> dict:
-    """{parameter: the topics whose readers it counts} of ``node`` (none: it waits for no reader)."""
+    """{parameter: the topics whose readers it counts} of ``node`` (none: it waits for no reader).
+
+    Parameters
+    ----------
+    node : runner.graph.NodeSpec
+        The node.
+
+    Returns
+    -------
+    dict
+        Parameter name -> tuple of topics.
+    """
     return WAITS[node.executable](node.parameters) if node.executable in WAITS else {}
 
 
 def reader_counts(node, nodes) -> dict:
     """{parameter: readers} of ``node``'s wait parameters in the graph ``nodes``. One parameter counts
-    for all its topics, so they must have the same readers (else the node needs a parameter more)."""
+    for all its topics, so they must have the same readers (else the node needs a parameter more).
+
+    Parameters
+    ----------
+    node : runner.graph.NodeSpec
+        The node.
+    nodes : iterable of runner.graph.NodeSpec
+        The graph's nodes.
+
+    Returns
+    -------
+    dict
+        Parameter name -> readers.
+    """
     counts = {}
     for param, topics in waits(node).items():
         found = {t: readers(t, nodes) for t in topics}
@@ -357,7 +619,18 @@ def reader_counts(node, nodes) -> dict:
 
 
 def message_class(type_name: str):
-    """Import the rclpy message class for 'pkg/msg/Name'."""
+    """Import the rclpy message class for 'pkg/msg/Name'.
+
+    Parameters
+    ----------
+    type_name : str
+        'pkg/msg/Name'.
+
+    Returns
+    -------
+    type
+        The message class.
+    """
     import importlib
     pkg, _, name = type_name.split("/")
     return getattr(importlib.import_module(f"{pkg}.msg"), name)

@@ -10,7 +10,18 @@ from .runtime import EXIT_BAD_INPUT, NodeError
 
 
 def declare_wheel_type(node) -> WheelParams:
-    """Declare ``wheel_type`` on ``node`` and return its WheelParams (NodeError, one line, for a bad one)."""
+    """Declare ``wheel_type`` on ``node`` and return its WheelParams (NodeError, one line, for a bad one).
+
+    Parameters
+    ----------
+    node : GraphNode
+        The node.
+
+    Returns
+    -------
+    core.physics.wheel.WheelParams
+        The wheel type.
+    """
     node.declare_parameter("wheel_type", "")
     try:
         return wheel_from_parameter(node.param("wheel_type"))

@@ -23,7 +23,18 @@ USAGE = "usage: composed NAME=EXECUTABLE [NAME=EXECUTABLE ...] [--ros-args ...]"
 
 def node_factory(spec: str):
     """The factory of one NAME=EXECUTABLE: makes the executable's node under NAME. ValueError (one line)
-    for a malformed spec or an executable that is not one of the package's nodes."""
+    for a malformed spec or an executable that is not one of the package's nodes.
+
+    Parameters
+    ----------
+    spec : str
+        NAME=EXECUTABLE.
+
+    Returns
+    -------
+    callable
+        Makes the node; its ``node_name`` is NAME.
+    """
     from ..graph.entry import NODES
     name, sep, executable = spec.partition("=")
     if not sep or not name or not executable:
@@ -39,6 +50,13 @@ def node_factory(spec: str):
 
 
 def main(args=None):
+    """Entry point: spin the nodes given as NAME=EXECUTABLE arguments in one process, exit with their code.
+
+    Parameters
+    ----------
+    args : list of str, optional
+        The command line (default sys.argv).
+    """
     from rclpy.utilities import remove_ros_args
     argv = list(sys.argv if args is None else args)
     specs = remove_ros_args(argv)[1:]

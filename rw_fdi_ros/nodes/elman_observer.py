@@ -50,6 +50,18 @@ class ElmanObserverNode(ObserverNode):
                          else ResidualFilter(window))
 
     def observe(self, sample):
+        """(estimate, residual, bound) of this node's wheel for one FdiSample: the network's recall and its residual.
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample.
+
+        Returns
+        -------
+        tuple of list
+            ([r^], [residual], [ripple bound]) [N m], the estimate calibrated when the node calibrates.
+        """
         i = self.index
         u, r = float(sample.tcv[i]), float(sample.reaction_torque[i])
         if self.speed_aware:

@@ -384,6 +384,13 @@ class IsolationNode(GraphNode):
             self.finish()
 
     def timing(self):
+        """Figures for ``rw-fdi bench``: the node's callback times.
+
+        Returns
+        -------
+        dict
+            graph.timing.summary of them.
+        """
         from ..graph.timing import summary
         return summary(callback=self.compute, callback_cpu=self.compute_cpu)
 

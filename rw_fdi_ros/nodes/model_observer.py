@@ -24,6 +24,18 @@ class ModelObserverNode(WheelsObserverNode):
         super().__init__(name or self.node_name)
 
     def estimate(self, sample):
+        """r^ of every wheel: the plant model's, as the telemetry report carries it.
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample.
+
+        Returns
+        -------
+        numpy.ndarray
+            (N,) r^ [N m].
+        """
         return sample.model_torque
 
 

@@ -265,6 +265,13 @@ class PlantNode(GraphNode):
             self.finish()
 
     def timing(self):
+        """Figures for ``rw-fdi bench``: the node's phases and step times.
+
+        Returns
+        -------
+        dict
+            Figure name -> value.
+        """
         from ..graph.timing import summary
         phases = {}
         if self.t_first is not None:

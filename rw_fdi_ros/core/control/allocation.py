@@ -176,7 +176,17 @@ class TorqueAllocator:
 
     def use(self, names, b: int = 0, held=None):
         """Run ``b`` uses the wheels ``names`` from the next command on (ValueError: they do not span) and
-        holds the wheels of ``held`` (name -> speed [rad/s]) at their speed."""
+        holds the wheels of ``held`` (name -> speed [rad/s]) at their speed.
+
+        Parameters
+        ----------
+        names : iterable of str
+            The wheels in use.
+        b : int
+            The run's index in the batch.
+        held : dict or None
+            wheel -> the speed it is held at [rad/s].
+        """
         row = self.wheels.mask(names)
         self._dist[b] = self._distribution(row)
         self.in_use[b] = row
@@ -188,7 +198,20 @@ class TorqueAllocator:
 
     def wheel_commands(self, axis_commands, wheel_speed=None) -> np.ndarray:
         """u (B, N) [V] for the controllers' axis commands v (B, 3) [V], within the voltage limit; a held
-        wheel's command from its ``wheel_speed`` (B, N) [rad/s] (needed once a wheel is held)."""
+        wheel's command from its ``wheel_speed`` (B, N) [rad/s] (needed once a wheel is held).
+
+        Parameters
+        ----------
+        axis_commands : array_like
+            (B, 3) the controllers' body-axis commands v [V].
+        wheel_speed : array_like or None
+            (B, N) wheel speeds Omega [rad/s] (needed with a held wheel or the feed-forward).
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, N) torque command voltages u [V].
+        """
         v = np.asarray(axis_commands, float).reshape(len(self.in_use), 3)
         u = np.einsum("bnk,bk->bn", self._dist, v)
         if self.feedforward:
@@ -204,7 +227,18 @@ class TorqueAllocator:
 
     def friction_commands(self, wheel_speed) -> np.ndarray:
         """u_ff (B, N) [V] at ``wheel_speed`` (B, N) for the wheels as they are used now (:func:`friction_feedforward`;
-        zeros without the feed-forward): what the controllers' integrators need not hold."""
+        zeros without the feed-forward): what the controllers' integrators need not hold.
+
+        Parameters
+        ----------
+        wheel_speed : array_like
+            (B, N) wheel speeds Omega [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, N) u_ff [V].
+        """
         if not self.feedforward:
             return np.zeros(self.in_use.shape)
         if wheel_speed is None:
@@ -216,6 +250,19 @@ class TorqueAllocator:
     def integrator_start(self, tcv, wheel_speed) -> np.ndarray:
         """(B, 3) [V]: the body-axis command the controllers' integrators start from, so that the first
         commands hold the wheels as the plant starts them (its holding voltages ``tcv`` (B, N) at
-        ``wheel_speed`` (B, N)): what the feed-forward does not already give, G (tcv - u_ff)."""
+        ``wheel_speed`` (B, N)): what the feed-forward does not already give, G (tcv - u_ff).
+
+        Parameters
+        ----------
+        tcv : array_like
+            (B, N) the plant's holding voltages [V].
+        wheel_speed : array_like
+            (B, N) wheel speeds Omega [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, 3) body-axis commands [V].
+        """
         tcv = np.asarray(tcv, float).reshape(self.in_use.shape)
         return (tcv - self.friction_commands(wheel_speed)) @ np.asarray(self.wheels.matrix, float).T

@@ -105,7 +105,22 @@ class PidController:
         self.origin = None  # attitude held before the first command: set-point weighting acts on deviations
 
     def update(self, setpoint, attitude, body_rate):
-        """Command voltage for this step from the set-point, attitude and measured rate."""
+        """Command voltage for this step from the set-point, attitude and measured rate.
+
+        Parameters
+        ----------
+        setpoint : array_like
+            (..., 3) attitude set-point [rad].
+        attitude : array_like
+            (..., 3) attitude [rad].
+        body_rate : array_like
+            (..., 3) measured body rate [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            (..., 3) body-axis torque command voltages [V], within the limit (anti-windup).
+        """
         g = self.gains
         setpoint = np.asarray(setpoint, float)
         attitude = np.asarray(attitude, float)

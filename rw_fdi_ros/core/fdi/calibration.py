@@ -160,7 +160,13 @@ class UnitEstimate:
     noise: float            # s [N m] the posterior used
 
     def scales(self) -> dict:
-        """The unit over the datasheet: 1 + b for each physical parameter, with its 1-sigma."""
+        """The unit over the datasheet: 1 + b for each physical parameter, with its 1-sigma.
+
+        Returns
+        -------
+        dict
+            Parameter name -> (1 + b, 1-sigma of b).
+        """
         sd = np.sqrt(np.diag(self.covariance))
         return {name: (1.0 + float(self.mean[i]), float(sd[i])) for i, name in enumerate(PARAMETERS)}
 
@@ -212,6 +218,20 @@ class UnitCalibration:
         return UnitEstimate(mean, cov, self.n, float(np.sqrt(s2)))
 
     def update(self, error: float, x) -> tuple:
+        """One sample: learn from it while calibrating, and say how to correct the estimate and widen the bound.
+
+        Parameters
+        ----------
+        error : float
+            The observer's uncorrected error r - r^ of this sample [N m].
+        x : array_like
+            The sample's regressors (:func:`regressors`).
+
+        Returns
+        -------
+        tuple of float
+            (correction x_phys . b^_phys [N m], uncertainty u_k [N m]); while learning (0, the type's tolerance).
+        """
         x = np.asarray(x, float)
         phys = x[:PHYSICAL]
         if not self.frozen and not np.any(x):
@@ -231,11 +251,23 @@ class UnitCalibration:
         return float(phys @ est.mean[:PHYSICAL]), float(np.sqrt(max(phys @ cov @ phys, 0.0)))
 
     def so_far(self) -> UnitEstimate:
-        """The posterior of the samples learnt so far (the frozen estimate once frozen)."""
+        """The posterior of the samples learnt so far (the frozen estimate once frozen).
+
+        Returns
+        -------
+        UnitEstimate
+            The posterior.
+        """
         return self.estimate if self.frozen else self._posterior()
 
     def unit(self) -> "UnitShares":
-        """What is known of this wheel's unit now: the posterior once frozen, the type's spread while learning."""
+        """What is known of this wheel's unit now: the posterior once frozen, the type's spread while learning.
+
+        Returns
+        -------
+        UnitShares
+            The unit's shares b.
+        """
         return UnitShares.of_estimate(self.estimate) if self.frozen else UnitShares.of_type()
 
 
@@ -250,14 +282,43 @@ class UnitShares:
 
     @classmethod
     def of_estimate(cls, estimate: UnitEstimate) -> "UnitShares":
+        """A calibrated unit: the physical part of a calibration's posterior.
+
+        Parameters
+        ----------
+        estimate : UnitEstimate
+            The posterior.
+
+        Returns
+        -------
+        UnitShares
+            Its mean and covariance of b_phys, source 'calibrated'.
+        """
         k = PHYSICAL
         return cls(estimate.mean[:k].copy(), estimate.covariance[:k, :k].copy(), "calibrated")
 
     @classmethod
     def of_type(cls, spread: dict | None = None) -> "UnitShares":
-        """A unit nothing was learnt of: any unit of the type, b ~ N(0, diag(spread^2))."""
+        """A unit nothing was learnt of: any unit of the type, b ~ N(0, diag(spread^2)).
+
+        Parameters
+        ----------
+        spread : dict or None
+            Parameter name -> the type's 1-sigma spread (None: the defaults).
+
+        Returns
+        -------
+        UnitShares
+            Zero mean, the spread's covariance, source 'type'.
+        """
         return cls(np.zeros(PHYSICAL), np.diag(prior_variances(spread)[:PHYSICAL]), "type")
 
     def scales(self) -> np.ndarray:
-        """1 + mean: the unit's torque constant, driver gain, viscous and coulomb friction over the datasheet's."""
+        """1 + mean: the unit's torque constant, driver gain, viscous and coulomb friction over the datasheet's.
+
+        Returns
+        -------
+        numpy.ndarray
+            (4,) shares of the datasheet's values.
+        """
         return 1.0 + self.mean

@@ -64,6 +64,22 @@ class AlarmRule:
         self.first_alarm = None
 
     def update(self, residual: float, threshold: float, t: float) -> bool:
+        """One sample: the alarm is active once the residual exceeded the threshold ``persistence`` samples in a row.
+
+        Parameters
+        ----------
+        residual : float
+            The residual [N m].
+        threshold : float
+            Its threshold [N m].
+        t : float
+            The sample's time [s] (the first alarm's).
+
+        Returns
+        -------
+        bool
+            Whether the alarm is active.
+        """
         self.run = self.run + 1 if residual > threshold else 0
         self.active = self.run >= self.persistence
         if self.active and self.first_alarm is None:

@@ -45,7 +45,18 @@ MODEL_SET = "model_set.json"   # a model directory's card: how it was trained, a
 
 def network_wheels(models_dir) -> tuple:
     """The wheels a model directory has networks for, in order: its card's ``wheels`` (one network per wheel
-    in use of the set it was trained on); a set without them (trained before): x, y, z."""
+    in use of the set it was trained on); a set without them (trained before): x, y, z.
+
+    Parameters
+    ----------
+    models_dir : str or pathlib.Path
+        The model directory.
+
+    Returns
+    -------
+    tuple of str
+        The wheels' names.
+    """
     path = Path(models_dir) / MODEL_SET
     try:
         wheels = json.loads(path.read_text()).get("wheels") if path.is_file() else None
@@ -74,7 +85,20 @@ def network_wheel(wheel: str, fitted=AXIS_WHEELS) -> str:
 
 
 def network_path(models_dir, wheel: str) -> Path:
-    """The network file ``wheel`` runs in ``models_dir``: ``elman_<network_wheel>.npz``."""
+    """The network file ``wheel`` runs in ``models_dir``: ``elman_<network_wheel>.npz``.
+
+    Parameters
+    ----------
+    models_dir : str or pathlib.Path
+        The model directory.
+    wheel : str
+        The wheel's name.
+
+    Returns
+    -------
+    pathlib.Path
+        The network file.
+    """
     return Path(models_dir) / f"elman_{network_wheel(wheel, network_wheels(models_dir))}.npz"
 
 
@@ -103,6 +127,18 @@ class ElmanWeights:
         return self.speed_scale > 0
 
     def validate(self, origin="weights"):
+        """Check shapes, finiteness and scales (ModelError naming what is wrong otherwise).
+
+        Parameters
+        ----------
+        origin : str
+            Where the weights come from, for the error.
+
+        Returns
+        -------
+        ElmanWeights
+            ``self``.
+        """
         h = self.w_hh.shape[0]
         if not (np.isfinite(self.speed_scale) and self.speed_scale >= 0):
             raise ModelError(f"{origin}: speed_scale must be >= 0; {REGENERATE}")
@@ -122,7 +158,15 @@ class ElmanWeights:
         return self
 
     def save(self, path, card: dict | None = None):
-        """npz of arrays (never a pickle) plus a JSON card beside it."""
+        """npz of arrays (never a pickle) plus a JSON card beside it.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The npz file.
+        card : dict or None
+            The model card, written as JSON beside it.
+        """
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         np.savez(path, w_ih=self.w_ih, w_hh=self.w_hh, b_h=self.b_h, w_ho=self.w_ho, b_o=self.b_o,
@@ -134,6 +178,18 @@ class ElmanWeights:
 
     @classmethod
     def load(cls, path) -> "ElmanWeights":
+        """The weights of an npz file (:meth:`save`), validated; ModelError (one line) for a missing or damaged one.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The npz file.
+
+        Returns
+        -------
+        ElmanWeights
+            The weights.
+        """
         path = Path(path)
         if not path.is_file():
             raise ModelError(f"model file not found: {path}; {REGENERATE}")
@@ -152,7 +208,24 @@ class ElmanWeights:
 
     @classmethod
     def random(cls, rng: np.random.Generator, hidden=HIDDEN, scale=0.1, **kw) -> "ElmanWeights":
-        """Thesis 4.3.3 initialisation range [-0.1, 0.1]."""
+        """Thesis 4.3.3 initialisation range [-0.1, 0.1].
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The random stream.
+        hidden : int
+            Hidden units.
+        scale : float
+            Half-width of the uniform range.
+        **kw
+            The other fields (scales, uncertainty_gain, model_error); ``speed_scale`` > 0 adds the speed input.
+
+        Returns
+        -------
+        ElmanWeights
+            The weights.
+        """
         def u(*s):
             return rng.uniform(-scale, scale, s)
         inputs = INPUTS + (kw.get("speed_scale", 0.0) > 0)
@@ -169,6 +242,13 @@ class ElmanObserver:
         self.settled = not weights.speed_aware   # see SETTLE_STEPS
 
     def reset(self, reaction_torque: float = 0.0):
+        """Start afresh: hidden state cleared, the fed-back output set to ``reaction_torque``.
+
+        Parameters
+        ----------
+        reaction_torque : float
+            The reaction torque r to start from [N m].
+        """
         self.hidden[:] = 0.0
         self.previous = reaction_torque / self.w.torque_scale
         self.settled = not self.w.speed_aware
@@ -176,7 +256,22 @@ class ElmanObserver:
     def update(self, tcv: float, reaction_torque: float | None = None, wheel_speed: float | None = None) -> float:
         """One FDI sample. ``reaction_torque`` (measured, previous sample) is used only in
         training mode; recall mode passes None and feeds back its own estimate.
-        ``wheel_speed`` is required by a speed-aware network and ignored by the thesis' one."""
+        ``wheel_speed`` is required by a speed-aware network and ignored by the thesis' one.
+
+        Parameters
+        ----------
+        tcv : float
+            Torque command voltage u_k [V].
+        reaction_torque : float or None
+            Measured reaction torque r of the previous sample [N m] (training); None in recall.
+        wheel_speed : float or None
+            Wheel speed Omega [rad/s].
+
+        Returns
+        -------
+        float
+            r^_k [N m].
+        """
         w = self.w
         if self.previous is None:
             self.previous = 0.0
@@ -211,7 +306,24 @@ class WheelRecall:
     def update(self, tcv: float, reaction_torque: float, wheel_speed: float | None = None,
                model_torque: float | None = None) -> float:
         """r^ of one FDI sample (u, the measured r, Omega for a speed-aware network, r_model for one of the
-        model's error) [N m]."""
+        model's error) [N m].
+
+        Parameters
+        ----------
+        tcv : float
+            Torque command voltage u [V].
+        reaction_torque : float
+            Measured reaction torque r [N m].
+        wheel_speed : float or None
+            Wheel speed Omega [rad/s] (speed-aware network).
+        model_torque : float or None
+            The nominal model's reaction torque r_model [N m] (network of the model's error).
+
+        Returns
+        -------
+        float
+            r^ [N m].
+        """
         base = 0.0
         if self.observer.w.model_error:
             if model_torque is None:

@@ -91,7 +91,18 @@ class InputMonitor:
         self.dropped = 0
 
     def accept(self, stamp_ns: int) -> str:
-        """NEXT, NEW_RUN (the caller resets its run) or OUT_OF_ORDER (the caller drops the sample)."""
+        """NEXT, NEW_RUN (the caller resets its run) or OUT_OF_ORDER (the caller drops the sample).
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The sample's stamp [ns].
+
+        Returns
+        -------
+        str
+            NEXT, NEW_RUN or OUT_OF_ORDER.
+        """
         order = stamp_order(self.last_ns, stamp_ns, self.period_ns)
         if order == OUT_OF_ORDER:
             self.dropped += 1
@@ -114,7 +125,18 @@ class InputMonitor:
         self.notes[stamp_ns] = InputNote(max(level, old.level), f"{old.message}; {message}") if old else self.last_note
 
     def take_note(self, stamp_ns: int):
-        """The notes on stamps up to ``stamp_ns`` as one (the highest level), or None; said once."""
+        """The notes on stamps up to ``stamp_ns`` as one (the highest level), or None; said once.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The stamp published [ns].
+
+        Returns
+        -------
+        InputNote or None
+            The note.
+        """
         due = sorted(k for k in self.notes if k <= stamp_ns)
         if not due:
             return None

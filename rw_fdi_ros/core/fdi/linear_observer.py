@@ -105,7 +105,20 @@ class LinearObserver:
         self.state = None
 
     def update(self, tcv, reaction_torque):
-        """Estimate y^_k from u_k and the state, then advance the state with the measured y_k."""
+        """Estimate y^_k from u_k and the state, then advance the state with the measured y_k.
+
+        Parameters
+        ----------
+        tcv : array_like
+            (N,) torque command voltages u_k [V].
+        reaction_torque : array_like
+            (N,) measured reaction torques y_k [N m].
+
+        Returns
+        -------
+        numpy.ndarray
+            (N,) estimates y^_k [N m].
+        """
         m = self.model
         u = np.asarray(tcv, float)
         y = np.asarray(reaction_torque, float)

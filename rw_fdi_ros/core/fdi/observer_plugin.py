@@ -91,12 +91,29 @@ class WheelObserver:
         """Called before :meth:`estimate` on each sample of a run's unit calibration (its first
         ``unit_calibration`` seconds, the wheels assumed healthy). The FDI's own calibration already learns
         each wheel's unit from the residual (calibration.py); an observer that learns more of its own does
-        it here."""
+        it here.
+
+        Parameters
+        ----------
+        sample : FdiSample
+            The FDI sample.
+        """
 
     def uncertainty_gain(self, wheel: str) -> float:
         """kappa of ``wheel``: the share of the torque demand mean(|r|) the observer's own model error may
         reach unfaulted, added to the residual's bound (residuals.SignedResidual; 0: an exact model). By
-        default ``state['uncertainty_gain'][wheel]`` when :meth:`train` measured one, else 0."""
+        default ``state['uncertainty_gain'][wheel]`` when :meth:`train` measured one, else 0.
+
+        Parameters
+        ----------
+        wheel : str
+            The wheel's name.
+
+        Returns
+        -------
+        float
+            kappa [-].
+        """
         return float(self.state.get("uncertainty_gain", {}).get(wheel, 0.0))
 
     @classmethod
@@ -114,6 +131,11 @@ class WheelObserver:
             The wheel set's names (the columns).
         fdi_period : float
             T [s].
+
+        Returns
+        -------
+        dict or None
+            The state (JSON data); None: nothing learnt.
         """
         return None
 
@@ -131,7 +153,22 @@ def _hook(observer: WheelObserver, hook: str, *args):
 
 def step(observer: WheelObserver, sample, calibrating: bool) -> np.ndarray:
     """One FDI sample through ``observer``: its calibration hook while ``calibrating``, then its estimate,
-    checked to hold one finite value per wheel."""
+    checked to hold one finite value per wheel.
+
+    Parameters
+    ----------
+    observer : WheelObserver
+        The user's observer.
+    sample : FdiSample
+        The FDI sample.
+    calibrating : bool
+        Whether the sample is one of the unit calibration's.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N,) r^ [N m].
+    """
     if calibrating:
         _hook(observer, "calibrate", sample)
     estimate = np.asarray(_hook(observer, "estimate", sample), float).reshape(-1)
@@ -172,17 +209,45 @@ class PluginRun:
         self.seen = 0
 
     def uncertainty_gains(self) -> list:
-        """kappa of each wheel (:meth:`WheelObserver.uncertainty_gain`)."""
+        """kappa of each wheel (:meth:`WheelObserver.uncertainty_gain`).
+
+        Returns
+        -------
+        list of float
+            kappa, in the wheels' order.
+        """
         return [float(_hook(self.observer, "uncertainty_gain", a)) for a in self.observer.wheels]
 
     def step(self, sample) -> np.ndarray:
-        """r^_k (N,) of the run's next FDI sample."""
+        """r^_k (N,) of the run's next FDI sample.
+
+        Parameters
+        ----------
+        sample : FdiSample
+            The FDI sample.
+
+        Returns
+        -------
+        numpy.ndarray
+            (N,) r^_k [N m].
+        """
         calibrating = self.seen < self.calibration_samples
         self.seen += 1
         return step(self.observer, sample, calibrating)
 
     def series(self, samples) -> np.ndarray:
-        """r^ (n, N) of a whole run (FdiSamples), from its first sample."""
+        """r^ (n, N) of a whole run (FdiSamples), from its first sample.
+
+        Parameters
+        ----------
+        samples : FdiSamples
+            The run's FDI samples.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n, N) r^ [N m].
+        """
         rows = [self.step(row) for row in samples.rows()]
         return np.array(rows).reshape(len(samples.time), len(self.observer.wheels))
 
@@ -248,23 +313,77 @@ def load_observer(spec: str) -> type:
 
 
 def is_plugin_slot(slot: str) -> bool:
-    """Whether ``slot`` may name a plug-in: lower-case letters, digits and '_' (at most 32), none of ours."""
+    """Whether ``slot`` may name a plug-in: lower-case letters, digits and '_' (at most 32), none of ours.
+
+    Parameters
+    ----------
+    slot : str
+        The slot's name.
+
+    Returns
+    -------
+    bool
+        Whether it may.
+    """
     return bool(_SLOT.match(slot)) and slot not in RESERVED_SLOTS
 
 
 def absolute_spec(spec: str) -> str:
-    """``spec`` with a file's path made absolute (a node process may start elsewhere); others unchanged."""
+    """``spec`` with a file's path made absolute (a node process may start elsewhere); others unchanged.
+
+    Parameters
+    ----------
+    spec : str
+        'path/file.py:Class' or 'module:Class'.
+
+    Returns
+    -------
+    str
+        The spec.
+    """
     where, sep, attr = str(spec).rpartition(":")
     return f"{Path(where).resolve()}:{attr}" if sep and where.endswith(".py") else str(spec)
 
 
 def state_path(directory, slot: str) -> Path:
-    """Where a plug-in's trained state lies in an FDI directory."""
+    """Where a plug-in's trained state lies in an FDI directory.
+
+    Parameters
+    ----------
+    directory : str or pathlib.Path
+        The FDI directory.
+    slot : str
+        The plug-in's slot.
+
+    Returns
+    -------
+    pathlib.Path
+        ``observer_<slot>.json`` in it.
+    """
     return Path(directory) / f"observer_{slot}.json"
 
 
 def save_state(directory, cls: type, spec: str, state: dict, seeds=()) -> Path:
-    """``state`` (:meth:`WheelObserver.train`'s) as ``observer_<slot>.json`` in ``directory``, with what made it."""
+    """``state`` (:meth:`WheelObserver.train`'s) as ``observer_<slot>.json`` in ``directory``, with what made it.
+
+    Parameters
+    ----------
+    directory : str or pathlib.Path
+        The FDI directory.
+    cls : type
+        The observer's class (its ``slot``).
+    spec : str
+        Where the class comes from.
+    state : dict
+        The trained state (JSON data).
+    seeds : iterable of int
+        The seeds of the runs it was trained on.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
     path = state_path(directory, cls.slot)
     path.parent.mkdir(parents=True, exist_ok=True)
     try:
@@ -278,12 +397,38 @@ def save_state(directory, cls: type, spec: str, state: dict, seeds=()) -> Path:
 
 
 def find_state(directories, slot: str) -> Path | None:
-    """``observer_<slot>.json`` in the first of ``directories`` that holds one (None: none does)."""
+    """``observer_<slot>.json`` in the first of ``directories`` that holds one (None: none does).
+
+    Parameters
+    ----------
+    directories : iterable of str or pathlib.Path
+        The FDI directories, first searched first.
+    slot : str
+        The plug-in's slot.
+
+    Returns
+    -------
+    pathlib.Path or None
+        The file.
+    """
     return next((state_path(d, slot) for d in directories if state_path(d, slot).is_file()), None)
 
 
 def read_state(path, slot: str) -> dict:
-    """The trained state in the file ``path``, checked to be the state of ``slot`` (ObserverError, one line)."""
+    """The trained state in the file ``path``, checked to be the state of ``slot`` (ObserverError, one line).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The state file.
+    slot : str
+        The plug-in's slot.
+
+    Returns
+    -------
+    dict
+        The state.
+    """
     try:
         data = json.loads(Path(path).read_text())
         if not isinstance(data, dict) or data.get("slot") != slot or not isinstance(data.get("state"), dict):
@@ -294,13 +439,32 @@ def read_state(path, slot: str) -> dict:
 
 
 def load_state(directories, slot: str) -> dict:
-    """The state of ``slot`` from the first of ``directories`` holding ``observer_<slot>.json`` ({}: none)."""
+    """The state of ``slot`` from the first of ``directories`` holding ``observer_<slot>.json`` ({}: none).
+
+    Parameters
+    ----------
+    directories : iterable of str or pathlib.Path
+        The FDI directories, first searched first.
+    slot : str
+        The plug-in's slot.
+
+    Returns
+    -------
+    dict
+        The state.
+    """
     path = find_state(directories, slot)
     return {} if path is None else read_state(path, slot)
 
 
 def trains(cls: type) -> bool:
-    """Whether ``cls`` has a training hook of its own (an untrained one cannot run)."""
+    """Whether ``cls`` has a training hook of its own (an untrained one cannot run).
+
+    Returns
+    -------
+    bool
+        Whether it overrides :meth:`WheelObserver.train`.
+    """
     return getattr(cls.train, "__func__", None) is not getattr(WheelObserver.train, "__func__", None)
 
 

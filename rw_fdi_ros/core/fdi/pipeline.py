@@ -144,7 +144,20 @@ class Isolation:
         return self.channels[slot].update(stamp_ns, residual, bound)
 
     def decide(self, rows_of: dict, wheel_speed=None) -> dict:
-        """Stages 3-4 (:meth:`Verdict.decide`)."""
+        """Stages 3-4 (:meth:`Verdict.decide`).
+
+        Parameters
+        ----------
+        rows_of : dict
+            observer -> its ObserverChannel rows of the sample.
+        wheel_speed : array_like or None
+            (N,) wheel speeds [rad/s] (None: every wheel judged).
+
+        Returns
+        -------
+        dict
+            wheel -> (residual, threshold, alarm, first alarm [s] or None), latched.
+        """
         return self.verdict.decide(rows_of, wheel_speed)
 
     def identify(self, sample, decided: dict) -> dict:
@@ -192,7 +205,13 @@ class Isolation:
         return rows_of, decided
 
     def identified(self) -> dict:
-        """wheel -> the last Identification or None ({} without identification)."""
+        """wheel -> the last Identification or None ({} without identification).
+
+        Returns
+        -------
+        dict
+            wheel -> Identification or None.
+        """
         return {} if self.identifier is None else self.identifier.identifications()
 
 

@@ -20,6 +20,20 @@ class ResidualFilter:
         self.total = 0.0
 
     def update(self, actual, estimate):
+        """The thesis' residual after this sample: the mean of |r - r^| over the window.
+
+        Parameters
+        ----------
+        actual : float
+            Measured reaction torque r [N m].
+        estimate : float
+            The observer's estimate r^ [N m].
+
+        Returns
+        -------
+        float
+            The residual [N m].
+        """
         err = abs(float(actual) - float(estimate))
         if len(self.buffer) == self.buffer.maxlen:
             self.total -= self.buffer[0]
@@ -54,7 +68,24 @@ class SignedResidual:
 
     def update(self, actual, estimate, ripple_phasor, regressors=None):
         """(residual, bound) after this sample; ``regressors``: calibration.regressors of the sample,
-        needed with a calibration (which corrects the estimate and widens the bound by z u_k)."""
+        needed with a calibration (which corrects the estimate and widens the bound by z u_k).
+
+        Parameters
+        ----------
+        actual : float
+            Measured reaction torque r [N m].
+        estimate : float
+            The observer's estimate r^ [N m].
+        ripple_phasor : complex
+            The sample's commutation ripple phasor.
+        regressors : array_like or None
+            The sample's calibration regressors.
+
+        Returns
+        -------
+        tuple of float
+            (mean of r - r^ over the window, its ripple and uncertainty bound) [N m].
+        """
         actual, estimate, spread = float(actual), float(estimate), 0.0
         if self.calibration is not None:
             correction, uncertainty = self.calibration.update(actual - estimate, regressors)

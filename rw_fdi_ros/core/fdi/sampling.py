@@ -34,6 +34,20 @@ class FdiSampler:
         self.count = 0
 
     def add(self, stamp_ns: int, *signals):
+        """One control-rate sample; on an FDI stamp, the period's result.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The sample's stamp [ns].
+        *signals : array_like
+            The signals' values (real or complex).
+
+        Returns
+        -------
+        tuple or None
+            (stamp_ns, list of arrays: period means or values at the stamp) on an FDI stamp, else None.
+        """
         values = [np.asarray(s) for s in signals]
         self.sums = values if self.sums is None else [a + v for a, v in zip(self.sums, values)]
         self.count += 1

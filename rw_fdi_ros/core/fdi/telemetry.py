@@ -83,7 +83,18 @@ class FdiSample:
 
     def sampled(self, mode: str) -> "FdiSample":
         """This sample as the observers of FDI sampling ``mode`` see it: ``instant`` puts the values at
-        the stamp in place of the period means of tcv and reaction torque (core/fdi/sampling.py)."""
+        the stamp in place of the period means of tcv and reaction torque (core/fdi/sampling.py).
+
+        Parameters
+        ----------
+        mode : str
+            'mean' or 'instant'.
+
+        Returns
+        -------
+        FdiSample
+            The sample.
+        """
         if mode == "mean" or self.tcv_instant is None:
             return self
         return replace(self, tcv=self.tcv_instant, reaction_torque=self.reaction_torque_instant)
@@ -190,6 +201,24 @@ class TelemetrySampler:
         self.last = None         # (stamp_ns, wheel speed) of the previous sample
 
     def add(self, stamp_ns: int, tcv, reaction_torque, wheel_speed=None) -> FdiSample | None:
+        """One control-rate sample; the FDI sample on an FDI stamp.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The sample's stamp [ns].
+        tcv : array_like
+            (N,) torque command voltages u [V].
+        reaction_torque : array_like
+            (N,) reaction torques r [N m].
+        wheel_speed : array_like or None
+            (N,) wheel speeds Omega [rad/s]; None: only u and r are sampled.
+
+        Returns
+        -------
+        FdiSample or None
+            The FDI sample on an FDI stamp, else None.
+        """
         if wheel_speed is None:
             row = self.sampler.add(stamp_ns, tcv, reaction_torque)
             return None if row is None else FdiSample(row[0], row[1][0], row[1][1])
@@ -208,7 +237,24 @@ class TelemetrySampler:
 
     def add_series(self, stamps_ns, tcv, reaction_torque, wheel_speed=None) -> list:
         """:meth:`add` over a whole series (time first), the same numbers: the wheel angle and the
-        sums advance sample by sample, the model terms (elementwise) are computed for all at once."""
+        sums advance sample by sample, the model terms (elementwise) are computed for all at once.
+
+        Parameters
+        ----------
+        stamps_ns : array_like
+            (n,) stamps [ns].
+        tcv : array_like
+            (n, N) torque command voltages u [V].
+        reaction_torque : array_like
+            (n, N) reaction torques r [N m].
+        wheel_speed : array_like or None
+            (n, N) wheel speeds Omega [rad/s].
+
+        Returns
+        -------
+        list of FdiSample
+            One per FDI stamp.
+        """
         if wheel_speed is None:
             rows = (self.add(int(s), u, r) for s, u, r in zip(stamps_ns, tcv, reaction_torque))
             return [row for row in rows if row is not None]

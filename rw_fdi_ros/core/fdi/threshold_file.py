@@ -38,11 +38,31 @@ class ThresholdCurves:
 
     def at(self, wheel: str, k: int) -> float:
         """Threshold of ``wheel`` at FDI sample k. A wheel without a curve of its own (the redundant
-        wheel off the body axes) gets the widest of its type's (wheel_set.fitted_for)."""
+        wheel off the body axes) gets the widest of its type's (wheel_set.fitted_for).
+
+        Parameters
+        ----------
+        wheel : str
+            The wheel's name.
+        k : int
+            The FDI sample's index.
+
+        Returns
+        -------
+        float
+            The threshold [N m].
+        """
         # past the fitted horizon the last value holds
         return max(float(c[min(k, len(c) - 1)]) for c in (self.curves[a] for a in fitted_for(wheel, self.curves)))
 
     def save(self, path):
+        """Write the curves and what they were fitted under as a JSON threshold file.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The file.
+        """
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps({
@@ -56,7 +76,20 @@ class ThresholdCurves:
     @classmethod
     def load(cls, path, observer: str | None = None) -> "ThresholdCurves":
         """The curves of ``path``; with ``observer``, refused unless fitted for that observer slot (a
-        model observer's band on the Luenberger observer's residual would alarm on every run)."""
+        model observer's band on the Luenberger observer's residual would alarm on every run).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The threshold file.
+        observer : str or None
+            The observer slot the curves must be fitted for.
+
+        Returns
+        -------
+        ThresholdCurves
+            The curves.
+        """
         path = Path(path)
         if not path.is_file():
             raise ThresholdError(f"threshold file not found: {path}; {REFIT}")
@@ -102,20 +135,44 @@ class ThresholdCurves:
     def check_horizon(self, duration: float, origin: str = "thresholds"):
         """Refuse curves that end before the run does: past its last sample a time-indexed curve
         would hold a value fitted for another moment, and the observer could not judge (a 3-sample
-        curve held its start-up peak and hid a 40 % current loss)."""
+        curve held its start-up peak and hid a 40 % current loss).
+
+        Parameters
+        ----------
+        duration : float
+            The run's duration [s].
+        origin : str
+            Where the curves come from, for the error.
+        """
         if self.horizon < float(duration):
             raise ThresholdError(f"{origin}: the curves cover 0-{self.horizon:g} s but the run lasts "
                                  f"{float(duration):g} s; fit them on runs at least as long; {REFIT}")
 
     def check_method(self, method: str, origin: str = "thresholds"):
-        """Refuse curves of another FDI method than the running graph's."""
+        """Refuse curves of another FDI method than the running graph's.
+
+        Parameters
+        ----------
+        method : str
+            The graph's FDI method.
+        origin : str
+            Where the curves come from, for the error.
+        """
         if self.method != method:
             raise ThresholdError(f"{origin}: fitted for fdi_method={self.method!r} but the graph runs "
                                  f"fdi_method={method!r}; {REFIT}")
 
     def check_unit_calibration(self, seconds: float, origin: str = "thresholds"):
         """Refuse bands fitted with another unit calibration than the running observers': a calibrated
-        observer's bound holds its correction's uncertainty, so the bands of one do not fit the other."""
+        observer's bound holds its correction's uncertainty, so the bands of one do not fit the other.
+
+        Parameters
+        ----------
+        seconds : float
+            The observers' unit calibration time [s].
+        origin : str
+            Where the curves come from, for the error.
+        """
         if abs(float(seconds) - self.unit_calibration_time) > 1e-9:
             raise ThresholdError(f"{origin}: fitted with unit_calibration_time={self.unit_calibration_time:g} s but "
                                  f"the observers run unit_calibration_time={float(seconds):g} s; fit bands for it "
@@ -127,6 +184,13 @@ class ThresholdCurves:
 
         ``plant``: the running :class:`PlantChoices`, or a mapping of the choices to check. A
         choice the file does not record was fitted under its legacy value (plant_choices.LEGACY).
+
+        Parameters
+        ----------
+        plant : PlantChoices or dict
+            The running choices, or a mapping of the choices to check.
+        origin : str
+            Where the curves come from, for the error.
         """
         from ..mission.plant_choices import PlantChoices
         fitted = PlantChoices.from_recorded(self.plant)

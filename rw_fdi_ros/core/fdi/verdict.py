@@ -128,7 +128,18 @@ class DecisionRule:
 
     def combine(self, rows_of: dict) -> dict:
         """wheel -> (residual, threshold, alarm, first alarm or None) of the decision, from ``rows_of``:
-        observer -> its :meth:`ObserverChannel.update` rows (every one of ``observers``)."""
+        observer -> its :meth:`ObserverChannel.update` rows (every one of ``observers``).
+
+        Parameters
+        ----------
+        rows_of : dict
+            observer -> its ObserverChannel rows.
+
+        Returns
+        -------
+        dict
+            wheel -> (residual [N m], threshold [N m], alarm, first alarm [s] or None).
+        """
         lead = rows_of[self.lead]
         if len(self.observers) == 1:
             return lead
@@ -143,7 +154,22 @@ class DecisionRule:
 def decision_of(text: str, method: str, observers=None) -> DecisionRule:
     """The DecisionRule a configuration names: '' (the method's decision observer), an observer's name, or a
     vote 'KofN' over the method's N observers (``observers``: those, default core/fdi/detection.observers_of).
-    ValueError naming what it accepts."""
+    ValueError naming what it accepts.
+
+    Parameters
+    ----------
+    text : str
+        '', an observer's name, or 'KofN'.
+    method : str
+        The FDI method.
+    observers : sequence of str, optional
+        The method's observers.
+
+    Returns
+    -------
+    DecisionRule
+        The rule.
+    """
     from .detection import observers_of
     available = tuple(observers or observers_of(method))
     text = (text or "").strip()
@@ -197,6 +223,22 @@ class ObserverChannel:
         self.unjudged = set()   # wheels whose last sample could not be judged (non-finite input)
 
     def update(self, stamp_ns: int, residual, bound=None):
+        """One FDI sample of this observer: each wheel's threshold c(k) + b and its persistence rule.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The sample's stamp [ns].
+        residual : array_like
+            (N,) residuals [N m].
+        bound : array_like or None
+            (N,) ripple bounds b [N m] (None: 0).
+
+        Returns
+        -------
+        dict
+            wheel -> (residual [N m], threshold [N m], alarm, first alarm [s] or None).
+        """
         t = stamp_seconds(stamp_ns)
         self.beyond_horizon = t > self.curves.horizon   # the curves cannot judge this moment (health)
         k = int(round(t / self.curves.sample_period))
@@ -232,7 +274,13 @@ class LatchedVerdict:
         self.reset()
 
     def reset(self, wheels=None):
-        """Clear the confirmed failures of ``wheels`` (an operator's command): judged afresh from now on."""
+        """Clear the confirmed failures of ``wheels`` (an operator's command): judged afresh from now on.
+
+        Parameters
+        ----------
+        wheels : iterable of str or None
+            The wheels; None: every wheel.
+        """
         if not hasattr(self, "confirmed"):
             self.confirmed, self.latched = {}, {}
         for a in self.wheels if wheels is None else wheels:
@@ -240,7 +288,20 @@ class LatchedVerdict:
 
     def update(self, rows: dict, judged=None) -> dict:
         """``judged``: wheel -> False for a wheel whose sample cannot be judged (outside the operating
-        envelope): its verdict holds (a confirmed failure stays, none is confirmed from this sample)."""
+        envelope): its verdict holds (a confirmed failure stays, none is confirmed from this sample).
+
+        Parameters
+        ----------
+        rows : dict
+            wheel -> (residual, threshold, alarm, first alarm or None) of the decision.
+        judged : dict or None
+            wheel -> whether its sample is judged (None: every wheel).
+
+        Returns
+        -------
+        dict
+            wheel -> (residual [N m], threshold [N m], alarm or held, confirmed or first alarm [s] or None).
+        """
         out = {}
         for a, (r, threshold, alarm, first) in rows.items():
             if judged is not None and not judged[a]:

@@ -86,14 +86,38 @@ class PlantChoices:
 
     @classmethod
     def for_scenario(cls, scenario_plant: dict | None = None, **overrides) -> "PlantChoices":
-        """A new run's choices: the scenario's ``plant:`` mapping, then overrides that are not None."""
+        """A new run's choices: the scenario's ``plant:`` mapping, then overrides that are not None.
+
+        Parameters
+        ----------
+        scenario_plant : dict or None
+            The scenario's ``plant:`` mapping.
+        **overrides
+            Choice -> value; None or '' leaves the scenario's.
+
+        Returns
+        -------
+        PlantChoices
+            The choices.
+        """
         given = {k: v for k, v in (scenario_plant or {}).items() if k in RECORDED_KEYS}
         given.update({k: v for k, v in overrides.items() if v is not None and v != ""})
         return cls(**given)
 
     @classmethod
     def from_recorded(cls, recorded: dict | None) -> "PlantChoices":
-        """What a bag, model card or threshold file was made under; missing keys take LEGACY values."""
+        """What a bag, model card or threshold file was made under; missing keys take LEGACY values.
+
+        Parameters
+        ----------
+        recorded : dict or None
+            The recorded choices.
+
+        Returns
+        -------
+        PlantChoices
+            The choices.
+        """
         known = {f.name for f in fields(cls)}
         values = {**LEGACY, **{k: v for k, v in (recorded or {}).items() if k in known}}
         return cls(**values)
@@ -102,21 +126,72 @@ class PlantChoices:
     def of_recording(cls, recorded: dict | None, fdi_sampling: str = FDI_SAMPLING) -> "PlantChoices":
         """What the FDI of a recorded run works under: the plant's choices as the bag's /scenario
         recorded them (from_recorded), the graph's FDI period and ``fdi_sampling``. A run simulated
-        for the FDI without a bag gives its would-be record, ``scenario.plant_choices().scenario_dict()``."""
+        for the FDI without a bag gives its would-be record, ``scenario.plant_choices().scenario_dict()``.
+
+        Parameters
+        ----------
+        recorded : dict or None
+            The plant mapping of the bag's /scenario.
+        fdi_sampling : str
+            How the FDI samples the plant.
+
+        Returns
+        -------
+        PlantChoices
+            The choices.
+        """
         return cls.from_recorded(recorded).with_(fdi_period=FDI_PERIOD, fdi_sampling=fdi_sampling)
 
     def as_dict(self) -> dict:
+        """Every choice by name.
+
+        Returns
+        -------
+        dict
+            Field -> value.
+        """
         return asdict(self)
 
     def scenario_dict(self) -> dict:
-        """The part a bag's /scenario records (the graph fixes the FDI sampling)."""
+        """The part a bag's /scenario records (the graph fixes the FDI sampling).
+
+        Returns
+        -------
+        dict
+            Choice -> value.
+        """
         return {k: getattr(self, k) for k in RECORDED_KEYS}
 
     def with_(self, **changes) -> "PlantChoices":
+        """These choices with some changed.
+
+        Parameters
+        ----------
+        **changes
+            Field -> new value.
+
+        Returns
+        -------
+        PlantChoices
+            The new choices.
+        """
         return replace(self, **changes)
 
     def differences(self, made_under: "PlantChoices", keys=None):
-        """[(key, made_under value, our value)] where they differ (periods to 1e-12 s)."""
+        """[(key, made_under value, our value)] where they differ (periods to 1e-12 s).
+
+        Parameters
+        ----------
+        made_under : PlantChoices
+            What a bag, model card or threshold file was made under.
+        keys : sequence of str, optional
+            The choices compared (default: every one).
+
+        Returns
+        -------
+        list of tuple
+            (key, made_under value, our value); pairs listed in EQUIVALENT do not count.
+        """
         out = []
         for key in keys or [f.name for f in fields(self)]:
             ours, theirs = getattr(self, key), getattr(made_under, key)

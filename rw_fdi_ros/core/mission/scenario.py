@@ -58,7 +58,20 @@ class Manoeuvres:
     start_s: float = 0.0
 
     def draw(self, seed: int, duration: float) -> list:
-        """[(time, change [deg] per axis)] of the changes inside (start_s, duration)."""
+        """[(time, change [deg] per axis)] of the changes inside (start_s, duration).
+
+        Parameters
+        ----------
+        seed : int
+            The scenario's seed.
+        duration : float
+            The run's duration [s].
+
+        Returns
+        -------
+        list of tuple
+            (time [s], (3,) change [deg]).
+        """
         rng = np.random.default_rng([int(seed), 3])
         out, t = [], self.start_s
         while True:
@@ -98,9 +111,33 @@ class Scenario:
         return self.vehicle if self.vehicle is not None else THESIS
 
     def with_seed(self, seed: int) -> "Scenario":
+        """This scenario with another seed.
+
+        Parameters
+        ----------
+        seed : int
+            The seed.
+
+        Returns
+        -------
+        Scenario
+            The new scenario.
+        """
         return replace(self, seed=int(seed))
 
     def with_faults(self, faults) -> "Scenario":
+        """This scenario with other faults.
+
+        Parameters
+        ----------
+        faults : iterable of core.physics.faults.Fault
+            The faults.
+
+        Returns
+        -------
+        Scenario
+            The new scenario.
+        """
         return replace(self, faults=tuple(faults))
 
     # -- draws ---------------------------------------------------------------
@@ -108,11 +145,23 @@ class Scenario:
         return np.random.default_rng([int(self.seed), 0])
 
     def disturbance_rng(self):
-        """Independent stream for the external disturbance (eq. 2.34)."""
+        """Independent stream for the external disturbance (eq. 2.34).
+
+        Returns
+        -------
+        numpy.random.Generator
+            The stream, keyed by the seed.
+        """
         return np.random.default_rng([int(self.seed), 1])
 
     def draws(self):
-        """Initial conditions and set-point changes, Table 2.3 uniform draws unless fixed."""
+        """Initial conditions and set-point changes, Table 2.3 uniform draws unless fixed.
+
+        Returns
+        -------
+        tuple
+            (InitialConditions, [(time [s], (3,) set-point change [rad])]).
+        """
         rng = self._rng()
         d = self.spacecraft.dispersions
         att = rng.uniform(*d.attitude_deg, 3)
@@ -136,7 +185,18 @@ class Scenario:
         or None for datasheet wheels. Drawn N(1, spread) cut at 3 sigma from a stream of their own (the
         initial conditions and the disturbance do not move); the first three wheels' from the stream they
         always came from, any further wheel's (the redundant one) from another, so adding a wheel moves
-        none of the three. ``scale`` entries are taken as given (3 values: the first three wheels)."""
+        none of the three. ``scale`` entries are taken as given (3 values: the first three wheels).
+
+        Parameters
+        ----------
+        count : int
+            The number of wheels N.
+
+        Returns
+        -------
+        dict or None
+            Parameter name -> (N,) shares of the datasheet's value.
+        """
         if not self.wheels:
             return None
         spread = self.spacecraft.dispersions.unit_spreads if self.wheels.get("variation") else {}
@@ -154,25 +214,64 @@ class Scenario:
 
     def datasheet(self, choices: PlantChoices | None = None) -> WheelParams:
         """The wheel type the run flies: its vehicle's datasheet under the run's plant choice emf_limit
-        (``choices``, default this scenario's)."""
+        (``choices``, default this scenario's).
+
+        Parameters
+        ----------
+        choices : PlantChoices or None
+            The run's plant choices (default: this scenario's).
+
+        Returns
+        -------
+        core.physics.wheel.WheelParams
+            The datasheet wheel.
+        """
         return replace(self.spacecraft.wheel, emf_limit=(choices or self.plant_choices()).emf_limit)
 
     def wheel_params(self, base: WheelParams | None = None) -> WheelParams:
         """The plant's wheels for this scenario: ``base`` (default: its vehicle's datasheet) or its units
-        (unit_scales)."""
+        (unit_scales).
+
+        Parameters
+        ----------
+        base : core.physics.wheel.WheelParams or None
+            The datasheet (default: its vehicle's).
+
+        Returns
+        -------
+        core.physics.wheel.WheelParams
+            ``base``, or its units ((N,) per parameter) when the scenario varies them.
+        """
         base = self.spacecraft.wheel if base is None else base
         scales = self.unit_scales(self.wheel_set().count)
         return base if scales is None else unit_wheel(base, scales)
 
     def wheel_set(self, recorded: bool = False):
         """The run's wheels (plant choice ``wheel_set``, wheel_set.py). ``recorded``: this is a bag's
-        /scenario, whose plant mapping lacks the choice if it predates it (the three-wheel set then)."""
+        /scenario, whose plant mapping lacks the choice if it predates it (the three-wheel set then).
+
+        Parameters
+        ----------
+        recorded : bool
+            Whether this is a bag's /scenario.
+
+        Returns
+        -------
+        core.physics.wheel_set.WheelSet
+            The wheel set.
+        """
         from ..physics.wheel_set import wheel_set
         return wheel_set(PlantChoices.from_recorded(self.plant).wheel_set if recorded
                          else self.plant_choices().wheel_set)
 
     def setpoint_schedule(self):
-        """(times, attitude set-points [rad] of shape (n, 3)): piecewise constant from each time on."""
+        """(times, attitude set-points [rad] of shape (n, 3)): piecewise constant from each time on.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (n,) times [s] and (n, 3) attitude set-points [rad].
+        """
         ic, steps = self.draws()
         times, values, current = [], [], ic.attitude.copy()
         for t, change in sorted(steps, key=lambda s: s[0]):
@@ -186,7 +285,18 @@ class Scenario:
 
     def effective_text(self, plant: dict | None = None) -> str:
         """The scenario YAML with the seed and plant choices actually used: what a bag records,
-        enough to redo the run."""
+        enough to redo the run.
+
+        Parameters
+        ----------
+        plant : dict or None
+            Plant choices to record beside the scenario's own.
+
+        Returns
+        -------
+        str
+            The YAML text.
+        """
         raw = yaml.safe_load(self.source_text) if self.source_text else {"name": self.name}
         raw = dict(raw or {})
         raw["seed"] = int(self.seed)
@@ -203,7 +313,18 @@ class Scenario:
 
     def plant_choices(self, **overrides) -> PlantChoices:
         """The choices this scenario runs under (its ``plant:`` mapping, then overrides not None). A scenario
-        that names a vehicle flies its wheel set: another one asked for is refused (its bag would not parse)."""
+        that names a vehicle flies its wheel set: another one asked for is refused (its bag would not parse).
+
+        Parameters
+        ----------
+        **overrides
+            Choice -> value; None leaves the scenario's.
+
+        Returns
+        -------
+        PlantChoices
+            The choices.
+        """
         choices = PlantChoices.for_scenario(self.plant, **overrides)
         if self.vehicle is not None and choices.wheel_set != self.plant.get("wheel_set", choices.wheel_set):
             raise PlantChoiceError(f"wheel_set {choices.wheel_set!r}: scenario {self.name} flies vehicle "
@@ -211,6 +332,13 @@ class Scenario:
         return choices
 
     def fault_free(self) -> "Scenario":
+        """This scenario without its faults.
+
+        Returns
+        -------
+        Scenario
+            The new scenario.
+        """
         return replace(self, faults=())
 
 

@@ -145,23 +145,47 @@ class Vehicle:
         return np.linalg.eigvalsh(self.inertia_matrix)
 
     def wheel_torque_limit(self) -> float:
-        """tau_max = G_d k_t V_limit [N m]: one datasheet wheel's torque at its command limit, at rest."""
+        """tau_max = G_d k_t V_limit [N m]: one datasheet wheel's torque at its command limit, at rest.
+
+        Returns
+        -------
+        float
+            tau_max [N m].
+        """
         w = self.wheel
         return float(w.driver_gain * w.torque_constant * w.command_limit)
 
     def axis_torque_limit(self) -> np.ndarray:
-        """(3,) [N m]: the most torque the active wheels give about each body axis, tau_max sum_i |g_ik|."""
+        """(3,) [N m]: the most torque the active wheels give about each body axis, tau_max sum_i |g_ik|.
+
+        Returns
+        -------
+        numpy.ndarray
+            (3,) torque [N m].
+        """
         g = self.wheel_set.matrix[:, self.wheel_set.mask(self.wheel_set.active)]
         return self.wheel_torque_limit() * np.abs(g).sum(axis=1)
 
     def slew_torque(self) -> np.ndarray:
         """(3,) [N m]: I_kk 4 theta / T^2, the torque a bang-bang slew of the largest set-point change theta
-        takes about each axis in the settling time T."""
+        takes about each axis in the settling time T.
+
+        Returns
+        -------
+        numpy.ndarray
+            (3,) torque [N m].
+        """
         theta = np.radians(max(abs(v) for v in self.dispersions.setpoint_change_deg))
         return self.axis_inertia * 4.0 * theta / self.controller.settling_time ** 2
 
     def as_dict(self) -> dict:
-        """The vehicle as its file writes it (units in the values): what a bag records."""
+        """The vehicle as its file writes it (units in the values): what a bag records.
+
+        Returns
+        -------
+        dict
+            The vehicle file's mapping (:func:`to_mapping`).
+        """
         return to_mapping(self)
 
 
@@ -189,7 +213,22 @@ def _number(where: str, text) -> float:
 
 def quantity(where: str, raw, unit: str) -> float:
     """A number with its unit as a vehicle file writes it, ``"0.19 A/V"``; a bare number only where
-    ``unit`` is "" (a pure number). The unit must be the one the field is in: units are not converted."""
+    ``unit`` is "" (a pure number). The unit must be the one the field is in: units are not converted.
+
+    Parameters
+    ----------
+    where : str
+        The field's place in the file, for the error.
+    raw : object
+        The value as written.
+    unit : str
+        The field's unit ('' for a pure number).
+
+    Returns
+    -------
+    float
+        The number.
+    """
     if isinstance(raw, (int, float)) and not isinstance(raw, bool):
         if unit:
             raise VehicleError(f"{where}: give its unit, e.g. '{raw} {unit}'")
@@ -203,7 +242,22 @@ def quantity(where: str, raw, unit: str) -> float:
 
 
 def interval(where: str, raw, unit: str) -> tuple:
-    """A range as a vehicle file writes it, ``"20 to 30 rad/s"``: (low, high) with low <= high."""
+    """A range as a vehicle file writes it, ``"20 to 30 rad/s"``: (low, high) with low <= high.
+
+    Parameters
+    ----------
+    where : str
+        The field's place in the file, for the error.
+    raw : object
+        The value as written.
+    unit : str
+        The field's unit ('' for pure numbers).
+
+    Returns
+    -------
+    tuple of float
+        (low, high).
+    """
     match = _RANGE.match(raw) if isinstance(raw, str) else None
     if match is None:
         raise VehicleError(f"{where}: expected a range 'low to high{' ' + unit if unit else ''}', got {raw!r}"[:300])
@@ -251,7 +305,15 @@ def _residual_dipole(where: str, raw) -> tuple:
 
 def check_inertia(where: str, matrix) -> None:
     """VehicleError unless I is symmetric positive definite with principal moments obeying the triangle
-    inequality (each at most the sum of the other two)."""
+    inequality (each at most the sum of the other two).
+
+    Parameters
+    ----------
+    where : str
+        The field's place in the file, for the error.
+    matrix : array_like
+        (3, 3) inertia I [kg m^2].
+    """
     matrix = np.asarray(matrix, float)
     scale = np.abs(matrix).max()
     if not np.allclose(matrix, matrix.T, rtol=0.0, atol=1e-9 * scale):
@@ -390,7 +452,20 @@ def _text(value) -> str:
 
 
 def vehicle_of(raw, where: str = "vehicle") -> Vehicle:
-    """A Vehicle from a vehicle file's mapping, checked (module docstring); VehicleError otherwise."""
+    """A Vehicle from a vehicle file's mapping, checked (module docstring); VehicleError otherwise.
+
+    Parameters
+    ----------
+    raw : dict
+        The vehicle file's mapping.
+    where : str
+        Its name, for the errors.
+
+    Returns
+    -------
+    Vehicle
+        The vehicle.
+    """
     raw = _mapping(where, raw, TOP_KEYS)
     # every section is the vehicle's own: nothing of the thesis' spacecraft is taken in silently
     missing = [k for k in REQUIRED_KEYS if k not in raw]
@@ -419,7 +494,15 @@ def vehicle_of(raw, where: str = "vehicle") -> Vehicle:
 
 
 def check_flyable(vehicle: Vehicle, where: str = "vehicle") -> None:
-    """VehicleError when the controller's targets are beyond the wheels' torque (module docstring)."""
+    """VehicleError when the controller's targets are beyond the wheels' torque (module docstring).
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The vehicle.
+    where : str
+        Its name, for the error.
+    """
     need, have = vehicle.slew_torque(), vehicle.axis_torque_limit()
     short = np.flatnonzero(need > have)
     if short.size:
@@ -438,7 +521,20 @@ def check_flyable(vehicle: Vehicle, where: str = "vehicle") -> None:
 def wheel_parameter(wheel: WheelParams, wheel_type: str = "") -> str:
     """The nodes' ``wheel_type`` parameter for ``wheel``: its datasheet as a vehicle file writes it, every value
     with its unit, as ``name=value; name=value; ...`` (a plain string through every YAML layer of a launch: a
-    mapping would be retyped); '' for the thesis' Type A (the nodes' default)."""
+    mapping would be retyped); '' for the thesis' Type A (the nodes' default).
+
+    Parameters
+    ----------
+    wheel : core.physics.wheel.WheelParams
+        The wheel type.
+    wheel_type : str
+        Its make and model.
+
+    Returns
+    -------
+    str
+        The parameter's value.
+    """
     if wheel == WheelParams():
         return ""
     words = re.sub(r"[;=#:]", " ", wheel_type).strip()   # a make and model in words only
@@ -451,7 +547,18 @@ def wheel_parameter(wheel: WheelParams, wheel_type: str = "") -> str:
 
 def wheel_from_parameter(text: str) -> WheelParams:
     """The WheelParams of a ``wheel_type`` parameter (:func:`wheel_parameter`; '' the thesis' Type A);
-    VehicleError, one line naming the field, for one that does not read."""
+    VehicleError, one line naming the field, for one that does not read.
+
+    Parameters
+    ----------
+    text : str
+        The parameter's value.
+
+    Returns
+    -------
+    core.physics.wheel.WheelParams
+        The wheel type.
+    """
     if not text.strip():
         return WheelParams()
     raw = {}
@@ -466,14 +573,31 @@ def wheel_from_parameter(text: str) -> WheelParams:
 
 
 def shipped_vehicles() -> dict:
-    """name -> path of the vehicle files shipped in config/vehicles."""
+    """name -> path of the vehicle files shipped in config/vehicles.
+
+    Returns
+    -------
+    dict
+        Name -> pathlib.Path.
+    """
     folder = config_dir() / "vehicles"
     return {p.stem: p for p in sorted(folder.glob("*.yaml"))} if folder.is_dir() else {}
 
 
 def load_vehicle(source=None) -> Vehicle:
     """The vehicle named ``source``: a shipped name (config/vehicles/NAME.yaml), a path to a vehicle file,
-    a mapping (a bag's record), or None for the default (the thesis' MakSat)."""
+    a mapping (a bag's record), or None for the default (the thesis' MakSat).
+
+    Parameters
+    ----------
+    source : str, pathlib.Path, dict, Vehicle or None
+        A shipped name, a file, a mapping or a Vehicle (returned as is).
+
+    Returns
+    -------
+    Vehicle
+        The vehicle.
+    """
     if isinstance(source, Vehicle):
         return source
     if isinstance(source, dict):
@@ -503,7 +627,18 @@ def _range(values, unit: str) -> str:
 
 
 def to_mapping(vehicle: Vehicle) -> dict:
-    """The vehicle file's mapping of ``vehicle`` (vehicle_of reads it back to an equal Vehicle)."""
+    """The vehicle file's mapping of ``vehicle`` (vehicle_of reads it back to an equal Vehicle).
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The vehicle.
+
+    Returns
+    -------
+    dict
+        The mapping, every value with its unit.
+    """
     d = vehicle.dispersions
     wheel = {"type": vehicle.wheel_type}
     for name, unit in WHEEL_UNITS.items():
@@ -539,7 +674,18 @@ def to_mapping(vehicle: Vehicle) -> dict:
 
 
 def summary(vehicle: Vehicle) -> str:
-    """A few lines a person reads: what the vehicle is and what its wheels can do about each axis."""
+    """A few lines a person reads: what the vehicle is and what its wheels can do about each axis.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The vehicle.
+
+    Returns
+    -------
+    str
+        The lines.
+    """
     moments = ", ".join(f"{m:.4g}" for m in vehicle.principal_inertia)
     have, need = vehicle.axis_torque_limit(), vehicle.slew_torque()
     ws = vehicle.wheel_set

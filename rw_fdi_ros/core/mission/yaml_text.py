@@ -13,6 +13,20 @@ class UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):   # libyam
     """SafeLoader that refuses a mapping with the same key twice."""
 
     def construct_mapping(self, node, deep=False):
+        """PyYAML's, refusing a key given twice in one mapping (ConstructorError at the second).
+
+        Parameters
+        ----------
+        node : yaml.MappingNode
+            The mapping's node.
+        deep : bool
+            PyYAML's: construct the values at once.
+
+        Returns
+        -------
+        dict
+            The mapping.
+        """
         seen = set()
         for key_node, _ in node.value:
             key = self.construct_object(key_node, deep=deep)
@@ -23,7 +37,20 @@ class UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):   # libyam
 
 
 def read_yaml(text: str, origin: str):
-    """The object ``text`` holds; YamlError "ORIGIN: line N is not valid YAML (PROBLEM)" otherwise."""
+    """The object ``text`` holds; YamlError "ORIGIN: line N is not valid YAML (PROBLEM)" otherwise.
+
+    Parameters
+    ----------
+    text : str
+        The YAML text.
+    origin : str
+        Where it comes from, for the error.
+
+    Returns
+    -------
+    object
+        The object.
+    """
     try:
         return yaml.load(text, Loader=UniqueKeyLoader)
     except yaml.YAMLError as exc:

@@ -72,12 +72,32 @@ class OrbitEnvironment:
     residual_dipole: tuple | None = None   # [A m^2]; None: the vehicle's (vehicle.Vehicle.residual_dipole)
 
     def start(self) -> datetime:
+        """The run's start (UTC): ``epoch``, else the element set's own epoch, else DEFAULT_EPOCH.
+
+        Returns
+        -------
+        datetime.datetime
+            The start.
+        """
         if self.epoch is not None:
             return self.epoch
         return self.orbit.epoch() if isinstance(self.orbit, TleOrbit) else DEFAULT_EPOCH
 
     def track(self, duration: float, field_model: str = "igrf") -> "Track":
-        """Position and field every ENVIRONMENT_STEP seconds over [0, duration]."""
+        """Position and field every ENVIRONMENT_STEP seconds over [0, duration].
+
+        Parameters
+        ----------
+        duration : float
+            The run's duration [s].
+        field_model : str
+            The geomagnetic field model.
+
+        Returns
+        -------
+        Track
+            Times [s], inertial position [m] and field [T].
+        """
         times = np.arange(0.0, float(duration) + 2 * ENVIRONMENT_STEP, ENVIRONMENT_STEP)
         epoch = self.start()
         position = self.orbit.position(times, epoch)
@@ -158,7 +178,20 @@ class Environments:
 
     def state(self, t: float, attitude):
         """(position, field) in body axes (B, 3) at ``t`` for the batch's attitudes (B, 3), linear between
-        grid points (held past the last); a run without an orbit has no field."""
+        grid points (held past the last); a run without an orbit has no field.
+
+        Parameters
+        ----------
+        t : float
+            Sim time [s].
+        attitude : array_like
+            (B, 3) attitudes [rad].
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (position [m], field [T]), (B, 3) each in body axes.
+        """
         x = min(max(t / ENVIRONMENT_STEP, 0.0), float(self.last))
         i = min(int(x), self.last - 1)
         w = x - i
@@ -168,14 +201,46 @@ class Environments:
         return np.einsum("bij,bj->bi", c, r), np.einsum("bij,bj->bi", c, b)
 
     def torque(self, t: float, attitude, inertia, dipole) -> np.ndarray:
-        """Gravity gradient + (residual dipole + magnetorquers' ``dipole``) x field [N m], (B, 3)."""
+        """Gravity gradient + (residual dipole + magnetorquers' ``dipole``) x field [N m], (B, 3).
+
+        Parameters
+        ----------
+        t : float
+            Sim time [s].
+        attitude : array_like
+            (B, 3) attitudes [rad].
+        inertia : array_like
+            The body's inertia I [kg m^2].
+        dipole : array_like
+            (B, 3) the magnetorquers' dipole [A m^2].
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, 3) torque [N m].
+        """
         r_body, b_body = self.state(t, attitude)
         gg = np.where(self.active[:, None], gravity_gradient_torque(r_body, inertia), 0.0)
         return gg + cross(self.residual + dipole, b_body)
 
     def magnetometer(self, t: float, attitude, step: int) -> np.ndarray:
         """The field in body axes [T] as the magnetometer reads it at ``step``: plus N(0, MAGNETOMETER_NOISE)
-        per axis from a stream keyed by the run's seed and the step (the same reading however often asked)."""
+        per axis from a stream keyed by the run's seed and the step (the same reading however often asked).
+
+        Parameters
+        ----------
+        t : float
+            Sim time [s].
+        attitude : array_like
+            (B, 3) attitudes [rad].
+        step : int
+            The control step's index.
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, 3) reading [T] (0 for a run without an orbit).
+        """
         _, b_body = self.state(t, attitude)
         noise = np.array([np.random.default_rng([s, 5, int(step)]).normal(0.0, MAGNETOMETER_NOISE, 3)
                           for s in self.seeds])

@@ -31,6 +31,18 @@ class Fault:
     ramp: float = 0.0
 
     def value_at(self, t):
+        """The faulted quantity's value at ``t``: nominal before the onset, ramping to ``value`` over ``ramp``.
+
+        Parameters
+        ----------
+        t : float
+            Sim time [s].
+
+        Returns
+        -------
+        float
+            The value (the kind's unit).
+        """
         nominal = NOMINAL_VALUES[self.kind]
         if t < self.onset:
             return nominal
@@ -40,7 +52,18 @@ class Fault:
         return self.value
 
     def as_dict(self, wheel_names=None) -> dict:
-        """``wheel_names``: the run's wheel set's names (default: the default set's, x y z s)."""
+        """``wheel_names``: the run's wheel set's names (default: the default set's, x y z s).
+
+        Parameters
+        ----------
+        wheel_names : sequence of str or None
+            The run's wheel set's names.
+
+        Returns
+        -------
+        dict
+            'kind', 'wheel' (by name), 'onset' [s], 'value', 'ramp' [s].
+        """
         names = wheel_names or WHEEL_SETS[DEFAULT_WHEEL_SET].names
         return {"kind": self.kind, "wheel": names[self.wheel], "onset": self.onset,
                 "value": self.value, "ramp": self.ramp}

@@ -118,7 +118,26 @@ class Dumper:
         self.dumping = np.zeros(len(on), bool)
 
     def update(self, field, wheel_speed, in_use, wheel_inertia, spin_axes) -> np.ndarray:
-        """The dipole (B, 3) [A m^2] for the magnetometer's ``field`` (B, 3) [T] and the wheels' state."""
+        """The dipole (B, 3) [A m^2] for the magnetometer's ``field`` (B, 3) [T] and the wheels' state.
+
+        Parameters
+        ----------
+        field : array_like
+            (B, 3) magnetometer reading [T].
+        wheel_speed : array_like
+            (B, N) wheel speeds Omega [rad/s].
+        in_use : array_like
+            (B, N) bool: the wheels in use.
+        wheel_inertia : array_like
+            Wheel inertia J [kg m^2] (scalar or per wheel).
+        spin_axes : array_like
+            (3, N) the wheels' spin axes.
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, 3) dipole [A m^2].
+        """
         fastest = np.max(np.where(in_use, np.abs(wheel_speed), 0.0), axis=-1)
         h = wheel_momentum(wheel_speed, wheel_inertia, spin_axes, in_use)
         # on when a wheel nears saturation; off when the net momentum is what one wheel holds at the stop
@@ -138,6 +157,15 @@ class DumpLog:
         self._open = None
 
     def add(self, time: float, dipole):
+        """Log one sample's dipole: a non-zero one opens or extends a dump, a zero one closes it.
+
+        Parameters
+        ----------
+        time : float
+            Sim time [s].
+        dipole : array_like
+            The dipole [A m^2].
+        """
         if np.any(np.asarray(dipole) != 0.0):
             self._open = [self._open[0] if self._open else float(time), float(time)]
         elif self._open is not None:
@@ -145,5 +173,11 @@ class DumpLog:
             self._open = None
 
     def done(self) -> list:
-        """The intervals, a dump still on at the end closed at its last sample."""
+        """The intervals, a dump still on at the end closed at its last sample.
+
+        Returns
+        -------
+        list of tuple
+            (start [s], end [s]) of each dump.
+        """
         return self.intervals + ([tuple(self._open)] if self._open else [])

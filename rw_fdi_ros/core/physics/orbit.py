@@ -88,7 +88,20 @@ class CircularOrbit:
         return 2.0 * np.pi / self.mean_motion
 
     def position(self, t, epoch: datetime | None = None) -> np.ndarray:
-        """r(t) = a R3(-Omega) R1(-i) (cos u, sin u, 0) with u = u0 + n t [m], shape (n, 3)."""
+        """r(t) = a R3(-Omega) R1(-i) (cos u, sin u, 0) with u = u0 + n t [m], shape (n, 3).
+
+        Parameters
+        ----------
+        t : array_like
+            (n,) time since the start [s].
+        epoch : datetime.datetime or None
+            Unused: a circular orbit starts at its elements.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n, 3) inertial position [m].
+        """
         u = np.deg2rad(self.argument_of_latitude_deg) + self.mean_motion * np.asarray(t, float)
         raan, inc = np.deg2rad(self.raan_deg), np.deg2rad(self.inclination_deg)
         cu, su = np.cos(u), np.sin(u)
@@ -105,6 +118,13 @@ class TleOrbit:
     line2: str
 
     def satellite(self):
+        """The element set as SGP4 reads it (OrbitError, one line, when it does not).
+
+        Returns
+        -------
+        sgp4.api.Satrec
+            The satellite record.
+        """
         from sgp4.api import Satrec
         try:
             sat = Satrec.twoline2rv(self.line1, self.line2)
@@ -115,12 +135,31 @@ class TleOrbit:
         return sat
 
     def epoch(self) -> datetime:
-        """The element set's own epoch (UTC)."""
+        """The element set's own epoch (UTC).
+
+        Returns
+        -------
+        datetime.datetime
+            The epoch.
+        """
         from sgp4.conveniences import sat_epoch_datetime
         return sat_epoch_datetime(self.satellite())
 
     def position(self, t, epoch: datetime | None = None) -> np.ndarray:
-        """SGP4 positions [m] at ``t`` [s] after ``epoch`` (default: the element set's)."""
+        """SGP4 positions [m] at ``t`` [s] after ``epoch`` (default: the element set's).
+
+        Parameters
+        ----------
+        t : array_like
+            (n,) time since ``epoch`` [s].
+        epoch : datetime.datetime or None
+            The start (UTC).
+
+        Returns
+        -------
+        numpy.ndarray
+            (n, 3) inertial position [m].
+        """
         sat = self.satellite()
         start = julian_date(epoch or self.epoch())
         t = np.atleast_1d(np.asarray(t, float))

@@ -95,7 +95,18 @@ def units_of(scenarios, base: wm.WheelParams, count: int = 3) -> wm.WheelParams:
 
 
 def batch_vehicle(scenarios):
-    """The one vehicle a batch of scenarios flies (vehicle.py); ValueError when they name different ones."""
+    """The one vehicle a batch of scenarios flies (vehicle.py); ValueError when they name different ones.
+
+    Parameters
+    ----------
+    scenarios : iterable of Scenario
+        The batch.
+
+    Returns
+    -------
+    Vehicle
+        The vehicle.
+    """
     vehicles = {s.spacecraft for s in scenarios}
     if len(vehicles) > 1:
         raise ValueError("a batch of runs flies one vehicle; these scenarios name "
@@ -164,7 +175,13 @@ class Plant:
         return self._environment
 
     def command_dipole(self, dipole):
-        """Hold the magnetorquers' ``dipole`` (B, 3) [A m^2] from now on (magnetorquers.py)."""
+        """Hold the magnetorquers' ``dipole`` (B, 3) [A m^2] from now on (magnetorquers.py).
+
+        Parameters
+        ----------
+        dipole : array_like
+            (B, 3) dipole [A m^2].
+        """
         dipole = np.asarray(dipole, float).reshape(self.batch, 3)
         if not np.all(np.isfinite(dipole)):
             raise ValueError("magnetorquer dipole is not finite")
@@ -179,13 +196,45 @@ class Plant:
         return self.step_index * self.dt
 
     def faults(self, b: int = 0):
+        """Run ``b``'s faults: its scenario's and those injected live.
+
+        Parameters
+        ----------
+        b : int
+            The run's index in the batch.
+
+        Returns
+        -------
+        tuple of Fault
+            The faults.
+        """
         return tuple(self.scenarios[b].faults) + tuple(self.extra_faults[b])
 
     def inject(self, fault, b: int = 0):
-        """Add a fault while running (live injection); it joins the ground truth."""
+        """Add a fault while running (live injection); it joins the ground truth.
+
+        Parameters
+        ----------
+        fault : Fault
+            The fault.
+        b : int
+            The run's index in the batch.
+        """
         self.extra_faults[b].append(fault)
 
     def operating_point(self, t) -> dict:
+        """The wheels' operating point at ``t`` under each run's faults.
+
+        Parameters
+        ----------
+        t : float
+            Sim time [s].
+
+        Returns
+        -------
+        dict
+            Kind -> (B, N) values (bus voltage [V], current limiter, temperature [deg C], ripple gain).
+        """
         return operating_points([self.faults(b) for b in range(self.batch)], t, self.wheels.count)
 
     def _locked_inertia(self):
@@ -214,7 +263,18 @@ class Plant:
         return rate_dot, rate, speed_dot, speed
 
     def step(self, tcv) -> PlantSample:
-        """Hold ``tcv`` (B, N) over one control period and return the sample at its end."""
+        """Hold ``tcv`` (B, N) over one control period and return the sample at its end.
+
+        Parameters
+        ----------
+        tcv : array_like
+            (B, N) torque command voltages u [V].
+
+        Returns
+        -------
+        PlantSample
+            The sample at the period's end.
+        """
         tcv = np.asarray(tcv, float).reshape(self.batch, self.wheels.count)
         if not np.all(np.isfinite(tcv)):
             raise ValueError("torque command voltage is not finite")
@@ -249,7 +309,20 @@ class Plant:
         return self.sample()
 
     def reaction_torque(self, op: dict, t=None):
-        """Sampled reaction torque of the wheels in state now with the command in force (eq. 2.18)."""
+        """Sampled reaction torque of the wheels in state now with the command in force (eq. 2.18).
+
+        Parameters
+        ----------
+        op : dict
+            The operating point, kind -> (B, N).
+        t : float or None
+            Sim time [s] (default: now).
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, N) reaction torque r [N m] (0 for a locked wheel).
+        """
         t = self.time if t is None else t
         ns = SimpleNamespace(**op)
         tau_n, tau_m = wm.net_torque(self.tcv, self.wheel_speed, t, ns, self.wheel)
@@ -257,6 +330,13 @@ class Plant:
         return np.where(self.locked, 0.0, -(tau_n + ripple))
 
     def sample(self) -> PlantSample:
+        """The plant's state now: attitude, rates, wheel speeds, command, reaction torque and the faults' effect.
+
+        Returns
+        -------
+        PlantSample
+            The sample (with the magnetometer's reading on its steps in orbit).
+        """
         t = self.time
         op = self.operating_point(t)
         rt = self.reaction_torque(op, t)

@@ -56,6 +56,13 @@ class WheelParams:
             raise ValueError(f"emf_limit must be one of {EMF_LIMITS}, got {self.emf_limit!r}")
 
     def as_dict(self) -> dict:
+        """Every parameter by name.
+
+        Returns
+        -------
+        dict
+            Field -> value.
+        """
         return asdict(self)
 
 
@@ -317,7 +324,20 @@ def holding_tcv(speed, temperature=23.0, params: WheelParams = WheelParams()):
 def bearing_noise_mean(params: WheelParams = WheelParams(), seconds: float = 40.0) -> float:
     """The largest |mean| of eq. 2.16's bearing noise A sin(w_a t), A = J theta_a w_a^2, over any ``seconds``
     [N m]: A min(1, 2 / (w_a seconds)). The nominal model leaves this noise out, so no residual averaged over
-    that window can promise less (the Type A over 40 s: 3.9e-6 N m)."""
+    that window can promise less (the Type A over 40 s: 3.9e-6 N m).
+
+    Parameters
+    ----------
+    params : WheelParams
+        The wheel type.
+    seconds : float
+        The averaging window [s].
+
+    Returns
+    -------
+    float
+        The bound [N m].
+    """
     amplitude = params.inertia * params.noise_angle * params.noise_frequency ** 2
     return float(amplitude * min(1.0, 2.0 / max(params.noise_frequency * seconds, 1e-12)))
 
@@ -325,7 +345,18 @@ def bearing_noise_mean(params: WheelParams = WheelParams(), seconds: float = 40.
 def torque_scale(params: WheelParams = WheelParams()) -> float:
     """tau_max / tau_max of the thesis' Type A, tau_max = G_d k_t V_limit (27.6 mN m): how much smaller or larger
     this wheel type's torques are. What the FDI takes as a torque too small to matter (noise floors, a command
-    too small to judge a wheel by) was set on the Type A and scales with it."""
+    too small to judge a wheel by) was set on the Type A and scales with it.
+
+    Parameters
+    ----------
+    params : WheelParams
+        The wheel type.
+
+    Returns
+    -------
+    float
+        The ratio.
+    """
     thesis = WheelParams()
     return float(params.driver_gain * params.torque_constant * params.command_limit
                  / (thesis.driver_gain * thesis.torque_constant * thesis.command_limit))

@@ -92,23 +92,68 @@ class WheelSet:
         return tuple(n for n in self.names if n not in self.standby)
 
     def index(self, name: str) -> int:
+        """The index of wheel ``name`` in the set (ValueError naming the set's wheels otherwise).
+
+        Parameters
+        ----------
+        name : str
+            The wheel's name.
+
+        Returns
+        -------
+        int
+            Its index.
+        """
         if name not in self.names:
             raise ValueError(f"wheel must be one of {', '.join(self.names)}, got {name!r}")
         return self.names.index(name)
 
     def mask(self, names) -> np.ndarray:
-        """(N,) bool: which of the set's wheels are in ``names``."""
+        """(N,) bool: which of the set's wheels are in ``names``.
+
+        Parameters
+        ----------
+        names : iterable of str
+            Wheel names.
+
+        Returns
+        -------
+        numpy.ndarray
+            (N,) bool.
+        """
         names = set(names)
         return np.array([n in names for n in self.names])
 
     def spans(self, names) -> bool:
-        """Whether the wheels ``names`` together can give a torque about every body axis (rank 3)."""
+        """Whether the wheels ``names`` together can give a torque about every body axis (rank 3).
+
+        Parameters
+        ----------
+        names : iterable of str
+            Wheel names.
+
+        Returns
+        -------
+        bool
+            Whether they span the body axes.
+        """
         return bool(np.linalg.matrix_rank(self.matrix[:, self.mask(names)]) == 3)
 
     def initial_speeds(self, axis_speeds) -> np.ndarray:
         """Wheel speeds (..., N) storing the momentum that ``axis_speeds`` (..., 3) on three body-axis
         wheels would: h = J G Omega with the minimum-norm Omega over the active wheels, 0 on standby.
-        For orthogonal active wheels it is ``axis_speeds`` itself, exactly."""
+        For orthogonal active wheels it is ``axis_speeds`` itself, exactly.
+
+        Parameters
+        ----------
+        axis_speeds : array_like
+            (..., 3) body-axis wheel speeds [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            (..., N) wheel speeds Omega [rad/s].
+        """
         axis_speeds = np.asarray(axis_speeds, float)
         active = self.mask(self.active)
         g = self.matrix[:, active]

@@ -76,7 +76,13 @@ class Identification:
         return ""
 
     def message(self) -> str:
-        """One line a person reads at a glance."""
+        """One line a person reads at a glance.
+
+        Returns
+        -------
+        str
+            The line.
+        """
         why = ""
         if self.unit_limited:
             why = (" (wide: the unit is not calibrated yet)" if self.unit == "type"
