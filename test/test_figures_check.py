@@ -59,3 +59,12 @@ def test_the_day_in_orbit_runs_beside_the_other_benches(monkeypatch, tmp_path):
     assert report["hours"] == 0.25 and report["scenario"] == "dumping_day" and (tmp_path / "day.png").is_file()
     with fc._day_beside(False, tmp_path) as none:
         assert none is None
+
+
+def test_every_bench_the_figures_check_runs_is_found():
+    """Each bench of `rw-fdi bench figures` names a module and a function that exist (a renamed module is found
+    here, not an hour into the check)."""
+    import importlib
+    from rw_fdi_ros.tools.benches.figures_check import BENCH_FUNCTIONS
+    for name, (module, function, _) in BENCH_FUNCTIONS.items():
+        assert callable(getattr(importlib.import_module(module, "rw_fdi_ros.tools.benches"), function)), name
