@@ -100,8 +100,8 @@ def _thesis_reliability(obs: str) -> str:
     return NOT_IN_THESIS if values is None else "/".join(map(str, values)) + " %"
 
 
-def write_markdown(report: dict, path: Path):
-    obs_figs = report["observers"]
+def _intro(report: dict) -> list:
+    """The title, what was evaluated with what, and who produced it (a resumed study: each session)."""
     lines = ["# rw_fdi_ros evaluation report", "",
              f"{report['runs']} runs evaluated by bag replay through the observer and isolation nodes; "
              f"persistence P = {report['persistence']}; models `{report['models']}`, thresholds "
@@ -115,40 +115,54 @@ def write_markdown(report: dict, path: Path):
             lines += ["Sessions (a resumed study keeps what earlier sessions recorded, trained and replayed):", ""]
             lines += [f"{i}. commit `{x.get('commit', '')}`, {x.get('seconds', 0) / 60:.1f} min"
                       for i, x in enumerate(sessions, 1)] + [""]
+    return lines
+
+
+def _headline_section(obs_figs: dict) -> list:
     observers = list(obs_figs)
-    lines += ["## The thesis' figures and ours", "",
-              "| figure | " + " | ".join(f"thesis, {o} | ours, {o}" for o in observers) + " |",
-              "|---|" + "---|---|" * len(observers)]
+    lines = ["## The thesis' figures and ours", "",
+             "| figure | " + " | ".join(f"thesis, {o} | ours, {o}" for o in observers) + " |",
+             "|---|" + "---|---|" * len(observers)]
     for name, cols in headline(obs_figs):
         lines.append(f"| {name} | " + " | ".join(f"{cols[o][0]} | {cols[o][1]}" for o in observers) + " |")
-    lines += ["", "Smallest detected: per fault kind, the smallest size of the Table 5.1/5.2 grid (and Table 4.2) "
-              "that alarmed on the faulty wheel in at least half of its runs.", ""]
+    return lines + ["", "Smallest detected: per fault kind, the smallest size of the Table 5.1/5.2 grid (and Table "
+                    "4.2) that alarmed on the faulty wheel in at least half of its runs.", ""]
+
+
+def _reliability_section(obs_figs: dict) -> list:
     wheels = [a for a in next(iter(obs_figs.values()), {}).get("reliability", {}) if a not in ("runs", "seeds")]
     wheels = wheels or list(AXIS_WHEELS)
-    lines += ["## Threshold reliability (Tables 3.1 / 4.1)", "",
-              f"| observer | {' | '.join(wheels)} | fitting runs | thesis x/y/z |",
-              "|---|" + "---|" * len(wheels) + "---|---|"]
+    lines = ["## Threshold reliability (Tables 3.1 / 4.1)", "",
+             f"| observer | {' | '.join(wheels)} | fitting runs | thesis x/y/z |",
+             "|---|" + "---|" * len(wheels) + "---|---|"]
     for obs, f in obs_figs.items():
         rel = f["reliability"]
         cells = " | ".join("-" if a not in rel else f"{rel[a] * 100:.0f} %" for a in wheels)
         lines.append(f"| {obs} | {cells} | {rel.get('runs', 0)} | {_thesis_reliability(obs)} |")
-    lines += ["", "## False alarms", "", "| observer | held-out fault-free | faulty runs, before onset | "
-              "ripple +40 % (must not alarm) | thesis, ripple |", "|---|---|---|---|---|"]
-    for obs, f in obs_figs.items():
-        lines.append(f"| {obs} | {_pct(f['false_alarm_heldout'])} | {_pct(f.get('false_alarm_before_onset'))} | "
-                     f"{_pct(f['false_alarm_disturbance'])} | {THESIS['ripple'].get(obs, NOT_IN_THESIS)} |")
-    lines += ["", "## Correctness per fault kind and size (Table 4.2) and detection figures (Tables 5.1 / 5.2)", "",
-              "Correct = every faulty axis alarms after onset and no other axis alarms at any time. "
-              "'observable' counts only runs whose fault effect (faulty minus healthy wheel torque) rose above "
-              "the fault-free residual level, so the observer is not blamed for physics that hides the fault.", ""]
+    return lines
+
+
+def _false_alarm_section(obs_figs: dict) -> list:
+    return ["", "## False alarms", "", "| observer | held-out fault-free | faulty runs, before onset | "
+            "ripple +40 % (must not alarm) | thesis, ripple |", "|---|---|---|---|---|"] + [
+        f"| {obs} | {_pct(f['false_alarm_heldout'])} | {_pct(f.get('false_alarm_before_onset'))} | "
+        f"{_pct(f['false_alarm_disturbance'])} | {THESIS['ripple'].get(obs, NOT_IN_THESIS)} |"
+        for obs, f in obs_figs.items()]
+
+
+def _correctness_section(obs_figs: dict) -> list:
+    """Per observer, a row per fault kind and size beside the thesis' Table 4.2 correctness where it has one."""
+    lines = ["", "## Correctness per fault kind and size (Table 4.2) and detection figures (Tables 5.1 / 5.2)", "",
+             "Correct = every faulty axis alarms after onset and no other axis alarms at any time. "
+             "'observable' counts only runs whose fault effect (faulty minus healthy wheel torque) rose above "
+             "the fault-free residual level, so the observer is not blamed for physics that hides the fault.", ""]
     for obs, f in obs_figs.items():
         lines += [f"### {obs} observer", "",
                   "| fault | size | axes | runs | correct | correct (observable) | detected | delay [s] | "
                   "time above [s] | held to end | gap detected [1e-3 N m] | gap missed [1e-3 N m] | thesis |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for c in f["faults"]:
-            thesis = next((v for (kind, sev), v in THESIS["correctness"].get(obs, {}).items()
-                           if kind == c["kind"] and c.get("severity") is not None and abs(c["severity"] - sev) < 0.5),
+            thesis = next((v for (kind, sev), v in THESIS["correctness"].get(obs, {}).items() if _cell([c], kind, sev)),
                           None)
             lines.append(f"| {c['kind']} | {c['size']} | {','.join(c['axes'])} | {c['runs']} | "
                          f"{_pct(c['correctness'])} | {_pct(c['correctness_observable'])} | {_pct(c['detected'])} | "
@@ -158,54 +172,79 @@ def write_markdown(report: dict, path: Path):
         lines += ["", f"Thesis: smallest detected {THESIS['smallest'][obs]}, delays {THESIS['delay'][obs]}, "
                   f"alarm {THESIS['held'][obs]}." if obs in THESIS["smallest"] else
                   "The thesis has no model observer: the nominal wheel model needs the measured wheel speed.", ""]
-    if report.get("identification"):
-        lines += ["## Fault identification (the isolation node, from the first alarm on)", "",
-                  "Kind right: the last identification of the faulty wheel names the injected kind; size right: "
-                  "within 10 % of the true value (temperature: 10 C). `rw-fdi bench identification` has the "
-                  "figures on large samples.", "",
-                  "| fault | size | wheels | identified | kind right | size right | abs size error | identified as |",
-                  "|---|---|---|---|---|---|---|---|"]
-        for c in report["identification"]:
-            seen = ", ".join(f"{k} {n}" for k, n in c["identified_as"].items())
-            lines.append(f"| {c['kind']} | {c['size']} | {c['wheels']} | {_pct(c['identified'])} | "
-                         f"{_pct(c['kind_right'])} | {_pct(c['size_right'])} | {_med(c['abs_size_error'])} | {seen} |")
-        lines.append("")
+    return lines
+
+
+def _identification_section(rows: list) -> list:
+    if not rows:
+        return []
+    return ["## Fault identification (the isolation node, from the first alarm on)", "",
+            "Kind right: the last identification of the faulty wheel names the injected kind; size right: "
+            "within 10 % of the true value (temperature: 10 C). `rw-fdi bench identification` has the "
+            "figures on large samples.", "",
+            "| fault | size | wheels | identified | kind right | size right | abs size error | identified as |",
+            "|---|---|---|---|---|---|---|---|"] + [
+        f"| {c['kind']} | {c['size']} | {c['wheels']} | {_pct(c['identified'])} | {_pct(c['kind_right'])} | "
+        f"{_pct(c['size_right'])} | {_med(c['abs_size_error'])} | "
+        + ", ".join(f"{k} {n}" for k, n in c["identified_as"].items()) + " |" for c in rows] + [""]
+
+
+def _health_section(report: dict) -> list:
+    """How many runs the FDI could not judge or had input trouble in, and the first 50 such rows."""
     health = report.get("health", [])
+
     def runs_with(kind):
         return len({h["bag"] for h in health if h["kind"] == kind})
-    lines += ["## The FDI's own health", "",
-              f"Runs with samples the FDI could not judge (STALE): {runs_with('cannot_judge')}; with input trouble "
-              f"(WARN: gaps, dropped duplicates or late samples): {runs_with('input_trouble')}"
-              f"; of {report['runs']}.", ""]
+    lines = ["## The FDI's own health", "",
+             f"Runs with samples the FDI could not judge (STALE): {runs_with('cannot_judge')}; with input trouble "
+             f"(WARN: gaps, dropped duplicates or late samples): {runs_with('input_trouble')}"
+             f"; of {report['runs']}.", ""]
     if health:
         lines += ["| bag | status | wheel | what | samples | first [s] | message |", "|---|---|---|---|---|---|---|"]
         lines += [f"| {h['bag']} | {h['topic']} | {h['wheel']} | {h['kind'].replace('_', ' ')} | {h['samples']} | "
                   f"{h['first_s']:g} | {h['message']} |" for h in health[:50]]
         lines += (["", f"({len(health) - 50} more rows in report.json)"] if len(health) > 50 else []) + [""]
+    return lines
+
+
+def _engines_section(engines: dict | None) -> list:
+    """The engine that recorded and judged, and how far the graph, as reference, agreed on its sample."""
+    if not engines:
+        return []
+    lines = ["## Engines", "", f"Recorded and judged by the **{engines['recorded_and_judged_by']}** engine "
+             "(docs/evaluation.md \"Engines\")."]
+    check = engines.get("graph_sample")
+    if check:
+        lines += ["", f"The graph as reference: {check['runs']} runs recorded through the graph as well; "
+                  f"**{check['identical_bags']} of {check['runs']}** bags the same as the core engine's, topic "
+                  f"by topic and message by message; {check['evaluated']} replayed through the FDI graph: "
+                  f"evaluation {'**the same**' if check['evaluation_agrees'] else '**differs**'} (figures, "
+                  "identification, health)" + (f" (differs in {', '.join(check['disagreeing'])})"
+                                               if check["disagreeing"] else "") + "."]
+        lines += [f"- `{d['bag']}`: {'; '.join(d['differences'])}" for d in check["differing"]]
+    return lines + [""]
+
+
+def _time_section(stages: dict | None) -> list:
+    if not stages:
+        return []
+    lines = ["## Time", "", "| stage | seconds | runs | runs per minute |", "|---|---|---|---|"]
+    for name, st in stages.items():
+        rpm = f"{st['runs'] / st['seconds'] * 60:.1f}" if st.get("runs") and st["seconds"] > 0 else "-"
+        lines.append(f"| {name} | {st['seconds']:.0f} | {st.get('runs', '-')} | {rpm} |")
+    return lines + [""]
+
+
+def write_markdown(report: dict, path: Path):
+    obs_figs = report["observers"]
+    lines = (_intro(report) + _headline_section(obs_figs) + _reliability_section(obs_figs)
+             + _false_alarm_section(obs_figs) + _correctness_section(obs_figs)
+             + _identification_section(report.get("identification")) + _health_section(report))
     if report.get("skipped"):
         lines += ["## Skipped bags", ""] + [f"- `{s['bag']}`: {s['reason']}" for s in report["skipped"]] + [""]
     if report.get("plots"):
         lines += ["## Plots", ""] + [f"![{Path(p).stem}]({Path(p).name})" for p in report["plots"]] + [""]
-    engines = report.get("engines")
-    if engines:
-        lines += ["## Engines", "", f"Recorded and judged by the **{engines['recorded_and_judged_by']}** engine "
-                  "(docs/evaluation.md \"Engines\")."]
-        check = engines.get("graph_sample")
-        if check:
-            lines += ["", f"The graph as reference: {check['runs']} runs recorded through the graph as well; "
-                      f"**{check['identical_bags']} of {check['runs']}** bags the same as the core engine's, topic "
-                      f"by topic and message by message; {check['evaluated']} replayed through the FDI graph: "
-                      f"evaluation {'**the same**' if check['evaluation_agrees'] else '**differs**'} (figures, "
-                      "identification, health)" + (f" (differs in {', '.join(check['disagreeing'])})"
-                                                   if check["disagreeing"] else "") + "."]
-            lines += [f"- `{d['bag']}`: {'; '.join(d['differences'])}" for d in check["differing"]]
-        lines.append("")
-    if report.get("stages"):
-        lines += ["## Time", "", "| stage | seconds | runs | runs per minute |", "|---|---|---|---|"]
-        for name, st in report["stages"].items():
-            rpm = f"{st['runs'] / st['seconds'] * 60:.1f}" if st.get("runs") and st["seconds"] > 0 else "-"
-            lines.append(f"| {name} | {st['seconds']:.0f} | {st.get('runs', '-')} | {rpm} |")
-        lines.append("")
+    lines += _engines_section(report.get("engines")) + _time_section(report.get("stages"))
     path.write_text("\n".join(lines))
 
 
