@@ -248,60 +248,56 @@ def write_markdown(report: dict, path: Path):
     path.write_text("\n".join(lines))
 
 
-def write_plots(runs, figures: dict, out: Path) -> list:
-    import matplotlib
-    matplotlib.use("Agg")
+def _save(fig, path: Path) -> str:
     import matplotlib.pyplot as plt
-    paths = []
-    # residual vs threshold for one run of each kind (thesis Figs. 4.19-4.23, 5.2/5.3)
-    chosen = {}
-    for r in runs:
-        key = (r.category, tuple(sorted({f.kind for f in r.faults})))
-        chosen.setdefault(key, r)
-    for (cat, kinds), r in list(chosen.items())[:8]:
-        observers = list(r.series)
-        fig, axes = plt.subplots(len(observers), len(r.wheels), figsize=(4.4 * len(r.wheels), 3 * len(observers)),
-                                 sharex=True, squeeze=False)
-        for row, obs in enumerate(observers):
-            s = r.series[obs]
-            for i, a in enumerate(r.wheels):   # the run's wheels, a standby one included
-                ax = axes[row, i]
-                ax.plot(s.time, s.residual[:, i] * 1e3, lw=1.1, label="residual")
-                ax.plot(s.time, s.threshold[:, i] * 1e3, "--", color="tab:red", lw=1.1, label="threshold")
-                if s.alarm[:, i].any():
-                    ax.fill_between(s.time, 0, 1, where=s.alarm[:, i], transform=ax.get_xaxis_transform(),
-                                    color="tab:orange", alpha=0.15)
-                for f in r.faults:
-                    if r.wheels[f.wheel] == a:
-                        ax.axvline(f.onset, color="k", lw=0.8)
-                ax.set_title(f"{obs}, wheel {a}", fontsize=9)
-                ax.grid(alpha=0.3)
-        axes[0, 0].legend(fontsize=7)
-        fig.suptitle(f"{r.scenario} seed {r.seed}: residual vs threshold [1e-3 N m] (shaded: alarm)")
-        fig.tight_layout()
-        p = out / f"residuals_{r.scenario}_s{r.seed}.png"
-        fig.savefig(p, dpi=90)
-        plt.close(fig)
-        paths.append(str(p))
-    # detection delay distributions
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return str(path)
+
+
+def _residual_plot(r, out: Path) -> str:
+    """Residual vs threshold of one run, an observer a row and a wheel a column (shaded: alarm, line: onset)."""
+    import matplotlib.pyplot as plt
+    observers = list(r.series)
+    fig, axes = plt.subplots(len(observers), len(r.wheels), figsize=(4.4 * len(r.wheels), 3 * len(observers)),
+                             sharex=True, squeeze=False)
+    for row, obs in enumerate(observers):
+        s = r.series[obs]
+        for i, a in enumerate(r.wheels):   # the run's wheels, a standby one included
+            ax = axes[row, i]
+            ax.plot(s.time, s.residual[:, i] * 1e3, lw=1.1, label="residual")
+            ax.plot(s.time, s.threshold[:, i] * 1e3, "--", color="tab:red", lw=1.1, label="threshold")
+            if s.alarm[:, i].any():
+                ax.fill_between(s.time, 0, 1, where=s.alarm[:, i], transform=ax.get_xaxis_transform(),
+                                color="tab:orange", alpha=0.15)
+            for f in r.faults:
+                if r.wheels[f.wheel] == a:
+                    ax.axvline(f.onset, color="k", lw=0.8)
+            ax.set_title(f"{obs}, wheel {a}", fontsize=9)
+            ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle(f"{r.scenario} seed {r.seed}: residual vs threshold [1e-3 N m] (shaded: alarm)")
+    return _save(fig, out / f"residuals_{r.scenario}_s{r.seed}.png")
+
+
+def _delay_plot(figures: dict, out: Path) -> str:
+    """The detection delay distributions, a box per fault cell."""
+    import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, len(figures), figsize=(6 * len(figures), 4), sharey=True, squeeze=False)
     for ax, (obs, f) in zip(axes[0], figures.items()):
-        labels, data = [], []
-        for c in f["faults"]:
-            if c["delay_s"]:
-                labels.append(f"{c['kind']}\n{c['size']}")
-                data.append(c["delay_s"]["values"])
-        if data:
-            ax.boxplot(data, orientation="horizontal")
-            ax.set_yticks(range(1, len(labels) + 1), labels, fontsize=7)
+        cells = [c for c in f["faults"] if c["delay_s"]]
+        if cells:
+            ax.boxplot([c["delay_s"]["values"] for c in cells], orientation="horizontal")
+            ax.set_yticks(range(1, len(cells) + 1), [f"{c['kind']}\n{c['size']}" for c in cells], fontsize=7)
         ax.set_title(f"{obs}: detection delay [s]")
         ax.grid(alpha=0.3)
-    fig.tight_layout()
-    p = out / "detection_delay.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    paths.append(str(p))
-    # detected / missed grid over fault size (Tables 5.1 / 5.2)
+    return _save(fig, out / "detection_delay.png")
+
+
+def _grid_plot(figures: dict, out: Path) -> str:
+    """The share detected over fault kind and size (Tables 5.1 / 5.2)."""
+    import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, len(figures), figsize=(6 * len(figures), 4.5), squeeze=False)
     for ax, (obs, f) in zip(axes[0], figures.items()):
         cells = [c for c in f["faults"] if c["kind"] != "multiple"]
@@ -321,12 +317,18 @@ def write_plots(runs, figures: dict, out: Path) -> list:
         ax.set_yticks(range(len(kinds)), kinds, fontsize=8)
         ax.set_xticks([])
         ax.set_title(f"{obs}: share detected per fault size")
-    fig.tight_layout()
-    p = out / "detection_grid.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    paths.append(str(p))
-    return paths
+    return _save(fig, out / "detection_grid.png")
+
+
+def write_plots(runs, figures: dict, out: Path) -> list:
+    import matplotlib
+    matplotlib.use("Agg")
+    # residual vs threshold for one run of each kind (thesis Figs. 4.19-4.23, 5.2/5.3)
+    chosen = {}
+    for r in runs:
+        chosen.setdefault((r.category, tuple(sorted({f.kind for f in r.faults}))), r)
+    return ([_residual_plot(r, out) for r in list(chosen.values())[:8]]
+            + [_delay_plot(figures, out), _grid_plot(figures, out)])
 
 
 def validate_report(report: dict):
