@@ -475,21 +475,26 @@ def _format_observers(figures: dict | None) -> list:
                 f"{o['delay_s']['median']:.0f} / {o['delay_s']['p90']:.0f}")]
 
 
-def format_service(report: dict) -> str:
+def _service_intro(report: dict) -> list:
+    """The title (the vehicle where not the thesis'), and what was measured: seeds, hours, time, shortening."""
     f = report["figures"]
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
-    lines = ["# FDIR in service (`rw-fdi bench service`)" + (f", vehicle {vehicle}" if vehicle != DEFAULT_VEHICLE
-                                                             else ""), "",
-             f"Measured {report['date']}, {report['seed_set']} seeds {report['seeds'][0]:,}-{report['seeds'][1]:,} "
-             f"({f['runs']} runs, {f['hours']:.0f} h of service)"
-             + (f" and fault-free 600-s runs {report['fault_free_seeds'][0]:,}-{report['fault_free_seeds'][1]:,}"
-                if report.get("fault_free_seeds") else "")
-             + f"; {report['seconds'] / 60:.0f} min on this machine. "
-             "95 % Wilson intervals. The envelope: tools/benches/service_bench.py"
-             + (f"; runs longer than {report['max_hours']:g} h shortened to it (--max-hours)."
-                if report.get("max_hours") else ".")
-             + (f" {report['rejudged']}" if report.get("rejudged") else ""), "",
-             "| figure | measured | goal |", "|---|---|---|",
+    return ["# FDIR in service (`rw-fdi bench service`)" + (f", vehicle {vehicle}" if vehicle != DEFAULT_VEHICLE
+                                                            else ""), "",
+            f"Measured {report['date']}, {report['seed_set']} seeds {report['seeds'][0]:,}-{report['seeds'][1]:,} "
+            f"({f['runs']} runs, {f['hours']:.0f} h of service)"
+            + (f" and fault-free 600-s runs {report['fault_free_seeds'][0]:,}-{report['fault_free_seeds'][1]:,}"
+               if report.get("fault_free_seeds") else "")
+            + f"; {report['seconds'] / 60:.0f} min on this machine. "
+            "95 % Wilson intervals. The envelope: tools/benches/service_bench.py"
+            + (f"; runs longer than {report['max_hours']:g} h shortened to it (--max-hours)."
+               if report.get("max_hours") else ".")
+            + (f" {report['rejudged']}" if report.get("rejudged") else ""), ""]
+
+
+def _service_table(f: dict) -> list:
+    """The figures of FDIR in service against their goals."""
+    lines = ["| figure | measured | goal |", "|---|---|---|",
              f"| reconfigurations without a fault, 600-s runs | {format_rate(f['reconfigured_fault_free_600s'])} | "
              "<= 0.5 % |",
              "| reconfigurations without a fault, per 100 h | "
@@ -505,52 +510,67 @@ def format_service(report: dict) -> str:
              f"| identification: kind right | {format_rate(f['kind_right'])} | >= 95 % |",
              f"| identification: size within tolerance | {format_rate(f['size_right'])} | >= 90 % |",
              f"| identification: 95 % interval covers the truth | {format_rate(f['covered'])} | >= 90 % |"]
-    for a, r in f["kind_right_by_action"].items():
-        lines.append(f"| kind right, wheel {a.replace('_', ' ')} | {format_rate(r)} | >= 95 % |")
-    for g, r in f.get("kind_right_by_growth", {}).items():
-        lines.append(f"| kind right / interval covers, {g}s | {format_rate(r)} / "
-                     f"{format_rate(f['covered_by_growth'][g])} | >= 95 % / >= 90 % |")
-    d = f["delay_s"]
-    if d:
-        lines += ["", f"Onset to decision: median {d['median']:.0f} s, p90 {d['p90']:.0f} s, max {d['max']:.0f} s "
-                  "(ramps included)."]
-    a = f["at_limit_said"]
-    lines += [f"A wheel in use said at its limit after a reconfiguration (past the holdable speed, at the voltage "
-              f"limit for {SATURATED_S:.0f} s, or short of torque with no wheel left): {a['runs']} runs, the pointing "
-              f"kept in {a['pointing_kept']} of them (the warning came; the slews then allowed it)."]
-    h = f["physically_hidden"]
-    lines += [f"Faults the physics hides (no visible torque effect, never acted on): {h['runs']} runs."]
-    lines += _format_observers(f.get("observers"))
-    g = f.get("given_up")
-    if g and g["runs"]:
-        seeds = report["given_up_seeds"]
-        lines += ["", "## A wheel given up at its decision", "",
-                  f"FDIR in service keeps or holds nearly every wheel it acts on, so the wheel given up gets runs of "
-                  f"its own: the faulty draws of seeds {seeds[0]:,}-{seeds[1]:,} ({g['runs']} runs, at most "
-                  f"{GIVEN_UP_MAX_S / 60:.0f} min) with FDIR made to give up every wheel it confirms; its "
-                  "identification comes from the samples while it was driven and as it spun down on its friction "
-                  f"(at rest it shows nothing). {g['given_up']} wheels given up (the rest: faults the physics hid, "
-                  "or confirmed after the run's end).", "",
-                  "| figure | measured | goal |", "|---|---|---|",
-                  f"| kind right, wheel given up | {format_rate(g['kind_right'])} | >= 95 % |",
-                  f"| kind right, or the drive named (current or bus not told apart) | "
-                  f"{format_rate(g['kind_narrowed']) if 'kind_narrowed' in g else '-'} | |"]
-        if "drive" in g:
-            lines += [f"| current losses and bus drops the physics tells apart on their driven samples (the other "
-                      f"family at least D = {TOLD_APART:.0f} noise floors^2 away, "
-                      "core/identification/identifiability.py) | "
-                      f"{g['drive_told_apart']} of {g['drive']} | |",
-                      f"| kind right where the physics tells it (temperature, and drive faults told apart) | "
-                      f"{format_rate(g['kind_right_told_apart'])} | >= 95 % |",
-                      f"| kind right, drive faults told apart | {format_rate(g['drive_right_told_apart'])} | |",
-                      f"| 'current loss or bus drop' said (or the kind named right), drive faults the physics does "
-                      f"not tell apart | "
-                      f"{format_rate(g['drive_said_not_told_apart'])} | said |"]
-        lines += [
-                  f"| a wrong kind named | {g.get('kind_wrong', '-')} of {g['given_up']} | 0 |",
-                  f"| size within tolerance | {format_rate(g['size_right'])} | >= 90 % |",
-                  f"| 95 % interval covers the truth | {format_rate(g['covered'])} | >= 90 % |"]
-        lines += [f"| kind right, {k.replace('_', ' ')} | {format_rate(r)} | >= 95 % |"
-                  for k, r in g.get("kind_right_by_kind", {}).items()]
-        lines += [f"| kind right, {k}s | {format_rate(r)} | >= 95 % |" for k, r in g["kind_right_by_growth"].items()]
+    lines += [f"| kind right, wheel {a.replace('_', ' ')} | {format_rate(r)} | >= 95 % |"
+              for a, r in f["kind_right_by_action"].items()]
+    return lines + [f"| kind right / interval covers, {g}s | {format_rate(r)} / "
+                    f"{format_rate(f['covered_by_growth'][g])} | >= 95 % / >= 90 % |"
+                    for g, r in f.get("kind_right_by_growth", {}).items()]
+
+
+def _service_notes(f: dict) -> list:
+    """The delay to a decision, the wheels said at their limit, the faults the physics hides."""
+    d, a, h = f["delay_s"], f["at_limit_said"], f["physically_hidden"]
+    lines = ["", f"Onset to decision: median {d['median']:.0f} s, p90 {d['p90']:.0f} s, max {d['max']:.0f} s "
+             "(ramps included)."] if d else []
+    return lines + [
+        f"A wheel in use said at its limit after a reconfiguration (past the holdable speed, at the voltage "
+        f"limit for {SATURATED_S:.0f} s, or short of torque with no wheel left): {a['runs']} runs, the pointing "
+        f"kept in {a['pointing_kept']} of them (the warning came; the slews then allowed it).",
+        f"Faults the physics hides (no visible torque effect, never acted on): {h['runs']} runs."]
+
+
+def _given_up_drive_rows(g: dict) -> list:
+    """The drive faults (current loss, bus drop) the physics tells apart or not, on a wheel given up."""
+    if "drive" not in g:
+        return []
+    return [f"| current losses and bus drops the physics tells apart on their driven samples (the other "
+            f"family at least D = {TOLD_APART:.0f} noise floors^2 away, "
+            "core/identification/identifiability.py) | "
+            f"{g['drive_told_apart']} of {g['drive']} | |",
+            f"| kind right where the physics tells it (temperature, and drive faults told apart) | "
+            f"{format_rate(g['kind_right_told_apart'])} | >= 95 % |",
+            f"| kind right, drive faults told apart | {format_rate(g['drive_right_told_apart'])} | |",
+            f"| 'current loss or bus drop' said (or the kind named right), drive faults the physics does "
+            f"not tell apart | "
+            f"{format_rate(g['drive_said_not_told_apart'])} | said |"]
+
+
+def _given_up_section(g: dict | None, seeds) -> list:
+    """The identification of a wheel FDIR gives up, on runs of its own (none: nothing)."""
+    if not (g and g["runs"]):
+        return []
+    return (["", "## A wheel given up at its decision", "",
+             f"FDIR in service keeps or holds nearly every wheel it acts on, so the wheel given up gets runs of "
+             f"its own: the faulty draws of seeds {seeds[0]:,}-{seeds[1]:,} ({g['runs']} runs, at most "
+             f"{GIVEN_UP_MAX_S / 60:.0f} min) with FDIR made to give up every wheel it confirms; its "
+             "identification comes from the samples while it was driven and as it spun down on its friction "
+             f"(at rest it shows nothing). {g['given_up']} wheels given up (the rest: faults the physics hid, "
+             "or confirmed after the run's end).", "",
+             "| figure | measured | goal |", "|---|---|---|",
+             f"| kind right, wheel given up | {format_rate(g['kind_right'])} | >= 95 % |",
+             f"| kind right, or the drive named (current or bus not told apart) | "
+             f"{format_rate(g['kind_narrowed']) if 'kind_narrowed' in g else '-'} | |"]
+            + _given_up_drive_rows(g)
+            + [f"| a wrong kind named | {g.get('kind_wrong', '-')} of {g['given_up']} | 0 |",
+               f"| size within tolerance | {format_rate(g['size_right'])} | >= 90 % |",
+               f"| 95 % interval covers the truth | {format_rate(g['covered'])} | >= 90 % |"]
+            + [f"| kind right, {k.replace('_', ' ')} | {format_rate(r)} | >= 95 % |"
+               for k, r in g.get("kind_right_by_kind", {}).items()]
+            + [f"| kind right, {k}s | {format_rate(r)} | >= 95 % |" for k, r in g["kind_right_by_growth"].items()])
+
+
+def format_service(report: dict) -> str:
+    f = report["figures"]
+    lines = (_service_intro(report) + _service_table(f) + _service_notes(f) + _format_observers(f.get("observers"))
+             + _given_up_section(f.get("given_up"), report.get("given_up_seeds")))
     return "\n".join(lines) + "\n"
