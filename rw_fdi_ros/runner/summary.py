@@ -65,11 +65,7 @@ def run_summary(path) -> dict:
             stamp, dipole = read_vector_cdr(raw)
             dumps.add(stamp * 1e-9, dipole)
         elif topic == FDIR_WHEELS:
-            msg = typestore().deserialize_cdr(raw, info.types[topic])
-            for status in msg.status:
-                v = {kv.key: kv.value for kv in status.values}
-                if "since" in v:
-                    decisions[(float(v["since"]), status.hardware_id)] = (v["state"], v["reason"])
+            _fold_decisions(typestore().deserialize_cdr(raw, info.types[topic]), decisions)
     if scenario is None:
         raise ValueError(f"{info.path}: no /scenario message, cannot tell the set-points")
     if last is None:
@@ -79,19 +75,38 @@ def run_summary(path) -> dict:
            "final_error_deg": dict(zip(BODY_AXES, last[1].round(4).tolist())),
            "faults": [f.as_dict(wheels) for f in scenario.faults], "bag": str(info.path),
            "complete": info.complete,
-           "reconfiguration": [{"time": t, "wheel": joint.removeprefix("reaction_wheel_"), "state": state,
-                                "reason": reason}   # at one time: the wheel given up (held) before the one brought in
-                               for (t, joint), (state, reason) in sorted(
-                                   decisions.items(), key=lambda d: (d[0][0], d[1][0] not in ("given_up", "held")))]}
+           "reconfiguration": _reconfiguration(decisions)}
     if DIPOLE_COMMAND in info.counts:   # a dipole holds until the next reading's
         out["momentum_dumps"] = [[a, min(b + MAGNETOMETER_PERIOD, out["end_time"])] for a, b in dumps.done()]
     if peak is not None:
-        out["peak_error_after_fault_deg"] = dict(zip(BODY_AXES, peak.round(4).tolist()))
-        # pointing within the requirement from this time on (never out after the onset: the onset)
-        back = onset if outside is None else outside + 0.1
-        out["pointing_back_s"] = None if outside is not None and outside >= last[0] else float(back)
-        if effect is not None:
-            out["peak_fault_effect_Nm"] = dict(zip(wheels, effect.tolist()))
+        out.update(_after_fault(peak, onset, outside, last[0], effect, wheels))
+    return out
+
+
+def _fold_decisions(msg, decisions: dict):
+    """Each wheel's decision of a /fdir/wheels message into ``decisions``: (since, joint) -> (state, reason)."""
+    for status in msg.status:
+        v = {kv.key: kv.value for kv in status.values}
+        if "since" in v:
+            decisions[(float(v["since"]), status.hardware_id)] = (v["state"], v["reason"])
+
+
+def _reconfiguration(decisions: dict) -> list:
+    """The decisions in time order; at one time, the wheel given up (held) before the one brought in."""
+    return [{"time": t, "wheel": joint.removeprefix("reaction_wheel_"), "state": state, "reason": reason}
+            for (t, joint), (state, reason) in sorted(
+                decisions.items(), key=lambda d: (d[0][0], d[1][0] not in ("given_up", "held")))]
+
+
+def _after_fault(peak, onset: float, outside, end: float, effect, wheels) -> dict:
+    """The peak error after the first fault, when the pointing was back within POINTING_DEG for good (None:
+    not by the run's ``end``) and, where recorded, the peak fault effect per wheel."""
+    out = {"peak_error_after_fault_deg": dict(zip(BODY_AXES, peak.round(4).tolist()))}
+    # pointing within the requirement from this time on (never out after the onset: the onset)
+    back = onset if outside is None else outside + 0.1
+    out["pointing_back_s"] = None if outside is not None and outside >= end else float(back)
+    if effect is not None:
+        out["peak_fault_effect_Nm"] = dict(zip(wheels, effect.tolist()))
     return out
 
 
