@@ -18,7 +18,13 @@ def _options() -> dict:
     def option(flag, **kwargs):
         made[flag] = argparse.ArgumentParser(add_help=False)
         made[flag].add_argument(flag, **kwargs)
+    for group in (_service_options, _long_run_options, _sample_options, _fdi_options, _run_options):
+        group(option)
+    return made
 
+
+def _service_options(option):
+    """The in-service bench's: its runs, the wheel given up, re-identification, every observer."""
     option("--service-runs", type=COUNT, default=1000,
            help="service: in-service runs, each drawn from its seed (default 1000)")
     option("--given-up-runs", type=number(int, 0), default=300,
@@ -31,6 +37,13 @@ def _options() -> dict:
     option("--max-hours", type=number(float, 0, 6, low_open=True), default=None,
            help="service: shorten the runs drawn longer than this to it [h] (default: none, up to 6 h); scaling: "
                 "the same (default 0.25)")
+    option("--every-observer", action="store_true",
+           help="service: judge every observer (ours, and --observer's) beside the decision on the same runs, acted "
+                "on by nothing: their false alarms, right wheel, held alarm and delay in service")
+
+
+def _long_run_options(option):
+    """The benches of long operations: scaling, dumping in orbit, memory, continuous operations."""
     option("--scaling-runs", type=COUNT, default=12,
            help="scaling: in-service runs timed on each worker count (default 12)")
     option("--day-hours", type=number(float, 0, 240, low_open=True), default=24.0,
@@ -38,6 +51,12 @@ def _options() -> dict:
     option("--orbit-runs", type=COUNT, default=20,
            help="dumping: 6-hour runs of operations in orbit with dumping (default 20: 120 simulated hours)")
     option("--hours", default="1,6", help="memory: run lengths in hours, comma-separated (default 1,6)")
+    option("--hours-runs", type=COUNT, default=50,
+           help="operations: 2-hour runs of continuous operations (default 50: 100 simulated hours)")
+
+
+def _sample_options(option):
+    """The sample sizes of detection, identification and recovery."""
     option("--fault-free-runs", type=COUNT, default=1000,
            help="detection, units: fault-free runs; service: fault-free 600-s runs of the family (default 1000)")
     option("--runs-per-cell", type=COUNT, default=None,
@@ -48,10 +67,25 @@ def _options() -> dict:
                 "200 runs per kind, the bus 340; reports/identification_units)")
     option("--thesis-runs", type=COUNT, default=None,
            help="identification: runs per thesis size (default 200; the bus 340, as 6 in 10 are observable)")
+
+
+def _fdi_options(option):
+    """The vehicle flown and the FDI judging: shipped, or a user's observer with its bands."""
+    option("--vehicle", default="maksat", metavar="NAME",
+           help="detection, identification, units, operations, recovery, service: the shipped vehicle the runs fly, "
+                "with its shipped FDI (config/fdi/vehicles; default %(default)s, the thesis' spacecraft)")
+    option("--observer", dest="plugins", action="append", default=None, metavar="SPEC",
+           help="detection, units, operations: a user's observer judged beside ours (repeatable; entry point, "
+                "module:Class or file.py:Class; docs/observers.md), its bands and ours from --thresholds")
+    option("--thresholds", default=None, metavar="DIR",
+           help="detection, units, operations: the FDI directory `rw-fdi fit-thresholds --observer` wrote (with "
+                "--observer; default: the shipped FDI)")
+
+
+def _run_options(option):
+    """Where the report goes, which seeds, where the runs run, and the benches' own few."""
     option("--out", default=None, help="detection / identification / units / memory: report directory "
                                        "(default reports/<what>)")
-    option("--hours-runs", type=COUNT, default=50,
-           help="operations: 2-hour runs of continuous operations (default 50: 100 simulated hours)")
     option("--seed-set", default="evaluation", choices=["evaluation", "tuning"],
            help="operations, recovery, service: the seeds of record (default) or the ones the design "
                 "was chosen on")
@@ -68,20 +102,7 @@ def _options() -> dict:
                 "vehicle_detection, "
                 "vehicle_recovery, vehicle_service, cubesat_detection, cubesat_recovery, cubesat_service; default "
                 "all)")
-    option("--vehicle", default="maksat", metavar="NAME",
-           help="detection, identification, units, operations, recovery, service: the shipped vehicle the runs fly, "
-                "with its shipped FDI (config/fdi/vehicles; default %(default)s, the thesis' spacecraft)")
-    option("--observer", dest="plugins", action="append", default=None, metavar="SPEC",
-           help="detection, units, operations: a user's observer judged beside ours (repeatable; entry point, "
-                "module:Class or file.py:Class; docs/observers.md), its bands and ours from --thresholds")
-    option("--thresholds", default=None, metavar="DIR",
-           help="detection, units, operations: the FDI directory `rw-fdi fit-thresholds --observer` wrote (with "
-                "--observer; default: the shipped FDI)")
-    option("--every-observer", action="store_true",
-           help="service: judge every observer (ours, and --observer's) beside the decision on the same runs, acted "
-                "on by nothing: their false alarms, right wheel, held alarm and delay in service")
     option("--json", action="store_true")
-    return made
 
 
 def _bench_fdi(args):
