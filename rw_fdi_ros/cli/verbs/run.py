@@ -32,9 +32,46 @@ def add_arguments(parser) -> None:
                              "stdout; the progress lines go to stderr")
 
 
+def _nodes(args, wheels, fdi) -> str:
+    """The nodes the run starts, as its first line says them."""
+    if fdi is None:
+        nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
+    else:
+        nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
+                 f"{wheels.count} Elman observers, linear observer, "
+                 + ("model observer, " if args.fdi_method == "speed_aware" else "")
+                 + "".join(f"{slot} observer (plug-in), " for slot in fdi.plugin_slots) + "isolation, recorder")
+    return nodes + (", live view" if args.live is not None else "")
+
+
+def _report(args, outcome) -> int:
+    """The outcome printed (JSON, or the summary and the FDI verdict); the exit status."""
+    from ...runner.summary import format_summary
+    if args.json:
+        print(dumps({"ok": outcome.ok, "reason": outcome.reason, "bag": str(outcome.bag),
+                     "wall_time_s": outcome.wall_time, "summary": outcome.summary}))
+        return 0 if outcome.ok else 1
+    if outcome.summary:
+        print(format_summary(outcome.summary))
+        if "fdi" in outcome.summary:
+            from ...runner.verdict import format_verdict
+            print(f"fault detection and isolation ({args.fdi_method}"
+                  + (f", persistence P = {args.persistence}" if args.persistence else "")
+                  + (f", wheels learnt over the first {args.unit_calibration:g} s" if args.unit_calibration else "")
+                  + "):")
+            print(format_verdict(outcome.summary["fdi"]))
+            print(f"  figure: {outcome.summary.get('figure')}")
+    if not outcome.ok:
+        where = f" (node logs: {outcome.log_dir})" if outcome.log_dir and outcome.log_dir.exists() else ""
+        print(f"rw-fdi: run failed: {outcome.reason}{where}", file=sys.stderr)
+        return 1
+    rtf = outcome.summary["end_time"] / outcome.wall_time if outcome.summary else float("nan")
+    print(f"  wall time {outcome.wall_time:.1f} s ({rtf:.0f}x real time)")
+    return 0
+
+
 def main(args) -> int:
     from ...runner.scenario_run import resolve_scenario, run_scenario
-    from ...runner.summary import format_summary
     scenario, _ = resolve_scenario(args.scenario, args.seed)   # a bad scenario is the first thing to say
     writable_dir(args.out, "--out")
     if args.live is not None:   # the live view node's server: said here, before any node starts
@@ -44,21 +81,14 @@ def main(args) -> int:
         except RuntimeError as exc:
             print(f"rw-fdi: --live: {exc}", file=sys.stderr)
             return 2
-    wheels = scenario.wheel_set()
-    nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
+    wheels, fdi = scenario.wheel_set(), None
     if args.fdi:
         from ...runner.fdi_run import run_with_fdi
-        from ...runner.verdict import format_verdict
         fdi = fdi_config(args).for_vehicle(scenario.spacecraft.name)
         fdi.check(scenario.plant_choices(emf_limit=args.emf_limit), scenario.duration)
-        nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
-                 f"{wheels.count} Elman observers, linear observer, "
-                 + ("model observer, " if args.fdi_method == "speed_aware" else "")
-                 + "".join(f"{slot} observer (plug-in), " for slot in fdi.plugin_slots) + "isolation, recorder")
-    if args.live is not None:
-        nodes += ", live view"
     print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
-          f" ({nodes}; private DDS domain)", flush=True, file=sys.stderr if args.json else sys.stdout)
+          f" ({_nodes(args, wheels, fdi)}; private DDS domain)", flush=True,
+          file=sys.stderr if args.json else sys.stdout)
     if args.live is not None:
         print(f"live view: ws://127.0.0.1:{args.live or '<a free port, in the live_view log>'} (Foxglove: Open "
               "connection; layout config/foxglove/rw_fdi.json)", flush=True,
@@ -75,23 +105,4 @@ def main(args) -> int:
             outcome = run_with_fdi(args.scenario, fdi=fdi, figure=True, **common)
         else:
             outcome = run_scenario(args.scenario, **common)
-    if args.json:
-        print(dumps({"ok": outcome.ok, "reason": outcome.reason, "bag": str(outcome.bag),
-                     "wall_time_s": outcome.wall_time, "summary": outcome.summary}))
-        return 0 if outcome.ok else 1
-    if outcome.summary:
-        print(format_summary(outcome.summary))
-        if "fdi" in outcome.summary:
-            print(f"fault detection and isolation ({args.fdi_method}"
-                  + (f", persistence P = {fdi.persistence}" if fdi.persistence else "")
-                  + (f", wheels learnt over the first {fdi.unit_calibration:g} s" if fdi.unit_calibration else "")
-                  + "):")
-            print(format_verdict(outcome.summary["fdi"]))
-            print(f"  figure: {outcome.summary.get('figure')}")
-    if not outcome.ok:
-        where = f" (node logs: {outcome.log_dir})" if outcome.log_dir and outcome.log_dir.exists() else ""
-        print(f"rw-fdi: run failed: {outcome.reason}{where}", file=sys.stderr)
-        return 1
-    rtf = outcome.summary["end_time"] / outcome.wall_time if outcome.summary else float("nan")
-    print(f"  wall time {outcome.wall_time:.1f} s ({rtf:.0f}x real time)")
-    return 0
+    return _report(args, outcome)
