@@ -142,65 +142,76 @@ def fit_thresholds(samples_list, models: dict, out_dir, model_ref: str = "", win
     designed per-run ``false_alarm_rate`` at persistence P, returns the bands.
     ``unit_calibration`` [s]: bands for observers that learn their wheel first; ``plant``: the plant
     choices of runs that are not bags (default: read from the bags)."""
-    from ...core.fdi.threshold_fit import fit_threshold_curve
     lengths = sorted({len(s.time) for s in samples_list})
     if len(lengths) > 1:   # the curves would end with the shortest run: a longer run could not be judged
         short = min(samples_list, key=lambda s: len(s.time))
         raise ThresholdError(f"fitting runs of different lengths ({lengths[0]} to {lengths[-1]} FDI samples; "
                              f"shortest: {getattr(short, 'bag', None) or short.seed}): fit on runs of one length")
-    n = lengths[0]
     runs = [observe(s, models, window, calibration_samples=calibration_samples(unit_calibration, FDI_PERIOD))
             for s in samples_list]
     if unit_calibration and runs[0].method != "speed_aware":
         raise ThresholdError("--unit-calibration needs speed_aware models (the thesis' residual is unsigned)")
-    plant = plant or plant_conditions(samples_list)
-    seeds = [s.seed for s in samples_list]
-    out_dir = Path(out_dir)
-    report = {}
+    # what every thresholds file says of its fitting runs
+    fitting = dict(sample_period=FDI_PERIOD, window=window, seeds=[s.seed for s in samples_list],
+                   plant=plant or plant_conditions(samples_list))
     describe = {"elman": model_ref, "linear": "linearised wheel, poles 4x",
                 "model": "nominal wheel model at the measured speed",
                 **{cls.slot: f"{cls.__module__}.{cls.__qualname__}: {cls.description}".rstrip(": ")
                    for cls, _ in getattr(models, "plugins", ())}}
+    if runs and runs[0].method == "speed_aware":
+        return _fit_bands(runs, samples_list, models, Path(out_dir), describe, fitting, false_alarm_rate,
+                          persistence or PERSISTENCE_SPEED_AWARE, unit_calibration)
+    return _fit_curves(runs, lengths[0], Path(out_dir), describe, fitting, persistence or PERSISTENCE)
+
+
+def _fit_bands(runs, samples_list, models, out_dir: Path, describe: dict, fitting: dict, false_alarm_rate: float,
+               p: int, unit_calibration: float) -> dict:
+    """The speed-aware observers' (and plug-ins') bands c per wheel in use, saved; returns them."""
+    window = fitting["window"]
+    # a band per wheel in use in the fitting runs (x, y, z; a pyramid's four): counts are the set's
+    fitted = wheel_set(PlantChoices.from_recorded(fitting["plant"]).wheel_set).active
+    cols = [runs[0].wheels.index(a) for a in fitted]
+    # the bearing noise (eq. 2.16) no observer models, over the residual's window: the smallest band of a
+    # datasheet wheel (a calibrated one's bound carries the calibration's noise floor)
+    noise_floor = (-np.inf if unit_calibration else
+                   bearing_noise_mean(getattr(samples_list[0], "wheel_params", WheelParams()), window * FDI_PERIOD))
+    kappa_of = {cls.slot: any(g > 0 for a, g in zip(runs[0].wheels, PluginRun(cls, runs[0].wheels, FDI_PERIOD,
+                                                                               state).uncertainty_gains())
+                              if a in fitted)
+                for cls, state in getattr(models, "plugins", ())}
+    report = {}
+    for obs in observers_of("speed_aware") + tuple(cls.slot for cls, _ in getattr(models, "plugins", ())):
+        stats = np.array([run_statistic(np.abs(run.residual[obs][:, cols]) - run.bound[obs][:, cols], p)
+                          for run in runs])
+        # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain), and so does a
+        # plug-in with a kappa (the same rule); the model observer's band gets the whole
+        share = 0.5 if obs in ("elman", "linear") or kappa_of.get(obs) else 1.0
+        bands = fit_band(stats, false_alarm_rate, axes=fitted, share=share, floor=noise_floor)
+        ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in fitted}, **fitting,
+                        sigmas=float("nan"), model=describe[obs], method="speed_aware", persistence=p,
+                        false_alarm_rate=false_alarm_rate, unit_calibration_time=float(unit_calibration),
+                        calibration={"law": "Gumbel fitted to the upper half of the run statistics "
+                                            "(probability plot)",
+                                     "alpha_per_axis": share * false_alarm_rate / len(fitted), "axes": bands,
+                                     "run_statistic": "max over k of min(|residual| - bound) over P samples"}
+                        ).save(out_dir / f"thresholds_{obs}.json")
+        report[obs] = {a: bands[a]["band"] for a in fitted}
+    return report
+
+
+def _fit_curves(runs, n: int, out_dir: Path, describe: dict, fitting: dict, persistence: int) -> dict:
+    """The thesis' observers' mean + 3 sigma curves on the axis wheels, saved; returns each axis' reliability
+    (the share of fitting runs under its curve throughout)."""
+    from ...core.fdi.threshold_fit import fit_threshold_curve
     # the axis wheels' columns: a standby wheel never used in a fitting run has no residual to fit, and gets
     # the widest band of its type (ThresholdCurves.at)
-    axis_columns = [runs[0].wheels.index(a) for a in AXIS_WHEELS] if runs and runs[0].method == "thesis" else []
-    if runs and runs[0].method == "speed_aware":
-        p = persistence or PERSISTENCE_SPEED_AWARE
-        # a band per wheel in use in the fitting runs (x, y, z; a pyramid's four): counts are the set's
-        fitted = wheel_set(PlantChoices.from_recorded(plant).wheel_set).active
-        cols = [runs[0].wheels.index(a) for a in fitted]
-        # the bearing noise (eq. 2.16) no observer models, over the residual's window: the smallest band of a
-        # datasheet wheel (a calibrated one's bound carries the calibration's noise floor)
-        noise_floor = (-np.inf if unit_calibration else
-                       bearing_noise_mean(getattr(samples_list[0], "wheel_params", WheelParams()), window * FDI_PERIOD))
-        kappa_of = {cls.slot: any(g > 0 for a, g in zip(runs[0].wheels, PluginRun(cls, runs[0].wheels, FDI_PERIOD,
-                                                                                   state).uncertainty_gains())
-                                  if a in fitted)
-                    for cls, state in getattr(models, "plugins", ())}
-        for obs in observers_of("speed_aware") + tuple(cls.slot for cls, _ in getattr(models, "plugins", ())):
-            stats = np.array([run_statistic(np.abs(run.residual[obs][:, cols]) - run.bound[obs][:, cols], p)
-                              for run in runs])
-            # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain), and so does a
-            # plug-in with a kappa (the same rule); the model observer's band gets the whole
-            share = 0.5 if obs in ("elman", "linear") or kappa_of.get(obs) else 1.0
-            bands = fit_band(stats, false_alarm_rate, axes=fitted, share=share, floor=noise_floor)
-            ThresholdCurves(observer=obs, curves={a: np.array([bands[a]["band"]]) for a in fitted},
-                            sample_period=FDI_PERIOD, window=window, sigmas=float("nan"), seeds=seeds, plant=plant,
-                            model=describe[obs], method="speed_aware", persistence=p,
-                            false_alarm_rate=false_alarm_rate, unit_calibration_time=float(unit_calibration),
-                            calibration={"law": "Gumbel fitted to the upper half of the run statistics "
-                                                   "(probability plot)",
-                                            "alpha_per_axis": share * false_alarm_rate / len(fitted), "axes": bands,
-                                         "run_statistic": "max over k of min(|residual| - bound) over P samples"}
-                            ).save(out_dir / f"thresholds_{obs}.json")
-            report[obs] = {a: bands[a]["band"] for a in fitted}
-        return report
+    axis_columns = [runs[0].wheels.index(a) for a in AXIS_WHEELS] if runs else []
+    report = {}
     for obs in observers_of("thesis"):
         stack = np.stack([run.residual[obs][:n, axis_columns] for run in runs])          # (runs, n, 3)
         curves = {a: fit_threshold_curve(stack[:, :, i]) for i, a in enumerate(AXIS_WHEELS)}
-        ThresholdCurves(observer=obs, curves=curves, sample_period=FDI_PERIOD, window=window, seeds=seeds,
-                        plant=plant, model=describe[obs], persistence=persistence or PERSISTENCE).save(
-            out_dir / f"thresholds_{obs}.json")
+        ThresholdCurves(observer=obs, curves=curves, **fitting, model=describe[obs],
+                        persistence=persistence).save(out_dir / f"thresholds_{obs}.json")
         report[obs] = {a: float(np.mean(np.all(stack[:, :, i] <= curves[a], axis=1)))
                        for i, a in enumerate(AXIS_WHEELS)}
     return report
