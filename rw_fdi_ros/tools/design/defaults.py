@@ -57,13 +57,7 @@ def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, he
     t0 = time.monotonic()
     stages = {}
 
-    _log(f"[1/4] fault-free campaigns: {train_runs} training + {fit_runs} fitting runs, {heldout_runs} held-out "
-         f"runs -> {work}")
-    for name, seed, n in (("fit", FIT_SEED, train_runs + fit_runs), ("heldout", HELDOUT_SEED, heldout_runs)):
-        res = run_campaign("fault_free", n, seed, work / name, executor=executor, desc=f"fault_free {name}")
-        if res.failed:
-            raise RuntimeError(f"{len(res.failed)} {name} runs failed, "
-                               f"e.g. seed {res.failed[0][0]}: {res.failed[0][1]}")
+    _record_campaigns(work, train_runs, fit_runs, heldout_runs, executor)
     stages["campaigns_s"] = time.monotonic() - t0
 
     skipped = []
@@ -77,18 +71,7 @@ def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, he
 
     _log("[2/4] thesis set: teacher forcing on 1 run and recall mode on many, mean + 3 sigma curves")
     t = time.monotonic()
-    variants = {"teacher_1run": ("teacher", train[:1]), f"recall_{train_runs}runs": ("recall", train)}
-    cards = {}
-    for name, (mode, data) in variants.items():
-        cards[name] = train_models(data, thesis_out / "variants" / name, mode=mode, epochs=thesis_epochs, plant=plant,
-                                   speed_aware=False)
-    comparison = {name: nominal_residuals(heldout, load_models(thesis_out / "variants" / name)) for name in variants}
-    chosen = min(comparison, key=lambda n: comparison[n]["mean"])
-    for f in (thesis_out / "variants" / chosen).iterdir():
-        shutil.copy(f, thesis_out / f.name)
-    reliability = fit_thresholds(fit, load_models(thesis_out), thesis_out, model_ref=f"variants/{chosen}",
-                                 persistence=PERSISTENCE)
-    thesis_far = false_alarm_rates(heldout, load_models(thesis_out), thesis_out)
+    thesis = _thesis_set(train, fit, heldout, thesis_out, thesis_epochs, plant, train_runs)
     stages["thesis_set_s"] = time.monotonic() - t
 
     _log(f"[3/4] speed-aware set: recall mode on {train_runs} runs with the wheel speed, bands for a "
@@ -106,9 +89,7 @@ def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, he
 
     report = {"command": "rw-fdi defaults", "plant": plant, "train_seeds": [s.seed for s in train],
               "fit_seeds": [s.seed for s in fit], "heldout_seeds": [s.seed for s in heldout],
-              "thesis": {"chosen_model": chosen, "comparison": comparison, "reliability": reliability,
-                         "false_alarm_rate_heldout": thesis_far, "persistence": PERSISTENCE,
-                         "train_cards": {k: _card(v) for k, v in cards.items()}},
+              "thesis": thesis,
               "speed_aware": {"bands": bands, "false_alarm_rate_design": false_alarm_rate,
                               "persistence": PERSISTENCE_SPEED_AWARE, "nominal_residual": ours_nominal,
                               "false_alarm_rate_heldout": ours_far[PERSISTENCE_SPEED_AWARE],
@@ -118,6 +99,38 @@ def regenerate_defaults(work="bags/defaults", out="config/fdi", fit_runs=100, he
     (out / "defaults_report.md").write_text(format_report(report))
     _log(f"[4/4] wrote {out} and {thesis_out}")
     return report
+
+
+def _record_campaigns(work: Path, train_runs: int, fit_runs: int, heldout_runs: int, executor):
+    """Stage 1: the fault-free campaigns, training and fitting runs in work/fit, held-out ones in work/heldout."""
+    _log(f"[1/4] fault-free campaigns: {train_runs} training + {fit_runs} fitting runs, {heldout_runs} held-out "
+         f"runs -> {work}")
+    for name, seed, n in (("fit", FIT_SEED, train_runs + fit_runs), ("heldout", HELDOUT_SEED, heldout_runs)):
+        res = run_campaign("fault_free", n, seed, work / name, executor=executor, desc=f"fault_free {name}")
+        if res.failed:
+            raise RuntimeError(f"{len(res.failed)} {name} runs failed, "
+                               f"e.g. seed {res.failed[0][0]}: {res.failed[0][1]}")
+
+
+def _thesis_set(train: list, fit: list, heldout: list, thesis_out: Path, epochs: int, plant: dict,
+                train_runs: int) -> dict:
+    """Stage 2: the thesis baseline (teacher forcing on one run) and recall mode on every training run, the one
+    with the lower nominal residual on the held-out runs shipped in ``thesis_out`` with its mean + 3 sigma
+    curves; returns the report's part on it."""
+    variants = {"teacher_1run": ("teacher", train[:1]), f"recall_{train_runs}runs": ("recall", train)}
+    cards = {}
+    for name, (mode, data) in variants.items():
+        cards[name] = train_models(data, thesis_out / "variants" / name, mode=mode, epochs=epochs, plant=plant,
+                                   speed_aware=False)
+    comparison = {name: nominal_residuals(heldout, load_models(thesis_out / "variants" / name)) for name in variants}
+    chosen = min(comparison, key=lambda n: comparison[n]["mean"])
+    for f in (thesis_out / "variants" / chosen).iterdir():
+        shutil.copy(f, thesis_out / f.name)
+    reliability = fit_thresholds(fit, load_models(thesis_out), thesis_out, model_ref=f"variants/{chosen}",
+                                 persistence=PERSISTENCE)
+    return {"chosen_model": chosen, "comparison": comparison, "reliability": reliability,
+            "false_alarm_rate_heldout": false_alarm_rates(heldout, load_models(thesis_out), thesis_out),
+            "persistence": PERSISTENCE, "train_cards": {k: _card(v) for k, v in cards.items()}}
 
 
 def _card(card: dict) -> dict:
