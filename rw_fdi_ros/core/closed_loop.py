@@ -6,9 +6,11 @@ the design live apart and this module, above both, joins them.
 from __future__ import annotations
 
 from .controller_design import design_controller
-from .flight import Trajectory, fly
+from .flight import Fdir, Trajectory, fly, step_metrics
 from .control.pid import PidGains
 from .physics.plant import batch_vehicle
+
+__all__ = ["Fdir", "Trajectory", "simulate", "step_metrics"]   # the loop's public face: flight's types with it
 
 
 def simulate(scenarios, gains: PidGains | None = None, **kw) -> Trajectory:

@@ -38,6 +38,10 @@ class Fdir:
     holdable: float | None = None
     watch: LoadedFdi = None        # observers judged beside, acted on by nothing (pipeline.FdiPipeline)
 
+    def __post_init__(self):
+        if not isinstance(self.fdi, LoadedFdi):   # one observer's bands (ThresholdCurves): that observer decides
+            self.fdi = LoadedFdi({self.fdi.observer: self.fdi})
+
 
 @dataclass
 class Trajectory:
