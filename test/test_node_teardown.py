@@ -105,3 +105,49 @@ def test_a_node_whose_done_never_comes_ends_once_the_plant_has_left():
     assert ended != "None", done.stderr[-2000:]
     assert 1.0 <= float(ended) < 5.0, ended   # its grace after the writer left, looked at once a second
     assert "its writer left without this node hearing it" in done.stderr
+
+
+LAGGING_FOLLOWER = """
+import time, rclpy
+from std_msgs.msg import Header
+from rw_fdi_ros.graph import runtime, topics as T
+from rw_fdi_ros.graph.convert import time_msg
+rclpy.init(args=[])
+follower = runtime.GraphNode("follower")
+follower.follow_run_end(grace=1.0, period=1.0)
+plant = rclpy.create_node("plant")
+done = plant.create_publisher(Header, T.PLANT_DONE, T.LATCHED)
+done.publish(Header(stamp=time_msg(10_000_000_000)))   # the run ends at 10 s; the follower is at 0 s
+executor = rclpy.executors.SingleThreadedExecutor()
+executor.add_node(follower)
+executor.add_node(plant)
+t0 = time.monotonic()
+while follower._run_end is None and time.monotonic() - t0 < 20.0:
+    executor.spin_once(timeout_sec=0.05)
+ended_at = None
+for k in range(8):   # a loaded follower: a stamp every 0.6 s, 4.8 s in all, past its 1 s of grace
+    t1 = time.monotonic()
+    while time.monotonic() - t1 < 0.6:
+        executor.spin_once(timeout_sec=0.05)
+        if ended_at is None and follower.run_ended():
+            ended_at = follower.last_handled
+    follower.last_handled = k * 1_000_000_000
+print("cut off at", ended_at, flush=True)
+t2 = time.monotonic()   # stuck at 7 s: nothing more comes, the grace ends it
+while not follower.run_ended() and time.monotonic() - t2 < 30.0:
+    executor.spin_once(timeout_sec=0.05)
+print("ended after", round(time.monotonic() - t2, 2) if follower.run_ended() else None, flush=True)
+"""
+
+
+def test_a_node_working_through_its_queue_is_not_cut_off_at_the_run_end():
+    """An FDI process behind the plant on a loaded machine (the identification's samples queued) ends once its
+    last stamp is handled, not a fixed grace after /plant/done; a node making no progress still ends."""
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(150 + (os.getpid() + 7) % 60))
+    done = subprocess.run([sys.executable, "-c", LAGGING_FOLLOWER], capture_output=True, text=True, timeout=90,
+                          env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "cut off at None" in done.stdout, done.stdout
+    ended = done.stdout.split("ended after", 1)[1].strip()
+    assert ended != "None", done.stderr[-2000:]
+    assert 0.9 <= float(ended) < 3.0, ended

@@ -155,7 +155,8 @@ class GraphNode(Node):
         Parameters
         ----------
         grace : float
-            Wall time after done (or after the done writer left) the node ends at the latest [s].
+            Wall time after done without a new stamp handled (or after the done writer left) the node ends
+            at the latest [s].
         period : float
             The node's handling period [s]; 0: the done stamp itself is the last one handled.
         """
@@ -177,7 +178,7 @@ class GraphNode(Node):
             last = stamp_ns(msg.stamp)
             if period_ns > 0:
                 last -= last % period_ns
-            self._run_end = (last, time.monotonic() + grace)
+            self._run_end = (last, time.monotonic() + grace, self.last_handled)
         self.create_subscription(Header, T.PLANT_DONE, on_done, T.LATCHED)
 
     def run_ended(self) -> bool:
@@ -191,7 +192,12 @@ class GraphNode(Node):
         end = getattr(self, "_run_end", None)
         if end is None:
             return self._done_writer_left()
-        return self.last_handled >= end[0] or time.monotonic() > end[1]
+        if self.last_handled >= end[0]:
+            return True
+        now = time.monotonic()
+        if self.last_handled != end[2]:   # progress: the grace counts from the last stamp handled
+            self._run_end = end = (end[0], now + self._run_end_grace, self.last_handled)
+        return now > end[1]
 
     def _done_writer_left(self) -> bool:
         """Whether the writer of /plant/done (the plant, the player) was here and has been gone ``grace``
