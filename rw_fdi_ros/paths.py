@@ -72,6 +72,45 @@ def config_dir() -> Path:
         return local
 
 
+def file_name(name: str) -> str:
+    """``name`` when it can name one file or folder inside another: no path separator, not hidden, not '.'
+    or '..', printable, at most 100 characters (a scenario's or a vehicle's name names its bags and FDI).
+
+    Parameters
+    ----------
+    name : str
+        The name.
+
+    Returns
+    -------
+    str
+        ``name``; ValueError saying what is wrong with it otherwise.
+    """
+    if not name or len(name) > 100 or name.startswith(".") or any(c in name for c in "/\\") \
+            or not name.isprintable():
+        raise ValueError(f"{name[:40]!r} cannot name a file: 1 to 100 printable characters, no '/' or '\\', "
+                         "not starting with '.'")
+    return name
+
+
+def under(folder, name: str) -> Path:
+    """``folder / name``, ``name`` checked by :func:`file_name`: what a name from a file writes stays in ``folder``.
+
+    Parameters
+    ----------
+    folder : path-like
+        The folder.
+    name : str
+        The entry's name.
+
+    Returns
+    -------
+    Path
+        The entry's path.
+    """
+    return Path(folder) / file_name(name)
+
+
 def fdi_dir(method: str = "speed_aware", vehicle: str | None = None) -> Path:
     """The shipped FDI models and thresholds: config/fdi (ours, speed-aware) or config/fdi/thesis, for the
     thesis' vehicle; config/fdi/vehicles/<vehicle> (`rw-fdi defaults --vehicle`) for another shipped one.
@@ -90,7 +129,7 @@ def fdi_dir(method: str = "speed_aware", vehicle: str | None = None) -> Path:
     """
     base = config_dir() / "fdi"
     if vehicle is not None and vehicle != DEFAULT_VEHICLE:
-        base = base / "vehicles" / vehicle
+        base = under(base / "vehicles", vehicle)
     return base / ("thesis" if method == "thesis" else "")
 
 

@@ -250,3 +250,63 @@ def test_a_plugins_failure_inside_the_node_ends_it_in_one_line_naming_it(fault_f
         node.destroy_node()
     finally:
         rclpy.try_shutdown()
+
+
+BLIND = '''
+import numpy as np
+from rw_fdi_ros.core.fdi.observer_plugin import WheelObserver
+
+
+class Blind(WheelObserver):
+    """The nominal model, blind on wheel y from 30 s (a filter that diverged to NaN)."""
+    slot = "blind"
+
+    def estimate(self, sample):
+        out = np.array(sample.model_torque, float)
+        if sample.stamp_ns >= 30 * 10**9:
+            out[1] = np.nan
+        return out
+'''
+
+
+def _blind_fdi(tmp_path):
+    """An FDI directory with the shipped bands and the Blind plug-in's (the model observer's, renamed)."""
+    import shutil
+    spec = tmp_path / "blind.py"
+    spec.write_text(BLIND)
+    fdi_dir = tmp_path / "fdi"
+    shutil.copytree(FdiConfig().threshold_path("model").parent, fdi_dir,
+                    ignore=shutil.ignore_patterns("thesis", "unit_calibrated", "vehicles", "service", "*.md"))
+    bands = json.loads((fdi_dir / "thresholds_model.json").read_text())
+    (fdi_dir / "thresholds_blind.json").write_text(json.dumps({**bands, "observer": "blind"}))
+    return FdiConfig(thresholds=str(fdi_dir), plugins=(f"{spec}:Blind",), fdir=False)
+
+
+def test_a_blind_plugin_gets_no_band_fitted(fault_free_samples, tmp_path):
+    from rw_fdi_ros.core.mission.plant_choices import DEFAULT
+    from rw_fdi_ros.tools.design.offline import fit_thresholds
+    fdi = _blind_fdi(tmp_path)
+    cls = load_observer(fdi.plugins[0])
+    with pytest.raises(ValueError, match=r"^observer blind: non-finite estimates in 10 of 10 fitting runs"):
+        fit_thresholds([fault_free_samples] * 10, ObserverModels(FdiConfig().load_models(), [(cls, {})]),
+                       tmp_path / "o", false_alarm_rate=0.5, plant=DEFAULT.as_dict())
+    assert not (tmp_path / "o" / "thresholds_blind.json").exists()
+
+
+@pytest.mark.graph
+def test_a_plugin_that_goes_blind_is_named_in_diagnostics_and_in_the_runs_health(tmp_path):
+    """estimate() returning NaN gave a silent 'no alarm' and 'health: every sample judged'."""
+    from rw_fdi_ros.runner.fdi_run import run_with_fdi
+    from rw_fdi_ros.runner.verdict import format_verdict
+    from rw_fdi_ros.storage.bag import read_bag
+    scenario = tmp_path / "blind.yaml"
+    scenario.write_text("name: blind\nduration: 60.0\nseed: 61000901\nfaults: []\n")
+    graph = run_with_fdi(str(scenario), out_dir=tmp_path / "bags", fdi=_blind_fdi(tmp_path))
+    assert graph.ok, graph.reason
+    health = graph.summary["fdi"]["health"]["/fdi/blind/status"]
+    assert list(health) == ["y"] and health["y"]["cannot_judge"]["samples"] >= 25
+    assert health["y"]["cannot_judge"]["first_s"] == pytest.approx(30.0)
+    assert "health of the" in format_verdict(graph.summary["fdi"]) and "blind" in format_verdict(graph.summary["fdi"])
+    named = {(s.hardware_id, kv.value) for _, m in read_bag(graph.bag, ["/diagnostics"]).topic("/diagnostics")
+             for s in m.status for kv in s.values if kv.key == "blind_observers"}
+    assert named == {("reaction_wheel_y", "blind")}

@@ -139,6 +139,9 @@ BAD = [
     ("wheel_set.wheels", [{"name": n, "spin_axis": a} for n, a in (("x", [1, 0, 0]), ("x", [0, 1, 0]))],
      "wheel_set.wheels[1].name: wheel 'x' twice"),
     ("wheel.1", "odd", "wheel: unknown field(s) ['1']"),
+    ("wheel_set", {"name": "tilted", "wheels": [{"name": n, "spin_axis": a} for n, a in (
+        ("x", [1, 0, 0]), ("y", [0, 1, 0]), ("z", [0, 0, 1]), ("s", [1, 1, 0]))], "standby": ["s"]},
+     "wheel_set: a wheel set of a vehicle's own ('tilted') is not flown yet"),
     ("mass", "100 kg", "unknown field(s) ['mass']"),
 ]
 

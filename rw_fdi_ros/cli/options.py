@@ -29,9 +29,10 @@ def number(kind=float, low=None, high=None, low_open=False):
 
 
 COUNT = number(int, 1)            # runs, jobs, epochs: at least one
-SEED_MAX = 2**63 - 1              # numpy's seeds: non-negative
+SEED_MAX = 2**63 - 1              # numpy's seeds: non-negative (core/mission/scenario.SEED_MAX)
 SEED = number(int, 0, SEED_MAX)
 SEEDS_MAX = 1_000_000             # runs of one seed range: days on one machine already
+RUNS = number(int, 1, SEEDS_MAX)
 
 
 def parse_seeds(text: str, option: str) -> range:
@@ -65,10 +66,24 @@ def writable_dir(path: str, option: str) -> Path:
     return folder
 
 
+def writable_file(path: str, option: str) -> Path:
+    """``path`` as a file a command will write at its end, checked now: its folder made and writable, and not
+    a directory itself (a one-line ValueError naming the option, before any run is spent)."""
+    file = Path(path)
+    if file.is_dir():
+        raise ValueError(f"{option} {path}: a directory; give a file name")
+    writable_dir(str(file.parent), option)
+    return file
+
+
 def executor(args):
     """Where a command's runs go: --jobs processes here, or the Dask cluster of --scheduler."""
     from ..tools.campaigns.campaign import make_executor
-    return make_executor(getattr(args, "jobs", None), getattr(args, "scheduler", None))
+    out = make_executor(getattr(args, "jobs", None), getattr(args, "scheduler", None))
+    if getattr(out, "asked", None) and out.asked > out.jobs:
+        print(f"--jobs {out.asked}: this machine has {out.jobs} cores, {out.jobs} jobs at once (a cluster: "
+              "--scheduler)", file=sys.stderr)
+    return out
 
 
 def dumps(value) -> str:

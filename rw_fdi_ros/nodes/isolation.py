@@ -304,6 +304,11 @@ class IsolationNode(GraphNode):
                 extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
             if self.verdict.latched[a]:
                 extra.append(KeyValue(key="latched", value="true"))
+            # an observer beside the decision that cannot judge is named: the FDI is never silently blind
+            blind = [o for o in self.channels if o not in self.decision.observers
+                     and self._why_unjudged(o, stamp, rows_of[o][a]) is not None]
+            if blind:
+                extra.append(KeyValue(key="blind_observers", value=",".join(blind)))
             # a vote judges only where every voter could: one silent or non-finite, and it cannot say
             unjudged = next((why for why in (self._why_unjudged(o, stamp, rows_of[o][a], o in silent)
                                              for o in self.decision.observers) if why is not None), None)
@@ -314,6 +319,8 @@ class IsolationNode(GraphNode):
             status = _status(f"{T.VERDICT_STATUS} {a} ({self.decision.phrase})", a, *main[a],
                              extra=extra, identification=found, note=note, unjudged=unjudged,
                              latched=self.verdict.latched[a])
+            if blind:
+                status.message += f"; {', '.join(blind)} observer{'s' if len(blind) > 1 else ''} cannot judge"
             if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
                 # judged against the wheel type's spread until then: only gross faults show (calibration.py),
                 # which is no judgement of the wheel: say so, and count it in the FDI's health

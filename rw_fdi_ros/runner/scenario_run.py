@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.controller_design import scenario_design
+from ..paths import under
 from ..core.mission.scenario import Scenario, load_scenario
 from .graph import DEFAULT_GROUPING, graph_nodes
 from .launcher import DomainLease, GraphProcesses, cleanup
@@ -54,6 +55,35 @@ def short_step_topics(bag) -> list:
     return [t for t in T.STEP_TOPICS if counts.get(t, 0) < most]
 
 
+def not_whole(bag) -> str:
+    """Why ``bag`` is not one whole, undamaged run ('' when it is): what a resumed campaign keeps and what
+    training and fitting learn from. Reads the whole file (its CRCs).
+
+    Parameters
+    ----------
+    bag : str or Path
+        A bag directory.
+
+    Returns
+    -------
+    str
+        '' for a whole run, else one line saying what is wrong.
+    """
+    from ..storage.bag import bag_info, bag_is_complete
+    if not bag_is_complete(bag):
+        return "incomplete bag (no metadata.yaml or MCAP footer)"
+    try:
+        info = bag_info(bag)
+    except BagError as exc:
+        return str(exc)
+    if info.damaged or not info.complete:
+        return info.damage() or info.note
+    if T.PLANT_DONE not in info.counts:
+        return f"run interrupted: no {T.PLANT_DONE} (the plant did not reach the run's end)"
+    short = short_step_topics(bag)
+    return f"its recorder lost messages on {', '.join(short)}" if short else ""
+
+
 def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | None = None,
                  command_timeout: float = 5.0, watchdog: float | None = None, keep_logs: bool = False,
                  emf_limit: str | None = None, fdi=None, grouping: str = DEFAULT_GROUPING,
@@ -65,7 +95,7 @@ def run_scenario(ref: str, seed: int | None = None, out_dir="bags", name: str | 
     ``namespace``: every node's (the graph's topics under it); ``domain_id``: a ROS domain shared with other
     graphs (None: a private one, leased)."""
     scenario, path = resolve_scenario(ref, seed)
-    bag = Path(out_dir) / (name or bag_name(scenario))
+    bag = under(out_dir, name or bag_name(scenario))
     if bag.exists():
         shutil.rmtree(bag)
     nodes = graph_nodes(scenario, path, bag, command_timeout=command_timeout, emf_limit=emf_limit, fdi=fdi,

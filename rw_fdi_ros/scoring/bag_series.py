@@ -2,12 +2,15 @@
 health and ground truth of a bag, streamed (no ROS)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from ..core.fdi.identification import Identification
 from ..core.mission.scenario import Scenario
 from ..graph import topics as T
 from .metrics import OBSERVERS, Series
+from ..core.mission.yaml_text import read_yaml
 
 
 def fdi_output_topics(plugins=()) -> list:
@@ -41,10 +44,10 @@ def wheels_of_bag(data) -> tuple:
     tuple of str
         The wheel set's names, in its order.
     """
-    import yaml
     from ..core.mission.plant_choices import PlantChoices
     from ..core.physics.wheel_set import wheel_set
-    recorded = (yaml.safe_load(data.scenario_text or "") or {}).get("plant") if data.scenario_text else None
+    recorded = (read_yaml(data.scenario_text, "the recorded /scenario") or {}).get("plant") \
+        if data.scenario_text else None
     return wheel_set(PlantChoices.from_recorded(recorded).wheel_set).names
 
 
@@ -187,15 +190,20 @@ def verdict_messages(data) -> list:
     return out
 
 
-def health_topics() -> list:
+def health_topics(slots=()) -> list:
     """The statuses :func:`health_from_bag` reads: /diagnostics and each observer's status.
+
+    Parameters
+    ----------
+    slots : iterable of str
+        Plug-in observers' slots, read beside ours.
 
     Returns
     -------
     list of str
         /diagnostics, then every observer slot's status topic.
     """
-    return [T.DIAGNOSTICS] + [T.fdi_output_topics(obs)["status"] for obs in T.OBSERVERS]
+    return [T.DIAGNOSTICS] + [T.fdi_output_topics(obs)["status"] for obs in (*T.OBSERVERS, *slots)]
 
 
 def diagnostics_alarms(path):
@@ -251,9 +259,15 @@ def health_from_bag(path) -> dict:
         Status topic -> wheel -> kind ('cannot_judge', 'input_trouble') -> samples (int), first_s (the first
         such message's header stamp [s], in file order) and message (str).
     """
-    from ..storage.bag import iter_messages, typestore
+    from ..storage.bag import BagError, iter_messages, message_counts, typestore
     store, out = typestore(), {}
-    for topic, _, raw in iter_messages(path, health_topics()):
+    try:   # a plug-in's status too: an observer that went blind is named, not only those that decide
+        topics = message_counts(path if Path(path).is_dir() else Path(path).parent)
+    except BagError:
+        topics = {}
+    slots = [t.split("/")[2] for t in topics if t.startswith("/fdi/") and t.endswith("/status")
+             and t.count("/") == 3 and t.split("/")[2] not in T.OBSERVERS]
+    for topic, _, raw in iter_messages(path, health_topics(slots)):
         msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
         t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         for s in msg.status:

@@ -23,6 +23,7 @@ import struct
 from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
+from ..core.mission.yaml_text import read_yaml_file
 
 import numpy as np
 
@@ -115,7 +116,7 @@ def mcap_file(path) -> Path:
     Returns
     -------
     Path
-        ``path`` where it is a file, else the first .mcap of the directory by name (BagError where it has none).
+        ``path`` where it is a file, else the directory's one .mcap (BagError where it has none or several).
     """
     path = Path(path)
     if path.is_file():
@@ -123,6 +124,9 @@ def mcap_file(path) -> Path:
     files = sorted(path.glob("*.mcap")) if path.is_dir() else []
     if not files:
         raise BagError(f"{path}: no .mcap file (not a bag directory)")
+    if len(files) > 1:   # ours write one; reading the first alone would drop the others' messages silently
+        raise BagError(f"{path}: {len(files)} .mcap files ({', '.join(f.name for f in files[:3])}); a bag here "
+                       "holds one")
     return files[0]
 
 
@@ -136,15 +140,60 @@ class BagInfo:
     span: dict = field(default_factory=dict)       # topic -> [first, last] log time [ns]
     complete: bool = False
     note: str = ""
-    damaged: int = 0      # chunks that failed their CRC or did not decode: their messages skipped
+    damaged: int = 0      # chunks that failed their CRC or did not decode, and damaged record headers
     messages: int = 0     # messages in the file, every topic
+    damaged_at: list = field(default_factory=list)   # the records (1-based) whose header was damaged
+    after_damage: int = 0   # messages read after the first damaged record header, in the chunks beyond it
 
     def damage(self) -> str:
-        """'' for an undamaged file, else what is damaged and what was still read (one line)."""
+        """'' for an undamaged file, else what is damaged and what was still read (one line).
+
+        Returns
+        -------
+        str
+            'damaged at record N: ...' or 'damaged: K chunk(s) ...', with the messages read.
+        """
         if not self.damaged:
             return ""
-        return (f"damaged: {self.damaged} chunk(s) fail their CRC or do not decode (their messages skipped); "
-                f"{sum(self.counts.values())} messages read")
+        chunks = self.damaged - len(self.damaged_at)
+        parts = ([f"damaged at record {', '.join(map(str, self.damaged_at))} (the record skipped, "
+                  f"{self.after_damage} messages after it read)"] if self.damaged_at else []) + \
+            ([f"{chunks} chunk(s) fail their CRC or do not decode (their messages skipped)"] if chunks else [])
+        return "damaged: " + "; ".join(parts) + f"; {sum(self.counts.values())} messages read"
+
+
+def _counted(path: Path):
+    """The messages metadata.yaml counts (None without a readable one)."""
+    try:
+        return sum(message_counts(path).values()) if path.is_dir() and (path / "metadata.yaml").exists() else None
+    except BagError:
+        return None
+
+
+def _next_chunk(fh, start: int, size: int):
+    """The offset of the first whole chunk at or after ``start`` whose CRC holds (None: none): where reading
+    goes on after a damaged record header. Candidates are the chunk opcode followed by a length that fits."""
+    import mmap
+    from io import BytesIO
+    from mcap.data_stream import ReadDataStream
+    from mcap.records import Chunk
+    from mcap.stream_reader import breakup_chunk
+    if start >= size:
+        return None
+    with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as view:
+        at = view.find(b"\x06", start)
+        while at != -1 and at + 9 <= size:
+            length = int.from_bytes(view[at + 1:at + 9], "little")
+            if at + 9 + length <= size:
+                try:
+                    chunk = Chunk.read(ReadDataStream(BytesIO(view[at + 9:at + 9 + length])))
+                    if chunk.uncompressed_crc != 0:   # a CRC to hold: a chance match cannot pass it
+                        breakup_chunk(chunk, validate_crc=True)
+                        return at
+                except Exception:   # noqa: BLE001 -- not a chunk here: look further
+                    pass
+            at = view.find(b"\x06", at + 1)
+    return None
 
 
 def iter_messages(path, topics=None, info: BagInfo | None = None):
@@ -169,42 +218,67 @@ def iter_messages(path, topics=None, info: BagInfo | None = None):
         (topic, log time [ns], CDR bytes with the encapsulation header) per message, in file order.
     """
     from mcap.exceptions import McapError
-    from mcap.records import Channel, Chunk, Footer, Message, Schema
+    from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Schema
     from mcap.stream_reader import StreamReader, breakup_chunk
 
     path = Path(path)
     info = info if info is not None else BagInfo(path=path)
     channels, schemas = {}, {}
     wanted = set(topics) if topics else None
+    records_seen, data_ended, start, last_time = 0, False, 0, None
     with open(mcap_file(path), "rb") as fh:
-        try:
-            for outer in StreamReader(fh, emit_chunks=True).records:
-                records = [outer]
-                if isinstance(outer, Chunk):
-                    try:
-                        records = breakup_chunk(outer, validate_crc=True)
-                    except Exception:   # noqa: BLE001 -- bad CRC, bad compression, bad records: damaged, counted
-                        info.damaged += 1
-                        continue
-                for rec in records:
-                    if isinstance(rec, Message):
-                        info.messages += 1
-                        topic = channels.get(rec.channel_id)
-                        if topic is None or (wanted and topic not in wanted):
+        size = fh.seek(0, 2)
+        while start is not None:
+            fh.seek(start)
+            end = start   # where the last whole record ended: a damaged one starts there
+            try:
+                for outer in StreamReader(fh, skip_magic=start > 0, emit_chunks=True).records:
+                    records_seen += 1
+                    end = fh.tell()
+                    records = [outer]
+                    if isinstance(outer, Chunk):
+                        try:
+                            records = breakup_chunk(outer, validate_crc=True)
+                        except Exception:   # noqa: BLE001 -- bad CRC, bad compression, bad records: counted
+                            info.damaged += 1
                             continue
-                        info.counts[topic] = info.counts.get(topic, 0) + 1
-                        span = info.span.setdefault(topic, [rec.log_time, rec.log_time])
-                        span[0], span[1] = min(span[0], rec.log_time), max(span[1], rec.log_time)
-                        yield topic, rec.log_time, rec.data
-                    elif isinstance(rec, Schema):
-                        schemas[rec.id] = rec.name
-                    elif isinstance(rec, Channel):
-                        channels[rec.id] = rec.topic
-                        info.types[rec.topic] = schemas.get(rec.schema_id, "")
-                    elif isinstance(rec, Footer):
-                        info.complete = True
-        except (McapError, EOFError, struct.error, ValueError) as exc:
-            info.note = f"truncated ({type(exc).__name__}); read up to the last complete chunk"
+                    for rec in records:
+                        if isinstance(rec, Message):
+                            info.messages += 1
+                            info.after_damage += bool(info.damaged_at)
+                            topic = channels.get(rec.channel_id)
+                            last_time = rec.log_time if last_time is None else max(last_time, rec.log_time)
+                            if topic is None or (wanted and topic not in wanted):
+                                continue
+                            info.counts[topic] = info.counts.get(topic, 0) + 1
+                            span = info.span.setdefault(topic, [rec.log_time, rec.log_time])
+                            span[0], span[1] = min(span[0], rec.log_time), max(span[1], rec.log_time)
+                            yield topic, rec.log_time, rec.data
+                        elif isinstance(rec, Schema):
+                            schemas[rec.id] = rec.name
+                        elif isinstance(rec, Channel):
+                            channels[rec.id] = rec.topic
+                            info.types[rec.topic] = schemas.get(rec.schema_id, "")
+                        elif isinstance(rec, DataEnd):
+                            data_ended = True
+                        elif isinstance(rec, Footer):
+                            info.complete = True
+                start = None
+            except (McapError, EOFError, struct.error, ValueError) as exc:
+                # a damaged record header, or the tail cut off: the next whole chunk, if any, goes on
+                start = None if data_ended else _next_chunk(fh, end + 1, size)
+                if start is not None:
+                    info.damaged += 1
+                    info.damaged_at.append(records_seen + 1)
+                elif data_ended or _counted(path) == info.messages:   # past the data: its index, its summary
+                    info.note = f"damaged after the data at byte {end} ({type(exc).__name__}): every message read"
+                elif fh.tell() < size:   # not the file's end: damage with no whole chunk after it
+                    info.damaged += 1
+                    info.damaged_at.append(records_seen + 1)
+                    info.note = f"nothing readable after byte {end} ({type(exc).__name__})"
+                else:
+                    at = "" if last_time is None else f" at {last_time * 1e-9:.1f} s"
+                    info.note = f"truncated{at} ({type(exc).__name__}); read up to the last complete chunk"
     if not channels:
         raise BagError(f"{path}: no readable messages ({info.damage() or info.note or 'empty file'})")
     trouble = info.damage() or (_metadata_trouble(path, info) if info.complete else "")
@@ -511,13 +585,12 @@ def message_counts(path) -> dict:
 def _from_metadata(path, read) -> dict:
     """``read(info)`` of a finished bag's metadata.yaml (its rosbag2_bagfile_information); {} without the file,
     BagError where it is unreadable."""
-    import yaml
     meta = Path(path) / "metadata.yaml"
     if not meta.is_file():
         return {}
     try:
-        return read(yaml.safe_load(meta.read_text())["rosbag2_bagfile_information"])
-    except (yaml.YAMLError, KeyError, TypeError, ValueError) as exc:
+        return read(read_yaml_file(meta)["rosbag2_bagfile_information"])
+    except (KeyError, TypeError, ValueError, OSError, UnicodeDecodeError) as exc:
         raise BagError(f"{meta}: unreadable metadata ({exc})") from None
 
 

@@ -1,7 +1,7 @@
 """`rw-fdi campaign`: N recorded runs of a scenario over consecutive seeds, resumable."""
 import sys
 
-from ..options import COUNT, SEED, executor, writable_dir
+from ..options import RUNS, SEED, executor, writable_dir
 
 NAME = "campaign"
 HELP = "record N runs of a scenario (seeds S..S+N-1), resumable"
@@ -10,7 +10,7 @@ PARENTS = ("cluster",)
 
 def add_arguments(parser) -> None:
     parser.add_argument("--scenario", required=True, help="scenario name or YAML file")
-    parser.add_argument("--runs", type=COUNT, required=True)
+    parser.add_argument("--runs", type=RUNS, required=True)
     parser.add_argument("--seed-start", type=SEED, default=1)
     parser.add_argument("--out", required=True, help="directory for the bags")
     parser.add_argument("--fdi", action="store_true", help="run the observers and isolation live too (graph engine)")

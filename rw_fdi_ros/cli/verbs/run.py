@@ -14,8 +14,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", default="bags", help="directory for the bag (default: bags/)")
     parser.add_argument("--emf-limit", default=None, choices=["kf_scaled", "pwm_saturation"],
                         help="EMF torque-limiting model (physics.md [choice]; default: the scenario's, else kf_scaled)")
-    parser.add_argument("--command-timeout", type=number(float, 0, low_open=True), default=5.0,
-                        help="wall seconds the plant waits for a command")
+    parser.add_argument("--command-timeout", type=number(float, 0.01, 1e9), default=5.0,
+                        help="wall seconds the plant waits for a command (0.01 to 1e9: the plant's own range, "
+                             "graph/parameters.TIMEOUT)")
     parser.add_argument("--keep-logs", action="store_true", help="keep node logs also after a successful run")
     parser.add_argument("--no-fdi", dest="fdi", action="store_false",
                         help="without the observers and isolation (plant, controllers, wheel allocation, recorder "
@@ -37,7 +38,8 @@ def _nodes(args, wheels, fdi) -> str:
     if fdi is None:
         nodes = f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation, recorder"
     else:
-        nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation with FDIR, "
+        nodes = (f"plant with {wheels.count} wheels ({wheels.name}), 3 PID controllers, wheel allocation"
+                 f"{' with FDIR' if fdi.fdir else ' (no FDIR: every wheel kept)'}, "
                  f"{wheels.count} Elman observers, linear observer, "
                  + ("model observer, " if args.fdi_method == "speed_aware" else "")
                  + "".join(f"{slot} observer (plug-in), " for slot in fdi.plugin_slots) + "isolation, recorder")
@@ -52,7 +54,8 @@ def _report(args, outcome) -> int:
                      "wall_time_s": outcome.wall_time, "summary": outcome.summary}))
         return 0 if outcome.ok else 1
     if outcome.summary:
-        print(format_summary(outcome.summary))
+        if "scenario" in outcome.summary:   # a run stopped before its bag held a step has the FDI's part alone
+            print(format_summary(outcome.summary))
         if "fdi" in outcome.summary:
             from ...runner.verdict import format_verdict
             print(f"fault detection and isolation ({args.fdi_method}"
@@ -65,7 +68,7 @@ def _report(args, outcome) -> int:
         where = f" (node logs: {outcome.log_dir})" if outcome.log_dir and outcome.log_dir.exists() else ""
         print(f"rw-fdi: run failed: {outcome.reason}{where}", file=sys.stderr)
         return 1
-    rtf = outcome.summary["end_time"] / outcome.wall_time if outcome.summary else float("nan")
+    rtf = (outcome.summary or {}).get("end_time", float("nan")) / max(outcome.wall_time, 1e-9)
     print(f"  wall time {outcome.wall_time:.1f} s ({rtf:.0f}x real time)")
     return 0
 

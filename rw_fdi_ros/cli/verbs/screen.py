@@ -1,7 +1,7 @@
 """`rw-fdi screen`: FDI figures of many seeds in seconds, the node code on the core loop (no ROS)."""
 import sys
 
-from ..options import executor, fdi_config, parse_seeds
+from ..options import executor, fdi_config, parse_seeds, writable_file
 
 NAME = "screen"
 HELP = "FDI figures for many seeds in seconds (core loop + node code, no ROS)"
@@ -23,6 +23,8 @@ def add_arguments(parser) -> None:
 
 def main(args) -> int:
     seeds = parse_seeds(args.seeds, "--seeds")   # before the imports: a bad option answers at once
+    if args.table:
+        writable_file(args.table, "--table")
     import json
     from tqdm import tqdm
     from ...core.controller_design import scenario_design

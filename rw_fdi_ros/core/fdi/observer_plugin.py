@@ -147,13 +147,16 @@ def _hook(observer: WheelObserver, hook: str, *args):
         return getattr(observer, hook)(*args)
     except ObserverError:
         raise
+    except SystemExit as exc:   # sys.exit() in a user's code must not end the run as if it had finished
+        raise ObserverError(f"observer {observer.slot}: {hook}() called sys.exit({exc.code!r})") from None
     except Exception as exc:   # noqa: BLE001 -- a user's code: whatever it raises is said, naming it
         raise ObserverError(f"observer {observer.slot}: {hook}() raised {type(exc).__name__}: {exc}") from exc
 
 
 def step(observer: WheelObserver, sample, calibrating: bool) -> np.ndarray:
     """One FDI sample through ``observer``: its calibration hook while ``calibrating``, then its estimate,
-    checked to hold one finite value per wheel.
+    checked to hold one real number per wheel (ObserverError otherwise). A non-finite value passes: the
+    observer is blind on that wheel for that sample, which its residual says (residuals.SignedResidual).
 
     Parameters
     ----------
@@ -171,7 +174,16 @@ def step(observer: WheelObserver, sample, calibrating: bool) -> np.ndarray:
     """
     if calibrating:
         _hook(observer, "calibrate", sample)
-    estimate = np.asarray(_hook(observer, "estimate", sample), float).reshape(-1)
+    raw = _hook(observer, "estimate", sample)
+    try:
+        estimate = np.asarray(raw)
+        if np.iscomplexobj(estimate):
+            raise TypeError("complex values")
+        estimate = estimate.astype(float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        shown = repr(raw)
+        raise ObserverError(f"observer {observer.slot}: estimate() must give real numbers [N m], one per wheel; "
+                            f"got {shown[:60]}{'...' if len(shown) > 60 else ''} ({exc})") from None
     if estimate.shape != (len(observer.wheels),):
         raise ObserverError(f"observer {observer.slot}: estimate() gave {estimate.size} values for "
                             f"{len(observer.wheels)} wheels ({', '.join(observer.wheels)})")

@@ -84,9 +84,12 @@ class SignedResidual:
         Returns
         -------
         tuple of float
-            (mean of r - r^ over the window, its ripple and uncertainty bound) [N m].
+            (mean of r - r^ over the window, its ripple and uncertainty bound) [N m]; both NaN for a sample
+            whose r or r^ is not finite, which leaves the window as it was.
         """
         actual, estimate, spread = float(actual), float(estimate), 0.0
+        if not (np.isfinite(actual) and np.isfinite(estimate)):   # a blind sample: not judged (the channel
+            return float("nan"), float("nan")                     # says so), the window kept clean of it
         if self.calibration is not None:
             correction, uncertainty = self.calibration.update(actual - estimate, regressors)
             estimate += correction

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .detection import METHODS, PERSISTENCE, SIGMAS, WINDOW
+from .detection import METHODS, PERSISTENCE, PERSISTENCE_MAX, SIGMAS, WINDOW
 from ..physics.wheel_set import fitted_for
 
 class ThresholdError(ValueError):
@@ -115,8 +115,9 @@ class ThresholdCurves:
                                  f"observer; {REFIT}")
         if out.method not in METHODS:
             raise ThresholdError(f"{path}: unknown method {out.method!r} (known: {', '.join(METHODS)}); {REFIT}")
-        if out.persistence < 1:
-            raise ThresholdError(f"{path}: persistence must be >= 1, got {out.persistence}; {REFIT}")
+        if not 1 <= out.persistence <= PERSISTENCE_MAX:
+            raise ThresholdError(f"{path}: persistence must lie in [1, {PERSISTENCE_MAX}], got {out.persistence}; "
+                                 f"{REFIT}")
         if out.method == "thesis":
             for a, c in out.curves.items():
                 if np.any(c < 0):   # a threshold on a mean of |r - r^| below 0 alarms at once, for ever

@@ -168,6 +168,9 @@ def fit_band(statistics, false_alarm_rate: float = FALSE_ALARM_RATE, axes=("x", 
     """
     s = np.asarray(statistics, float)
     needed = fitting_runs_needed(false_alarm_rate, share, len(axes))
+    if len(s) < MIN_FIT_RUNS:   # no rate helps: a Gumbel fit needs that many maxima
+        raise ThresholdError(f"{len(s)} fitting run(s): a band needs at least {MIN_FIT_RUNS} fault-free runs, "
+                             "whatever the false-alarm rate")
     if len(s) < needed:
         raise ThresholdError(f"{len(s)} fitting run(s) cannot promise a per-run false-alarm rate of "
                              f"{false_alarm_rate:g}: a band needs at least {needed} fault-free runs (or ask for a "

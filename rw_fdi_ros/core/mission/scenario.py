@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ...paths import file_name
 from ..physics.environment import MAGNETOMETER_PERIOD, OrbitEnvironment, magnetometer_steps
 from ..physics.faults import FAULT_KINDS, Fault
 from ..physics.geomagnetic import IGRF_YEARS
@@ -21,9 +22,11 @@ from ..physics.orbit import CircularOrbit, OrbitError, TleOrbit
 from .plant_choices import SCENARIO_KEYS, PlantChoiceError, PlantChoices
 from ..physics.wheel_set import AXIS_WHEELS, WHEEL_SETS
 from .vehicle import (DEFAULT_VEHICLE, DISPERSION_LIMITS, THESIS, UNIT_SPREAD_MAX, Dispersions, Vehicle,
-                      VehicleError, load_vehicle)
+                      VehicleError, load_vehicle, shipped_set_name)
 from ..physics.wheel import UNIT_PARAMETERS, WheelParams, unit_wheel
-from .yaml_text import YamlError, read_yaml
+from .yaml_text import MAX_CHARACTERS, YamlError, read_yaml
+
+SEED_MAX = 2**63 - 1   # numpy's seeds are non-negative; the bags record them as int64
 
 # Thesis Table 2.3 ranges drawn per axis (the default vehicle's dispersions, vehicle.py).
 ATTITUDE_RANGE_DEG = Dispersions().attitude_deg
@@ -123,6 +126,8 @@ class Scenario:
         Scenario
             The new scenario.
         """
+        if not 0 <= int(seed) <= SEED_MAX:
+            raise ScenarioError(f"scenario {self.name}: seed {seed} is not a whole number in [0, {SEED_MAX}]")
         return replace(self, seed=int(seed))
 
     def with_faults(self, faults) -> "Scenario":
@@ -297,7 +302,7 @@ class Scenario:
         str
             The YAML text.
         """
-        raw = yaml.safe_load(self.source_text) if self.source_text else {"name": self.name}
+        raw = read_yaml(self.source_text, self.name) if self.source_text else {"name": self.name}
         raw = dict(raw or {})
         raw["seed"] = int(self.seed)
         scales = self.unit_scales(self.wheel_set().count)
@@ -466,8 +471,8 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
         raise ScenarioError(f"{origin}: unknown field(s) {sorted(unknown)}")
     duration = _num(f"{origin}: duration", raw.get("duration", 400.0), 1.0, 1e6)
     seed = raw.get("seed", 0)
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise ScenarioError(f"{origin}: seed must be a non-negative integer, got {seed!r}")
+    if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed <= SEED_MAX:
+        raise ScenarioError(f"{origin}: seed must be a whole number in [0, {SEED_MAX}], got {seed!r}"[:300])
     sps_raw = raw.get("setpoints", [{"time": 0.0, "change_deg": "random"}])
     if not isinstance(sps_raw, list):
         raise ScenarioError(f"{origin}: setpoints must be a list")
@@ -514,6 +519,10 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
         raise ScenarioError(f"{origin}: faults must be a list")
     faults = tuple(_fault(f"{origin}: faults[{i}]", f, duration, names) for i, f in enumerate(faults_raw))
     name = str(raw.get("name") or Path(origin).stem)
+    try:   # it names the run's bag and figure: a path here would write outside --out
+        file_name(name)
+    except ValueError as exc:
+        raise ScenarioError(f"{origin}: name: {exc}") from None
     environment = _environment(f"{origin}: environment", raw.get("environment"), duration)
     period = float(plant.get("control_period", PlantChoices().control_period))
     try:
@@ -557,9 +566,7 @@ def _vehicle_wheel_set(origin: str, vehicle: Vehicle, plant: dict) -> str:
     """The plant choice ``wheel_set`` of a scenario that names a vehicle: its vehicle's set, which must be one
     the graph knows by name (a shipped set; a set of the vehicle's own is for a later step), and not another
     one under ``plant:``."""
-    known = next((name for name, ws in WHEEL_SETS.items() if ws.names == vehicle.wheel_set.names
-                  and np.allclose(ws.spin_axes, vehicle.wheel_set.spin_axes, rtol=0.0, atol=1e-12)
-                  and ws.standby == vehicle.wheel_set.standby), None)
+    known = shipped_set_name(vehicle.wheel_set)   # a Vehicle built in code may hold another (a file's may not)
     if known is None:
         raise ScenarioError(f"{origin}: vehicle: its wheel set {vehicle.wheel_set.name!r} is not one of the shipped "
                             f"sets ({', '.join(WHEEL_SETS)}); wheel sets of a vehicle's own are not flown yet")
@@ -747,7 +754,8 @@ def load_scenario(name_or_path: str) -> Scenario:
     if not path.is_file():
         raise ScenarioError(f"scenario file not found: {name_or_path}")
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, encoding="utf-8") as f:
+            text = f.read(MAX_CHARACTERS + 1)   # read_yaml refuses more: a huge file is not read whole
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: not a readable scenario file ({type(exc).__name__}: {exc})") from None
     return parse_scenario(text, origin=str(path))

@@ -31,13 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ...paths import DEFAULT_VEHICLE, config_dir
+from ...paths import DEFAULT_VEHICLE, config_dir, file_name
 from ..physics.environment import DEFAULT_RESIDUAL_DIPOLE
 from ..physics.magnetorquers import MomentumDumping
 from ..physics.spacecraft import DISTURBANCE_SIGMA, INERTIA
 from ..physics.wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, UNIT_PARAMETERS, WheelParams
 from ..physics.wheel_set import WHEEL_SETS, WheelSet
-from .yaml_text import YamlError, read_yaml
+from .yaml_text import YamlError, read_yaml_file
 
 # every WheelParams field with its unit as a vehicle file writes it ("": a pure number; None: a named choice)
 WHEEL_UNITS = {
@@ -51,6 +51,16 @@ WHEEL_UNITS = {
 # fields that may be zero (the rest of WHEEL_UNITS' numbers must be > 0)
 WHEEL_MAY_BE_ZERO = {"coulomb_friction", "ripple_coefficient", "noise_angle", "noise_frequency", "diode_drop",
                      "quiescent_power", "input_resistance", "viscous_scale"}
+# the largest value of each wheel field any reaction wheel has (generous: 10-1000x the largest flown), so that
+# what `rw-fdi vehicle` accepts flies: torque_constant 1e308 passed as "inf mN m" and failed inside the plant
+WHEEL_MAX = {
+    "driver_gain": 100.0, "driver_bandwidth": 1e6, "torque_constant": 10.0, "emf_constant": 10.0,
+    "overspeed_gain": 1e4, "overspeed_threshold": 1e4, "coulomb_friction": 1.0, "inertia": 10.0, "poles": 1000,
+    "ripple_coefficient": 1.0, "input_resistance": 1e3, "quiescent_power": 1e3, "bridge_resistance": 1e3,
+    "voltage_feedback_gain": 100.0, "noise_angle": 6.3, "noise_frequency": 1e4, "command_limit": 100.0,
+    "diode_drop": 8.0, "ripple_amplitude_share": 1.0, "coulomb_smoothing_speed": 100.0, "viscous_scale": 1e4,
+}
+NUMBER_MAX = 1e9   # any other number of a vehicle file, in its unit: nothing of a spacecraft is larger
 MAGNETORQUER_UNITS = {"dipole_limit": "A m^2", "gain": "1/s", "start_speed": "rad/s", "stop_speed": "rad/s"}
 CONTROLLER_UNITS = {"overshoot": "", "settling_time": "s", "pointing": "deg"}
 REQUIRED_KEYS = ("name", "inertia", "disturbance_sigma", "wheel", "wheel_set", "controller", "magnetorquers",
@@ -208,6 +218,8 @@ def _number(where: str, text) -> float:
         raise VehicleError(f"{where}: expected a number, got {text!r}"[:300]) from None
     if isinstance(text, bool) or not np.isfinite(value):
         raise VehicleError(f"{where}: expected a finite number, got {text!r}"[:300])
+    if abs(value) > NUMBER_MAX:
+        raise VehicleError(f"{where}: {value:g} is beyond any spacecraft's (at most {NUMBER_MAX:g} in its unit)")
     return value
 
 
@@ -343,6 +355,9 @@ def _wheel(where: str, raw) -> WheelParams:
         if value < 0.0 or (value == 0.0 and name not in WHEEL_MAY_BE_ZERO):
             bound = ">= 0" if name in WHEEL_MAY_BE_ZERO else "> 0"
             raise VehicleError(f"{where}.{name}: must be {bound}, got {value:g}")
+        if value > WHEEL_MAX[name]:
+            raise VehicleError(f"{where}.{name}: {value:g} {unit} is beyond any reaction wheel's (at most "
+                               f"{WHEEL_MAX[name]:g} {unit})")
         values[name] = value
     if values["poles"] != int(values["poles"]):
         raise VehicleError(f"{where}.poles: must be a whole number, got {values['poles']:g}")
@@ -384,9 +399,31 @@ def _wheel_set(where: str, raw) -> WheelSet:
     if not isinstance(standby, list) or set(map(str, standby)) - set(names):
         raise VehicleError(f"{where}.standby: a list of wheel names among {', '.join(names)}")
     try:
-        return WheelSet(str(raw.get("name", "custom")), tuple(names), tuple(axes), tuple(map(str, standby)))
+        out = WheelSet(str(raw.get("name", "custom")), tuple(names), tuple(axes), tuple(map(str, standby)))
     except ValueError as error:
         raise VehicleError(f"{where}: {str(error).split(': ', 1)[-1]}") from None
+    if shipped_set_name(out) is None:   # refused here, not by the first run: what the check passes flies
+        raise VehicleError(f"{where}: a wheel set of a vehicle's own ({out.name!r}) is not flown yet; name one of "
+                           f"the shipped sets ({', '.join(WHEEL_SETS)}) or spell one out (docs/vehicles.md)")
+    return out
+
+
+def shipped_set_name(wheel_set: WheelSet):
+    """The shipped set (WHEEL_SETS) ``wheel_set`` is, wheel for wheel (names, spin axes, standby), or None.
+
+    Parameters
+    ----------
+    wheel_set : WheelSet
+        The set.
+
+    Returns
+    -------
+    str or None
+        Its name in WHEEL_SETS.
+    """
+    return next((name for name, ws in WHEEL_SETS.items() if ws.names == wheel_set.names
+                 and np.allclose(ws.spin_axes, wheel_set.spin_axes, rtol=0.0, atol=1e-12)
+                 and ws.standby == wheel_set.standby), None)
 
 
 def _dispersions(where: str, raw) -> Dispersions:
@@ -473,6 +510,10 @@ def vehicle_of(raw, where: str = "vehicle") -> Vehicle:
         raise VehicleError(f"{where}: missing {', '.join(repr(k) for k in missing)} (docs/vehicles.md)")
     if not isinstance(raw["name"], str) or not raw["name"].strip():
         raise VehicleError(f"{where}.name: a name (text), got {raw['name']!r}")
+    try:   # it names the vehicle's FDI folder (rw-fdi defaults)
+        file_name(raw["name"].strip())
+    except ValueError as exc:
+        raise VehicleError(f"{where}.name: {exc}") from None
     sources = raw.get("sources") or {}
     if not isinstance(sources, dict):
         raise VehicleError(f"{where}.sources: expected a mapping of field -> where its value comes from")
@@ -608,7 +649,7 @@ def load_vehicle(source=None) -> Vehicle:
     if not path.is_file():
         raise VehicleError(f"vehicle {name!r}: no such file, nor a shipped vehicle ({', '.join(shipped) or 'none'})")
     try:
-        raw = read_yaml(path.read_text(), str(path))   # a key given twice refused, as in a scenario
+        raw = read_yaml_file(path)   # a key given twice refused, as in a scenario
     except (OSError, UnicodeDecodeError) as error:
         raise VehicleError(f"{path}: not a readable file ({str(error).splitlines()[0]})") from None
     except YamlError as error:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from contextlib import closing
 from dataclasses import dataclass, field
@@ -19,9 +20,9 @@ from pathlib import Path
 from ...core.controller_design import scenario_design
 from ...core.mission.scenario import load_scenario
 from ...extras import require
-from ...storage.bag import bag_is_complete
+from ...paths import under
 from .engine import batches, check_engine, record_batch
-from ...runner.scenario_run import bag_name, resolve_scenario, run_scenario, short_step_topics
+from ...runner.scenario_run import bag_name, not_whole, resolve_scenario, run_scenario
 
 
 @dataclass
@@ -37,7 +38,10 @@ class LocalExecutor:
     ``processes`` on ``jobs`` worker processes (work that computes in Python: the core engine)."""
 
     def __init__(self, jobs: int | None = None):
-        self.jobs = jobs or max(1, min(2, os.cpu_count() or 1))
+        cores = os.cpu_count() or 1
+        self.asked = jobs
+        # more than the machine has only thrashes it (--jobs 10000 forked thousands): a cluster is --scheduler
+        self.jobs = min(jobs, cores) if jobs else max(1, min(2, cores))
 
     def map_unordered(self, fn, items, processes: bool = False):
         if processes:
@@ -86,13 +90,23 @@ class DaskExecutor:
         if hasattr(address, "submit"):
             self.client = address
             return
-        client = require("distributed", "cluster").Client
-        try:
-            self.client = client(address, timeout=self.CONNECT_S)
-        except (OSError, TimeoutError, ValueError) as exc:   # refused, unreachable, or not an address
+        client, box = require("distributed", "cluster").Client, {}
+
+        def connect():   # in a thread of its own: a server that is not Dask may never answer its handshake
+            try:
+                box["client"] = client(address, timeout=self.CONNECT_S)
+            except BaseException as exc:   # noqa: BLE001 -- refused, unreachable, not an address, garbage
+                box["error"] = exc
+        thread = threading.Thread(target=connect, name="dask-connect", daemon=True)
+        thread.start()
+        thread.join(self.CONNECT_S + 5.0)
+        if "client" not in box:
+            exc = box.get("error")
+            why = "no answer" if exc is None else \
+                f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no reason'}"
             raise RuntimeError(f"--scheduler {address}: no Dask scheduler answered within {self.CONNECT_S:g} s "
-                               f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no reason'})"
-                               [:300]) from None
+                               f"({why})"[:300])
+        self.client = box["client"]
 
     def map_unordered(self, fn, items, processes: bool = False):
         """``processes`` is ignored: the workers are processes already."""
@@ -127,8 +141,8 @@ def pending(scenario_ref: str, runs: int, seed_start: int, out_dir) -> tuple:
     scenario = load_scenario(scenario_ref)
     todo, skipped = [], []
     for seed in range(seed_start, seed_start + runs):
-        bag = Path(out_dir) / bag_name(scenario.with_seed(seed))
-        if bag_is_complete(bag) and not short_step_topics(bag):
+        bag = under(out_dir, bag_name(scenario.with_seed(seed)))
+        if not not_whole(bag):   # a missing, damaged or interrupted one is recorded (again)
             skipped.append(bag)
         else:
             todo.append(seed)
@@ -202,7 +216,7 @@ def record_campaigns(campaigns, executor=None, desc: str = "core engine", emf_li
         scenario, path = resolve_scenario(ref)   # absolute: a worker process loads it by itself
         key = batch_key(load_scenario(path), emf_limit)
         for seed in seeds:
-            bag = str(Path(out_dir) / bag_name(scenario.with_seed(seed)))
+            bag = str(under(out_dir, bag_name(scenario.with_seed(seed))))
             groups.setdefault(key, []).append((path, seed, bag, emf_limit))
             owner[bag] = index
     work = [b for items in groups.values() for b in batches(items, getattr(executor, "jobs", 2))]

@@ -24,6 +24,7 @@ from ...core.fdi.observer_plugin import PluginRun
 from ...core.mission.plant_choices import FDI_PERIOD, FDI_SAMPLING, PlantChoices
 from ...core.physics.wheel import WheelParams, bearing_noise_mean, linearised_wheel
 from ...core.physics.wheel_set import AXIS_WHEELS, wheel_set
+from ...core.mission.yaml_text import read_yaml
 
 
 
@@ -106,10 +107,9 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
 
 def recorded_plant(sample, sampling: str = FDI_SAMPLING):
     """The PlantChoices a bag (or FdiSamples read from one) was recorded under."""
-    import yaml
     from ...storage.bag import read_bag
     text = read_bag(getattr(sample, "bag", sample), topics=["/scenario"]).scenario_text or ""
-    return PlantChoices.of_recording((yaml.safe_load(text) or {}).get("plant"), sampling)
+    return PlantChoices.of_recording((read_yaml(text, "the recorded /scenario") or {}).get("plant"), sampling)
 
 
 def plant_conditions(samples_list, sampling: str = FDI_SAMPLING) -> dict:
@@ -181,6 +181,10 @@ def _fit_bands(runs, samples_list, models, out_dir: Path, describe: dict, fittin
                 for cls, state in getattr(models, "plugins", ())}
     report = {}
     for obs in observers_of("speed_aware") + tuple(cls.slot for cls, _ in getattr(models, "plugins", ())):
+        blind = [i for i, run in enumerate(runs) if not np.all(np.isfinite(run.residual[obs][:, cols]))]
+        if blind:   # a band fitted on what it could not see would be NaN, or too low
+            raise ValueError(f"observer {obs}: non-finite estimates in {len(blind)} of {len(runs)} fitting runs "
+                             f"(the first: run {blind[0] + 1}); its band cannot be fitted")
         stats = np.array([run_statistic(np.abs(run.residual[obs][:, cols]) - run.bound[obs][:, cols], p)
                           for run in runs])
         # the Elman and Luenberger bounds spent half of alpha on kappa (residuals.demand_gain), and so does a

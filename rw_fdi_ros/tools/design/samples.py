@@ -14,8 +14,9 @@ from ...core.fdi.telemetry import sample_telemetry
 from ...core.physics.wheel import WheelParams
 from ...graph.convert import fdi_sample_of, stamp_ns, telemetry_wheels
 from ...core.physics.wheel_set import AXIS_WHEELS
-from ...graph.topics import FAULT_EFFECT, FDI_BUS_GRID, FDI_TELEMETRY
+from ...graph.topics import FAULT_EFFECT, FDI_BUS_GRID, FDI_TELEMETRY, PLANT_DONE
 from ...storage.bag import BagError, bag_is_complete, read_bag
+from ...core.mission.yaml_text import read_yaml
 
 BATCH = 50   # runs simulated at once: (4001, 50, 3) arrays, far below memory limits
 
@@ -109,8 +110,7 @@ def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: 
         rows = [type(r)(r.stamp_ns, r.tcv, r.reaction_torque) for r in rows]
     seed, params = None, WheelParams()
     if data.scenario_text:
-        import yaml
-        seed = (yaml.safe_load(data.scenario_text) or {}).get("seed")
+        seed = (read_yaml(data.scenario_text, "the recorded /scenario") or {}).get("seed")
         params = recorded_wheel(data)
     return samples_from_rows(rows, bag=data.path, seed=seed, wheels=wheels, wheel_params=params)
 
@@ -188,8 +188,10 @@ def _bag_samples(work) -> tuple:
     try:
         if complete_only and not bag_is_complete(bag):
             raise BagError(f"{bag}: incomplete bag (no metadata.yaml or MCAP footer)")
-        topics = [FDI_TELEMETRY, "/scenario"] + ([FAULT_EFFECT] if fault_free else [])
+        topics = [FDI_TELEMETRY, "/scenario", PLANT_DONE] + ([FAULT_EFFECT] if fault_free else [])
         data = read_bag(bag, topics=topics, intact=True)
+        if complete_only and data.last(PLANT_DONE) is None:   # a run cut short teaches a run's start only
+            raise BagError(f"{bag}: run interrupted: no {PLANT_DONE} (the plant did not reach the run's end)")
         if fault_free:
             _refuse_faulty(bag, data)
         return bag, fdi_samples(data, period, sampling, speed_aware=sampling == "mean"), None
