@@ -20,11 +20,29 @@ def fdi_output_topics(plugins=()) -> list:
         Every observer slot's residual topics (the Elman ones per wheel of any set), threshold and alarm
         topics, then /fdi/identification and /scenario.
     """
-    from ..core.physics.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
     slots = (*OBSERVERS, *plugins)
-    rows = [T.residual_topic(obs, a) for obs in slots for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
-    return rows + [t for obs in slots for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
-        T.IDENTIFICATION, T.SCENARIO]
+    outputs = [t for obs in slots for k, t in T.fdi_output_topics(obs).items() if k != "status"]
+    return any_wheel_topics("residual", slots) + outputs + [T.IDENTIFICATION, T.SCENARIO]
+
+
+def any_wheel_topics(kind: str, slots) -> list:
+    """The observer output ``kind`` (graph.topics.OBSERVER_OUTPUTS) of every slot of ``slots``: the Elman
+    ones per wheel of any set, so that a bag of any wheel set is read whole.
+
+    Parameters
+    ----------
+    kind : str
+        'estimate', 'residual' or 'ripple_bound'.
+    slots : sequence of str
+        The observer slots.
+
+    Returns
+    -------
+    list of str
+        The topics' names, slot by slot.
+    """
+    from ..core.physics.wheel_set import ALL_WHEEL_NAMES
+    return [T.observer_topic(obs, kind, a) for obs in slots for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
 
 
 def wheels_of_bag(data) -> tuple:
@@ -48,8 +66,8 @@ def wheels_of_bag(data) -> tuple:
     return wheel_set(PlantChoices.from_recorded(recorded).wheel_set).names
 
 
-def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
-    """(time [s], values (n, wheels)) of one observer's ``topic`` (residual_topic, bound_topic, estimate_topic):
+def observer_vectors(data, observer: str, kind: str = "residual", wheels=None):
+    """(time [s], values (n, wheels)) of one observer's output ``kind`` (residual, ripple_bound, estimate):
     the Elman nodes' per-wheel topics, each carrying its own wheel (or, recorded before the redundant
     wheel, its own axis' component), joined into one.
 
@@ -59,8 +77,8 @@ def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
         The bag, read (storage.bag.read_bag or read_series).
     observer : str
         The observer slot.
-    topic : callable
-        ``topic(observer)`` or ``topic(observer, wheel)`` -> the topic name (graph.topics).
+    kind : str
+        One of graph.topics.OBSERVER_OUTPUTS.
     wheels : tuple of str, optional
         The run's wheel names; None: :func:`wheels_of_bag`.
 
@@ -73,9 +91,9 @@ def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
     """
     axes = T.observer_axes(observer)
     if axes == (None,):
-        return data.wheel_values(topic(observer))
+        return data.wheel_values(T.observer_topic(observer, kind))
     wheels = wheels or wheels_of_bag(data)
-    cols = [data.wheel_values(topic(observer, a)) for a in wheels]
+    cols = [data.wheel_values(T.observer_topic(observer, kind, a)) for a in wheels]
     n = min(len(t) for t, _ in cols)
     values = (np.stack([v[:n, i if v.shape[1] == 3 and len(wheels) == 3 else 0] for i, (_, v) in enumerate(cols)],
                        axis=1) if n else np.zeros((0, len(wheels))))
