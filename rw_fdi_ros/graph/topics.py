@@ -172,25 +172,9 @@ VERDICT_STATUS = "rw_fdi: reaction wheel"
 FDIR_STATUS = "fdir: reaction wheel"
 
 
-def is_verdict(status) -> bool:
-    """Whether a /diagnostics status is the FDI's verdict on a wheel (not FDIR's state of it).
-
-    Parameters
-    ----------
-    status : diagnostic_msgs.msg.DiagnosticStatus
-        One status of a /diagnostics message.
-
-    Returns
-    -------
-    bool
-        Whether it is a verdict.
-    """
-    return status.name.startswith(VERDICT_STATUS)
-
-
 def verdict_statuses(msg) -> list:
-    """The FDI verdict statuses of a /diagnostics message (an rclpy or a rosbags one), in its order:
-    FDIR's state of the wheels, on the same topic, left out.
+    """The FDI verdict statuses of a /diagnostics message (an rclpy or a rosbags one), in its order: those
+    named VERDICT_STATUS, FDIR's state of the wheels, on the same topic, left out.
 
     Parameters
     ----------
@@ -202,7 +186,7 @@ def verdict_statuses(msg) -> list:
     list
         Its verdict statuses.
     """
-    return [s for s in msg.status if is_verdict(s)]
+    return [s for s in msg.status if s.name.startswith(VERDICT_STATUS)]
 
 
 def writer_counts(record_plant: bool) -> dict:

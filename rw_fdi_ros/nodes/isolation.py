@@ -239,7 +239,7 @@ class IsolationNode(GraphNode):
         # /diagnostics: latched, and not judged for a wheel outside the operating envelope
         self.envelope = self.verdict.judged(sample.wheel_speed)
         self.speeds = sample.wheel_speed
-        decided = self.isolation.decide(handled, sample.wheel_speed)
+        decided = self.isolation.verdict.decide(handled, sample.wheel_speed)
         finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
                                                         sample.ripple_phasor, sample.bus_motor_torque,
                                                         sample.model_torque, sample.motor_torque,

@@ -234,10 +234,8 @@ def diagnostics_alarms(path):
     faulty : ndarray of bool, shape (n, wheels)
         Whether each wheel's status is ERROR.
     """
-    from ..storage.bag import iter_messages, typestore
-    store, times, rows, joints = typestore(), [], [], None
-    for _, _, raw in iter_messages(path, [T.DIAGNOSTICS]):
-        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
+    times, rows, joints = [], [], None
+    for _, t, msg in _status_arrays(path, [T.DIAGNOSTICS]):
         statuses = T.verdict_statuses(msg)
         if not statuses:
             continue
@@ -246,10 +244,19 @@ def diagnostics_alarms(path):
         wheels = [levels.get(j) for j in joints]
         if None in wheels:
             continue
-        times.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+        times.append(t)
         rows.append([level == 2 for level in wheels])   # DiagnosticStatus.ERROR
     order = np.argsort(times, kind="stable")
     return np.asarray(times, float)[order], np.asarray(rows, bool).reshape(len(times), len(joints or ()))[order]
+
+
+def _status_arrays(path, topics):
+    """(topic, header stamp [s], DiagnosticArray) of a bag's ``topics``, streamed in file order."""
+    from ..storage.bag import iter_messages, typestore
+    store = typestore()
+    for topic, _, raw in iter_messages(path, topics):
+        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
+        yield topic, msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, msg
 
 
 def health_from_bag(path) -> dict:
@@ -269,11 +276,8 @@ def health_from_bag(path) -> dict:
         Status topic -> wheel -> kind ('cannot_judge', 'input_trouble') -> samples (int), first_s (the first
         such message's header stamp [s], in file order) and message (str).
     """
-    from ..storage.bag import iter_messages, typestore
-    store, out = typestore(), {}
-    for topic, _, raw in iter_messages(path, health_topics()):
-        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
-        t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+    out = {}
+    for topic, t, msg in _status_arrays(path, health_topics()):
         for s in msg.status:
             values = {kv.key: kv.value for kv in s.values}   # the isolation node's judged / input values
             kinds = (["cannot_judge"] if values.get("judged") == "false" else []) + \
