@@ -450,10 +450,8 @@ READS = {
     "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
     "wheel_allocation": lambda p: [*(tcv_command(a) for a in BODY_AXES), ATTITUDE, WHEELS]
                                   + ([DIAGNOSTICS] if p.get("fdir", True) else []) + _run_end(p),
-    "elman_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
-    "linear_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
-    "model_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
-    "plugin_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
+    **dict.fromkeys(("elman_observer", "linear_observer", "model_observer", "plugin_observer"),
+                    lambda p: [FDI_TELEMETRY] + _run_end(p)),
     "momentum_dumping": lambda p: [MAGNETOMETER, WHEELS] + ([FDIR_WHEELS] if p.get("fdir", True) else [])
                                   + _run_end(p),
     "isolation": lambda p: [FDI_TELEMETRY, FDI_BUS_GRID, *residual_inputs(_fdi_observers(p)[0], _wheel_set(p),
