@@ -30,8 +30,9 @@ def make_bag(path, faults, alarms, seed=1, residual_above=None, observers=T.OBSE
     vec_t = "geometry_msgs/msg/Vector3Stamped"
     w.add_topic(T.SCENARIO, "std_msgs/msg/String")
     wheels = [obs for obs in observers if obs != "elman"]   # one topic for the three wheels
-    for topic in [T.FAULT_EFFECT, *map(T.residual_topic, wheels), T.bound_topic("linear")] + \
-            [T.residual_topic("elman", a) for a in WHEELS]:
+    elman = [T.observer_topic("elman", "residual", a) for a in WHEELS]
+    for topic in [T.FAULT_EFFECT, *(T.observer_topic(obs, "residual") for obs in wheels),
+                  T.observer_topic("linear", "ripple_bound"), *elman]:
         w.add_topic(topic, vec_t)
     for obs in observers:
         for k in ("threshold", "alarm"):
@@ -51,12 +52,12 @@ def make_bag(path, faults, alarms, seed=1, residual_above=None, observers=T.OBSE
             w.write_message(T.fdi_output_topics(obs)["threshold"], ns, vec(t, threshold))
             w.write_message(T.fdi_output_topics(obs)["alarm"], ns, vec(t, alarm))
         for obs in wheels:
-            w.write_message(T.residual_topic(obs), ns, vec(t, residual))
-        w.write_message(T.bound_topic("linear"), ns, vec(t, [linear_bound] * 3))
+            w.write_message(T.observer_topic(obs, "residual"), ns, vec(t, residual))
+        w.write_message(T.observer_topic("linear", "ripple_bound"), ns, vec(t, [linear_bound] * 3))
         for i, a in enumerate(WHEELS):
             own = [0.0, 0.0, 0.0]
             own[i] = residual[i]
-            w.write_message(T.residual_topic("elman", a), ns, vec(t, own))
+            w.write_message(T.observer_topic("elman", "residual", a), ns, vec(t, own))
     w.close()
     return path
 

@@ -117,15 +117,15 @@ def test_live_residuals_equal_offline_residuals_of_the_same_code(runs, case, met
     assert offline.method == method
     assert offline.wheels == ("x", "y", "z", "s")
     for i, a in enumerate(offline.wheels):   # one Elman node per wheel, the redundant s included
-        _, live = data.wheel_values(T.residual_topic("elman", a))
+        _, live = data.wheel_values(T.observer_topic("elman", "residual", a))
         np.testing.assert_allclose(live[:, 0], offline.residual["elman"][:, i], rtol=0, atol=1e-15)
-        _, live = data.wheel_values(T.bound_topic("elman", a))
+        _, live = data.wheel_values(T.observer_topic("elman", "ripple_bound", a))
         np.testing.assert_allclose(live[:, 0], offline.bound["elman"][:, i], rtol=0, atol=1e-15)
     assert list(offline.residual) == list(observers_of(method))
     for obs in observers_of(method)[1:]:   # the observers of every wheel at once
-        _, live = data.wheel_values(T.residual_topic(obs))
+        _, live = data.wheel_values(T.observer_topic(obs, "residual"))
         np.testing.assert_allclose(live, offline.residual[obs], rtol=0, atol=1e-15)
-        _, live = data.wheel_values(T.bound_topic(obs))
+        _, live = data.wheel_values(T.observer_topic(obs, "ripple_bound"))
         np.testing.assert_allclose(live, offline.bound[obs], rtol=0, atol=1e-15)
 
 
@@ -147,8 +147,8 @@ def test_a_thesis_run_replays_to_its_live_result_without_a_model_observer(runs, 
             assert len(ta) == CASE_DURATION + 1
             np.testing.assert_array_equal(ta, tb)
             np.testing.assert_array_equal(va, vb)
-    np.testing.assert_array_equal(a.wheel_values(T.residual_topic("linear"))[1],
-                                  b.wheel_values(T.residual_topic("linear"))[1])
+    np.testing.assert_array_equal(a.wheel_values(T.observer_topic("linear", "residual"))[1],
+                                  b.wheel_values(T.observer_topic("linear", "residual"))[1])
     assert np.any(b.wheel_values(T.fdi_output_topics("linear")["alarm"])[1])   # the fault was seen
 
 

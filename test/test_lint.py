@@ -16,18 +16,44 @@ def test_ruff_finds_nothing_in_the_tree():
     assert "All checks passed" in result.stdout
 
 
-def undocumented(path: Path) -> list:
-    """The public functions and methods of ``path`` (properties exempt) whose docstring lacks a numpydoc
-    Parameters section (when they take arguments besides self/cls) or Returns section (when annotated with
-    a non-None return)."""
-    out = []
+def documented_methods(paths) -> dict:
+    """Class name -> (its bases' names, the names of its methods with a docstring), of every class in ``paths``."""
+    classes = {}
+    for path in paths:
+        for n in ast.walk(ast.parse(path.read_text())):
+            if isinstance(n, ast.ClassDef):
+                bases = [b.id if isinstance(b, ast.Name) else getattr(b, "attr", "") for b in n.bases]
+                methods = [f for f in n.body if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef))]
+                classes[n.name] = (bases, {f.name for f in methods if ast.get_docstring(f)})
+    return classes
+
+
+def inherits_doc(classes: dict, cls: str, method: str) -> bool:
+    """Whether a base class of ``cls`` (among ``classes``, by name) documents ``method``: its docstring is
+    inherited, as Sphinx's autodoc_inherit_docstrings has it."""
+    bases = list(classes.get(cls, ((), ()))[0])
+    while bases:
+        base = bases.pop()
+        if base in classes:
+            if method in classes[base][1]:
+                return True
+            bases += classes[base][0]
+    return False
+
+
+def undocumented(path: Path, classes: dict | None = None) -> list:
+    """The public functions and methods of ``path`` (properties, and methods overriding one a base class of
+    ``classes`` documents, exempt) whose docstring lacks a numpydoc Parameters section (when they take
+    arguments besides self/cls) or Returns section (when annotated with a non-None return)."""
+    out, classes = [], classes or {}
 
     def visit(body, prefix=""):
         for n in body:
             if isinstance(n, ast.ClassDef) and not n.name.startswith("_"):
                 visit(n.body, f"{prefix}{n.name}.")
             elif isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and not n.name.startswith("_") and not any(
-                    isinstance(d, ast.Name) and d.id in ("property", "cached_property") for d in n.decorator_list):
+                    isinstance(d, ast.Name) and d.id in ("property", "cached_property") for d in n.decorator_list) \
+                    and not (prefix and inherits_doc(classes, prefix.split(".")[-2], n.name)):
                 doc = ast.get_docstring(n) or ""
                 args = [a for a in n.args.args + n.args.kwonlyargs if a.arg not in ("self", "cls")]
                 returns = n.returns is not None and not (isinstance(n.returns, ast.Constant)
@@ -41,6 +67,7 @@ def undocumented(path: Path) -> list:
 
 
 def test_public_functions_have_numpydoc_parameters_and_returns():
-    missing = [m for room in ("core", "graph", "nodes") for f in sorted((ROOT / "rw_fdi_ros" / room).rglob("*.py"))
-               for m in undocumented(f)]
+    files = [f for room in ("core", "graph", "nodes") for f in sorted((ROOT / "rw_fdi_ros" / room).rglob("*.py"))]
+    classes = documented_methods(files)
+    missing = [m for f in files for m in undocumented(f, classes)]
     assert not missing, "\n".join(missing)

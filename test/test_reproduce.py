@@ -84,8 +84,8 @@ def _same_fdi_result(live_bag, replayed_bag):
             np.testing.assert_array_equal(ta, tb)
             np.testing.assert_array_equal(va, vb)
     for wheel in ("x", "y", "z", "s"):
-        np.testing.assert_array_equal(a.wheel_values(T.residual_topic("elman", wheel))[1],
-                                      b.wheel_values(T.residual_topic("elman", wheel))[1])
+        np.testing.assert_array_equal(a.wheel_values(T.observer_topic("elman", "residual", wheel))[1],
+                                      b.wheel_values(T.observer_topic("elman", "residual", wheel))[1])
     assert [m.status for _, m in a.topic(T.IDENTIFICATION)] == [m.status for _, m in b.topic(T.IDENTIFICATION)]
     return a
 

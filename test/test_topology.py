@@ -71,7 +71,7 @@ def test_the_counts_are_the_graph_we_know():
 
 def test_a_node_added_to_the_table_is_waited_for(monkeypatch):
     before = counts(run_graph(True, True))
-    monitor = [T.ATTITUDE, T.residual_topic("linear"), T.bound_topic("linear")]
+    monitor = [T.ATTITUDE, T.observer_topic("linear", "residual"), T.observer_topic("linear", "ripple_bound")]
     monkeypatch.setitem(T.READS, "monitor", lambda p: monitor)
     after = counts(with_reader_counts(run_graph(True, True) + [NodeSpec("monitor", "monitor")]))
     assert after["plant"]["attitude_readers"] == before["plant"]["attitude_readers"] + 1
@@ -86,7 +86,8 @@ def test_the_thesis_method_runs_its_two_observers():
     assert "model_observer" not in {n.name for n in nodes}
     assert counts(nodes)["plant"]["fdi_readers"] == 7
     iso = next(n for n in nodes if n.name == "isolation")
-    assert T.residual_topic("model") not in T.reads(iso) and T.residual_topic("linear") in T.reads(iso)
+    assert T.observer_topic("model", "residual") not in T.reads(iso)
+    assert T.observer_topic("linear", "residual") in T.reads(iso)
     # the recorders record (and wait at the run's end for) the observers that run, live and in replay
     replay = replay_nodes(["a"], ["a_out"], {"method": "thesis"}, DEFAULT.as_dict())
     for graph in (nodes, replay):
@@ -94,7 +95,7 @@ def test_the_thesis_method_runs_its_two_observers():
         assert not any(t.startswith("/fdi/model/") for t in recorded), recorded
         assert T.fdi_output_topics("linear")["alarm"] in recorded
     live = T.reads(next(n for n in run_graph(True, True) if n.name == "recorder"))
-    assert T.fdi_output_topics("model")["alarm"] in live and T.residual_topic("model") in live
+    assert T.fdi_output_topics("model")["alarm"] in live and T.observer_topic("model", "residual") in live
 
 
 def test_a_node_the_table_does_not_know_is_an_error_not_a_stall():
@@ -105,7 +106,7 @@ def test_a_node_the_table_does_not_know_is_an_error_not_a_stall():
 def test_one_count_for_topics_with_different_readers_is_refused(monkeypatch):
     """The linear observer's min_subscribers counts residual and bound: a reader of one alone needs a
     parameter of its own, not a silently wrong wait on the other."""
-    monkeypatch.setitem(T.READS, "monitor", lambda p: [T.residual_topic("linear")])
+    monkeypatch.setitem(T.READS, "monitor", lambda p: [T.observer_topic("linear", "residual")])
     with pytest.raises(ValueError, match="linear_observer: parameter min_subscribers counts"):
         with_reader_counts(run_graph(True, False) + [NodeSpec("monitor", "monitor")])
 

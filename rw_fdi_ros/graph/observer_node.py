@@ -36,7 +36,7 @@ from .wheel_type import declare_wheel_type
 class ObserverNode(GraphNode):
     """Base of the observer nodes; subclasses implement ``observe`` and ``reset``."""
 
-    def __init__(self, name: str):
+    def __init__(self, name: str | None = None):
         super().__init__(name)
         self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)  # the wheels the telemetry reports (wheel_set.py)
         self.declare_parameter("fdi_period", 1.0)       # [s] FDI sample period (and discretisation period)
@@ -70,23 +70,22 @@ class ObserverNode(GraphNode):
         self.said_no_free = False   # telemetry without free_motor_torque is said once
         self.input = InputMonitor("FDI telemetry", self.param("fdi_period"))
 
-    def start(self, estimate_topic: str, residual_topic: str, bound_topic: str):
+    def start(self, slot: str, axis: str | None = None):
         """Publishers and subscriptions, once the subclass knows its topics.
 
         Parameters
         ----------
-        estimate_topic : str
-            Where r^ goes [N m].
-        residual_topic : str
-            Where the residual goes [N m].
-        bound_topic : str
-            Where the ripple bound goes [N m].
+        slot : str
+            The observer slot whose estimate, residual and ripple bound [N m] go out (graph.topics.observer_topic).
+        axis : str or None
+            The wheel of an Elman node; None: one topic for all the wheels.
         """
-        def pub(topic, readers):
+        def pub(kind, readers):
+            topic = T.observer_topic(slot, kind, axis)
             return GatedPublisher(self.create_publisher(JointState, topic, T.RELIABLE), self.param(readers))
-        self.pub_estimate = pub(estimate_topic, "estimate_readers")
-        self.pub_residual = pub(residual_topic, "min_subscribers")
-        self.pub_bound = pub(bound_topic, "min_subscribers")
+        self.pub_estimate = pub("estimate", "estimate_readers")
+        self.pub_residual = pub("residual", "min_subscribers")
+        self.pub_bound = pub("ripple_bound", "min_subscribers")
         self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
         self.follow_run_end(period=self.param("fdi_period"))
 
@@ -196,13 +195,7 @@ class ObserverNode(GraphNode):
             self.finish()
 
     def timing(self):
-        """Figures for ``rw-fdi bench``: the node's compute and callback times.
-
-        Returns
-        -------
-        dict
-            graph.timing.summary of them.
-        """
+        """Figures for ``rw-fdi bench``: the node's compute and callback times."""
         from .timing import summary
         return summary(compute=self.compute, callback=self.callback, callback_cpu=self.callback_cpu)
 
@@ -229,14 +222,14 @@ class WheelsObserverNode(ObserverNode):
         return 0.0
     needs_speed = False                   # it reads the wheel speed: speed_aware only
 
-    def __init__(self, name: str):
+    def __init__(self, name: str | None = None):
         super().__init__(name)
         self.declare_own_parameters()   # a plug-in's node learns its slot here
         if self.needs_speed and not self.speed_aware:
             raise NodeError(f"the {self.slot} observer needs fdi.method speed_aware (it reads the wheel speed)",
                             EXIT_BAD_INPUT)
         self.reset()
-        self.start(T.estimate_topic(self.slot), T.residual_topic(self.slot), T.bound_topic(self.slot))
+        self.start(self.slot)
 
     def reset(self):
         self.filters = [self.signed_residual(self.uncertainty_gain(w)) if self.speed_aware
@@ -261,18 +254,7 @@ class WheelsObserverNode(ObserverNode):
         raise NotImplementedError
 
     def observe(self, sample):
-        """(estimate, residual, bound) of every wheel for one FdiSample: thesis' |r - r^| mean or speed-aware.
-
-        Parameters
-        ----------
-        sample : core.fdi.telemetry.FdiSample
-            The FDI sample.
-
-        Returns
-        -------
-        tuple of numpy.ndarray
-            (N,) each: estimate r^ (calibrated when the node calibrates), residual, ripple bound [N m].
-        """
+        """(estimate, residual, bound) of every wheel for one FdiSample: thesis' |r - r^| mean or speed-aware."""
         estimate, torque = self.estimate(sample), sample.reaction_torque
         if not self.speed_aware:
             return (estimate, np.array([f.update(r, e) for f, r, e in zip(self.filters, torque, estimate)]),

@@ -66,10 +66,11 @@ def relative(topic: str) -> str:
 
 class GraphNode(Node):
     """A node whose process ends when it says so (finish/fail), not only on a signal. Its topics are the
-    graph table's names resolved in its namespace (:func:`relative`)."""
+    graph table's names resolved in its namespace (:func:`relative`). Its name is the class' ``node_name``
+    unless given another (composition)."""
 
-    def __init__(self, name: str, **kwargs):
-        super().__init__(name, **kwargs)
+    def __init__(self, name: str | None = None, **kwargs):
+        super().__init__(name or self.node_name, **kwargs)
         self.exit_code: int | None = None
         self.exit_message = ""
 

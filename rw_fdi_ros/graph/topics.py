@@ -172,25 +172,9 @@ VERDICT_STATUS = "rw_fdi: reaction wheel"
 FDIR_STATUS = "fdir: reaction wheel"
 
 
-def is_verdict(status) -> bool:
-    """Whether a /diagnostics status is the FDI's verdict on a wheel (not FDIR's state of it).
-
-    Parameters
-    ----------
-    status : diagnostic_msgs.msg.DiagnosticStatus
-        One status of a /diagnostics message.
-
-    Returns
-    -------
-    bool
-        Whether it is a verdict.
-    """
-    return status.name.startswith(VERDICT_STATUS)
-
-
 def verdict_statuses(msg) -> list:
-    """The FDI verdict statuses of a /diagnostics message (an rclpy or a rosbags one), in its order:
-    FDIR's state of the wheels, on the same topic, left out.
+    """The FDI verdict statuses of a /diagnostics message (an rclpy or a rosbags one), in its order: those
+    named VERDICT_STATUS, FDIR's state of the wheels, on the same topic, left out.
 
     Parameters
     ----------
@@ -202,7 +186,7 @@ def verdict_statuses(msg) -> list:
     list
         Its verdict statuses.
     """
-    return [s for s in msg.status if is_verdict(s)]
+    return [s for s in msg.status if s.name.startswith(VERDICT_STATUS)]
 
 
 def writer_counts(record_plant: bool) -> dict:
@@ -226,13 +210,20 @@ IDENTIFICATION = "/fdi/identification"   # fault kind and size per alarmed wheel
 
 # The observers' and the isolation node's per-wheel outputs are JointStates: name = the wheels' joints,
 # effort = the value ([N m]; an alarm 1 or 0). An Elman node watches one wheel: its messages hold that joint.
-def estimate_topic(observer: str, axis: str | None = None) -> str:
-    """Estimated reaction torque [N m]; the Elman nodes publish one per wheel (its own joint).
+OBSERVER_OUTPUTS = ("estimate", "residual", "ripple_bound")
+
+
+def observer_topic(observer: str, kind: str, axis: str | None = None) -> str:
+    """One of an observer's per-wheel outputs; the Elman nodes publish one of each per wheel (its own joint).
 
     Parameters
     ----------
     observer : str
         The observer's name.
+    kind : str
+        One of OBSERVER_OUTPUTS: 'estimate', the estimated reaction torque [N m]; 'residual', the 40-sample
+        mean of r - r^ (speed_aware, signed) or of |r - r^| (thesis) [N m]; 'ripple_bound', what aliased
+        commutation ripple can add to the residual [N m] (speed_aware; 0 for thesis).
     axis : str or None
         The wheel of an Elman node; None: one topic for all the wheels.
 
@@ -241,43 +232,9 @@ def estimate_topic(observer: str, axis: str | None = None) -> str:
     str
         The topic's name.
     """
-    return f"/fdi/{observer}/{axis}/estimate" if axis else f"/fdi/{observer}/estimate"
-
-
-def residual_topic(observer: str, axis: str | None = None) -> str:
-    """Residual [N m]: 40-sample mean of r - r^ (speed_aware, signed) or of |r - r^| (thesis).
-
-    Parameters
-    ----------
-    observer : str
-        The observer's name.
-    axis : str or None
-        The wheel of an Elman node; None: one topic for all the wheels.
-
-    Returns
-    -------
-    str
-        The topic's name.
-    """
-    return f"/fdi/{observer}/{axis}/residual" if axis else f"/fdi/{observer}/residual"
-
-
-def bound_topic(observer: str, axis: str | None = None) -> str:
-    """What aliased commutation ripple can add to the residual [N m] (speed_aware; 0 for thesis).
-
-    Parameters
-    ----------
-    observer : str
-        The observer's name.
-    axis : str or None
-        The wheel of an Elman node; None: one topic for all the wheels.
-
-    Returns
-    -------
-    str
-        The topic's name.
-    """
-    return f"/fdi/{observer}/{axis}/ripple_bound" if axis else f"/fdi/{observer}/ripple_bound"
+    if kind not in OBSERVER_OUTPUTS:
+        raise ValueError(f"kind must be one of {', '.join(OBSERVER_OUTPUTS)}, got {kind!r}")
+    return f"/fdi/{observer}/{axis}/{kind}" if axis else f"/fdi/{observer}/{kind}"
 
 
 def fdi_output_topics(observer: str):
@@ -319,8 +276,8 @@ def _fdi_rows(method: str | None = None, wheel_set: str = DEFAULT_WHEEL_SET, plu
     plug-in observers of slots ``plugins``."""
     rows, observers = [], (OBSERVERS if method is None else observers_of(method)) + tuple(plugins)
     for obs in observers:
-        rows += [(f(obs, axis), JOINT_STATE, "RELIABLE") for axis in observer_axes(obs, wheel_set)
-                 for f in (estimate_topic, residual_topic, bound_topic)]
+        rows += [(observer_topic(obs, kind, axis), JOINT_STATE, "RELIABLE") for axis in observer_axes(obs, wheel_set)
+                 for kind in OBSERVER_OUTPUTS]
     for obs in observers:
         out = fdi_output_topics(obs)
         rows += [(out["threshold"], JOINT_STATE, "RELIABLE"), (out["alarm"], JOINT_STATE, "RELIABLE"),
@@ -464,8 +421,8 @@ def residual_inputs(method: str = "speed_aware", wheel_set: str = DEFAULT_WHEEL_
     list of str
         The topics' names.
     """
-    return [f(obs, a) for obs in (*observers_of(method), *plugins) for a in observer_axes(obs, wheel_set)
-            for f in (residual_topic, bound_topic)]
+    return [observer_topic(obs, kind, a) for obs in (*observers_of(method), *plugins)
+            for a in observer_axes(obs, wheel_set) for kind in ("residual", "ripple_bound")]
 
 
 def _fdi_observers(p) -> tuple:
@@ -493,10 +450,8 @@ READS = {
     "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
     "wheel_allocation": lambda p: [*(tcv_command(a) for a in BODY_AXES), ATTITUDE, WHEELS]
                                   + ([DIAGNOSTICS] if p.get("fdir", True) else []) + _run_end(p),
-    "elman_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
-    "linear_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
-    "model_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
-    "plugin_observer": lambda p: [FDI_TELEMETRY] + _run_end(p),
+    **dict.fromkeys(("elman_observer", "linear_observer", "model_observer", "plugin_observer"),
+                    lambda p: [FDI_TELEMETRY] + _run_end(p)),
     "momentum_dumping": lambda p: [MAGNETOMETER, WHEELS] + ([FDIR_WHEELS] if p.get("fdir", True) else [])
                                   + _run_end(p),
     "isolation": lambda p: [FDI_TELEMETRY, FDI_BUS_GRID, *residual_inputs(_fdi_observers(p)[0], _wheel_set(p),
@@ -513,8 +468,8 @@ READS = {
 
 
 def _observer_waits(observer: str, axis: str | None) -> dict:
-    return {"estimate_readers": [estimate_topic(observer, axis)],
-            "min_subscribers": [residual_topic(observer, axis), bound_topic(observer, axis)]}
+    return {"estimate_readers": [observer_topic(observer, "estimate", axis)],
+            "min_subscribers": [observer_topic(observer, kind, axis) for kind in ("residual", "ripple_bound")]}
 
 
 # executable -> its parameters -> {parameter: the topics of its own whose readers that parameter counts}

@@ -20,8 +20,8 @@ from ..graph.runtime import EXIT_BAD_INPUT, NodeError, main_for
 class ElmanObserverNode(ObserverNode):
     node_name = "elman_observer"
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
+    def __init__(self, name: str | None = None):
+        super().__init__(name)
         self.declare_parameter("wheel", self.joints[0])   # the wheel joint this network watches
         try:
             axis = T.axis_of_joint(self.param("wheel"), self.joints)
@@ -40,7 +40,7 @@ class ElmanObserverNode(ObserverNode):
         self.out_joints = (self.param("wheel"),)
         self.weights = weights
         self.reset()
-        self.start(T.estimate_topic("elman", axis), T.residual_topic("elman", axis), T.bound_topic("elman", axis))
+        self.start("elman", axis)
 
     def reset(self):
         # the measured torque while the wheel stands by, recall from its first running sample (elman.WheelRecall)
@@ -50,18 +50,7 @@ class ElmanObserverNode(ObserverNode):
                          else ResidualFilter(window))
 
     def observe(self, sample):
-        """(estimate, residual, bound) of this node's wheel for one FdiSample: the network's recall and its residual.
-
-        Parameters
-        ----------
-        sample : core.fdi.telemetry.FdiSample
-            The FDI sample.
-
-        Returns
-        -------
-        tuple of list
-            ([r^], [residual], [ripple bound]) [N m], the estimate calibrated when the node calibrates.
-        """
+        """(estimate, residual, bound) of this node's wheel for one FdiSample: the network's recall and its residual."""
         i = self.index
         u, r = float(sample.tcv[i]), float(sample.reaction_torque[i])
         if self.speed_aware:

@@ -91,8 +91,8 @@ def _status(name, axis, residual, threshold, alarm, first, extra=(), identificat
 class IsolationNode(GraphNode):
     node_name = "isolation"
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
+    def __init__(self, name: str | None = None):
+        super().__init__(name)
         self.declare_parameter("latch", True)               # a confirmed failure stays until ~/reset
         self.declare_parameter("await_bus_grid", False)     # each report waits for its grid from the first on
         self.declare_parameter("input_timeout", 10.0)       # wall s an input may be silent before it is said
@@ -155,13 +155,12 @@ class IsolationNode(GraphNode):
         """Subscribe to an observer's residual and bound topics (one per wheel for the Elman nodes, one for
         all the wheels otherwise) and decide its rows stamp by stamp once every topic of the stamp is in."""
         axes = T.observer_axes(observer, self.wheel_set)
-        topics = {(kind, a): topic(observer, a) for a in axes
-                  for kind, topic in (("residual", T.residual_topic), ("bound", T.bound_topic))}
+        topics = {(kind, a): T.observer_topic(observer, kind, a) for a in axes for kind in ("residual", "ripple_bound")}
 
         def row(stamp, v):
             def column(kind):   # a per-wheel node's messages carry its own wheel only
                 return v[kind, None] if axes == (None,) else [v[kind, a][0] for a in self.names]
-            self._on_residual(observer, stamp, column("residual"), column("bound"))
+            self._on_residual(observer, stamp, column("residual"), column("ripple_bound"))
         sync = StampSync(tuple(topics), row)
         for key, topic in topics.items():
             sync.subscribe(self, key, topic, T.RELIABLE)
@@ -240,7 +239,7 @@ class IsolationNode(GraphNode):
         # /diagnostics: latched, and not judged for a wheel outside the operating envelope
         self.envelope = self.verdict.judged(sample.wheel_speed)
         self.speeds = sample.wheel_speed
-        decided = self.isolation.decide(handled, sample.wheel_speed)
+        decided = self.isolation.verdict.decide(handled, sample.wheel_speed)
         finite = all(np.all(np.isfinite(x)) for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed,
                                                         sample.ripple_phasor, sample.bus_motor_torque,
                                                         sample.model_torque, sample.motor_torque,
@@ -391,13 +390,7 @@ class IsolationNode(GraphNode):
             self.finish()
 
     def timing(self):
-        """Figures for ``rw-fdi bench``: the node's callback times.
-
-        Returns
-        -------
-        dict
-            graph.timing.summary of them.
-        """
+        """Figures for ``rw-fdi bench``: the node's callback times."""
         from ..graph.timing import summary
         return summary(callback=self.compute, callback_cpu=self.compute_cpu)
 

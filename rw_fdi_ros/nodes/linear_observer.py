@@ -23,22 +23,8 @@ class LinearObserverNode(WheelsObserverNode):
     slot = "linear"
 
     def uncertainty_gain(self, wheel: str) -> float:
-        """kappa of a wheel: the linear observer's model error term (core.fdi.linear_observer.uncertainty_gain).
-
-        Parameters
-        ----------
-        wheel : str
-            The wheel's name.
-
-        Returns
-        -------
-        float
-            kappa [-].
-        """
+        """kappa of a wheel: the linear observer's model error term (core.fdi.linear_observer.uncertainty_gain)."""
         return uncertainty_gain(wheel)
-
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
 
     def declare_own_parameters(self):
         self.declare_parameter("speed_up", 4.0)      # observer pole / wheel pole (thesis 3.3)
@@ -49,18 +35,7 @@ class LinearObserverNode(WheelsObserverNode):
         super().reset()
 
     def estimate(self, sample):
-        """r^ of every wheel: the linear observer's update on the command and the measured reaction torque.
-
-        Parameters
-        ----------
-        sample : core.fdi.telemetry.FdiSample
-            The FDI sample.
-
-        Returns
-        -------
-        numpy.ndarray
-            (N,) r^ [N m].
-        """
+        """r^ of every wheel: the linear observer's update on the command and the measured reaction torque."""
         return self.observer.update(sample.tcv, sample.reaction_torque)
 
 

@@ -25,8 +25,8 @@ END_GRACE = 2.0   # [wall s] it serves after /plant/done: a client gets the run'
 class LiveViewNode(GraphNode):
     node_name = "live_view"
 
-    def __init__(self, name: str | None = None, **kwargs):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name, **kwargs)
+    def __init__(self, name: str | None = None, **kwargs):
+        super().__init__(name, **kwargs)
         self.declare_parameter("host", "127.0.0.1")       # the WebSocket server's address (0.0.0.0: any)
         self.declare_parameter("port", 8765)              # its port (0: any free one, logged)
         self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)

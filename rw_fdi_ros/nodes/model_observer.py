@@ -20,22 +20,8 @@ class ModelObserverNode(WheelsObserverNode):
     slot = "model"
     needs_speed = True
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
-
     def estimate(self, sample):
-        """r^ of every wheel: the plant model's, as the telemetry report carries it.
-
-        Parameters
-        ----------
-        sample : core.fdi.telemetry.FdiSample
-            The FDI sample.
-
-        Returns
-        -------
-        numpy.ndarray
-            (N,) r^ [N m].
-        """
+        """r^ of every wheel: the plant model's, as the telemetry report carries it."""
         return sample.model_torque
 
 

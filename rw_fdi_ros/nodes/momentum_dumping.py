@@ -30,8 +30,8 @@ IN_USE_STATES = ("in_use", "kept_in_use")   # convert.wheel_states_msg's states 
 class MomentumDumpingNode(GraphNode):
     node_name = "momentum_dumping"
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
+    def __init__(self, name: str | None = None):
+        super().__init__(name)
         default = MomentumDumping()
         self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)          # core/physics/wheel_set.py
         self.declare_parameter("dipole_limit", default.dipole_limit)   # [A m^2] per rod

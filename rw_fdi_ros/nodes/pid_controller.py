@@ -25,8 +25,8 @@ from ..graph.wheel_type import declare_wheel_type
 class PidControllerNode(GraphNode):
     node_name = "pid_controller"
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
+    def __init__(self, name: str | None = None):
+        super().__init__(name)
         self.declare_parameter("joint", T.ATTITUDE_JOINTS[0])   # the attitude joint this controller holds
         try:
             axis = T.axis_of_joint(self.param("joint"), T.ATTITUDE_JOINTS)

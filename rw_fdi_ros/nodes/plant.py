@@ -40,8 +40,8 @@ from ..graph.runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, 
 class PlantNode(GraphNode):
     node_name = "plant"
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
+    def __init__(self, name: str | None = None):
+        super().__init__(name)
         self.t_created = wall_time()
         self.t_first = self.t_last = None   # wall time of the first and the last step published
         self.declare_parameter("scenario", "fault_free")
@@ -265,13 +265,7 @@ class PlantNode(GraphNode):
             self.finish()
 
     def timing(self):
-        """Figures for ``rw-fdi bench``: the node's phases and step times.
-
-        Returns
-        -------
-        dict
-            Figure name -> value.
-        """
+        """Figures for ``rw-fdi bench``: the node's phases and step times."""
         from ..graph.timing import summary
         phases = {}
         if self.t_first is not None:

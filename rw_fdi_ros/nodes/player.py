@@ -35,8 +35,8 @@ PLANT_OUTPUTS = [T.CLOCK, T.ATTITUDE, T.WHEELS, T.FAULT_EFFECT, T.FDI_BUS_GRID, 
 class PlayerNode(GraphNode):
     node_name = "player"
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
+    def __init__(self, name: str | None = None):
+        super().__init__(name)
         self.declare_parameter("bag", "")
         self.declare_parameter("bags", Parameter.Type.STRING_ARRAY)  # several bags, in order (else ``bag``)
         self.declare_parameter("topics", Parameter.Type.STRING_ARRAY)  # default: the plant's outputs

@@ -20,9 +20,6 @@ class PluginObserverNode(WheelsObserverNode):
     node_name = "plugin_observer"
     needs_speed = True   # its residual is the speed-aware one, with the ripple bound
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
-
     def declare_own_parameters(self):
         self.declare_parameter("observer", "")         # entry point name, module:Class or file.py:Class
         self.declare_parameter("observer_state", "")   # its observer_<slot>.json (empty: untrained)
@@ -46,18 +43,7 @@ class PluginObserverNode(WheelsObserverNode):
                          self.calibration_samples)
 
     def uncertainty_gain(self, wheel: str) -> float:
-        """kappa of a wheel, as the user's observer declares it.
-
-        Parameters
-        ----------
-        wheel : str
-            The wheel's name.
-
-        Returns
-        -------
-        float
-            kappa [-].
-        """
+        """kappa of a wheel, as the user's observer declares it."""
         return self.gains[wheel]
 
     def reset(self):
@@ -65,18 +51,7 @@ class PluginObserverNode(WheelsObserverNode):
         super().reset()
 
     def estimate(self, sample):
-        """r^ of every wheel: the user's observer's step (NodeError, one line, when its code fails).
-
-        Parameters
-        ----------
-        sample : core.fdi.telemetry.FdiSample
-            The FDI sample.
-
-        Returns
-        -------
-        numpy.ndarray
-            (N,) r^ [N m].
-        """
+        """r^ of every wheel: the user's observer's step (NodeError, one line, when its code fails)."""
         try:
             return self.run.step(sample)
         except ObserverError as exc:   # the user's code failed: one line naming it, not a traceback

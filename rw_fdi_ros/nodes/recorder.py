@@ -35,8 +35,8 @@ from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall
 class RecorderNode(GraphNode):
     node_name = "recorder"
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
+    def __init__(self, name: str | None = None):
+        super().__init__(name)
         self.declare_parameter("output", "bags/run")          # bag directory to create
         self.declare_parameter("outputs", Parameter.Type.STRING_ARRAY)  # one bag per run, in order (bag replay)
         self.declare_parameter("flush_period", 10.0)          # sim seconds between chunk flushes

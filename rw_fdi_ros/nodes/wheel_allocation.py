@@ -56,8 +56,8 @@ OPERATOR = "operator command"
 class WheelAllocationNode(GraphNode):
     node_name = "wheel_allocation"
 
-    def __init__(self, name: str | None = None):   # name: another than node_name (composition)
-        super().__init__(name or self.node_name)
+    def __init__(self, name: str | None = None):
+        super().__init__(name)
         self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)   # core/physics/wheel_set.py
         self.declare_parameter("control_period", 0.1)            # the lockstep tick [s]
         self.declare_parameter("fdir", True)                     # act on /diagnostics (false: no FDI in the graph)

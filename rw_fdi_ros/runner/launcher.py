@@ -197,15 +197,16 @@ def node_command(n, params_file, python: str = sys.executable, namespace: str = 
     list of str
         The command line.
     """
-    exe = installed_executable(n.executable)
-    return ([str(exe)] if exe else [python, "-m", n.module]) + [
-        "--ros-args", "-r", f"__node:={n.name}", *_namespace_args(namespace), "--params-file", str(params_file),
-        "--log-level", "warn"]
+    return _command(n.executable, n.module, [], ["-r", f"__node:={n.name}"], params_file, python, namespace)
 
 
-def _namespace_args(namespace: str) -> list:
-    """The remapping that puts every node of a process in ``namespace`` (none for '')."""
-    return ["-r", f"__ns:=/{namespace.strip('/')}"] if namespace else []
+def _command(executable: str, module: str, args: list, remaps: list, params_file, python: str, namespace: str):
+    """``executable`` installed, or ``module`` run by ``python``, with ``args`` and its ROS arguments: ``remaps``,
+    the remapping that puts every node of the process in ``namespace`` (none for ''), the parameters file."""
+    exe = installed_executable(executable)
+    return ([str(exe)] if exe else [python, "-m", module]) + args + [
+        "--ros-args", *remaps, *(["-r", f"__ns:=/{namespace.strip('/')}"] if namespace else []),
+        "--params-file", str(params_file), "--log-level", "warn"]
 
 
 def process_command(process, params_file, python: str = sys.executable, namespace: str = "") -> list:
@@ -228,10 +229,8 @@ def process_command(process, params_file, python: str = sys.executable, namespac
     """
     if len(process.nodes) == 1:
         return node_command(process.nodes[0], params_file, python, namespace)
-    exe = installed_executable("composed")
-    return ([str(exe)] if exe else [python, "-m", "rw_fdi_ros.nodes.composed"]) + [
-        f"{n.name}={n.executable}" for n in process.nodes] + [
-        "--ros-args", *_namespace_args(namespace), "--params-file", str(params_file), "--log-level", "warn"]
+    return _command("composed", "rw_fdi_ros.nodes.composed", [f"{n.name}={n.executable}" for n in process.nodes], [],
+                    params_file, python, namespace)
 
 
 class GraphProcesses:

@@ -54,7 +54,7 @@ def _plot_residuals(data, path: Path) -> Path:
     for row, obs in enumerate(observers):
         t_c, thr = data.wheel_values(T.fdi_output_topics(obs)["threshold"])
         t_r, res = bag_series.observer_vectors(data, obs, wheels=tuple(wheels))
-        _, bound = bag_series.observer_vectors(data, obs, T.bound_topic, wheels=tuple(wheels))
+        _, bound = bag_series.observer_vectors(data, obs, "ripple_bound", wheels=tuple(wheels))
         for i, a in enumerate(wheels):
             ax = axes[row, i]
             speed_aware = bound.size and np.any(bound[:, i] != 0.0)

@@ -11,9 +11,7 @@ from ..scoring import bag_series, metrics
 
 def verdict_topics(plugins=()) -> list:
     """What :func:`fdi_verdict` and :func:`plot_residuals` read of a bag (with the plug-in slots ``plugins``')."""
-    from ..core.physics.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
-    bounds = [T.bound_topic(obs, a) for obs in (*T.OBSERVERS, *plugins)
-              for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
+    bounds = bag_series.any_wheel_topics("ripple_bound", (*T.OBSERVERS, *plugins))
     return [T.SCENARIO, T.ATTITUDE, T.FDIR_WHEELS, T.DIPOLE_COMMAND, *bag_series.fdi_output_topics(plugins), *bounds]
 
 
@@ -30,7 +28,7 @@ def fdi_verdict(data) -> dict:
         t, alarm = data.wheel_values(T.fdi_output_topics(obs)["alarm"])
         out[obs] = {a: metrics.alarm_intervals(t, alarm[:, i] > 0.5) for i, a in enumerate(wheels)}
     if "linear" in out["observers"] and "model" not in out["observers"]:
-        _, bound = data.wheel_values(T.bound_topic("linear"))
+        _, bound = data.wheel_values(T.observer_topic("linear", "ripple_bound"))
         if bound.size and np.any(bound != 0):   # speed-aware without a model slot: an older bag
             out["note"] = ("recorded before the observers had three slots: its linear observer is the model "
                            "observer (the nominal wheel model), not the Luenberger observer")

@@ -23,11 +23,29 @@ def fdi_output_topics(plugins=()) -> list:
         Every observer slot's residual topics (the Elman ones per wheel of any set), threshold and alarm
         topics, then /fdi/identification and /scenario.
     """
-    from ..core.physics.wheel_set import ALL_WHEEL_NAMES   # any set's Elman topics
     slots = (*OBSERVERS, *plugins)
-    rows = [T.residual_topic(obs, a) for obs in slots for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
-    return rows + [t for obs in slots for k, t in T.fdi_output_topics(obs).items() if k != "status"] + [
-        T.IDENTIFICATION, T.SCENARIO]
+    outputs = [t for obs in slots for k, t in T.fdi_output_topics(obs).items() if k != "status"]
+    return any_wheel_topics("residual", slots) + outputs + [T.IDENTIFICATION, T.SCENARIO]
+
+
+def any_wheel_topics(kind: str, slots) -> list:
+    """The observer output ``kind`` (graph.topics.OBSERVER_OUTPUTS) of every slot of ``slots``: the Elman
+    ones per wheel of any set, so that a bag of any wheel set is read whole.
+
+    Parameters
+    ----------
+    kind : str
+        'estimate', 'residual' or 'ripple_bound'.
+    slots : sequence of str
+        The observer slots.
+
+    Returns
+    -------
+    list of str
+        The topics' names, slot by slot.
+    """
+    from ..core.physics.wheel_set import ALL_WHEEL_NAMES
+    return [T.observer_topic(obs, kind, a) for obs in slots for a in (ALL_WHEEL_NAMES if obs == "elman" else (None,))]
 
 
 def wheels_of_bag(data) -> tuple:
@@ -51,8 +69,8 @@ def wheels_of_bag(data) -> tuple:
     return wheel_set(PlantChoices.from_recorded(recorded).wheel_set).names
 
 
-def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
-    """(time [s], values (n, wheels)) of one observer's ``topic`` (residual_topic, bound_topic, estimate_topic):
+def observer_vectors(data, observer: str, kind: str = "residual", wheels=None):
+    """(time [s], values (n, wheels)) of one observer's output ``kind`` (residual, ripple_bound, estimate):
     the Elman nodes' per-wheel topics, each carrying its own wheel (or, recorded before the redundant
     wheel, its own axis' component), joined into one.
 
@@ -62,8 +80,8 @@ def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
         The bag, read (storage.bag.read_bag or read_series).
     observer : str
         The observer slot.
-    topic : callable
-        ``topic(observer)`` or ``topic(observer, wheel)`` -> the topic name (graph.topics).
+    kind : str
+        One of graph.topics.OBSERVER_OUTPUTS.
     wheels : tuple of str, optional
         The run's wheel names; None: :func:`wheels_of_bag`.
 
@@ -76,9 +94,9 @@ def observer_vectors(data, observer: str, topic=T.residual_topic, wheels=None):
     """
     axes = T.observer_axes(observer)
     if axes == (None,):
-        return data.wheel_values(topic(observer))
+        return data.wheel_values(T.observer_topic(observer, kind))
     wheels = wheels or wheels_of_bag(data)
-    cols = [data.wheel_values(topic(observer, a)) for a in wheels]
+    cols = [data.wheel_values(T.observer_topic(observer, kind, a)) for a in wheels]
     n = min(len(t) for t, _ in cols)
     values = (np.stack([v[:n, i if v.shape[1] == 3 and len(wheels) == 3 else 0] for i, (_, v) in enumerate(cols)],
                        axis=1) if n else np.zeros((0, len(wheels))))
@@ -224,10 +242,8 @@ def diagnostics_alarms(path):
     faulty : ndarray of bool, shape (n, wheels)
         Whether each wheel's status is ERROR.
     """
-    from ..storage.bag import iter_messages, typestore
-    store, times, rows, joints = typestore(), [], [], None
-    for _, _, raw in iter_messages(path, [T.DIAGNOSTICS]):
-        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
+    times, rows, joints = [], [], None
+    for _, t, msg in _status_arrays(path, [T.DIAGNOSTICS]):
         statuses = T.verdict_statuses(msg)
         if not statuses:
             continue
@@ -236,10 +252,19 @@ def diagnostics_alarms(path):
         wheels = [levels.get(j) for j in joints]
         if None in wheels:
             continue
-        times.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+        times.append(t)
         rows.append([level == 2 for level in wheels])   # DiagnosticStatus.ERROR
     order = np.argsort(times, kind="stable")
     return np.asarray(times, float)[order], np.asarray(rows, bool).reshape(len(times), len(joints or ()))[order]
+
+
+def _status_arrays(path, topics):
+    """(topic, header stamp [s], DiagnosticArray) of a bag's ``topics``, streamed in file order."""
+    from ..storage.bag import iter_messages, typestore
+    store = typestore()
+    for topic, _, raw in iter_messages(path, topics):
+        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
+        yield topic, msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, msg
 
 
 def health_from_bag(path) -> dict:
@@ -259,17 +284,15 @@ def health_from_bag(path) -> dict:
         Status topic -> wheel -> kind ('cannot_judge', 'input_trouble') -> samples (int), first_s (the first
         such message's header stamp [s], in file order) and message (str).
     """
-    from ..storage.bag import BagError, iter_messages, message_counts, typestore
-    store, out = typestore(), {}
+    from ..storage.bag import BagError, message_counts
+    out = {}
     try:   # a plug-in's status too: an observer that went blind is named, not only those that decide
         topics = message_counts(path if Path(path).is_dir() else Path(path).parent)
     except BagError:
         topics = {}
     slots = [t.split("/")[2] for t in topics if t.startswith("/fdi/") and t.endswith("/status")
              and t.count("/") == 3 and t.split("/")[2] not in T.OBSERVERS]
-    for topic, _, raw in iter_messages(path, health_topics(slots)):
-        msg = store.deserialize_cdr(raw, "diagnostic_msgs/msg/DiagnosticArray")
-        t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+    for topic, t, msg in _status_arrays(path, health_topics(slots)):
         for s in msg.status:
             values = {kv.key: kv.value for kv in s.values}   # the isolation node's judged / input values
             kinds = (["cannot_judge"] if values.get("judged") == "false" else []) + \

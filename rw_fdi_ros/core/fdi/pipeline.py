@@ -143,23 +143,6 @@ class Isolation:
         """
         return self.channels[slot].update(stamp_ns, residual, bound)
 
-    def decide(self, rows_of: dict, wheel_speed=None) -> dict:
-        """Stages 3-4 (:meth:`Verdict.decide`).
-
-        Parameters
-        ----------
-        rows_of : dict
-            observer -> its ObserverChannel rows of the sample.
-        wheel_speed : array_like or None
-            (N,) wheel speeds [rad/s] (None: every wheel judged).
-
-        Returns
-        -------
-        dict
-            wheel -> (residual, threshold, alarm, first alarm [s] or None), latched.
-        """
-        return self.verdict.decide(rows_of, wheel_speed)
-
     def identify(self, sample, decided: dict) -> dict:
         """Stage 5: wheel -> Identification or None, from the sample and the verdict's alarms ({} without it).
 
@@ -199,7 +182,7 @@ class Isolation:
             wheel -> the verdict's row.
         """
         rows_of = {slot: self.observe(slot, stamp_ns, *residuals[slot]) for slot in self.channels}
-        decided = self.decide(rows_of, None if sample is None else sample.wheel_speed)
+        decided = self.verdict.decide(rows_of, None if sample is None else sample.wheel_speed)   # stages 3-4
         if sample is not None:
             self.identify(sample, decided)
         return rows_of, decided
