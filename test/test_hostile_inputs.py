@@ -199,3 +199,25 @@ def test_an_early_sigterm_of_a_run_ends_it_in_one_line(tmp_path):
     finally:
         proc.kill()
     assert proc.returncode != 0 and "Traceback" not in err and "KeyError" not in err, err[-2000:]
+
+
+@pytest.mark.graph
+def test_two_graphs_in_one_domain_and_namespace_are_told_apart(tmp_path):
+    """Both runs failed with a misleading reason, and one bag held the other run's /scenario: the run that
+    joins the occupied domain says so, and a run that completes holds its own scenario alone."""
+    from concurrent.futures import ThreadPoolExecutor
+    from rw_fdi_ros.runner.launcher import DomainLease
+    from rw_fdi_ros.runner.scenario_run import run_scenario
+    from rw_fdi_ros.storage.bag import read_bag
+    for k in (1, 2):
+        (tmp_path / f"twin{k}.yaml").write_text(f"name: twin{k}\nduration: 300.0\nseed: {24_000_100 + k}\n")
+    with DomainLease() as lease, ThreadPoolExecutor(2) as pool:
+        runs = [pool.submit(run_scenario, str(tmp_path / f"twin{k}.yaml"), out_dir=tmp_path / "bags",
+                            domain_id=lease.domain_id) for k in (1, 2)]
+        outcomes = [r.result() for r in runs]
+    said = [o for o in outcomes if not o.ok and "another graph runs in this ROS domain" in o.reason]
+    assert said and "give each run its own domain or namespace" in said[0].reason, [o.reason for o in outcomes]
+    for k, o in zip((1, 2), outcomes):
+        if o.ok:
+            scenarios = [m.data for _, m in read_bag(o.bag, ["/scenario"]).topic("/scenario")]
+            assert len(scenarios) == 1 and f"name: twin{k}" in scenarios[0]

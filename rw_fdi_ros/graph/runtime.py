@@ -26,6 +26,7 @@ EXIT_TIMEOUT = 3
 # SIGALRM, which the launcher reads as "done, teardown hung" (runner/launcher.py TEARDOWN_HUNG)
 POLL_PERIOD = 0.005   # [s] wall time between two GraphNode.poll calls of a node while callbacks keep coming
 TEARDOWN_TIMEOUT = int(os.environ.get("RW_FDI_TEARDOWN_TIMEOUT", "10"))   # the environment: tests
+PARENT_GONE_S = 1   # [s] to close after the launcher died (kill -9): gone well within the 2 s docs/running.md says
 
 
 @dataclass
@@ -332,16 +333,24 @@ def die_with_parent():
     """A node process our launcher started ends with it: killed with -9, `rw-fdi` can stop nothing itself, so
     the kernel sends the SIGINT the launcher would have (Linux prctl PR_SET_PDEATHSIG: the recorder still closes
     its bag). ``RW_FDI_PARENT_PID`` (launcher.ros_environment) names the parent; a launcher gone before this ran
-    is seen at once. Nodes started otherwise (ros2 launch, ros2 run) are left to their own launcher."""
+    is seen at once. The end is bounded: PARENT_GONE_S after the parent's death the kernel ends the process
+    (a loaded machine took 5 s to close every node). Nodes started otherwise (ros2 launch, ros2 run) are left to
+    their own launcher."""
     parent = os.environ.get("RW_FDI_PARENT_PID")
     if not parent or not sys.platform.startswith("linux"):
         return
     import ctypes
     import signal
+
+    def parent_died(signum, frame):
+        # the graceful end, bounded: after PARENT_GONE_S the kernel ends the process (SIGALRM), GIL or not
+        signal.alarm(PARENT_GONE_S)
+        raise KeyboardInterrupt
+    signal.signal(signal.SIGUSR2, parent_died)
     PR_SET_PDEATHSIG = 1
-    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGINT))
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGUSR2))
     if os.getppid() != int(parent):
-        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), signal.SIGUSR2)
 
 
 def spin_nodes(factories, args=None) -> int:
@@ -458,7 +467,8 @@ def _tear_down(nodes, outcome: dict):
         if message:
             print(f"{name}: {'error: ' if code else ''}{message}", file=sys.stderr, flush=True)
     faulthandler.dump_traceback_later(TEARDOWN_TIMEOUT - 1, exit=False)
-    signal.alarm(TEARDOWN_TIMEOUT)   # default action: the kernel ends the process, GIL or not
+    pending = signal.alarm(0)   # an earlier deadline (the parent gone: die_with_parent) stays the deadline
+    signal.alarm(min(pending, TEARDOWN_TIMEOUT) if pending else TEARDOWN_TIMEOUT)   # the kernel ends it, GIL or not
     for node in nodes:
         node.destroy_node()
     rclpy.try_shutdown()

@@ -29,7 +29,7 @@ from ..graph.convert import offered_qos
 from ..graph import topics as T
 from ..core.physics.wheel_set import DEFAULT_WHEEL_SET
 from ..core.physics.environment import MAGNETOMETER_PERIOD
-from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, relative, wall_time
 
 
 class RecorderNode(GraphNode):
@@ -50,6 +50,7 @@ class RecorderNode(GraphNode):
         self.declare_parameter("magnetorquers", False)         # record the magnetorquers' command
         self.declare_parameter("plugin_observers", "")         # slots of a user's observers, comma-separated
         self.outputs = list(self.param("outputs") or []) or [self.param("output")]
+        self.record_plant = self.param("record_plant")
         self.output_index = 0
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
         # what it subscribes to is the graph's table (topics.READS counts the recorder's reads from it)
@@ -131,6 +132,8 @@ class RecorderNode(GraphNode):
             self.done_stamp, self.done_wall = stamp, wall_time()
 
     def poll(self):
+        if self._another_graph():
+            return
         if not self.ready:
             # a writer counting this reader does not mean this reader has matched the writer: the plant
             # (the player) starts on /recorder/ready, so no run goes out to a reader that drops it all
@@ -181,6 +184,23 @@ class RecorderNode(GraphNode):
                 self._open()
             else:
                 self.finish()
+
+    def _another_graph(self) -> bool:
+        """Two runs in one domain and namespace write into each other's bags: a second writer of the run's
+        /scenario (one per run) is said, naming the cure, and this bag closed; looked at every poll. DDS
+        discovery is not symmetric in time: the run that joins a domain another run occupies sees it first,
+        and the other, seeing nothing of it, keeps a bag of its own messages alone."""
+        if not self.record_plant or self.bag is None:
+            return False
+        writers = self.count_publishers(relative(T.SCENARIO))
+        if writers <= 1:
+            return False
+        import os
+        self._close_bag()
+        self.fail(f"another graph runs in this ROS domain (ROS_DOMAIN_ID={os.environ.get('ROS_DOMAIN_ID', '0')}) "
+                  f"and namespace {self.get_namespace()!r}: {writers} writers of {T.SCENARIO}; give each run its "
+                  "own domain or namespace (its bag would hold the other's messages)")
+        return True
 
     def _check_plant_left(self):
         """The plant gone without /plant/done (killed, or its last message lost): nothing will end the

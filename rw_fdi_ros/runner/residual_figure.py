@@ -113,9 +113,12 @@ def _plot_pointing(data, verdict, ax):
         if "since" in values_:
             marks.append((float(values_["since"]), f"{status.hardware_id.removeprefix('reaction_wheel_')} "
                           f"{values_['state'].replace('_', ' ')}", "tab:green"))
-    for x, label, color in marks:
+    # marks at one time (a verdict, a wheel given up, the standby brought in) get their labels side by side
+    gap, last = 0.018 * (t[-1] - t[0] if len(t) > 1 else 1.0), -np.inf
+    for x, label, color in sorted(marks, key=lambda m: m[0]):
         ax.axvline(x, color=color, lw=0.8, ls=":")
-        ax.text(x, POINTING_DEG * 3, f" {label}", fontsize=7, rotation=90, color=color, va="bottom")
+        last = max(x, last + gap)
+        ax.text(last, POINTING_DEG * 3, f" {label}", fontsize=7, rotation=90, color=color, va="bottom")
     ax.set_title("pointing error [deg]: fault, verdict, reconfiguration" + (", momentum dumps (shaded)"
                                                                              if dumps.done() else ""), fontsize=10)
     ax.legend(fontsize=7, loc="lower left")

@@ -27,6 +27,9 @@ from ..physics.wheel import UNIT_PARAMETERS, WheelParams, unit_wheel
 from .yaml_text import MAX_CHARACTERS, YamlError, read_yaml
 
 SEED_MAX = 2**63 - 1   # numpy's seeds are non-negative; the bags record them as int64
+# [s] after a set-point change (or a fault's onset) the pointing error is the slew's: twice the thesis' 30 s
+# settling target; the service bench judges the pointing outside it and the run summary counts a fault's error so
+SETTLE_S = 60.0
 
 # Thesis Table 2.3 ranges drawn per axis (the default vehicle's dispersions, vehicle.py).
 ATTITUDE_RANGE_DEG = Dispersions().attitude_deg
@@ -366,6 +369,32 @@ def setpoint_at(times, values, t):
     """
     i = int(np.searchsorted(times, t + 1e-9, side="right")) - 1
     return values[max(i, 0)]
+
+
+def in_transient(time, starts, settle: float = SETTLE_S):
+    """Whether ``time`` lies within ``settle`` seconds after one of ``starts`` (set-point changes, onsets):
+    where the pointing is a slew's (or a fault's first) error, not a steady one.
+
+    Parameters
+    ----------
+    time : float or array_like
+        Time(s) [s].
+    starts : iterable of float
+        When each transient begins [s]; those at or before 0 are the run's start, not a change.
+    settle : float
+        How long each lasts [s].
+
+    Returns
+    -------
+    bool or ndarray of bool
+        Per time.
+    """
+    t = np.asarray(time, float)
+    out = np.zeros(t.shape, bool)
+    for start in starts:
+        if start > 0.0:
+            out |= (t >= start) & (t < start + settle)
+    return out if out.ndim else bool(out)
 
 
 # -- parsing -----------------------------------------------------------------

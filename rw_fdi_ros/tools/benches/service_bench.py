@@ -53,7 +53,7 @@ from ...core.fdir import SATURATED_S
 from ...core.fdi.identification.identifiability import TOLD_APART, other_family_misfit, told_apart
 from ...core.fdi.identification import DRIVE, UNKNOWN
 from ...core.mission.plant_choices import FDI_PERIOD
-from ...core.mission.scenario import Scenario
+from ...core.mission.scenario import SETTLE_S, Scenario, in_transient
 from ...core.mission.vehicle import DEFAULT_VEHICLE
 from ...core.physics.wheel import torque_scale
 from ..campaigns.campaign import LocalExecutor
@@ -67,7 +67,6 @@ FAULT_FREE_SEEDS = 500_000   # the fault-free runs' seeds: the set's base plus t
 GIVEN_UP_SEEDS = 700_000     # the given-up runs' seeds: the set's base plus this
 GIVEN_UP_MAX_S = 1800.0      # [s] the given-up runs' longest
 POINTING_DEG = 0.2
-SETTLE_S = 60.0          # [s] after an onset and after a set-point change, not judged
 EVERY = 10               # record every 10th control sample (1 s): hours of four wheels in memory
 ACTED = ("out_of_use", "held", "kept_in_use")
 # what FDIR says when the momentum (or the wheels left) cannot keep the pointing (core/fdir.py)
@@ -81,11 +80,7 @@ def judged_mask(time, scenario_: Scenario, start: float) -> np.ndarray:
     """The samples the pointing is judged at: from ``start`` on, not within SETTLE_S after a set-point change
     nor after a fault's onset (a second fault has the 60 s the first has)."""
     times, _ = scenario_.setpoint_schedule()
-    ok = time >= start
-    for t in [*times, *(f.onset for f in scenario_.faults)]:
-        if t > 0.0:
-            ok &= ~((time >= t) & (time < t + SETTLE_S))
-    return ok
+    return (time >= start) & ~in_transient(time, [*times, *(f.onset for f in scenario_.faults)])
 
 
 def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
