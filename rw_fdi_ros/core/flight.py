@@ -20,7 +20,7 @@ from .fdi.pipeline import FdiPipeline, LoadedFdi
 from .control.pid import PidController, PidGains
 from .physics.plant import Plant
 from .mission.scenario import Scenario, setpoint_at
-from .physics.spacecraft import inertia_times
+from .physics.spacecraft import inertia_times, nearest_setpoint
 from .physics.wheel import WheelParams
 
 
@@ -70,7 +70,8 @@ class Trajectory:
 
     @property
     def error(self):
-        return self.attitude - self.setpoint
+        """Attitude error y - r [rad], the short way round (spacecraft.nearest_setpoint), (steps + 1, B, 3)."""
+        return self.attitude - nearest_setpoint(self.setpoint, self.attitude)
 
 
 def fly(scenarios, gains: PidGains, wheel: WheelParams | None = None,

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.mission.scenario import parse_scenario
-from ..core.physics.spacecraft import BODY_AXES
+from ..core.physics.spacecraft import BODY_AXES, nearest_setpoint
 from ..graph import topics as T
 from ..scoring import bag_series
 from .summary import POINTING_DEG
@@ -94,7 +94,8 @@ def _plot_pointing(data, verdict, ax):
     times, values = scenario.setpoint_schedule()
     t, attitude, _, _ = data.joint_states(T.ATTITUDE)
     if len(t):
-        error = np.degrees(np.abs(attitude - np.array([setpoint_at(times, values, x) for x in t])))
+        error = np.degrees(np.abs(attitude - nearest_setpoint(np.array([setpoint_at(times, values, x) for x in t]),
+                                                              attitude)))
         for i, a in enumerate(BODY_AXES):
             ax.semilogy(*envelope(t, np.maximum(error[:, i], 1e-5)), label=f"axis {a}", lw=1.0)
     ax.axhline(POINTING_DEG, color="k", ls="--", lw=0.8)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.physics.spacecraft import BODY_AXES
+from ..core.physics.spacecraft import BODY_AXES, nearest_setpoint
 from ..core.mission.scenario import in_transient, parse_scenario, setpoint_at
 from ..core.physics.environment import MAGNETOMETER_PERIOD
 from ..core.physics.magnetorquers import DumpLog
@@ -35,7 +35,7 @@ def run_summary(path) -> dict:
     def fold(stamp, attitude):
         nonlocal last, peak, outside
         t = stamp // 10**9 + (stamp % 10**9) * 1e-9
-        err = np.abs(np.rad2deg(attitude - setpoint_at(times, values, t)))
+        err = np.abs(np.rad2deg(attitude - nearest_setpoint(setpoint_at(times, values, t), attitude)))
         if last is None or t >= last[0]:
             last = (t, err)
         # the fault's error, not a commanded slew's: set-point transients left out, as the service bench does

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.spacecraft import INERTIA
+from ..physics.spacecraft import INERTIA, nearest_setpoint
 from ..physics.wheel import WheelParams
 
 
@@ -122,8 +122,8 @@ class PidController:
             (..., 3) body-axis torque command voltages [V], within the limit (anti-windup).
         """
         g = self.gains
-        setpoint = np.asarray(setpoint, float)
         attitude = np.asarray(attitude, float)
+        setpoint = nearest_setpoint(setpoint, attitude)   # the short way round
         if self.origin is None:
             self.origin = attitude.copy()
         error = setpoint - attitude

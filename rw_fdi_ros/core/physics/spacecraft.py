@@ -10,6 +10,28 @@ INERTIA = np.array([17.0, 15.0, 22.0])
 DISTURBANCE_SIGMA = 5.68e-5
 
 
+def nearest_setpoint(setpoint, attitude) -> np.ndarray:
+    """The set-point's equivalent angle (r + 2 pi k per axis) nearest the attitude: a rotation about an axis is
+    periodic, so the attitude error r - y is taken the short way, within [-pi, pi] (two +180 deg set-point
+    changes ask for the attitude of the start, not a full turn). Unchanged, bit for bit, where |r - y| <= pi.
+
+    Parameters
+    ----------
+    setpoint : array_like, shape (..., 3)
+        r, per body axis [rad].
+    attitude : array_like, shape (..., 3)
+        y, per body axis [rad].
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        The set-point to steer to [rad].
+    """
+    r, y = np.asarray(setpoint, float), np.asarray(attitude, float)
+    e = r - y
+    return np.where(np.abs(e) > np.pi, y + (e + np.pi) % (2.0 * np.pi) - np.pi, r)
+
+
 def cross(a, b) -> np.ndarray:
     """a x b over the last axis of (..., 3) arrays, written out: np.cross costs 10x on 3-vectors.
 
