@@ -117,6 +117,10 @@ def test_limits_of_the_command_line_and_of_a_threshold_file(tmp_path, capsys):
     (tmp_path / "t.json").write_text(json.dumps(raw))
     with pytest.raises(ThresholdError, match=r"t.json: persistence must lie in \[1, 1000\]"):
         ThresholdCurves.load(tmp_path / "t.json")
+    raw["persistence"], raw["sample_period"] = 3, -1.0   # a negated number, named with its file
+    (tmp_path / "t.json").write_text(json.dumps(raw))
+    with pytest.raises(ThresholdError, match=r"t.json: sample_period must lie in \(0, 3600\] s, got -1.0"):
+        ThresholdCurves.load(tmp_path / "t.json")
     (tmp_path / "dir.csv").mkdir()
     assert "--table" in refused(["screen", "--scenario", "fault_free", "--seeds", "1..2", "--table",
                                  tmp_path / "dir.csv"], capsys, within=10.0)

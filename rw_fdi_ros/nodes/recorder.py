@@ -51,6 +51,7 @@ class RecorderNode(GraphNode):
         self.declare_parameter("plugin_observers", "")         # slots of a user's observers, comma-separated
         self.outputs = list(self.param("outputs") or []) or [self.param("output")]
         self.record_plant = self.param("record_plant")
+        self.next_look = 0.0   # wall time of the next look for another graph
         self.output_index = 0
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
         # what it subscribes to is the graph's table (topics.READS counts the recorder's reads from it)
@@ -187,11 +188,13 @@ class RecorderNode(GraphNode):
 
     def _another_graph(self) -> bool:
         """Two runs in one domain and namespace write into each other's bags: a second writer of the run's
-        /scenario (one per run) is said, naming the cure, and this bag closed; looked at every poll. DDS
+        /scenario (one per run) is said, naming the cure, and this bag closed; looked at ten times a second. DDS
         discovery is not symmetric in time: the run that joins a domain another run occupies sees it first,
         and the other, seeing nothing of it, keeps a bag of its own messages alone."""
-        if not self.record_plant or self.bag is None:
+        now = wall_time()
+        if not self.record_plant or self.bag is None or now < self.next_look:
             return False
+        self.next_look = now + 0.1   # a graph query ten times a second, not every poll
         writers = self.count_publishers(relative(T.SCENARIO))
         if writers <= 1:
             return False

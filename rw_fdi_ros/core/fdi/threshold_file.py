@@ -118,6 +118,16 @@ class ThresholdCurves:
         if not 1 <= out.persistence <= PERSISTENCE_MAX:
             raise ThresholdError(f"{path}: persistence must lie in [1, {PERSISTENCE_MAX}], got {out.persistence}; "
                                  f"{REFIT}")
+        # every number where it enters, the file named: a negated period or window failed later, nameless
+        for name, value, ok, want in (
+                ("sample_period", out.sample_period, 0.0 < out.sample_period <= 3600.0, "in (0, 3600] s"),
+                ("window", out.window, 1 <= out.window <= PERSISTENCE_MAX, f"in [1, {PERSISTENCE_MAX}] samples"),
+                ("unit_calibration_time", out.unit_calibration_time, 0.0 <= out.unit_calibration_time <= 1e6,
+                 "in [0, 1e6] s"),
+                ("false_alarm_rate", out.false_alarm_rate, out.false_alarm_rate is None
+                 or 0.0 < float(out.false_alarm_rate) < 1.0, "in (0, 1)")):
+            if not ok:
+                raise ThresholdError(f"{path}: {name} must lie {want}, got {value!r}; {REFIT}")
         if out.method == "thesis":
             for a, c in out.curves.items():
                 if np.any(c < 0):   # a threshold on a mean of |r - r^| below 0 alarms at once, for ever
