@@ -72,3 +72,19 @@ def test_no_module_imports_one_that_imports_it_back():
         if module not in done:
             visit(module)
     assert len(graph) > 100 and sum(map(len, graph.values())) > 300   # the graph was read
+
+
+def test_a_script_importing_the_flat_core_of_before_still_runs():
+    """A user's in-service screen imported rw_fdi_ros.core.scenario, gone in the move to packages: every old name is
+    the new module itself, and the new module keeps its own name."""
+    code = ("import sys, rw_fdi_ros.core.scenario as old, rw_fdi_ros.core.mission.scenario as new\n"
+            "from rw_fdi_ros.core import MOVED\n"
+            "import importlib\n"
+            "for name, where in MOVED.items():\n"
+            "    assert importlib.import_module('rw_fdi_ros.core.' + name) is importlib.import_module("
+            "'rw_fdi_ros.core.' + where), name\n"
+            "assert old is new and new.__spec__.name == 'rw_fdi_ros.core.mission.scenario'\n"
+            "from rw_fdi_ros.core.closed_loop import Fdir, simulate\n"
+            "print(old.load_scenario('fault_free').name)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "fault_free", out.stderr[-2000:]
