@@ -113,14 +113,15 @@ def under(folder, name: str) -> Path:
 
 def fdi_dir(method: str = "speed_aware", vehicle: str | None = None) -> Path:
     """The shipped FDI models and thresholds: config/fdi (ours, speed-aware) or config/fdi/thesis, for the
-    thesis' vehicle; config/fdi/vehicles/<vehicle> (`rw-fdi defaults --vehicle`) for another shipped one.
+    thesis' vehicle; config/fdi/vehicles/<vehicle> (`rw-fdi defaults --vehicle`) for another shipped one; a
+    user's vehicle's FDI directory (what `rw-fdi defaults --vehicle FILE --out DIR` wrote) for itself.
 
     Parameters
     ----------
     method : str
         The FDI method: 'thesis', or anything else for 'speed_aware'.
     vehicle : str, optional
-        The name of the vehicle the run flies; None: the thesis' MakSat.
+        The name of the vehicle the run flies, or its FDI directory; None: the thesis' MakSat.
 
     Returns
     -------
@@ -128,7 +129,9 @@ def fdi_dir(method: str = "speed_aware", vehicle: str | None = None) -> Path:
         The directory.
     """
     base = config_dir() / "fdi"
-    if vehicle is not None and vehicle != DEFAULT_VEHICLE:
+    if vehicle is not None and Path(vehicle).is_dir():
+        base = Path(vehicle)
+    elif vehicle is not None and vehicle != DEFAULT_VEHICLE:
         base = under(base / "vehicles", vehicle)
     return base / ("thesis" if method == "thesis" else "")
 

@@ -77,6 +77,23 @@ def test_the_design_choices_size_and_loss():
         train_axis(u, r, mode="recall", epochs=1, loss="l1")
 
 
+def test_training_in_worker_processes_says_every_epoch_and_gives_the_same_weights():
+    """Wheels trained two at a time in worker processes tell the parent each epoch as it comes (`defaults` once
+    sat 27 minutes silent there), and give the weights training them in turn gives."""
+    from rw_fdi_ros.tools.design.train import _pooled
+    rng = np.random.default_rng(7)
+    u = np.repeat(rng.uniform(-3, 3, (3, 10)), 10, axis=1)
+    r = np.cumsum(-0.004 * np.diff(u, axis=1, prepend=0.0), axis=1)
+    inputs = [(u, r, "recall", 4, seed, np.abs(u) + 20.0) for seed in (0, 1)]
+    ticks = []
+    pooled = list(_pooled(inputs, 2, lambda k, loss: ticks.append((k, loss))))
+    assert len(ticks) == 8 and all(k == 1 and loss > 0 for k, loss in ticks)
+    for (weights, losses), args in zip(pooled, inputs):
+        alone, alone_losses = train_axis(*args[:4], seed=args[4], wheel_speed=args[5])
+        assert losses == alone_losses
+        np.testing.assert_array_equal(weights.w_hh, alone.w_hh)
+
+
 def test_save_load_roundtrip_is_npz_without_pickle(tmp_path):
     w = weights()
     w.save(tmp_path / "m.npz", {"axis": "x"})

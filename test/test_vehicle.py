@@ -2,6 +2,8 @@
 body as Euler's equations say, a vehicle file flies through scenarios, the core loop and the launcher, and a bad
 file or a vehicle that cannot fly gets one line naming the field."""
 import copy
+import csv
+import json
 import subprocess
 import sys
 
@@ -385,6 +387,17 @@ def test_one_command_makes_the_fdi_of_a_vehicle_and_every_command_takes_it(tmp_p
         assert judged.returncode == 0, judged.stderr
         words = next(line for line in judged.stdout.splitlines() if " verdict " in line).split()
         assert int(words[words.index("correct") + 1]) == 2, judged.stdout
+    # the benches fly it as they fly a shipped vehicle: its directory is the vehicle with its FDI
+    bench = _rw_fdi(tmp_path, "bench", "detection", "--vehicle", str(out), "--fault-free-runs", "2",
+                    "--runs-per-cell", "1")
+    assert "Traceback" not in bench.stderr and bench.returncode in (0, 1), bench.stderr
+    text = (out / "reports" / "detection" / "detection.md").read_text()
+    assert f"vehicle microsat_pyramid (its FDI in `{out}`)" in text
+    rows = list(csv.DictReader((out / "reports" / "detection" / "detection_runs.csv").open()))
+    faults = [f for row in rows for f in json.loads(row["faults"])]
+    assert len(rows) >= 10 and faults and {f["wheel"] for f in faults} <= {"p1", "p2", "p3", "p4"}
+    alone = _rw_fdi(tmp_path, "bench", "detection", "--vehicle", str(out / "vehicle.yaml"))
+    assert alone.returncode != 0 and "rw-fdi defaults --vehicle FILE --out DIR" in alone.stderr
 
 
 def test_the_calibrated_bands_of_a_vehicle_are_fitted_on_runs_as_in_service(tmp_path):

@@ -71,9 +71,10 @@ def _sample_options(option):
 
 def _fdi_options(option):
     """The vehicle flown and the FDI judging: shipped, or a user's observer with its bands."""
-    option("--vehicle", default="maksat", metavar="NAME",
-           help="detection, identification, units, operations, recovery, service: the shipped vehicle the runs fly, "
-                "with its shipped FDI (config/fdi/vehicles; default %(default)s, the thesis' spacecraft)")
+    option("--vehicle", default="maksat", metavar="NAME|DIR",
+           help="detection, identification, units, operations, recovery, service: the vehicle the runs fly with its "
+                "FDI: a shipped one's name (config/fdi/vehicles; default %(default)s, the thesis' spacecraft) or "
+                "your own's FDI directory (`rw-fdi defaults --vehicle FILE --out DIR`; the reports go to DIR/reports)")
     option("--observer", dest="plugins", action="append", default=None, metavar="SPEC",
            help="detection, units, operations: a user's observer judged beside ours (repeatable; entry point, "
                 "module:Class or file.py:Class; docs/observers.md), its bands and ours from --thresholds")
@@ -149,19 +150,28 @@ def _detection(args) -> dict:
 
 
 def _checked_vehicle(args) -> str:
-    """The shipped vehicle of --vehicle, read (one line naming the field) before any run."""
-    from ...core.mission.vehicle import load_vehicle, shipped_vehicles
-    if args.vehicle not in shipped_vehicles():
-        raise ValueError(f"--vehicle {args.vehicle}: the benches fly a shipped vehicle "
-                         f"({', '.join(shipped_vehicles())}); for your own, `rw-fdi defaults --vehicle FILE` then "
-                         "`screen --models DIR`")
-    return load_vehicle(args.vehicle).name
+    """--vehicle read (one line naming the field) before any run: a shipped vehicle's name, or the absolute path
+    of a user's vehicle's FDI directory (its vehicle.yaml, networks and bands)."""
+    from pathlib import Path
+    from ...core.mission.vehicle import VEHICLE_FILE, load_vehicle, shipped_vehicles
+    if args.vehicle in shipped_vehicles():
+        return load_vehicle(args.vehicle).name
+    folder = Path(args.vehicle)
+    if not (folder / VEHICLE_FILE).is_file():
+        raise ValueError(f"--vehicle {args.vehicle}: neither a shipped vehicle ({', '.join(shipped_vehicles())}) nor "
+                         f"a vehicle's FDI directory (no {VEHICLE_FILE} in it); for your own vehicle file, make its "
+                         "FDI with `rw-fdi defaults --vehicle FILE --out DIR`, then give --vehicle DIR")
+    load_vehicle(folder)
+    return str(folder.resolve())
 
 
 def _vehicle_out(args, what: str) -> str:
-    """A bench's default report directory: reports/<what>, or reports/vehicles/<vehicle>/<what> on another
-    vehicle than the thesis'."""
+    """A bench's default report directory: reports/<what>, reports/vehicles/<vehicle>/<what> on another shipped
+    vehicle than the thesis', DIR/reports/<what> on a user's vehicle's FDI directory."""
+    from pathlib import Path
     from ...core.mission.vehicle import DEFAULT_VEHICLE
+    if Path(args.vehicle).is_dir():
+        return str(Path(args.vehicle) / "reports" / what)
     return f"reports/{what}" if args.vehicle == DEFAULT_VEHICLE else f"reports/vehicles/{args.vehicle}/{what}"
 
 

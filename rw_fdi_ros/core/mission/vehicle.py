@@ -613,6 +613,9 @@ def wheel_from_parameter(text: str) -> WheelParams:
     return _wheel("wheel_type", raw)
 
 
+VEHICLE_FILE = "vehicle.yaml"   # the vehicle in its FDI directory (`rw-fdi defaults --out DIR`)
+
+
 def shipped_vehicles() -> dict:
     """name -> path of the vehicle files shipped in config/vehicles.
 
@@ -626,13 +629,14 @@ def shipped_vehicles() -> dict:
 
 
 def load_vehicle(source=None) -> Vehicle:
-    """The vehicle named ``source``: a shipped name (config/vehicles/NAME.yaml), a path to a vehicle file,
-    a mapping (a bag's record), or None for the default (the thesis' MakSat).
+    """The vehicle named ``source``: a shipped name (config/vehicles/NAME.yaml), a path to a vehicle file or to
+    a vehicle's FDI directory (its vehicle.yaml: what `rw-fdi defaults --vehicle FILE --out DIR` wrote), a
+    mapping (a bag's record), or None for the default (the thesis' MakSat).
 
     Parameters
     ----------
     source : str, pathlib.Path, dict, Vehicle or None
-        A shipped name, a file, a mapping or a Vehicle (returned as is).
+        A shipped name, a file, an FDI directory, a mapping or a Vehicle (returned as is).
 
     Returns
     -------
@@ -646,6 +650,8 @@ def load_vehicle(source=None) -> Vehicle:
     name = DEFAULT_VEHICLE if source is None else str(source)
     shipped = shipped_vehicles()
     path = shipped.get(name, Path(name))
+    if path.is_dir():
+        path = path / VEHICLE_FILE
     if not path.is_file():
         raise VehicleError(f"vehicle {name!r}: no such file, nor a shipped vehicle ({', '.join(shipped) or 'none'})")
     try:

@@ -25,7 +25,8 @@ from ...core.fdi.verdict import decision_of
 from ...scoring.metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
 from .kit import (DETECTION_FIELDS, VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, configured,
-                  fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report)
+                  fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report, shipped_vehicles,
+                  vehicle_words)
 
 
 CELLS = (
@@ -118,7 +119,8 @@ def _columns(report: dict) -> list:
 def format_detection(report: dict) -> str:
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
     shipped = ("the shipped `config/fdi` (speed-aware) and `config/fdi/thesis`" if vehicle == DEFAULT_VEHICLE
-               else f"vehicle {vehicle} with its shipped `config/fdi/vehicles/{vehicle}` (speed-aware)")
+               else f"vehicle {vehicle} with its shipped `config/fdi/vehicles/{vehicle}` (speed-aware)"
+               if vehicle in shipped_vehicles() else f"vehicle {vehicle_words(vehicle)} (speed-aware)")
     lines = ["# Detection on held-out runs (`rw-fdi bench detection`)", "",
              f"Measured {report.get('date', '?')} on {fdi_phrase(report, shipped)} with the command's defaults.", "",
              f"Seeds from {report['seed_base']:,} (disjoint from training, fitting and the thesis study); faults "

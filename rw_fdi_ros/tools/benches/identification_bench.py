@@ -40,7 +40,7 @@ from ...core.mission.vehicle import DEFAULT_VEHICLE
 from ...core.physics.wheel_set import fitted_for
 from ...scoring.metrics import rate
 from .kit import (DETECTION_FIELDS, bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios,
-                  format_rate, screen_cells, write_cells_table)
+                  format_rate, screen_cells, write_cells_table, shipped_vehicles, vehicle_words)
 from ...scoring.metrics import judge_identification
 from ..evaluation.screen import screen_sets
 
@@ -250,8 +250,9 @@ def format_identification(report: dict) -> str:
                 f"Wilson intervals. {report['seconds'] / 60:.0f} min on this machine."]
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
     if vehicle != DEFAULT_VEHICLE:
-        head[0] += f", vehicle {vehicle}"
-        head[2] = head[2].replace("the shipped `config/fdi", f"the shipped `config/fdi/vehicles/{vehicle}")
+        head[0] += f", vehicle {vehicle_words(vehicle)}"
+        if vehicle in shipped_vehicles():
+            head[2] = head[2].replace("the shipped `config/fdi", f"the shipped `config/fdi/vehicles/{vehicle}")
     lines = head + ["", "| case | observable | kind right (observable) | size within tolerance | "
                         "|error| median / p90 | interval covers truth | widened by the unit |",
                     "|---|---|---|---|---|---|---|"]

@@ -13,7 +13,7 @@ import numpy as np
 from ...fdi_config import FdiConfig
 from ...core.physics.environment import OrbitEnvironment
 from ...core.mission.scenario import Fault, Manoeuvres, Scenario, parse_scenario
-from ...core.mission.vehicle import DEFAULT_VEHICLE
+from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle, shipped_vehicles
 from ...core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
 from ...scoring.metrics import alarm_before_onset, judge, observable, rate
 from ..evaluation.screen import screen_sets
@@ -90,9 +90,18 @@ VOTES = ("2of3", "3of3")
 
 @lru_cache(maxsize=None)
 def vehicle_scenario(vehicle: str) -> Scenario:
-    """A 400-s run of the shipped ``vehicle`` through the scenario file's own checks (its wheel set, plant
-    choices and dispersions): what a bench's cells fly on another vehicle than the thesis'."""
-    return parse_scenario(f"name: {vehicle}\nvehicle: {vehicle}\nduration: 400.0\n", origin=f"vehicle {vehicle}")
+    """A 400-s run of ``vehicle`` (a shipped name or a vehicle's FDI directory) through the scenario file's own
+    checks (its wheel set, plant choices and dispersions): what a bench's cells fly on another vehicle than the
+    thesis'."""
+    name = load_vehicle(vehicle).name
+    return parse_scenario(f"name: {name}\nvehicle: {json.dumps(str(vehicle))}\nduration: 400.0\n",
+                          origin=f"vehicle {name}")
+
+
+def vehicle_words(vehicle: str) -> str:
+    """How a report names the vehicle its runs flew: a shipped one's name, or a user's name with its FDI
+    directory."""
+    return vehicle if vehicle in shipped_vehicles() else f"{load_vehicle(vehicle).name} (its FDI in `{vehicle}`)"
 
 
 def bench_scenario(vehicle: str, name: str, **fields) -> Scenario:

@@ -60,7 +60,7 @@ from ..campaigns.campaign import LocalExecutor
 from ..campaigns.service_family import FAULT_FREE_S, FAULT_KINDS, Draw, batches, draw, fdir_for, scenario
 from ...scoring.metrics import judge_size
 from ...scoring.metrics import rate
-from .kit import format_rate, write_report
+from .kit import format_rate, write_report, vehicle_words
 
 SEED_BASES = {"tuning": 90_000_000, "evaluation": 91_000_000, "net": 92_000_000}
 FAULT_FREE_SEEDS = 500_000   # the fault-free runs' seeds: the set's base plus this
@@ -474,8 +474,8 @@ def _service_intro(report: dict) -> list:
     """The title (the vehicle where not the thesis'), and what was measured: seeds, hours, time, shortening."""
     f = report["figures"]
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
-    return ["# FDIR in service (`rw-fdi bench service`)" + (f", vehicle {vehicle}" if vehicle != DEFAULT_VEHICLE
-                                                            else ""), "",
+    return ["# FDIR in service (`rw-fdi bench service`)"
+            + (f", vehicle {vehicle_words(vehicle)}" if vehicle != DEFAULT_VEHICLE else ""), "",
             f"Measured {report['date']}, {report['seed_set']} seeds {report['seeds'][0]:,}-{report['seeds'][1]:,} "
             f"({f['runs']} runs, {f['hours']:.0f} h of service)"
             + (f" and fault-free 600-s runs {report['fault_free_seeds'][0]:,}-{report['fault_free_seeds'][1]:,}"

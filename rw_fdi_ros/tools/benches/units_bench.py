@@ -28,7 +28,7 @@ from ...core.mission.plant_choices import FDI_PERIOD
 from ...core.mission.vehicle import DEFAULT_VEHICLE
 from .detection_bench import CELLS, cell_results, cell_sizes, observable_levels
 from .kit import (cell_scenarios, configured, fdi_phrase, format_rate, screen_cells, workers, write_cells_table,
-                  write_report)
+                  write_report, vehicle_words)
 from ..evaluation.screen import screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands
@@ -81,7 +81,7 @@ def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str 
 def format_units(report: dict) -> str:
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
     lines = ["# The FDI on wheels that are not the datasheet (`rw-fdi bench units`)"
-             + ("" if vehicle == DEFAULT_VEHICLE else f", vehicle {vehicle}"), "",
+             + ("" if vehicle == DEFAULT_VEHICLE else f", vehicle {vehicle_words(vehicle)}"), "",
              f"Measured {report['date']} on {fdi_phrase(report, 'the shipped speed-aware FDI')}; `datasheet model`: "
              f"the datasheet bands, observers modelling Table 2.2's wheel; `calibrated`: each observer learns its "
              f"wheel over the first {report['unit_calibration_time_s']:g} s of the run (`--unit-calibration "

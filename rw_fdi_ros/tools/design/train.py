@@ -116,10 +116,48 @@ def train_axis(tcv, torque, mode: str = "recall", epochs: int = EPOCHS, lr: floa
                         speed_scale=speed_scale).validate(), losses
 
 
+_PROGRESS = None   # in a worker: the queue its epochs go to, for the parent's progress bar
+
+
+def _worker_init(queue):
+    global _PROGRESS
+    _PROGRESS = queue
+
+
 def _train_one(args):
-    """train_axis in a worker process: (tcv, torque, mode, epochs, seed, wheel speed) -> (weights, losses)."""
+    """train_axis in a worker process: (tcv, torque, mode, epochs, seed, wheel speed) -> (weights, losses);
+    each epoch's loss told to the parent (:func:`_worker_init`)."""
     tcv, torque, mode, epochs, seed, speed = args
-    return train_axis(tcv, torque, mode, epochs, seed=seed, wheel_speed=speed)
+    tell = None if _PROGRESS is None else (lambda k, loss: _PROGRESS.put((k, loss)))
+    return train_axis(tcv, torque, mode, epochs, seed=seed, wheel_speed=speed, progress=tell)
+
+
+def _pooled(inputs, jobs, tick):
+    """(weights, losses) of each of ``inputs`` in order, trained ``jobs`` at a time in worker processes, every
+    epoch's ``tick(1, loss)`` said as it comes: a training of minutes is never silent."""
+    import multiprocessing
+    import queue as queues
+    from concurrent.futures import ProcessPoolExecutor
+    context = multiprocessing.get_context("fork")
+    told, said, epochs = context.Queue(), 0, sum(args[3] for args in inputs)
+
+    def hear(timeout):
+        nonlocal said
+        try:
+            tick(*told.get(timeout=timeout))
+            said += 1
+        except queues.Empty:
+            pass
+    with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_init, initargs=(told,)) as pool:
+        futures = [pool.submit(_train_one, args) for args in inputs]
+        for i, future in enumerate(futures):
+            while not future.done():
+                hear(0.5)
+            if i == len(futures) - 1:   # the last epochs may come after the last result
+                deadline = time.monotonic() + 5.0
+                while said < epochs and time.monotonic() < deadline:
+                    hear(0.1)
+            yield future.result()
 
 
 def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE,
@@ -189,20 +227,14 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
                mode, epochs, seed + i, np.stack([s.wheel_speed[:n, i] for s in samples]) if speed_aware else None)
               for i in columns]
     jobs = max(1, min(jobs or min(2, os.cpu_count() or 1), len(wheels)))
-    if jobs == 1:
-        def tick(k, loss):
-            bar.update(k)
-            bar.set_postfix(mse=f"{loss:.2e}")
-        trained = (train_axis(*args[:4], seed=args[4], progress=tick, wheel_speed=args[5]) for args in inputs)
-    else:   # the axes are independent: one process each (torch on one thread), the same weights as in turn
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-        pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"))
-        futures = [pool.submit(_train_one, args) for args in inputs]
-        trained = (f.result() for f in futures)
+
+    def tick(k, loss):
+        bar.update(k)
+        bar.set_postfix(mse=f"{loss:.2e}", refresh=False)
+    # the axes are independent: one process each (torch on one thread), the same weights as in turn
+    trained = (_pooled(inputs, jobs, tick) if jobs > 1 else
+               (train_axis(*args[:4], seed=args[4], progress=tick, wheel_speed=args[5]) for args in inputs))
     for i, axis, (weights, losses) in zip(columns, wheels, trained):
-        if jobs > 1:
-            bar.update(epochs)
         if speed_aware:
             weights.uncertainty_gain = uncertainty_gain(weights, calibration, i, false_alarm_rate, axis)
         axis_card = {**{k: v for k, v in card.items() if k != "axes"}, "axis": axis,
@@ -212,8 +244,6 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
         weights.save(out_dir / f"elman_{axis}.npz", axis_card)
         card["axes"][axis] = {"final_loss": losses[-1], "torque_scale": weights.torque_scale,
                               "uncertainty_gain": weights.uncertainty_gain}
-    if jobs > 1:
-        pool.shutdown()
     bar.close()
     card["train_seconds"] = time.monotonic() - t0
     (out_dir / "model_set.json").write_text(json.dumps(card, indent=2))
