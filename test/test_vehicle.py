@@ -387,6 +387,16 @@ def test_one_command_makes_the_fdi_of_a_vehicle_and_every_command_takes_it(tmp_p
         assert judged.returncode == 0, judged.stderr
         words = next(line for line in judged.stdout.splitlines() if " verdict " in line).split()
         assert int(words[words.index("correct") + 1]) == 2, judged.stdout
+    # --vehicle DIR: a scenario naming no vehicle flies it, judged by its FDI; one naming another is refused
+    (tmp_path / "mine.yaml").write_text("name: mine\nduration: 300\nfaults: [{kind: current_limiter, wheel: p2, "
+                                        "onset: 200, value: 0.6}]\n")
+    flown = _rw_fdi(tmp_path, "screen", "--vehicle", str(out), "--scenario", "mine.yaml", "--seeds", "8000..8001")
+    assert flown.returncode == 0, flown.stderr
+    words = next(line for line in flown.stdout.splitlines() if " verdict " in line).split()
+    assert int(words[words.index("correct") + 1]) == 2, flown.stdout
+    other = subprocess.run(CLI + ["run", "--vehicle", str(out), "--scenario", "fdir_bus_x"], cwd=tmp_path,
+                           capture_output=True, text=True)
+    assert other.returncode == 2 and "wheel must be one of p1, p2, p3, p4, got 'x'" in other.stderr
     # the benches fly it as they fly a shipped vehicle: its directory is the vehicle with its FDI
     bench = _rw_fdi(tmp_path, "bench", "detection", "--vehicle", str(out), "--fault-free-runs", "2",
                     "--runs-per-cell", "1")

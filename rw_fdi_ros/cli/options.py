@@ -143,8 +143,74 @@ def parents() -> dict:
     jobs.add_argument("--jobs", type=COUNT, default=None, help="graphs at once (default: 2 on 2 cores)")
     cluster = argparse.ArgumentParser(add_help=False, parents=[jobs])
     cluster.add_argument("--scheduler", default=None, help="dask.distributed scheduler address: run on that cluster")
+    vehicle = argparse.ArgumentParser(add_help=False)
+    vehicle.add_argument("--vehicle", default=None, metavar="NAME|DIR|FILE",
+                         help="the vehicle the scenarios fly (those that name none; default: the thesis' MakSat): a "
+                              "shipped name, your vehicle's FDI directory (`rw-fdi defaults --vehicle FILE --out "
+                              "DIR`, whose FDI then judges) or a vehicle file (with --models DIR); without "
+                              "--scenario, a 400-s fault-free run of it")
     return dict(models=models, persistence=persistence, fdi_files=fdi_files, false_alarms=false_alarms, unit=unit,
-                method=method, decision=decision, observers=observers, jobs=jobs, cluster=cluster)
+                method=method, decision=decision, observers=observers, jobs=jobs, cluster=cluster, vehicle=vehicle)
+
+
+def flown_scenarios(args, scenarios: list) -> list:
+    """The scenario references a command runs, flown by --vehicle (:func:`parents`): each scenario (name or
+    file) rewritten into a file of this process naming the vehicle; a scenario naming another vehicle is
+    refused in one line. A vehicle's FDI directory becomes --models where no FDI files are given.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The command's options (``vehicle``; ``models`` and ``thresholds`` where it takes them).
+    scenarios : list of str or None
+        Scenario names or files; None or empty with --vehicle: a 400-s fault-free run of it.
+
+    Returns
+    -------
+    list of str
+        The references to run (``scenarios`` as given without --vehicle).
+    """
+    if getattr(args, "vehicle", None) is None:
+        if not scenarios:
+            raise ValueError("give --scenario (or --vehicle: a fault-free run of it)")
+        return list(scenarios)
+    import atexit
+    import shutil
+    import tempfile
+    import yaml
+    from ..core.mission.scenario import load_scenario, scenario_dir
+    from ..core.mission.vehicle import VEHICLE_FILE, load_vehicle, shipped_vehicles
+    from ..core.mission.yaml_text import read_yaml_file
+    vehicle = load_vehicle(args.vehicle)   # one line naming the field, before any run
+    source = args.vehicle if args.vehicle in shipped_vehicles() else str(Path(args.vehicle).resolve())
+    if Path(source).is_dir() and not (getattr(args, "models", None) or getattr(args, "thresholds", None)):
+        args.models = source   # the vehicle with its FDI (VEHICLE_FILE beside its networks and bands)
+    source = str(Path(source) / VEHICLE_FILE) if Path(source).is_dir() else source
+    folder = Path(tempfile.mkdtemp(prefix="rw_fdi_flown_"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    out = []
+    for ref in scenarios or [None]:
+        if ref is None:
+            raw = {"name": f"{vehicle.name}_fault_free", "duration": 400.0, "faults": []}
+        else:
+            path = Path(ref) if Path(ref).is_file() else scenario_dir() / f"{ref}.yaml"
+            raw = read_yaml_file(path) if path.is_file() else None
+            if not isinstance(raw, dict) or raw.get("vehicle") is not None:
+                own = load_scenario(ref).vehicle   # not a scenario: its one line; or one naming its vehicle
+                if own != vehicle:
+                    raise ValueError(f"--vehicle {args.vehicle}: scenario {ref} flies vehicle {own.name}; give a "
+                                     "scenario that names none")
+            raw = dict(raw)
+        raw["vehicle"] = source
+        flown = folder / f"{len(out)}_{raw['name']}.yaml"
+        flown.write_text(yaml.safe_dump(raw, sort_keys=False))
+        try:   # what the vehicle cannot fly (a wheel it has not, a fault size out of its range), one line
+            load_scenario(str(flown))
+        except ValueError as exc:
+            raise ValueError(f"--vehicle {args.vehicle}: {str(exc).replace(str(flown), ref or 'its fault-free run')}"
+                             ) from None
+        out.append(str(flown))
+    return out
 
 
 def fault_free_samples(bags, load_samples, executor=None) -> list:

@@ -1,15 +1,16 @@
 """`rw-fdi run`: one scenario through the whole graph, recorded as a bag, with its summary and FDI verdict."""
 import sys
 
-from ..options import SEED, dumps, fdi_config, number, writable_dir
+from ..options import SEED, dumps, fdi_config, flown_scenarios, number, writable_dir
 
 NAME = "run"
 HELP = "run one scenario through the whole graph and record a bag"
-PARENTS = ("fdi_files", "method", "unit", "decision", "observers")
+PARENTS = ("fdi_files", "method", "unit", "decision", "observers", "vehicle")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--scenario", required=True, help="scenario name (see `rw-fdi scenarios`) or YAML file")
+    parser.add_argument("--scenario", default=None,
+                        help="scenario name (see `rw-fdi scenarios`) or YAML file (required without --vehicle)")
     parser.add_argument("--seed", type=SEED, default=None, help="seed for initial conditions and disturbance")
     parser.add_argument("--out", default="bags", help="directory for the bag (default: bags/)")
     parser.add_argument("--emf-limit", default=None, choices=["kf_scaled", "pwm_saturation"],
@@ -75,7 +76,8 @@ def _report(args, outcome) -> int:
 
 def main(args) -> int:
     from ...runner.scenario_run import resolve_scenario, run_scenario
-    scenario, _ = resolve_scenario(args.scenario, args.seed)   # a bad scenario is the first thing to say
+    ref = flown_scenarios(args, [args.scenario] if args.scenario else [])[0]
+    scenario, _ = resolve_scenario(ref, args.seed)   # a bad scenario is the first thing to say
     writable_dir(args.out, "--out")
     if args.live is not None:   # the live view node's server: said here, before any node starts
         from ...extras import require
@@ -89,7 +91,8 @@ def main(args) -> int:
         from ...runner.fdi_run import run_with_fdi
         fdi = fdi_config(args).for_vehicle(scenario.spacecraft.name)
         fdi.check(scenario.plant_choices(emf_limit=args.emf_limit), scenario.duration)
-    print(f"running scenario {args.scenario}" + (f" seed {args.seed}" if args.seed is not None else "") +
+    seed = f" seed {args.seed}" if args.seed is not None else ""
+    print(f"running scenario {args.scenario or scenario.name}{seed}" +
           f" ({_nodes(args, wheels, fdi)}; private DDS domain)", flush=True,
           file=sys.stderr if args.json else sys.stdout)
     if args.live is not None:
@@ -105,7 +108,7 @@ def main(args) -> int:
         common = dict(seed=args.seed, out_dir=args.out, keep_logs=args.keep_logs, emf_limit=args.emf_limit,
                       command_timeout=args.command_timeout, progress=progress, live=args.live)
         if args.fdi:
-            outcome = run_with_fdi(args.scenario, fdi=fdi, figure=True, **common)
+            outcome = run_with_fdi(ref, fdi=fdi, figure=True, **common)
         else:
-            outcome = run_scenario(args.scenario, **common)
+            outcome = run_scenario(ref, **common)
     return _report(args, outcome)

@@ -1,15 +1,16 @@
 """`rw-fdi screen`: FDI figures of many seeds in seconds, the node code on the core loop (no ROS)."""
 import sys
 
-from ..options import executor, fdi_config, parse_seeds, writable_file
+from ..options import executor, fdi_config, flown_scenarios, parse_seeds, writable_file
 
 NAME = "screen"
 HELP = "FDI figures for many seeds in seconds (core loop + node code, no ROS)"
-PARENTS = ("fdi_files", "method", "unit", "decision", "observers", "cluster")
+PARENTS = ("fdi_files", "method", "unit", "decision", "observers", "cluster", "vehicle")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--scenario", nargs="+", required=True)
+    parser.add_argument("--scenario", nargs="+", default=None,
+                        help="scenario names or YAML files (required without --vehicle)")
     parser.add_argument("--seeds", default="100..129", help="A..B inclusive")
     parser.add_argument("--fdir", action="store_true",
                         help="reconfigure on the verdict in the core loop, as `rw-fdi run` does (default: detection "
@@ -32,8 +33,10 @@ def main(args) -> int:
     from ...tools.benches.kit import write_runs_table
     from ...tools.evaluation.screen import format_screen, screen
     from ...scoring.metrics import run_row
-    scenarios = [load_scenario(name) for name in args.scenario]
-    for name, scenario in zip(args.scenario, scenarios):
+    refs = flown_scenarios(args, args.scenario)
+    scenarios = [load_scenario(ref) for ref in refs]
+    names = args.scenario or [scenarios[0].name]
+    for name, scenario in zip(names, scenarios):
         scenario_design(scenario, name)   # its vehicle's controllers, or one line before any run
     fdis = [fdi_config(args).for_vehicle(s.spacecraft.name) for s in scenarios]   # each its vehicle's FDI
     for scenario, fdi in zip(scenarios, fdis):
@@ -42,7 +45,7 @@ def main(args) -> int:
     counts, rows = {}, []
     with tqdm(total=len(seeds) * len(scenarios), desc="screen (core loop)", unit="run", file=sys.stderr,
               disable=None) as bar:
-        for name, scenario, fdi in zip(args.scenario, scenarios, fdis):
+        for name, scenario, fdi in zip(names, scenarios, fdis):
             counts[name], runs = screen(scenario, seeds, fdi, progress=bar.update, executor=pool)
             rows += [run_row(r) for r in runs]
             if not args.json:
