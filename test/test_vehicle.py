@@ -394,6 +394,12 @@ def test_one_command_makes_the_fdi_of_a_vehicle_and_every_command_takes_it(tmp_p
     assert flown.returncode == 0, flown.stderr
     words = next(line for line in flown.stdout.splitlines() if " verdict " in line).split()
     assert int(words[words.index("correct") + 1]) == 2, flown.stdout
+    camp = _rw_fdi(tmp_path, "campaign", "--vehicle", str(out), "--scenario", "mine.yaml", "--runs", "1", "--out",
+                   "camp", "--engine", "core")
+    assert camp.returncode == 0, camp.stderr
+    from rw_fdi_ros.storage.bag import read_bag
+    recorded = yaml.safe_load(read_bag(tmp_path / "camp" / "mine_s0001", topics=["/scenario"]).last("/scenario").data)
+    assert recorded["vehicle"]["name"] == "microsat_pyramid" and recorded["faults"][0]["wheel"] == "p2"
     other = subprocess.run(CLI + ["run", "--vehicle", str(out), "--scenario", "fdir_bus_x"], cwd=tmp_path,
                            capture_output=True, text=True)
     assert other.returncode == 2 and "wheel must be one of p1, p2, p3, p4, got 'x'" in other.stderr

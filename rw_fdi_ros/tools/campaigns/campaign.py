@@ -149,10 +149,11 @@ def pending(scenario_ref: str, runs: int, seed_start: int, out_dir) -> tuple:
     return todo, skipped
 
 
-def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executor=None, fdi: bool = False,
+def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executor=None, fdi=False,
                  desc: str | None = None, engine: str = "graph", **run_kwargs) -> CampaignResult:
     """Record ``runs`` runs with seeds seed_start.. into ``out_dir`` by ``engine`` ('graph' or 'core');
-    complete bags are kept, whichever engine recorded them."""
+    complete bags are kept, whichever engine recorded them. ``fdi``: True (the vehicle's shipped FDI) or an
+    FdiConfig runs the FDI nodes live too."""
     check_engine(engine, fdi)
     out_dir = Path(out_dir)
     scenario = load_scenario(scenario_ref)
@@ -168,7 +169,8 @@ def run_campaign(scenario_ref: str, runs: int, seed_start: int, out_dir, executo
     def attempt(seed):
         if fdi:
             from ...runner.fdi_run import run_with_fdi
-            return run_with_fdi(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
+            return run_with_fdi(scenario_ref, seed=seed, out_dir=out_dir, fdi=None if fdi is True else fdi,
+                                **run_kwargs)
         return run_scenario(scenario_ref, seed=seed, out_dir=out_dir, **run_kwargs)
 
     def one(seed):
