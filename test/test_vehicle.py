@@ -400,6 +400,10 @@ def test_one_command_makes_the_fdi_of_a_vehicle_and_every_command_takes_it(tmp_p
     from rw_fdi_ros.storage.bag import read_bag
     recorded = yaml.safe_load(read_bag(tmp_path / "camp" / "mine_s0001", topics=["/scenario"]).last("/scenario").data)
     assert recorded["vehicle"]["name"] == "microsat_pyramid" and recorded["faults"][0]["wheel"] == "p2"
+    judged = _rw_fdi(tmp_path, "evaluate", "--bags", "camp", "--vehicle", str(out), "--report", "rep", "--engine",
+                     "core")
+    assert judged.returncode == 0, judged.stderr
+    assert json.loads((tmp_path / "rep" / "report.json").read_text())["runs"] == 1
     other = subprocess.run(CLI + ["run", "--vehicle", str(out), "--scenario", "fdir_bus_x"], cwd=tmp_path,
                            capture_output=True, text=True)
     assert other.returncode == 2 and "wheel must be one of p1, p2, p3, p4, got 'x'" in other.stderr

@@ -16,7 +16,6 @@ card (bags, seeds, losses, normalisation, plant conditions) per axis.
 from __future__ import annotations
 
 import json
-import os
 import sys
 import time
 from pathlib import Path
@@ -44,33 +43,37 @@ def _torch():
 
 
 def torch_forward(params, u, r, mode: str, speed=None):
-    """Network outputs (B, T), normalised; ``params`` = (w_ih, w_hh, b_h, w_ho, b_o) torch tensors.
+    """Network outputs (..., B, T), normalised; ``params`` = (w_ih, w_hh, b_h, w_ho, b_o) torch tensors, each
+    with a leading wheel axis (W, ...) for W networks at once (``u``, ``r``, ``speed`` then (W, B, T)).
 
     Recall mode feeds back its own output; teacher mode feeds the measured r_{k-1}.
-    Both start from the measured r_0 as the delayed input of sample 0. ``speed`` (B, T),
+    Both start from the measured r_0 as the delayed input of sample 0. ``speed`` (..., B, T),
     normalised, is the third input of a speed-aware network.
     """
     torch = _torch()
     w_ih, w_hh, b_h, w_ho, b_o = params
-    h = torch.zeros(u.shape[0], w_hh.shape[0], dtype=u.dtype)
-    fed = r[:, 0]
+    w_in = [w_ih[..., None, :, j] for j in range(w_ih.shape[-1])]   # (..., 1, H): an input's weights
+    w_hh_t, w_ho_t, b_h, b_o = w_hh.transpose(-1, -2), w_ho.transpose(-1, -2), b_h[..., None, :], b_o[..., None, :]
+    h = torch.zeros(*u.shape[:-1], w_hh.shape[-1], dtype=u.dtype)
+    fed = r[..., 0]
     if speed is not None:   # start from the steady state for the first input (elman.SETTLE_STEPS)
         for _ in range(SETTLE_STEPS):
-            drive = u[:, 0:1] * w_ih[:, 0] + fed[:, None] * w_ih[:, 1] + speed[:, 0:1] * w_ih[:, 2]
-            h = torch.tanh(drive + h @ w_hh.T + b_h)
-            fed = torch.tanh(h @ w_ho.T + b_o)[:, 0]   # its own output, as in use
+            drive = u[..., 0:1] * w_in[0] + fed[..., None] * w_in[1] + speed[..., 0:1] * w_in[2]
+            h = torch.tanh(drive + h @ w_hh_t + b_h)
+            fed = torch.tanh(h @ w_ho_t + b_o)[..., 0]   # its own output, as in use
         if mode == "teacher":
-            fed = r[:, 0]
+            fed = r[..., 0]
+    # what does not feed back, every step at once (..., T, B, H): the loop is left the recurrence alone
+    given = u.transpose(-1, -2)[..., None] * w_in[0][..., None, :, :] + b_h[..., None, :, :]
+    if speed is not None:
+        given = given + speed.transpose(-1, -2)[..., None] * w_in[2][..., None, :, :]
     outs = []
-    for k in range(u.shape[1]):
-        drive = u[:, k:k + 1] * w_ih[:, 0] + fed[:, None] * w_ih[:, 1]
-        if speed is not None:
-            drive = drive + speed[:, k:k + 1] * w_ih[:, 2]
-        h = torch.tanh(drive + h @ w_hh.T + b_h)
-        y = torch.tanh(h @ w_ho.T + b_o)[:, 0]
+    for k, given_k in enumerate(torch.unbind(given, dim=-3)):   # one backward for all the steps' slices
+        h = torch.tanh(given_k + fed[..., None] * w_in[1] + h @ w_hh_t)
+        y = torch.tanh(h @ w_ho_t + b_o)[..., 0]
         outs.append(y)
-        fed = y if mode == "recall" else r[:, k]
-    return torch.stack(outs, dim=1)
+        fed = y if mode == "recall" else r[..., k]
+    return torch.stack(outs, dim=-1)
 
 
 LOSSES = ("mse", "huber")
@@ -84,80 +87,60 @@ def train_axis(tcv, torque, mode: str = "recall", epochs: int = EPOCHS, lr: floa
     With ``wheel_speed`` (runs, samples) the network is speed-aware (three inputs). ``hidden``: its hidden
     units; ``loss``: 'mse', the mean of e^2 (the thesis'), or 'huber', quadratic within 0.1 of the scaled
     torque and linear beyond (a few large errors, a slew's first samples, weigh less)."""
+    return train_networks(np.asarray(tcv)[None], np.asarray(torque)[None], mode, epochs, lr, (seed,),
+                          None if torque_scale is None else (torque_scale,), progress,
+                          None if wheel_speed is None else np.asarray(wheel_speed)[None], hidden, loss)[0]
+
+
+def train_networks(tcv, torque, mode: str = "recall", epochs: int = EPOCHS, lr: float = 0.01, seeds=None,
+                   torque_scales=None, progress=None, wheel_speed=None, hidden: int = HIDDEN,
+                   loss: str = "mse") -> list:
+    """Fit W wheels' networks at once on (W, runs, samples) arrays, as many trainings of :func:`train_axis`
+    stepped together: the wheels share no weight, and each has its own loss, Adam state and gradient clip (a
+    tenth of a second of Python per epoch carries all of them). ``seeds``: each network's start (default
+    0, 1, ...); ``progress(1, loss)`` once an epoch with the largest wheel loss. Returns [(weights, losses)]."""
     if loss not in LOSSES:
         raise ValueError(f"loss {loss!r}: one of {', '.join(LOSSES)}")
     torch = _torch()
-    torque_scale = torque_scale or float(np.abs(torque).max() * 1.1)
-    speed_scale = 0.0 if wheel_speed is None else float(np.abs(wheel_speed).max() * 1.1)
-    w0 = ElmanWeights.random(np.random.default_rng(seed), hidden, tcv_scale=5.0, torque_scale=torque_scale,
-                             speed_scale=speed_scale)
-    params = [torch.tensor(getattr(w0, k), dtype=torch.float64, requires_grad=True)
-              for k in ("w_ih", "w_hh", "b_h", "w_ho", "b_o")]
-    u = torch.tensor(np.asarray(tcv) / 5.0, dtype=torch.float64)
-    r = torch.tensor(np.asarray(torque) / torque_scale, dtype=torch.float64)
-    w = None if wheel_speed is None else torch.tensor(np.asarray(wheel_speed) / speed_scale, dtype=torch.float64)
+    tcv, torque = np.asarray(tcv, float), np.asarray(torque, float)
+    count = tcv.shape[0]
+    seeds = tuple(range(count)) if seeds is None else tuple(seeds)
+    torque_scales = torque_scales or [float(np.abs(t).max() * 1.1) for t in torque]
+    speed_scales = ([0.0] * count if wheel_speed is None else [float(np.abs(w).max() * 1.1) for w in wheel_speed])
+    starts = [ElmanWeights.random(np.random.default_rng(seed), hidden, tcv_scale=5.0, torque_scale=ts,
+                                  speed_scale=ss) for seed, ts, ss in zip(seeds, torque_scales, speed_scales)]
+    names = ("w_ih", "w_hh", "b_h", "w_ho", "b_o")
+    params = [torch.tensor(np.stack([getattr(w0, k) for w0 in starts]), dtype=torch.float64, requires_grad=True)
+              for k in names]
+    column = torch.tensor(torque_scales, dtype=torch.float64)[:, None, None]
+    u = torch.tensor(tcv / 5.0, dtype=torch.float64)
+    r = torch.tensor(torque, dtype=torch.float64) / column
+    w = (None if wheel_speed is None else
+         torch.tensor(np.asarray(wheel_speed, float), dtype=torch.float64)
+         / torch.tensor(speed_scales, dtype=torch.float64)[:, None, None])
     opt = torch.optim.Adam(params, lr=lr)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs, eta_min=lr / 20)
     losses = []
     for _ in range(epochs):
         opt.zero_grad()
         e = torch_forward(params, u, r, mode, w) - r
-        cost = (torch.mean(e ** 2) if loss == "mse"
-                else torch.nn.functional.huber_loss(e, torch.zeros_like(e), delta=HUBER_DELTA))
-        cost.backward()
-        torch.nn.utils.clip_grad_norm_(params, 1.0)
+        costs = (torch.mean(e ** 2, dim=(1, 2)) if loss == "mse" else torch.nn.functional.huber_loss(
+            e, torch.zeros_like(e), delta=HUBER_DELTA, reduction="none").mean(dim=(1, 2)))
+        costs.sum().backward()   # each wheel's gradient is its own loss's
+        # clip_grad_norm_(1.0) of each wheel's own parameters
+        norms = torch.sqrt(sum((p.grad ** 2).reshape(count, -1).sum(dim=1) for p in params))
+        clip = torch.clamp(1.0 / (norms + 1e-6), max=1.0)
+        for p in params:
+            p.grad.mul_(clip.reshape(-1, *([1] * (p.dim() - 1))))
         opt.step()
         sched.step()
-        losses.append(float(cost.detach()))
+        losses.append(costs.detach().numpy().copy())
         if progress:
-            progress(1, losses[-1])
-    arrays = {k: p.detach().numpy().copy() for k, p in zip(("w_ih", "w_hh", "b_h", "w_ho", "b_o"), params)}
-    return ElmanWeights(**arrays, tcv_scale=5.0, torque_scale=torque_scale,
-                        speed_scale=speed_scale).validate(), losses
-
-
-_PROGRESS = None   # in a worker: the queue its epochs go to, for the parent's progress bar
-
-
-def _worker_init(queue):
-    global _PROGRESS
-    _PROGRESS = queue
-
-
-def _train_one(args):
-    """train_axis in a worker process: (tcv, torque, mode, epochs, seed, wheel speed) -> (weights, losses);
-    each epoch's loss told to the parent (:func:`_worker_init`)."""
-    tcv, torque, mode, epochs, seed, speed = args
-    tell = None if _PROGRESS is None else (lambda k, loss: _PROGRESS.put((k, loss)))
-    return train_axis(tcv, torque, mode, epochs, seed=seed, wheel_speed=speed, progress=tell)
-
-
-def _pooled(inputs, jobs, tick):
-    """(weights, losses) of each of ``inputs`` in order, trained ``jobs`` at a time in worker processes, every
-    epoch's ``tick(1, loss)`` said as it comes: a training of minutes is never silent."""
-    import multiprocessing
-    import queue as queues
-    from concurrent.futures import ProcessPoolExecutor
-    context = multiprocessing.get_context("fork")
-    told, said, epochs = context.Queue(), 0, sum(args[3] for args in inputs)
-
-    def hear(timeout):
-        nonlocal said
-        try:
-            tick(*told.get(timeout=timeout))
-            said += 1
-        except queues.Empty:
-            pass
-    with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_init, initargs=(told,)) as pool:
-        futures = [pool.submit(_train_one, args) for args in inputs]
-        for i, future in enumerate(futures):
-            while not future.done():
-                hear(0.5)
-            if i == len(futures) - 1:   # the last epochs may come after the last result
-                deadline = time.monotonic() + 5.0
-                while said < epochs and time.monotonic() < deadline:
-                    hear(0.1)
-            yield future.result()
+            progress(1, float(losses[-1].max()))
+    history = np.array(losses)
+    return [(ElmanWeights(**{k: p.detach().numpy()[i].copy() for k, p in zip(names, params)}, tcv_scale=5.0,
+                          torque_scale=torque_scales[i], speed_scale=speed_scales[i]).validate(),
+             [float(x) for x in history[:, i]]) for i in range(count)]
 
 
 def uncertainty_gain(weights, samples, axis: int, false_alarm_rate: float = FALSE_ALARM_RATE,
@@ -193,10 +176,10 @@ def trained_wheels(samples, plant: dict | None = None) -> tuple:
 
 def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, plant: dict | None = None,
                  seed: int = 0, quiet: bool = False, speed_aware: bool = True, calibration=None,
-                 false_alarm_rate: float = FALSE_ALARM_RATE, jobs: int | None = None) -> dict:
+                 false_alarm_rate: float = FALSE_ALARM_RATE) -> dict:
     """Train a network per wheel in use of the samples' set (:func:`trained_wheels`; the default set: x, y, z)
-    on a list of FdiSamples and save them with cards; returns the set card (its ``wheels``: which have one).
-    ``jobs``: axes trained at once, one process each (default: 2 on 2 cores; 1: in this process).
+    on a list of FdiSamples, all at once (:func:`train_networks`), and save them with cards; returns the set
+    card (its ``wheels``: which have one).
 
     ``speed_aware``: three inputs with the wheel speed (ours); False: the thesis' two.
     ``calibration``: fault-free runs kappa is measured on (default: the training runs). More
@@ -221,19 +204,18 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
     calibration = list(calibration) if calibration else list(samples)
     if speed_aware:
         card["uncertainty_gain_seeds"] = [s.seed for s in calibration]
-    bar = tqdm(total=len(wheels) * epochs, desc=f"train elman ({mode}, {len(samples)} runs)", unit="epoch",
+    bar = tqdm(total=epochs, desc=f"train elman ({mode}, {len(wheels)} wheels, {len(samples)} runs)", unit="epoch",
                file=sys.stderr, disable=quiet or None, mininterval=1.0)
-    inputs = [(np.stack([s.tcv[:n, i] for s in samples]), np.stack([s.reaction_torque[:n, i] for s in samples]),
-               mode, epochs, seed + i, np.stack([s.wheel_speed[:n, i] for s in samples]) if speed_aware else None)
-              for i in columns]
-    jobs = max(1, min(jobs or min(2, os.cpu_count() or 1), len(wheels)))
+
+    def stacked(field):   # (wheels, runs, samples)
+        return np.stack([np.stack([getattr(s, field)[:n, i] for s in samples]) for i in columns])
 
     def tick(k, loss):
         bar.update(k)
         bar.set_postfix(mse=f"{loss:.2e}", refresh=False)
-    # the axes are independent: one process each (torch on one thread), the same weights as in turn
-    trained = (_pooled(inputs, jobs, tick) if jobs > 1 else
-               (train_axis(*args[:4], seed=args[4], progress=tick, wheel_speed=args[5]) for args in inputs))
+    trained = train_networks(stacked("tcv"), stacked("reaction_torque"), mode, epochs,
+                             seeds=[seed + i for i in columns], progress=tick,
+                             wheel_speed=stacked("wheel_speed") if speed_aware else None)
     for i, axis, (weights, losses) in zip(columns, wheels, trained):
         if speed_aware:
             weights.uncertainty_gain = uncertainty_gain(weights, calibration, i, false_alarm_rate, axis)
