@@ -205,7 +205,7 @@ def train_models(samples, out_dir, mode: str = "recall", epochs: int = EPOCHS, p
     if speed_aware:
         card["uncertainty_gain_seeds"] = [s.seed for s in calibration]
     bar = tqdm(total=epochs, desc=f"train elman ({mode}, {len(wheels)} wheels, {len(samples)} runs)", unit="epoch",
-               file=sys.stderr, disable=quiet or None, mininterval=1.0)
+               file=sys.stderr, disable=quiet, mininterval=1.0)
 
     def stacked(field):   # (wheels, runs, samples)
         return np.stack([np.stack([getattr(s, field)[:n, i] for s in samples]) for i in columns])
