@@ -139,8 +139,8 @@ def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
         cb = (f"callback wall median {rep['callback_median_ms'] * 1e3:6.0f} us "
               f"p99 {rep['callback_p99_ms'] * 1e3:6.0f} us,"
               f" CPU median {rep['callback_cpu_median_ms'] * 1e3:5.0f} us "
-              f"p99 {rep['callback_cpu_p99_ms'] * 1e3:5.0f} us"
-              if "callback_median_ms" in rep else " " * 86)
+              f"p99 {rep['callback_cpu_p99_ms'] * 1e3:5.0f} us max {rep['callback_cpu_max_ms'] * 1e3:6.0f} us"
+              if "callback_median_ms" in rep else " " * 99)
         lines.append(f"  {name:18s} {cb}  max RSS {rep['max_rss_mb']:6.1f} MB  cpu {rep['cpu_s']:5.2f} s")
     return {"ok": outcome.ok, "compute_us": compute, "nodes": nodes, "text": "\n".join(lines)}
 
