@@ -71,6 +71,9 @@ def test_a_name_that_is_a_path_is_refused_before_anything_is_written(name, tmp_p
     with pytest.raises(ScenarioError, match="name: .* cannot name a file"):
         load_scenario(str(scenario))
     refused(["run", "--scenario", scenario, "--out", tmp_path / "out"], capsys)
+    # flown by another vehicle (--vehicle rewrites the scenario into a file of its own): the same one line
+    assert "cannot name a file" in refused(["screen", "--vehicle", "microsat_pyramid", "--scenario", scenario],
+                                           capsys)
     assert not (tmp_path / "escape").exists() and not (tmp_path.parent / "escape").exists()
     with pytest.raises(VehicleError, match=r"maksat.yaml.name: .* cannot name a file"):
         load_vehicle(_vehicle_file(tmp_path, {"name: maksat": f"name: {name!r}"}))

@@ -202,7 +202,7 @@ def flown_scenarios(args, scenarios: list) -> list:
                                      "scenario that names none")
             raw = dict(raw)
         raw["vehicle"] = source
-        flown = folder / f"{len(out)}_{raw['name']}.yaml"
+        flown = folder / f"{len(out)}.yaml"   # not the scenario's name: it is checked only when parsed
         flown.write_text(yaml.safe_dump(raw, sort_keys=False))
         try:   # what the vehicle cannot fly (a wheel it has not, a fault size out of its range), one line
             load_scenario(str(flown))
