@@ -401,3 +401,13 @@ def test_a_held_wheel_whose_drive_gives_next_to_nothing_is_said_not_to_keep_its_
     assert (held.wheel, held.action) == ("x", "held") and "too little to hold that speed" in held.reason
     speed_held = float(held.reason.split("held at ")[1].split(" rad/s")[0])
     assert traj.wheel_speed[-1, 0, 0] < 0.5 * speed_held   # it did not keep it
+
+
+def test_one_observers_bands_with_a_unit_calibration_are_that_observer_learning_its_wheels():
+    """Fdir(curves, calibration_samples=150), the form in-service scripts write, is the LoadedFdi of that one
+    observer learning each wheel's unit over 150 samples; a LoadedFdi with it besides is refused."""
+    curves = ThresholdCurves.load(fdi_dir("speed_aware") / "unit_calibrated" / "thresholds_model.json", "model")
+    short = Fdir(curves, calibration_samples=150)
+    assert short.fdi == LoadedFdi({"model": curves}, calibration_samples=150)
+    with pytest.raises(ValueError, match="calibration_samples goes with one observer's bands"):
+        Fdir(LoadedFdi({"model": curves}), calibration_samples=150)

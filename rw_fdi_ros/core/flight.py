@@ -37,10 +37,14 @@ class Fdir:
     # envelope (isolation.speed_envelope: the thesis' type 45)
     holdable: float | None = None
     watch: LoadedFdi = None        # observers judged beside, acted on by nothing (pipeline.FdiPipeline)
+    # with one observer's bands for ``fdi``: FDI samples its observer learns each wheel's unit from
+    calibration_samples: int = 0
 
     def __post_init__(self):
         if not isinstance(self.fdi, LoadedFdi):   # one observer's bands (ThresholdCurves): that observer decides
-            self.fdi = LoadedFdi({self.fdi.observer: self.fdi})
+            self.fdi = LoadedFdi({self.fdi.observer: self.fdi}, calibration_samples=int(self.calibration_samples))
+        elif self.calibration_samples:
+            raise ValueError("Fdir: calibration_samples goes with one observer's bands; a LoadedFdi carries its own")
 
 
 @dataclass
