@@ -286,3 +286,32 @@ def test_two_writers_of_one_topic_at_one_log_time_compare_in_either_order(tmp_pa
         ["/a message 1 (t = 1 s): contents differ"]
     assert bag_differences(a, bag("d", [(0, 1.0), (1, 2.0), (2, 3.0), (2, 4.0)])) == \
         ["/a message 2: stamp 1000000000 in a, 2000000000 in d"]
+
+
+def test_a_damaged_record_header_is_named_and_every_whole_chunk_after_it_read(tmp_path, capsys):
+    """16 random bytes over the third chunk's record header read as 'truncated' with exit 0, and the chunks
+    after it were never read (issue 56): the record is named, reading goes on at the next whole chunk, and
+    `rw-fdi bag` fails, also in --json."""
+    import json
+
+    from mcap.reader import make_reader
+
+    from rw_fdi_ros.cli import main
+    write(tmp_path / "h", 100)                       # 10 chunks of 10 messages (a 1-s flush period)
+    f = next((tmp_path / "h").glob("*.mcap"))
+    with open(f, "rb") as fh:
+        chunks = sorted(c.chunk_start_offset for c in make_reader(fh).get_summary().chunk_indexes)
+    assert len(chunks) >= 5
+    blob = bytearray(f.read_bytes())
+    blob[chunks[2]:chunks[2] + 16] = bytes(range(200, 216))
+    f.write_bytes(bytes(blob))
+    info = read_bag(tmp_path / "h")
+    assert not info.complete and "damaged at record" in info.note, info.note
+    times = [t for t, _ in info.topic("/a")]
+    assert times[-1] == 99 * 10**8 and 70 <= len(times) < 100   # the chunks beyond the damaged one read
+    with pytest.raises(BagError, match="damaged at record"):
+        read_bag(tmp_path / "h", intact=True)
+    assert main(["bag", str(tmp_path / "h"), "--json"]) == 1
+    said = json.loads(capsys.readouterr().out)
+    assert said["complete"] is False and "damaged at record" in said["damage"] and "messages after it read" in \
+        said["damage"]

@@ -33,6 +33,24 @@ def test_wheel_sets_span_the_body_with_any_three_wheels():
         WheelSet("flat", ("a", "b", "c"), ((1, 0, 0), (0, 1, 0), (1, 0, 0)))
 
 
+def test_a_run_draws_each_active_wheels_speed_and_three_axis_speeds_spread_minimum_norm():
+    """The pyramid's draw spread the thesis' three axis speeds minimum-norm, which left p3 and p4 near zero
+    (medians -4 rad/s) and crossing it in a third of the runs: a run draws each active wheel's speed."""
+    sc = parse_scenario("{name: p, vehicle: microsat_pyramid, duration: 10, seed: 5}")
+    speeds = Plant(sc).wheel_speed[0]
+    assert speeds.shape == (4,) and np.all((speeds >= 20.0) & (speeds <= 30.0))
+    axis = np.array([25.0, 20.0, 30.0])   # a scenario's three: their momentum, the minimum-norm speeds
+    spread = PYRAMID.initial_speeds(axis)
+    np.testing.assert_allclose(PYRAMID.matrix @ spread, axis, atol=1e-12)
+    np.testing.assert_allclose(spread, np.linalg.pinv(PYRAMID.matrix) @ axis, atol=1e-12)
+    np.testing.assert_array_equal(SKEW.initial_speeds(axis), [25.0, 20.0, 30.0, 0.0])   # s at rest
+    given = parse_scenario("{name: g, vehicle: microsat_pyramid, initial: {wheel_speed: [1, 2, 3, 4]}}")
+    np.testing.assert_array_equal(Plant(given).wheel_speed[0], [1.0, 2.0, 3.0, 4.0])
+    with pytest.raises(ScenarioError, match=r"initial.wheel_speed: expected a list of 3 numbers \(x, y, z\) or 4 "
+                                            r"\(every wheel in use\)"):
+        parse_scenario("{name: b, vehicle: microsat_pyramid, initial: {wheel_speed: [1, 2]}}")
+
+
 def test_a_wheel_without_a_design_of_its_own_takes_its_types_by_one_rule():
     """The redundant s runs x's network and the widest of the three threshold curves; x, y, z their own."""
     assert fitted_for("y", AXIS_WHEELS) == ("y",) and fitted_for("s", AXIS_WHEELS) == AXIS_WHEELS

@@ -153,6 +153,15 @@ def test_bad_bags_are_skipped_with_a_reason_and_the_rest_goes_on(study, tmp_path
     assert "no .mcap data file (only metadata.yaml)" in reasons["metadata_only"]
     assert "short: the run stopped at 30 s of" in reasons["interrupted"] and "interrupted" in reasons["interrupted"]
     assert "/attitude short of the run's end (its recorder lost messages" in reasons["lost_attitude"]
+    # what training and fitting learn from, and what a resumed campaign keeps: only the whole run (issue 56)
+    from rw_fdi_ros.runner.scenario_run import not_whole
+    from rw_fdi_ros.tools.design.samples import load_samples
+    said = []
+    assert [s.bag.name for s in load_samples(bags, on_skip=said.append)] == ["good"]
+    why = {Path(line.split(":")[0]).name: line for line in said}
+    assert {"truncated", "interrupted", "lost_attitude"} <= set(why), said
+    assert "run interrupted" in why["interrupted"] and "lost messages on /attitude" in why["lost_attitude"]
+    assert [b.name for b in sorted(bags.iterdir()) if not not_whole(b)] == ["good"]
 
     with pytest.raises(BagError, match="no bags to evaluate"):
         (tmp_path / "empty").mkdir()

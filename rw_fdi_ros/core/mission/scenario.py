@@ -174,7 +174,7 @@ class Scenario:
         d = self.spacecraft.dispersions
         att = rng.uniform(*d.attitude_deg, 3)
         rate = rng.uniform(*d.body_rate, 3)
-        speed = rng.uniform(*d.wheel_speed, 3)
+        speed = rng.uniform(*d.wheel_speed, len(self.wheel_set().active))   # each active wheel's
         changes = [rng.uniform(*d.setpoint_change_deg, 3) for _ in self.setpoints]
         fixed = self.initial
         att = np.asarray(fixed.get("attitude_deg", att), float)
@@ -450,7 +450,8 @@ def _fault(where, raw, duration, names=AXIS_WHEELS):
 
 def _vector(where, raw, lengths=(3,), lo=None, hi=None):
     if not isinstance(raw, (list, tuple)) or len(raw) not in lengths:
-        what = "3 numbers (x, y, z)" if set(lengths) == {3} else f"3 numbers (x, y, z) or {max(lengths)} (every wheel)"
+        what = "3 numbers (x, y, z)" if set(lengths) == {3} else \
+            f"3 numbers (x, y, z) or {max(lengths)} (every wheel{' in use' if 'initial' in where else ''})"
         raise ScenarioError(f"{where}: expected a list of {what}")
     return tuple(_num(f"{where}[{i}]", v, lo, hi) for i, v in enumerate(raw))
 
@@ -521,8 +522,6 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     bad = set(initial_raw) - {"attitude_deg", "body_rate", "wheel_speed"}
     if bad:
         raise ScenarioError(f"{origin}: initial: unknown field(s) {sorted(bad)}")
-    initial = {k: _vector(f"{origin}: initial.{k}", v, lo=-INITIAL_LIMITS[k], hi=INITIAL_LIMITS[k])
-               for k, v in initial_raw.items()}
     plant = raw.get("plant") or {}
     if not isinstance(plant, dict) or set(plant) - PLANT_KEYS:
         raise ScenarioError(f"{origin}: plant may set only {sorted(PLANT_KEYS)}")
@@ -540,9 +539,12 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
     if vehicle is not None:
         plant["vehicle"] = vehicle.name
     try:
-        names = WHEEL_SETS[PlantChoices.for_scenario(plant).wheel_set].names
+        wheels = WHEEL_SETS[PlantChoices.for_scenario(plant).wheel_set]
     except PlantChoiceError as exc:
         raise ScenarioError(f"{origin}: plant.{exc}") from None
+    names = wheels.names
+    initial = {k: _vector(f"{origin}: initial.{k}", v, (3, len(wheels.active)) if k == "wheel_speed" else (3,),
+                          lo=-INITIAL_LIMITS[k], hi=INITIAL_LIMITS[k]) for k, v in initial_raw.items()}
     faults_raw = raw.get("faults") or []
     if not isinstance(faults_raw, list):
         raise ScenarioError(f"{origin}: faults must be a list")

@@ -154,8 +154,7 @@ class Plant:
         draws = [s.draws()[0] for s in self.scenarios]
         self.attitude = np.array([d.attitude for d in draws])
         self.body_rate = np.array([d.body_rate for d in draws])
-        self.wheel_speed = np.array([self.wheels.initial_speeds(d.wheel_speed) if len(d.wheel_speed) != n
-                                     else d.wheel_speed for d in draws], float)
+        self.wheel_speed = np.array([self.wheels.initial_speeds(d.wheel_speed) for d in draws], float)
         self.wheel_angle = np.zeros_like(self.wheel_speed)
         # standby wheels: unpowered, held at rest by their bearing until their first non-zero command
         self.locked = np.tile(self.wheels.mask(self.wheels.standby), (self.batch, 1))

@@ -139,29 +139,31 @@ class WheelSet:
         """
         return bool(np.linalg.matrix_rank(self.matrix[:, self.mask(names)]) == 3)
 
-    def initial_speeds(self, axis_speeds) -> np.ndarray:
-        """Wheel speeds (..., N) storing the momentum that ``axis_speeds`` (..., 3) on three body-axis
-        wheels would: h = J G Omega with the minimum-norm Omega over the active wheels, 0 on standby.
-        For orthogonal active wheels it is ``axis_speeds`` itself, exactly.
+    def initial_speeds(self, speeds) -> np.ndarray:
+        """Wheel speeds (..., N), 0 on standby, of ``speeds``: one per active wheel (what a run draws), or
+        (..., 3) body-axis wheel speeds whose momentum the active wheels store, h = J G Omega with the
+        minimum-norm Omega (a scenario's three where more wheels are active). The minimum-norm spread was
+        the draw's too, and left two of a pyramid's wheels near zero speed from the start: they crossed it
+        in a third of the runs, and the learned observers' bands there grew 30-fold.
 
         Parameters
         ----------
-        axis_speeds : array_like
-            (..., 3) body-axis wheel speeds [rad/s].
+        speeds : array_like
+            (..., A) speeds of the A active wheels, or (..., 3) body-axis wheel speeds [rad/s].
 
         Returns
         -------
         numpy.ndarray
             (..., N) wheel speeds Omega [rad/s].
         """
-        axis_speeds = np.asarray(axis_speeds, float)
+        speeds = np.asarray(speeds, float)
         active = self.mask(self.active)
         g = self.matrix[:, active]
-        out = np.zeros(axis_speeds.shape[:-1] + (self.count,))
-        if np.array_equal(g, np.eye(3)):
-            out[..., active] = axis_speeds
+        out = np.zeros(speeds.shape[:-1] + (self.count,))
+        if speeds.shape[-1] == len(self.active):
+            out[..., active] = speeds
         else:
-            out[..., active] = axis_speeds @ np.linalg.pinv(g).T
+            out[..., active] = speeds @ np.linalg.pinv(g).T
         return out
 
 

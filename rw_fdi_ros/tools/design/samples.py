@@ -15,6 +15,7 @@ from ...core.physics.wheel import WheelParams
 from ...graph.convert import fdi_sample_of, stamp_ns, telemetry_wheels
 from ...core.physics.wheel_set import AXIS_WHEELS
 from ...graph.topics import FAULT_EFFECT, FDI_BUS_GRID, FDI_TELEMETRY, PLANT_DONE
+from ...runner.scenario_run import short_step_topics
 from ...storage.bag import BagError, bag_is_complete, read_bag
 from ...core.mission.yaml_text import read_yaml
 
@@ -192,6 +193,8 @@ def _bag_samples(work) -> tuple:
         data = read_bag(bag, topics=topics, intact=True)
         if complete_only and data.last(PLANT_DONE) is None:   # a run cut short teaches a run's start only
             raise BagError(f"{bag}: run interrupted: no {PLANT_DONE} (the plant did not reach the run's end)")
+        if complete_only and (short := short_step_topics(bag)):   # runner/scenario_run.not_whole's rule
+            raise BagError(f"{bag}: its recorder lost messages on {', '.join(short)}")
         if fault_free:
             _refuse_faulty(bag, data)
         return bag, fdi_samples(data, period, sampling, speed_aware=sampling == "mean"), None
