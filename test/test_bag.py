@@ -315,3 +315,13 @@ def test_a_damaged_record_header_is_named_and_every_whole_chunk_after_it_read(tm
     said = json.loads(capsys.readouterr().out)
     assert said["complete"] is False and "damaged at record" in said["damage"] and "messages after it read" in \
         said["damage"]
+
+
+def test_a_bag_folder_with_two_mcap_files_is_refused_by_name(tmp_path):
+    """A folder holding two .mcap files was read by its first alone, the other's messages dropped in silence
+    (issue 56)."""
+    write(tmp_path / "two", 20)
+    f = next((tmp_path / "two").glob("*.mcap"))
+    shutil.copy(f, f.with_name("second.mcap"))
+    with pytest.raises(BagError, match=r"two: 2 .mcap files \(.*second.mcap.*\); a bag here holds one"):
+        read_bag(tmp_path / "two")

@@ -498,6 +498,13 @@ class Reconfiguration:
         list of Decision
             The new decisions.
         """
+        out = self._review_kept(t, wheel_speed, delivered) + self._review_speeds(t, wheel_speed) + \
+            self._review_saturation(t, wheel_speed, delivered)
+        self.decisions += out
+        return out
+
+    def _review_kept(self, t: float, wheel_speed, delivered) -> list:
+        """:meth:`review`'s first rule: a wheel kept beside a spare that gives too little is held, or said."""
         out = []
         for wheel in [w for w in self.wheels.names if w in self.kept and w in self.in_use and delivered is not None]:
             given = delivered.share(wheel)
@@ -520,6 +527,11 @@ class Reconfiguration:
                                                           "over the last second and no wheel is left to take its "
                                                           "share: pointing is lost about its axis while its fault "
                                                           "lasts"))
+        return out
+
+    def _review_speeds(self, t: float, wheel_speed) -> list:
+        """:meth:`review`'s second rule: once FDIR has acted, a wheel in use beyond ``holdable`` is said."""
+        out = []
         if self.given_up or self.held or self.kept:
             for wheel in self.in_use:
                 speed = float(wheel_speed[self.wheels.index(wheel)])
@@ -529,6 +541,11 @@ class Reconfiguration:
                                                               "rad/s a wheel in use can hold with torque to spare: the "
                                                               "wheels in use cannot hold the momentum left them; "
                                                               "pointing is lost until momentum is dumped"))
+        return out
+
+    def _review_saturation(self, t: float, wheel_speed, delivered) -> list:
+        """:meth:`review`'s third rule: a wheel in use commanded at the voltage limit for SATURATED_S is said."""
+        out = []
         for wheel in self.in_use if delivered is not None else ():
             if not delivered.saturated(wheel):
                 self.saturated_since.pop(wheel, None)
@@ -541,7 +558,6 @@ class Reconfiguration:
                                                           f"{speed:.1f} rad/s: it gives all it can, and the wheels "
                                                           "in use cannot hold the momentum left them; pointing is "
                                                           "lost until momentum is dumped"))
-        self.decisions += out
         return out
 
     def _decided(self, out: list, spare, wheel: str, short) -> list:

@@ -60,6 +60,20 @@ from ..graph.fdi_parameters import declare_fdi
 from ..graph.wheel_type import declare_wheel_type
 
 
+def _identification_status(wheel: str, found) -> DiagnosticStatus:
+    """/fdi/identification's status of ``wheel``: its Identification (None: no alarm)."""
+    status = DiagnosticStatus(name=f"rw_fdi: identification wheel {wheel}", hardware_id=f"reaction_wheel_{wheel}")
+    if found is None:
+        status.level, status.message = DiagnosticStatus.OK, "no alarm"
+        status.values = [KeyValue(key="fault_kind", value="none")]
+        return status
+    status.level = DiagnosticStatus.WARN if found.kind == "unknown" else DiagnosticStatus.ERROR
+    status.message = found.message()
+    status.values = [KeyValue(key=k, value=v) for k, v in found.values().items()]
+    status.values.append(KeyValue(key="samples", value=str(found.samples)))
+    return status
+
+
 def _status(name, axis, residual, threshold, alarm, first, extra=(), identification=None, unjudged=None, note=None,
             latched=False):
     """One wheel's status. ``unjudged``: why this sample could not be judged (STALE unless alarmed,
@@ -281,16 +295,7 @@ class IsolationNode(GraphNode):
         note = self.inputs["telemetry"].take_note(stamp)
         for a in self.names:
             found = identified.get(a)
-            status = DiagnosticStatus(name=f"rw_fdi: identification wheel {a}", hardware_id=f"reaction_wheel_{a}")
-            if found is None:
-                status.level, status.message = DiagnosticStatus.OK, "no alarm"
-                status.values = [KeyValue(key="fault_kind", value="none")]
-            else:
-                status.level = DiagnosticStatus.WARN if found.kind == "unknown" else DiagnosticStatus.ERROR
-                status.message = found.message()
-                status.values = [KeyValue(key=k, value=v) for k, v in found.values().items()]
-                status.values.append(KeyValue(key="samples", value=str(found.samples)))
-            ident.status.append(status)
+            ident.status.append(_identification_status(a, found))
             extra = []
             for obs in self.channels:
                 if self.decision.observers != (obs,):   # a vote shows every observer's row

@@ -108,6 +108,12 @@ class WheelAllocationNode(GraphNode):
         self.blind_said = False
         self.blind_at = None        # the verdict stamp FDIR went blind at: blind until a newer one comes
         self.add_on_set_parameters_callback(self._on_parameters)
+        self._wire()
+        self.said_start = False
+        self.follow_run_end()
+
+    def _wire(self):
+        """The publishers (each gated on its readers) and the subscriptions."""
         self.pub = GatedPublisher(self.create_publisher(JointState, T.WHEEL_COMMAND, T.RELIABLE),
                                   self.param("min_subscribers"))
         self.pub_fdir = GatedPublisher(self.create_publisher(DiagnosticArray, T.FDIR_WHEELS, T.RELIABLE),
@@ -121,8 +127,6 @@ class WheelAllocationNode(GraphNode):
         self.create_subscription(JointState, T.ATTITUDE, self._on_attitude, T.RELIABLE, raw=True)
         if self.param("fdir"):
             self.create_subscription(DiagnosticArray, T.DIAGNOSTICS, self._on_diagnostics, T.RELIABLE)
-        self.said_start = False
-        self.follow_run_end()
 
     # -- inputs ----------------------------------------------------------------------
     def _on_axis(self, i, raw):

@@ -68,6 +68,11 @@ def run_summary(path) -> dict:
             dumps.add(stamp * 1e-9, dipole)
         elif topic == FDIR_WHEELS:
             _fold_decisions(typestore().deserialize_cdr(raw, info.types[topic]), decisions)
+    return _summary(info, scenario, last, decisions, dumps, peak, (onset, outside, effect))
+
+
+def _summary(info, scenario, last, decisions: dict, dumps, peak, fault: tuple) -> dict:
+    """:func:`run_summary`'s figures from what its pass folded (``fault``: onset, last time outside, effect)."""
     if scenario is None:
         raise ValueError(f"{info.path}: no /scenario message, cannot tell the set-points")
     if last is None:
@@ -81,6 +86,7 @@ def run_summary(path) -> dict:
     if DIPOLE_COMMAND in info.counts:   # a dipole holds until the next reading's
         out["momentum_dumps"] = [[a, min(b + MAGNETOMETER_PERIOD, out["end_time"])] for a, b in dumps.done()]
     if peak is not None:
+        onset, outside, effect = fault
         out.update(_after_fault(peak, onset, outside, last[0], effect, wheels))
     return out
 

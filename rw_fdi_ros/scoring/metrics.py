@@ -537,37 +537,43 @@ def aggregate(runs, curves_seeds: dict, observable_level: dict, training_seeds=(
         early = [alarm_before_onset(r, obs) for r in faulty]
         rep["false_alarm_before_onset"] = {**_rate(early),
                                            "alarmed_seeds": [r.seed for r, e in zip(faulty, early) if e]}
-        groups = {}
-        for r in runs:
-            if r.category in ("single", "multiple"):
-                groups.setdefault(fault_label(r), []).append(r)
-        cells = []
-        def order(item):
-            (kind, _), members = item
-            return kind, max(severity(f.kind, f.value) for f in members[0].faults)
-        for (kind, size), members in sorted(groups.items(), key=order):
-            v = [verdicts[r.bag] for r in members]
-            seen = [r for r in members if observable(r, observable_level[obs])]
-            figs = [f for x in v for f in x["axes"].values()]
-            det = [f for f in figs if f["detected"]]
-            cells.append({
-                "kind": kind, "size": size, "runs": len(members), "seeds": [r.seed for r in members],
-                "severity": None if kind == "multiple" else severity(members[0].faults[0].kind,
-                                                                     members[0].faults[0].value),
-                "axes": sorted({a for r in members for a in r.faulty_wheels}),
-                "correctness": _rate(x["correct"] for x in v),
-                "correctness_observable": _rate(verdicts[r.bag]["correct"] for r in seen),
-                "detected": _rate(f["detected"] for f in figs),
-                "delay_s": _stats([f["delay"] for f in det]),
-                "time_above_s": _stats([f["time_above"] for f in det]),
-                "held_to_end": _rate(f["held_to_end"] for f in det),
-                "gap_detected_mNm": _stats([f["gap"] * 1e3 for f in det]),
-                "gap_missed_mNm": _stats([f["gap"] * 1e3 for f in figs if not f["detected"] and f["gap"] is not None]),
-                "wrong_axis_runs": int(sum(bool(x["wrong_axes"]) for x in v)),
-            })
-        rep["faults"] = cells
+        rep["faults"] = _fault_cells(faulty, verdicts, observable_level[obs])
         report[obs] = rep
     return report
+
+
+def _fault_cells(faulty, verdicts: dict, level: dict) -> list:
+    """One cell per fault (kind, size) of the ``faulty`` runs, by kind and severity: rates, delays, times above
+    [s], gaps [mN m]; ``level``: wheel -> the fault-free residual level [N m] (what is observable)."""
+    groups = {}
+    for r in faulty:
+        groups.setdefault(fault_label(r), []).append(r)
+
+    def order(item):
+        (kind, _), members = item
+        return kind, max(severity(f.kind, f.value) for f in members[0].faults)
+    cells = []
+    for (kind, size), members in sorted(groups.items(), key=order):
+        v = [verdicts[r.bag] for r in members]
+        seen = [r for r in members if observable(r, level)]
+        figs = [f for x in v for f in x["axes"].values()]
+        det = [f for f in figs if f["detected"]]
+        cells.append({
+            "kind": kind, "size": size, "runs": len(members), "seeds": [r.seed for r in members],
+            "severity": None if kind == "multiple" else severity(members[0].faults[0].kind,
+                                                                 members[0].faults[0].value),
+            "axes": sorted({a for r in members for a in r.faulty_wheels}),
+            "correctness": _rate(x["correct"] for x in v),
+            "correctness_observable": _rate(verdicts[r.bag]["correct"] for r in seen),
+            "detected": _rate(f["detected"] for f in figs),
+            "delay_s": _stats([f["delay"] for f in det]),
+            "time_above_s": _stats([f["time_above"] for f in det]),
+            "held_to_end": _rate(f["held_to_end"] for f in det),
+            "gap_detected_mNm": _stats([f["gap"] * 1e3 for f in det]),
+            "gap_missed_mNm": _stats([f["gap"] * 1e3 for f in figs if not f["detected"] and f["gap"] is not None]),
+            "wrong_axis_runs": int(sum(bool(x["wrong_axes"]) for x in v)),
+        })
+    return cells
 
 
 def identification_figures(runs) -> list:

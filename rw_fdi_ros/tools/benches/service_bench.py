@@ -83,6 +83,25 @@ def judged_mask(time, scenario_: Scenario, start: float) -> np.ndarray:
     return (time >= start) & ~in_transient(time, [*times, *(f.onset for f in scenario_.faults)])
 
 
+def _identification(traj, b: int, d: Draw, scenario_: Scenario, i: int, out: dict) -> dict:
+    """The identification of run ``b``'s first fault (on wheel index ``i``, acted on) against the truth."""
+    f0 = d.faults[0]
+    found = (traj.identified[b] or {}).get(f0["wheel"]) if traj.identified else None
+    truth = f0["kind"]   # the identifier names a kind as the scenario does
+    row = {"true_kind": truth, "kind": found.kind if found else "none",
+           "message": found.message() if found else "never alarmed"}
+    row["kind_right"] = row["kind"] == truth
+    # or the drive named, its current and bus not told apart (Identification.between)
+    row["kind_narrowed"] = row["kind_right"] or (found is not None and truth in found.between)
+    if row["kind_right"]:
+        row.update(judge_size(scenario_.faults[0], found.size, found.low, found.high, found.at_s),
+                   low=float(found.low), high=float(found.high), growing=found.growing)
+    if d.give_up and out["action"] == "out_of_use" and truth in DRIVE:
+        row["drive_misfit"] = _drive_misfit(traj, b, i, scenario_, truth, f0["onset"], f0["onset"] + out["delay_s"])
+        row["drive_told_apart"] = told_apart(row["drive_misfit"])
+    return row
+
+
 def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
     """What one run did: decisions, pointing, identification, against the truth."""
     names = traj.wheel_names
@@ -124,23 +143,8 @@ def run_figures(traj, b: int, d: Draw, scenario_: Scenario) -> dict:
         out["healthy_acted"] = sorted(acted - faulty)
         out["delay_s"] = next((t - f0["onset"] for t, w, a, _ in decisions if w == f0["wheel"] and a in ACTED), None)
         out["action"] = next((a for _, w, a, _ in decisions if w == f0["wheel"] and a in ACTED), None)
-        single = sum(f["wheel"] == f0["wheel"] for f in d.faults) == 1
-        found = (traj.identified[b] or {}).get(f0["wheel"]) if traj.identified else None
-        if single and f0["wheel"] in acted:
-            truth = f0["kind"]   # the identifier names a kind as the scenario does
-            row = {"true_kind": truth, "kind": found.kind if found else "none",
-                   "message": found.message() if found else "never alarmed"}
-            row["kind_right"] = row["kind"] == truth
-            # or the drive named, its current and bus not told apart (Identification.between)
-            row["kind_narrowed"] = row["kind_right"] or (found is not None and truth in found.between)
-            if row["kind_right"]:
-                row.update(judge_size(scenario_.faults[0], found.size, found.low, found.high, found.at_s),
-                           low=float(found.low), high=float(found.high), growing=found.growing)
-            if d.give_up and out["action"] == "out_of_use" and truth in DRIVE:
-                row["drive_misfit"] = _drive_misfit(traj, b, i, scenario_, truth, f0["onset"],
-                                                    f0["onset"] + out["delay_s"])
-                row["drive_told_apart"] = told_apart(row["drive_misfit"])
-            out["identification"] = row
+        if sum(f["wheel"] == f0["wheel"] for f in d.faults) == 1 and f0["wheel"] in acted:
+            out["identification"] = _identification(traj, b, d, scenario_, i, out)
     if traj.watched:
         out["observers"] = observer_figures(traj.watched[b], d, decisions)
     return out

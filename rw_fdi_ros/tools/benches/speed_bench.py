@@ -191,11 +191,20 @@ def bench_study(runs: int = 8, duration: float = 400.0, seed: int = 1, jobs: int
         judge[f"replay through the FDI graph ({grouping})"] = (time.monotonic() - t0) / max(len(replays), 1)
         ok &= all(r.ok for r in replays)
     study = sum(n for _, _, n, _ in plan(out / "plan", "thesis"))
-    lines = [f"study bench: {runs} runs of {duration:g} s, {executor.jobs} at a time ({os.cpu_count()} cores)",
-             "  record, per run (wall, jobs at a time):"]
+    shutil.rmtree(out, ignore_errors=True)
+    lines = [f"study bench: {runs} runs of {duration:g} s, {executor.jobs} at a time ({os.cpu_count()} cores)"]
+    return {"ok": ok, "runs": runs, "jobs": executor.jobs, "record_s_per_run": record, "judge_s_per_bag": judge,
+            "thesis_runs": study, "text": "\n".join(lines + _study_lines(record, judge, study, duration, ok))}
+
+
+def _study_lines(record: dict, judge: dict, study: int, duration: float, ok: bool) -> list:
+    """The study bench's report: each way's cost per run and per bag, and the thesis study's at that rate."""
+    from ...runner.graph import DEFAULT_GROUPING
+    lines = ["  record, per run (wall, jobs at a time):"]
     lines += [f"    {k:34s} {v:6.2f} s  ({duration / v:5.0f}x real time, {60 / v:6.1f} runs/min)"
               for k, v in record.items()]
     lines += ["  judge, per bag:"] + [f"    {k:34s} {v:6.2f} s  ({60 / v:6.1f} bags/min)" for k, v in judge.items()]
+
     def minutes(rec, jud):
         return study * (record[rec] + judge[jud]) / 60
     replay = "replay through the FDI graph ({})".format
@@ -203,8 +212,4 @@ def bench_study(runs: int = 8, duration: float = 400.0, seed: int = 1, jobs: int
                  f"~{minutes('core engine', 'core engine'):.1f} min by the core engine, "
                  f"~{minutes(f'graph ({DEFAULT_GROUPING})', replay(DEFAULT_GROUPING)):.0f} min by the composed graph, "
                  f"~{minutes('graph (none)', replay('none')):.0f} min one process per node; plus training (~3 min)")
-    if not ok:
-        lines.append("  FAILED: a run or a replay failed")
-    shutil.rmtree(out, ignore_errors=True)
-    return {"ok": ok, "runs": runs, "jobs": executor.jobs, "record_s_per_run": record, "judge_s_per_bag": judge,
-            "thesis_runs": study, "text": "\n".join(lines)}
+    return lines + (["  FAILED: a run or a replay failed"] if not ok else [])

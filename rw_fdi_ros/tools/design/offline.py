@@ -255,7 +255,7 @@ def judge(run: ObserverRun, curves: dict, samples=None, decision=None, persisten
         wheel -> the last Identification or None ({} without ``identification``).
     """
     from ...core.fdi.pipeline import Isolation, Verdict
-    from ...scoring.metrics import VERDICT, Series, decision_slot
+    from ...scoring.metrics import VERDICT, decision_slot
     for obs, c in curves.items():
         c.check_method(run.method, origin=f"thresholds_{obs}")
     wheels, n = run.wheels, len(run.time)
@@ -279,11 +279,16 @@ def judge(run: ObserverRun, curves: dict, samples=None, decision=None, persisten
                 isolation.identify(next(rows), decided)
         for obs, r in rows_of.items():
             table[obs][k] = [r[a][:3] for a in wheels]
-    series = {obs: Series(run.time, np.abs(t[:, :, 0]), t[:, :, 1], t[:, :, 2].astype(bool))
-              for obs, t in table.items()}
-    lead = series[isolation.decision.lead]
-    series.update({slot: Series(run.time, lead.residual, lead.threshold, a) for slot, a in alarm.items()})
-    return series, isolation.identified()
+    return _series_of(run.time, table, alarm, isolation.decision.lead), isolation.identified()
+
+
+def _series_of(time, table: dict, alarm: dict, lead: str) -> dict:
+    """observer -> Series of its (n, W, 3) rows (residual, threshold, alarm); each verdict slot's alarms beside
+    the ``lead`` observer's residual and threshold."""
+    from ...scoring.metrics import Series
+    series = {obs: Series(time, np.abs(t[:, :, 0]), t[:, :, 1], t[:, :, 2].astype(bool)) for obs, t in table.items()}
+    series.update({slot: Series(time, series[lead].residual, series[lead].threshold, a) for slot, a in alarm.items()})
+    return series
 
 
 def decisions(run: ObserverRun, curves: dict, persistence: int | None = None) -> dict:

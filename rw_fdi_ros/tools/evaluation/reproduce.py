@@ -190,6 +190,30 @@ def graph_check(out: Path, jobs, sample: int, executor, models: Path, persistenc
             "disagreeing": [k for k in keys if reports["graph"][k] != reports["core"][k]]}
 
 
+def _replayed(replays: Path) -> int:
+    """The complete replays under ``replays``: a stalled one leaves an incomplete directory behind."""
+    from ...storage.bag import bag_is_complete
+    return sum(bag_is_complete(p) for p in replays.iterdir()) if replays.is_dir() else 0
+
+
+def _record_group(out: Path, group: str, mine: list, executor, engine: str) -> int:
+    """Record one group's campaigns ``mine`` ((scenario, runs, seed)) under out/bags/<group>; the runs done."""
+    if engine == "core":   # the group's campaigns share batches: a grid of small ones costs one large one
+        campaigns = []
+        for scenario, runs, seed in mine:
+            todo, skipped = pending(scenario, runs, seed, out / "bags" / group)
+            campaigns.append((scenario, todo, out / "bags" / group, CampaignResult([], skipped, [])))
+        results = record_campaigns(campaigns, executor, desc=f"{group} ({len(mine)} campaigns)")
+    else:
+        results = [run_campaign(scenario, runs, seed, out / "bags" / group, executor=executor,
+                                desc=f"{group} {Path(scenario).stem}", engine=engine)
+                   for scenario, runs, seed in mine]
+    for (scenario, _, _), res in zip(mine, results):
+        if res.failed:
+            print(f"{len(res.failed)} runs failed in {Path(scenario).stem}: {res.failed[0][1]}", file=sys.stderr)
+    return sum(len(res.done) for res in results)
+
+
 def reproduce(out, scale_name: str = "small", executor=None, persistence: int | None = None, engine: str = "core",
               graph_sample: int = 1) -> dict:
     from .evaluate import evaluate
@@ -209,22 +233,7 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int | 
           file=sys.stderr, flush=True)
     for group in GROUPS:
         t = time.monotonic()
-        n = 0
-        mine = [(scenario, runs, seed) for g, scenario, runs, seed in jobs if g == group]
-        if engine == "core":   # the group's campaigns share batches: a grid of small ones costs one large one
-            campaigns = []
-            for scenario, runs, seed in mine:
-                todo, skipped = pending(scenario, runs, seed, out / "bags" / group)
-                campaigns.append((scenario, todo, out / "bags" / group, CampaignResult([], skipped, [])))
-            results = record_campaigns(campaigns, executor, desc=f"{group} ({len(mine)} campaigns)")
-        else:
-            results = [run_campaign(scenario, runs, seed, out / "bags" / group, executor=executor,
-                                    desc=f"{group} {Path(scenario).stem}", engine=engine)
-                       for scenario, runs, seed in mine]
-        for (scenario, _, _), res in zip(mine, results):
-            n += len(res.done)
-            if res.failed:
-                print(f"{len(res.failed)} runs failed in {Path(scenario).stem}: {res.failed[0][1]}", file=sys.stderr)
+        n = _record_group(out, group, [(sc, runs, seed) for g, sc, runs, seed in jobs if g == group], executor, engine)
         clock.add(f"record {group}", time.monotonic() - t, n)
 
     models = out / "models"
@@ -241,17 +250,13 @@ def reproduce(out, scale_name: str = "small", executor=None, persistence: int | 
                    false_alarm_rate=max(FALSE_ALARM_RATE, rate_carried(len(fit))))
     clock.add("fit thresholds", time.monotonic() - t, len(fit), redo=True)
     t = time.monotonic()
-    replays = out / "report" / "replays"
-    def replayed():   # complete replays only: a stalled one leaves an incomplete directory behind
-        from ...storage.bag import bag_is_complete
-        return sum(bag_is_complete(p) for p in replays.iterdir()) if replays.is_dir() else 0
-    before = replayed()
+    before = _replayed(out / "report" / "replays")
     report = evaluate(out / "bags", out / "report", {"models": models, "persistence": persistence},
                       executor=executor, engine=engine)
     if engine == "core":
         clock.add("evaluate (core)", time.monotonic() - t, report["runs"], redo=True)
     else:
-        clock.add("evaluate (replay)", time.monotonic() - t, replayed() - before)
+        clock.add("evaluate (replay)", time.monotonic() - t, _replayed(out / "report" / "replays") - before)
     report["engines"] = {"recorded_and_judged_by": engine}
     if engine == "core" and graph_sample > 0:
         t = time.monotonic()

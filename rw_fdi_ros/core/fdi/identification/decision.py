@@ -22,6 +22,17 @@ MIN_DRIVEN = 2
 FREE_UNIT_SHARE = 1e-3   # of the floor^2: a ridge only, the unit's shares all but free (noise estimate)
 
 
+def _noise(sums: ProfileSums, known) -> tuple:
+    """(s^2, every family's RSS) of the sums: the noise variance of the best fit (at least the floor's), and
+    the RSS ``known`` with the unit at its mean, or with a calibrated unit held to what the calibration knows."""
+    floor2 = sums.floor ** 2
+    if sums.unit is None:
+        return max(float(known.min()) / max(sums.n - 3, 1), floor2), known
+    # the noise from the fit where the unit is free (a unit taken at a wrong mean is no noise)
+    s2 = max(float(sums.rss(FREE_UNIT_SHARE * floor2).min()) / max(sums.n - 7, 1), floor2)
+    return s2, sums.rss(CORRELATION * s2)
+
+
 def decide(sums: ProfileSums) -> Identification:
     """Kind and size from the profile sums of one wheel's samples (the package's docstring); the size is the fault's
     at the last sample (a ramp may still be growing).
@@ -42,14 +53,7 @@ def decide(sums: ProfileSums) -> Identification:
     known = sums.rss()                  # the unit at its mean (the datasheet wheel without a unit)
     if not np.all(np.isfinite(known)):
         return Identification(UNKNOWN, samples=n)
-    floor2 = sums.floor ** 2
-    s2 = max(float(known.min()) / max(n - 3, 1), floor2)
-    rss_all = known
-    if sums.unit is not None:
-        # the noise from the fit where the unit is free (a unit taken at a wrong mean is no noise),
-        # then every family with the unit held to what the calibration knows
-        s2 = max(float(sums.rss(FREE_UNIT_SHARE * floor2).min()) / max(n - 7, 1), floor2)
-        rss_all = sums.rss(CORRELATION * s2)
+    s2, rss_all = _noise(sums, known)
     if not np.all(np.isfinite(rss_all)):
         return Identification(UNKNOWN, samples=n)
     fits = {k: rss_all[:, _SLICES[k]] for k in KINDS}

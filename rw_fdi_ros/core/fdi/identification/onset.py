@@ -47,6 +47,20 @@ def onset_index(errors, ripple_phasors, floor: float = SIGMA_FLOOR) -> int:
         return 0
     healthy = np.column_stack([np.ones(n), p.imag, p.real])
     fewest = min(ONSET_HEALTHY, n - 1)   # samples before the step: the healthy fit needs them
+    best = _step_change_point(e, healthy, fewest)
+    while best > fewest:
+        left, level = _departure(e, healthy, best - 1, floor)
+        if left[best - 1] <= level:
+            break
+        best -= 1
+    left, level = _departure(e, healthy, best, floor)
+    away = np.nonzero(left[best:] > level)[0]
+    return best + int(away[0]) if away.size else best
+
+
+def _step_change_point(e, healthy, fewest: int) -> int:
+    """k^ = argmin_k RSS_k over k >= ``fewest``: the least-squares step of ``e`` beside the ``healthy`` columns."""
+    n = e.size
     best, best_rss = fewest, np.inf
     columns = np.column_stack([healthy, np.zeros(n)])
     for k in range(fewest, n):
@@ -55,18 +69,11 @@ def onset_index(errors, ripple_phasors, floor: float = SIGMA_FLOOR) -> int:
         rss = float(np.sum((e - columns @ fit) ** 2))
         if rss < best_rss:
             best, best_rss = k, rss
+    return best
 
-    def departure(k):
-        """|e - the healthy fit of the samples before k| and the level a sample must pass to leave it."""
-        fit, *_ = np.linalg.lstsq(healthy[:k], e[:k], rcond=None)
-        left = np.abs(e - healthy @ fit)
-        return left, 3.0 * max(float(np.sqrt(np.mean(left[:k] ** 2))), floor)
 
-    while best > fewest:
-        left, level = departure(best - 1)
-        if left[best - 1] <= level:
-            break
-        best -= 1
-    left, level = departure(best)
-    away = np.nonzero(left[best:] > level)[0]
-    return best + int(away[0]) if away.size else best
+def _departure(e, healthy, k: int, floor: float) -> tuple:
+    """|e - the healthy fit of the samples before k| and the level a sample must pass to leave it."""
+    fit, *_ = np.linalg.lstsq(healthy[:k], e[:k], rcond=None)
+    left = np.abs(e - healthy @ fit)
+    return left, 3.0 * max(float(np.sqrt(np.mean(left[:k] ** 2))), floor)
