@@ -448,10 +448,9 @@ def _fault(where, raw, duration, names=AXIS_WHEELS):
                  ramp=_num(f"{where}.ramp", raw.get("ramp", 0.0), 0.0, None))
 
 
-def _vector(where, raw, lengths=(3,), lo=None, hi=None):
+def _vector(where, raw, lengths=(3,), lo=None, hi=None, longer: str = "every wheel"):
     if not isinstance(raw, (list, tuple)) or len(raw) not in lengths:
-        what = "3 numbers (x, y, z)" if set(lengths) == {3} else \
-            f"3 numbers (x, y, z) or {max(lengths)} (every wheel{' in use' if 'initial' in where else ''})"
+        what = "3 numbers (x, y, z)" if set(lengths) == {3} else f"3 numbers (x, y, z) or {max(lengths)} ({longer})"
         raise ScenarioError(f"{where}: expected a list of {what}")
     return tuple(_num(f"{where}[{i}]", v, lo, hi) for i, v in enumerate(raw))
 
@@ -544,7 +543,8 @@ def parse_scenario(text: str, origin: str = "<scenario>") -> Scenario:
         raise ScenarioError(f"{origin}: plant.{exc}") from None
     names = wheels.names
     initial = {k: _vector(f"{origin}: initial.{k}", v, (3, len(wheels.active)) if k == "wheel_speed" else (3,),
-                          lo=-INITIAL_LIMITS[k], hi=INITIAL_LIMITS[k]) for k, v in initial_raw.items()}
+                          lo=-INITIAL_LIMITS[k], hi=INITIAL_LIMITS[k], longer="every wheel in use")
+               for k, v in initial_raw.items()}
     faults_raw = raw.get("faults") or []
     if not isinstance(faults_raw, list):
         raise ScenarioError(f"{origin}: faults must be a list")

@@ -142,9 +142,8 @@ class WheelSet:
     def initial_speeds(self, speeds) -> np.ndarray:
         """Wheel speeds (..., N), 0 on standby, of ``speeds``: one per active wheel (what a run draws), or
         (..., 3) body-axis wheel speeds whose momentum the active wheels store, h = J G Omega with the
-        minimum-norm Omega (a scenario's three where more wheels are active). The minimum-norm spread was
-        the draw's too, and left two of a pyramid's wheels near zero speed from the start: they crossed it
-        in a third of the runs, and the learned observers' bands there grew 30-fold.
+        minimum-norm Omega (a scenario's three where more wheels are active). Runs draw per wheel: the
+        minimum-norm spread started two of a pyramid's wheels near zero speed, where they crossed it.
 
         Parameters
         ----------
