@@ -1,8 +1,8 @@
 """The live view: the graph's messages reach a Foxglove client over the WebSocket, as JSON with their schema.
 
 In process: the live view node and a publisher in one private domain, and a client speaking Foxglove's
-WebSocket protocol (foxglove.sdk.v1: advertise, subscribe, binary message data) that must receive
-what was published, stamp and values."""
+WebSocket protocol (foxglove.sdk.v1 or foxglove.websocket.v1: advertise, subscribe, binary message data)
+that must receive what was published, stamp and values."""
 import json
 import os
 import struct
@@ -46,13 +46,16 @@ def _receive(ws, until, timeout=10.0):
     raise AssertionError("the live view sent nothing of the kind in time")
 
 
-def test_a_client_receives_the_attitude_and_fdirs_state_as_they_are_published(live):
+@pytest.mark.parametrize("subprotocol", ["foxglove.sdk.v1", "foxglove.websocket.v1"])
+def test_a_client_receives_the_attitude_and_fdirs_state_as_they_are_published(live, subprotocol):
+    """Under either name of the protocol: foxglove.websocket.v1 is what older Foxglove and Lichtblick offer."""
     from websockets.sync.client import connect
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from sensor_msgs.msg import JointState
     node, source, executor = live
     assert node.port > 0
-    with connect(f"ws://127.0.0.1:{node.port}", subprotocols=["foxglove.sdk.v1"]) as ws:
+    with connect(f"ws://127.0.0.1:{node.port}", subprotocols=[subprotocol]) as ws:
+        assert ws.subprotocol == subprotocol
         advertised = {}
 
         def advertise(msg):

@@ -1,7 +1,8 @@
 """live_view: the run as it happens, in Foxglove (opt-in: ``rw-fdi run --live``, ``ros2 launch ... live:=8765``).
 
 It subscribes to what the bag of the run would hold (graph/topics.py ``live_rows``) and
-logs each message to a Foxglove WebSocket server (foxglove-sdk) on ``ws://host:port``, one channel per
+logs each message to a Foxglove WebSocket server (foxglove-sdk) on ``ws://host:port`` (subprotocol
+``foxglove.sdk.v1`` or its older name ``foxglove.websocket.v1``, graph/ws_relay.py), one channel per
 topic, same name, the message's fields as JSON with its schema (graph/live.py), at the message's sim-time
 stamp (/scenario at 0, as the bag has it). In Foxglove, "Open connection" to that address, and the shipped
 layout (config/foxglove/rw_fdi.json) plots the residuals against their thresholds, the alarms and the
@@ -18,6 +19,7 @@ from ..graph import topics as T
 from ..graph.convert import stamp_ns
 from ..graph.live import json_schema, to_json
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, wall_time
+from ..graph.ws_relay import SUBPROTOCOLS, SubprotocolRelay
 
 END_GRACE = 2.0   # [wall s] it serves after /plant/done: a client gets the run's last FDI period
 
@@ -42,13 +44,15 @@ class LiveViewNode(GraphNode):
         except RuntimeError as exc:
             raise NodeError(f"the live view: {exc}", EXIT_BAD_INPUT) from None
         self.foxglove = foxglove.Context()   # its own: composed live views do not share channels
+        # the SDK's server on a private port behind a relay that also speaks the protocol's older name
+        self.server = foxglove.start_server(name="rw_fdi_ros", host="127.0.0.1", port=0, context=self.foxglove)
         try:
-            self.server = foxglove.start_server(name="rw_fdi_ros", host=self.param("host"), port=self.param("port"),
-                                                context=self.foxglove)
+            self.relay = SubprotocolRelay(self.param("host"), self.param("port"), self.server.port)
         except Exception as exc:   # the port taken, an address not ours: one line, not a traceback
+            self.server.stop()
             raise NodeError(f"live view: no WebSocket server on {self.param('host')}:{self.param('port')}: {exc}",
                             EXIT_BAD_INPUT) from None
-        self.port = self.server.port
+        self.port = self.relay.port
         self.channels = {}
         params = {k: self.param(k) for k in ("wheel_set", "fdi", "fdi_method", "orbit", "magnetorquers")}
         for topic, type_name, qos in T.live_rows(params):
@@ -57,8 +61,8 @@ class LiveViewNode(GraphNode):
                                                     context=self.foxglove)
             self.create_subscription(cls, topic, lambda msg, topic=topic: self._on_message(topic, msg),
                                      getattr(T, qos))
-        self.get_logger().info(f"live view: ws://{self.param('host')}:{self.port} ({len(self.channels)} channels; "
-                               "Foxglove: Open connection)")
+        self.get_logger().info(f"live view: ws://{self.param('host')}:{self.port} ({len(self.channels)} channels, "
+                               f"subprotocol {' or '.join(SUBPROTOCOLS)}; Foxglove: Open connection)")
         self.sim_time = 0
         self.done_wall = None   # wall time /plant/done came (the live view's own end: END_GRACE later)
         self.said = set()       # topics whose messages it could not show (said once)
@@ -88,6 +92,7 @@ class LiveViewNode(GraphNode):
             self.finish()
 
     def close(self):
+        self.relay.stop()
         self.server.stop()
         super().close()
 
