@@ -41,6 +41,7 @@ class LiveViewNode(GraphNode):
                             f"got {self.param('wheel_set')!r}", EXIT_BAD_INPUT)
         try:
             foxglove = require("foxglove", "live")
+            require("websockets", "live")   # graph/ws_relay.py
         except RuntimeError as exc:
             raise NodeError(f"the live view: {exc}", EXIT_BAD_INPUT) from None
         self.foxglove = foxglove.Context()   # its own: composed live views do not share channels
