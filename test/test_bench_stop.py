@@ -1,12 +1,15 @@
 """A bench stops on SIGTERM (issue 38): its queued work dropped, its workers ended, in seconds, not after the
 whole queue (ten minutes after SIGTERM, `rw-fdi bench detection` was still running)."""
-import pytest
+import csv
+import json
 import os
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+import pytest
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
@@ -52,3 +55,37 @@ def test_sigterm_stops_a_bench_and_its_workers_within_seconds(tmp_path):
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
+
+
+def test_an_interrupted_bench_keeps_its_finished_runs_and_the_same_command_resumes_it(tmp_path):
+    """Ctrl-C (SIGINT) once some chunks are done: they stay in the bench's journal, and the same command runs
+    only the rest and writes the whole report (issue 55: 200 of 360 runs were lost to a Ctrl-C)."""
+    command = [str(Path(sys.executable).parent / "rw-fdi"), "bench", "detection", "--runs-per-cell", "2",
+               "--fault-free-runs", "2", "--out", str(tmp_path), "--jobs", "1"]
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    journal = tmp_path / ".detection_journal"
+    bench = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env,
+                             start_new_session=True)
+    try:
+        deadline = time.monotonic() + 300.0
+        while len(list(journal.glob("*.npz"))) < 2 and time.monotonic() < deadline and bench.poll() is None:
+            time.sleep(0.2)
+        kept = len(list(journal.glob("*.npz")))
+        bench.send_signal(signal.SIGINT)
+        code = bench.wait(timeout=30)
+        stderr = bench.stderr.read().decode()
+        assert code != 0 and kept >= 2, (code, kept, stderr[-500:])
+        assert "parts kept in" in stderr and "the same command resumes" in stderr
+        assert not (tmp_path / "detection.json").exists()
+        kept = len(list(journal.glob("*.npz")))   # and any that finished as it stopped
+        again = subprocess.run(command, capture_output=True, text=True, env=env, timeout=600)
+        assert again.returncode == 0, again.stderr[-800:]
+        assert f"resuming, {kept} of" in again.stderr
+        report = json.loads((tmp_path / "detection.json").read_text())
+        runs = list(csv.DictReader(open(tmp_path / "detection_runs.csv")))
+        cells = {row["cell"] for row in runs}
+        assert len(cells) == len(report["cells"]) and not journal.exists()
+        assert all(sum(r["cell"] == c for r in runs) % 2 == 0 for c in cells)   # every cell's 2 runs, per FDI
+    finally:
+        if bench.poll() is None:
+            os.killpg(bench.pid, signal.SIGKILL)

@@ -92,7 +92,7 @@ def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: 
     t0 = time.monotonic()
     sizes = cell_sizes(fault_free_runs, runs_per_cell)
     judged = screen_cells(sizes, partial(_judge_chunk, vehicle=vehicle, fdi=fdi),
-                          "detection bench (core loop + node code)", executor)
+                          "detection bench (core loop + node code)", executor, out=out, name="detection")
     results = cell_results(judged, sizes, SEED_BASE, levels, "methods")
     write_cells_table(judged, [c.name for c in CELLS], out, "detection")
     report = {"schema": "rw_fdi_ros/detection_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),

@@ -201,7 +201,7 @@ def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20,
     level = observable_level(curves)
     sizes = [operations_runs if c.kind is None else runs_per_cell for c in CELLS]
     judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, SEED_BASE, dumping_of), "dumping bench (FDI)", executor,
-                          chunk=10)
+                          chunk=10, out=out, name="dumping")
     write_cells_table(judged, [c.name for c in CELLS], out, "dumping")
     cells = {}
     for i, cell in enumerate(CELLS):

@@ -141,7 +141,8 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
     if units:
         sizes = [runs_per_cell * 17 // 10 if kind == "bus_voltage" else runs_per_cell for _, kind, _ in UNITS_CELLS]
         judged = screen_cells(sizes, partial(_units_chunk, vehicle=vehicle),
-                              "identification bench, varied units (core loop + node code)", executor)
+                              "identification bench, varied units (core loop + node code)", executor, out=out,
+                              name="identification_units")
         write_cells_table(judged, [name for name, _, _ in UNITS_CELLS], out, "identification")
         for i, (name, kind, span) in enumerate(UNITS_CELLS):
             first = UNITS_SEED_BASE + 100_000 * i
@@ -152,7 +153,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
         sizes = [(bus_thesis_runs if c.kind == "bus_voltage" else thesis_runs) if c.thesis_size else runs_per_cell
                  for c in CELLS]
         judged = screen_cells(sizes, partial(_chunk, vehicle=vehicle), "identification bench (core loop + node code)",
-                              executor)
+                              executor, out=out, name="identification")
         write_cells_table(judged, [c.name for c in CELLS], out, "identification")
         for i, cell in enumerate(CELLS):
             first = SEED_BASE + 100_000 * i

@@ -140,23 +140,28 @@ def workers(executor) -> int | str:
     return getattr(executor, "jobs", None) or getattr(executor, "address", "dask")
 
 
-def screen_cells(sizes, chunk_job, desc: str, executor=None, chunk: int = 50) -> dict:
+def screen_cells(sizes, chunk_job, desc: str, executor=None, chunk: int = 50, out=None, name: str = "") -> dict:
     """cell index -> results of ``chunk_job(cell_index, range)`` merged over chunks of ``chunk`` runs, on
     ``executor`` (campaign.make_executor: local processes, one per core by default, or a Dask cluster; the
-    work is CPU-bound numpy and Python). chunk_job returns name -> [RunEval]."""
+    work is CPU-bound numpy and Python). chunk_job returns name -> [RunEval]. With ``out``, the finished
+    chunks are kept there as they come and an interrupted bench resumes (journal.resumable_map, ``name``)."""
     from tqdm import tqdm
     from ..campaigns.campaign import LocalExecutor, apply
+    from .journal import resumable_map
     bar = tqdm(total=sum(sizes), desc=desc, unit="run", file=sys.stderr, mininterval=2.0)
     judged = {i: {} for i in range(len(sizes))}
     calls = [(_cell_chunk, chunk_job, i, range(start, min(start + chunk, n)))
              for i, n in enumerate(sizes) for start in range(0, n, chunk)]
     # the campaigns' executor: SIGTERM or Ctrl-C drops the queued chunks and ends the workers at once
-    for i, seeds, out in (executor or LocalExecutor()).map_unordered(apply, calls, processes=True):
-        for name, runs in out.items():
-            judged[i].setdefault(name, []).extend(runs)
+    executor = executor or LocalExecutor()
+    done = (resumable_map(executor, apply, calls, out, name) if out is not None
+            else executor.map_unordered(apply, calls, processes=True))
+    for i, seeds, result in done:
         bar.update(len(seeds))
+        for observer, runs in result.items():
+            judged[i].setdefault(observer, []).extend(runs)
     bar.close()
-    return {i: {name: sorted(runs, key=lambda r: r.seed) for name, runs in by_name.items()}
+    return {i: {observer: sorted(runs, key=lambda r: r.seed) for observer, runs in by_name.items()}
             for i, by_name in judged.items()}
 
 
@@ -176,6 +181,10 @@ class SpeedAwareChunk:
         self.scenarios, self.seed_base, self.on_run = scenarios, seed_base, on_run
         self.decisions, self.vehicle = tuple(decisions), vehicle   # the vehicle's shipped FDI judges
         self.fdi = fdi or FdiConfig()   # or ours as configured: a user's observers beside (FdiConfig.plugins)
+
+    def __repr__(self):   # what a bench journal's signature reads (journal.work_signature)
+        return (f"SpeedAwareChunk({self.scenarios!r}, {self.seed_base}, {self.on_run!r}, {self.decisions}, "
+                f"{self.vehicle!r}, {self.fdi!r})")
 
     def __call__(self, cell_index: int, seeds):
         from ...core.fdi.verdict import decision_of

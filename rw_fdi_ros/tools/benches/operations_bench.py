@@ -102,7 +102,7 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
     t0 = time.monotonic()
     judged = screen_cells(sizes, SpeedAwareChunk(partial(_cell_runs, vehicle=vehicle), seed_base, decisions=VOTES,
                                                  vehicle=vehicle, fdi=fdi),
-                          f"operations bench ({seeds} seeds)", executor)
+                          f"operations bench ({seeds} seeds)", executor, out=out, name="operations")
     write_cells_table(judged, [c.name for c in CELLS], out, "operations")
     cells = {}
     for i, cell in enumerate(CELLS):

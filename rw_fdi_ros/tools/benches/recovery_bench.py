@@ -166,6 +166,7 @@ def bench_recovery(runs_per_cell: int = 100, fault_free_runs: int = 1000, seeds:
     Dask cluster; the same runs either way: each is drawn from its seed); the report, and one row a run
     (recovery_runs.csv), in ``out``."""
     from ..campaigns.campaign import LocalExecutor
+    from .journal import resumable_map
     seed_base = SEED_BASES[seeds]
     t0 = time.monotonic()
     cells_run = [c for _, c in cells_of(vehicle)]
@@ -173,8 +174,9 @@ def bench_recovery(runs_per_cell: int = 100, fault_free_runs: int = 1000, seeds:
     work = [(i, seed_base, range(start, min(start + BATCH, n)), vehicle) for i, n in enumerate(sizes)
             for start in range(0, n, BATCH)]
     by_cell = {i: [] for i in range(len(cells_run))}
-    # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
-    for i, runs in (executor or LocalExecutor()).map_unordered(_batch, work, processes=True):
+    # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once; the
+    # finished ones are kept in out, and the same command resumes
+    for i, runs in resumable_map(executor or LocalExecutor(), _batch, work, out, "recovery"):
         by_cell[i] += runs
         if progress:
             progress(len(runs))

@@ -57,6 +57,7 @@ from ...core.mission.scenario import SETTLE_S, Scenario, in_transient
 from ...core.mission.vehicle import DEFAULT_VEHICLE
 from ...core.physics.wheel import torque_scale
 from ..campaigns.campaign import LocalExecutor
+from .journal import resumable_map
 from ..campaigns.service_family import FAULT_FREE_S, FAULT_KINDS, Draw, batches, draw, fdir_for, scenario
 from ...scoring.metrics import judge_size
 from ...scoring.metrics import rate
@@ -205,21 +206,26 @@ def given_up_draws(seeds, vehicle: str = DEFAULT_VEHICLE) -> list:
 
 
 def run_service(seeds, executor=None, progress=None, max_duration: float | None = None, fault_free_seeds=(),
-                given_up_seeds=(), vehicle: str = DEFAULT_VEHICLE, watch: FdiConfig | None = None) -> list:
+                given_up_seeds=(), vehicle: str = DEFAULT_VEHICLE, watch: FdiConfig | None = None,
+                out=None) -> list:
     """Figures of the in-service runs of ``seeds``, of the fault-free 600-s runs of ``fault_free_seeds`` and of
     the faulty draws of ``given_up_seeds`` with FDIR giving up (:func:`given_up_draws`), in seed order, on
     ``executor`` (local processes by default, or a Dask cluster), all flying ``vehicle``; with ``watch`` (an
-    FdiConfig) every observer of it judged beside the decision on each flight run."""
+    FdiConfig) every observer of it judged beside the decision on each flight run; with ``out``, the finished
+    batches kept there and an interrupted bench resumed (journal.resumable_map)."""
     from functools import partial
     work = batches([draw(s, max_duration, vehicle=vehicle) for s in seeds]
                    + [draw(s, fault_free=True, vehicle=vehicle) for s in fault_free_seeds]
                    + given_up_draws(given_up_seeds, vehicle))
     runs = []
+    executor, simulate_batch = executor or LocalExecutor(), partial(_simulate, watch=watch)
     # the campaigns' executor: SIGTERM or Ctrl-C drops the queued batches and ends the workers at once
-    for out in (executor or LocalExecutor()).map_unordered(partial(_simulate, watch=watch), work, processes=True):
-        runs += out
+    done = (resumable_map(executor, simulate_batch, work, out, "service") if out is not None
+            else executor.map_unordered(simulate_batch, work, processes=True))
+    for batch in done:
+        runs += batch
         if progress:
-            progress(len(out))
+            progress(len(batch))
     return sorted(runs, key=lambda r: r["seed"])
 
 
@@ -366,7 +372,7 @@ def bench_service(runs: int = 1000, seeds: str = "evaluation", out: str | Path =
     given_base = seed_base + GIVEN_UP_SEEDS
     results = run_service(range(seed_base, seed_base + runs), executor, progress, max_duration,
                           range(free_base, free_base + fault_free_runs), range(given_base, given_base + given_up_runs),
-                          vehicle, watch)
+                          vehicle, watch, out)
     report = {"schema": "rw_fdi_ros/service_bench/2", "seconds": time.monotonic() - t0, "max_hours": max_hours,
               "vehicle": vehicle,
               "date": time.strftime("%Y-%m-%d"), "seed_set": seeds, "seed_base": seed_base,

@@ -62,7 +62,8 @@ def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str 
     populations = {}
     for population, (seed_base, wheels) in POPULATIONS.items():
         judged = screen_cells(sizes, partial(_judge_chunk, population, vehicle=vehicle, fdi=fdi),
-                              f"units bench, {population} wheels", executor)
+                              f"units bench, {population} wheels", executor, out=out,
+                              name=f"units_{population}")
         write_cells_table(judged, [c.name for c in CELLS], out, f"units_{population}")
         populations[population] = {"seed_base": seed_base, "wheels": wheels,
                                    "cells": cell_results(judged, sizes, seed_base, levels, "sets")}
