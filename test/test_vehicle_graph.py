@@ -11,6 +11,7 @@ from rw_fdi_ros.core.fdi.pipeline import LoadedFdi
 from rw_fdi_ros.core.flight import Fdir
 from rw_fdi_ros.core.closed_loop import simulate
 from rw_fdi_ros.core.mission.scenario import load_scenario
+from rw_fdi_ros.core.mission.vehicle import quantity
 from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves
 from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.paths import config_dir
@@ -20,10 +21,11 @@ from rw_fdi_ros.runner.fdi_run import run_with_fdi
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
 
-def test_a_coupled_vehicle_flies_the_same_run_in_the_graph_as_in_the_core_loop(tmp_path):
+def test_a_coupled_vehicle_on_a_12_volt_bus_flies_the_same_run_in_the_graph_as_in_the_core_loop(tmp_path):
     raw = yaml.safe_load((config_dir() / "vehicles" / "maksat.yaml").read_text())
     raw["name"], raw["inertia"]["matrix"] = "coupled", [[30, 2, 0], [2, 26, -1], [0, -1, 40]]
     raw["controller"]["settling_time"] = "60 s"   # the same wheels take longer to turn a heavier body
+    raw["wheel"]["bus_voltage"] = "12 V"   # and drive them from a bus of its own
     (tmp_path / "coupled.yaml").write_text(yaml.safe_dump(raw))
     (tmp_path / "ff.yaml").write_text("name: coupled_ff\nduration: 200\nvehicle: coupled.yaml\n")
     path = tmp_path / "cl.yaml"
@@ -40,6 +42,7 @@ def test_a_coupled_vehicle_flies_the_same_run_in_the_graph_as_in_the_core_loop(t
     _, attitude, _, _ = data.joint_states(T.ATTITUDE)
     np.testing.assert_allclose(attitude, traj.attitude[:, 0], rtol=0, atol=1e-12)   # the same run, products of inertia
     assert yaml.safe_load(data.scenario_text)["vehicle"]["inertia"]["matrix"][0][1] == 2.0   # the bag records it
+    assert quantity("bus", yaml.safe_load(data.scenario_text)["vehicle"]["wheel"]["bus_voltage"], "V") == 12.0
     verdict = outcome.summary["fdi"]["verdict"]
     assert verdict["y"] and not verdict["x"] and not verdict["z"]
     assert traj.decisions[0], "FDIR acted on the current loss"

@@ -134,7 +134,7 @@ def fdi_telemetry_cdr(sample, names) -> bytes:
                                                                 for key in columns])
 
 
-def bus_grid_msg(sample, names):
+def bus_grid_msg(sample, names, bus_voltage: float = 8.0):
     """The identification's bus-voltage grid of one sample (sensor_msgs/PointCloud2, or None without it): one
     point per bus voltage V, fields ``bus_voltage`` [V] and each wheel's joint name (k_t I_m(u, Omega; V),
     period means [N m]), float64: a self-describing binary table beside the report, 26 kB a second.
@@ -145,6 +145,8 @@ def bus_grid_msg(sample, names):
         The FDI sample.
     names : sequence of str
         The wheels, in the sample's order.
+    bus_voltage : float, optional
+        The wheel type's nominal bus V_nom [V]: the grid is identification.bus_voltage_grid(V_nom).
 
     Returns
     -------
@@ -154,8 +156,8 @@ def bus_grid_msg(sample, names):
     if sample.bus_motor_torque is None:
         return None
     from sensor_msgs.msg import PointCloud2, PointField
-    from ..core.fdi.identification import BUS_VOLTAGE_GRID
-    table = np.column_stack([BUS_VOLTAGE_GRID, np.asarray(sample.bus_motor_torque, float).T])
+    from ..core.fdi.identification import bus_voltage_grid
+    table = np.column_stack([bus_voltage_grid(bus_voltage), np.asarray(sample.bus_motor_torque, float).T])
     msg = PointCloud2(height=1, width=table.shape[0], is_bigendian=False, point_step=8 * table.shape[1],
                       row_step=8 * table.size, is_dense=True)
     msg.header.stamp = time_msg(sample.stamp_ns)
@@ -181,7 +183,7 @@ def bus_grid_of(msg, names) -> np.ndarray:
     numpy.ndarray
         (N, grid) motor torques [N m].
     """
-    from ..core.fdi.identification import BUS_VOLTAGE_GRID
+    from ..core.fdi.identification import bus_voltage_grid
     offsets = {f.name: f.offset for f in msg.fields if f.datatype == 8 and f.count == 1}   # FLOAT64
     step = msg.point_step
     try:
@@ -193,7 +195,7 @@ def bus_grid_of(msg, names) -> np.ndarray:
         raise ValueError("bus grid: fields not on 8-byte columns, or data shorter than its points")
     table = np.frombuffer(bytes(msg.data[:rows * step]), ">f8" if msg.is_bigendian else "<f8").reshape(rows, -1)
     table = table[:, [c // 8 for c in columns]]
-    if not np.array_equal(table[:, 0], BUS_VOLTAGE_GRID):
+    if not rows or not np.array_equal(table[:, 0], bus_voltage_grid(table[0, 0])):
         raise ValueError("bus grid on other bus voltages than the identification's (recorded by another version)")
     return table[:, 1:].T
 

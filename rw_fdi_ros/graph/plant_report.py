@@ -149,7 +149,8 @@ class PlantReport:
             out.append((T.FAULT_EFFECT, joint_state_cdr(stamp, self.joints, effort=fault_effect)))
         report = self.telemetry.add(stamp, tcv, reaction_torque, wheel_speed)
         if report is not None:
-            grid = bus_grid_msg(report, self.names)   # first: the isolation node decides on the report
+            # first: the isolation node decides on the report
+            grid = bus_grid_msg(report, self.names, self.telemetry.params.bus_voltage)
             out += ([(T.FDI_BUS_GRID, grid)] if grid is not None else []) + [
                 (T.FDI_TELEMETRY, fdi_telemetry_cdr(report, self.names))]
         truth = self._truth(stamp, time, fault_effect, operating_point, faults)

@@ -27,7 +27,7 @@ from sensor_msgs.msg import JointState, MagneticField, PointCloud2
 from std_msgs.msg import Header, String
 
 from ..core.physics.plant import Plant
-from ..core.physics.faults import FAULT_KINDS, NOMINAL_VALUES, Fault
+from ..core.physics.faults import FAULT_KINDS, Fault, nominal_values
 from ..core.mission.scenario import ScenarioError, load_scenario
 from ..core.physics.wheel_set import joint_name
 from ..graph import topics as T
@@ -82,9 +82,10 @@ class PlantNode(GraphNode):
         self.wheels = wheel_set(self.choices.wheel_set)
         self.names = self.wheels.names
         self.joints = tuple(joint_name(n) for n in self.names)
+        nominal = nominal_values(wheel)   # the wheel type's healthy values (its own bus voltage)
         for name in self.names:  # live fault injection: setting one injects from the current sim time
             for kind in FAULT_KINDS:
-                self.declare_parameter(f"fault.{name}.{kind}", NOMINAL_VALUES[kind])
+                self.declare_parameter(f"fault.{name}.{kind}", nominal[kind])
         stray = sorted(n for n in self._parameter_overrides if n.startswith("fault.") and not self.has_parameter(n))
         if stray:   # a wheel the set does not have, or a kind there is not: never silently ignored
             raise NodeError(f"parameter {stray[0]}: no such fault; wheel set {self.wheels.name} has wheels "

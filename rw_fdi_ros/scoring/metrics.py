@@ -264,7 +264,7 @@ def size_tolerance(kind: str, value: float, strict_bus: bool = False) -> float:
     return min(0.1, 0.1 * abs(value)) if strict_bus and kind == "bus_voltage" else 0.1 * abs(value)
 
 
-def size_at(fault, at_s: float) -> float:
+def size_at(fault, at_s: float, nominal: dict | None = None) -> float:
     """The truth an identified size is judged against: the fault's value at the identification's last sample
     (``at_s``, its stamp; the middle of that FDI period), a ramp's value then where it was still growing or its
     wheel's driver was switched off before it ended; the final value where the time is not known.
@@ -275,6 +275,8 @@ def size_at(fault, at_s: float) -> float:
         The scenario's fault (kind, onset [s], value in the kind's unit, ramp [s]).
     at_s : float
         The identification's stamp [s]; NaN where not known.
+    nominal : dict or None
+        The wheel type's healthy values (faults.nominal_values: a ramp starts from its bus); None: the thesis'.
 
     Returns
     -------
@@ -283,11 +285,11 @@ def size_at(fault, at_s: float) -> float:
     """
     if not np.isfinite(at_s):
         return float(fault.value)
-    return float(fault.value_at(float(at_s) - 0.5 * FDI_PERIOD))
+    return float(fault.value_at(float(at_s) - 0.5 * FDI_PERIOD, *([nominal] if nominal else [])))
 
 
 def judge_size(fault, size: float, low: float, high: float, at_s: float = float("nan"),
-               strict_bus: bool = False) -> dict:
+               strict_bus: bool = False, nominal: dict | None = None) -> dict:
     """size_error (estimate - truth, in the kind's unit), size_right (within :func:`size_tolerance`), covered
     (truth inside [low, high]) of an identification of the right kind (truth: :func:`size_at`).
 
@@ -302,12 +304,14 @@ def judge_size(fault, size: float, low: float, high: float, at_s: float = float(
     strict_bus : bool
         Passed to :func:`size_tolerance`.
 
+    nominal : dict or None
+        As :func:`size_at`.
     Returns
     -------
     dict
         size, truth, size_error (float, in the kind's unit), size_right, covered (bool).
     """
-    truth = size_at(fault, at_s)
+    truth = size_at(fault, at_s, nominal)
     return {"size": float(size), "truth": truth, "size_error": float(size) - truth,
             "size_right": bool(abs(size - truth) <= size_tolerance(fault.kind, truth, strict_bus)),
             "covered": bool(low <= truth <= high)}

@@ -43,7 +43,7 @@ def model_reaction_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelPar
     wheel_speed : float or array_like
         Measured wheel speed Omega [rad/s], broadcasting with ``tcv``.
     params : WheelParams
-        The wheel type, at the nominal operating point (bus 8 V, limiter 1, 23 C).
+        The wheel type, at its nominal operating point (its own bus voltage, limiter 1, 23 C).
 
     Returns
     -------
@@ -54,7 +54,7 @@ def model_reaction_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelPar
     free : ndarray
         tau_m where the bridge does not clip, else 0 [N m], same shape.
     """
-    nominal = wm.NOMINAL
+    nominal = wm.nominal_point(params)   # Table 2.3 on the wheel type's own bus
     current, clipped = wm.bridge(tcv, wheel_speed, nominal.bus_voltage, params)
     tau_m = params.torque_constant * current
     free = np.where(clipped, 0.0, tau_m)

@@ -45,9 +45,11 @@ WHEEL_UNITS = {
     "overspeed_gain": "V/(rad/s)", "overspeed_threshold": "rad/s", "coulomb_friction": "N m",
     "inertia": "kg m^2", "poles": "", "ripple_coefficient": "", "input_resistance": "ohm",
     "quiescent_power": "W", "bridge_resistance": "ohm", "voltage_feedback_gain": "V/V", "noise_angle": "rad",
-    "noise_frequency": "rad/s", "command_limit": "V", "diode_drop": "V", "emf_limit": None,
+    "noise_frequency": "rad/s", "command_limit": "V", "diode_drop": "V", "bus_voltage": "V", "emf_limit": None,
     "ripple_amplitude_share": "", "coulomb_smoothing_speed": "rad/s", "viscous_scale": "",
 }
+# fields a vehicle file may leave out, and where their default comes from
+WHEEL_DEFAULTS = {"bus_voltage": "8 V"}   # the ITHACO Type A's bus (thesis Table 2.3)
 # fields that may be zero (the rest of WHEEL_UNITS' numbers must be > 0)
 WHEEL_MAY_BE_ZERO = {"coulomb_friction", "ripple_coefficient", "noise_angle", "noise_frequency", "diode_drop",
                      "quiescent_power", "input_resistance", "viscous_scale"}
@@ -58,7 +60,8 @@ WHEEL_MAX = {
     "overspeed_gain": 1e4, "overspeed_threshold": 1e4, "coulomb_friction": 1.0, "inertia": 10.0, "poles": 1000,
     "ripple_coefficient": 1.0, "input_resistance": 1e3, "quiescent_power": 1e3, "bridge_resistance": 1e3,
     "voltage_feedback_gain": 100.0, "noise_angle": 6.3, "noise_frequency": 1e4, "command_limit": 100.0,
-    "diode_drop": 8.0, "ripple_amplitude_share": 1.0, "coulomb_smoothing_speed": 100.0, "viscous_scale": 1e4,
+    "diode_drop": 40.0, "bus_voltage": 40.0, "ripple_amplitude_share": 1.0, "coulomb_smoothing_speed": 100.0,
+    "viscous_scale": 1e4,
 }
 NUMBER_MAX = 1e9   # any other number of a vehicle file, in its unit: nothing of a spacecraft is larger
 MAGNETORQUER_UNITS = {"dipole_limit": "A m^2", "gain": "1/s", "start_speed": "rad/s", "stop_speed": "rad/s"}
@@ -340,7 +343,7 @@ def check_inertia(where: str, matrix) -> None:
 
 
 def _wheel(where: str, raw) -> WheelParams:
-    raw = _mapping(where, raw, {"type", *WHEEL_UNITS})
+    raw = {**WHEEL_DEFAULTS, **_mapping(where, raw, {"type", *WHEEL_UNITS})}
     missing = sorted(set(WHEEL_UNITS) - set(raw))
     if missing:
         raise VehicleError(f"{where}: missing {', '.join(missing)} (every parameter of the wheel model, with units)")
@@ -362,8 +365,9 @@ def _wheel(where: str, raw) -> WheelParams:
     if values["poles"] != int(values["poles"]):
         raise VehicleError(f"{where}.poles: must be a whole number, got {values['poles']:g}")
     values["poles"] = int(values["poles"])
-    if values["diode_drop"] >= 8.0:
-        raise VehicleError(f"{where}.diode_drop: {values['diode_drop']:g} V leaves no bus voltage to drive with")
+    if values["diode_drop"] >= values["bus_voltage"]:
+        raise VehicleError(f"{where}.diode_drop: {values['diode_drop']:g} V leaves no bus voltage to drive with "
+                           f"(bus_voltage {values['bus_voltage']:g} V)")
     return WheelParams(**values)
 
 
@@ -426,7 +430,7 @@ def shipped_set_name(wheel_set: WheelSet):
                  and ws.standby == wheel_set.standby), None)
 
 
-def _dispersions(where: str, raw) -> Dispersions:
+def _dispersions(where: str, raw, bus_voltage: float = 8.0) -> Dispersions:
     units = {"attitude_deg": "deg", "body_rate": "rad/s", "wheel_speed": "rad/s", "setpoint_change_deg": "deg"}
     raw = _mapping(where, raw, {"initial_attitude", "initial_body_rate", "initial_wheel_speed",
                                 "setpoint_change", "unit_spread", "fault_sizes"})
@@ -447,6 +451,13 @@ def _dispersions(where: str, raw) -> Dispersions:
         sizes = _mapping(f"{where}.fault_sizes", raw["fault_sizes"], FAULT_SIZE_UNITS)
         values["fault_sizes"] = tuple(sorted((k, interval(f"{where}.fault_sizes.{k}", v, FAULT_SIZE_UNITS[k]))
                                              for k, v in sizes.items()))
+        low, high = dict(values["fault_sizes"]).get("bus_voltage", (0.0, 0.0))
+        if high >= bus_voltage:
+            raise VehicleError(f"{where}.fault_sizes.bus_voltage: a drop is below the wheel's bus "
+                               f"({bus_voltage:g} V), got up to {high:g} V")
+    elif bus_voltage != 8.0:   # the default drops (4-5.5 V of the Type A's 8 V) as shares of this wheel's bus
+        values["fault_sizes"] = tuple((k, tuple(v * bus_voltage / 8.0 for v in r) if k == "bus_voltage" else r)
+                                      for k, r in Dispersions.fault_sizes)
     return Dispersions(**values)
 
 
@@ -523,7 +534,7 @@ def vehicle_of(raw, where: str = "vehicle") -> Vehicle:
         wheel_set=_wheel_set(f"{where}.wheel_set", raw["wheel_set"]),
         controller=_controller(f"{where}.controller", raw["controller"]),
         magnetorquers=_magnetorquers(f"{where}.magnetorquers", raw["magnetorquers"]),
-        dispersions=_dispersions(f"{where}.dispersions", raw["dispersions"]),
+        dispersions=_dispersions(f"{where}.dispersions", raw["dispersions"], wheel.bus_voltage),
         disturbance_sigma=_positive(where, {"disturbance_sigma": raw["disturbance_sigma"]},
                                     {"disturbance_sigma": "N m"}, ("disturbance_sigma",))["disturbance_sigma"],
         **({"residual_dipole": _residual_dipole(f"{where}.residual_dipole", raw["residual_dipole"])}

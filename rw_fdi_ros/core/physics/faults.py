@@ -10,11 +10,27 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .wheel import NOMINAL
+from .wheel import NOMINAL, WheelParams, nominal_point
 from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
 
 FAULT_KINDS = ("bus_voltage", "current_limiter", "temperature", "ripple_gain")
-NOMINAL_VALUES = {k: getattr(NOMINAL, k) for k in FAULT_KINDS}
+NOMINAL_VALUES = {k: getattr(NOMINAL, k) for k in FAULT_KINDS}   # the thesis wheel's (8 V bus)
+
+
+def nominal_values(params: WheelParams | None = None) -> dict:
+    """Each fault kind's healthy value on the wheel type ``params`` (its own bus voltage; None: the thesis').
+
+    Parameters
+    ----------
+    params : WheelParams or None
+        The wheel type.
+
+    Returns
+    -------
+    dict
+        FAULT_KINDS -> value (V, share, C, multiplier).
+    """
+    return NOMINAL_VALUES if params is None else {k: getattr(nominal_point(params), k) for k in FAULT_KINDS}
 
 
 @dataclass(frozen=True)
@@ -30,20 +46,22 @@ class Fault:
     value: float
     ramp: float = 0.0
 
-    def value_at(self, t):
+    def value_at(self, t, nominal: dict = NOMINAL_VALUES):
         """The faulted quantity's value at ``t``: nominal before the onset, ramping to ``value`` over ``ramp``.
 
         Parameters
         ----------
         t : float
             Sim time [s].
+        nominal : dict, optional
+            The healthy values (:func:`nominal_values` of the wheel type; default the thesis wheel's).
 
         Returns
         -------
         float
             The value (the kind's unit).
         """
-        nominal = NOMINAL_VALUES[self.kind]
+        nominal = nominal[self.kind]
         if t < self.onset:
             return nominal
         if self.ramp > 0.0:
@@ -69,7 +87,7 @@ class Fault:
                 "value": self.value, "ramp": self.ramp}
 
 
-def operating_point_at(faults, t, count: int = 3):
+def operating_point_at(faults, t, count: int = 3, nominal: dict = NOMINAL_VALUES):
     """Per-wheel operating point of ``count`` wheels at time t: dict kind -> array (count,), thesis
     Table 2.3 when healthy.
 
@@ -81,6 +99,8 @@ def operating_point_at(faults, t, count: int = 3):
         Time [s].
     count : int, optional
         Wheels in the run, N.
+    nominal : dict, optional
+        The healthy values (:func:`nominal_values`).
 
     Returns
     -------
@@ -88,10 +108,10 @@ def operating_point_at(faults, t, count: int = 3):
         FAULT_KINDS -> (N,): ``bus_voltage`` [V], ``current_limiter`` (share), ``temperature`` [C],
         ``ripple_gain`` (multiplier).
     """
-    return {k: v[0] for k, v in operating_points([faults], t, count).items()}
+    return {k: v[0] for k, v in operating_points([faults], t, count, nominal).items()}
 
 
-def operating_points(fault_lists, t, count: int = 3):
+def operating_points(fault_lists, t, count: int = 3, nominal: dict = NOMINAL_VALUES):
     """:func:`operating_point_at` of a batch of runs (one fault list each): dict kind -> array (B, count).
 
     Parameters
@@ -102,17 +122,19 @@ def operating_points(fault_lists, t, count: int = 3):
         Time [s].
     count : int, optional
         Wheels per run, N.
+    nominal : dict, optional
+        The healthy values (:func:`nominal_values`).
 
     Returns
     -------
     dict of str to ndarray
         FAULT_KINDS -> (B, N), in the units of :func:`operating_point_at`.
     """
-    op = {k: np.full((len(fault_lists), count), NOMINAL_VALUES[k]) for k in FAULT_KINDS}
+    op = {k: np.full((len(fault_lists), count), nominal[k], dtype=float) for k in FAULT_KINDS}
     for b, faults in enumerate(fault_lists):
         # by onset, and only those begun: a later fault of one kind on one wheel takes over from its onset,
         # it does not undo an earlier one before then
         for f in sorted(faults, key=lambda f: f.onset):
             if t >= f.onset:
-                op[f.kind][b, f.wheel] = f.value_at(t)
+                op[f.kind][b, f.wheel] = f.value_at(t, nominal)
     return op

@@ -30,7 +30,7 @@ import numpy as np
 
 from . import wheel as wm
 from .environment import Environments, magnetometer_steps
-from .faults import FAULT_KINDS, NOMINAL_VALUES, operating_points
+from .faults import FAULT_KINDS, nominal_values, operating_points
 from .spacecraft import body_acceleration, disturbance_torque
 from .wheel_set import WheelSet, wheel_set as named_wheel_set
 
@@ -138,6 +138,7 @@ class Plant:
         self.spin_axes = self.wheels.matrix
         n = self.wheels.count
         self.wheel = units_of(self.scenarios, wheel, n)
+        self.nominal = nominal_values(wheel)   # its healthy operating point: the type's own bus voltage
         self.dt = float(control_period)
         self.substeps = int(substeps)
         self.inertia = np.asarray(inertia, float)
@@ -234,7 +235,7 @@ class Plant:
         dict
             Kind -> (B, N) values (bus voltage [V], current limiter, temperature [deg C], ripple gain).
         """
-        return operating_points([self.faults(b) for b in range(self.batch)], t, self.wheels.count)
+        return operating_points([self.faults(b) for b in range(self.batch)], t, self.wheels.count, self.nominal)
 
     def _locked_inertia(self):
         """Sum over the free wheels of J g g^T (B, 3, 3), the part of the locked inertia that spins apart;
@@ -339,7 +340,7 @@ class Plant:
         t = self.time
         op = self.operating_point(t)
         rt = self.reaction_torque(op, t)
-        healthy_op = {k: np.full_like(op[k], NOMINAL_VALUES[k]) for k in FAULT_KINDS}
+        healthy_op = {k: np.full_like(op[k], self.nominal[k]) for k in FAULT_KINDS}
         nominal = all(np.array_equal(op[k], healthy_op[k]) for k in FAULT_KINDS)
         healthy = rt if nominal else self.reaction_torque(healthy_op, t)   # no fault: the same torque, exactly
         field = None

@@ -12,7 +12,7 @@ motor torque, which spins the wheel up and pushes the body the other way
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, asdict
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -41,6 +41,7 @@ class WheelParams:
     noise_frequency: float = 0.2         # w_a [rad/s]
     command_limit: float = 5.0           # +-5 V torque command range
     diode_drop: float = 1.0              # reverse-polarity diode [V], eq. 2.13
+    bus_voltage: float = 8.0             # V_bus [V]: the bus the wheel's drive runs on (Table 2.3's normal op.)
     # [choice] EMF torque limiting: 'kf_scaled' (default) or 'pwm_saturation'.
     emf_limit: str = "kf_scaled"
     # [choice] ripple amplitude as a share of B: 0.5 reads B as peak-to-peak.
@@ -76,7 +77,23 @@ class OperatingPoint:
     ripple_gain: float = 1.0       # multiplies the ripple coefficient B
 
 
-NOMINAL = OperatingPoint()
+NOMINAL = OperatingPoint()   # the thesis wheel's (8 V bus); a wheel type's own: nominal_point(params)
+
+
+def nominal_point(params: WheelParams = WheelParams()) -> OperatingPoint:
+    """Normal operation (Table 2.3) on the wheel type's own bus, V_bus = ``params.bus_voltage``.
+
+    Parameters
+    ----------
+    params : WheelParams
+        The wheel type.
+
+    Returns
+    -------
+    OperatingPoint
+        NOMINAL with the wheel's bus voltage.
+    """
+    return replace(NOMINAL, bus_voltage=params.bus_voltage)
 
 
 def viscous_coefficient(temperature, params: WheelParams = WheelParams()):
@@ -362,7 +379,7 @@ def torque_scale(params: WheelParams = WheelParams()) -> float:
                  / (thesis.driver_gain * thesis.torque_constant * thesis.command_limit))
 
 
-def top_speed(params: WheelParams = WheelParams(), op: OperatingPoint = NOMINAL) -> float:
+def top_speed(params: WheelParams = WheelParams(), op: OperatingPoint | None = None) -> float:
     """Omega_top [rad/s]: the highest speed the wheel holds at the full command at the operating point ``op``,
     where the motor torque the bridge can drive, k_t min(G_d V_limit, I_max(V_bus, Omega)) (eqs. 2.9-2.14),
     no longer exceeds the friction (eqs. 2.15-2.16); at most the overspeed threshold w_s. The thesis' Type A
@@ -372,14 +389,16 @@ def top_speed(params: WheelParams = WheelParams(), op: OperatingPoint = NOMINAL)
     ----------
     params : WheelParams
         The wheel type (scalar fields).
-    op : OperatingPoint
-        The bus voltage and temperature (default: normal operation, Table 2.3).
+    op : OperatingPoint or None
+        The bus voltage and temperature (default: normal operation on the wheel's bus, :func:`nominal_point`).
 
     Returns
     -------
     float
         Omega_top [rad/s].
     """
+    op = nominal_point(params) if op is None else op
+
     def surplus(w):
         drive = min(params.driver_gain * params.command_limit, float(emf_current_limit(op.bus_voltage, w, params)))
         return params.torque_constant * drive - float(friction_torque(w, op.temperature, params))
@@ -422,7 +441,6 @@ def unit_wheel(base: WheelParams, scales: dict) -> WheelParams:
         ``base`` with ``torque_constant``, ``driver_gain``, ``coulomb_friction`` and ``viscous_scale`` (the type's
         own scale times the unit's) as arrays of the scales' shape.
     """
-    from dataclasses import replace
     return replace(base, torque_constant=base.torque_constant * np.asarray(scales["torque_constant"], float),
                    driver_gain=base.driver_gain * np.asarray(scales["driver_gain"], float),
                    coulomb_friction=base.coulomb_friction * np.asarray(scales["coulomb_friction"], float),

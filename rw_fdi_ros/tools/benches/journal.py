@@ -4,8 +4,9 @@
 and keeps each finished item's result in ``<out>/.<name>_journal/<index>.npz``: the result's structure as
 JSON and its arrays beside it, read back with ``allow_pickle=False`` (a journal is data, never code). The
 same command on the same code resumes: it takes the kept items and runs only the rest. A journal of other
-work or other code (the signature: the work's description and a digest of the package and its shipped
-FDI) is set aside and the bench starts over, saying so. Once every item is in, the journal is removed.
+work or other code (the signature: the work's description and a digest of the package and its config:
+vehicles, FDI, scenarios) is set aside and the bench starts over, saying so. Once every item is in, the journal
+is removed.
 """
 from __future__ import annotations
 
@@ -84,9 +85,10 @@ def _hashable(key):
 
 
 def code_digest() -> str:
-    """A digest of the package's code and its shipped FDI: what a kept result depends on besides its work."""
+    """A digest of the package's code and its config (vehicles, FDI, scenarios): what a kept result depends on
+    besides its work."""
     digest = hashlib.sha256()
-    for root, pattern in ((Path(__file__).resolve().parents[2], "*.py"), (config_dir() / "fdi", "*")):
+    for root, pattern in ((Path(__file__).resolve().parents[2], "*.py"), (config_dir(), "*")):
         for path in sorted(root.rglob(pattern)):
             if path.is_file():
                 digest.update(str(path.relative_to(root)).encode())

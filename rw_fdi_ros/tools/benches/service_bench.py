@@ -55,6 +55,7 @@ from ...core.fdi.identification import DRIVE, UNKNOWN
 from ...core.mission.plant_choices import FDI_PERIOD
 from ...core.mission.scenario import SETTLE_S, Scenario, in_transient
 from ...core.mission.vehicle import DEFAULT_VEHICLE
+from ...core.physics.faults import nominal_values
 from ...core.physics.wheel import torque_scale
 from ..campaigns.campaign import LocalExecutor
 from .journal import resumable_map
@@ -95,7 +96,8 @@ def _identification(traj, b: int, d: Draw, scenario_: Scenario, i: int, out: dic
     # or the drive named, its current and bus not told apart (Identification.between)
     row["kind_narrowed"] = row["kind_right"] or (found is not None and truth in found.between)
     if row["kind_right"]:
-        row.update(judge_size(scenario_.faults[0], found.size, found.low, found.high, found.at_s),
+        row.update(judge_size(scenario_.faults[0], found.size, found.low, found.high, found.at_s,
+                              nominal=nominal_values(scenario_.spacecraft.wheel)),
                    low=float(found.low), high=float(found.high), growing=found.growing)
     if d.give_up and out["action"] == "out_of_use" and truth in DRIVE:
         row["drive_misfit"] = _drive_misfit(traj, b, i, scenario_, truth, f0["onset"], f0["onset"] + out["delay_s"])
@@ -156,9 +158,9 @@ def _drive_misfit(traj, b: int, i: int, scenario_, kind: str, onset: float, give
     with the fault, from the onset to its give-up, each the mean of its control steps (D,
     core/identification/identifiability.py)."""
     driven = (traj.time >= onset) & (traj.time < given_up_at)
-    fault = scenario_.faults[0]
+    fault, nominal = scenario_.faults[0], nominal_values(scenario_.spacecraft.wheel)
     return other_family_misfit(kind, traj.tcv[driven, b, i], traj.wheel_speed[driven, b, i], traj.time[driven],
-                               [fault.value_at(t) for t in traj.time[driven]], scenario_.spacecraft.wheel,
+                               [fault.value_at(t, nominal) for t in traj.time[driven]], scenario_.spacecraft.wheel,
                                period=FDI_PERIOD)
 
 

@@ -48,7 +48,7 @@ The package, one idea a module:
 from .decision import (CHI2_95, CORRELATION, DECISIVE, EXPLAINED, FREE_UNIT_SHARE, MIN_DRIVEN, decide,
                        identify)
 from .families import (BUS_VOLTAGE_GRID, CURRENT_LIMITER_GRID, DRIVE, GRIDS, KINDS, SIGMA_FLOOR, TEMPERATURE_GRID,
-                       UNITS, UNKNOWN, bus_motor_torque, family_predictions, unit_sensitivities)
+                       UNITS, UNKNOWN, bus_motor_torque, bus_voltage_grid, family_predictions, unit_sensitivities)
 from .identifier import FaultIdentifier
 from .onset import ONSET_HEALTHY, onset_index
 from .ramps import (RAMP_LENGTH, RAMP_NOTED_S, RAMP_SECONDS, RAMP_SHARE, RAMP_START_SHARES, SLOW_SECONDS,
@@ -60,5 +60,5 @@ __all__ = ["BUS_VOLTAGE_GRID", "CHI2_95", "CORRELATION", "CURRENT_LIMITER_GRID",
            "FORMER_NAMES", "FREE_UNIT_SHARE", "FaultIdentifier", "GRIDS", "Identification", "KAPPA_MAX", "KINDS",
            "MIN_DRIVEN", "MIN_SAMPLES", "NONE", "ONSET_HEALTHY", "ProfileSums", "RAMP_LENGTH", "RAMP_NOTED_S",
            "RAMP_SECONDS", "RAMP_SHARE", "RAMP_START_SHARES", "SIGMA_FLOOR", "SLOW_SECONDS", "SLOW_START_SHARES",
-           "SPOKEN", "TEMPERATURE_GRID", "UNITS", "UNKNOWN", "bus_motor_torque", "decide", "family_predictions",
-           "identify", "kind_name", "onset_index", "ramp_fractions", "unit_sensitivities"]
+           "SPOKEN", "TEMPERATURE_GRID", "UNITS", "UNKNOWN", "bus_motor_torque", "bus_voltage_grid", "decide",
+           "family_predictions", "identify", "kind_name", "onset_index", "ramp_fractions", "unit_sensitivities"]

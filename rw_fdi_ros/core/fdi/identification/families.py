@@ -23,7 +23,7 @@ UNKNOWN = "unknown"
 # makes the family whose parameter falls between two points look worse than it is.
 CURRENT_LIMITER_GRID = np.round(np.arange(1.0, -1e-9, -0.001), 6)           # share of motor current
 TEMPERATURE_GRID = np.round(np.arange(23.0, 215.0 + 1e-9, 0.25), 6)          # [C]; tau_v = 0 from 215 C
-BUS_VOLTAGE_GRID = np.round(np.arange(8.0, 1.5 - 1e-9, -0.01), 6)           # [V]
+BUS_VOLTAGE_GRID = np.round(np.arange(8.0, 1.5 - 1e-9, -0.01), 6)           # [V] the 8-V thesis wheel's
 UNITS = {"current_limiter": "", "temperature": "C", "bus_voltage": "V"}
 # The two families that show only through the motor torque: at one operating point a limiter share and a bus
 # voltage that clips to the same current are the same wheel, and a few samples may not tell them apart
@@ -33,7 +33,25 @@ DRIVE = ("current_limiter", "bus_voltage")
 SIGMA_FLOOR = 5e-5
 
 
-def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams(), grid=BUS_VOLTAGE_GRID):
+def bus_voltage_grid(bus_voltage: float = 8.0) -> np.ndarray:
+    """The bus family's grid on a wheel type's nominal bus V_nom [V]: BUS_VOLTAGE_GRID (8 to 1.5 V by 0.01 V)
+    scaled by V_nom / 8, so 100 % down to 18.75 % of V_nom in 651 points whatever the bus.
+
+    Parameters
+    ----------
+    bus_voltage : float
+        V_nom [V] (WheelParams.bus_voltage).
+
+    Returns
+    -------
+    ndarray, shape (651,)
+        Bus voltages [V], V_nom first.
+    """
+    scale = float(bus_voltage) / BUS_VOLTAGE_GRID[0]
+    return BUS_VOLTAGE_GRID if scale == 1.0 else np.round(BUS_VOLTAGE_GRID * scale, 6)
+
+
+def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams(), grid=None):
     """Motor torque k_t I_m(u, Omega; V) of a healthy wheel at every bus voltage of ``grid``: (..., len(grid)).
 
     Parameters
@@ -44,14 +62,15 @@ def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams()
         Wheel speed Omega [rad/s], broadcasting with ``tcv``.
     params : WheelParams
         The wheel type, scalar fields (one datasheet wheel).
-    grid : array_like, shape (G,)
-        Bus voltages V [V].
+    grid : array_like, shape (G,), optional
+        Bus voltages V [V]; default the wheel type's :func:`bus_voltage_grid`.
 
     Returns
     -------
     ndarray, shape (..., G)
         tau_m [N m] at current limiter 1.
     """
+    grid = bus_voltage_grid(params.bus_voltage) if grid is None else grid
     u = np.asarray(tcv, float)[..., None]
     w = np.asarray(wheel_speed, float)[..., None]
     return params.torque_constant * wm.motor_current(u, w, grid, 1.0, params)
@@ -103,6 +122,7 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
         limiter = (1.0 + phi * (CURRENT_LIMITER_GRID - 1.0))[..., None]
         tv = viscous_scale * wm.viscous_coefficient(TEMPERATURE_GRID[0] + phi * (TEMPERATURE_GRID
                                                                                  - TEMPERATURE_GRID[0]))[..., None]
+        # in the 8-V grid's volts: a wheel's own grid is it scaled, and a ramp's point along it the same
         volts = BUS_VOLTAGE_GRID[0] + phi * (BUS_VOLTAGE_GRID - BUS_VOLTAGE_GRID[0])
         bus = np.interp(volts, BUS_VOLTAGE_GRID[::-1], bus[::-1, 0])[..., None]
     viscous = viscous_scale * _VISCOUS_NOMINAL * w

@@ -35,10 +35,18 @@ from .families import SIGMA_FLOOR
 
 # where the search starts: every ramp between two values of a coarse grid, then refined by least squares
 # (geometric: dense near the healthy value, where a small fault's torque is steep in its parameter)
+# (the bus family's for the thesis wheel's 8 V bus, scaled to a wheel type's own by _family)
 _GRIDS = {"current_limiter": 1.0 - np.geomspace(1e-4, 1.0, 48), "bus_voltage": 8.0 - np.geomspace(1e-3, 6.5, 48)}
 HEALTHY = {"current_limiter": wm.NOMINAL.current_limiter, "bus_voltage": wm.NOMINAL.bus_voltage}   # Table 2.3
 # each family's range, the identifier's grids' (identification.CURRENT_LIMITER_GRID, BUS_VOLTAGE_GRID)
 _BOUNDS = {"current_limiter": (0.0, 1.0), "bus_voltage": (1.5, HEALTHY["bus_voltage"])}
+
+
+def _family(kind: str, params: wm.WheelParams):
+    """(start grid, (low, high), healthy value) of ``kind``'s family on the wheel type's bus."""
+    scale = params.bus_voltage / HEALTHY["bus_voltage"] if kind == "bus_voltage" else 1.0
+    low, high = _BOUNDS[kind]
+    return _GRIDS[kind] * scale, (low * scale, high * scale), HEALTHY[kind] * scale
 # D at which the identifier's margin reaches DECISIVE in 95 % of runs (one-sided normal quantile 1.645)
 TOLD_APART = (np.sqrt(DECISIVE) + 1.645) ** 2
 REFINED = 8         # the best starts (a beginning and a ramp) refined by least squares
@@ -85,7 +93,7 @@ def drive_current(kind: str, tcv, wheel_speed, value, params: wm.WheelParams = w
         Motor current I_m [A].
     """
     if kind == "current_limiter":
-        return wm.motor_current(tcv, wheel_speed, HEALTHY["bus_voltage"], value, params)
+        return wm.motor_current(tcv, wheel_speed, params.bus_voltage, value, params)
     if kind == "bus_voltage":
         return wm.motor_current(tcv, wheel_speed, value, 1.0, params)
     raise ValueError(f"{kind!r} is not a drive fault (current_limiter, bus_voltage)")
@@ -143,8 +151,8 @@ def other_family_misfit(kind: str, tcv, wheel_speed, times, values,
     truth_steps = kt * drive_current(kind, u, w, v, params)
     truth = mean(truth_steps)
     other = "bus_voltage" if kind == "current_limiter" else "current_limiter"
-    grid, low, high = _GRIDS[other], *_BOUNDS[other]
-    healthy_steps = kt * drive_current(other, u, w, HEALTHY[other], params)
+    grid, (low, high), healthy_value = _family(other, params)
+    healthy_steps = kt * drive_current(other, u, w, healthy_value, params)
     healthy = mean(healthy_steps)
     before = np.concatenate([[0.0], np.cumsum((healthy - truth) ** 2)])   # the healthy wheel's misfit up to j
     n, sample_t = truth.size, mean(t)

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .families import BUS_VOLTAGE_GRID, CURRENT_LIMITER_GRID, TEMPERATURE_GRID, UNITS, UNKNOWN
+from .families import CURRENT_LIMITER_GRID, TEMPERATURE_GRID, UNITS, UNKNOWN, bus_voltage_grid
 from .ramps import RAMP_NOTED_S
 
 MIN_SAMPLES = 5   # samples since the onset under which the identifier is still identifying (no kind yet)
@@ -63,11 +63,12 @@ class Identification:
     growing: bool = False        # it was still growing at the last sample: the size is the size then
     at_s: float = float("nan")   # [s] the time of the last sample (the stamp the size is the fault's at)
     between: tuple = ()          # 'unknown', yet one of these (DRIVE: the samples do not tell the two apart)
+    bus_nominal: float = 8.0     # [V] the wheel type's bus, where the bus family's grid starts (bus_voltage_grid)
 
     @property
     def bound_only(self) -> str:
         """'upper' / 'lower' when the interval reaches the grid's end (only a bound is observable)."""
-        if self.kind == "bus_voltage" and self.low <= BUS_VOLTAGE_GRID[-1]:
+        if self.kind == "bus_voltage" and self.low <= bus_voltage_grid(self.bus_nominal)[-1]:
             return "upper"
         if self.kind == "temperature" and self.high >= TEMPERATURE_GRID[-1]:
             return "lower"
@@ -122,9 +123,11 @@ class Identification:
         dict of str to str
             fault_kind, fault_size, fault_size_low, fault_size_high (6 significant digits, 'nan'), fault_unit,
             fault_size_unit_limited, fault_growing ('true'/'false'), fault_ramp_s, fault_size_at_s [s] and
-            fault_kind_between (the kinds joined by ' or ', else empty).
+            fault_kind_between (the kinds joined by ' or ', else empty); fault_bus_nominal_v [V] on a wheel
+            type whose bus is not the thesis' 8 V.
         """
-        return {"fault_kind": self.kind, "fault_size": _number(self.size), "fault_size_low": _number(self.low),
+        bus = {} if self.bus_nominal == 8.0 else {"fault_bus_nominal_v": _number(self.bus_nominal)}
+        return bus | {"fault_kind": self.kind, "fault_size": _number(self.size), "fault_size_low": _number(self.low),
                 "fault_size_high": _number(self.high), "fault_unit": self.unit,
                 "fault_size_unit_limited": "true" if self.unit_limited else "false",
                 "fault_growing": "true" if self.growing else "false", "fault_ramp_s": _number(self.ramp_s),
@@ -162,7 +165,7 @@ class Identification:
                    samples=int(values.get("samples", 0)), unit=values.get("fault_unit", "datasheet"),
                    unit_limited=values.get("fault_size_unit_limited") == "true",
                    growing=values.get("fault_growing") == "true", ramp_s=num("fault_ramp_s", 0.0),
-                   at_s=num("fault_size_at_s"),
+                   at_s=num("fault_size_at_s"), bus_nominal=num("fault_bus_nominal_v", 8.0),
                    between=tuple(kind_name(k) for k in between.split(" or ")) if between else ())
 
     def brief(self) -> dict:
