@@ -2,6 +2,7 @@
 with only the rest run, other work starts over, and a journal can name only this package's classes."""
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -20,14 +21,15 @@ def test_a_judged_run_reads_back_as_it_was():
                   identification={"y": {"kind": "bus drop"}}, wheels=("x", "y"),
                   reconfiguration=[(31.0, "y", "give_up", "confirmed")])
     arrays = []
-    data = json.loads(json.dumps(J.encode({3: [run], (1, 2): range(4, 9), "f": math.inf}, arrays)))
+    seen = SimpleNamespace(seed=7, dumps=2, onset_in_dump=None)
+    data = json.loads(json.dumps(J.encode({3: [run], (1, 2): range(4, 9), "f": math.inf, "seen": seen}, arrays)))
     back = J.decode(data, {f"arr_{i}": a for i, a in enumerate(arrays)})
     got = back[3][0]
     assert isinstance(got, RunEval) and isinstance(got.series["model"], Series)
     assert got.faults == run.faults and got.wheels == ("x", "y") and got.reconfiguration == run.reconfiguration
     np.testing.assert_array_equal(got.series["model"].residual, series.residual)   # NaN where it was
     assert got.series["model"].alarm.dtype == bool and got.faulty_wheels == ["y"]
-    assert back[(1, 2)] == range(4, 9) and back["f"] == math.inf
+    assert back[(1, 2)] == range(4, 9) and back["f"] == math.inf and back["seen"] == seen
 
 
 def test_a_journal_names_only_this_packages_dataclasses():

@@ -28,6 +28,7 @@ BENCH_SHARED = {"--out": ["detection", "identification", "units", "memory", "ope
                 "--scheduler": ["detection", "identification", "units", "operations", "recovery", "dumping", "service",
                                 "scaling"],
                 "--max-hours": ["service", "scaling"],
+                "--vehicle": ["detection", "identification", "units", "operations", "recovery", "dumping", "service"],
                 "--observer": ["detection", "units", "operations", "service"],
                 "--thresholds": ["detection", "units", "operations", "service"]}
 
@@ -164,6 +165,14 @@ def test_the_networks_design_options_are_only_for_the_set_trained_for_service(ar
     assert main(argv) == 2
     said = capsys.readouterr().err.strip()
     assert said.startswith("rw-fdi: error: --") and "only with --service" in said and "\n" not in said
+
+
+def test_a_service_bench_shorter_than_its_shortest_runs_is_one_line_before_anything_runs(tmp_path, capsys):
+    from rw_fdi_ros.cli import main
+    assert main(["bench", "service", "--max-hours", "0.05", "--out", str(tmp_path)]) == 2
+    said = capsys.readouterr().err.strip()
+    assert said == "rw-fdi: error: --max-hours: at least 0.167 h, the family's shortest runs (600 s); got 0.05"
+    assert not any(tmp_path.iterdir())
 
 
 def test_screen_json_and_table_give_the_counts_and_one_row_a_run(tmp_path, capsys):

@@ -72,9 +72,10 @@ def _sample_options(option):
 def _fdi_options(option):
     """The vehicle flown and the FDI judging: shipped, or a user's observer with its bands."""
     option("--vehicle", default="maksat", metavar="NAME|DIR",
-           help="detection, identification, units, operations, recovery, service: the vehicle the runs fly with its "
-                "FDI: a shipped one's name (config/fdi/vehicles; default %(default)s, the thesis' spacecraft) or "
-                "your own's FDI directory (`rw-fdi defaults --vehicle FILE --out DIR`; the reports go to DIR/reports)")
+           help="detection, identification, units, operations, recovery, service, dumping: the vehicle the runs "
+                "fly with its FDI: a shipped one's name (config/fdi/vehicles; default %(default)s, the thesis' "
+                "spacecraft) or your own's FDI directory (`rw-fdi defaults --vehicle FILE --out DIR`; the reports go "
+                "to DIR/reports)")
     option("--observer", dest="plugins", action="append", default=None, metavar="SPEC",
            help="detection, units, operations: a user's observer judged beside ours (repeatable; entry point, "
                 "module:Class or file.py:Class; docs/observers.md), its bands and ours from --thresholds")
@@ -226,15 +227,19 @@ def _recovery(args) -> dict:
 def _dumping(args) -> dict:
     from ...tools.benches.dumping_bench import bench_dumping
     return bench_dumping(hours=args.day_hours, seed=args.seed, operations_runs=args.orbit_runs,
-                         runs_per_cell=args.runs_per_cell or 100, out=args.out or "reports/dumping",
-                         executor=executor(args))
+                         runs_per_cell=args.runs_per_cell or 100, out=args.out or _vehicle_out(args, "dumping"),
+                         executor=executor(args), vehicle=_checked_vehicle(args))
 
 
 def _service(args) -> dict:
     from tqdm import tqdm
     from ...tools.benches.service_bench import GIVEN_UP_SEEDS, SEED_BASES, bench_service, given_up_draws
+    from ...tools.campaigns.service_family import FAULT_FREE_S
     if args.reidentify:
         return _reidentify(args)
+    if args.max_hours is not None and 3600.0 * args.max_hours < FAULT_FREE_S:   # the family's shortest runs
+        raise ValueError(f"--max-hours: at least {FAULT_FREE_S / 3600.0:.3g} h, the family's shortest runs "
+                         f"({FAULT_FREE_S:g} s); got {args.max_hours:g}")
     base = SEED_BASES[args.seed_set] + GIVEN_UP_SEEDS
     vehicle = _checked_vehicle(args)
     from ...fdi_config import FdiConfig
@@ -318,7 +323,7 @@ BENCHES = [
      ("--runs-per-cell", "--fault-free-runs", "--seed-set", "--vehicle", "--out", *POOL), _recovery),
     ("dumping", "a day in orbit with the magnetorquers dumping and with them off (wheel speed band, pointing, when "
      "the wheels saturate; a plot), the FDI through hours of dumping and faults during a dump (core loop)",
-     ("--day-hours", "--orbit-runs", "--runs-per-cell", "--seed", "--out", *POOL), _dumping),
+     ("--day-hours", "--orbit-runs", "--runs-per-cell", "--seed", "--vehicle", "--out", *POOL), _dumping),
     ("service", "FDIR in service, every capability at once (units and datasheet wheels, manoeuvres before and after "
      "faults of every kind, size, wheel, onset and ramp, second faults, orbit with dumping, 600 s to 6 h; "
      "reconfigurations without a fault, the right wheel acted on, pointing kept, identification; core loop)",

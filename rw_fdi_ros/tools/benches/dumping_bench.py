@@ -32,7 +32,9 @@ from ...core.physics.magnetorquers import DumpLog, MomentumDumping
 from ...core.mission.scenario import Fault, Manoeuvres, Scenario, load_scenario
 from ...core.physics.wheel import WheelParams
 from ...core.physics.spacecraft import BODY_AXES
-from .kit import (Cell, SpeedAwareChunk, cell_figures, fault_wheel, format_rate, screen_cells, workers,
+from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle
+from .kit import (Cell, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, fault_wheel, format_rate,
+                  screen_cells, vehicle_words, workers,
                   write_cells_table, write_report)
 from ...scoring.metrics import observable_level
 
@@ -78,17 +80,31 @@ def day_figures(traj, run: int, limit: float) -> dict:
             "dump_intervals_s": intervals, "zero_crossings": zero_crossings(traj.wheel_speed[:, run][:, in_use[0]])}
 
 
-def bench_day(hours: float = 24.0, seed: int = 1, out: Path | None = None) -> dict:
-    """A day in orbit with dumping and with the rods off (the same seed)."""
-    with_dumping = load_scenario("dumping_day").with_seed(seed)
-    with_dumping = replace(with_dumping, duration=hours * 3600.0)
+def rods_of(vehicle: str) -> MomentumDumping:
+    """The magnetorquers and dumping law ``vehicle`` flies (the thesis': MomentumDumping's defaults)."""
+    return MomentumDumping() if vehicle == DEFAULT_VEHICLE else load_vehicle(vehicle).magnetorquers
+
+
+def day_scenario(vehicle: str, hours: float, seed: int) -> Scenario:
+    """``dumping_day`` flown by ``vehicle``: the thesis' orbit, another vehicle with its own rods, law and
+    residual dipole."""
+    day = replace(load_scenario("dumping_day").with_seed(seed), duration=hours * 3600.0)
+    if vehicle == DEFAULT_VEHICLE:
+        return day
+    return bench_scenario(vehicle, day.name, duration=day.duration, seed=seed, magnetorquers=rods_of(vehicle),
+                          environment=replace(day.environment, residual_dipole=None))
+
+
+def bench_day(hours: float = 24.0, seed: int = 1, out: Path | None = None, vehicle: str = DEFAULT_VEHICLE) -> dict:
+    """A day in orbit with dumping and with the rods off (the same seed), flown by ``vehicle``."""
+    with_dumping = day_scenario(vehicle, hours, seed)
     rods_off = replace(with_dumping, magnetorquers=replace(with_dumping.magnetorquers, enabled=False))
     t0 = time.monotonic()
     traj = simulate([with_dumping, rods_off], duration=with_dumping.duration, every=EVERY)
-    limit = WheelParams().command_limit
+    limit = with_dumping.spacecraft.wheel.command_limit
     report = {"scenario": "dumping_day", "seed": seed, "hours": hours, "seconds": time.monotonic() - t0,
               "with_dumping": day_figures(traj, 0, limit), "rods_off": day_figures(traj, 1, limit),
-              "settle_s": SETTLE_S}
+              "settle_s": SETTLE_S, "command_limit_V": limit, "start_speed": with_dumping.magnetorquers.start_speed}
     if out is not None:
         plot_day(traj, report, Path(out) / "day.png")
     return report
@@ -106,7 +122,8 @@ def plot_day(traj, report: dict, path: Path):
             if traj.in_use[0, run, i]:
                 axes[0].plot(h, traj.wheel_speed[:, run, i], style, lw=0.8, color=f"C{i}",
                              label=f"wheel {name}, {label}")
-    axes[0].axhspan(-MomentumDumping().start_speed, MomentumDumping().start_speed, color="0.92", zorder=0)
+    start = report.get("start_speed", MomentumDumping().start_speed)
+    axes[0].axhspan(-start, start, color="0.92", zorder=0)
     axes[0].set_ylabel("wheel speed [rad/s]")
     axes[0].legend(ncol=2, fontsize=7, loc="upper left")
     axes[0].set_title(f"A day in orbit (dumping_day, seed {report['seed']}): shaded, the speeds below the "
@@ -122,7 +139,7 @@ def plot_day(traj, report: dict, path: Path):
     axes[2].axhline(POINTING_LIMIT_DEG, color="k", ls="--", lw=0.8)
     axes[2].set_ylabel("pointing error [deg]")
     axes[2].legend(fontsize=7, loc="upper left")
-    axes[3].axhline(WheelParams().command_limit, color="k", ls="--", lw=0.8)
+    axes[3].axhline(report.get("command_limit_V", WheelParams().command_limit), color="k", ls="--", lw=0.8)
     axes[3].set_ylabel("largest |tcv| [V]")
     axes[3].set_xlabel("time [h]")
     axes[3].legend(fontsize=7, loc="upper left")
@@ -140,6 +157,7 @@ dumping_cell = partial(Cell, duration=6 * 3600.0)
 
 DUMP_START = 38.0   # the fault cells' initial wheel speed: above the start speed, a dump begins at once
 # 3x the residual dipole: the wheels drift 3x faster and are dumped 3x as often
+STRONG_FACTOR = 3.0
 STRONG = OrbitEnvironment(residual_dipole=(1.5, 1.5, 1.5))
 CELLS = (
     dumping_cell("operations in orbit with dumping, 6-h runs"),
@@ -150,16 +168,27 @@ CELLS = (
 )
 
 
-def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int = SEED_BASE) -> list:
-    """The runs ``seeds`` (a range) of a cell: seed seed_base + 100,000 index + n; in a fault cell the
-    fault on wheel seed mod 3, its onset drawn from the seed inside the first dump of the fault-free twin
-    (10 s after it starts to 10 s before it ends)."""
-    base = []
+def cells_of(vehicle: str) -> tuple:
+    """CELLS as ``vehicle`` flies them: another vehicle's strong-dipole cell has STRONG_FACTOR times its own."""
+    if vehicle == DEFAULT_VEHICLE:
+        return CELLS
+    dipole = tuple(STRONG_FACTOR * x for x in load_vehicle(vehicle).residual_dipole)
+    strong = (f"the same, {STRONG_FACTOR:g}x the vehicle's residual dipole ({np.linalg.norm(dipole):.2g} A m^2)",
+              OrbitEnvironment(residual_dipole=dipole))
+    return tuple(c if c.environment.residual_dipole is None else replace(c, name=strong[0], environment=strong[1])
+                 for c in CELLS)
+
+
+def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int = SEED_BASE, vehicle: str = DEFAULT_VEHICLE) -> list:
+    """The runs ``seeds`` (a range) of a cell flown by ``vehicle``: seed seed_base + 100,000 index + n; in a
+    fault cell the fault on a wheel in use (fault_wheel), its onset drawn from the seed inside the first dump
+    of the fault-free twin (10 s after it starts to 10 s before it ends)."""
+    base, wheels, rods = [], bench_wheels(vehicle), rods_of(vehicle)
     for n in seeds:
         seed = seed_base + 100_000 * index + n
-        initial = {} if cell.wheel_speed is None else {"wheel_speed": (cell.wheel_speed,) * 3}
-        base.append(Scenario(cell.name, duration=cell.duration, seed=seed, initial=initial, manoeuvres=HOURS,
-                             environment=cell.environment, magnetorquers=MomentumDumping()))
+        initial = {} if cell.wheel_speed is None else {"wheel_speed": (cell.wheel_speed,) * len(wheels.active)}
+        base.append(bench_scenario(vehicle, cell.name, duration=cell.duration, seed=seed, initial=initial,
+                                   manoeuvres=HOURS, environment=cell.environment, magnetorquers=rods))
     if cell.kind is None:
         return base
     twins = simulate(base, every=EVERY)
@@ -168,12 +197,12 @@ def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int = SEED_BASE) ->
         first = dumps(twins.dipole[:, b], twins.time)[0]   # already every EVERY steps
         lo, hi = first[0] + 10.0, max(first[0] + 10.0, first[1] - 10.0)
         onset = float(np.round(np.random.default_rng(scenario.seed).uniform(lo, hi), 1))
-        out.append(scenario.with_faults([Fault(cell.kind, fault_wheel(scenario.seed), onset, cell.value)]))
+        out.append(scenario.with_faults([Fault(cell.kind, fault_wheel(scenario.seed, wheels), onset, cell.value)]))
     return out
 
 
-def _cell_runs(cell_index: int, seeds, seed_base: int) -> list:
-    return cell_scenarios(CELLS[cell_index], seeds, cell_index, seed_base)
+def _cell_runs(cell_index: int, seeds, seed_base: int, vehicle: str = DEFAULT_VEHICLE) -> list:
+    return cell_scenarios(cells_of(vehicle)[cell_index], seeds, cell_index, seed_base, vehicle)
 
 
 def dumping_of(scenario, traj, b: int) -> SimpleNamespace:
@@ -192,19 +221,22 @@ def dumping_of(scenario, traj, b: int) -> SimpleNamespace:
 
 
 def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20, runs_per_cell: int = 100,
-                  out: str | Path = "reports/dumping", executor=None, day: dict | None = None) -> dict:
+                  out: str | Path = "reports/dumping", executor=None, day: dict | None = None,
+                  vehicle: str = DEFAULT_VEHICLE) -> dict:
     """The day in orbit (``day``: its :func:`bench_day` report, made elsewhere, e.g. beside other work: it is one
-    process) and the cells of runs in orbit; the report in ``out``."""
+    process) and the cells of runs in orbit, flown by ``vehicle`` with its FDI; the report in ``out``."""
     t0 = time.monotonic()
-    day = day if day is not None else bench_day(hours, seed, Path(out))
-    _, curves = FdiConfig().load()
+    day = day if day is not None else bench_day(hours, seed, Path(out), vehicle)
+    _, curves = FdiConfig().for_vehicle(vehicle).load()
     level = observable_level(curves)
-    sizes = [operations_runs if c.kind is None else runs_per_cell for c in CELLS]
-    judged = screen_cells(sizes, SpeedAwareChunk(_cell_runs, SEED_BASE, dumping_of), "dumping bench (FDI)", executor,
+    cells_run = cells_of(vehicle)
+    sizes = [operations_runs if c.kind is None else runs_per_cell for c in cells_run]
+    judged = screen_cells(sizes, SpeedAwareChunk(partial(_cell_runs, vehicle=vehicle), SEED_BASE, dumping_of,
+                                                 vehicle=vehicle), "dumping bench (FDI)", executor,
                           chunk=10, out=out, name="dumping")
-    write_cells_table(judged, [c.name for c in CELLS], out, "dumping")
+    write_cells_table(judged, [c.name for c in cells_run], out, "dumping")
     cells = {}
-    for i, cell in enumerate(CELLS):
+    for i, cell in enumerate(cells_run):
         runs = judged[i]["speed_aware"]
         columns = list(runs[0].series)
         entry = {"cell": {"name": cell.name, "kind": cell.kind, "value": cell.value, "duration": cell.duration,
@@ -223,8 +255,8 @@ def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20,
             entry["false_alarm_runs"] = {obs: sum(bool(r.series[obs].alarm.any()) for r in runs) for obs in columns}
         cells[cell.name] = entry
     report = {"schema": "rw_fdi_ros/dumping_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
-              "date": time.strftime("%Y-%m-%d"), "seed_base": SEED_BASE, "observable_level_Nm": level,
-              "day": day, "cells": cells, "settings": MomentumDumping().__dict__}
+              "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle, "seed_base": SEED_BASE,
+              "observable_level_Nm": level, "day": day, "cells": cells, "settings": rods_of(vehicle).__dict__}
     return write_report(report, out, "dumping", format_dumping)
 
 
@@ -235,7 +267,10 @@ def _hours(seconds) -> str:
 def format_dumping(report: dict) -> str:
     day, on, off = report["day"], report["day"]["with_dumping"], report["day"]["rods_off"]
     s = report["settings"]
-    lines = ["# Momentum dumping and the FDI through it (`rw-fdi bench dumping`)", "",
+    vehicle = report.get("vehicle", DEFAULT_VEHICLE)
+    flown = "" if vehicle == DEFAULT_VEHICLE else f", {vehicle_words(vehicle)}"
+    fdi = "Shipped" if vehicle == DEFAULT_VEHICLE else "The vehicle's"
+    lines = [f"# Momentum dumping and the FDI through it (`rw-fdi bench dumping`{flown})", "",
              f"Measured {report['date']}; {report['seconds'] / 60:.0f} min on this machine. Law: cross-product, "
              f"gain {s['gain']:g} 1/s, rods {s['dipole_limit']:g} A m^2, a dump from a wheel in use above "
              f"{s['start_speed']:g} rad/s until the net momentum is what one wheel holds at {s['stop_speed']:g} "
@@ -248,14 +283,15 @@ def format_dumping(report: dict) -> str:
              f"{off['wheel_speed_band'][1]:.1f} |",
              f"| largest pointing error after {day['settle_s']:g} s [deg] | {on['max_pointing_error_deg']:.4f} | "
              f"{off['max_pointing_error_deg']:.3f} |",
-             f"| a wheel first at the 5 V command limit | {_hours(on['first_command_limit_s'])} | "
+             f"| a wheel first at the {day.get('command_limit_V', 5.0):g} V command limit | "
+             f"{_hours(on['first_command_limit_s'])} | "
              f"{_hours(off['first_command_limit_s'])} |",
              f"| pointing first beyond {POINTING_LIMIT_DEG} deg | {_hours(on['first_pointing_loss_s'])} | "
              f"{_hours(off['first_pointing_loss_s'])} |",
              f"| dumps (hours with the rods on) | {on['dumps']} ({on['dumping_hours']:.1f} h) | - |",
              f"| wheel speed zero crossings | {on['zero_crossings']} | {off['zero_crossings']} |", "",
              "## The FDI through dumping", "",
-             "Shipped speed-aware FDI, seeds from "
+             f"{fdi} speed-aware FDI, seeds from "
              f"{report['seed_base']:,}. Rates with 95 % Wilson intervals; `verdict`: what /diagnostics says.", ""]
     cells = report["cells"]
     columns = list(next(iter(cells.values()))["observers"])

@@ -19,6 +19,7 @@ import shutil
 import sys
 from functools import partial
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -29,7 +30,7 @@ SIGNATURE = "signature.txt"
 
 def encode(obj, arrays: list):
     """``obj`` as JSON-able data, its numpy arrays appended to ``arrays`` and referred to by position; dicts,
-    tuples, ranges and the package's dataclasses keep their type."""
+    tuples, ranges, namespaces and the package's dataclasses keep their type."""
     if isinstance(obj, np.ndarray):
         arrays.append(obj)
         return {"__array__": len(arrays) - 1}
@@ -45,6 +46,8 @@ def encode(obj, arrays: list):
         return {"__range__": [obj.start, obj.stop, obj.step]}
     if isinstance(obj, dict):
         return {"__dict__": [[encode(k, arrays), encode(v, arrays)] for k, v in obj.items()]}
+    if isinstance(obj, SimpleNamespace):
+        return {"__namespace__": encode(vars(obj), arrays)}
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type) and _ours(type(obj)):
         return {"__dataclass__": f"{type(obj).__module__}:{type(obj).__qualname__}",
                 "fields": {f.name: encode(getattr(obj, f.name), arrays) for f in dataclasses.fields(obj)}}
@@ -63,6 +66,8 @@ def decode(data, arrays):
         return tuple(decode(v, arrays) for v in data["__tuple__"])
     if "__range__" in data:
         return range(*data["__range__"])
+    if "__namespace__" in data:
+        return SimpleNamespace(**decode(data["__namespace__"], arrays))
     if "__dict__" in data:
         return {_hashable(decode(k, arrays)): decode(v, arrays) for k, v in data["__dict__"]}
     module, _, name = data["__dataclass__"].partition(":")
