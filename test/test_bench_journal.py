@@ -35,6 +35,11 @@ def test_a_judged_run_reads_back_as_it_was():
 def test_a_journal_names_only_this_packages_dataclasses():
     with pytest.raises(ValueError, match="not a class of this package"):
         J.decode({"__dataclass__": "subprocess:Popen", "fields": {"args": "true"}}, {})
+    import sys
+    assert "rw_fdi_ros.cli.__main__" not in sys.modules
+    with pytest.raises(ValueError, match="not a class of this package"):   # never imported: its code never runs
+        J.decode({"__dataclass__": "rw_fdi_ros.cli.__main__:main", "fields": {}}, {})
+    assert "rw_fdi_ros.cli.__main__" not in sys.modules
     with pytest.raises(TypeError, match="cannot keep a set"):
         J.encode({1, 2}, [])
 
@@ -59,7 +64,9 @@ def test_an_interrupted_map_resumes_with_only_the_rest_and_other_work_starts_ove
     assert "resuming" in capsys.readouterr().err
     assert sorted(r["x"] for r in again) == work and all(r["square"][0] == r["x"] ** 2 for r in again)
     assert not set(calls) & {r["x"] for r in got} and len(calls) <= 4   # what was kept did not run again
-    assert not (tmp_path / ".toy_journal").exists()   # whole: the journal is removed
+    assert (tmp_path / ".toy_journal").exists()   # until the report is written (a later stage may stop)
+    J.finish(tmp_path, "toy")
+    assert not (tmp_path / ".toy_journal").exists()
 
     left = J.resumable_map(executor, _square, work, tmp_path, "toy", processes=False)
     next(left)
@@ -68,3 +75,13 @@ def test_an_interrupted_map_resumes_with_only_the_rest_and_other_work_starts_ove
     other = list(J.resumable_map(executor, _square, [10, 11], tmp_path, "toy", processes=False))
     assert "starting over" in capsys.readouterr().err
     assert sorted(calls) == [10, 11] and sorted(r["x"] for r in other) == [10, 11]
+
+    calls.clear()   # the same work by another function (another command's options live there): over again
+    again = list(J.resumable_map(executor, _cube, [10, 11], tmp_path, "toy", processes=False))
+    assert "starting over" in capsys.readouterr().err and sorted(calls) == [10, 11]
+    assert sorted(r["square"][0] for r in again) == [1000, 1331]
+
+
+def _cube(x):
+    calls.append(x)
+    return {"x": x, "square": np.array([x ** 3])}

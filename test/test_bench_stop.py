@@ -85,7 +85,11 @@ def test_an_interrupted_bench_keeps_its_finished_runs_and_the_same_command_resum
         runs = list(csv.DictReader(open(tmp_path / "detection_runs.csv")))
         cells = {row["cell"] for row in runs}
         assert len(cells) == len(report["cells"]) and not journal.exists()
-        assert all(sum(r["cell"] == c for r in runs) % 2 == 0 for c in cells)   # every cell's 2 runs, per FDI
+        per = {}
+        for r in runs:
+            per.setdefault((r["cell"], r["fdi"]), []).append(r["seed"])
+        # every cell's 2 runs, once each, for each FDI: none lost, none counted twice by the resume
+        assert per and all(len(seeds) == 2 and len(set(seeds)) == 2 for seeds in per.values()), per
     finally:
         if bench.poll() is None:
             os.killpg(bench.pid, signal.SIGKILL)

@@ -17,6 +17,14 @@ from rw_fdi_ros.paths import config_dir
 P12 = replace(wm.WheelParams(), bus_voltage=12.0)
 
 
+def test_the_type_as_8_volt_wheel_keeps_the_thesis_values_exactly():
+    from rw_fdi_ros.core.physics.faults import NOMINAL_VALUES
+    assert nominal_values(wm.WheelParams()) == NOMINAL_VALUES and wm.nominal_point() == wm.NOMINAL
+    assert idf.bus_voltage_grid(wm.WheelParams().bus_voltage) is idf.BUS_VOLTAGE_GRID   # the very grid, not a copy
+    values = idf.Identification("bus_voltage", 5.5, 5.4, 5.6).values()
+    assert "fault_bus_nominal_v" not in values and values["fault_size"] == "5.5"   # /diagnostics as before on 8 V
+
+
 def test_a_12_volt_wheel_is_healthy_at_12_volts_and_its_model_is_the_12_volt_wheels():
     assert wm.nominal_point(P12).bus_voltage == 12.0 and nominal_values(P12)["bus_voltage"] == 12.0
     op = operating_points([[Fault("current_limiter", 1, 10.0, 0.5)]], 5.0, 3, nominal_values(P12))

@@ -12,7 +12,9 @@ import asyncio
 import threading
 
 SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")   # in the server's order of preference
-START_TIMEOUT = 10.0   # [s] to bind the port
+START_TIMEOUT = 10.0   # [s] to bind the port, and to close
+CLOSE_TIMEOUT = 1.0    # [s] a WebSocket's closing handshake: a half-dead client does not hold the node's end
+CLIENT_MESSAGE_MAX = 1 << 20   # [bytes] what a client sends is subscriptions: the listener buffers no more
 
 
 async def _pipe(source, sink):
@@ -35,7 +37,8 @@ class SubprotocolRelay:
         self.thread = threading.Thread(target=self.loop.run_forever, name="live_view_relay", daemon=True)
         self.thread.start()
         async def start():   # serve() wants the loop it runs in
-            return await serve(self._client, host, port, subprotocols=list(SUBPROTOCOLS), max_size=None)
+            return await serve(self._client, host, port, subprotocols=list(SUBPROTOCOLS),
+                               max_size=CLIENT_MESSAGE_MAX, close_timeout=CLOSE_TIMEOUT)
         try:
             self.server = asyncio.run_coroutine_threadsafe(start(), self.loop).result(START_TIMEOUT)
         except BaseException:
@@ -45,7 +48,8 @@ class SubprotocolRelay:
 
     async def _client(self, client):
         from websockets.asyncio.client import connect
-        async with connect(self.upstream, subprotocols=[SUBPROTOCOLS[0]], max_size=None) as upstream:
+        async with connect(self.upstream, subprotocols=[SUBPROTOCOLS[0]], max_size=None,
+                           close_timeout=CLOSE_TIMEOUT) as upstream:
             legs = [asyncio.ensure_future(_pipe(client, upstream)), asyncio.ensure_future(_pipe(upstream, client))]
             _, pending = await asyncio.wait(legs, return_when=asyncio.FIRST_COMPLETED)
             for leg in pending:   # one side closed: the other goes with it
@@ -55,11 +59,17 @@ class SubprotocolRelay:
         async def close():
             self.server.close()
             await self.server.wait_closed()
+            for task in asyncio.all_tasks() - {asyncio.current_task()}:   # a client's legs still relaying
+                task.cancel()
         try:
             asyncio.run_coroutine_threadsafe(close(), self.loop).result(START_TIMEOUT)
+        except Exception:  # noqa: BLE001 -- a close that does not finish in time still ends the loop below
+            pass
         finally:
             self._stop_loop()
 
     def _stop_loop(self):
         self.loop.call_soon_threadsafe(self.loop.stop)
         self.thread.join(START_TIMEOUT)
+        if not self.thread.is_alive():
+            self.loop.close()

@@ -93,8 +93,10 @@ class LiveViewNode(GraphNode):
             self.finish()
 
     def close(self):
-        self.relay.stop()
-        self.server.stop()
+        try:
+            self.relay.stop()
+        finally:
+            self.server.stop()
         super().close()
 
 

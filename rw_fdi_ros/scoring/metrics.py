@@ -22,6 +22,7 @@ import numpy as np
 
 from ..core.fdi.identification import NONE, UNKNOWN, Identification
 from ..core.mission.plant_choices import FDI_PERIOD
+from ..core.physics.faults import NOMINAL_VALUES
 from ..core.physics.wheel_set import AXIS_WHEELS, fitted_for
 from ..graph import topics as T
 
@@ -347,7 +348,8 @@ def judge_identification(run: RunEval, strict_bus: bool = False) -> dict:
         row = {"true_kind": f.kind, "kind": kind, "identified": kind not in (NONE, UNKNOWN),
                "kind_right": kind == f.kind}   # the identifier names a kind as the scenario does
         if row["kind_right"]:
-            row.update(judge_size(f, found.size, found.low, found.high, found.at_s, strict_bus))
+            nominal = {**NOMINAL_VALUES, "bus_voltage": found.bus_nominal}   # a ramp from the wheel's own bus
+            row.update(judge_size(f, found.size, found.low, found.high, found.at_s, strict_bus, nominal))
         out[a] = row
     return out
 

@@ -30,7 +30,7 @@ from ...core.physics.environment import MAGNETOMETER_PERIOD, OrbitEnvironment, m
 from ...core.mission.plant_choices import DEFAULT
 from ...core.physics.magnetorquers import DumpLog, MomentumDumping
 from ...core.mission.scenario import Fault, Manoeuvres, Scenario, load_scenario
-from ...core.physics.wheel import WheelParams
+from ...core.physics.wheel import WheelParams, top_speed
 from ...core.physics.spacecraft import BODY_AXES
 from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle
 from .kit import (Cell, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, fault_wheel, format_rate,
@@ -184,9 +184,13 @@ def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int = SEED_BASE, ve
     fault cell the fault on a wheel in use (fault_wheel), its onset drawn from the seed inside the first dump
     of the fault-free twin (10 s after it starts to 10 s before it ends)."""
     base, wheels, rods = [], bench_wheels(vehicle), rods_of(vehicle)
+    speed = cell.wheel_speed
+    if speed is not None and vehicle != DEFAULT_VEHICLE:   # as far above this vehicle's dump start, within reach
+        wheel = load_vehicle(vehicle).wheel
+        speed = min(speed * rods.start_speed / MomentumDumping().start_speed, 0.95 * top_speed(wheel))
     for n in seeds:
         seed = seed_base + 100_000 * index + n
-        initial = {} if cell.wheel_speed is None else {"wheel_speed": (cell.wheel_speed,) * len(wheels.active)}
+        initial = {} if speed is None else {"wheel_speed": (speed,) * len(wheels.active)}
         base.append(bench_scenario(vehicle, cell.name, duration=cell.duration, seed=seed, initial=initial,
                                    manoeuvres=HOURS, environment=cell.environment, magnetorquers=rods))
     if cell.kind is None:
@@ -194,7 +198,8 @@ def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int = SEED_BASE, ve
     twins = simulate(base, every=EVERY)
     out = []
     for b, scenario in enumerate(base):
-        first = dumps(twins.dipole[:, b], twins.time)[0]   # already every EVERY steps
+        # already every EVERY steps; a twin that never dumps (its wheels held below the start): onset mid-run
+        first = (dumps(twins.dipole[:, b], twins.time) or [(0.25 * cell.duration, 0.75 * cell.duration)])[0]
         lo, hi = first[0] + 10.0, max(first[0] + 10.0, first[1] - 10.0)
         onset = float(np.round(np.random.default_rng(scenario.seed).uniform(lo, hi), 1))
         out.append(scenario.with_faults([Fault(cell.kind, fault_wheel(scenario.seed, wheels), onset, cell.value)]))

@@ -39,6 +39,7 @@ from ...core.mission.scenario import Fault
 from ...core.mission.vehicle import DEFAULT_VEHICLE
 from ...core.physics.wheel_set import fitted_for
 from ...scoring.metrics import rate
+from .journal import finish
 from .kit import (DETECTION_FIELDS, bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios,
                   format_rate, screen_cells, write_cells_table, shipped_vehicles, vehicle_words)
 from ...scoring.metrics import judge_identification
@@ -173,6 +174,7 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
     plot_confusion(report, out / "confusion.png")
     text = format_identification(report)
     (out / "identification.md").write_text(text)
+    finish(out, "identification")
     report["text"] = text
     report["ok"] = True
     return report

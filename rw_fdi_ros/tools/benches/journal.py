@@ -4,15 +4,15 @@
 and keeps each finished item's result in ``<out>/.<name>_journal/<index>.npz``: the result's structure as
 JSON and its arrays beside it, read back with ``allow_pickle=False`` (a journal is data, never code). The
 same command on the same code resumes: it takes the kept items and runs only the rest. A journal of other
-work or other code (the signature: the work's description and a digest of the package and its config:
-vehicles, FDI, scenarios) is set aside and the bench starts over, saying so. Once every item is in, the journal
-is removed.
+work or other code (the signature: the work's and the function's description, a digest of the package and its
+config, and of every file or folder the description names: a user's FDI, observer or vehicle) is set aside
+and the bench starts over, saying so. The report written (kit.write_report), its journals are removed
+(:func:`finish`): a bench of several stages resumes at the stage it stopped in.
 """
 from __future__ import annotations
 
 import dataclasses
 import hashlib
-import importlib
 import json
 import re
 import shutil
@@ -71,9 +71,10 @@ def decode(data, arrays):
     if "__dict__" in data:
         return {_hashable(decode(k, arrays)): decode(v, arrays) for k, v in data["__dict__"]}
     module, _, name = data["__dataclass__"].partition(":")
-    cls = getattr(importlib.import_module(module), name) if module.startswith(f"{__package__.split('.')[0]}.") \
+    # only a class of a module already loaded: reading a journal never runs a module's code
+    cls = getattr(sys.modules.get(module), name, None) if module.startswith(f"{__package__.split('.')[0]}.") \
         else None
-    if cls is None or not dataclasses.is_dataclass(cls) or not _ours(cls):
+    if cls is None or not isinstance(cls, type) or not dataclasses.is_dataclass(cls) or not _ours(cls):
         raise ValueError(f"not a class of this package: {data['__dataclass__']}")
     obj = cls.__new__(cls)   # as kept: no __init__ / __post_init__ to run again (frozen ones too)
     for key, value in data["fields"].items():
@@ -101,10 +102,25 @@ def code_digest() -> str:
     return digest.hexdigest()
 
 
-def work_signature(work) -> str:
-    """The work's description (objects' addresses dropped) and the code's digest."""
-    described = re.sub(r" at 0x[0-9a-f]+", "", repr(list(work)))
-    return hashlib.sha256(described.encode()).hexdigest() + " " + code_digest()
+def work_signature(fn, work) -> str:
+    """The description of ``fn`` and ``work`` (objects' addresses dropped), the code's digest and that of the
+    files and folders the description names (a user's FDI directory, vehicle file or observer)."""
+    described = re.sub(r" at 0x[0-9a-f]+", "", repr(fn) + repr(list(work)))
+    digest = hashlib.sha256(described.encode())
+    for text in sorted(set(re.findall(r"'(/[^']+)'", described))):
+        path = Path(text)
+        files = sorted(p for p in path.rglob("*") if not _ignored(p, path)) if path.is_dir() else [path]
+        for f in files:
+            if f.is_file():
+                digest.update(str(f).encode())
+                digest.update(f.read_bytes())
+    return digest.hexdigest() + " " + code_digest()
+
+
+def _ignored(path: Path, root: Path) -> bool:
+    """What a named folder holds that the work does not read: the reports (and journals) benches write there."""
+    parts = path.relative_to(root).parts
+    return any(p.startswith(".") or p == "reports" for p in parts)
 
 
 def _keyed(fn, item):
@@ -116,7 +132,7 @@ def resumable_map(executor, fn, work: list, out, name: str, processes: bool = Tr
     """``fn(item)`` of every item of ``work`` on ``executor`` (``map_unordered``), unordered; the results
     kept in ``<out>/.<name>_journal`` are given first without running them again."""
     journal = Path(out) / f".{name}_journal"
-    signature = work_signature(work)
+    signature = work_signature(fn, work)
     kept = {}
     if journal.is_dir():
         if (journal / SIGNATURE).is_file() and (journal / SIGNATURE).read_text() == signature:
@@ -139,7 +155,12 @@ def resumable_map(executor, fn, work: list, out, name: str, processes: bool = Tr
         print(f"\n{name}: interrupted; {finished} of {len(work)} parts kept in {journal}: the same command "
               "resumes", file=sys.stderr)
         raise
-    shutil.rmtree(journal, ignore_errors=True)
+
+
+def finish(out, name: str):
+    """Remove the journals of bench ``name`` in ``out`` (``.<name>*_journal``: each stage's): its report is whole."""
+    for journal in Path(out).glob(f".{name}*_journal"):
+        shutil.rmtree(journal, ignore_errors=True)
 
 
 def _write(journal: Path, index: int, result):
@@ -157,6 +178,6 @@ def _read(journal: Path) -> dict:
         try:
             with np.load(part, allow_pickle=False) as arrays:
                 kept[int(part.stem)] = decode(json.loads(str(arrays["tree"])), arrays)
-        except (OSError, ValueError, KeyError) as exc:   # a damaged part is run again
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:   # a damaged part: run again
             print(f"journal: {part.name} unreadable ({exc}): run again", file=sys.stderr)
     return kept

@@ -17,6 +17,7 @@ from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle, shipped_vehic
 from ...core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
 from ...scoring.metrics import alarm_before_onset, judge, observable, rate
 from ..evaluation.screen import screen_sets
+from .journal import finish
 
 SEED_BASE = 10_000_000         # the detection bench's; every bench passes its own
 ONSET_RANGE = (60.0, 300.0)
@@ -240,6 +241,7 @@ def write_report(report: dict, out, name: str, formatter) -> dict:
         write_runs_table(runs, out / f"{name}_runs.csv")
     report["text"] = formatter(report)
     (out / f"{name}.md").write_text(report["text"])
+    finish(out, name)   # whole: its runs kept for a resume are no longer needed
     report["ok"] = True
     return report
 

@@ -122,8 +122,7 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
         limiter = (1.0 + phi * (CURRENT_LIMITER_GRID - 1.0))[..., None]
         tv = viscous_scale * wm.viscous_coefficient(TEMPERATURE_GRID[0] + phi * (TEMPERATURE_GRID
                                                                                  - TEMPERATURE_GRID[0]))[..., None]
-        # in the 8-V grid's volts: a wheel's own grid is it scaled, and a ramp's point along it the same
-        volts = BUS_VOLTAGE_GRID[0] + phi * (BUS_VOLTAGE_GRID - BUS_VOLTAGE_GRID[0])
+        volts = BUS_VOLTAGE_GRID[0] + phi * (BUS_VOLTAGE_GRID - BUS_VOLTAGE_GRID[0])   # 8-V units: any bus's, scaled
         bus = np.interp(volts, BUS_VOLTAGE_GRID[::-1], bus[::-1, 0])[..., None]
     viscous = viscous_scale * _VISCOUS_NOMINAL * w
     coulomb = tf - viscous

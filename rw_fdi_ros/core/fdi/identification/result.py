@@ -68,7 +68,7 @@ class Identification:
     @property
     def bound_only(self) -> str:
         """'upper' / 'lower' when the interval reaches the grid's end (only a bound is observable)."""
-        if self.kind == "bus_voltage" and self.low <= bus_voltage_grid(self.bus_nominal)[-1]:
+        if self.kind == "bus_voltage" and self.low <= bus_voltage_grid(self.bus_nominal)[-1] + 1e-6:
             return "upper"
         if self.kind == "temperature" and self.high >= TEMPERATURE_GRID[-1]:
             return "lower"
