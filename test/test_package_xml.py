@@ -12,7 +12,7 @@ KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yam
         "rosbags": "python3-rosbags-pip", "mcap": "mcap-ros2-support", "mcap_ros2": "mcap-ros2-support",
         "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "jsonschema": "python3-jsonschema",
         "rclpy": "rclpy", "ament_index_python": "ament_index_python", "dask": None, "distributed": None,
-        "sgp4": None, "ppigrf": None, "foxglove": None}
+        "sgp4": None, "ppigrf": None, "foxglove": None, "websockets": "python3-websockets"}
 
 
 def imported_modules() -> set:

@@ -69,9 +69,18 @@ class LocalExecutor:
 def _end_workers(pool: ProcessPoolExecutor):
     """SIGKILL to a process pool's workers (Python 3.14's kill_workers; 3.11 has no API): forked, they inherit
     the command's SIGTERM handler, which would only interrupt the call in hand and take the next one."""
-    for process in list(getattr(pool, "_processes", {}).values()):
+    processes = list(getattr(pool, "_processes", {}).values())
+    for process in processes:
         if process.is_alive():
             process.kill()
+    for process in processes:
+        process.join(5.0)
+    # a worker killed while it sent a large result (a bench's chunk) leaves the pool's reader waiting for the
+    # rest of that message, and shutdown and exit waiting on the reader: closing our end of the pipe's write
+    # side ends that wait (EOF), the pool is marked broken and shuts down
+    writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
+    if writer is not None:
+        writer.close()
 
 
 def apply(call):
