@@ -35,7 +35,7 @@ from ...paths import DEFAULT_VEHICLE, config_dir, file_name
 from ..physics.environment import DEFAULT_RESIDUAL_DIPOLE
 from ..physics.magnetorquers import MomentumDumping
 from ..physics.spacecraft import DISTURBANCE_SIGMA, INERTIA
-from ..physics.wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, UNIT_PARAMETERS, WheelParams
+from ..physics.wheel import DEFAULT_UNIT_SPREAD, EMF_LIMITS, NOMINAL, UNIT_PARAMETERS, WheelParams
 from ..physics.wheel_set import WHEEL_SETS, WheelSet
 from .yaml_text import YamlError, read_yaml_file
 
@@ -455,8 +455,9 @@ def _dispersions(where: str, raw, bus_voltage: float = 8.0) -> Dispersions:
         if high >= bus_voltage:
             raise VehicleError(f"{where}.fault_sizes.bus_voltage: a drop is below the wheel's bus "
                                f"({bus_voltage:g} V), got up to {high:g} V")
-    elif bus_voltage != 8.0:   # the default drops (4-5.5 V of the Type A's 8 V) as shares of this wheel's bus
-        values["fault_sizes"] = tuple((k, tuple(v * bus_voltage / 8.0 for v in r) if k == "bus_voltage" else r)
+    elif bus_voltage != NOMINAL.bus_voltage:   # the default drops (4-5.5 V of the Type A's 8 V), as shares
+        scale = bus_voltage / NOMINAL.bus_voltage
+        values["fault_sizes"] = tuple((k, tuple(v * scale for v in r) if k == "bus_voltage" else r)
                                       for k, r in Dispersions.fault_sizes)
     return Dispersions(**values)
 

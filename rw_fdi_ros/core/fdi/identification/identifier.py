@@ -141,10 +141,10 @@ class FaultIdentifier:
 
     def _decide(self, a) -> Identification:
         found = decide(self.sums[a])
-        bus = self.params.bus_voltage
-        if bus != 8.0:   # the sums' bus family is on the 8-V grid; this wheel's is it scaled (bus_voltage_grid)
+        bus, thesis_bus = self.params.bus_voltage, wm.NOMINAL.bus_voltage
+        if bus != thesis_bus:   # the sums' bus family is on the 8-V grid; this wheel's is it scaled (bus_voltage_grid)
             # a size from the bus family: named, or the best guess of an 'unknown'
-            scale = bus / 8.0 if "bus_voltage" in (found.kind, found.best_guess) else 1.0
+            scale = bus / thesis_bus if "bus_voltage" in (found.kind, found.best_guess) else 1.0
             found = replace(found, size=found.size * scale, low=found.low * scale, high=found.high * scale,
                             bus_nominal=bus)
         return replace(found, unpowered=True) if a in self.unpowered else found
