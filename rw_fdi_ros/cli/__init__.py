@@ -43,6 +43,8 @@ def main(argv=None) -> int:
         print(f"rw-fdi: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        from ..tools.campaigns.campaign import end_interrupted
+        end_interrupted()
         print("rw-fdi: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:

@@ -51,6 +51,7 @@ class LocalExecutor:
             pool = ProcessPoolExecutor(self.jobs, mp_context=multiprocessing.get_context("fork"))
         else:
             pool = ThreadPoolExecutor(self.jobs)
+        _LIVE_POOLS.add(pool)
         done = False
         try:
             futures = [pool.submit(fn, item) for item in items]
@@ -61,15 +62,36 @@ class LocalExecutor:
             # interrupted (Ctrl-C, SIGTERM) or abandoned: the queued calls are dropped; a plain `with` would run
             # every queued run before exiting. Worker processes compute only (the core loop, a bench's
             # chunk): they are ended at once. Threads each supervise a graph, which ends with its run.
-            if not done and processes:
-                _end_workers(pool)
-            pool.shutdown(wait=True, cancel_futures=True)
+            _LIVE_POOLS.discard(pool)
+            if done:
+                pool.shutdown(wait=True)
+            else:
+                _end_pool(pool)
+
+
+_LIVE_POOLS: set = set()   # the pools of the maps in progress (end_interrupted)
+
+
+def end_interrupted():
+    """End the pools of the maps in progress, their queued calls dropped: for an interrupted command.
+
+    An interrupt that lands in a map's consumer (writing a journal, a progress bar) leaves the map's generator
+    suspended, often in a reference cycle: its ``finally`` would run only after the interpreter's exit had
+    waited for every queued call (a bench "hung" on Ctrl-C until it was done)."""
+    while _LIVE_POOLS:
+        _end_pool(_LIVE_POOLS.pop())
+
+
+def _end_pool(pool):
+    if isinstance(pool, ProcessPoolExecutor):
+        _end_workers(pool)
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _end_workers(pool: ProcessPoolExecutor):
     """SIGKILL to a process pool's workers (Python 3.14's kill_workers; 3.11 has no API): forked, they inherit
     the command's SIGTERM handler, which would only interrupt the call in hand and take the next one."""
-    processes = list(getattr(pool, "_processes", {}).values())
+    processes = list((getattr(pool, "_processes", None) or {}).values())   # None once shut down
     for process in processes:
         if process.is_alive():
             process.kill()
