@@ -89,3 +89,21 @@ def test_a_vehicle_file_takes_the_bus_voltage_with_its_unit_and_defaults_to_the_
     path.write_text(_vehicle_text(bus_voltage="5 V"))   # the file's bus drops of 4-5.5 V are not drops of 5 V
     with pytest.raises(VehicleError, match="fault_sizes.bus_voltage: a drop is below the wheel's bus"):
         load_vehicle(str(path))
+
+
+def test_a_benchs_bus_drops_keep_their_share_of_a_12_volt_bus(tmp_path):
+    """The benches' bus cells are written for the Type A's 8-V bus: on a 12-V wheel a 5.5-V drop flies at 8.25 V
+    (the same 31 % lost) and its row says so, and the other cells are untouched."""
+    from rw_fdi_ros.tools.benches import detection_bench, identification_bench, kit, recovery_bench
+    path = tmp_path / "v.yaml"
+    path.write_text(_vehicle_text(bus_voltage="12 V"))
+    cells = detection_bench.cells_of(str(path))
+    bus = next(c for c in cells if c.kind == "bus_voltage")
+    assert bus.name == "bus 8.25 V (3.75 V off)" and bus.value == pytest.approx(8.25)
+    assert [c for c in cells if c.kind != "bus_voltage"] == [c for c in detection_bench.CELLS if c.kind != "bus_voltage"]
+    assert kit.cell_scenarios(bus, 1, 7, vehicle=str(path))[0].faults[0].value == pytest.approx(8.25)
+    name, kind, span = identification_bench.cells_of(str(path), units=True)[2]
+    assert (name, kind) == ("bus 6-8.25 V", "bus_voltage") and span == pytest.approx((6.0, 8.25))
+    first = recovery_bench.vehicle_cell(recovery_bench.CELLS[0], str(path))
+    assert first.name.startswith("bus 6 V") and first.value == pytest.approx(6.0)
+    assert detection_bench.cells_of() == detection_bench.CELLS   # the thesis' vehicle: as written

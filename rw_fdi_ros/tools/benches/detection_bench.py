@@ -24,7 +24,8 @@ from ...core.mission.vehicle import DEFAULT_VEHICLE
 from ...core.fdi.verdict import decision_of
 from ...scoring.metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
-from .kit import (DETECTION_FIELDS, VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_scenarios, configured,
+from .kit import (DETECTION_FIELDS, VOTES, ONSET_RANGE, SEED_BASE, Cell, cell_figures, cell_on_bus, cell_scenarios,
+                  configured,
                   fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report, shipped_vehicles,
                   vehicle_words)
 
@@ -42,6 +43,11 @@ CELLS = (
 )
 
 
+def cells_of(vehicle: str = DEFAULT_VEHICLE) -> tuple:
+    """CELLS as ``vehicle`` flies them: its bus drops at the same share of its bus (kit.cell_on_bus)."""
+    return tuple(cell_on_bus(c, vehicle) for c in CELLS)
+
+
 
 
 def _fdi_sets(vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None):
@@ -55,7 +61,7 @@ def _fdi_sets(vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None):
 
 def _judge_chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None):
     """One worker's share of a cell: figures need the runs, so the runs come back (small: series only)."""
-    cell = CELLS[cell_index]
+    cell = cells_of(vehicle)[cell_index]
     scenarios = [s for s in cell_scenarios(cell, seeds_range.stop, cell_index, vehicle=vehicle)][seeds_range.start:]
     return screen_sets(scenarios, _fdi_sets(vehicle, fdi),
                        other_decisions=tuple(decision_of(d, "speed_aware") for d in VOTES))
@@ -72,9 +78,9 @@ def cell_sizes(fault_free_runs: int, runs_per_cell: int) -> list:
     return [fault_free_runs if c.kind is None else runs_per_cell for c in CELLS]
 
 
-def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: str) -> dict:
+def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: str, cells: tuple = CELLS) -> dict:
     """cell name -> the cell, its seeds (cell i from seed_base + 100,000 i) and under ``key`` per FDI set
-    and observer its :func:`cell_figures`; ``judged[i]``: set name -> the judged runs of cell i."""
+    and observer its :func:`cell_figures`; ``judged[i]``: set name -> the judged runs of cell i of ``cells``."""
     # every slot the runs were judged by: the observers, the verdict and the other decisions' verdicts, each
     # against the set's one observable level
     return {cell.name: {"cell": cell.as_dict(DETECTION_FIELDS),
@@ -82,7 +88,7 @@ def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: s
                         key: {name: {obs: cell_figures(runs, obs, next(iter(levels[name].values())))
                                      for obs in observers_of_runs(runs)}
                               for name, runs in judged[i].items()}}
-            for i, cell in enumerate(CELLS)}
+            for i, cell in enumerate(cells)}
 
 
 def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/detection",
@@ -93,8 +99,8 @@ def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: 
     sizes = cell_sizes(fault_free_runs, runs_per_cell)
     judged = screen_cells(sizes, partial(_judge_chunk, vehicle=vehicle, fdi=fdi),
                           "detection bench (core loop + node code)", executor, out=out, name="detection")
-    results = cell_results(judged, sizes, SEED_BASE, levels, "methods")
-    write_cells_table(judged, [c.name for c in CELLS], out, "detection")
+    results = cell_results(judged, sizes, SEED_BASE, levels, "methods", cells_of(vehicle))
+    write_cells_table(judged, [c.name for c in cells_of(vehicle)], out, "detection")
     report = {"schema": "rw_fdi_ros/detection_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
               "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle, "configured": configured(fdi),
               "fault_free_runs": fault_free_runs, "runs_per_cell": runs_per_cell, "seed_base": SEED_BASE,

@@ -40,7 +40,8 @@ from ...core.mission.vehicle import DEFAULT_VEHICLE
 from ...core.physics.wheel_set import fitted_for
 from ...scoring.metrics import rate
 from .journal import finish
-from .kit import (DETECTION_FIELDS, bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_scenarios,
+from .kit import (DETECTION_FIELDS, bench_scenario, bench_wheels, fault_wheel, workers, Cell, cell_on_bus,
+                  cell_scenarios, on_bus,
                   format_rate, screen_cells, write_cells_table, shipped_vehicles, vehicle_words)
 from ...scoring.metrics import judge_identification
 from ..evaluation.screen import screen_sets
@@ -75,11 +76,19 @@ UNITS_CELLS = (("current loss 8-45 %", "current_limiter", (0.55, 0.92)),
                ("bus 4.0-5.5 V", "bus_voltage", (4.0, 5.5)))
 
 
+def cells_of(vehicle: str = DEFAULT_VEHICLE, units: bool = False) -> tuple:
+    """CELLS (``units``: UNITS_CELLS) as ``vehicle`` flies them: its bus drops at the same share of its bus."""
+    if units:
+        return tuple((named, kind, sized) for name, kind, span in UNITS_CELLS
+                     for named, sized in [on_bus(name, kind, span, vehicle)])
+    return tuple(cell_on_bus(c, vehicle) for c in CELLS)
+
+
 def units_scenarios(cell_index: int, runs: int, vehicle: str = DEFAULT_VEHICLE) -> list:
     """``runs`` varied-wheel scenarios of a units cell: seed 31,000,000 + 100,000 index + n, the fault on a
     wheel in use drawn from the seed (seed mod 3 on the thesis' set), its onset and size drawn from the seed;
     ``vehicle``: the shipped vehicle they fly."""
-    name, kind, (low, high) = UNITS_CELLS[cell_index]
+    name, kind, (low, high) = cells_of(vehicle, units=True)[cell_index]
     wheels = bench_wheels(vehicle)
     out = []
     for n in range(runs):
@@ -99,7 +108,7 @@ def _units_chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE):
 
 
 def _chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE):
-    cell = CELLS[cell_index]
+    cell = cells_of(vehicle)[cell_index]
     scenarios = cell_scenarios(cell, seeds_range.stop, cell_index, SEED_BASE, vehicle=vehicle)[seeds_range.start:]
     return screen_sets(scenarios, {"speed_aware": FdiConfig().for_vehicle(vehicle).load()}, identification=True)
 
@@ -141,11 +150,12 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
     cells = {}
     if units:
         sizes = [runs_per_cell * 17 // 10 if kind == "bus_voltage" else runs_per_cell for _, kind, _ in UNITS_CELLS]
+        units_cells = cells_of(vehicle, units=True)
         judged = screen_cells(sizes, partial(_units_chunk, vehicle=vehicle),
                               "identification bench, varied units (core loop + node code)", executor, out=out,
                               name="identification_units")
-        write_cells_table(judged, [name for name, _, _ in UNITS_CELLS], out, "identification")
-        for i, (name, kind, span) in enumerate(UNITS_CELLS):
+        write_cells_table(judged, [name for name, _, _ in units_cells], out, "identification")
+        for i, (name, kind, span) in enumerate(units_cells):
             first = UNITS_SEED_BASE + 100_000 * i
             cells[name] = {"cell": {"name": name, "kind": kind, "range": list(span), "thesis_size": False},
                            "seeds": [first, first + sizes[i] - 1],
@@ -155,8 +165,8 @@ def bench_identification(runs_per_cell: int = 100, thesis_runs: int = 200, bus_t
                  for c in CELLS]
         judged = screen_cells(sizes, partial(_chunk, vehicle=vehicle), "identification bench (core loop + node code)",
                               executor, out=out, name="identification")
-        write_cells_table(judged, [c.name for c in CELLS], out, "identification")
-        for i, cell in enumerate(CELLS):
+        write_cells_table(judged, [c.name for c in cells_of(vehicle)], out, "identification")
+        for i, cell in enumerate(cells_of(vehicle)):
             first = SEED_BASE + 100_000 * i
             cells[cell.name] = {"cell": cell.as_dict(DETECTION_FIELDS), "seeds": [first, first + sizes[i] - 1],
                                 **cell_identification(judged[i]["speed_aware"], level)}

@@ -3,6 +3,7 @@ with their 95 % Wilson intervals, and the report files (JSON, Markdown, one CSV 
 from __future__ import annotations
 
 import json
+import re
 import sys
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
@@ -14,6 +15,7 @@ from ...fdi_config import FdiConfig
 from ...core.physics.environment import OrbitEnvironment
 from ...core.mission.scenario import Fault, Manoeuvres, Scenario, parse_scenario
 from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle, shipped_vehicles
+from ...core.physics.wheel import NOMINAL
 from ...core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
 from ...scoring.metrics import alarm_before_onset, judge, observable, rate
 from ..evaluation.screen import screen_sets
@@ -112,6 +114,31 @@ def bench_scenario(vehicle: str, name: str, **fields) -> Scenario:
     if vehicle == DEFAULT_VEHICLE:
         return Scenario(name, **{"duration": 400.0, **fields})
     return replace(vehicle_scenario(vehicle), name=name, source_text="", **fields)
+
+
+@lru_cache(maxsize=None)
+def bus_scale(vehicle: str) -> float:
+    """V_bus / 8 V of ``vehicle``'s wheel: the factor a bench's bus cells, written for the Type A's 8-V bus
+    (thesis Table 2.3), fly at on the vehicle's."""
+    return 1.0 if vehicle == DEFAULT_VEHICLE else load_vehicle(vehicle).wheel.bus_voltage / NOMINAL.bus_voltage
+
+
+def on_bus(name: str, kind: str | None, value, vehicle: str) -> tuple:
+    """(name, value) of a bench's fault on ``vehicle``'s bus: a bus drop keeps its share of the bus (5.5 V of
+    8 V flies at 8.25 V of 12 V), and its name says the vehicle's volts; any other fault as it is. ``value``:
+    a size or a (low, high) range."""
+    scale = bus_scale(vehicle)
+    if kind != "bus_voltage" or scale == 1.0:
+        return name, value
+    scaled = tuple(v * scale for v in value) if isinstance(value, tuple) else value * scale
+    return re.sub(r"\d+(?:\.\d+)?(?=(?:-\d+(?:\.\d+)?)? V\b)", lambda m: f"{float(m[0]) * scale:.3g}", name), scaled
+
+
+def cell_on_bus(cell: Cell, vehicle: str) -> Cell:
+    """``cell`` on ``vehicle``'s bus (:func:`on_bus`), its later fault too."""
+    name, value = on_bus(cell.name, cell.kind, cell.value, vehicle)
+    second = cell.second and (cell.second[0], on_bus("", *cell.second, vehicle)[1])
+    return replace(cell, name=name, value=value, second=second)
 
 
 def bench_wheels(vehicle: str) -> WheelSet:

@@ -26,7 +26,8 @@ import numpy as np
 from ...fdi_config import FdiConfig
 from ...core.mission.scenario import Fault, Manoeuvres, Scenario
 from ...core.mission.vehicle import DEFAULT_VEHICLE
-from .kit import (VOTES, Cell, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, configured, fault_wheel,
+from .kit import (VOTES, Cell, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, cell_on_bus, configured,
+                  fault_wheel,
                   fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report, vehicle_words)
 from ...scoring.metrics import observable_level
 
@@ -60,6 +61,11 @@ CELLS = (
 )
 
 
+def cells_of(vehicle: str = DEFAULT_VEHICLE) -> tuple:
+    """CELLS as ``vehicle`` flies them: its bus drops at the same share of its bus (kit.cell_on_bus)."""
+    return tuple(cell_on_bus(c, vehicle) for c in CELLS)
+
+
 def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int, vehicle: str = DEFAULT_VEHICLE) -> list:
     """The scenarios of one cell for run numbers ``seeds`` (a range): seed seed_base + 100,000 index + n,
     the fault on a wheel in use drawn from the seed (seed mod 3 on the thesis' set) at an onset drawn from the
@@ -79,7 +85,7 @@ def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int, vehicle: str =
 
 
 def _cell_runs(cell_index: int, seeds, seed_base: int, vehicle: str = DEFAULT_VEHICLE) -> list:
-    return cell_scenarios(CELLS[cell_index], seeds, cell_index, seed_base, vehicle)
+    return cell_scenarios(cells_of(vehicle)[cell_index], seeds, cell_index, seed_base, vehicle)
 
 
 def manoeuvre_after_fault(scenario: Scenario) -> bool:
@@ -98,14 +104,14 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
     _, curves = fdi.for_vehicle(vehicle).load()
     level = observable_level(curves)
     sizes = [hours_runs if c.duration > 400.0 else fault_free_runs if c.kind is None and c.wheel_speed is None
-             else runs_per_cell for c in CELLS]
+             else runs_per_cell for c in cells_of(vehicle)]
     t0 = time.monotonic()
     judged = screen_cells(sizes, SpeedAwareChunk(partial(_cell_runs, vehicle=vehicle), seed_base, decisions=VOTES,
                                                  vehicle=vehicle, fdi=fdi),
                           f"operations bench ({seeds} seeds)", executor, out=out, name="operations")
-    write_cells_table(judged, [c.name for c in CELLS], out, "operations")
+    write_cells_table(judged, [c.name for c in cells_of(vehicle)], out, "operations")
     cells = {}
-    for i, cell in enumerate(CELLS):
+    for i, cell in enumerate(cells_of(vehicle)):
         runs = judged[i]["speed_aware"]
         columns = list(runs[0].series)
         entry = {"cell": {**cell.as_dict(FIELDS), "manoeuvres": cell.manoeuvres.__dict__},

@@ -35,7 +35,8 @@ from ...core.physics.spacecraft import BODY_AXES
 from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle
 from ...core.physics.wheel_set import WHEEL_SETS
 from ...scoring.metrics import rate
-from .kit import Cell, bench_scenario, bench_wheels, fault_wheel, format_rate, write_report, write_runs_table
+from .kit import (Cell, bench_scenario, bench_wheels, cell_on_bus, fault_wheel, format_rate, write_report,
+                  write_runs_table)
 
 SEED_BASES = {"tuning": 85_000_000, "evaluation": 86_000_000}
 POINTING_DEG = 0.2
@@ -76,7 +77,9 @@ def vehicle_speeds(speeds: tuple, vehicle: str) -> tuple:
 
 
 def vehicle_cell(cell: Cell, vehicle: str) -> Cell:
-    """``cell`` with ``vehicle``'s wheel speeds, and its name saying them (the thesis' vehicle: itself)."""
+    """``cell`` with ``vehicle``'s wheel speeds and bus (kit.cell_on_bus), its name saying them (the thesis'
+    vehicle: itself)."""
+    cell = cell_on_bus(cell, vehicle)
     speeds = vehicle_speeds(cell.speeds, vehicle)
     if speeds == cell.speeds:
         return cell

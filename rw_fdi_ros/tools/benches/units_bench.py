@@ -26,7 +26,7 @@ from ...fdi_config import FdiConfig
 from ...core.fdi.calibration import calibration_samples
 from ...core.mission.plant_choices import FDI_PERIOD
 from ...core.mission.vehicle import DEFAULT_VEHICLE
-from .detection_bench import CELLS, cell_results, cell_sizes, observable_levels
+from .detection_bench import cell_results, cell_sizes, cells_of, observable_levels
 from .kit import (cell_scenarios, configured, fdi_phrase, format_rate, screen_cells, workers, write_cells_table,
                   write_report, vehicle_words)
 from ..evaluation.screen import screen_sets
@@ -49,7 +49,7 @@ def _fdi_sets(vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None) -> d
 def _judge_chunk(population: str, cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE,
                  fdi: FdiConfig | None = None):
     seed_base, wheels = POPULATIONS[population]
-    scenarios = cell_scenarios(CELLS[cell_index], seeds_range.stop, cell_index, seed_base, ONSET_RANGE,
+    scenarios = cell_scenarios(cells_of(vehicle)[cell_index], seeds_range.stop, cell_index, seed_base, ONSET_RANGE,
                                wheels, vehicle=vehicle)[seeds_range.start:]
     return screen_sets(scenarios, _fdi_sets(vehicle, fdi))
 
@@ -64,9 +64,9 @@ def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str 
         judged = screen_cells(sizes, partial(_judge_chunk, population, vehicle=vehicle, fdi=fdi),
                               f"units bench, {population} wheels", executor, out=out,
                               name=f"units_{population}")
-        write_cells_table(judged, [c.name for c in CELLS], out, f"units_{population}")
+        write_cells_table(judged, [c.name for c in cells_of(vehicle)], out, f"units_{population}")
         populations[population] = {"seed_base": seed_base, "wheels": wheels,
-                                   "cells": cell_results(judged, sizes, seed_base, levels, "sets")}
+                                   "cells": cell_results(judged, sizes, seed_base, levels, "sets", cells_of(vehicle))}
     report = {"schema": "rw_fdi_ros/units_bench/1", "seconds": time.monotonic() - t0, "jobs": workers(executor),
               "date": time.strftime("%Y-%m-%d"), "vehicle": vehicle, "configured": configured(fdi),
               "fault_free_runs": fault_free_runs,
