@@ -7,7 +7,8 @@ from setuptools import find_packages, setup
 PACKAGE = "rw_fdi_ros"
 # graph/entry.py: the same
 NODES = ["plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "model_observer", "isolation",
-         "wheel_allocation", "player", "composed", "momentum_dumping", "live_view", "plugin_observer"]
+         "wheel_allocation", "player", "composed", "momentum_dumping", "live_view", "plugin_observer",
+         "wheel_telemetry"]
 
 
 

@@ -23,7 +23,8 @@ NODES = {"plant": ["plant"], "pid_controller": ["pid_controller", "runtime", "wh
          "recorder": ["recorder"], "player": ["player"],
          "wheel_allocation": ["wheel_allocation", "runtime", "wheel_type"],
          "momentum_dumping": ["momentum_dumping", "runtime"], "live_view": ["live_view", "runtime"],
-         "plugin_observer": ["plugin_observer", "observer_node", "runtime", "wheel_type"]}
+         "plugin_observer": ["plugin_observer", "observer_node", "runtime", "wheel_type"],
+         "wheel_telemetry": ["wheel_telemetry", "runtime", "wheel_type"]}
 LOOPED = {"plant": {"fault.<wheel>.<kind>"}, "isolation": {*DEFAULT.as_dict(), "fdi.*"},
           # the FDI configuration (graph/fdi_parameters.declare_fdi): one row, its fields in their own table
           **{node: {"fdi.*"} for node in ("elman_observer", "linear_observer", "model_observer", "plugin_observer")}}

@@ -31,5 +31,6 @@ def _entry(executable: str):
 
 
 NODES = ("plant", "pid_controller", "recorder", "elman_observer", "linear_observer", "model_observer", "isolation",
-         "wheel_allocation", "player", "composed", "momentum_dumping", "live_view", "plugin_observer")
+         "wheel_allocation", "player", "composed", "momentum_dumping", "live_view", "plugin_observer",
+         "wheel_telemetry")
 globals().update({name: _entry(name) for name in NODES})

@@ -42,6 +42,7 @@ RANGES = {
     "port": (0, 65_535),                              # the live view's WebSocket server (0: any free port)
     "window": (1, 100_000),
     "control_period": (0.001, 1.0),
+    "max_gap": (0.001, BIG),                          # [s] wheel_telemetry: reports further apart: not judged
     "kp": (0.0, BIG),
     "ki": (0.0, BIG),
     "kd": (0.0, BIG),

@@ -461,6 +461,7 @@ READS = {
                                                        _wheel_set(p), p.get("orbit", False),
                                                        p.get("magnetorquers", False), plugin_slots(p))],
     "live_view": lambda p: [r[0] for r in live_rows(p)],   # /plant/done among them: its end
+    "wheel_telemetry": lambda p: [WHEELS, WHEEL_COMMAND] + _run_end(p),
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
     "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
                         + ([RECORDER_CLOSED, RECORDER_READY] if p.get("await_recorder", False) else []),
@@ -490,6 +491,7 @@ WAITS = {
                             "min_subscribers": [IDENTIFICATION, *(t for obs in _fdi_slots(p)
                                                                   for t in fdi_output_topics(obs).values())]},
     "player": lambda p: {"min_subscribers": [FDI_TELEMETRY], "bus_grid_readers": [FDI_BUS_GRID]},
+    "wheel_telemetry": lambda p: {"min_subscribers": [FDI_TELEMETRY], "bus_grid_readers": [FDI_BUS_GRID]},
     "recorder": lambda p: {},   # what it sends (/recorder/closed) is latched
 }
 

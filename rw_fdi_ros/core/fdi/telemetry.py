@@ -271,6 +271,8 @@ class TelemetrySampler:
         else:
             dt = (stamp_ns - self.last[0]) * 1e-9
             self.theta = self.theta + 0.5 * (self.last[1] + speed) * dt
+            # a gap in a wheel's reports (wheel_reports.py: NaN) restarts its angle: the phase is up to a constant
+            self.theta = np.where(np.isfinite(self.theta), self.theta, 0.0)
         self.last = (stamp_ns, speed)
         return self.theta
 

@@ -1,0 +1,131 @@
+"""A real wheel's reports, at their own rate, on the FDI's control grid.
+
+A wheel and its driver report speed and command (perhaps reaction torque) at
+their own stamps, with jitter and gaps. :class:`ControlGrid` puts them on the
+grid t_k = k dt that :class:`~.telemetry.TelemetrySampler` averages:
+
+* Omega(t_k): linear between the speed reports around t_k;
+* u(t_k): the last command stamped before t_k (the driver holds it over the step);
+* r(t_k): a reported reaction torque, linear like Omega; without one the
+  wheel's momentum balance over the step, r = -J dOmega/dt:
+      r_k = -J (Omega(t_k) - Omega(t_{k-1})) / dt,
+  whose mean over an FDI period telescopes to -J (Omega(t) - Omega(t - T)) / T,
+  so the speed noise enters the FDI sample once, not once per step. r_k is the
+  mean torque over the step, so the row's speed is the step's mean,
+  (Omega(t_{k-1}) + Omega(t_k)) / 2: the nominal model at it is the step's mean
+  model torque to second order (at Omega(t_k) the friction's and the EMF's
+  slopes put half a step's speed change between them: 1.5e-6 N m in a 40-s
+  window on a Type A held by a speed loop, half the model observer's band).
+
+Speed reports further apart than ``max_gap`` leave the grid points between
+them without values (NaN): the FDI sample of that period is not finite and the
+FDI says it cannot judge, rather than judging a guess.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class ControlGrid:
+    """Speed, command and optional torque reports in, rows (t_k, u, r, Omega) on the grid k dt out (Omega the
+    step's mean speed where r comes from the speed: module docstring).
+
+    Parameters
+    ----------
+    step : float
+        dt [s], the grid's step (a divisor of the FDI period).
+    inertia : float
+        J [kg m^2], the rotor's, for r without a torque report.
+    max_gap : float
+        [s] speed reports further apart than this leave the grid points between them NaN.
+    """
+
+    def __init__(self, step: float = 0.1, inertia: float = 0.0077, max_gap: float = 0.5):
+        self.step_ns = int(round(step * 1e9))
+        self.inertia = float(inertia)
+        self.max_gap_ns = int(round(max_gap * 1e9))
+        self.report = None        # (stamp_ns, Omega, r or None) of the newest speed report
+        self.commands = []        # (stamp_ns, u) not yet superseded for the grid points to come
+        self.next_k = None        # the next grid point to give
+        self.previous = None      # Omega at the grid point before next_k (None: not known)
+
+    def add_command(self, stamp_ns: int, tcv) -> None:
+        """A command report: u [V] per wheel from ``stamp_ns`` on.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The command's stamp [ns].
+        tcv : array_like
+            (N,) torque command voltages u [V].
+        """
+        if self.commands and stamp_ns <= self.commands[-1][0]:
+            return   # late or repeated: the driver already holds a newer one
+        self.commands.append((int(stamp_ns), np.asarray(tcv, float)))
+
+    def add_speed(self, stamp_ns: int, wheel_speed, reaction_torque=None) -> list:
+        """A speed report; the grid points it completes.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The report's stamp [ns].
+        wheel_speed : array_like
+            (N,) wheel speeds Omega [rad/s].
+        reaction_torque : array_like or None
+            (N,) reported reaction torques r [N m]; None: from the speed (module docstring).
+
+        Returns
+        -------
+        list of tuple
+            (t_k [ns], u (N,) [V], r (N,) [N m], Omega (N,) [rad/s]) for each grid point t_k up to ``stamp_ns``,
+            NaN where the reports leave it unknown.
+        """
+        stamp_ns = int(stamp_ns)
+        speed = np.asarray(wheel_speed, float)
+        torque = None if reaction_torque is None else np.asarray(reaction_torque, float)
+        if self.report is not None and stamp_ns <= self.report[0]:
+            return []   # late or repeated
+        before, self.report = self.report, (stamp_ns, speed, torque)
+        if before is None:
+            self.next_k = -(-stamp_ns // self.step_ns)   # the first grid point at or after the first report
+            return self._at(stamp_ns, speed, torque) if stamp_ns == self.next_k * self.step_ns else []
+        rows = []
+        gap = stamp_ns - before[0] > self.max_gap_ns
+        while self.next_k * self.step_ns <= stamp_ns:
+            t = self.next_k * self.step_ns
+            if gap:
+                rows.append(self._unknown(t, speed.shape))
+                continue
+            w = (t - before[0]) / (stamp_ns - before[0])
+            omega = (1.0 - w) * before[1] + w * speed
+            measured = None if torque is None or before[2] is None else (1.0 - w) * before[2] + w * torque
+            rows += self._at(t, omega, measured)
+        return rows
+
+    def _at(self, t: int, omega, measured) -> list:
+        """The row of grid point t (next_k), from Omega(t) and a reported r(t) (None: from the speed)."""
+        self.next_k += 1
+        previous, self.previous = self.previous, omega
+        u = self._command(t)
+        if measured is None:
+            if previous is None:
+                return []   # the first grid point: no step behind it yet
+            measured = -self.inertia * (omega - previous) / (self.step_ns * 1e-9)
+            omega = 0.5 * (previous + omega)   # the step's mean torque is the model's at its mid speed
+        if u is None:
+            return []       # no command yet: nothing the wheel was asked to do
+        return [(t, u, measured, omega)]
+
+    def _unknown(self, t: int, shape) -> tuple:
+        self.next_k += 1
+        self.previous = None   # the next derivative needs two known points
+        u = self._command(t)
+        nan = np.full(shape, np.nan)
+        return t, (nan if u is None else u), nan, nan
+
+    def _command(self, t: int):
+        """The last command stamped before t (None: none yet); those before it are dropped."""
+        while len(self.commands) > 1 and self.commands[1][0] < t:
+            self.commands.pop(0)
+        return self.commands[0][1] if self.commands and self.commands[0][0] < t else None

@@ -1,0 +1,113 @@
+"""wheel_telemetry: the FDI telemetry from what any wheel and its driver report.
+
+The FDI nodes read /wheels/fdi_telemetry (and its bus grid) once per FDI
+period. This node makes them from two standard streams, at any rate at or
+above the FDI's, with jitter and dropped messages:
+
+* /wheels, sensor_msgs/JointState: velocity = wheel speed Omega [rad/s];
+  effort, where it has a value per joint, = reaction torque r [N m] (else r
+  from the speed, core/fdi/wheel_reports.py);
+* /wheels/command, sensor_msgs/JointState: effort = torque command voltage u [V].
+
+The wheels are matched by joint name: the wheel set's reaction_wheel_<name>,
+or ``joint_names`` (the streams' own names, in the wheel set's order). Both
+topics remap as any ROS topic. The nominal model's torque, friction and ripple
+phasor come from ``wheel_type`` (the vehicle's datasheet), never from a
+simulator's internals: core/fdi/wheel_reports.ControlGrid puts the reports on
+the control grid, core/fdi/telemetry.TelemetrySampler averages them. Stamps
+are the messages' (sim time or wall time alike).
+"""
+from __future__ import annotations
+
+import numpy as np
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState, PointCloud2
+
+from ..core.fdi.telemetry import TelemetrySampler
+from ..core.fdi.wheel_reports import ControlGrid
+from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
+from ..graph import topics as T
+from ..graph.convert import bus_grid_msg, fdi_telemetry_cdr, stamp_ns
+from ..graph.gate import GatedPublisher
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from ..graph.wheel_type import declare_wheel_type
+
+
+class WheelTelemetryNode(GraphNode):
+    node_name = "wheel_telemetry"
+
+    def __init__(self, name: str | None = None):
+        super().__init__(name)
+        self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)   # core/physics/wheel_set.py
+        self.declare_parameter("joint_names", Parameter.Type.STRING_ARRAY)   # the streams', in the set's order
+        self.declare_parameter("fdi_period", 1.0)     # [s] T
+        self.declare_parameter("control_period", 0.1)  # [s] dt, the grid the reports are put on
+        self.declare_parameter("max_gap", 0.5)        # [s] speed reports further apart: the FDI cannot judge
+        self.declare_parameter("min_subscribers", 0)   # readers of the telemetry before the first sample goes
+        self.declare_parameter("bus_grid_readers", 0)  # readers of its bus grid (the isolation node) before it goes
+        wheel = declare_wheel_type(self)
+        try:
+            names = wheel_set(self.param("wheel_set")).names
+        except ValueError as exc:
+            raise NodeError(f"parameter {exc}", EXIT_BAD_INPUT) from None
+        joints = list(self.param("joint_names") or []) or [joint_name(n) for n in names]
+        if len(joints) != len(names) or len(set(joints)) != len(joints):
+            raise NodeError(f"parameter joint_names: {len(names)} distinct names for the wheel set's "
+                            f"{', '.join(names)}, got {joints}", EXIT_BAD_INPUT)
+        fdi_period, step = self.param("fdi_period"), self.param("control_period")
+        if not 0.0 < step <= fdi_period or abs(fdi_period / step - round(fdi_period / step)) > 1e-9:
+            raise NodeError("parameter control_period must divide fdi_period", EXIT_BAD_INPUT)
+        self.names, self.joints = names, tuple(joints)
+        self.grid = ControlGrid(step, wheel.inertia, self.param("max_gap"))
+        self.telemetry = TelemetrySampler(fdi_period, "mean", wheel, identification=True)
+        self.pub_fdi = GatedPublisher(self.create_publisher(JointState, T.FDI_TELEMETRY, T.RELIABLE),
+                                      self.param("min_subscribers"))
+        self.pub_grid = GatedPublisher(self.create_publisher(PointCloud2, T.FDI_BUS_GRID, T.RELIABLE),
+                                       self.param("bus_grid_readers"))
+        self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE)
+        self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE)
+        self.follow_run_end(period=fdi_period)   # a run that says its end (/plant/done): ours, a replay
+
+    def _ordered(self, msg, field: str):
+        """The message's ``field`` in the wheel set's order (None: not one value per wheel); a joint missing is
+        a bad stream."""
+        values = list(getattr(msg, field))
+        if len(values) != len(msg.name):
+            return None
+        by_name = dict(zip(msg.name, values))
+        missing = [j for j in self.joints if j not in by_name]
+        if missing:
+            self.fail(f"{field} on a JointState without joint(s) {', '.join(missing)} (parameter joint_names "
+                      "maps the stream's names)", EXIT_BAD_INPUT)
+            return None
+        return np.array([by_name[j] for j in self.joints], float)
+
+    def _on_command(self, msg):
+        tcv = self._ordered(msg, "effort")
+        if tcv is not None:
+            self.grid.add_command(stamp_ns(msg.header.stamp), tcv)
+
+    def _on_wheels(self, msg):
+        speed = self._ordered(msg, "velocity")
+        if speed is None:
+            return
+        torque = self._ordered(msg, "effort") if msg.effort else None
+        for t, tcv, reaction_torque, omega in self.grid.add_speed(stamp_ns(msg.header.stamp), speed, torque):
+            report = self.telemetry.add(t, tcv, reaction_torque, omega)
+            if report is None:
+                continue
+            grid = bus_grid_msg(report, self.names, self.telemetry.params.bus_voltage)
+            if grid is not None:
+                self.pub_grid.publish(grid)
+            self.pub_fdi.publish(fdi_telemetry_cdr(report, self.names))
+            self.last_handled = report.stamp_ns
+
+    def poll(self):
+        if self.pub_grid.flush() and self.pub_fdi.flush() and self.run_ended():
+            self.finish()
+
+
+main = main_for(WheelTelemetryNode)
+
+if __name__ == "__main__":
+    main()

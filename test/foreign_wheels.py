@@ -1,0 +1,115 @@
+"""Four wheels that are not our plant, publishing what a real wheel driver reports (test_wheel_telemetry_graph.py).
+
+A speed-mode driver: every 0.1 s a PI on a slow speed reference commands the drive; the rotor is integrated
+at 100 Hz (Euler, the bearing noise included, no ripple; the standby wheel stays at rest) from the Type A's
+healthy torque; the speed is reported at about 25 Hz with +-30 % jitter, 15 % of the reports lost, under
+joint names of its own (rw1-rw4), no torque reported. Wheel 2 loses ``--limiter`` of its current from ``--onset`` on.
+
+Run: python foreign_wheels.py OUT.json --duration 300 --onset 150; it waits for the FDI graph, streams the run
+paced by the graph's /wheels/fdi_telemetry, says /plant/done and writes every status it heard on /diagnostics
+and /fdi/identification.
+"""
+import argparse
+import json
+import sys
+import time
+from types import SimpleNamespace
+
+import numpy as np
+
+from rw_fdi_ros.core.physics import wheel as wm
+from rw_fdi_ros.core.physics.faults import nominal_values
+
+JOINTS = ["rw1", "rw2", "rw3", "rw4"]   # x, y, z and the standby s of orthogonal_skew
+TYPE_A = wm.WheelParams()
+
+
+def stream(duration: float, onset: float, limiter: float, seed: int = 3, h: float = 0.01):
+    """(speed reports [(t, speeds)], commands [(t, u)]) of the four wheels; the fourth stands by at rest."""
+    rng = np.random.default_rng(seed)
+    nominal = nominal_values(TYPE_A)
+    base = np.array([25.0, 22.0, 28.0, 0.0])
+    active = np.arange(4) < 3
+    w, u = base.copy(), np.zeros(4)
+    speeds, commands, next_report = [], [], 0.0
+    for k in range(int(round(duration / h)) + 1):
+        t = k * h
+        if k % 10 == 0:
+            ref = base + 3.0 * active * np.sin(2 * np.pi * t / 200.0 + np.arange(4))
+            u = np.clip(2.1 * np.sign(ref) + 0.5 * (ref - w), -5.0, 5.0) * active
+            commands.append((t, u.copy()))
+        if t >= next_report - 1e-12:
+            if rng.random() > 0.15:
+                speeds.append((t, w.copy()))
+            next_report += rng.uniform(0.7, 1.3) / 25.0
+        op = SimpleNamespace(**{kind: np.full(4, v, float) for kind, v in nominal.items()})
+        op.current_limiter = np.where((np.arange(4) == 1) & (t >= onset), limiter, 1.0)
+        w = w + h * active * wm.net_torque(u, w, t, op, TYPE_A)[0] / TYPE_A.inertia   # the standby one: at rest
+    return speeds, commands
+
+
+def main():
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Header
+    from rw_fdi_ros.graph import topics as T
+    from rw_fdi_ros.graph.convert import stamp_ns, time_msg
+
+    p = argparse.ArgumentParser()
+    p.add_argument("out")
+    p.add_argument("--duration", type=float, default=300.0)
+    p.add_argument("--onset", type=float, default=150.0)
+    p.add_argument("--limiter", type=float, default=0.5)
+    args = p.parse_args()
+    speeds, commands = stream(args.duration, args.onset, args.limiter)
+    rclpy.init()
+    node = rclpy.create_node("foreign_wheels")
+    pub_speed = node.create_publisher(JointState, T.WHEELS, T.RELIABLE)
+    pub_command = node.create_publisher(JointState, T.WHEEL_COMMAND, T.RELIABLE)
+    pub_done = node.create_publisher(Header, T.PLANT_DONE, T.LATCHED)
+    heard, fdi_at = [], [-1.0]
+    for topic in (T.DIAGNOSTICS, T.IDENTIFICATION):
+        node.create_subscription(DiagnosticArray, topic, lambda m: heard.extend(
+            (stamp_ns(m.header.stamp) * 1e-9, s.name, s.hardware_id, s.level[0] if isinstance(s.level, bytes)
+             else s.level, s.message, {v.key: v.value for v in s.values}) for s in m.status), T.RELIABLE)
+    node.create_subscription(JointState, T.FDI_TELEMETRY,
+                             lambda m: fdi_at.__setitem__(0, stamp_ns(m.header.stamp) * 1e-9), T.RELIABLE)
+
+    def wait(ready, timeout):
+        deadline = time.monotonic() + timeout
+        while not ready() and time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        return ready()
+
+    if not wait(lambda: pub_speed.get_subscription_count() and pub_command.get_subscription_count()
+                and node.count_publishers(T.DIAGNOSTICS), 180.0):
+        sys.exit("the FDI graph did not come up within 180 s")
+
+    def joint_state(t, field, values):
+        msg = JointState(name=JOINTS)
+        msg.header.stamp = time_msg(int(round(t * 1e9)))
+        setattr(msg, field, [float(v) for v in values])
+        return msg
+
+    events = sorted([(t, 0, u) for t, u in commands] + [(t, 1, w) for t, w in speeds], key=lambda e: (e[0], e[1]))
+    second = 0
+    for t, kind, values in events:
+        if t >= second:   # paced: at most 5 s ahead of the telemetry the graph made
+            if not wait(lambda: fdi_at[0] >= second - 5.0, 60.0):
+                sys.exit(f"no FDI telemetry for {second - 5} s within 60 s")
+            second += 1
+        (pub_command if kind == 0 else pub_speed).publish(joint_state(t, "effort" if kind == 0 else "velocity",
+                                                                      values))
+    last = int(speeds[-1][0])
+    wait(lambda: any(h[0] >= last for h in heard), 60.0)
+    pub_done.publish(Header(stamp=time_msg(int(round(speeds[-1][0] * 1e9))), frame_id="completed"))
+    wait(lambda: False, 1.0)
+    with open(args.out, "w") as fh:
+        json.dump({"heard": heard, "fdi_at": fdi_at[0]}, fh)
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,80 @@
+"""A real wheel's reports at their own rate on the FDI's control grid (core/fdi/wheel_reports.py), against closed
+forms: a wheel spun up at a constant rate has r = -J a, whatever the report rate, jitter or drops."""
+import numpy as np
+import pytest
+
+from rw_fdi_ros.core.fdi.telemetry import TelemetrySampler
+from rw_fdi_ros.core.fdi.wheel_reports import ControlGrid
+from rw_fdi_ros.core.physics.wheel import WheelParams
+
+J, A, W0 = 0.0077, 0.3, 20.0   # [kg m^2], [rad/s^2], [rad/s]
+
+
+def speed_at(t):
+    return np.array([W0 + A * t, -W0 - 2 * A * t])   # two wheels, one the other way at twice the rate
+
+
+def feed(grid, stamps, command_every=0.1, torque=False):
+    """Commands every ``command_every`` s (u = 1 + t, held), speed reports at ``stamps`` [s]; the grid rows."""
+    rows, next_command = [], 0.0
+    for s in stamps:
+        while next_command <= s:
+            grid.add_command(int(round(next_command * 1e9)), [1.0 + next_command, -1.0])
+            next_command += command_every
+        r = -J * np.array([A, -2 * A]) if torque else None
+        rows += grid.add_speed(int(round(s * 1e9)), speed_at(s), r)
+    return rows
+
+
+@pytest.mark.parametrize("rate", [10.0, 37.0, 200.0])
+def test_a_constant_spin_up_gives_r_equal_minus_j_a_at_any_report_rate_with_jitter_and_drops(rate):
+    rng = np.random.default_rng(4)
+    stamps = np.arange(0.0, 20.0, 1.0 / rate) + rng.uniform(0.0, 0.3 / rate, int(np.ceil(20.0 * rate)))
+    keep = rng.random(stamps.size) > 0.2   # a fifth of the reports lost
+    rows = feed(ControlGrid(0.1, J, max_gap=0.5), np.sort(stamps[keep]))
+    t = np.array([row[0] for row in rows]) * 1e-9
+    assert np.allclose(np.diff(t), 0.1) and t[-1] > 19.0            # every grid point, none twice
+    # Omega linear between reports, the step's mean speed (r the step's mean torque)
+    assert np.allclose([row[3] for row in rows], [speed_at(x - 0.05) for x in t])
+    assert np.allclose([row[2] for row in rows], -J * np.array([A, -2 * A]), rtol=1e-6)
+    # the command in force over the step ending at t_k: the last one stamped before it
+    assert np.allclose([row[1][0] for row in rows], 1.0 + np.round(t - 0.1, 9))
+
+
+def test_a_reported_torque_is_taken_as_reported_with_the_speed_at_the_grid_point():
+    rows = feed(ControlGrid(0.1, J), np.arange(0.0, 3.0, 0.05), torque=True)
+    assert len(rows) == 29 and np.allclose([row[2] for row in rows], -J * np.array([A, -2 * A]))
+    assert np.allclose([row[3] for row in rows], [speed_at(row[0] * 1e-9) for row in rows])
+
+
+def test_a_gap_longer_than_max_gap_leaves_its_grid_points_unknown_then_resumes():
+    stamps = np.r_[np.arange(0.0, 2.0, 0.05), np.arange(3.0, 5.0, 0.05)]   # nothing in (1.95, 3.0)
+    rows = feed(ControlGrid(0.1, J, max_gap=0.5), stamps)
+    by_t = {round(row[0] * 1e-9, 1): row for row in rows}
+    assert all(np.isnan(by_t[x][2]).all() and np.isnan(by_t[x][3]).all() for x in (2.0, 2.5, 3.0))
+    assert 3.1 not in by_t   # the first point after it has no step behind it for r
+    assert np.allclose(by_t[3.2][2], -J * np.array([A, -2 * A]))
+
+
+def test_the_fdi_sample_of_a_gap_is_not_finite_and_the_next_ones_are():
+    """Through the plant's own TelemetrySampler: the period of the gap cannot be judged, the rest can (the ripple's
+    phase restarts after the gap instead of staying NaN)."""
+    stamps = np.r_[np.arange(0.0, 2.0, 0.05), np.arange(3.0, 8.0, 0.05)]
+    sampler = TelemetrySampler(1.0, "mean", WheelParams(), identification=True)
+    samples = [s for row in feed(ControlGrid(0.1, J, max_gap=0.5), stamps) if (s := sampler.add(*row)) is not None]
+    by_t = {s.stamp_ns // 10**9: s for s in samples}
+    assert not np.isfinite(by_t[3].reaction_torque).any()
+    for k in (5, 6, 7):
+        s = by_t[k]
+        assert np.isfinite(s.ripple_phasor).all() and np.isfinite(s.bus_motor_torque).all()
+        assert np.allclose(s.reaction_torque, -J * np.array([A, -2 * A]))
+        assert np.allclose(s.wheel_speed, speed_at(k - 0.5), atol=1e-9)   # the mean of the steps' mean speeds
+
+
+def test_late_and_repeated_reports_are_dropped():
+    grid = ControlGrid(0.1, J)
+    grid.add_command(0, [1.0, 1.0])
+    assert grid.add_speed(0, speed_at(0.0)) == []
+    first = grid.add_speed(200_000_000, speed_at(0.2))
+    assert [row[0] for row in first] == [100_000_000, 200_000_000]
+    assert grid.add_speed(150_000_000, speed_at(0.15)) == [] and grid.add_speed(200_000_000, speed_at(0.2)) == []
