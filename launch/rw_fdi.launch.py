@@ -23,24 +23,16 @@ test/test_launch_file.py runs this file under the real launch and launch_ros.
 import os
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction, RegisterEventHandler, SetEnvironmentVariable
-from launch.event_handlers import OnProcessExit
+from launch.actions import DeclareLaunchArgument, OpaqueFunction, SetEnvironmentVariable
 from launch.substitutions import LaunchConfiguration
-from launch_ros.actions import Node
 from rw_fdi_ros.runner.graph import DEFAULT_GROUPING, GROUPINGS
+from rw_fdi_ros.runner.launch_actions import node_actions
 from rw_fdi_ros.paths import fastdds_profiles
 
 
-class RunFailed(RuntimeError):
-    """A node of the run exited non-zero. Raised from its exit handler: an exception is how launch
-    ends a launch with a non-zero return code (a Shutdown action alone exits 0)."""
-
-
 def _nodes(context):
-    import tempfile
     from rw_fdi_ros.runner.scenario_run import resolve_scenario
-    from rw_fdi_ros.runner.graph import graph_nodes, processes
-    from rw_fdi_ros.runner.launcher import write_params_file
+    from rw_fdi_ros.runner.graph import graph_nodes
     from rw_fdi_ros.runner.shm import clean_zombie_files
     clean_zombie_files()   # Fast DDS files of killed processes (what `fastdds shm clean` removes)
     seed = int(LaunchConfiguration("seed").perform(context))
@@ -60,36 +52,10 @@ def _nodes(context):
     if flag("use_sim_time"):   # every node's clock follows the plant's /clock
         for node in nodes:
             node.parameters["use_sim_time"] = True
-    groups = processes(nodes, arg("compose"))
-    # a composed process reads every node's parameters from one file, keyed by node name (our launcher's);
-    # a user's parameters file comes after ours, so its values win
-    # a namespace (namespace:=sc1, or an including launch file's PushRosNamespace): our file keys every node by
-    # /**/name, which rcl matches in any namespace
-    params = write_params_file(nodes, os.path.join(tempfile.mkdtemp(prefix="rw_fdi_launch_"), "params.yaml"),
-                               namespace="any")
+    # a user's parameters file comes after ours, so its values win; a namespace (namespace:=sc1, or an including
+    # launch file's PushRosNamespace) puts every node and topic under it
     user = [os.path.abspath(arg("params_file"))] if arg("params_file") else []
-    ns = arg("namespace").strip("/")
-    # every topic is relative (a node resolves it in its namespace); the clock use_sim_time reads is /clock:
-    # under a namespace it is the plant's own
-    clock = [("/clock", f"/{ns}/clock")] if ns and flag("use_sim_time") else []
-    actions = [Node(package="rw_fdi_ros", executable=p.nodes[0].executable, name=p.name, namespace=ns,
-                    parameters=[p.nodes[0].parameters, *user], remappings=clock, output="screen")
-               if len(p.nodes) == 1 else
-               Node(package="rw_fdi_ros", executable="composed", parameters=[str(params), *user], output="screen",
-                    namespace=ns, remappings=clock, arguments=[f"{n.name}={n.executable}" for n in p.nodes])
-               for p in groups]
-    return actions + [RegisterEventHandler(OnProcessExit(target_action=a, on_exit=_on_exit(p.name)))
-                      for a, p in zip(actions, groups)]
-
-
-def _on_exit(name: str):
-    """A node that fails ends the launch with code 1, naming itself; a clean exit is a node that saw
-    the run end. Exits while the launch is already shutting down are its SIGINT, not a new failure."""
-    def on_exit(event, context):
-        if event.returncode != 0 and not context.is_shutdown:
-            raise RunFailed(f"{name} exited with code {event.returncode}")
-        return None
-    return on_exit
+    return node_actions(nodes, arg("compose"), arg("namespace"), user, sim_clock=flag("use_sim_time"))
 
 
 def generate_launch_description():

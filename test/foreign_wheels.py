@@ -55,25 +55,30 @@ def main():
     from std_msgs.msg import Header
     from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.graph.convert import stamp_ns, time_msg
+    from rw_fdi_ros.graph.runtime import relative
 
     p = argparse.ArgumentParser()
     p.add_argument("out")
     p.add_argument("--duration", type=float, default=300.0)
     p.add_argument("--onset", type=float, default=150.0)
     p.add_argument("--limiter", type=float, default=0.5)
+    p.add_argument("--namespace", default="", help="the FDI graph's")
+    p.add_argument("--speed-topic", default="wheels")
+    p.add_argument("--command-topic", default="wheels/command")
     args = p.parse_args()
     speeds, commands = stream(args.duration, args.onset, args.limiter)
     rclpy.init()
-    node = rclpy.create_node("foreign_wheels")
-    pub_speed = node.create_publisher(JointState, T.WHEELS, T.RELIABLE)
-    pub_command = node.create_publisher(JointState, T.WHEEL_COMMAND, T.RELIABLE)
-    pub_done = node.create_publisher(Header, T.PLANT_DONE, T.LATCHED)
+    # in the FDI graph's namespace: its topics relative, the streams where the driver puts them
+    node = rclpy.create_node("foreign_wheels", namespace="/" + args.namespace.strip("/"))
+    pub_speed = node.create_publisher(JointState, args.speed_topic, T.RELIABLE)
+    pub_command = node.create_publisher(JointState, args.command_topic, T.RELIABLE)
+    pub_done = node.create_publisher(Header, relative(T.PLANT_DONE), T.LATCHED)
     heard, fdi_at = [], [-1.0]
-    for topic in (T.DIAGNOSTICS, T.IDENTIFICATION):
+    for topic in (relative(T.DIAGNOSTICS), relative(T.IDENTIFICATION)):
         node.create_subscription(DiagnosticArray, topic, lambda m: heard.extend(
             (stamp_ns(m.header.stamp) * 1e-9, s.name, s.hardware_id, s.level[0] if isinstance(s.level, bytes)
              else s.level, s.message, {v.key: v.value for v in s.values}) for s in m.status), T.RELIABLE)
-    node.create_subscription(JointState, T.FDI_TELEMETRY,
+    node.create_subscription(JointState, relative(T.FDI_TELEMETRY),
                              lambda m: fdi_at.__setitem__(0, stamp_ns(m.header.stamp) * 1e-9), T.RELIABLE)
 
     def wait(ready, timeout):
@@ -83,7 +88,7 @@ def main():
         return ready()
 
     if not wait(lambda: pub_speed.get_subscription_count() and pub_command.get_subscription_count()
-                and node.count_publishers(T.DIAGNOSTICS), 180.0):
+                and node.count_publishers(node.resolve_topic_name(relative(T.DIAGNOSTICS))), 180.0):
         sys.exit("the FDI graph did not come up within 180 s")
 
     def joint_state(t, field, values):

@@ -47,14 +47,14 @@ class Launch:
     """`ros2 launch` of the installed launch file in its own session and private domain; torn down
     (SIGINT to the group, SIGKILL after a grace period) whatever happens to the test."""
 
-    def __init__(self, ws: Path, work: Path, *arguments):
+    def __init__(self, ws: Path, work: Path, *arguments, launch_file: str = "rw_fdi.launch.py"):
         self.lease = DomainLease()
         env = launch_env(colcon_env())
         env.update(ROS_DOMAIN_ID=str(self.lease.domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                    ROS_LOG_DIR=str(work / "ros_log"), PYTHONUNBUFFERED="1")
-        launch_file = ws / "install" / "rw_fdi_ros" / "share" / "rw_fdi_ros" / "launch" / "rw_fdi.launch.py"
+        launch_file = ws / "install" / "rw_fdi_ros" / "share" / "rw_fdi_ros" / "launch" / launch_file
         command = " ".join(f"'{a}'" for a in ros2_launch_command(sys.executable, launch_file, *arguments))
-        self.log = work / "launch.log"
+        self.log, self.env = work / "launch.log", env
         with open(self.log, "w") as out:
             self.proc = subprocess.Popen(["bash", "-c", f"source {ws / 'install' / 'setup.bash'} && exec {command}"],
                                          cwd=work, env=env, stdout=out, stderr=subprocess.STDOUT,

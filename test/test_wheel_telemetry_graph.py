@@ -9,10 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from rw_fdi_ros.fdi_config import FdiConfig
-from rw_fdi_ros.core.mission.plant_choices import DEFAULT
 from rw_fdi_ros.graph import topics as T
-from rw_fdi_ros.runner.graph import NodeSpec, fdi_nodes, with_reader_counts
+from rw_fdi_ros.runner.graph import attach_nodes
 from rw_fdi_ros.runner.launcher import DomainLease, GraphProcesses, stop_processes
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
@@ -22,9 +20,7 @@ ONSET = 150.0
 
 
 def test_the_fdi_names_the_failed_wheel_of_a_stream_that_is_not_our_plants(tmp_path):
-    telemetry = NodeSpec("wheel_telemetry", "wheel_telemetry",
-                         {"wheel_set": DEFAULT.wheel_set, "joint_names": ["rw1", "rw2", "rw3", "rw4"]})
-    nodes = with_reader_counts([telemetry, *fdi_nodes(FdiConfig(), DEFAULT)])
+    nodes = attach_nodes(joint_names=("rw1", "rw2", "rw3", "rw4"))   # the thesis' vehicle, its shipped FDI
     next(n for n in nodes if n.name == "isolation").parameters["diagnostics_readers"] = 1   # the driver
     out = tmp_path / "heard.json"
     with DomainLease() as lease:
@@ -42,15 +38,42 @@ def test_the_fdi_names_the_failed_wheel_of_a_stream_that_is_not_our_plants(tmp_p
         finally:
             stop_processes([driver])
             procs.stop_all()
-    heard = json.loads(out.read_text())["heard"]
+    check_verdicts(json.loads(out.read_text())["heard"])
+
+
+def check_verdicts(heard: list):
+    """The statuses the driver heard: judged to the end, the half-current wheel y alone named, within a minute of
+    its onset and never before, and identified a current loss."""
     verdicts = [h for h in heard if h[1].startswith(T.VERDICT_STATUS)]
-    assert max(h[0] for h in verdicts) >= 299.0   # judged to the end
+    assert verdicts and max(h[0] for h in verdicts) >= 299.0
     alarmed = {}
-    for t, _, wheel, level, message, _ in verdicts:
+    for t, _, wheel, level, _, _ in verdicts:
         if level == 2:   # ERROR: faulty
             alarmed.setdefault(wheel, t)
-    # the wheel that lost half its current, within a minute of the onset; no other wheel, never before
     assert set(alarmed) == {"reaction_wheel_y"}, alarmed
     assert ONSET < alarmed["reaction_wheel_y"] <= ONSET + 60.0, alarmed
     kinds = {h[5].get("fault_kind") for h in heard if h[1] == "rw_fdi: identification wheel y"}
     assert kinds & {"current_limiter", "current_loss"}, kinds   # what it is, from the speed alone
+
+
+def test_the_fdi_launch_file_attaches_to_remapped_streams_in_a_namespace(colcon_workspace, tmp_path):
+    """`ros2 launch rw_fdi_ros fdi.launch.py` of the installed file (the real launch and launch_ros): no plant, the
+    driver's streams on topics of its own, the FDI under namespace sc1; the launch ends by itself (exit 0) with the
+    run the driver says done."""
+    from test_launch_file import Launch
+    launch = Launch(colcon_workspace, tmp_path, "joint_names:=rw1,rw2,rw3,rw4", "wheels_topic:=/acs/rw/state",
+                    "command_topic:=/acs/rw/cmd", "namespace:=sc1", launch_file="fdi.launch.py")
+    out = tmp_path / "heard.json"
+    driver = subprocess.Popen([sys.executable, str(DRIVER), str(out), "--duration", "300", "--onset", str(ONSET),
+                               "--namespace", "sc1", "--speed-topic", "/acs/rw/state", "--command-topic",
+                               "/acs/rw/cmd"], env=launch.env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                              start_new_session=True)
+    try:
+        log = driver.communicate(timeout=600)[0].decode()
+        assert driver.returncode == 0, log[-2000:] + launch.output()[-3000:]
+        code, output = launch.run(timeout=120)
+        assert code == 0, output[-3000:]
+    finally:
+        stop_processes([driver])
+        launch.close()
+    check_verdicts(json.loads(out.read_text())["heard"])

@@ -177,6 +177,41 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
     return checked_strings(with_reader_counts(nodes))
 
 
+def attach_nodes(vehicle: str | None = None, fdi=None, joint_names=(), max_gap: float | None = None):
+    """The FDI graph on anyone's wheels: the wheel_telemetry node (their JointState streams) and the FDI nodes of
+    ``vehicle``, without our plant and controllers.
+
+    Parameters
+    ----------
+    vehicle : str or None
+        A shipped vehicle's name, a vehicle file or a vehicle's FDI directory; None: the thesis' MakSat.
+    fdi : FdiConfig or mapping or None
+        The FDI (None or an empty one: the vehicle's shipped FDI).
+    joint_names : sequence of str
+        The streams' joint names in the vehicle's wheel set's order; empty: ours (reaction_wheel_<name>).
+    max_gap : float, optional
+        [s] speed reports further apart leave the FDI periods between them not judged; None: the node's.
+
+    Returns
+    -------
+    list of NodeSpec
+        wheel_telemetry, the observers and the isolation node, told their reader counts.
+    """
+    import json
+    from ..core.mission.scenario import parse_scenario
+    vehicle_line = f"vehicle: {json.dumps(str(vehicle))}\n" if vehicle else ""
+    scenario = parse_scenario(f"name: attached\nduration: 1.0\n{vehicle_line}", origin=f"vehicle {vehicle}")
+    choices = scenario.plant_choices()
+    wheel_type = wheel_parameter(scenario.spacecraft.wheel, scenario.spacecraft.wheel_type)
+    telemetry = NodeSpec("wheel_telemetry", "wheel_telemetry", {
+        "wheel_set": choices.wheel_set, "fdi_period": choices.fdi_period, "control_period": choices.control_period,
+        **({"joint_names": list(joint_names)} if joint_names else {}),
+        **({"max_gap": float(max_gap)} if max_gap is not None else {}),
+        **({"wheel_type": wheel_type} if wheel_type else {})})
+    fdi_graph = fdi_nodes(FdiConfig.of(fdi or {}), choices, wheel_type=wheel_type)
+    return checked_strings(with_reader_counts([telemetry, *fdi_graph]))
+
+
 def plugin_parameters(fdi) -> dict:
     """The ``plugin_observers`` parameter (the slots of the FDI's plug-ins, comma-separated) of the nodes that
     read or record their topics; {} without plug-ins (the nodes' default)."""
