@@ -42,7 +42,7 @@ class WheelTelemetryNode(GraphNode):
         self.declare_parameter("joint_names", Parameter.Type.STRING_ARRAY)   # the streams', in the set's order
         self.declare_parameter("fdi_period", 1.0)     # [s] T
         self.declare_parameter("control_period", 0.1)  # [s] dt, the grid the reports are put on
-        self.declare_parameter("max_gap", 0.5)        # [s] speed reports further apart: the FDI cannot judge
+        self.declare_parameter("max_gap", 2.5)        # [s] speed reports further apart: the FDI cannot judge
         self.declare_parameter("min_subscribers", 0)   # readers of the telemetry before the first sample goes
         self.declare_parameter("bus_grid_readers", 0)  # readers of its bus grid (the isolation node) before it goes
         wheel = declare_wheel_type(self)

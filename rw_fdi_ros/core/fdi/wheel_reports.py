@@ -37,10 +37,11 @@ class ControlGrid:
     inertia : float
         J [kg m^2], the rotor's, for r without a torque report.
     max_gap : float
-        [s] speed reports further apart than this leave the grid points between them NaN.
+        [s] speed reports further apart than this leave the grid points between them NaN (2.5 s: reports at a
+        1-s FDI period's rate pass, with jitter and one lost).
     """
 
-    def __init__(self, step: float = 0.1, inertia: float = 0.0077, max_gap: float = 0.5):
+    def __init__(self, step: float = 0.1, inertia: float = 0.0077, max_gap: float = 2.5):
         self.step_ns = int(round(step * 1e9))
         self.inertia = float(inertia)
         self.max_gap_ns = int(round(max_gap * 1e9))
