@@ -7,8 +7,8 @@ import pytest
 from rw_fdi_ros.cli import VERBS, build_parser
 from rw_fdi_ros.core.fdi.detection import FALSE_ALARM_RATE
 
-SHARED = {"--persistence": ["run", "evaluate", "screen", "fit-thresholds", "reproduce"],
-          "--models": ["run", "evaluate", "screen", "fit-thresholds"],
+SHARED = {"--persistence": ["run", "evaluate", "screen", "fit-thresholds", "reproduce", "telemetry"],
+          "--models": ["run", "evaluate", "screen", "fit-thresholds", "telemetry"],
           # the benches take a --jobs of their own
           "--jobs": ["campaign", "evaluate", "reproduce", "defaults", "screen", "fit-thresholds", "train"],
           "--observer": ["run", "evaluate", "screen", "fit-thresholds", "train"],

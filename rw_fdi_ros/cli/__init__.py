@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .verbs import (bag, bench, campaign, defaults, evaluate, fit_thresholds, reproduce, run, scenarios, screen, train,
-                    vehicle)
+from .verbs import (bag, bench, campaign, defaults, evaluate, fit_thresholds, reproduce, run, scenarios, screen,
+                    telemetry, train, vehicle)
 
-VERBS = [run, campaign, train, fit_thresholds, defaults, evaluate, reproduce, screen, scenarios, vehicle, bench, bag]
+VERBS = [run, campaign, train, fit_thresholds, defaults, evaluate, reproduce, screen, scenarios, vehicle, telemetry,
+         bench, bag]
 
 
 def build_parser() -> argparse.ArgumentParser:

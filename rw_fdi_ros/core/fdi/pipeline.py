@@ -323,6 +323,7 @@ class FdiPipeline:
         self.runs = [Isolation(self.names, curves, decision, fdi.persistence, wheel=wheel,
                                calibration_samples=fdi.calibration_samples, identification=identification,
                                lazy=True) for _ in range(batch)]
+        self.rows = [None] * batch   # per run: (observer -> channel rows, wheel -> verdict row) of the last sample
         self.watch = None
         if watch is not None:
             self.watch = ObserverBank(self.names, watch, tuple(watch.curves), batch, fdi_period, wheel)
@@ -344,10 +345,13 @@ class FdiPipeline:
         Returns
         -------
         list of dict or None
-            On an FDI stamp, per run {wheel: first alarm [s] of a confirmed failure}; None elsewhere.
+            On an FDI stamp, per run {wheel: first alarm [s] of a confirmed failure}; None elsewhere, and on an FDI
+            stamp whose sample is not finite (not judged).
         """
         sample = self.sampler.add(stamp_ns, tcv, reaction_torque, wheel_speed)
-        if sample is None:
+        if sample is None or not np.isfinite(sample.reaction_torque).all():
+            # a period without reports (wheel_reports: NaN) is not judged: the observers' states wait for the next,
+            # as the observer nodes do with a sample that is not finite
             return None
         x = (regressors(sample.motor_torque, sample.friction_torque, sample.wheel_speed, sample.ripple_phasor,
                         sample.free_motor_torque, params=self.wheel) if self.calibration_samples else None)
@@ -358,7 +362,7 @@ class FdiPipeline:
                 self._note_intervals(b, sample.stamp_ns * 1e-9, rows_of)
         out = []
         for b, (run, residuals) in enumerate(zip(self.runs, self.observers.residuals(sample, x))):
-            run.step(sample.stamp_ns, residuals, run_of(sample, b))
+            self.rows[b] = run.step(sample.stamp_ns, residuals, run_of(sample, b))
             out.append({a: t for a, t in run.verdict.confirmed.items() if t is not None})
         return out
 

@@ -1,0 +1,329 @@
+"""Anyone's wheel telemetry from a file, checked and judged by the FDI the nodes run (`rw-fdi telemetry`).
+
+The table (CSV, or Parquet with pyarrow) has one row per report, the unit of each column in its header:
+
+    time [s]                      (or [ns]) the report's stamp, rising
+    <joint>.speed [rad/s]         (or [rpm]) the wheel's speed
+    <joint>.command [V]           the torque command voltage, held until the next
+    <joint>.torque [N m]          (or [mN m]; optional) its reaction torque, else from the speed
+    <joint>.fault [1]             (optional) ground truth: 1 from a fault's onset on, else 0
+
+A channel may be empty in a row (speed and command at their own rates). The joints map to the vehicle's wheel
+set in its order (``joints``: the table's names; default the table's order). The reports go through
+core/fdi/wheel_reports.ControlGrid and the core loop's FdiPipeline: the wheel_telemetry node's and the FDI
+nodes' code, so the verdict is the graph's.
+"""
+from __future__ import annotations
+
+import csv
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ...core.fdi.wheel_reports import ControlGrid
+
+UNITS = {"time": {"s": 1e9, "ns": 1.0}, "speed": {"rad/s": 1.0, "rpm": 2 * np.pi / 60.0},
+         "command": {"V": 1.0}, "torque": {"N m": 1.0, "mN m": 1e-3}, "fault": {"1": 1.0, "": 1.0}}
+HEADER = re.compile(r"^\s*(?:(?P<joint>[^.\[\]]+)\.)?(?P<quantity>[a-z]+)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
+
+
+class TelemetryError(ValueError):
+    """A table that cannot be read or judged: one line, naming the column or the row."""
+
+
+@dataclass
+class Telemetry:
+    """A telemetry table in SI units: stamps (n,) [ns], per channel (n, N) with NaN where a row does not report it."""
+
+    path: str
+    joints: tuple
+    stamps_ns: np.ndarray
+    speed: np.ndarray
+    command: np.ndarray
+    torque: np.ndarray | None = None
+    fault: np.ndarray | None = None
+    units: dict = field(default_factory=dict)
+
+
+def read_table(path, joints=None) -> Telemetry:
+    """The table at ``path`` (module docstring), its joints in the order ``joints`` gives (default: the table's).
+
+    Parameters
+    ----------
+    path : str or Path
+        A CSV file, or a Parquet file (.parquet, with pyarrow).
+    joints : sequence of str, optional
+        The table's joint names in the wheel set's order.
+
+    Returns
+    -------
+    Telemetry
+        The table, converted to SI units.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise TelemetryError(f"{path}: no such file")
+    names, rows = _columns(path)
+    columns, units, order = {}, {}, []
+    for i, name in enumerate(names):
+        m = HEADER.match(name)
+        if not m or m["quantity"] not in UNITS or (m["quantity"] == "time") == bool(m["joint"]):
+            raise TelemetryError(f"{path}: column {name!r} is not 'time [s]' or '<joint>.speed|command|torque|fault "
+                                 "[unit]'")
+        quantity, unit = m["quantity"], (m["unit"] or "").strip()
+        if unit not in UNITS[quantity]:
+            raise TelemetryError(f"{path}: column {name!r}: unit [{unit}] is not one of "
+                                 f"{', '.join(f'[{u}]' for u in UNITS[quantity] if u)}")
+        key = (m["joint"], quantity)
+        columns[key], units[name] = rows[:, i] * UNITS[quantity][unit], unit
+        if m["joint"] and m["joint"] not in order:
+            order.append(m["joint"])
+    if (None, "time") not in columns:
+        raise TelemetryError(f"{path}: no 'time [s]' column")
+    joints = tuple(joints or order)
+    for joint in joints:
+        for quantity in ("speed", "command"):
+            if (joint, quantity) not in columns:
+                raise TelemetryError(f"{path}: no '{joint}.{quantity}' column (joints: {', '.join(order)})")
+    time = columns[(None, "time")]
+    if not np.isfinite(time).all() or (np.diff(time) < 0).any():
+        bad = int(np.argmax(~np.isfinite(time) | np.r_[False, np.diff(time) < 0]))
+        raise TelemetryError(f"{path}: row {bad + 2}: time is not rising")
+
+    def stacked(quantity):
+        present = [(j, quantity) in columns for j in joints]
+        if not any(present):
+            return None
+        return np.stack([columns.get((j, quantity), np.full(len(time), np.nan)) for j in joints], axis=1)
+    return Telemetry(str(path), joints, time.astype(np.int64), stacked("speed"), stacked("command"),
+                     stacked("torque"), stacked("fault"), units)
+
+
+def _columns(path: Path) -> tuple:
+    """(header names, (n, k) float array with NaN for empty cells) of a CSV or Parquet table."""
+    if path.suffix.lower() == ".parquet":
+        try:
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise TelemetryError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow), or give a CSV") \
+                from None
+        table = pq.read_table(path)
+        return list(table.column_names), np.column_stack([table.column(c).to_numpy(zero_copy_only=False)
+                                                          .astype(float) for c in table.column_names])
+    with open(path, newline="") as fh:
+        reader = csv.reader(fh)
+        names = next(reader, None)
+        if not names:
+            raise TelemetryError(f"{path}: empty (a header row first)")
+        rows = []
+        for n, row in enumerate(reader, start=2):
+            if len(row) != len(names):
+                raise TelemetryError(f"{path}: row {n} has {len(row)} cells, the header {len(names)}")
+            try:
+                rows.append([float(x) if x.strip() else np.nan for x in row])
+            except ValueError:
+                raise TelemetryError(f"{path}: row {n}: a cell is not a number") from None
+    if not rows:
+        raise TelemetryError(f"{path}: a header and no rows")
+    return names, np.array(rows, float)
+
+
+def check(table: Telemetry, wheel, fdi_period: float = 1.0, max_gap: float = 2.5) -> dict:
+    """What a user should know before the FDI judges the table: per channel its reports, median rate, largest gap
+    and implausible values (beyond twice the wheel's top speed, past its command range, not finite).
+
+    Parameters
+    ----------
+    table : Telemetry
+        The table.
+    wheel : WheelParams
+        The vehicle's wheel type.
+    fdi_period : float
+        [s] the FDI's period: a channel reported more slowly cannot be judged.
+    max_gap : float
+        [s] the gap past which the FDI periods are not judged.
+
+    Returns
+    -------
+    dict
+        duration [s], rows, and per joint and quantity its figures and problems.
+    """
+    from ...core.physics.wheel import top_speed
+    limits = {"speed": 2.0 * top_speed(wheel), "command": wheel.command_limit * 1.001, "torque": np.inf,
+              "fault": 1.0}
+    t = table.stamps_ns * 1e-9
+    out = {"duration_s": float(t[-1] - t[0]), "rows": int(t.size), "channels": {}, "problems": []}
+    for quantity in ("speed", "command", "torque", "fault"):
+        values = getattr(table, quantity)
+        if values is None:
+            continue
+        for i, joint in enumerate(table.joints):
+            v = values[:, i]
+            at = t[~np.isnan(v)]
+            gaps = np.diff(at)
+            figures = {"reports": int(at.size), "rate_hz": float(1.0 / np.median(gaps)) if gaps.size else 0.0,
+                       "largest_gap_s": float(gaps.max()) if gaps.size else float("inf"),
+                       "implausible": int(np.sum(~np.isnan(v) & ~(np.abs(v) <= limits[quantity])))}
+            out["channels"][f"{joint}.{quantity}"] = figures
+            name = f"{joint}.{quantity}"
+            if not at.size:
+                out["problems"].append(f"{name}: never reported")
+            elif quantity in ("speed", "command") and figures["rate_hz"] < 1.0 / fdi_period:
+                out["problems"].append(f"{name}: {figures['rate_hz']:.2g} Hz, below the FDI's {1 / fdi_period:g} Hz")
+            if quantity == "speed" and figures["largest_gap_s"] > max_gap and at.size:
+                out["problems"].append(f"{name}: a gap of {figures['largest_gap_s']:.3g} s (past {max_gap:g} s: "
+                                       "those periods are not judged)")
+            if figures["implausible"]:
+                out["problems"].append(f"{name}: {figures['implausible']} values beyond {limits[quantity]:.4g} or "
+                                       "not finite")
+    return out
+
+
+def judge(table: Telemetry, vehicle=None, fdi=None, control_period: float = 0.1, max_gap: float = 2.5) -> dict:
+    """The FDI's verdict on the table: the core loop's FdiPipeline on the reports put on the control grid.
+
+    Parameters
+    ----------
+    table : Telemetry
+        The table, its joints in the vehicle's wheel set's order.
+    vehicle : str, optional
+        A shipped vehicle, a vehicle file or its FDI directory; None: the thesis' MakSat.
+    fdi : FdiConfig, optional
+        The FDI (None: the vehicle's shipped one).
+    control_period : float
+        [s] dt of the control grid.
+    max_gap : float
+        [s] speed reports further apart leave the periods between not judged.
+
+    Returns
+    -------
+    dict
+        ``samples``: one row per FDI sample and wheel (time, wheel, speed, residual, threshold, alarm, judged);
+        ``wheels``: per wheel its first alarm [s] (None), its identification, its ground-truth onset; and
+        ``not_judged_s``: FDI samples skipped for lack of reports.
+    """
+    from ...fdi_config import FdiConfig
+    from ...core.fdi.pipeline import FdiPipeline
+    from ...core.mission.vehicle import load_vehicle
+    v = load_vehicle(vehicle)
+    names = v.wheel_set.names
+    if len(table.joints) != len(names):
+        raise TelemetryError(f"{table.path}: {len(table.joints)} wheels ({', '.join(table.joints)}), the vehicle's "
+                             f"wheel set {len(names)} ({', '.join(names)}): give --joints in its order")
+    fdi_period = 1.0
+    loaded = (fdi or FdiConfig()).for_vehicle(v.name if vehicle is None else str(vehicle)).loaded(fdi_period)
+    pipeline = FdiPipeline(names, loaded, 1, fdi_period, identification=True, wheel=v.wheel)
+    grid = ControlGrid(control_period, v.wheel.inertia, max_gap)
+    samples, skipped, c = [], [], 0
+    commands = np.flatnonzero(~np.isnan(table.command).all(axis=1))
+    for k in np.flatnonzero(~np.isnan(table.speed).all(axis=1)):
+        stamp = int(table.stamps_ns[k])
+        while c < commands.size and table.stamps_ns[commands[c]] <= stamp:
+            grid.add_command(int(table.stamps_ns[commands[c]]), table.command[commands[c]])
+            c += 1
+        torque = None if table.torque is None or np.isnan(table.torque[k]).any() else table.torque[k]
+        for t, u, r, w in grid.add_speed(stamp, table.speed[k], torque):
+            if pipeline.add(t, u[None], r[None], w[None]) is None:
+                if t % int(fdi_period * 1e9) == 0:   # an FDI stamp without a judged sample: a gap in the reports
+                    skipped.append(t * 1e-9)
+                continue
+            rows_of, decided = pipeline.rows[0]
+            decision = next(iter(rows_of))
+            for i, a in enumerate(names):
+                residual, threshold, _, _ = rows_of[decision][a]
+                samples.append({"time_s": t * 1e-9, "wheel": a, "speed": float(w[i]), "residual": float(residual),
+                                "threshold": float(threshold), "alarm": bool(decided[a][2])})
+    identified = pipeline.identified[0]
+    truth = _onsets(table)
+    wheels = {}
+    for i, a in enumerate(names):
+        first = next((s["time_s"] for s in samples if s["wheel"] == a and s["alarm"]), None)
+        found = identified.get(a)
+        wheels[a] = {"joint": table.joints[i], "first_alarm_s": first,
+                     "identification": None if found is None else found.message(),
+                     "kind": None if found is None else found.kind, "truth_onset_s": truth.get(i)}
+    return {"samples": samples, "wheels": wheels, "not_judged_s": skipped, "scored": table.fault is not None,
+            "decision": loaded.decision.label if loaded.decision else "model", "vehicle": v.name}
+
+
+def _onsets(table: Telemetry) -> dict:
+    """wheel index -> its ground-truth onset [s] (the first row with fault 1), where the table has the column."""
+    if table.fault is None:
+        return {}
+    out = {}
+    for i in range(table.fault.shape[1]):
+        on = np.flatnonzero(table.fault[:, i] >= 0.5)
+        out[i] = float(table.stamps_ns[on[0]] * 1e-9) if on.size else None
+    return out
+
+
+def format_check(table: Telemetry, checked: dict) -> str:
+    """The check on one screen: the table's extent, each channel's rate and largest gap, then its problems."""
+    lines = [f"{table.path}: {checked['rows']} rows over {checked['duration_s']:.1f} s, wheels "
+             f"{', '.join(table.joints)}"]
+    for name, f in checked["channels"].items():
+        lines.append(f"  {name:24s} {f['reports']:7d} reports  {f['rate_hz']:7.2f} Hz  largest gap "
+                     f"{f['largest_gap_s']:.3g} s" + (f"  {f['implausible']} implausible" if f["implausible"] else ""))
+    lines += [f"  problem: {p}" for p in checked["problems"]] or ["  no problem found"]
+    return "\n".join(lines)
+
+
+def format_verdict(verdict: dict) -> str:
+    """Each wheel's verdict, its first alarm and identification; scored where the table has ground truth."""
+    lines = [f"FDI of vehicle {verdict['vehicle']} (decision {verdict['decision']}):"]
+    for a, w in verdict["wheels"].items():
+        said = (f"faulty from {w['first_alarm_s']:g} s" + (f"; {w['identification']}" if w["identification"] else "")
+                if w["first_alarm_s"] is not None else "no alarm")
+        truth = ""
+        if "truth_onset_s" in w and w["truth_onset_s"] is not None:
+            late = None if w["first_alarm_s"] is None else w["first_alarm_s"] - w["truth_onset_s"]
+            truth = (f" [truth: fault from {w['truth_onset_s']:g} s; " +
+                     ("missed]" if late is None else "alarm before the onset]" if late < 0 else f"{late:g} s later]"))
+        elif verdict.get("scored"):
+            truth = " [truth: healthy" + ("; a false alarm]" if w["first_alarm_s"] is not None else "]")
+        lines.append(f"  wheel {a} ({w['joint']}): {said}{truth}")
+    if verdict["not_judged_s"]:
+        t = verdict["not_judged_s"]
+        lines.append(f"  not judged: {len(t)} FDI samples without reports (first at {t[0]:g} s)")
+    return "\n".join(lines)
+
+
+def write_files(verdict: dict, out) -> list:
+    """telemetry.json, telemetry_samples.csv and telemetry.png (each wheel's residual against its band) in ``out``."""
+    import json
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [out / "telemetry.json", out / "telemetry_samples.csv", out / "telemetry.png"]
+    paths[0].write_text(json.dumps({k: v for k, v in verdict.items() if k != "samples"}, indent=1))
+    keys = ["time_s", "wheel", "speed", "residual", "threshold", "alarm"]
+    with open(paths[1], "w", newline="") as fh:
+        writer = csv.DictWriter(fh, keys)
+        writer.writeheader()
+        writer.writerows(verdict["samples"])
+    wheels = list(verdict["wheels"])
+    fig, axes = plt.subplots(len(wheels), 1, figsize=(9, 1.8 * len(wheels)), sharex=True, squeeze=False)
+    for ax, a in zip(axes[:, 0], wheels):
+        rows = [s for s in verdict["samples"] if s["wheel"] == a]
+        t = np.array([s["time_s"] for s in rows])
+        ax.plot(t, [s["residual"] * 1e3 for s in rows], lw=0.8, label="residual")
+        band = np.array([s["threshold"] * 1e3 for s in rows])
+        ax.fill_between(t, -band, band, color="0.85", label="band")
+        alarmed = np.array([s["alarm"] for s in rows], bool)
+        if alarmed.any():
+            ax.plot(t[alarmed], np.zeros(alarmed.sum()), "r|", ms=8, label="faulty")
+        onset = verdict["wheels"][a].get("truth_onset_s")
+        if onset is not None:
+            ax.axvline(onset, color="k", ls="--", lw=0.8, label="truth onset")
+        ax.set_ylabel(f"{a} [mN m]")
+    axes[0, 0].legend(loc="upper left", fontsize=7, ncol=4)
+    axes[-1, 0].set_xlabel("time [s]")
+    fig.suptitle(f"residuals against their bands, vehicle {verdict['vehicle']}", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(paths[2], dpi=110)
+    plt.close(fig)
+    return paths
