@@ -10,14 +10,15 @@ import pytest
 
 from foreign_wheels import JOINTS, stream
 from rw_fdi_ros.core.physics.wheel import WheelParams
-from rw_fdi_ros.tools.evaluation.telemetry_file import TelemetryError, check, judge, read_table
+from rw_fdi_ros.fdi_config import FdiConfig
+from rw_fdi_ros.tools.evaluation.telemetry_file import TelemetryError, check, fit, judge, read_table
 
 ONSET = 150.0
 
 
-def write_table(path, drop=(), duration=300.0):
+def write_table(path, drop=(), duration=300.0, onset=ONSET):
     """The driver's run as a CSV (speed in rpm), without the speed rows whose time falls in ``drop`` (lo, hi)."""
-    speeds, commands = stream(duration, ONSET, 0.5)
+    speeds, commands = stream(duration, onset, 0.5)
     rows = {}
     for t, w in speeds:
         if not (drop and drop[0] <= t <= drop[1]):
@@ -32,7 +33,7 @@ def write_table(path, drop=(), duration=300.0):
             r = rows[t]
             empty = [""] * 4
             out.writerow([t, *r.get("speed", empty), *r.get("command", empty),
-                          *(int(t >= ONSET and i == 1) for i in range(4))])
+                          *(int(t >= onset and i == 1) for i in range(4))])
     return path
 
 
@@ -86,3 +87,18 @@ def test_the_command_line_writes_the_verdict_the_rows_and_the_figure(table_file,
     rows = list(csv.DictReader(open(tmp_path / "telemetry_samples.csv")))
     assert {r["wheel"] for r in rows} == {"x", "y", "z", "s"}
     assert (tmp_path / "telemetry.png").stat().st_size > 10_000
+
+
+def test_bands_fitted_on_a_users_healthy_telemetry_judge_it_and_too_little_is_refused(table_file, tmp_path):
+    """--fit: 1100 s of healthy telemetry cut into 100-s fitting runs (10, what a 1 % rate on three wheels needs
+    ); the bands written are the FDI's files, and with them the faulty run is judged as before."""
+    healthy = read_table(write_table(tmp_path / "healthy.csv", duration=1100.0, onset=1e9))
+    with pytest.raises(TelemetryError, match=r"make 2 fitting runs of 400 s; .* needs 60 \(6.7 h\)"):
+        fit(healthy, tmp_path / "refused", false_alarm_rate=0.001)
+    assert not (tmp_path / "refused").exists()   # refused before anything is written
+    bands = fit(healthy, tmp_path / "bands", false_alarm_rate=0.01, segment=100.0)
+    assert bands["segments"] == 10 and set(bands["model"]) == {"x", "y", "z"}
+    assert all(0.0 < c < 1e-4 for c in bands["model"].values())
+    verdict = judge(read_table(table_file), fdi=FdiConfig(thresholds=str(tmp_path / "bands")))
+    assert [a for a, w in verdict["wheels"].items() if w["first_alarm_s"] is not None] == ["y"]
+    assert verdict["samples"][0]["threshold"] != judge(read_table(table_file))["samples"][0]["threshold"]

@@ -18,6 +18,14 @@ def add_arguments(parser) -> None:
                         help="speed reports further apart leave the FDI periods between them not judged (default "
                              "%(default)g)")
     parser.add_argument("--check", action="store_true", help="only check the table: rates, gaps, missing channels")
+    parser.add_argument("--fit", default=None, metavar="DIR",
+                        help="the table is healthy: fit the bands on it into DIR (then judge with --thresholds DIR); "
+                             "refused, with what it needs, on too little of it")
+    parser.add_argument("--false-alarm-rate", type=number(float, 0, 1, low_open=True), default=None,
+                        help="with --fit: the per-segment false-alarm probability designed (default 0.001: 60 "
+                             "segments on three wheels)")
+    parser.add_argument("--segment", type=number(float, 50.0), default=400.0, metavar="SECONDS",
+                        help="with --fit: the length of a fitting run (default %(default)g, the shipped bands')")
     parser.add_argument("--out", default=None, metavar="DIR",
                         help="write telemetry.json, telemetry_samples.csv (one row per FDI sample and wheel) and "
                              "telemetry.png (residuals against their bands) there")
@@ -35,6 +43,13 @@ def main(args) -> int:
     if args.check:
         return 0 if not checked["problems"] else 1
     fdi = fdi_config(args)
+    if args.fit:
+        from ...tools.evaluation.telemetry_file import fit
+        bands = fit(table, args.fit, args.vehicle, fdi, args.false_alarm_rate, args.segment, max_gap=args.max_gap)
+        print(f"bands fitted on {bands.pop('segments')} segments of {args.segment:g} s, written to {args.fit}:")
+        for observer, by_wheel in bands.items():
+            print(f"  {observer}: " + ", ".join(f"{a} {c * 1e3:.4g} mN m" for a, c in by_wheel.items()))
+        return 0
     if args.vehicle and not (args.models or args.thresholds) and _is_fdi_dir(args.vehicle):
         from dataclasses import replace
         fdi = replace(fdi, models=args.vehicle)   # a vehicle's FDI directory judges with its own FDI

@@ -16,6 +16,7 @@ nodes' code, so the verdict is the graph's.
 from __future__ import annotations
 
 import csv
+import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -215,26 +216,18 @@ def judge(table: Telemetry, vehicle=None, fdi=None, control_period: float = 0.1,
     fdi_period = 1.0
     loaded = (fdi or FdiConfig()).for_vehicle(v.name if vehicle is None else str(vehicle)).loaded(fdi_period)
     pipeline = FdiPipeline(names, loaded, 1, fdi_period, identification=True, wheel=v.wheel)
-    grid = ControlGrid(control_period, v.wheel.inertia, max_gap)
-    samples, skipped, c = [], [], 0
-    commands = np.flatnonzero(~np.isnan(table.command).all(axis=1))
-    for k in np.flatnonzero(~np.isnan(table.speed).all(axis=1)):
-        stamp = int(table.stamps_ns[k])
-        while c < commands.size and table.stamps_ns[commands[c]] <= stamp:
-            grid.add_command(int(table.stamps_ns[commands[c]]), table.command[commands[c]])
-            c += 1
-        torque = None if table.torque is None or np.isnan(table.torque[k]).any() else table.torque[k]
-        for t, u, r, w in grid.add_speed(stamp, table.speed[k], torque):
-            if pipeline.add(t, u[None], r[None], w[None]) is None:
-                if t % int(fdi_period * 1e9) == 0:   # an FDI stamp without a judged sample: a gap in the reports
-                    skipped.append(t * 1e-9)
-                continue
-            rows_of, decided = pipeline.rows[0]
-            decision = next(iter(rows_of))
-            for i, a in enumerate(names):
-                residual, threshold, _, _ = rows_of[decision][a]
-                samples.append({"time_s": t * 1e-9, "wheel": a, "speed": float(w[i]), "residual": float(residual),
-                                "threshold": float(threshold), "alarm": bool(decided[a][2])})
+    samples, skipped = [], []
+    for t, u, r, w in grid_rows(table, v.wheel.inertia, control_period, max_gap):
+        if pipeline.add(t, u[None], r[None], w[None]) is None:
+            if t % int(fdi_period * 1e9) == 0:   # an FDI stamp without a judged sample: a gap in the reports
+                skipped.append(t * 1e-9)
+            continue
+        rows_of, decided = pipeline.rows[0]
+        decision = next(iter(rows_of))
+        for i, a in enumerate(names):
+            residual, threshold, _, _ = rows_of[decision][a]
+            samples.append({"time_s": t * 1e-9, "wheel": a, "speed": float(w[i]), "residual": float(residual),
+                            "threshold": float(threshold), "alarm": bool(decided[a][2])})
     identified = pipeline.identified[0]
     truth = _onsets(table)
     wheels = {}
@@ -292,7 +285,6 @@ def format_verdict(verdict: dict) -> str:
 
 def write_files(verdict: dict, out) -> list:
     """telemetry.json, telemetry_samples.csv and telemetry.png (each wheel's residual against its band) in ``out``."""
-    import json
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -327,3 +319,75 @@ def write_files(verdict: dict, out) -> list:
     fig.savefig(paths[2], dpi=110)
     plt.close(fig)
     return paths
+
+
+def fit(table: Telemetry, out, vehicle=None, fdi=None, false_alarm_rate: float | None = None,
+        segment: float = 400.0, control_period: float = 0.1, max_gap: float = 2.5) -> dict:
+    """Bands fitted on a user's healthy telemetry, written to ``out`` for --thresholds: the table is cut into
+    ``segment``-s pieces, each a fitting run of the per-run false-alarm rate (the shipped bands' 400-s runs);
+    the vehicle's networks and observers as they are. Refused, with the amount it needs, on too little of it.
+
+    Parameters
+    ----------
+    table : Telemetry
+        Healthy telemetry, its joints in the vehicle's wheel set's order.
+    out : str or Path
+        The thresholds directory written (thresholds_<observer>.json).
+    vehicle : str, optional
+        A shipped vehicle, a vehicle file or its FDI directory; None: the thesis' MakSat.
+    fdi : FdiConfig, optional
+        Whose networks the Elman observers run (None: the vehicle's shipped FDI).
+    false_alarm_rate : float, optional
+        The designed per-segment false-alarm probability (None: the fitting's default, 0.001).
+    segment : float
+        [s] the length of a fitting run.
+
+    Returns
+    -------
+    dict
+        observer -> wheel -> band c [N m], and ``segments`` fitted on.
+    """
+    from ...fdi_config import FdiConfig
+    from ...core.fdi.detection import FALSE_ALARM_RATE
+    from ...core.fdi.telemetry import TelemetrySampler
+    from ...core.fdi.threshold_fit import fitting_runs_needed
+    from ...core.mission.scenario import parse_scenario
+    from ...core.mission.vehicle import load_vehicle
+    from ..design.offline import fit_thresholds, load_models
+    from ..design.samples import samples_from_rows
+    v = load_vehicle(vehicle)
+    rate = false_alarm_rate or FALSE_ALARM_RATE
+    names = v.wheel_set.names
+    sampler = TelemetrySampler(1.0, "mean", v.wheel, identification=False)
+    samples = [s for row in grid_rows(table, v.wheel.inertia, control_period, max_gap)
+               if (s := sampler.add(*row)) is not None and np.isfinite(s.reaction_torque).all()]
+    n = int(segment)
+    pieces = [samples[i:i + n] for i in range(0, len(samples) - n + 1, n)]
+    needed = fitting_runs_needed(rate, 0.5, len(v.wheel_set.active))
+    if len(pieces) < needed:
+        raise TelemetryError(f"{table.path}: {len(samples)} s of judged healthy telemetry make {len(pieces)} "
+                             f"fitting runs of {segment:g} s; a per-run false-alarm rate of {rate:g} on "
+                             f"{len(v.wheel_set.active)} wheels needs {needed} ({needed * segment / 3600:.1f} h), "
+                             "or ask for a higher --false-alarm-rate")
+    config = (fdi or FdiConfig()).for_vehicle(v.name if vehicle is None else str(vehicle))
+    runs = [samples_from_rows(piece, seed=k, wheels=names, wheel_params=v.wheel) for k, piece in enumerate(pieces)]
+    line = f"vehicle: {json.dumps(str(vehicle))}\n" if vehicle else ""
+    plant = parse_scenario(f"name: telemetry\nduration: 1.0\n{line}").plant_choices().as_dict()
+    bands = fit_thresholds(runs, load_models(config.models_dir), out, model_ref=str(config.models_dir),
+                           false_alarm_rate=rate, plant=plant)
+    return {**bands, "segments": len(pieces)}
+
+
+def grid_rows(table: Telemetry, inertia: float, control_period: float = 0.1, max_gap: float = 2.5):
+    """The table's reports on the control grid, as the wheel_telemetry node puts them: (t_k [ns], u, r, Omega)
+    (core/fdi/wheel_reports.ControlGrid; NaN where the reports leave a point unknown)."""
+    grid = ControlGrid(control_period, inertia, max_gap)
+    c = 0
+    commands = np.flatnonzero(~np.isnan(table.command).all(axis=1))
+    for k in np.flatnonzero(~np.isnan(table.speed).all(axis=1)):
+        stamp = int(table.stamps_ns[k])
+        while c < commands.size and table.stamps_ns[commands[c]] <= stamp:
+            grid.add_command(int(table.stamps_ns[commands[c]]), table.command[commands[c]])
+            c += 1
+        torque = None if table.torque is None or np.isnan(table.torque[k]).any() else table.torque[k]
+        yield from grid.add_speed(stamp, table.speed[k], torque)
