@@ -90,8 +90,8 @@ def test_the_command_line_writes_the_verdict_the_rows_and_the_figure(table_file,
 
 
 def test_bands_fitted_on_a_users_healthy_telemetry_judge_it_and_too_little_is_refused(table_file, tmp_path):
-    """--fit: 1100 s of healthy telemetry cut into 100-s fitting runs (10, what a 1 % rate on three wheels needs
-    ); the bands written are the FDI's files, and with them the faulty run is judged as before."""
+    """--fit: 1100 s of healthy telemetry cut into 100-s fitting runs (10, what a 1 % rate on three wheels
+    needs); the bands written are the FDI's files, and with them the faulty run is judged as before."""
     healthy = read_table(write_table(tmp_path / "healthy.csv", duration=1100.0, onset=1e9))
     with pytest.raises(TelemetryError, match=r"make 2 fitting runs of 400 s; .* needs 60 \(6.7 h\)"):
         fit(healthy, tmp_path / "refused", false_alarm_rate=0.001)
