@@ -16,11 +16,9 @@ player, our plant) every node ends with it, else they run until stopped (Ctrl-C)
 import os
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction, SetEnvironmentVariable
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
-from rw_fdi_ros.paths import fastdds_profiles
-from rw_fdi_ros.runner.graph import DEFAULT_GROUPING, GROUPINGS
-from rw_fdi_ros.runner.launch_actions import node_actions
+from rw_fdi_ros.runner.launch_actions import environment_and_arguments, node_actions
 
 
 def _nodes(context):
@@ -46,9 +44,8 @@ def _nodes(context):
 
 def generate_launch_description():
     return LaunchDescription([
-        SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE",
-                               os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
-        SetEnvironmentVariable("FASTDDS_DEFAULT_PROFILES_FILE", fastdds_profiles() or ""),
+        *environment_and_arguments("compose", "models", "thresholds", "decision", "observers", "namespace",
+                                   "use_sim_time", "params_file"),
         DeclareLaunchArgument("vehicle", default_value="",
                               description="a shipped vehicle, a vehicle file or its FDI directory (empty: the "
                                           "thesis' MakSat)"),
@@ -63,17 +60,5 @@ def generate_launch_description():
         DeclareLaunchArgument("max_gap", default_value="",
                               description="[s] speed reports further apart: the periods between not judged "
                                           "(empty: the node's)"),
-        DeclareLaunchArgument("models", default_value="", description="the FDI's models (empty: the vehicle's)"),
-        DeclareLaunchArgument("thresholds", default_value="", description="its bands (empty: the models')"),
-        DeclareLaunchArgument("decision", default_value="",
-                              description="an observer (model, linear, elman) or a vote KofN (empty: the method's)"),
-        DeclareLaunchArgument("observers", default_value="",
-                              description="a user's observers beside ours, comma-separated (docs/observers.md)"),
-        DeclareLaunchArgument("compose", default_value=DEFAULT_GROUPING,
-                              description="which nodes share a process: " + ", ".join(GROUPINGS)),
-        DeclareLaunchArgument("namespace", default_value="", description="every node's namespace (empty: none)"),
-        DeclareLaunchArgument("use_sim_time", default_value="false", description="the nodes' clocks follow /clock"),
-        DeclareLaunchArgument("params_file", default_value="",
-                              description="a ROS 2 parameters file applied to every node after ours"),
         OpaqueFunction(function=_nodes),
     ])

@@ -23,11 +23,9 @@ test/test_launch_file.py runs this file under the real launch and launch_ros.
 import os
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction, SetEnvironmentVariable
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
-from rw_fdi_ros.runner.graph import DEFAULT_GROUPING, GROUPINGS
-from rw_fdi_ros.runner.launch_actions import node_actions
-from rw_fdi_ros.paths import fastdds_profiles
+from rw_fdi_ros.runner.launch_actions import environment_and_arguments, node_actions
 
 
 def _nodes(context):
@@ -60,45 +58,21 @@ def _nodes(context):
 
 def generate_launch_description():
     return LaunchDescription([
-        # discovery stays on this machine (ROS_LOCALHOST_ONLY is ignored from kilted on)
-        SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE",
-                               os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
-        # 50 ms reliable-writer heartbeat (config/fastdds.xml): the run's end and bag replay wait on acks
-        SetEnvironmentVariable("FASTDDS_DEFAULT_PROFILES_FILE", fastdds_profiles() or ""),
+        *environment_and_arguments("compose", "models", "thresholds", "decision", "observers", "namespace",
+                                   "use_sim_time", "params_file"),
         DeclareLaunchArgument("scenario", default_value="fault_free", description="scenario name or YAML file"),
         DeclareLaunchArgument("seed", default_value="-1", description="seed (-1: the scenario's)"),
         DeclareLaunchArgument("bag", default_value="", description="bag directory to record (empty: no recorder)"),
         DeclareLaunchArgument("fdi", default_value="true", description="start the observers and the isolation node"),
         DeclareLaunchArgument("fdi_method", default_value="speed_aware", description="speed_aware or thesis"),
-        DeclareLaunchArgument("compose", default_value=DEFAULT_GROUPING,
-                              description="which nodes share a process: " + ", ".join(GROUPINGS) +
-                                          " (none: every node its own process)"),
         DeclareLaunchArgument("fdir", default_value="true",
                               description="give up a wheel the FDI confirms faulty and bring the redundant one in"),
-        DeclareLaunchArgument("models", default_value="", description="Elman model directory (empty: shipped)"),
-        DeclareLaunchArgument("thresholds", default_value="",
-                              description="threshold directory (empty: the models' when given, else shipped)"),
         DeclareLaunchArgument("persistence", default_value="0",
                               description="samples above the threshold before an alarm (0: the threshold file's)"),
         DeclareLaunchArgument("unit_calibration", default_value="0",
                               description="seconds each observer learns its wheel's unit from (0: the datasheet)"),
-        DeclareLaunchArgument("decision", default_value="",
-                              description="what makes /diagnostics: an observer (model, linear, elman) or a vote "
-                                          "KofN, e.g. 2of3 (empty: the method's)"),
-        DeclareLaunchArgument("observers", default_value="",
-                              description="a user's observers beside ours, comma-separated (entry point, module:Class "
-                                          "or file.py:Class; their state and bands in thresholds:=; "
-                                          "docs/observers.md); empty: none"),
-        DeclareLaunchArgument("namespace", default_value="",
-                              description="every node's namespace, its topics under it (two spacecraft in one "
-                                          "ROS graph: namespace:=sc1 and namespace:=sc2); empty: none"),
         DeclareLaunchArgument("live", default_value="",
                               description="port of a live view: the run in Foxglove as it happens (foxglove-sdk; "
                                           "0: any free port); empty: none"),
-        DeclareLaunchArgument("use_sim_time", default_value="false",
-                              description="every node's clock follows /clock (the plant's simulated time)"),
-        DeclareLaunchArgument("params_file", default_value="",
-                              description="a ROS 2 parameters file applied to every node after ours (node names "
-                                          "or /** as keys)"),
         OpaqueFunction(function=_nodes),
     ])

@@ -101,8 +101,8 @@ def main():
     second = 0
     for t, kind, values in events:
         if t >= second:   # paced: at most 5 s ahead of the telemetry the graph made
-            if not wait(lambda: fdi_at[0] >= second - 5.0, 60.0):
-                sys.exit(f"no FDI telemetry for {second - 5} s within 60 s")
+            if not wait(lambda: fdi_at[0] >= second - 5.0, 120.0):
+                sys.exit(f"no FDI telemetry for {second - 5} s within 120 s (heard up to {fdi_at[0]} s)")
             second += 1
         (pub_command if kind == 0 else pub_speed).publish(joint_state(t, "effort" if kind == 0 else "velocity",
                                                                       values))

@@ -8,6 +8,49 @@ import os
 import tempfile
 
 
+# the launch arguments both launch files take: name -> (default, description)
+SHARED_ARGUMENTS = {
+    "compose": (None, "which nodes share a process: {groupings} (none: every node its own process)"),
+    "models": ("", "Elman model directory (empty: shipped)"),
+    "thresholds": ("", "threshold directory (empty: the models' when given, else shipped)"),
+    "decision": ("", "what makes /diagnostics: an observer (model, linear, elman) or a vote KofN, e.g. 2of3 (empty: "
+                     "the method's)"),
+    "observers": ("", "a user's observers beside ours, comma-separated (entry point, module:Class or file.py:Class; "
+                      "their state and bands in thresholds:=; docs/observers.md); empty: none"),
+    "namespace": ("", "every node's namespace, its topics under it (two spacecraft in one ROS graph: namespace:=sc1 "
+                      "and namespace:=sc2); empty: none"),
+    "use_sim_time": ("false", "every node's clock follows /clock (the plant's simulated time)"),
+    "params_file": ("", "a ROS 2 parameters file applied to every node after ours (node names or /** as keys)"),
+}
+
+
+def environment_and_arguments(*names) -> list:
+    """The launch environment (discovery on this machine, our DDS profile) and the shared arguments ``names``.
+
+    Parameters
+    ----------
+    *names : str
+        Keys of SHARED_ARGUMENTS.
+
+    Returns
+    -------
+    list
+        SetEnvironmentVariable and DeclareLaunchArgument actions.
+    """
+    from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
+    from ..paths import fastdds_profiles
+    from .graph import DEFAULT_GROUPING, GROUPINGS
+    return [
+        # discovery stays on this machine (ROS_LOCALHOST_ONLY is ignored from kilted on)
+        SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE",
+                               os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
+        # 50 ms reliable-writer heartbeat (config/fastdds.xml): the run's end and bag replay wait on acks
+        SetEnvironmentVariable("FASTDDS_DEFAULT_PROFILES_FILE", fastdds_profiles() or ""),
+        *(DeclareLaunchArgument(name, default_value=DEFAULT_GROUPING if default is None else default,
+                                description=description.format(groupings=", ".join(GROUPINGS)))
+          for name in names for default, description in [SHARED_ARGUMENTS[name]])]
+
+
 class RunFailed(RuntimeError):
     """A node of the run exited non-zero. Raised from its exit handler: an exception is how launch
     ends a launch with a non-zero return code (a Shutdown action alone exits 0)."""
