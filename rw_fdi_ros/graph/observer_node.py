@@ -254,7 +254,18 @@ class WheelsObserverNode(ObserverNode):
         raise NotImplementedError
 
     def observe(self, sample):
-        """(estimate, residual, bound) of every wheel for one FdiSample: thesis' |r - r^| mean or speed-aware."""
+        """(estimate, residual, bound) of every wheel for one FdiSample: thesis' |r - r^| mean or speed-aware.
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample, fields (N,).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (estimate r^, residual, ripple bound) [N m], each (N,) (an Elman node: its wheel's).
+        """
         estimate, torque = self.estimate(sample), sample.reaction_torque
         if not self.speed_aware:
             return (estimate, np.array([f.update(r, e) for f, r, e in zip(self.filters, torque, estimate)]),

@@ -50,7 +50,18 @@ class ElmanObserverNode(ObserverNode):
                          else ResidualFilter(window))
 
     def observe(self, sample):
-        """(estimate, residual, bound) of this node's wheel for one FdiSample: the network's recall and its residual."""
+        """(estimate, residual, bound) of this node's wheel for one FdiSample: the network's recall and its residual.
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample, fields (N,).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (estimate r^, residual, ripple bound) [N m], each (N,) (an Elman node: its wheel's).
+        """
         i = self.index
         u, r = float(sample.tcv[i]), float(sample.reaction_torque[i])
         if self.speed_aware:

@@ -23,7 +23,18 @@ class LinearObserverNode(WheelsObserverNode):
     slot = "linear"
 
     def uncertainty_gain(self, wheel: str) -> float:
-        """kappa of a wheel: the linear observer's model error term (core.fdi.linear_observer.uncertainty_gain)."""
+        """kappa of a wheel: the linear observer's model error term (core.fdi.linear_observer.uncertainty_gain).
+
+        Parameters
+        ----------
+        wheel : str
+            The wheel's name.
+
+        Returns
+        -------
+        float
+            kappa.
+        """
         return uncertainty_gain(wheel)
 
     def declare_own_parameters(self):
@@ -35,7 +46,18 @@ class LinearObserverNode(WheelsObserverNode):
         super().reset()
 
     def estimate(self, sample):
-        """r^ of every wheel: the linear observer's update on the command and the measured reaction torque."""
+        """r^ of every wheel: the linear observer's update on the command and the measured reaction torque.
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample, fields (N,).
+
+        Returns
+        -------
+        numpy.ndarray
+            (N,) r^ [N m].
+        """
         return self.observer.update(sample.tcv, sample.reaction_torque)
 
 

@@ -21,7 +21,18 @@ class ModelObserverNode(WheelsObserverNode):
     needs_speed = True
 
     def estimate(self, sample):
-        """r^ of every wheel: the plant model's, as the telemetry report carries it."""
+        """r^ of every wheel: the plant model's, as the telemetry report carries it.
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample, fields (N,).
+
+        Returns
+        -------
+        numpy.ndarray
+            (N,) r^ [N m].
+        """
         return sample.model_torque
 
 

@@ -43,7 +43,18 @@ class PluginObserverNode(WheelsObserverNode):
                          self.calibration_samples)
 
     def uncertainty_gain(self, wheel: str) -> float:
-        """kappa of a wheel, as the user's observer declares it."""
+        """kappa of a wheel, as the user's observer declares it.
+
+        Parameters
+        ----------
+        wheel : str
+            The wheel's name.
+
+        Returns
+        -------
+        float
+            kappa.
+        """
         return self.gains[wheel]
 
     def reset(self):
@@ -51,7 +62,18 @@ class PluginObserverNode(WheelsObserverNode):
         super().reset()
 
     def estimate(self, sample):
-        """r^ of every wheel: the user's observer's step (NodeError, one line, when its code fails)."""
+        """r^ of every wheel: the user's observer's step (NodeError, one line, when its code fails).
+
+        Parameters
+        ----------
+        sample : core.fdi.telemetry.FdiSample
+            The FDI sample, fields (N,).
+
+        Returns
+        -------
+        numpy.ndarray
+            (N,) r^ [N m].
+        """
         try:
             return self.run.step(sample)
         except ObserverError as exc:   # the user's code failed: one line naming it, not a traceback
