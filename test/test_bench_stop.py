@@ -65,8 +65,10 @@ def test_an_interrupted_bench_keeps_its_finished_runs_and_the_same_command_resum
     # faulthandler: a bench that does not stop is sent SIGABRT below and prints where each thread waits
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", PYTHONFAULTHANDLER="1")
     journal = tmp_path / ".detection_journal"
+    # started with SIGINT ignored, as a shell without job control starts a background job (CI's): rw-fdi still
+    # takes Ctrl-C
     bench = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env,
-                             start_new_session=True)
+                             start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     try:
         deadline = time.monotonic() + 300.0
         while len(list(journal.glob("*.npz"))) < 2 and time.monotonic() < deadline and bench.poll() is None:

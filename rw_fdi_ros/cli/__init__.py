@@ -34,6 +34,10 @@ def main(argv=None) -> int:
     import signal
     args = build_parser().parse_args(argv)
     signal.signal(signal.SIGTERM, _terminate)
+    # Ctrl-C and `kill -INT` stop every command the same way, also when a script started it in the background:
+    # a shell without job control starts those with SIGINT ignored, and Python keeps an ignored SIGINT ignored
+    # (a bench sent SIGINT by a test under such a shell ran on to its end)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     from ..core.mission.scenario import ScenarioError
     from ..storage.bag import BagError
     try:
