@@ -77,3 +77,37 @@ def test_the_fdi_launch_file_attaches_to_remapped_streams_in_a_namespace(colcon_
         stop_processes([driver])
         launch.close()
     check_verdicts(json.loads(out.read_text())["heard"])
+
+
+BAD_STREAM = """
+import sys, time, rclpy
+from sensor_msgs.msg import JointState
+from rw_fdi_ros.graph import topics as T
+rclpy.init()
+node = rclpy.create_node("bad_wheels")
+pub = node.create_publisher(JointState, "/wheels", T.RELIABLE)
+deadline = time.monotonic() + 60
+while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+    rclpy.spin_once(node, timeout_sec=0.1)
+for k in range(50):   # a position-only stream
+    pub.publish(JointState(name=sys.argv[1].split(","), position=[0.0] * 4))
+    time.sleep(0.1)
+"""
+
+
+def test_a_stream_without_wheel_speeds_stops_the_node_with_one_line():
+    """A JointState on /wheels with positions only (no velocity): the node says so in one line, exit 2."""
+    joints, message = "rw1,rw2,rw3,rw4", "/wheels: 0 velocity values for 4 joints"
+    with DomainLease() as lease:
+        procs = GraphProcesses(attach_nodes(joint_names=tuple(joints.split(",")))[:1], lease.domain_id,
+                               Path(tempfile.mkdtemp(prefix="rw_fdi_test_")))
+        procs.start()
+        source = subprocess.Popen([sys.executable, "-c", BAD_STREAM, joints], env=procs.env,
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        try:
+            code = procs.procs["wheel_telemetry"].wait(timeout=90)
+            assert code == 2, procs.reason_of("wheel_telemetry")
+            assert message in procs.reason_of("wheel_telemetry")
+        finally:
+            stop_processes([source])
+            procs.stop_all()

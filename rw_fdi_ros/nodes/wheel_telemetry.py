@@ -29,7 +29,7 @@ from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
 from ..graph import topics as T
 from ..graph.convert import bus_grid_msg, fdi_telemetry_cdr, stamp_ns
 from ..graph.gate import GatedPublisher
-from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
+from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, relative
 from ..graph.wheel_type import declare_wheel_type
 
 
@@ -68,30 +68,32 @@ class WheelTelemetryNode(GraphNode):
         self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE)
         self.follow_run_end(period=fdi_period)   # a run that says its end (/plant/done): ours, a replay
 
-    def _ordered(self, msg, field: str):
-        """The message's ``field`` in the wheel set's order (None: not one value per wheel); a joint missing is
-        a bad stream."""
+    def _ordered(self, msg, field: str, topic: str):
+        """The message's ``field`` in the wheel set's order; a field without a value per joint, or a joint
+        missing, is a bad stream: the node stops naming it (None)."""
         values = list(getattr(msg, field))
         if len(values) != len(msg.name):
+            self.fail(f"{self.resolve_topic_name(relative(topic))}: {len(values)} {field} values for "
+                      f"{len(msg.name)} joints", EXIT_BAD_INPUT)
             return None
         by_name = dict(zip(msg.name, values))
         missing = [j for j in self.joints if j not in by_name]
         if missing:
-            self.fail(f"{field} on a JointState without joint(s) {', '.join(missing)} (parameter joint_names "
-                      "maps the stream's names)", EXIT_BAD_INPUT)
+            self.fail(f"{self.resolve_topic_name(relative(topic))}: no joint(s) {', '.join(missing)} among "
+                      f"{', '.join(msg.name)} (parameter joint_names maps the stream's names)", EXIT_BAD_INPUT)
             return None
         return np.array([by_name[j] for j in self.joints], float)
 
     def _on_command(self, msg):
-        tcv = self._ordered(msg, "effort")
+        tcv = self._ordered(msg, "effort", T.WHEEL_COMMAND)
         if tcv is not None:
             self.grid.add_command(stamp_ns(msg.header.stamp), tcv)
 
     def _on_wheels(self, msg):
-        speed = self._ordered(msg, "velocity")
+        speed = self._ordered(msg, "velocity", T.WHEELS)
         if speed is None:
             return
-        torque = self._ordered(msg, "effort") if msg.effort else None
+        torque = self._ordered(msg, "effort", T.WHEELS) if msg.effort else None   # optional: r from the speed
         for t, tcv, reaction_torque, omega in self.grid.add_speed(stamp_ns(msg.header.stamp), speed, torque):
             report = self.telemetry.add(t, tcv, reaction_torque, omega)
             if report is None:
