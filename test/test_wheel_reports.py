@@ -19,11 +19,11 @@ def feed(grid, stamps, command_every=0.1, torque=False):
     rows, next_command = [], 0.0
     for s in stamps:
         while next_command <= s:
-            grid.add_command(int(round(next_command * 1e9)), [1.0 + next_command, -1.0])
+            rows += grid.add_command(int(round(next_command * 1e9)), [1.0 + next_command, -1.0])
             next_command += command_every
         r = -J * np.array([A, -2 * A]) if torque else None
         rows += grid.add_speed(int(round(s * 1e9)), speed_at(s), r)
-    return rows
+    return rows + grid.flush()
 
 
 @pytest.mark.parametrize("rate", [1.2, 10.0, 37.0, 200.0])
@@ -75,6 +75,26 @@ def test_late_and_repeated_reports_are_dropped():
     grid = ControlGrid(0.1, J)
     grid.add_command(0, [1.0, 1.0])
     assert grid.add_speed(0, speed_at(0.0)) == []
-    first = grid.add_speed(200_000_000, speed_at(0.2))
+    assert grid.add_speed(200_000_000, speed_at(0.2)) == []   # waits for the commands up to it
+    first = grid.add_command(200_000_000, [1.0, 1.0])
     assert [row[0] for row in first] == [100_000_000, 200_000_000]
     assert grid.add_speed(150_000_000, speed_at(0.15)) == [] and grid.add_speed(200_000_000, speed_at(0.2)) == []
+    assert grid.flush() == []
+
+
+def test_the_rows_do_not_depend_on_which_stream_arrives_first():
+    """The commands of the last second arrive after its speed reports (another topic, another path): the same
+    rows as in order, each speed report waiting for the commands before it."""
+    stamps = np.arange(0.0, 6.0, 0.04)
+    commands = [(int(round(t * 1e9)), [1.0 + t, -1.0]) for t in np.arange(0.0, 6.0, 0.1)]
+    in_order = feed(ControlGrid(0.1, J), stamps)
+    grid, late = ControlGrid(0.1, J), []
+    for k in range(6):   # each second: its speed reports first, then its commands
+        for t in stamps[(stamps >= k) & (stamps < k + 1)]:
+            late += grid.add_speed(int(round(t * 1e9)), speed_at(t))
+        for stamp, u in commands:
+            if k * 10**9 <= stamp < (k + 1) * 10**9:
+                late += grid.add_command(stamp, u)
+    late += grid.flush()
+    assert [row[0] for row in late] == [row[0] for row in in_order]
+    assert all(np.allclose(a[1], b[1]) and np.allclose(a[2], b[2]) for a, b in zip(late, in_order))

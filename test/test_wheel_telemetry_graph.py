@@ -7,9 +7,11 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from rw_fdi_ros.graph import topics as T
+from rw_fdi_ros.tools.evaluation.telemetry_file import judge
 from rw_fdi_ros.runner.graph import attach_nodes
 from rw_fdi_ros.runner.launcher import DomainLease, GraphProcesses, stop_processes
 
@@ -38,12 +40,31 @@ def test_the_fdi_names_the_failed_wheel_of_a_stream_that_is_not_our_plants(tmp_p
         finally:
             stop_processes([driver])
             procs.stop_all()
-    check_verdicts(json.loads(out.read_text())["heard"])
+    alarmed = check_verdicts(json.loads(out.read_text())["heard"])
+    # the same stream as a table, judged offline by `rw-fdi telemetry`'s code: the graph's verdict, to the second
+    offline = judge(stream_table())["wheels"]
+    assert {f"reaction_wheel_{a}": w["first_alarm_s"] for a, w in offline.items()
+            if w["first_alarm_s"] is not None} == alarmed
 
 
-def check_verdicts(heard: list):
+def stream_table():
+    """The driver's run (foreign_wheels.stream) as the telemetry tool's table, the stamps the driver sends."""
+    from foreign_wheels import JOINTS, stream
+    from rw_fdi_ros.tools.evaluation.telemetry_file import Telemetry
+    speeds, commands = stream(300.0, ONSET, 0.5)
+    stamps = sorted({int(round(t * 1e9)) for t, _ in speeds + commands})
+    row = {s: i for i, s in enumerate(stamps)}
+    speed, command = (np.full((len(stamps), len(JOINTS)), np.nan) for _ in range(2))
+    for t, w in speeds:
+        speed[row[int(round(t * 1e9))]] = w
+    for t, u in commands:
+        command[row[int(round(t * 1e9))]] = u
+    return Telemetry("driver", tuple(JOINTS), np.array(stamps, np.int64), speed, command)
+
+
+def check_verdicts(heard: list) -> dict:
     """The statuses the driver heard: judged to the end, the half-current wheel y alone named, within a minute of
-    its onset and never before, and identified a current loss."""
+    its onset and never before, and identified a current loss; wheel -> first alarm [s]."""
     verdicts = [h for h in heard if h[1].startswith(T.VERDICT_STATUS)]
     assert verdicts and max(h[0] for h in verdicts) >= 299.0
     alarmed = {}
@@ -54,6 +75,7 @@ def check_verdicts(heard: list):
     assert ONSET < alarmed["reaction_wheel_y"] <= ONSET + 60.0, alarmed
     kinds = {h[5].get("fault_kind") for h in heard if h[1] == "rw_fdi: identification wheel y"}
     assert kinds & {"current_limiter", "current_loss"}, kinds   # what it is, from the speed alone
+    return alarmed
 
 
 def test_the_fdi_launch_file_attaches_to_remapped_streams_in_a_namespace(colcon_workspace, tmp_path):

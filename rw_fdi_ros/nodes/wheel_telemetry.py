@@ -87,14 +87,18 @@ class WheelTelemetryNode(GraphNode):
     def _on_command(self, msg):
         tcv = self._ordered(msg, "effort", T.WHEEL_COMMAND)
         if tcv is not None:
-            self.grid.add_command(stamp_ns(msg.header.stamp), tcv)
+            self._send(self.grid.add_command(stamp_ns(msg.header.stamp), tcv))
 
     def _on_wheels(self, msg):
         speed = self._ordered(msg, "velocity", T.WHEELS)
         if speed is None:
             return
         torque = self._ordered(msg, "effort", T.WHEELS) if msg.effort else None   # optional: r from the speed
-        for t, tcv, reaction_torque, omega in self.grid.add_speed(stamp_ns(msg.header.stamp), speed, torque):
+        self._send(self.grid.add_speed(stamp_ns(msg.header.stamp), speed, torque))
+
+    def _send(self, rows):
+        """The FDI telemetry (and its bus grid) of every FDI stamp among the grid's rows."""
+        for t, tcv, reaction_torque, omega in rows:
             report = self.telemetry.add(t, tcv, reaction_torque, omega)
             if report is None:
                 continue
@@ -105,6 +109,8 @@ class WheelTelemetryNode(GraphNode):
             self.last_handled = report.stamp_ns
 
     def poll(self):
+        if getattr(self, "_run_end", None) is not None:   # the source said its end: nothing more will come
+            self._send(self.grid.flush())
         if self.pub_grid.flush() and self.pub_fdi.flush() and self.run_ended():
             self.finish()
 

@@ -20,6 +20,12 @@ grid t_k = k dt that :class:`~.telemetry.TelemetrySampler` averages:
 Speed reports further apart than ``max_gap`` leave the grid points between
 them without values (NaN): the FDI sample of that period is not finite and the
 FDI says it cannot judge, rather than judging a guess.
+
+Speed and command come on two streams, and one may arrive after the other: a
+speed report waits until a command stamped at or after it has come (the
+commands before it are then all in) or until ``hold`` seconds of newer speed
+reports have, so the rows do not depend on the order the two streams arrive
+in; :meth:`ControlGrid.flush` gives what still waits at a stream's end.
 """
 from __future__ import annotations
 
@@ -39,19 +45,23 @@ class ControlGrid:
     max_gap : float
         [s] speed reports further apart than this leave the grid points between them NaN (2.5 s: reports at a
         1-s FDI period's rate pass, with jitter and one lost).
+    hold : float
+        [s] how long, in newer speed reports, a speed report waits for the commands before it.
     """
 
-    def __init__(self, step: float = 0.1, inertia: float = 0.0077, max_gap: float = 2.5):
+    def __init__(self, step: float = 0.1, inertia: float = 0.0077, max_gap: float = 2.5, hold: float = 1.0):
         self.step_ns = int(round(step * 1e9))
         self.inertia = float(inertia)
         self.max_gap_ns = int(round(max_gap * 1e9))
-        self.report = None        # (stamp_ns, Omega, r or None) of the newest speed report
+        self.hold_ns = int(round(hold * 1e9))
+        self.waiting = []         # speed reports (stamp_ns, Omega, r or None) not yet put on the grid
+        self.report = None        # the newest speed report put on the grid
         self.commands = []        # (stamp_ns, u) not yet superseded for the grid points to come
         self.next_k = None        # the next grid point to give
         self.previous = None      # Omega at the grid point before next_k (None: not known)
 
-    def add_command(self, stamp_ns: int, tcv) -> None:
-        """A command report: u [V] per wheel from ``stamp_ns`` on.
+    def add_command(self, stamp_ns: int, tcv) -> list:
+        """A command report: u [V] per wheel from ``stamp_ns`` on; the grid points it completes.
 
         Parameters
         ----------
@@ -59,13 +69,19 @@ class ControlGrid:
             The command's stamp [ns].
         tcv : array_like
             (N,) torque command voltages u [V].
+
+        Returns
+        -------
+        list of tuple
+            The rows the speed reports that waited for it give (:meth:`add_speed`).
         """
         if self.commands and stamp_ns <= self.commands[-1][0]:
-            return   # late or repeated: the driver already holds a newer one
+            return []   # late or repeated: the driver already holds a newer one
         self.commands.append((int(stamp_ns), np.asarray(tcv, float)))
+        return self._release()
 
     def add_speed(self, stamp_ns: int, wheel_speed, reaction_torque=None) -> list:
-        """A speed report; the grid points it completes.
+        """A speed report; the grid points it (or a command) completes.
 
         Parameters
         ----------
@@ -79,14 +95,41 @@ class ControlGrid:
         Returns
         -------
         list of tuple
-            (t_k [ns], u (N,) [V], r (N,) [N m], Omega (N,) [rad/s]) for each grid point t_k up to ``stamp_ns``,
-            NaN where the reports leave it unknown.
+            (t_k [ns], u (N,) [V], r (N,) [N m], Omega (N,) [rad/s]) for each grid point t_k the reports now
+            settle, NaN where they leave it unknown.
         """
         stamp_ns = int(stamp_ns)
-        speed = np.asarray(wheel_speed, float)
-        torque = None if reaction_torque is None else np.asarray(reaction_torque, float)
-        if self.report is not None and stamp_ns <= self.report[0]:
+        newest = self.waiting[-1][0] if self.waiting else self.report[0] if self.report else None
+        if newest is not None and stamp_ns <= newest:
             return []   # late or repeated
+        self.waiting.append((stamp_ns, np.asarray(wheel_speed, float),
+                             None if reaction_torque is None else np.asarray(reaction_torque, float)))
+        return self._release()
+
+    def flush(self) -> list:
+        """The rows of every speed report still waiting for commands: the stream has ended.
+
+        Returns
+        -------
+        list of tuple
+            As :meth:`add_speed`.
+        """
+        rows = []
+        while self.waiting:
+            rows += self._take(*self.waiting.pop(0))
+        return rows
+
+    def _release(self) -> list:
+        """The rows of the waiting speed reports whose commands are all in, or that waited ``hold``."""
+        last_command = self.commands[-1][0] if self.commands else None
+        rows = []
+        while self.waiting and ((last_command is not None and last_command >= self.waiting[0][0])
+                                or self.waiting[-1][0] - self.waiting[0][0] >= self.hold_ns):
+            rows += self._take(*self.waiting.pop(0))
+        return rows
+
+    def _take(self, stamp_ns: int, speed, torque) -> list:
+        """The grid points up to a speed report, interpolated from the one before it."""
         before, self.report = self.report, (stamp_ns, speed, torque)
         if before is None:
             self.next_k = -(-stamp_ns // self.step_ns)   # the first grid point at or after the first report

@@ -387,7 +387,11 @@ def grid_rows(table: Telemetry, inertia: float, control_period: float = 0.1, max
     for k in np.flatnonzero(~np.isnan(table.speed).all(axis=1)):
         stamp = int(table.stamps_ns[k])
         while c < commands.size and table.stamps_ns[commands[c]] <= stamp:
-            grid.add_command(int(table.stamps_ns[commands[c]]), table.command[commands[c]])
+            yield from grid.add_command(int(table.stamps_ns[commands[c]]), table.command[commands[c]])
             c += 1
         torque = None if table.torque is None or np.isnan(table.torque[k]).any() else table.torque[k]
         yield from grid.add_speed(stamp, table.speed[k], torque)
+    while c < commands.size:
+        yield from grid.add_command(int(table.stamps_ns[commands[c]]), table.command[commands[c]])
+        c += 1
+    yield from grid.flush()
