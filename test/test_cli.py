@@ -12,7 +12,7 @@ SHARED = {"--persistence": ["run", "evaluate", "screen", "fit-thresholds", "repr
           # the benches take a --jobs of their own
           "--jobs": ["campaign", "evaluate", "reproduce", "defaults", "screen", "fit-thresholds", "train"],
           "--observer": ["run", "evaluate", "screen", "fit-thresholds", "train"],
-          "--false-alarm-rate": ["fit-thresholds", "defaults"]}
+          "--false-alarm-rate": ["fit-thresholds", "defaults", "telemetry"]}
 
 
 # the options several benches share, and the benches that read each

@@ -52,8 +52,10 @@ def test_a_gap_longer_than_max_gap_leaves_its_grid_points_unknown_then_resumes()
     rows = feed(ControlGrid(0.1, J, max_gap=0.5), stamps)
     by_t = {round(row[0] * 1e-9, 1): row for row in rows}
     assert all(np.isnan(by_t[x][2]).all() and np.isnan(by_t[x][3]).all() for x in (2.0, 2.5, 3.0))
-    assert 3.1 not in by_t   # the first point after it has no step behind it for r
+    assert np.isnan(by_t[3.1][2]).all()   # the first point after it has no step behind it for r: unknown too
     assert np.allclose(by_t[3.2][2], -J * np.array([A, -2 * A]))
+    times = [row[0] for row in rows]
+    assert times == sorted(set(times)) and np.allclose(np.diff(times), 1e8)   # every point once, none skipped
 
 
 def test_the_fdi_sample_of_a_gap_is_not_finite_and_the_next_ones_are():

@@ -111,20 +111,27 @@ pub = node.create_publisher(JointState, "/wheels", T.RELIABLE)
 deadline = time.monotonic() + 60
 while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
     rclpy.spin_once(node, timeout_sec=0.1)
-for k in range(50):   # a position-only stream
-    pub.publish(JointState(name=sys.argv[1].split(","), position=[0.0] * 4))
+stamped = int(sys.argv[2])
+for k in range(1, 51):   # stamped: positions only; unstamped: speeds, every stamp 0
+    msg = JointState(name=sys.argv[1].split(","), position=[0.0] * 4, velocity=[] if stamped else [1.0] * 4)
+    msg.header.stamp.sec = k * stamped
+    pub.publish(msg)
     time.sleep(0.1)
 """
 
 
-def test_a_stream_without_wheel_speeds_stops_the_node_with_one_line():
-    """A JointState on /wheels with positions only (no velocity): the node says so in one line, exit 2."""
-    joints, message = "rw1,rw2,rw3,rw4", "/wheels: 0 velocity values for 4 joints"
+@pytest.mark.parametrize("stamped, message", [
+    (1, "/wheels: 0 velocity values for 4 joints"),
+    (0, "/wheels: 10 messages whose header stamps do not advance (at 0 s; unstamped?)"),
+])
+def test_a_stream_without_wheel_speeds_or_stamps_stops_the_node_with_one_line(stamped, message):
+    """A JointState on /wheels with positions only, or without a stamp: the node says so in one line, exit 2."""
+    joints = "rw1,rw2,rw3,rw4"
     with DomainLease() as lease:
         procs = GraphProcesses(attach_nodes(joint_names=tuple(joints.split(",")))[:1], lease.domain_id,
                                Path(tempfile.mkdtemp(prefix="rw_fdi_test_")))
         procs.start()
-        source = subprocess.Popen([sys.executable, "-c", BAD_STREAM, joints], env=procs.env,
+        source = subprocess.Popen([sys.executable, "-c", BAD_STREAM, joints, str(stamped)], env=procs.env,
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         try:
             code = procs.procs["wheel_telemetry"].wait(timeout=90)

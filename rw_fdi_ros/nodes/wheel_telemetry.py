@@ -33,6 +33,9 @@ from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, rela
 from ..graph.wheel_type import declare_wheel_type
 
 
+STALLED = 10   # messages in a row whose stamps do not advance: an unstamped stream, said in one line
+
+
 class WheelTelemetryNode(GraphNode):
     node_name = "wheel_telemetry"
 
@@ -55,9 +58,11 @@ class WheelTelemetryNode(GraphNode):
             raise NodeError(f"parameter joint_names: {len(names)} distinct names for the wheel set's "
                             f"{', '.join(names)}, got {joints}", EXIT_BAD_INPUT)
         fdi_period, step = self.param("fdi_period"), self.param("control_period")
-        if not 0.0 < step <= fdi_period or abs(fdi_period / step - round(fdi_period / step)) > 1e-9:
-            raise NodeError("parameter control_period must divide fdi_period", EXIT_BAD_INPUT)
+        # in whole nanoseconds, as the grid's points are: 1/3 s never lands on a 1-s FDI stamp
+        if round(fdi_period * 1e9) % round(step * 1e9) or step > fdi_period:
+            raise NodeError("parameter control_period must divide fdi_period in whole nanoseconds", EXIT_BAD_INPUT)
         self.names, self.joints = names, tuple(joints)
+        self.stamps = {}   # topic -> (its newest stamp [ns], messages in a row that did not advance it)
         self.grid = ControlGrid(step, wheel.inertia, self.param("max_gap"))
         self.telemetry = TelemetrySampler(fdi_period, "mean", wheel, identification=True)
         self.pub_fdi = GatedPublisher(self.create_publisher(JointState, T.FDI_TELEMETRY, T.RELIABLE),
@@ -84,13 +89,26 @@ class WheelTelemetryNode(GraphNode):
             return None
         return np.array([by_name[j] for j in self.joints], float)
 
+    def _stamped(self, msg, topic: str) -> bool:
+        """Whether the message's stamp advances its stream: speed and command are paired by their stamps, so a
+        stream whose stamps stand still (unstamped: all 0) stops the node after STALLED messages."""
+        stamp = stamp_ns(msg.header.stamp)
+        last, stalled = self.stamps.get(topic, (None, 0))
+        stalled = stalled + 1 if last is not None and stamp <= last else 0
+        self.stamps[topic] = (max(stamp, last if last is not None else stamp), stalled)
+        if stalled >= STALLED:
+            self.fail(f"{self.resolve_topic_name(relative(topic))}: {STALLED} messages whose header stamps do not "
+                      f"advance (at {stamp * 1e-9:g} s; unstamped?): speed and command are paired by their stamps",
+                      EXIT_BAD_INPUT)
+        return stalled == 0
+
     def _on_command(self, msg):
-        tcv = self._ordered(msg, "effort", T.WHEEL_COMMAND)
+        tcv = self._ordered(msg, "effort", T.WHEEL_COMMAND) if self._stamped(msg, T.WHEEL_COMMAND) else None
         if tcv is not None:
             self._send(self.grid.add_command(stamp_ns(msg.header.stamp), tcv))
 
     def _on_wheels(self, msg):
-        speed = self._ordered(msg, "velocity", T.WHEELS)
+        speed = self._ordered(msg, "velocity", T.WHEELS) if self._stamped(msg, T.WHEELS) else None
         if speed is None:
             return
         torque = self._ordered(msg, "effort", T.WHEELS) if msg.effort else None   # optional: r from the speed
@@ -109,7 +127,7 @@ class WheelTelemetryNode(GraphNode):
             self.last_handled = report.stamp_ns
 
     def poll(self):
-        if getattr(self, "_run_end", None) is not None:   # the source said its end: nothing more will come
+        if getattr(self, "_run_end", None) is not None or self.run_ended():   # the source ended (or left)
             self._send(self.grid.flush())
         if self.pub_grid.flush() and self.pub_fdi.flush() and self.run_ended():
             self.finish()

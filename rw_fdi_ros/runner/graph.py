@@ -208,7 +208,11 @@ def attach_nodes(vehicle: str | None = None, fdi=None, joint_names=(), max_gap: 
         **({"joint_names": list(joint_names)} if joint_names else {}),
         **({"max_gap": float(max_gap)} if max_gap is not None else {}),
         **({"wheel_type": wheel_type} if wheel_type else {})})
-    fdi_graph = fdi_nodes(FdiConfig.of(fdi or {}), choices, wheel_type=wheel_type)
+    fdi = FdiConfig.of(fdi or {})
+    if vehicle and Path(vehicle).is_dir() and not (fdi.models or fdi.thresholds):
+        from dataclasses import replace
+        fdi = replace(fdi, models=str(Path(vehicle).resolve()))   # a vehicle's FDI directory judges with its FDI
+    fdi_graph = fdi_nodes(fdi, choices, wheel_type=wheel_type)
     return checked_strings(with_reader_counts([telemetry, *fdi_graph]))
 
 

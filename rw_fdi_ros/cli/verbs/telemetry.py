@@ -2,7 +2,7 @@
 NAME = "telemetry"
 HELP = ("a telemetry table of any wheels (CSV or Parquet: time, <joint>.speed, <joint>.command, optional torque and "
         "ground truth, units in the header) checked, then judged by the vehicle's FDI (docs/telemetry.md)")
-PARENTS = ("fdi_files", "decision")
+PARENTS = ("fdi_files", "decision", "false_alarms")   # --false-alarm-rate: with --fit, per segment
 
 
 def add_arguments(parser) -> None:
@@ -21,10 +21,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--fit", default=None, metavar="DIR",
                         help="the table is healthy: fit the bands on it into DIR (then judge with --thresholds DIR); "
                              "refused, with what it needs, on too little of it")
-    parser.add_argument("--false-alarm-rate", type=number(float, 0, 1, low_open=True), default=None,
-                        help="with --fit: the per-segment false-alarm probability designed (default 0.001: 60 "
-                             "segments on three wheels)")
-    parser.add_argument("--segment", type=number(float, 50.0), default=400.0, metavar="SECONDS",
+    parser.add_argument("--segment", type=number(int, 50), default=400, metavar="SECONDS",
                         help="with --fit: the length of a fitting run (default %(default)g, the shipped bands')")
     parser.add_argument("--out", default=None, metavar="DIR",
                         help="write telemetry.json, telemetry_samples.csv (one row per FDI sample and wheel) and "

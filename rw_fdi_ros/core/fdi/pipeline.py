@@ -349,7 +349,8 @@ class FdiPipeline:
             stamp whose sample is not finite (not judged).
         """
         sample = self.sampler.add(stamp_ns, tcv, reaction_torque, wheel_speed)
-        if sample is None or not np.isfinite(sample.reaction_torque).all():
+        if sample is None or not all(np.isfinite(x).all() for x in (sample.tcv, sample.reaction_torque,
+                                                                    sample.wheel_speed)):
             # a period without reports (wheel_reports: NaN) is not judged: the observers' states wait for the next,
             # as the observer nodes do with a sample that is not finite
             return None

@@ -56,6 +56,7 @@ class ControlGrid:
         self.hold_ns = int(round(hold * 1e9))
         self.waiting = []         # speed reports (stamp_ns, Omega, r or None) not yet put on the grid
         self.report = None        # the newest speed report put on the grid
+        self.after_gap = False    # the grid point before next_k was unknown (a gap)
         self.commands = []        # (stamp_ns, u) not yet superseded for the grid points to come
         self.next_k = None        # the next grid point to give
         self.previous = None      # Omega at the grid point before next_k (None: not known)
@@ -151,10 +152,12 @@ class ControlGrid:
         """The row of grid point t (next_k), from Omega(t) and a reported r(t) (None: from the speed)."""
         self.next_k += 1
         previous, self.previous = self.previous, omega
+        after_gap, self.after_gap = self.after_gap, False
         u = self._command(t)
         if measured is None:
-            if previous is None:
-                return []   # the first grid point: no step behind it yet
+            if previous is None:   # no step behind it: the stream's first point, or the first after a gap
+                nan = np.full(np.shape(omega), np.nan)
+                return [(t, u, nan, nan)] if after_gap and u is not None else []
             measured = -self.inertia * (omega - previous) / (self.step_ns * 1e-9)
             omega = 0.5 * (previous + omega)   # the step's mean torque is the model's at its mid speed
         if u is None:
@@ -163,7 +166,7 @@ class ControlGrid:
 
     def _unknown(self, t: int, shape) -> tuple:
         self.next_k += 1
-        self.previous = None   # the next derivative needs two known points
+        self.previous, self.after_gap = None, True   # the next derivative needs two known points
         u = self._command(t)
         nan = np.full(shape, np.nan)
         return t, (nan if u is None else u), nan, nan

@@ -78,8 +78,9 @@ def end_interrupted():
     An interrupt that lands in a map's consumer (writing a journal, a progress bar) leaves the map's generator
     suspended, often in a reference cycle: its ``finally`` would run only after the interpreter's exit had
     waited for every queued call (a bench "hung" on Ctrl-C until it was done)."""
-    while _LIVE_POOLS:
-        _end_pool(_LIVE_POOLS.pop())
+    for pool in list(_LIVE_POOLS):   # a map's own finally may discard its pool meanwhile
+        _LIVE_POOLS.discard(pool)
+        _end_pool(pool)
 
 
 def _end_pool(pool):

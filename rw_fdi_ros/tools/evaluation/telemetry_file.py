@@ -98,7 +98,7 @@ def read_table(path, joints=None) -> Telemetry:
         if not any(present):
             return None
         return np.stack([columns.get((j, quantity), np.full(len(time), np.nan)) for j in joints], axis=1)
-    return Telemetry(str(path), joints, time.astype(np.int64), stacked("speed"), stacked("command"),
+    return Telemetry(str(path), joints, np.round(time).astype(np.int64), stacked("speed"), stacked("command"),
                      stacked("torque"), stacked("fault"), units)
 
 
@@ -111,9 +111,16 @@ def _columns(path: Path) -> tuple:
             raise TelemetryError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow), or give a CSV") \
                 from None
         table = pq.read_table(path)
-        return list(table.column_names), np.column_stack([table.column(c).to_numpy(zero_copy_only=False)
-                                                          .astype(float) for c in table.column_names])
-    with open(path, newline="") as fh:
+        if table.num_rows == 0:
+            raise TelemetryError(f"{path}: a header and no rows")
+        columns = []
+        for c in table.column_names:
+            try:
+                columns.append(table.column(c).to_numpy(zero_copy_only=False).astype(float))
+            except (ValueError, TypeError):
+                raise TelemetryError(f"{path}: column {c!r} is not numbers") from None
+        return list(table.column_names), np.column_stack(columns)
+    with open(path, newline="", encoding="utf-8-sig") as fh:   # a spreadsheet's byte-order mark is no column
         reader = csv.reader(fh)
         names = next(reader, None)
         if not names:
@@ -156,6 +163,10 @@ def check(table: Telemetry, wheel, fdi_period: float = 1.0, max_gap: float = 2.5
               "fault": 1.0}
     t = table.stamps_ns * 1e-9
     out = {"duration_s": float(t[-1] - t[0]), "rows": int(t.size), "channels": {}, "problems": []}
+    partial = int(np.sum(np.isnan(table.speed).any(axis=1) & ~np.isnan(table.speed).all(axis=1)))
+    if partial:
+        out["problems"].append(f"{partial} rows give the speeds of some wheels only: a speed row must give every "
+                               "wheel's (those rows are not read)")
     for quantity in ("speed", "command", "torque", "fault"):
         values = getattr(table, quantity)
         if values is None:
@@ -214,7 +225,7 @@ def judge(table: Telemetry, vehicle=None, fdi=None, control_period: float = 0.1,
         raise TelemetryError(f"{table.path}: {len(table.joints)} wheels ({', '.join(table.joints)}), the vehicle's "
                              f"wheel set {len(names)} ({', '.join(names)}): give --joints in its order")
     fdi_period = 1.0
-    loaded = (fdi or FdiConfig()).for_vehicle(v.name if vehicle is None else str(vehicle)).loaded(fdi_period)
+    loaded = (fdi or FdiConfig()).for_vehicle(v.name).loaded(fdi_period)
     pipeline = FdiPipeline(names, loaded, 1, fdi_period, identification=True, wheel=v.wheel)
     samples, skipped = [], []
     for t, u, r, w in grid_rows(table, v.wheel.inertia, control_period, max_gap):
@@ -222,10 +233,9 @@ def judge(table: Telemetry, vehicle=None, fdi=None, control_period: float = 0.1,
             if t % int(fdi_period * 1e9) == 0:   # an FDI stamp without a judged sample: a gap in the reports
                 skipped.append(t * 1e-9)
             continue
-        rows_of, decided = pipeline.rows[0]
-        decision = next(iter(rows_of))
+        _, decided = pipeline.rows[0]
         for i, a in enumerate(names):
-            residual, threshold, _, _ = rows_of[decision][a]
+            residual, threshold = decided[a][0], decided[a][1]   # the decision's: its residual against its band
             samples.append({"time_s": t * 1e-9, "wheel": a, "speed": float(w[i]), "residual": float(residual),
                             "threshold": float(threshold), "alarm": bool(decided[a][2])})
     identified = pipeline.identified[0]
@@ -369,7 +379,7 @@ def fit(table: Telemetry, out, vehicle=None, fdi=None, false_alarm_rate: float |
                              f"fitting runs of {segment:g} s; a per-run false-alarm rate of {rate:g} on "
                              f"{len(v.wheel_set.active)} wheels needs {needed} ({needed * segment / 3600:.1f} h), "
                              "or ask for a higher --false-alarm-rate")
-    config = (fdi or FdiConfig()).for_vehicle(v.name if vehicle is None else str(vehicle))
+    config = (fdi or FdiConfig()).for_vehicle(v.name)
     runs = [samples_from_rows(piece, seed=k, wheels=names, wheel_params=v.wheel) for k, piece in enumerate(pieces)]
     line = f"vehicle: {json.dumps(str(vehicle))}\n" if vehicle else ""
     plant = parse_scenario(f"name: telemetry\nduration: 1.0\n{line}").plant_choices().as_dict()
@@ -382,16 +392,19 @@ def grid_rows(table: Telemetry, inertia: float, control_period: float = 0.1, max
     """The table's reports on the control grid, as the wheel_telemetry node puts them: (t_k [ns], u, r, Omega)
     (core/fdi/wheel_reports.ControlGrid; NaN where the reports leave a point unknown)."""
     grid = ControlGrid(control_period, inertia, max_gap)
+    # a command row may name some wheels only: each wheel holds its last command (the driver does)
+    held = table.command.copy()
+    for k in range(1, len(held)):
+        held[k] = np.where(np.isnan(held[k]), held[k - 1], held[k])
+    commands = [k for k in np.flatnonzero(~np.isnan(table.command).all(axis=1)) if np.isfinite(held[k]).all()]
     c = 0
-    commands = np.flatnonzero(~np.isnan(table.command).all(axis=1))
-    for k in np.flatnonzero(~np.isnan(table.speed).all(axis=1)):
+    for k in np.flatnonzero(np.isfinite(table.speed).all(axis=1)):   # a speed row names every wheel (check)
         stamp = int(table.stamps_ns[k])
-        while c < commands.size and table.stamps_ns[commands[c]] <= stamp:
-            yield from grid.add_command(int(table.stamps_ns[commands[c]]), table.command[commands[c]])
+        while c < len(commands) and table.stamps_ns[commands[c]] <= stamp:
+            yield from grid.add_command(int(table.stamps_ns[commands[c]]), held[commands[c]])
             c += 1
         torque = None if table.torque is None or np.isnan(table.torque[k]).any() else table.torque[k]
         yield from grid.add_speed(stamp, table.speed[k], torque)
-    while c < commands.size:
-        yield from grid.add_command(int(table.stamps_ns[commands[c]]), table.command[commands[c]])
-        c += 1
+    for k in commands[c:]:
+        yield from grid.add_command(int(table.stamps_ns[k]), held[k])
     yield from grid.flush()
