@@ -40,6 +40,7 @@ setup(
         "train": ["torch==2.13.0"],              # rw-fdi train, reproduce: the Elman observers' training
         "cluster": ["dask", "distributed"],      # --scheduler: campaigns, evaluate and reproduce on a Dask cluster
         "live": ["foxglove-sdk", "websockets"],  # rw-fdi run --live, launch live:=PORT: the run in Foxglove
+        "parquet": ["pyarrow"],                  # rw-fdi telemetry on a Parquet table (CSV needs nothing)
         "test": ["pytest", "hypothesis", "websockets"],   # `colcon test` runs pytest; websockets: a Foxglove client
     },
     zip_safe=True,

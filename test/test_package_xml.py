@@ -11,8 +11,10 @@ ROOT = Path(__file__).resolve().parents[1]
 KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml", "torch": "python3-torch",
         "rosbags": "python3-rosbags-pip", "mcap": "mcap-ros2-support", "mcap_ros2": "mcap-ros2-support",
         "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "jsonschema": "python3-jsonschema",
-        "rclpy": "rclpy", "ament_index_python": "ament_index_python", "dask": None, "distributed": None,
-        "sgp4": None, "ppigrf": None, "foxglove": None, "websockets": "python3-websockets"}
+        "rclpy": "rclpy", "ament_index_python": "ament_index_python", "launch": "launch", "launch_ros": "launch_ros",
+        "dask": None, "distributed": None,
+        "sgp4": None, "ppigrf": None, "foxglove": None, "websockets": "python3-websockets",
+        "pyarrow": None}
 
 
 def imported_modules() -> set:
@@ -54,7 +56,8 @@ def test_setup_py_declares_what_the_code_imports_and_the_extras_the_rest():
     extras = {r.split("=")[0].lower() for group in kw["extras_require"].values() for r in group}
     pip_name = {"yaml": "pyyaml", "mcap_ros2": "mcap-ros2-support", "foxglove": "foxglove-sdk"}
     for name in sorted(imported_modules()):
-        if name.endswith(("_msgs", "_srvs", "_interfaces")) or name in ("rclpy", "ament_index_python"):
-            continue   # the ROS install's (requirements.txt: the ros-kilted-* wheels)
+        if name.endswith(("_msgs", "_srvs", "_interfaces")) or name in ("rclpy", "ament_index_python", "launch",
+                                                                          "launch_ros"):
+            continue   # the ROS install's (requirements.txt: the ros-kilted-* wheels; launch: the launch files')
         assert pip_name.get(name, name) in installed | extras, f"setup.py: declare {name}"
     assert {"torch", "dask", "distributed"} <= extras

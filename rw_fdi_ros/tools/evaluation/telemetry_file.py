@@ -105,12 +105,8 @@ def read_table(path, joints=None) -> Telemetry:
 def _columns(path: Path) -> tuple:
     """(header names, (n, k) float array with NaN for empty cells) of a CSV or Parquet table."""
     if path.suffix.lower() == ".parquet":
-        try:
-            import pyarrow.parquet as pq
-        except ImportError:
-            raise TelemetryError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow), or give a CSV") \
-                from None
-        table = pq.read_table(path)
+        from ...extras import require
+        table = require("pyarrow.parquet", "parquet").read_table(path)   # one line naming the extra without it
         if table.num_rows == 0:
             raise TelemetryError(f"{path}: a header and no rows")
         columns = []
