@@ -14,7 +14,8 @@ def _installed(name: str) -> bool:
     """A real package ``name``, not a namespace package of a folder that happens to be called so (this
     repository's own launch/ folder is one, seen from its root)."""
     spec = importlib.util.find_spec(name)
-    return spec is not None and spec.origin not in (None, "namespace")
+    # the shared sources on sys.path (use_launch, an earlier test) are not an install: a subprocess needs them too
+    return spec is not None and spec.origin not in (None, "namespace") and SHARED not in Path(spec.origin).parents
 
 
 def launch_path() -> list:

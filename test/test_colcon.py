@@ -13,7 +13,8 @@ from colcon_ws import BIN, ROOT, colcon_env, sourced
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
 
 NODES = ["composed", "elman_observer", "isolation", "linear_observer", "model_observer", "momentum_dumping",
-         "pid_controller", "plant", "player", "recorder", "wheel_allocation", "live_view", "plugin_observer"]
+         "pid_controller", "plant", "player", "recorder", "wheel_allocation", "live_view", "plugin_observer",
+         "wheel_telemetry"]
 # the fast subset `colcon test` runs here (docs/running.md: the whole suite is plain `colcon test`)
 FAST_TESTS = ["test/test_convert.py", "test/test_wheel.py", "test/test_plant_choices.py", "test/test_detection.py"]
 SHORT_FAULT = """name: short_loss
