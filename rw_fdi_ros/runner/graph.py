@@ -197,10 +197,8 @@ def attach_nodes(vehicle: str | None = None, fdi=None, joint_names=(), max_gap: 
     list of NodeSpec
         wheel_telemetry, the observers and the isolation node, told their reader counts.
     """
-    import json
-    from ..core.mission.scenario import parse_scenario
-    vehicle_line = f"vehicle: {json.dumps(str(vehicle))}\n" if vehicle else ""
-    scenario = parse_scenario(f"name: attached\nduration: 1.0\n{vehicle_line}", origin=f"vehicle {vehicle}")
+    from ..core.mission.scenario import vehicle_scenario
+    scenario = vehicle_scenario(vehicle, duration=1.0)
     choices = scenario.plant_choices()
     wheel_type = wheel_parameter(scenario.spacecraft.wheel, scenario.spacecraft.wheel_type)
     telemetry = NodeSpec("wheel_telemetry", "wheel_telemetry", {

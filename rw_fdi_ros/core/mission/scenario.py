@@ -764,6 +764,29 @@ def available_scenarios():
     return sorted(p.stem for p in scenario_dir().glob("*.yaml"))
 
 
+def vehicle_scenario(vehicle=None, duration: float = 400.0) -> Scenario:
+    """A fault-free run of ``vehicle`` through the scenario file's own checks (its wheel set, plant choices and
+    dispersions): what a bench flies, and what the FDI of a vehicle's own wheels runs under.
+
+    Parameters
+    ----------
+    vehicle : str or None
+        A shipped vehicle's name, a vehicle file or a vehicle's FDI directory; None: the thesis' MakSat.
+    duration : float
+        [s] the run's length.
+
+    Returns
+    -------
+    Scenario
+        The run, named after the vehicle.
+    """
+    import json
+    from .vehicle import load_vehicle
+    name = load_vehicle(vehicle).name
+    line = f"vehicle: {json.dumps(str(vehicle))}\n" if vehicle else ""
+    return parse_scenario(f"name: {name}\n{line}duration: {duration!r}\n", origin=f"vehicle {name}")
+
+
 def load_scenario(name_or_path: str) -> Scenario:
     """A scenario by file path or by name in config/scenarios/.
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.physics.environment import OrbitEnvironment
-from ...core.mission.scenario import Fault, Manoeuvres, Scenario, parse_scenario
+from ...core.mission.scenario import Fault, Manoeuvres, Scenario, vehicle_scenario as core_vehicle_scenario
 from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle, shipped_vehicles
 from ...core.physics.wheel import NOMINAL
 from ...core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
@@ -96,9 +96,7 @@ def vehicle_scenario(vehicle: str) -> Scenario:
     """A 400-s run of ``vehicle`` (a shipped name or a vehicle's FDI directory) through the scenario file's own
     checks (its wheel set, plant choices and dispersions): what a bench's cells fly on another vehicle than the
     thesis'."""
-    name = load_vehicle(vehicle).name
-    return parse_scenario(f"name: {name}\nvehicle: {json.dumps(str(vehicle))}\nduration: 400.0\n",
-                          origin=f"vehicle {name}")
+    return core_vehicle_scenario(vehicle)
 
 
 def vehicle_words(vehicle: str) -> str:

@@ -357,7 +357,7 @@ def fit(table: Telemetry, out, vehicle=None, fdi=None, false_alarm_rate: float |
     from ...core.fdi.detection import FALSE_ALARM_RATE
     from ...core.fdi.telemetry import TelemetrySampler
     from ...core.fdi.threshold_fit import fitting_runs_needed
-    from ...core.mission.scenario import parse_scenario
+    from ...core.mission.scenario import vehicle_scenario
     from ...core.mission.vehicle import load_vehicle
     from ..design.offline import fit_thresholds, load_models
     from ..design.samples import samples_from_rows
@@ -377,8 +377,7 @@ def fit(table: Telemetry, out, vehicle=None, fdi=None, false_alarm_rate: float |
                              "or ask for a higher --false-alarm-rate")
     config = (fdi or FdiConfig()).for_vehicle(v.name)
     runs = [samples_from_rows(piece, seed=k, wheels=names, wheel_params=v.wheel) for k, piece in enumerate(pieces)]
-    line = f"vehicle: {json.dumps(str(vehicle))}\n" if vehicle else ""
-    plant = parse_scenario(f"name: telemetry\nduration: 1.0\n{line}").plant_choices().as_dict()
+    plant = vehicle_scenario(vehicle, duration=1.0).plant_choices().as_dict()
     bands = fit_thresholds(runs, load_models(config.models_dir), out, model_ref=str(config.models_dir),
                            false_alarm_rate=rate, plant=plant)
     return {**bands, "segments": len(pieces)}
