@@ -23,6 +23,13 @@ def test_emf_current_limit_worked_figures(emf_limit, expected):
     np.testing.assert_allclose(got, expected, atol=0.006)
 
 
+def test_emf_current_limit_without_input_resistance_is_the_linear_limit():
+    # R_IN = 0 (a wheel whose bus has no input filter, Basilisk's HR16 file): R_B I + k_e w = K_f (V_bus - diode)
+    params = wm.WheelParams(input_resistance=0.0)
+    got = wm.emf_current_limit(np.array([8.0, 5.0]), np.array([20.0, 300.0]), params)
+    np.testing.assert_allclose(got, [(0.5 * 7.0 - 0.029 * 20.0) / 2.0, 0.0], rtol=1e-12)
+
+
 def test_emf_limit_zero_without_headroom_and_only_when_motoring():
     assert wm.emf_current_limit(4.0, 25.0) == 0.0            # kf_scaled at 4 V: no positive root
     # generating (current against speed) is never EMF-limited

@@ -2,13 +2,15 @@
 NAME = "telemetry"
 HELP = ("a telemetry table of any wheels (CSV or Parquet: time, <joint>.speed, <joint>.command, optional torque and "
         "ground truth, units in the header) checked, then judged by the vehicle's FDI (docs/telemetry.md)")
-PARENTS = ("fdi_files", "decision", "false_alarms")   # --false-alarm-rate: with --fit, per segment
+PARENTS = ("fdi_files", "decision", "false_alarms", "jobs")   # --false-alarm-rate: with --fit, per segment
 
 
 def add_arguments(parser) -> None:
     from ..options import number
-    parser.add_argument("table", help="the table: 'time [s]', '<joint>.speed [rad/s|rpm]', '<joint>.command [V]', "
-                                      "optionally '<joint>.torque [N m|mN m]' and '<joint>.fault [1]'")
+    parser.add_argument("table", nargs="+",
+                        help="the table: 'time [s]', '<joint>.speed [rad/s|rpm]', '<joint>.command [V]', optionally "
+                             "'<joint>.torque [N m|mN m]' and '<joint>.fault [1]'; several, or a directory of them: "
+                             "one run each, judged and scored as a campaign")
     parser.add_argument("--vehicle", default=None, metavar="NAME|DIR|FILE",
                         help="the spacecraft whose wheels these are: a shipped name, a vehicle file or its FDI "
                              "directory (default: the thesis' MakSat)")
@@ -23,6 +25,11 @@ def add_arguments(parser) -> None:
                              "refused, with what it needs, on too little of it")
     parser.add_argument("--segment", type=number(int, 50), default=400, metavar="SECONDS",
                         help="with --fit: the length of a fitting run (default %(default)g, the shipped bands')")
+    parser.add_argument("--train-runs", type=number(int, 0), default=None, metavar="N",
+                        help="with --fit: segments that train the vehicle's Elman networks first (default: 0 where "
+                             "the vehicle has networks, else 20)")
+    parser.add_argument("--epochs", type=number(int, 1), default=None, metavar="N",
+                        help="with --train-runs: training epochs (default 1000)")
     parser.add_argument("--out", default=None, metavar="DIR",
                         help="write telemetry.json, telemetry_samples.csv (one row per FDI sample and wheel) and "
                              "telemetry.png (residuals against their bands) there")
@@ -31,29 +38,60 @@ def add_arguments(parser) -> None:
 def main(args) -> int:
     from ..options import fdi_config
     from ...core.mission.vehicle import load_vehicle
+    from ...tools.evaluation.telemetry_campaign import table_paths
     from ...tools.evaluation.telemetry_file import check, format_check, format_verdict, judge, read_table, write_files
     joints = [j.strip() for j in args.joints.split(",")] if args.joints else None
     vehicle = load_vehicle(args.vehicle)   # one line naming the field, before the table is read
-    table = read_table(args.table, joints)
-    checked = check(table, vehicle.wheel, max_gap=args.max_gap)
-    print(format_check(table, checked))
-    if args.check:
-        return 0 if not checked["problems"] else 1
+    paths = table_paths(args.table)
     fdi = fdi_config(args)
-    if args.fit:
-        from ...tools.evaluation.telemetry_file import fit
-        bands = fit(table, args.fit, args.vehicle, fdi, args.false_alarm_rate, args.segment, max_gap=args.max_gap)
-        print(f"bands fitted on {bands.pop('segments')} segments of {args.segment:g} s, written to {args.fit}:")
-        for observer, by_wheel in bands.items():
-            print(f"  {observer}: " + ", ".join(f"{a} {c * 1e3:.4g} mN m" for a, c in by_wheel.items()))
-        return 0
     if args.vehicle and not (args.models or args.thresholds) and _is_fdi_dir(args.vehicle):
         from dataclasses import replace
         fdi = replace(fdi, models=args.vehicle)   # a vehicle's FDI directory judges with its own FDI
-    verdict = judge(table, args.vehicle, fdi, max_gap=args.max_gap)
+    if len(paths) > 1 and not args.fit:
+        return _campaign(args, paths, joints, vehicle, fdi)
+    tables = [read_table(p, joints) for p in paths]
+    problems = 0
+    for table in tables:
+        checked = check(table, vehicle.wheel, max_gap=args.max_gap)
+        problems += len(checked["problems"])
+        if len(tables) == 1 or checked["problems"]:
+            print(format_check(table, checked))
+    if args.check:
+        if len(tables) > 1:
+            print(f"{len(tables)} tables checked, {problems} problems")
+        return 0 if not problems else 1
+    if args.fit:
+        from ...tools.evaluation.telemetry_file import fit
+        bands = fit(tables, args.fit, args.vehicle, fdi, args.false_alarm_rate, args.segment, max_gap=args.max_gap,
+                    train_runs=args.train_runs, epochs=args.epochs)
+        trained = bands.pop("trained_on")
+        print((f"networks trained on {trained} segments of {args.segment:g} s; " if trained else "")
+              + f"bands fitted on {bands.pop('segments')} segments of {args.segment:g} s, written to {args.fit}:")
+        for observer, by_wheel in bands.items():
+            print(f"  {observer}: " + ", ".join(f"{a} {c * 1e3:.4g} mN m" for a, c in by_wheel.items()))
+        if trained:
+            print(f"the vehicle's FDI: --vehicle {args.fit}")
+        return 0
+    verdict = judge(tables[0], args.vehicle, fdi, max_gap=args.max_gap)
     print(format_verdict(verdict))
     if args.out:
         for path in write_files(verdict, args.out):
+            print(f"wrote {path}")
+    return 0
+
+
+def _campaign(args, paths, joints, vehicle, fdi) -> int:
+    """Many tables: each judged and scored against its ground truth, the rates with their 95 % intervals."""
+    from tqdm import tqdm
+    from ..options import executor
+    from ...tools.evaluation.telemetry_campaign import format_summary, judge_campaign, summary, write_campaign
+    fdi.for_vehicle(vehicle.name).loaded(1.0)   # a missing FDI is one line before any table is judged
+    with tqdm(total=len(paths), desc="tables judged", unit="run", mininterval=1.0) as bar:
+        rows = judge_campaign(paths, joints, args.vehicle, fdi, args.max_gap, executor(args), bar.update)
+    s = summary(rows)
+    print(format_summary(s))
+    if args.out:
+        for path in write_campaign(rows, s, args.out):
             print(f"wrote {path}")
     return 0
 

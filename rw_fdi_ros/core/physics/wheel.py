@@ -151,7 +151,8 @@ def emf_current_limit(bus_voltage, speed, params: WheelParams = WheelParams()):
     b = vd * p.bridge_resistance + g * p.input_resistance * (0.04 * v_bus + p.emf_constant * w)
     c = vd * p.emf_constant * w - g * vd**2 + g * p.input_resistance * p.quiescent_power
     disc = np.maximum(b * b - 4.0 * a * c, 0.0)
-    root = (-b + np.sqrt(disc)) / (2.0 * a)
+    with np.errstate(divide="ignore", invalid="ignore"):   # a = 0 (R_IN = 0): the limit is linear, b I + c <= 0
+        root = np.where(a > 0.0, (-b + np.sqrt(disc)) / (2.0 * a), -c / b)
     return np.where(c < 0.0, root, 0.0)
 
 

@@ -327,60 +327,94 @@ def write_files(verdict: dict, out) -> list:
     return paths
 
 
-def fit(table: Telemetry, out, vehicle=None, fdi=None, false_alarm_rate: float | None = None,
-        segment: float = 400.0, control_period: float = 0.1, max_gap: float = 2.5) -> dict:
-    """Bands fitted on a user's healthy telemetry, written to ``out`` for --thresholds: the table is cut into
-    ``segment``-s pieces, each a fitting run of the per-run false-alarm rate (the shipped bands' 400-s runs);
-    the vehicle's networks and observers as they are. Refused, with the amount it needs, on too little of it.
+def fit(tables, out, vehicle=None, fdi=None, false_alarm_rate: float | None = None, segment: float = 400.0,
+        control_period: float = 0.1, max_gap: float = 2.5, train_runs: int | None = None,
+        epochs: int | None = None) -> dict:
+    """The FDI fitted on a user's healthy telemetry, written to ``out``: each table is cut into ``segment``-s
+    pieces, each a fitting run of the per-run false-alarm rate (the shipped bands' 400-s runs). Where the
+    vehicle has no networks of its own (or ``train_runs`` asks), the first ``train_runs`` pieces train a
+    speed-aware Elman network per wheel, as `rw-fdi defaults` does on our plant, and ``out`` becomes the
+    vehicle's whole FDI (its vehicle.yaml, networks and bands: ``--vehicle out``); the bands are fitted on the
+    other pieces. Refused, with the amount it needs, on too little telemetry.
 
     Parameters
     ----------
-    table : Telemetry
-        Healthy telemetry, its joints in the vehicle's wheel set's order.
+    tables : Telemetry or list of Telemetry
+        Healthy telemetry (one table per run), joints in the vehicle's wheel set's order.
     out : str or Path
-        The thresholds directory written (thresholds_<observer>.json).
+        The FDI directory written (thresholds_<observer>.json; with training, networks and vehicle.yaml).
     vehicle : str, optional
         A shipped vehicle, a vehicle file or its FDI directory; None: the thesis' MakSat.
     fdi : FdiConfig, optional
-        Whose networks the Elman observers run (None: the vehicle's shipped FDI).
+        Whose networks the Elman observers run when none are trained (None: the vehicle's shipped FDI).
     false_alarm_rate : float, optional
         The designed per-segment false-alarm probability (None: the fitting's default, 0.001).
     segment : float
         [s] the length of a fitting run.
+    train_runs : int, optional
+        Pieces that train the networks (None: 0 where the vehicle has networks, else TRAIN_RUNS).
+    epochs : int, optional
+        Training epochs (None: the training's default).
 
     Returns
     -------
     dict
-        observer -> wheel -> band c [N m], and ``segments`` fitted on.
+        observer -> wheel -> band c [N m]; ``segments`` fitted on and ``trained_on`` (pieces, 0: none).
     """
+    import yaml
     from ...fdi_config import FdiConfig
     from ...core.fdi.detection import FALSE_ALARM_RATE
+    from ...core.fdi.elman import ModelError
     from ...core.fdi.telemetry import TelemetrySampler
     from ...core.fdi.threshold_fit import fitting_runs_needed
     from ...core.mission.scenario import vehicle_scenario
-    from ...core.mission.vehicle import load_vehicle
+    from ...core.mission.vehicle import load_vehicle, to_mapping
     from ..design.offline import fit_thresholds, load_models
     from ..design.samples import samples_from_rows
+    from ..design.train import EPOCHS, train_models
+    tables = [tables] if isinstance(tables, Telemetry) else list(tables)
     v = load_vehicle(vehicle)
     rate = false_alarm_rate or FALSE_ALARM_RATE
     names = v.wheel_set.names
-    sampler = TelemetrySampler(1.0, "mean", v.wheel, identification=False)
-    samples = [s for row in grid_rows(table, v.wheel.inertia, control_period, max_gap)
-               if (s := sampler.add(*row)) is not None and np.isfinite(s.reaction_torque).all()]
     n = int(segment)
-    pieces = [samples[i:i + n] for i in range(0, len(samples) - n + 1, n)]
-    needed = fitting_runs_needed(rate, 0.5, len(v.wheel_set.active))
-    if len(pieces) < needed:
-        raise TelemetryError(f"{table.path}: {len(samples)} s of judged healthy telemetry make {len(pieces)} "
-                             f"fitting runs of {segment:g} s; a per-run false-alarm rate of {rate:g} on "
-                             f"{len(v.wheel_set.active)} wheels needs {needed} ({needed * segment / 3600:.1f} h), "
-                             "or ask for a higher --false-alarm-rate")
+    pieces, seconds = [], 0
+    for table in tables:   # each table its own run: no piece spans two
+        sampler = TelemetrySampler(1.0, "mean", v.wheel, identification=False)
+        samples = [s for row in grid_rows(table, v.wheel.inertia, control_period, max_gap)
+                   if (s := sampler.add(*row)) is not None and np.isfinite(s.reaction_torque).all()]
+        seconds += len(samples)
+        pieces += [samples[i:i + n] for i in range(0, len(samples) - n + 1, n)]
     config = (fdi or FdiConfig()).for_vehicle(v.name)
+    if train_runs is None:
+        try:
+            config.load_models()
+            train_runs = 0
+        except ModelError:   # a vehicle nobody made an FDI for: its networks learn from this telemetry
+            train_runs = TRAIN_RUNS
+    needed = fitting_runs_needed(rate, 0.5, len(v.wheel_set.active))
+    if len(pieces) < needed + train_runs:
+        where = tables[0].path if len(tables) == 1 else f"{len(tables)} tables"
+        training = f" and {train_runs} more to train the networks on" if train_runs else ""
+        raise TelemetryError(f"{where}: {seconds} s of judged healthy telemetry make {len(pieces)} fitting runs of "
+                             f"{segment:g} s; a per-run false-alarm rate of {rate:g} on {len(v.wheel_set.active)} "
+                             f"wheels needs {needed}{training} ({(needed + train_runs) * segment / 3600:.1f} h), "
+                             "or ask for a higher --false-alarm-rate")
     runs = [samples_from_rows(piece, seed=k, wheels=names, wheel_params=v.wheel) for k, piece in enumerate(pieces)]
     plant = vehicle_scenario(vehicle, duration=1.0).plant_choices().as_dict()
-    bands = fit_thresholds(runs, load_models(config.models_dir), out, model_ref=str(config.models_dir),
-                           false_alarm_rate=rate, plant=plant)
-    return {**bands, "segments": len(pieces)}
+    out = Path(out)
+    if train_runs:
+        train, runs = runs[:train_runs], runs[train_runs:]
+        train_models(train, out, mode="recall", epochs=epochs or EPOCHS, plant=plant, speed_aware=True,
+                     calibration=train + runs, false_alarm_rate=rate)
+        (out / "vehicle.yaml").write_text(yaml.safe_dump(to_mapping(v), sort_keys=False))
+        models, reference = load_models(out), "model_set.json"
+    else:
+        models, reference = load_models(config.models_dir), str(config.models_dir)
+    bands = fit_thresholds(runs, models, out, model_ref=reference, false_alarm_rate=rate, plant=plant)
+    return {**bands, "segments": len(runs), "trained_on": train_runs}
+
+
+TRAIN_RUNS = 20   # pieces a vehicle's networks learn from when it has none (rw-fdi defaults trains on 40 runs)
 
 
 def grid_rows(table: Telemetry, inertia: float, control_period: float = 0.1, max_gap: float = 2.5):
