@@ -37,7 +37,7 @@ def judged(text: str, origin: str = "s.yaml"):
         message = str(exc)
         assert "\n" not in message and message.startswith(origin), message
         out = None
-    assert time.monotonic() - t0 < 1.0
+    assert time.monotonic() - t0 < 30.0   # a hang guard, not a speed goal (a loaded CI machine took > 1 s)
     return out
 
 

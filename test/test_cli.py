@@ -10,7 +10,7 @@ from rw_fdi_ros.core.fdi.detection import FALSE_ALARM_RATE
 SHARED = {"--persistence": ["run", "evaluate", "screen", "fit-thresholds", "reproduce", "telemetry"],
           "--models": ["run", "evaluate", "screen", "fit-thresholds", "telemetry"],
           # the benches take a --jobs of their own
-          "--jobs": ["campaign", "evaluate", "reproduce", "defaults", "screen", "fit-thresholds", "train"],
+          "--jobs": ["campaign", "evaluate", "reproduce", "defaults", "screen", "fit-thresholds", "train", "telemetry"],
           "--observer": ["run", "evaluate", "screen", "fit-thresholds", "train"],
           "--false-alarm-rate": ["fit-thresholds", "defaults", "telemetry"]}
 

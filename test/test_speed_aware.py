@@ -158,3 +158,30 @@ def test_a_band_is_fitted_only_from_enough_runs_for_the_rate_it_promises():
     with pytest.raises(ThresholdError, match=r"29 fitting run\(s\) cannot promise .* at least 30 fault-free runs"):
         fit_band(stats, false_alarm_rate=1e-3)
     assert set(fit_band(np.vstack([stats, stats[:1]]), false_alarm_rate=1e-3)) == {"x", "y", "z"}
+
+
+def test_a_tachometers_noise_telescopes_in_the_window_and_its_reach_bounds_it():
+    """Torques derived from noisy speeds, r_k = -J (Omega_k - Omega_(k-1)) / T: the window's mean carries
+    sqrt(2) J sigma / (n T) of the noise whatever the window (closed form), and the bound's s / n covers it at
+    3 sigma (residuals.speed_noise_reach)."""
+    from rw_fdi_ros.core.fdi.residuals import speed_noise_reach
+    from rw_fdi_ros.tools.evaluation.telemetry_file import speed_noise
+    wheel = wm.WheelParams(inertia=0.08, speed_noise=0.01)
+    reach = speed_noise_reach(wheel, 1.0)
+    assert reach == pytest.approx(3.0 * np.sqrt(2.0) * 0.08 * 0.01)
+    assert speed_noise_reach(wm.WheelParams(), 1.0) == 0.0   # exact speeds: the bound as before
+    rng = np.random.default_rng(3)
+    runs, n = 4000, 40
+    speeds = 100.0 + rng.normal(0.0, 0.01, (runs, n + 1))
+    torque = -0.08 * np.diff(speeds, axis=1)                  # T = 1 s, the healthy torque 0
+    window_means = torque.mean(axis=1)
+    assert np.std(window_means) == pytest.approx(np.sqrt(2.0) * 0.08 * 0.01 / n, rel=0.05)
+    f = SignedResidual(window=n, share=0.0, noise_reach=reach)
+    rows = [f.update(r, 0.0, 0j) for r in torque[0]]
+    assert rows[0][1] == pytest.approx(reach) and rows[-1][1] == pytest.approx(reach / n)
+    bounds = np.array([reach / k for k in range(1, n + 1)])
+    means = np.cumsum(torque, axis=1) / np.arange(1, n + 1)
+    assert np.mean(np.abs(means) > bounds) < 0.005            # 3 sigma: 0.27 % two-sided
+    # the check's estimate of sigma from the speeds' second differences
+    t = np.arange(2000) * 0.1
+    assert speed_noise(t, 50.0 + 0.3 * t + rng.normal(0.0, 0.01, t.size)) == pytest.approx(0.01, rel=0.1)

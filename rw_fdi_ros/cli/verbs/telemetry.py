@@ -6,7 +6,7 @@ PARENTS = ("fdi_files", "decision", "false_alarms", "jobs")   # --false-alarm-ra
 
 
 def add_arguments(parser) -> None:
-    from ..options import number
+    from ..options import COUNT, number
     parser.add_argument("table", nargs="+",
                         help="the table: 'time [s]', '<joint>.speed [rad/s|rpm]', '<joint>.command [V]', optionally "
                              "'<joint>.torque [N m|mN m]' and '<joint>.fault [1]'; several, or a directory of them: "
@@ -28,7 +28,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--train-runs", type=number(int, 0), default=None, metavar="N",
                         help="with --fit: segments that train the vehicle's Elman networks first (default: 0 where "
                              "the vehicle has networks, else 20)")
-    parser.add_argument("--epochs", type=number(int, 1), default=None, metavar="N",
+    parser.add_argument("--epochs", type=COUNT, default=None, metavar="N",
                         help="with --train-runs: training epochs (default 1000)")
     parser.add_argument("--out", default=None, metavar="DIR",
                         help="write telemetry.json, telemetry_samples.csv (one row per FDI sample and wheel) and "

@@ -25,7 +25,7 @@ from .identification import FaultIdentifier
 from .verdict import (WHEEL_SPEED_ENVELOPE, DecisionRule, LatchedVerdict, ObserverChannel, decision_of,
                         in_envelope, speed_envelope)
 from .observer_plugin import PluginRun
-from .residuals import SignedResidual, ripple_share
+from .residuals import SignedResidual, ripple_share, speed_noise_reach
 from .telemetry import TelemetrySampler
 from ..physics.wheel import WheelParams
 
@@ -252,7 +252,8 @@ class ObserverBank:
         self.estimators = {slot: make(batch) for slot, (make, _) in estimators.items()}
         self.filters = {slot: [[SignedResidual(share=ripple_share(wheel), uncertainty_gain=gains[i],
                                                calibration=UnitCalibration(fdi.calibration_samples, params=wheel)
-                                               if fdi.calibration_samples else None)
+                                               if fdi.calibration_samples else None,
+                                               noise_reach=speed_noise_reach(wheel, fdi_period))
                                 for i in range(len(names))] for _ in range(batch)]
                         for slot, (_, gains) in estimators.items()}
 

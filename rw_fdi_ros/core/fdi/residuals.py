@@ -46,23 +46,25 @@ class SignedResidual:
     """Speed-aware residual of one wheel: signed moving mean of r - r^ and what it may hold unfaulted.
 
     ``update(actual, estimate, ripple_phasor[, regressors])`` -> (residual, bound) with
-    bound = (B/2) g_max reach(p) / n + kappa mean(|r|) + z mean(u): the aliased ripple's largest
+    bound = (B/2) g_max reach(p) / n + kappa mean(|r|) + z mean(u) + s / n: the aliased ripple's largest
     contribution for any gain up to g_max that is constant or monotone over the window
     (:func:`ripple_reach`; ripple_phasor: the FDI sample's mean of tau_m e^{i N theta}, telemetry.py)
     plus the observer's own model error, which grows with the torque the wheel is asked for
     (``uncertainty_gain`` kappa: 0 for the nominal wheel model, measured on the training runs
     for an Elman network, tools/design/train.py), plus, with a ``calibration`` to the wheel's own unit
-    (core/fdi/calibration.py), the uncertainty u of its correction to the estimate.
+    (core/fdi/calibration.py), the uncertainty u of its correction to the estimate, plus, for a torque
+    derived from a noisy tachometer's speeds, its noise's reach s (:func:`speed_noise_reach`).
     """
 
     def __init__(self, window: int = WINDOW, share: float | None = None, ripple_gain_max: float = RIPPLE_GAIN_MAX,
-                 uncertainty_gain: float = 0.0, calibration=None):
+                 uncertainty_gain: float = 0.0, calibration=None, noise_reach: float = 0.0):
         self.errors = deque(maxlen=window)
         self.phasors = deque(maxlen=window)
         self.torques = deque(maxlen=window)
         self.spreads = deque(maxlen=window)
         self.scale = (ripple_share() if share is None else share) * ripple_gain_max
         self.kappa = float(uncertainty_gain)
+        self.noise_reach = float(noise_reach)
         self.calibration = calibration   # core.calibration.UnitCalibration, or None (the datasheet wheel)
         self.estimate = None             # the last estimate, calibrated: what the node publishes
 
@@ -102,8 +104,34 @@ class SignedResidual:
         n = len(self.errors)
         # sums over a deque of <= 40 values: exact, and no drift from running totals
         bound = (self.scale * ripple_reach(self.phasors) / n + self.kappa * sum(self.torques) / n
-                 + sum(self.spreads) / n)
+                 + sum(self.spreads) / n + self.noise_reach / n)
         return sum(self.errors) / n, bound
+
+
+def speed_noise_reach(params=None, period: float = 1.0) -> float:
+    """The reach s [N m] of a tachometer's noise in a window of torques derived from its speeds.
+
+    A torque derived from speeds, r_k = -J (Omega_k - Omega_(k-1)) / T, telescopes over the n samples of the
+    window: their mean is -J (Omega_k - Omega_(k-n)) / (n T), so speeds read with noise of sigma_Omega put
+    sqrt(2) J sigma_Omega / (n T) into the residual (1 sigma), whatever n. The bound takes
+    s / n = z sqrt(2) J sigma_Omega / (n T) with z = CALIBRATION_SIGMAS: wide on the window's first samples,
+    a fortieth of it once the window is full, where the band is fitted on what is left.
+
+    Parameters
+    ----------
+    params : WheelParams, optional
+        The wheel type: its ``inertia`` J and ``speed_noise`` sigma_Omega (None: the thesis', exact speeds).
+    period : float
+        [s] T, the FDI sample period.
+
+    Returns
+    -------
+    float
+        s [N m]; 0 for an exact tachometer.
+    """
+    if params is None:
+        return 0.0
+    return CALIBRATION_SIGMAS * np.sqrt(2.0) * params.inertia * params.speed_noise / period
 
 
 def ripple_reach(phasors) -> float:
@@ -196,7 +224,7 @@ def window_mean(values, window: int = WINDOW):
 
 
 def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW, uncertainty_gains=None,
-                           regressors=None, calibration_samples: int = 0, params=None):
+                           regressors=None, calibration_samples: int = 0, params=None, period: float = 1.0):
     """(residuals, bounds) of whole series (time first, one column per axis) through :class:`SignedResidual`;
     with ``calibration_samples`` > 0 each wheel learns its unit from its first samples (``regressors``:
     (n, axes, 6), calibration.regressors).
@@ -218,7 +246,10 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
     calibration_samples : int, optional
         FDI samples each wheel learns its unit from; 0: no calibration.
     params : WheelParams, optional
-        The wheel type (its ripple B/2, :func:`ripple_share`, and its calibration); None: the thesis'.
+        The wheel type (its ripple B/2, :func:`ripple_share`, its tachometer's noise and its calibration);
+        None: the thesis'.
+    period : float, optional
+        [s] the FDI sample period (:func:`speed_noise_reach`).
 
     Returns
     -------
@@ -235,7 +266,7 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
     for j in range(actual.shape[1]):
         f = SignedResidual(window, ripple_share(params), uncertainty_gain=uncertainty_gains[j],
                            calibration=UnitCalibration(calibration_samples, params=params or WheelParams())
-                           if calibration_samples else None)
+                           if calibration_samples else None, noise_reach=speed_noise_reach(params, period))
         x = regressors[:, j] if calibration_samples else [None] * len(actual)
         rows = [f.update(a, e, p, r) for a, e, p, r in zip(actual[:, j], estimate[:, j], phasor[:, j], x)]
         res[:, j], bound[:, j] = [r[0] for r in rows], [r[1] for r in rows]

@@ -46,13 +46,14 @@ WHEEL_UNITS = {
     "inertia": "kg m^2", "poles": "", "ripple_coefficient": "", "input_resistance": "ohm",
     "quiescent_power": "W", "bridge_resistance": "ohm", "voltage_feedback_gain": "V/V", "noise_angle": "rad",
     "noise_frequency": "rad/s", "command_limit": "V", "diode_drop": "V", "bus_voltage": "V", "emf_limit": None,
-    "ripple_amplitude_share": "", "coulomb_smoothing_speed": "rad/s", "viscous_scale": "",
+    "ripple_amplitude_share": "", "coulomb_smoothing_speed": "rad/s", "viscous_scale": "", "speed_noise": "rad/s",
 }
 # fields a vehicle file may leave out, and where their default comes from
-WHEEL_DEFAULTS = {"bus_voltage": "8 V"}   # the ITHACO Type A's bus (thesis Table 2.3)
+WHEEL_DEFAULTS = {"bus_voltage": "8 V",    # the ITHACO Type A's bus (thesis Table 2.3)
+                  "speed_noise": "0 rad/s"}   # an exact tachometer: our plant's
 # fields that may be zero (the rest of WHEEL_UNITS' numbers must be > 0)
 WHEEL_MAY_BE_ZERO = {"coulomb_friction", "ripple_coefficient", "noise_angle", "noise_frequency", "diode_drop",
-                     "quiescent_power", "input_resistance", "viscous_scale"}
+                     "quiescent_power", "input_resistance", "viscous_scale", "speed_noise"}
 # the largest value of each wheel field any reaction wheel has (generous: 10-1000x the largest flown), so that
 # what `rw-fdi vehicle` accepts flies: torque_constant 1e308 passed as "inf mN m" and failed inside the plant
 WHEEL_MAX = {
@@ -61,7 +62,7 @@ WHEEL_MAX = {
     "ripple_coefficient": 1.0, "input_resistance": 1e3, "quiescent_power": 1e3, "bridge_resistance": 1e3,
     "voltage_feedback_gain": 100.0, "noise_angle": 6.3, "noise_frequency": 1e4, "command_limit": 100.0,
     "diode_drop": 40.0, "bus_voltage": 40.0, "ripple_amplitude_share": 1.0, "coulomb_smoothing_speed": 100.0,
-    "viscous_scale": 1e4,
+    "viscous_scale": 1e4, "speed_noise": 100.0,
 }
 NUMBER_MAX = 1e9   # any other number of a vehicle file, in its unit: nothing of a spacecraft is larger
 MAGNETORQUER_UNITS = {"dipole_limit": "A m^2", "gain": "1/s", "start_speed": "rad/s", "stop_speed": "rad/s"}

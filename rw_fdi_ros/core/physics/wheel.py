@@ -51,6 +51,9 @@ class WheelParams:
     coulomb_smoothing_speed: float = 0.05
     # unit-to-unit variation (unit_wheel): this unit's viscous friction over eq. 2.15's
     viscous_scale: float = 1.0
+    # sigma of the tachometer's speed [rad/s]: what a torque derived from speeds carries (residuals.py,
+    # speed_noise_reach); 0: the speed is exact, as our plant's telemetry is
+    speed_noise: float = 0.0
 
     def __post_init__(self):
         if self.emf_limit not in EMF_LIMITS:

@@ -101,7 +101,7 @@ def observe(samples, models: dict, window: int = WINDOW, period: float = FDI_PER
                        samples.free_motor_torque, params=params)
     for k, v in est.items():
         residual[k], bound[k] = signed_residual_series(r, v, samples.ripple_phasor, window, gains[k], x,
-                                                       calibration_samples, params)
+                                                       calibration_samples, params, period)
     return ObserverRun(samples.time, r, est, residual, bound, method, wheels)
 
 

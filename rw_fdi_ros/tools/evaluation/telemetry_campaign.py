@@ -79,7 +79,8 @@ def score_run(verdict: dict, fault: dict | None = None) -> dict:
     detected = first is not None and first >= onset
     band = [s["threshold"] for s in verdict["samples"] if s["wheel"] == wheel and s["time_s"] >= onset]
     effect = (fault or {}).get("effect_nm")
-    return {**row, "kind": (fault or {}).get("kind", "fault"), "wheel": wheel, "onset_s": onset,
+    return {**row, "kind": (fault or {}).get("kind", "fault"), "size": (fault or {}).get("size"), "wheel": wheel,
+            "onset_s": onset,
             "false_alarm": any(t < onset for t in alarms.values()), "detected": detected,
             "right_wheel": detected and set(alarms) == {wheel}, "latency_s": first - onset if detected else None,
             "identified": wheels[wheel]["kind"], "band_nm": float(np.median(band)) if band else None,
@@ -155,11 +156,15 @@ def format_summary(s: dict) -> str:
 
 
 def write_campaign(rows: list, s: dict, out) -> list:
-    """telemetry_summary.json and telemetry_runs.csv (one row per run, for pandas) in ``out``."""
+    """telemetry_summary.json, telemetry_runs.csv (one row per run, for pandas) and, with described faults,
+    telemetry_campaign.png (each fault's latency against its size over the band) in ``out``."""
     import csv
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "telemetry_summary.json", out / "telemetry_runs.csv"]
+    if any(r.get("effect_nm") and r.get("band_nm") for r in rows):
+        paths.append(out / "telemetry_campaign.png")
+        _plot_latency(rows, paths[-1])
     paths[0].write_text(json.dumps(s, indent=1))
     keys = list(dict.fromkeys(k for r in rows for k in r))
     with open(paths[1], "w", newline="") as fh:
@@ -167,3 +172,32 @@ def write_campaign(rows: list, s: dict, out) -> list:
         writer.writeheader()
         writer.writerows(rows)
     return paths
+
+
+def _plot_latency(rows: list, path) -> None:
+    """Per fault kind, each run's latency against its fault's size over the band (log); misses at the top,
+    invisible faults (size under the band) left of the dashed line."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    faulty = [r for r in rows if r.get("effect_nm") and r.get("band_nm")]
+    kinds = sorted({r["kind"] for r in faulty})
+    fig, axes = plt.subplots(1, len(kinds), figsize=(3.2 * len(kinds), 3.0), sharey=True, squeeze=False)
+    top = max([r["latency_s"] for r in faulty if r["detected"]] + [10.0]) * 1.3
+    for ax, kind in zip(axes[0], kinds):
+        runs = [r for r in faulty if r["kind"] == kind]
+        ratio = np.array([r["effect_nm"] / r["band_nm"] for r in runs])
+        hit = np.array([r["right_wheel"] for r in runs], bool)
+        found = np.array([r["detected"] for r in runs], bool)
+        late = np.array([r["latency_s"] if r["detected"] else top for r in runs], float)
+        ax.semilogx(ratio[hit], late[hit], "o", ms=3, label="that wheel, no other")
+        ax.semilogx(ratio[found & ~hit], late[found & ~hit], "s", ms=4, color="tab:orange", label="also another")
+        ax.semilogx(ratio[~found], late[~found], "x", color="tab:red", label="missed")
+        ax.axvline(1.0, color="k", ls="--", lw=0.8)
+        ax.set_title(f"{kind} ({len(runs)} runs)", fontsize=9)
+        ax.set_xlabel("fault torque / band")
+    axes[0, 0].set_ylabel("first alarm after the onset [s]")
+    axes[0, 0].legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
