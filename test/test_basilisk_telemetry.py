@@ -102,3 +102,21 @@ def test_scoring_counts_false_alarms_misses_and_invisible_faults():
     assert s["kinds"]["coulomb"]["detected"]["k"] == 1 and s["kinds"]["coulomb"]["right_wheel"]["k"] == 0
     # an invisible fault is counted apart, never as a miss
     assert s["kinds"]["torque_limit"]["visible"] == 0 and s["kinds"]["torque_limit"]["invisible"] == 1
+    # flight telemetry without fault columns is not scored (its alarms are no false alarms), and a table that
+    # cannot be judged is a row saying why, not the end of the campaign
+    flight = score_run({**_verdict({"y": 30.0}, {}), "scored": False})
+    assert flight["kind"] == "unscored"
+    s = summary([flight, score_run(_verdict({}, {})), {"table": "bad.csv", "kind": "not_judged", "error": "x"}])
+    assert s["unscored"] == 1 and s["unscored_alarmed"] == 1 and s["not_judged"] == {"bad.csv": "x"}
+    assert s["false_alarms_fault_free"]["n"] == 1 and s["false_alarms_before_onset"]["ci95"] is None
+
+
+def test_a_bad_fault_description_is_one_line(tmp_path):
+    from rw_fdi_ros.tools.evaluation.telemetry_campaign import described_fault
+    from rw_fdi_ros.tools.evaluation.telemetry_file import TelemetryError
+    for text in ('{"fault": "coulomb"}', '{"fault": {"kind": "x", "effect_nm": "big"}}', "[1, 2", '{"fault": [1]}'):
+        (tmp_path / "run.json").write_text(text)
+        with pytest.raises(TelemetryError, match="run.json"):
+            described_fault(tmp_path / "run.csv")
+    (tmp_path / "run.json").write_text('{"fault": null}')
+    assert described_fault(tmp_path / "run.csv") is None

@@ -146,7 +146,7 @@ def fly(run: dict) -> tuple:
     return rows, effect
 
 
-HEALTHY = {}   # id(wheel) -> its healthy u_max, fCoulomb, cViscous (a fault changes the shared payload)
+HEALTHY = {}   # the faulty wheel's healthy u_max, fCoulomb, cViscous (a fault changes the payload the effector shares)
 
 
 def inject(rw, drive, gain: float, fault: dict) -> list:
@@ -198,9 +198,9 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     low, _, high = args.seeds.partition("..")
     seeds = range(int(low), int(high or low) + 1)
-    unknown = [k for k in args.faults.split(",") if k not in (*FAULTS, "none", "random")]
-    if unknown:
-        parser.error(f"--faults: unknown kind {unknown[0]!r}")
+    unknown = [k for k in args.faults.split(",") if k not in FAULTS]
+    if unknown and args.faults not in ("none", "random"):
+        parser.error(f"--faults: {unknown[0]!r} is not none, random or a kind among {', '.join(FAULTS)}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for n, seed in enumerate(seeds, 1):

@@ -47,7 +47,7 @@ def main(args) -> int:
     if args.vehicle and not (args.models or args.thresholds) and _is_fdi_dir(args.vehicle):
         from dataclasses import replace
         fdi = replace(fdi, models=args.vehicle)   # a vehicle's FDI directory judges with its own FDI
-    if len(paths) > 1 and not args.fit:
+    if len(paths) > 1 and not (args.fit or args.check):
         return _campaign(args, paths, joints, vehicle, fdi)
     tables = [read_table(p, joints) for p in paths]
     problems = 0

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...scoring.metrics import wilson
+from ...scoring.metrics import rate
 from .telemetry_file import TelemetryError, judge, read_table
 
 SUFFIXES = (".csv", ".parquet")
@@ -44,9 +44,17 @@ def described_fault(path) -> dict | None:
     if not side.is_file():
         return None
     try:
-        return json.loads(side.read_text()).get("fault")
-    except (ValueError, AttributeError):
-        raise TelemetryError(f"{side}: not a JSON mapping") from None
+        fault = json.loads(side.read_text())
+    except ValueError:
+        raise TelemetryError(f"{side}: not JSON") from None
+    fault = fault.get("fault") if isinstance(fault, dict) else fault
+    if fault is None:
+        return None
+    effect = fault.get("effect_nm") if isinstance(fault, dict) else None
+    if (not isinstance(fault, dict) or not isinstance(fault.get("kind", ""), str)
+            or not (effect is None or (isinstance(effect, (int, float)) and np.isfinite(effect) and effect >= 0))):
+        raise TelemetryError(f"{side}: 'fault' must be a mapping with a 'kind' name and an 'effect_nm' >= 0 [N m]")
+    return fault
 
 
 def score_run(verdict: dict, fault: dict | None = None) -> dict:
@@ -62,15 +70,19 @@ def score_run(verdict: dict, fault: dict | None = None) -> dict:
     Returns
     -------
     dict
-        ``kind`` ('fault_free' without a faulty wheel), ``false_alarm`` (an alarm on a healthy run, or before
-        the onset), and for a faulty run ``detected`` (its wheel alarmed from the onset on), ``right_wheel``
-        (that wheel and no other), ``latency_s``, ``identified`` (the kind the identification named) and
-        ``visible`` (the fault's torque above the wheel's median band after the onset; None undescribed).
+        ``kind`` ('fault_free' without a faulty wheel, 'unscored' without fault columns), ``false_alarm``
+        (an alarm on a healthy run, or before the onset), and for a faulty run ``detected`` (its wheel's first
+        alarm at or after the onset: one before it is a false alarm and a miss), ``right_wheel`` (that wheel
+        and no other), ``latency_s``, ``identified`` (the kind the identification named) and ``visible`` (the
+        fault's largest 1-s torque above the wheel's median band after the onset, as scoring/metrics'
+        observability; None undescribed).
     """
     wheels = verdict["wheels"]
     alarms = {a: w["first_alarm_s"] for a, w in wheels.items() if w["first_alarm_s"] is not None}
     faulty = [a for a, w in wheels.items() if w["truth_onset_s"] is not None]
     row = {"kind": "fault_free", "alarmed": ",".join(alarms), "not_judged_s": len(verdict["not_judged_s"])}
+    if not verdict.get("scored", True):   # no fault columns: what it saw, not scored
+        return {**row, "kind": "unscored", "false_alarm": None}
     if not faulty:
         return {**row, "false_alarm": bool(alarms)}
     wheel = faulty[0]
@@ -88,9 +100,12 @@ def score_run(verdict: dict, fault: dict | None = None) -> dict:
 
 
 def _judged(path, joints, vehicle, fdi, max_gap):
-    """(path, score) of one table: a worker's call."""
-    table = read_table(path, joints)
-    return path, score_run(judge(table, vehicle, fdi, max_gap=max_gap), described_fault(path))
+    """(path, score) of one table: a worker's call; a table that cannot be judged is a row saying why."""
+    try:
+        table = read_table(path, joints)
+        return path, score_run(judge(table, vehicle, fdi, max_gap=max_gap), described_fault(path))
+    except TelemetryError as exc:
+        return path, {"kind": "not_judged", "error": str(exc)}
 
 
 def judge_campaign(paths, joints, vehicle, fdi, max_gap: float = 2.5, executor=None, progress=None) -> list:
@@ -109,15 +124,19 @@ def summary(rows: list) -> dict:
     """The campaign's rates, each with its count, sample size and 95 % interval: false alarms on fault-free
     runs; per fault kind, detection and the right wheel among the visible faults, how the invisible ones went,
     the identification named and the median latency."""
-    def rate(k, n):
-        return {"k": int(k), "n": int(n), "rate": k / n if n else None, "ci95": list(wilson(k, n)) if n else None}
+    def share(flags):   # metrics.rate, with no interval (not NaN, which JSON has not) for no runs
+        r = rate(flags)
+        return {**r, "ci95": r["ci95"] if r["n"] else None}
+    apart = ("fault_free", "unscored", "not_judged")
     healthy = [r for r in rows if r["kind"] == "fault_free"]
-    out = {"runs": len(rows), "false_alarms_fault_free": rate(sum(r["false_alarm"] for r in healthy), len(healthy)),
-           "false_alarms_before_onset": rate(sum(r["false_alarm"] for r in rows if r["kind"] != "fault_free"),
-                                             len(rows) - len(healthy)),
-           "kinds": {}}
-    for kind in sorted({r["kind"] for r in rows} - {"fault_free"}):
-        runs = [r for r in rows if r["kind"] == kind]
+    faulty = [r for r in rows if r["kind"] not in apart]
+    out = {"runs": len(rows), "unscored": sum(r["kind"] == "unscored" for r in rows),
+           "unscored_alarmed": sum(bool(r["alarmed"]) for r in rows if r["kind"] == "unscored"),
+           "not_judged": {r["table"]: r["error"] for r in rows if r["kind"] == "not_judged"},
+           "false_alarms_fault_free": share(r["false_alarm"] for r in healthy),
+           "false_alarms_before_onset": share(r["false_alarm"] for r in faulty), "kinds": {}}
+    for kind in sorted({r["kind"] for r in faulty}):
+        runs = [r for r in faulty if r["kind"] == kind]
         seen = [r for r in runs if r["visible"] is not False]
         hidden = [r for r in runs if r["visible"] is False]
         latency = [r["latency_s"] for r in seen if r["detected"]]
@@ -126,9 +145,9 @@ def summary(rows: list) -> dict:
             if r["detected"]:
                 named[str(r["identified"])] = named.get(str(r["identified"]), 0) + 1
         out["kinds"][kind] = {"runs": len(runs), "visible": len(seen), "invisible": len(hidden),
-                              "detected": rate(sum(r["detected"] for r in seen), len(seen)),
-                              "right_wheel": rate(sum(r["right_wheel"] for r in seen), len(seen)),
-                              "invisible_alarmed": rate(sum(r["detected"] for r in hidden), len(hidden)),
+                              "detected": share(r["detected"] for r in seen),
+                              "right_wheel": share(r["right_wheel"] for r in seen),
+                              "invisible_alarmed": share(r["detected"] for r in hidden),
                               "median_latency_s": float(np.median(latency)) if latency else None,
                               "identified_as": named}
     return out
@@ -139,9 +158,14 @@ def format_summary(s: dict) -> str:
     def pct(r):
         return "n/a" if not r["n"] else (f"{r['k']}/{r['n']} = {100 * r['rate']:.1f} % "
                                          f"[{100 * r['ci95'][0]:.1f}, {100 * r['ci95'][1]:.1f}]")
-    lines = [f"{s['runs']} runs judged",
+    lines = [f"{s['runs']} runs judged" + (f", {s['unscored']} without fault columns (not scored)"
+                                            if s.get("unscored") else "")]
+    lines += [f"  not judged: {table}: {why}" for table, why in s.get("not_judged", {}).items()]
+    lines += [
              f"  false alarms, fault-free runs:       {pct(s['false_alarms_fault_free'])}",
              f"  alarms before the onset, faulty runs: {pct(s['false_alarms_before_onset'])}"]
+    if s.get("unscored"):
+        lines.append(f"  alarmed, unscored runs: {s['unscored_alarmed']}")
     for kind, k in s["kinds"].items():
         lines.append(f"  {kind}: {k['runs']} runs, {k['visible']} visible at the band, {k['invisible']} invisible")
         lines.append(f"    detected {pct(k['detected'])}; that wheel and no other {pct(k['right_wheel'])}"

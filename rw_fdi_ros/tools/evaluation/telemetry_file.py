@@ -182,7 +182,7 @@ def check(table: Telemetry, wheel, fdi_period: float = 1.0, max_gap: float = 2.5
                 out["problems"].append(f"{name}: {figures['rate_hz']:.2g} Hz, below the FDI's {1 / fdi_period:g} Hz")
             if quantity == "speed":
                 figures["noise"] = speed_noise(at, v[~np.isnan(v)])
-                if figures["noise"] > 2.0 * wheel.speed_noise + 1e-4:
+                if figures["noise"] is not None and figures["noise"] > 2.0 * wheel.speed_noise + 1e-4:
                     out["notes"].append(f"{name}: noise ~{figures['noise']:.2g} rad/s where the vehicle's wheel has "
                                         f"speed_noise {wheel.speed_noise:g} rad/s: the torque the FDI derives from "
                                         "the speeds carries it (set wheel.speed_noise, docs/vehicles.md)")
@@ -199,14 +199,15 @@ def speed_noise(stamps, speeds) -> float:
     """sigma_Omega [rad/s] of a tachometer's reports, from their second differences where the reports are evenly
     spaced: white noise of sigma gives Omega_(k+1) - 2 Omega_k + Omega_(k-1) a variance of 6 sigma^2, the
     wheel's own acceleration changes far less between reports; the median absolute deviation keeps a slew's
-    steps out (0 with fewer than 10 such triples)."""
+    steps out (None, unknown, with fewer than 10 such finite triples)."""
     if len(speeds) < 12:
-        return 0.0
+        return None
     h = np.diff(stamps)
     even = np.abs(h[1:] - h[:-1]) <= 0.1 * h[:-1]
     d2 = (speeds[2:] - 2.0 * speeds[1:-1] + speeds[:-2])[even]
+    d2 = d2[np.isfinite(d2)]
     if d2.size < 10:
-        return 0.0
+        return None
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
 
 
@@ -285,7 +286,8 @@ def format_check(table: Telemetry, checked: dict) -> str:
              f"{', '.join(table.joints)}"]
     for name, f in checked["channels"].items():
         lines.append(f"  {name:24s} {f['reports']:7d} reports  {f['rate_hz']:7.2f} Hz  largest gap "
-                     f"{f['largest_gap_s']:.3g} s" + (f"  noise ~{f['noise']:.2g} rad/s" if "noise" in f else "")
+                     f"{f['largest_gap_s']:.3g} s" + (f"  noise ~{f['noise']:.2g} rad/s" if f.get("noise") is not None
+                                                       else "  noise unknown" if "noise" in f else "")
                      + (f"  {f['implausible']} implausible" if f["implausible"] else ""))
     lines += [f"  problem: {p}" for p in checked["problems"]] or ["  no problem found"]
     lines += [f"  note: {n}" for n in checked.get("notes", ())]
