@@ -62,14 +62,22 @@ def test_too_little_basilisk_telemetry_is_refused_with_what_it_needs(fitted, tmp
     assert not (tmp_path / "x").exists()
 
 
-def test_a_campaign_of_basilisk_faults_is_scored_wheel_by_wheel(fitted):
+@pytest.fixture(scope="module")
+def faulty(fitted):
+    return basilisk(fitted[0] / "faulty", "300..303", "coulomb,motor_gain", 200)
+
+
+@pytest.mark.parametrize("which", ["fitted here", "shipped"])
+def test_a_campaign_of_basilisk_faults_is_scored_wheel_by_wheel(fitted, faulty, which):
     """Coulomb friction raised to 4-15 mN m and the drive's gain cut to 30-70 %, injected through Basilisk's own
-    parameters: each found on its wheel and no other, after the onset."""
+    parameters: each found on its wheel and no other, after the onset; by the FDI fitted here on 1200 s, and by
+    the one of docs/basilisk.md (examples/basilisk/fdi, fitted on 80 runs of 400 s)."""
     root, fdi, _ = fitted
-    faulty = basilisk(root / "faulty", "300..303", "coulomb,motor_gain", 200)
-    done = rw_fdi("telemetry", faulty, "--vehicle", fdi, *JOINTS, "--out", root / "report")
+    fdi = fdi if which == "fitted here" else ROOT / "examples" / "basilisk" / "fdi"
+    report = root / f"report_{which.split()[0]}"
+    done = rw_fdi("telemetry", faulty, "--vehicle", fdi, *JOINTS, "--out", report)
     assert done.returncode == 0, done.stderr[-2000:]
-    s = json.loads((root / "report" / "telemetry_summary.json").read_text())
+    s = json.loads((report / "telemetry_summary.json").read_text())
     assert s["runs"] == 4 and s["false_alarms_before_onset"]["k"] == 0
     kinds = s["kinds"]
     assert sum(k["runs"] for k in kinds.values()) == 4

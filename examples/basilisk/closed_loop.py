@@ -39,9 +39,12 @@ FAULTS = {
     "coulomb": (4e-3, 15e-3),        # fCoulomb [N m] from 0.5 mN m to this
     "viscous": (2e-5, 1e-4),         # cViscous [N m s/rad] from 2e-6 to this
 }
+# --envelope small: faults from the band up, where detection ends
+SMALL_FAULTS = {"torque_limit": (0.5, 0.95), "motor_gain": (0.9, 0.99), "coulomb": (0.6e-3, 4e-3),
+                "viscous": (3e-6, 2e-5)}
 
 
-def draw(seed: int, faults: str, duration: float) -> dict:
+def draw(seed: int, faults: str, duration: float, envelope: dict = FAULTS) -> dict:
     """One run's draw: initial wheel speeds, slews, a constant disturbance torque and the fault (or none)."""
     rng = np.random.default_rng(seed)
     slews = []
@@ -55,7 +58,7 @@ def draw(seed: int, faults: str, duration: float) -> dict:
     kinds = list(FAULTS) if faults == "random" else [] if faults == "none" else faults.split(",")
     if kinds:
         kind = kinds[rng.integers(len(kinds))]
-        low, high = FAULTS[kind]
+        low, high = envelope[kind]
         run["fault"] = {"kind": kind, "wheel": int(rng.integers(3)), "size": float(rng.uniform(low, high)),
                         "onset_s": float(np.round(rng.uniform(0.25 * duration, 0.625 * duration), 1))}
     return run
@@ -194,6 +197,8 @@ def main(argv=None) -> int:
     parser.add_argument("--faults", default="random",
                         help=f"none, random, or kinds among {', '.join(FAULTS)} (comma-separated); default random")
     parser.add_argument("--duration", type=float, default=400.0, help="s (default 400)")
+    parser.add_argument("--envelope", choices=("service", "small"), default="service",
+                        help="fault sizes: the in-service ranges (default) or small ones, from the band up")
     parser.add_argument("--out", required=True)
     args = parser.parse_args(argv)
     low, _, high = args.seeds.partition("..")
@@ -205,7 +210,7 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     for n, seed in enumerate(seeds, 1):
         HEALTHY.clear()
-        run = draw(seed, args.faults, args.duration)
+        run = draw(seed, args.faults, args.duration, SMALL_FAULTS if args.envelope == "small" else FAULTS)
         rows, effect = fly(run)
         write(rows, run, effect, out)
         print(f"\r{n}/{len(seeds)} runs", end="", file=sys.stderr, flush=True)
