@@ -165,7 +165,7 @@ def test_a_tachometers_noise_telescopes_in_the_window_and_its_reach_bounds_it():
     sqrt(2) J sigma / (n T) of the noise whatever the window (closed form), and the bound's s / n covers it at
     3 sigma (residuals.speed_noise_reach)."""
     from rw_fdi_ros.core.fdi.residuals import speed_noise_reach
-    from rw_fdi_ros.tools.evaluation.telemetry_file import speed_noise
+    from rw_fdi_ros.core.fdi.wheel_reports import speed_noise
     wheel = wm.WheelParams(inertia=0.08, speed_noise=0.01)
     reach = speed_noise_reach(wheel, 1.0)
     assert reach == pytest.approx(3.0 * np.sqrt(2.0) * 0.08 * 0.01)

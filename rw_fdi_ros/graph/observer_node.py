@@ -18,9 +18,9 @@ import time
 import numpy as np
 from sensor_msgs.msg import JointState
 
-from ..core.fdi.calibration import UnitCalibration, calibration_samples, regressors
+from ..core.fdi.calibration import calibration_samples, regressors
 from ..core.fdi.detection import WINDOW
-from ..core.fdi.residuals import ResidualFilter, SignedResidual, ripple_share, speed_noise_reach
+from ..core.fdi.residuals import ResidualFilter, SignedResidual
 from ..core.fdi.input_health import NEW_RUN, OUT_OF_ORDER, InputMonitor, all_finite
 from ..core.mission.plant_choices import SAMPLINGS
 from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
@@ -121,10 +121,8 @@ class ObserverNode(GraphNode):
         core.fdi.residuals.SignedResidual
             The residual filter.
         """
-        return SignedResidual(self.param("window"), ripple_share(self.wheel), uncertainty_gain=uncertainty_gain,
-                              calibration=UnitCalibration(self.calibration_samples, params=self.wheel)
-                              if self.calibration_samples else None,
-                              noise_reach=speed_noise_reach(self.wheel, self.param("fdi_period")))
+        return SignedResidual.of_wheel(self.wheel, self.param("fdi_period"), self.param("window"), uncertainty_gain,
+                                       self.calibration_samples)
 
     def regressors(self, sample, i: int):
         """Wheel ``i``'s calibration regressors of ``sample`` (None when the node does not calibrate).

@@ -20,12 +20,12 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from .calibration import UnitCalibration, regressors
+from .calibration import regressors
 from .identification import FaultIdentifier
 from .verdict import (WHEEL_SPEED_ENVELOPE, DecisionRule, LatchedVerdict, ObserverChannel, decision_of,
                         in_envelope, speed_envelope)
 from .observer_plugin import PluginRun
-from .residuals import SignedResidual, ripple_share, speed_noise_reach
+from .residuals import SignedResidual
 from .telemetry import TelemetrySampler
 from ..physics.wheel import WheelParams
 
@@ -250,10 +250,8 @@ class ObserverBank:
     def __init__(self, names, fdi: LoadedFdi, slots, batch: int, fdi_period: float, wheel: WheelParams):
         estimators = observer_estimators(names, fdi.models, slots, fdi_period, fdi.calibration_samples, wheel)
         self.estimators = {slot: make(batch) for slot, (make, _) in estimators.items()}
-        self.filters = {slot: [[SignedResidual(share=ripple_share(wheel), uncertainty_gain=gains[i],
-                                               calibration=UnitCalibration(fdi.calibration_samples, params=wheel)
-                                               if fdi.calibration_samples else None,
-                                               noise_reach=speed_noise_reach(wheel, fdi_period))
+        self.filters = {slot: [[SignedResidual.of_wheel(wheel, fdi_period, uncertainty_gain=gains[i],
+                                                        calibration_samples=fdi.calibration_samples)
                                 for i in range(len(names))] for _ in range(batch)]
                         for slot, (_, gains) in estimators.items()}
 

@@ -68,6 +68,37 @@ class SignedResidual:
         self.calibration = calibration   # core.calibration.UnitCalibration, or None (the datasheet wheel)
         self.estimate = None             # the last estimate, calibrated: what the node publishes
 
+    @classmethod
+    def of_wheel(cls, wheel=None, period: float = 1.0, window: int = WINDOW, uncertainty_gain: float = 0.0,
+                 calibration_samples: int = 0) -> "SignedResidual":
+        """The residual of one wheel of type ``wheel``: its ripple share, its tachometer's noise reach at the FDI
+        ``period`` and, with ``calibration_samples`` > 0, a calibration to its own unit over those samples.
+
+        Parameters
+        ----------
+        wheel : WheelParams, optional
+            The wheel type (None: the thesis').
+        period : float
+            [s] the FDI sample period.
+        window : int
+            W [samples].
+        uncertainty_gain : float
+            kappa of the observer's model error.
+        calibration_samples : int
+            FDI samples the wheel's unit is learned from; 0: the datasheet wheel.
+
+        Returns
+        -------
+        SignedResidual
+            The residual filter.
+        """
+        from .calibration import UnitCalibration
+        from ..physics.wheel import WheelParams
+        calibration = (UnitCalibration(calibration_samples, params=wheel or WheelParams())
+                       if calibration_samples else None)
+        return cls(window, ripple_share(wheel), uncertainty_gain=uncertainty_gain, calibration=calibration,
+                   noise_reach=speed_noise_reach(wheel, period))
+
     def update(self, actual, estimate, ripple_phasor, regressors=None):
         """(residual, bound) after this sample; ``regressors``: calibration.regressors of the sample,
         needed with a calibration (which corrects the estimate and widens the bound by z u_k).
@@ -258,15 +289,11 @@ def signed_residual_series(actual, estimate, ripple_phasor, window: int = WINDOW
     bounds : ndarray, shape (n, N)
         What each may hold unfaulted [N m].
     """
-    from .calibration import UnitCalibration
-    from ..physics.wheel import WheelParams
     actual, estimate, phasor = (np.asarray(x) for x in (actual, estimate, ripple_phasor))
     res, bound = np.empty(actual.shape), np.empty(actual.shape)
     uncertainty_gains = np.zeros(actual.shape[1]) if uncertainty_gains is None else uncertainty_gains
     for j in range(actual.shape[1]):
-        f = SignedResidual(window, ripple_share(params), uncertainty_gain=uncertainty_gains[j],
-                           calibration=UnitCalibration(calibration_samples, params=params or WheelParams())
-                           if calibration_samples else None, noise_reach=speed_noise_reach(params, period))
+        f = SignedResidual.of_wheel(params, period, window, uncertainty_gains[j], calibration_samples)
         x = regressors[:, j] if calibration_samples else [None] * len(actual)
         rows = [f.update(a, e, p, r) for a, e, p, r in zip(actual[:, j], estimate[:, j], phasor[:, j], x)]
         res[:, j], bound[:, j] = [r[0] for r in rows], [r[1] for r in rows]

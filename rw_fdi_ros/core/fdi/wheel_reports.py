@@ -176,3 +176,32 @@ class ControlGrid:
         while len(self.commands) > 1 and self.commands[1][0] < t:
             self.commands.pop(0)
         return self.commands[0][1] if self.commands and self.commands[0][0] < t else None
+
+
+def speed_noise(stamps, speeds) -> float | None:
+    """sigma_Omega [rad/s] of a tachometer's reports, from their second differences where the reports are evenly
+    spaced: white noise of sigma gives Omega_(k+1) - 2 Omega_k + Omega_(k-1) a variance of 6 sigma^2, the
+    wheel's own acceleration changes far less between reports; the median absolute deviation keeps a slew's
+    steps out. It is the ``speed_noise`` of residuals.speed_noise_reach.
+
+    Parameters
+    ----------
+    stamps : array_like, shape (n,)
+        The reports' times [s], rising.
+    speeds : array_like, shape (n,)
+        The reported speeds Omega [rad/s].
+
+    Returns
+    -------
+    float or None
+        sigma_Omega [rad/s]; None (unknown) with fewer than 10 evenly spaced, finite triples.
+    """
+    if len(speeds) < 12:
+        return None
+    h = np.diff(stamps)
+    even = np.abs(h[1:] - h[:-1]) <= 0.1 * h[:-1]
+    d2 = (speeds[2:] - 2.0 * speeds[1:-1] + speeds[:-2])[even]
+    d2 = d2[np.isfinite(d2)]
+    if d2.size < 10:
+        return None
+    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))

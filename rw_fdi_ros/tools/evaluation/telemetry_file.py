@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.fdi.wheel_reports import ControlGrid
+from ...core.fdi.wheel_reports import ControlGrid, speed_noise
 
 UNITS = {"time": {"s": 1e9, "ns": 1.0}, "speed": {"rad/s": 1.0, "rpm": 2 * np.pi / 60.0},
          "command": {"V": 1.0}, "torque": {"N m": 1.0, "mN m": 1e-3}, "fault": {"1": 1.0, "": 1.0}}
@@ -193,22 +193,6 @@ def check(table: Telemetry, wheel, fdi_period: float = 1.0, max_gap: float = 2.5
                 out["problems"].append(f"{name}: {figures['implausible']} values beyond {limits[quantity]:.4g} or "
                                        "not finite")
     return out
-
-
-def speed_noise(stamps, speeds) -> float:
-    """sigma_Omega [rad/s] of a tachometer's reports, from their second differences where the reports are evenly
-    spaced: white noise of sigma gives Omega_(k+1) - 2 Omega_k + Omega_(k-1) a variance of 6 sigma^2, the
-    wheel's own acceleration changes far less between reports; the median absolute deviation keeps a slew's
-    steps out (None, unknown, with fewer than 10 such finite triples)."""
-    if len(speeds) < 12:
-        return None
-    h = np.diff(stamps)
-    even = np.abs(h[1:] - h[:-1]) <= 0.1 * h[:-1]
-    d2 = (speeds[2:] - 2.0 * speeds[1:-1] + speeds[:-2])[even]
-    d2 = d2[np.isfinite(d2)]
-    if d2.size < 10:
-        return None
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
 
 
 def judge(table: Telemetry, vehicle=None, fdi=None, control_period: float = 0.1, max_gap: float = 2.5) -> dict:
