@@ -37,6 +37,27 @@ def test_posterior_is_the_closed_form_ridge_solution():
     assert est.scales()["viscous_friction"][0] == pytest.approx(1 + est.mean[2])
 
 
+def test_a_wheel_type_without_ripple_holds_the_phasor_terms_at_zero():
+    """Basilisk's wheel (docs/basilisk.md): no ripple, B = 0, so the prior holds the phasor's two terms at 0 and the
+    posterior is the closed-form ridge solution on the four physical shares alone."""
+    from dataclasses import replace
+    from rw_fdi_ros.core.physics.wheel import WheelParams
+    b = np.array([0.03, -0.02, -0.2, 0.15, 0.0, 0.0])
+    x, e = synthetic(120, b, 2e-4)
+    wheel = replace(WheelParams(), ripple_coefficient=0.0)
+    assert np.all(prior_variances(params=wheel)[4:] == 0.0)
+    cal = UnitCalibration(samples=120, params=wheel)
+    for xi, ei in zip(x, e):
+        cal.update(ei, xi)
+    est = cal.estimate
+    s2 = 10.0 * est.noise ** 2
+    p = x[:, :4]
+    information = np.diag(1 / prior_variances()[:4]) + p.T @ p / s2
+    assert est.mean[:4] == pytest.approx(np.linalg.solve(information, p.T @ e / s2), rel=1e-9, abs=1e-12)
+    assert est.covariance[:4, :4] == pytest.approx(np.linalg.inv(information), rel=1e-9)
+    assert np.all(est.mean[4:] == 0.0) and np.all(est.covariance[4:] == 0.0)
+
+
 def test_learning_window_judges_against_the_prior_then_freezes():
     b = np.array([0.03, 0.02, 0.3, -0.2, 0.0, 0.0])
     x, e = synthetic(80, b, 1e-5)
@@ -113,7 +134,9 @@ def test_the_driver_gain_is_told_from_the_torque_constant_where_the_bridge_clips
 
 def test_bad_priors_and_mismatched_bands_are_refused(tmp_path):
     with pytest.raises(ValueError, match="prior"):
-        UnitCalibration(prior=[1, 1, 1, 0, 1, 1])
+        UnitCalibration(prior=[1, 1, 1, -1, 1, 1])
+    with pytest.raises(ValueError, match="prior"):
+        UnitCalibration(prior=[1, 1, 1, np.inf, 1, 1])
     assert calibration_samples(150.0, 1.0) == 150 and calibration_samples(150.0, 0.5) == 300
     c = ThresholdCurves("linear", {a: np.array([1e-4]) for a in "xyz"}, method="speed_aware",
                         unit_calibration_time=150.0)

@@ -95,7 +95,7 @@ def test_fault_run_records_every_topic_readable_by_rosbags_and_mcap(runs):
     for topic, _, _ in T.graph_topics():
         assert counts.get(topic, 0) > 0, topic
     assert counts[T.ATTITUDE] == 401 and counts[T.CLOCK] == 401 and counts[T.tcv_command("y")] == 401
-    assert counts[T.WHEELS] == 401 and counts[T.FDI_TELEMETRY] == 41     # one report per FDI period, t = 0..40 s
+    assert counts[T.WHEELS] == 401 and counts[T.FDI_TELEMETRY] == 40     # one report per FDI period, t = 1..40 s
 
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory

@@ -33,7 +33,7 @@ def test_the_watch_changes_nothing_fdir_does_and_gives_the_offline_alarms(units)
     calibration = calibration_samples(family.CALIBRATION_S) if units else 0
     stamps = np.round(watched.time * 1e9).astype(np.int64)
     for b in range(len(draws)):
-        samples = samples_from_series(stamps, watched.tcv[:, b], watched.reaction_torque[:, b],
+        samples = samples_from_series(stamps, watched.wheel_command[:, b], watched.reaction_torque[:, b],
                                       watched.wheel_speed[:, b], wheels=names)
         offline = decisions(observe(samples, models, calibration_samples=calibration), curves)
         for slot, wheels in watched.watched[b].items():

@@ -47,21 +47,23 @@ def test_every_count_is_the_readers_the_table_gives_the_graph(graph):
 def test_the_counts_are_the_graph_we_know():
     """The derivation spelt out for the graphs we ship: controllers, FDI nodes, recorder, player."""
     full = counts(run_graph(True, True))
-    # the attitude: 3 controllers, the wheel allocation (its momentum check), the recorder; the telemetry:
-    # 4 Elman (one per wheel, the redundant s included), the linear and model observers, isolation, recorder
-    # the telemetry's bus-voltage grid: the isolation node (fault identification) and the recorder
-    assert full["plant"] == {"attitude_readers": 5, "wheels_readers": 2, "fdi_readers": 8, "bus_grid_readers": 2,
-                             "wait_for_subscribers": 1}
+    # the attitude: 3 controllers, the wheel allocation (its momentum check), the recorder; the wheels: the
+    # allocation, the wheel_telemetry node, the recorder; the FDI telemetry that node makes from them and the
+    # allocation's command: 4 Elman (one per wheel, the redundant s included), the linear and model observers,
+    # isolation, recorder; its bus-voltage grid: the isolation node (fault identification) and the recorder
+    assert full["plant"] == {"attitude_readers": 5, "wheels_readers": 3, "wait_for_subscribers": 1}
+    assert full["wheel_telemetry"] == {"min_subscribers": 8, "bus_grid_readers": 2}
     assert full["pid_controller_y"] == {"min_subscribers": 2}   # the wheel allocation and the recorder
-    assert full["wheel_allocation"] == {"min_subscribers": 2, "fdir_readers": 1, "diagnostics_readers": 2}
+    assert full["wheel_allocation"] == {"min_subscribers": 3, "fdir_readers": 1, "diagnostics_readers": 2}
     assert full["elman_observer_z"] == full["linear_observer"] == full["model_observer"] == {
         "estimate_readers": 1, "min_subscribers": 2}
     assert full["isolation"] == {"diagnostics_readers": 2, "min_subscribers": 1}   # the recorder, the wheel allocation
     bare = counts(run_graph(False, False))
-    assert bare["plant"] == {"attitude_readers": 4, "wheels_readers": 1, "fdi_readers": 0, "bus_grid_readers": 0,
-                             "wait_for_subscribers": 0}
+    assert bare["plant"] == {"attitude_readers": 4, "wheels_readers": 1, "wait_for_subscribers": 0}
     assert bare["pid_controller_x"] == {"min_subscribers": 1}
-    assert counts(run_graph(False, True))["plant"]["fdi_readers"] == 1   # the recorder records the telemetry
+    assert "wheel_telemetry" not in bare   # no FDI and no bag: nobody reads the telemetry
+    # the recorder records the telemetry
+    assert counts(run_graph(False, True))["wheel_telemetry"] == {"min_subscribers": 1, "bus_grid_readers": 1}
     replay = counts(replay_graph())
     # the FDI nodes; the isolation node its grid; the replay's recorder reads neither
     assert replay["player"] == {"min_subscribers": 7, "bus_grid_readers": 1}
@@ -84,7 +86,7 @@ def test_the_thesis_method_runs_its_two_observers():
     scenario, path = resolve_scenario("bus_5v5_x", 3)
     nodes = graph_nodes(scenario, path, "bags/demo", fdi={"method": "thesis"})
     assert "model_observer" not in {n.name for n in nodes}
-    assert counts(nodes)["plant"]["fdi_readers"] == 7
+    assert counts(nodes)["wheel_telemetry"]["min_subscribers"] == 7
     iso = next(n for n in nodes if n.name == "isolation")
     assert T.observer_topic("model", "residual") not in T.reads(iso)
     assert T.observer_topic("linear", "residual") in T.reads(iso)

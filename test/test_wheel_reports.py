@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from rw_fdi_ros.core.fdi.telemetry import TelemetrySampler
-from rw_fdi_ros.core.fdi.wheel_reports import ControlGrid
+from rw_fdi_ros.core.fdi.wheel_reports import ControlGrid, ReportSampler, report_samples
 from rw_fdi_ros.core.physics.wheel import WheelParams
 
 J, A, W0 = 0.0077, 0.3, 20.0   # [kg m^2], [rad/s^2], [rad/s]
@@ -100,3 +100,26 @@ def test_the_rows_do_not_depend_on_which_stream_arrives_first():
     late += grid.flush()
     assert [row[0] for row in late] == [row[0] for row in in_order]
     assert all(np.allclose(a[1], b[1]) and np.allclose(a[2], b[2]) for a, b in zip(late, in_order))
+
+
+def test_a_plant_reporting_on_the_grid_gives_its_steps_with_the_command_in_force_and_no_sample_at_the_start():
+    """Our plant's way in (and a simulator's): speed and torque at every grid point, then the command sent at it.
+    Each row is the step's report with the command sent one step before (in force over the step), so the samples
+    are TelemetrySampler's on those rows, bit for bit; the first report has no command in force: no sample at 0."""
+    rng = np.random.default_rng(4)
+    n, wheel = 41, WheelParams()
+    stamps = np.arange(n) * 100_000_000
+    speed, torque, sent = (rng.normal(s, 1.0, (n, 3)) for s in (30.0, 0.0, 1.0))
+    samples = report_samples(stamps, sent, torque * 1e-3, speed, wheel, identification=True)
+    direct = TelemetrySampler(1.0, "mean", wheel, identification=True)
+    expected = [s for k in range(1, n) if (s := direct.add(int(stamps[k]), sent[k - 1], torque[k] * 1e-3, speed[k]))]
+    assert [s.stamp_ns for s in samples] == [s.stamp_ns for s in expected] == [10**9 * k for k in range(1, 5)]
+    for a, b in zip(samples, expected):
+        for name in ("tcv", "reaction_torque", "wheel_speed", "model_torque", "ripple_phasor", "bus_motor_torque"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    # the same reports one at a time, as the wheel_telemetry node takes them off its two topics
+    reports, streamed = ReportSampler(wheel, identification=True), []
+    for k in range(n):
+        assert reports.add_speed(int(stamps[k]), speed[k], torque[k] * 1e-3) == []   # it waits for its command
+        streamed += [(k, s.stamp_ns) for s in reports.add_command(int(stamps[k]), sent[k])]
+    assert streamed == [(10 * k, 10**9 * k) for k in range(1, 5)]   # each with the command sent at its stamp

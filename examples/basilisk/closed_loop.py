@@ -42,10 +42,15 @@ FAULTS = {
 # --envelope small: faults from the band up, where detection ends
 SMALL_FAULTS = {"torque_limit": (0.5, 0.95), "motor_gain": (0.9, 0.99), "coulomb": (0.6e-3, 4e-3),
                 "viscous": (3e-6, 2e-5)}
+# --units: each wheel its own unit, the 1-sigma shares our unit calibration assumes of a wheel type
+# (rw_fdi_ros.core.physics.wheel.DEFAULT_UNIT_SPREAD: torque constant and driver gain 2 % each, viscous and
+# Coulomb friction 20 %), each N(1, share) cut at 3 sigma
+UNIT_SPREAD = {"gain": (0.02, 0.02), "coulomb": (0.2,), "viscous": (0.2,)}
 
 
-def draw(seed: int, faults: str, duration: float, envelope: dict = FAULTS) -> dict:
-    """One run's draw: initial wheel speeds, slews, a constant disturbance torque and the fault (or none)."""
+def draw(seed: int, faults: str, duration: float, envelope: dict = FAULTS, units: bool = False) -> dict:
+    """One run's draw: initial wheel speeds, slews, a constant disturbance torque, the fault (or none) and, with
+    ``units``, each wheel's unit (its own stream: the rest of the draw is the datasheet run's)."""
     rng = np.random.default_rng(seed)
     slews = []
     for start in sorted(rng.uniform(20.0, duration - 60.0, size=rng.integers(1, 4))):
@@ -61,6 +66,11 @@ def draw(seed: int, faults: str, duration: float, envelope: dict = FAULTS) -> di
         low, high = envelope[kind]
         run["fault"] = {"kind": kind, "wheel": int(rng.integers(3)), "size": float(rng.uniform(low, high)),
                         "onset_s": float(np.round(rng.uniform(0.25 * duration, 0.625 * duration), 1))}
+    if units:
+        spread = np.random.default_rng(seed + 5_000_000)
+        scale = {k: np.prod([np.clip(spread.normal(1.0, s, 3), 1 - 3 * s, 1 + 3 * s) for s in shares], axis=0)
+                 for k, shares in UNIT_SPREAD.items()}
+        run["units"] = {k: v.tolist() for k, v in scale.items()}   # shares of the datasheet's, per wheel
     return run
 
 
@@ -76,9 +86,11 @@ def fly(run: dict) -> tuple:
     sc.hub.mHub = 750.0
     sc.hub.IHubPntBc_B = np.diag(INERTIA).tolist()
     factory = simIncludeRW.rwFactory()
+    units = run.get("units") or {k: [1.0] * 3 for k in UNIT_SPREAD}
     wheels = [factory.create("Honeywell_HR16", axis, maxMomentum=50.0, Omega=rpm, useRWfriction=True,
-                             cViscous=2e-6, RWModel=messaging.BalancedWheels)
-              for axis, rpm in zip(np.eye(3).tolist(), run["wheel_speed_rpm"])]
+                             cViscous=2e-6 * viscous, fCoulomb=5e-4 * coulomb, RWModel=messaging.BalancedWheels)
+              for axis, rpm, viscous, coulomb in zip(np.eye(3).tolist(), run["wheel_speed_rpm"], units["viscous"],
+                                                     units["coulomb"])]
     rw = reactionWheelStateEffector.ReactionWheelStateEffector()
     factory.addToSpacecraft("wheels", rw, sc)
     disturbance = extForceTorque.ExtForceTorque()
@@ -87,8 +99,8 @@ def fly(run: dict) -> tuple:
     nav = simpleNav.SimpleNav()
     nav.scStateInMsg.subscribeTo(sc.scStateOutMsg)
     drive = motorVoltageInterface.MotorVoltageInterface()
-    gain = wheels[0].u_max / V_MAX
-    drive.setGains([gain] * 3)
+    gain = [wheels[0].u_max / V_MAX * g for g in units["gain"]]   # each unit's voltage-to-torque gain
+    drive.setGains(gain)
     rw.rwMotorCmdInMsg.subscribeTo(drive.motorTorqueOutMsg)
     for model, priority in ((drive, 30), (rw, 20), (sc, 10), (disturbance, 5)):
         sim.AddModelToTask("dyn_task", model, priority)
@@ -123,7 +135,7 @@ def fly(run: dict) -> tuple:
     rng = np.random.default_rng(run["seed"] + 7_000_000)   # the tachometer's noise, its own stream
     fault, slews = run["fault"], list(run["slews"])
     target = np.zeros(3)   # the reference attitude (MRP)
-    rows, effect, window, gains = [], 0.0, [], [gain] * 3
+    rows, effect, window, gains = [], 0.0, [], list(gain)
     steps = int(round(run["duration_s"] / FSW_PERIOD))
     for k in range(steps + 1):
         t = k * FSW_PERIOD
@@ -143,7 +155,7 @@ def fly(run: dict) -> tuple:
         if fault and t >= fault["onset_s"]:   # the fault's own torque on its wheel: faulty less healthy
             i = fault["wheel"]
             window.append(wheel_torque(rw.ReactionWheelData[i], gains[i], volts[i], speed[i])
-                          - wheel_torque(wheels[i], gain, volts[i], speed[i], healthy=True))
+                          - wheel_torque(wheels[i], gain[i], volts[i], speed[i], healthy=True))
             window = window[-int(round(1.0 / FSW_PERIOD)):]
             effect = max(effect, abs(float(np.mean(window))))
     return rows, effect
@@ -152,7 +164,7 @@ def fly(run: dict) -> tuple:
 HEALTHY = {}   # the faulty wheel's healthy u_max, fCoulomb, cViscous (a fault changes the payload the effector shares)
 
 
-def inject(rw, drive, gain: float, fault: dict) -> list:
+def inject(rw, drive, gain: list, fault: dict) -> list:
     """The fault through Basilisk's own parameters of the wheel (shared with the effector); the drive's gains."""
     wheel = rw.ReactionWheelData[fault["wheel"]]
     HEALTHY["u_max"], HEALTHY["fCoulomb"], HEALTHY["cViscous"] = wheel.u_max, wheel.fCoulomb, wheel.cViscous
@@ -162,9 +174,9 @@ def inject(rw, drive, gain: float, fault: dict) -> list:
         wheel.fCoulomb = fault["size"]
     elif fault["kind"] == "viscous":
         wheel.cViscous = fault["size"]
-    gains = [gain] * 3
+    gains = list(gain)
     if fault["kind"] == "motor_gain":
-        gains[fault["wheel"]] = gain * fault["size"]
+        gains[fault["wheel"]] = gain[fault["wheel"]] * fault["size"]
         drive.setGains(gains)
     return gains
 
@@ -199,6 +211,8 @@ def main(argv=None) -> int:
     parser.add_argument("--duration", type=float, default=400.0, help="s (default 400)")
     parser.add_argument("--envelope", choices=("service", "small"), default="service",
                         help="fault sizes: the in-service ranges (default) or small ones, from the band up")
+    parser.add_argument("--units", action="store_true",
+                        help="each wheel its own unit: gain, Coulomb and viscous friction drawn around the datasheet's")
     parser.add_argument("--out", required=True)
     args = parser.parse_args(argv)
     low, _, high = args.seeds.partition("..")
@@ -210,7 +224,8 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     for n, seed in enumerate(seeds, 1):
         HEALTHY.clear()
-        run = draw(seed, args.faults, args.duration, SMALL_FAULTS if args.envelope == "small" else FAULTS)
+        run = draw(seed, args.faults, args.duration, SMALL_FAULTS if args.envelope == "small" else FAULTS,
+                   args.units)
         rows, effect = fly(run)
         write(rows, run, effect, out)
         print(f"\r{n}/{len(seeds)} runs", end="", file=sys.stderr, flush=True)

@@ -14,7 +14,7 @@ import numpy as np
 
 from .control.allocation import TorqueAllocator
 from .fdir import SLEW_RATE, DecisionDelay, DeliveryLog, Reconfiguration
-from .fdi.verdict import speed_envelope
+from .fdi.verdict import speed_envelope, stamp_seconds
 from .physics.magnetorquers import Dumper
 from .fdi.pipeline import FdiPipeline, LoadedFdi
 from .control.pid import PidController, PidGains
@@ -135,7 +135,8 @@ def fly(scenarios, gains: PidGains, wheel: WheelParams | None = None,
     if fdir is not None:
         onboard = FdiPipeline(plant.wheels.names, fdir.fdi, plant.batch, fdir.fdi_period,
                               identification=fdir.identification, watch=fdir.watch,
-                              wheel=plant.vehicle.wheel)   # the FDI's nominal model: the datasheet's
+                              wheel=plant.vehicle.wheel,   # the FDI's nominal model: the datasheet's
+                              control_period=control_period)
         holdable = speed_envelope(wheel) if fdir.holdable is None else fdir.holdable
         reconfig = [Reconfiguration(plant.wheels, holdable, fdir.slew_rate, plant.inertia, wheel.inertia)
                     for _ in scenarios]
@@ -160,10 +161,19 @@ def fly(scenarios, gains: PidGains, wheel: WheelParams | None = None,
         if onboard is not None:
             if wheel_command is not None:   # the command in force over the step that led to this sample
                 delivery.add(wheel_command, sample.wheel_speed, sample.reaction_torque)
+            stamp = int(round(sample.time * 1e9))
+            confirmed = onboard.add_speed(stamp, sample.wheel_speed, sample.reaction_torque)
             _fdir_step(onboard, reconfig, delays, allocator, plant, sample, delivery)
         # the last sample is answered too, as the controllers and the allocation node answer it
         axis_command = pid.update(sp, sample.attitude, sample.body_rate)
         wheel_command = allocator.wheel_commands(axis_command, sample.wheel_speed)
+        if onboard is not None:
+            # the wheel_telemetry node's sample of this stamp waits for this command (wheel_reports.ControlGrid):
+            # its verdict shapes the commands from fdir.DECISION_DELAY on, as in the graph
+            for judged in confirmed + onboard.add_command(stamp, wheel_command):
+                if judged.confirmed:
+                    for b, (r, delay) in enumerate(zip(reconfig, delays)):
+                        delay.confirm(judged.confirmed[b], stamp_seconds(judged.stamp_ns), r.settled)
         last = plant.step_index == steps
         if plant.step_index % every == 0 or last:
             for key in ("attitude", "body_rate", "wheel_speed", "tcv", "reaction_torque", "fault_effect"):
@@ -189,14 +199,10 @@ def fly(scenarios, gains: PidGains, wheel: WheelParams | None = None,
 
 
 def _fdir_step(onboard, reconfig, delays, allocator, plant, sample, delivery):
-    """Feed the FDI this sample; on a confirmed failure decide the reconfiguration, apply the decisions due
-    now (fdir.DecisionDelay) and watch the wheels after a reconfiguration (fdir.Reconfiguration.review), to the
-    allocation before the next command."""
+    """Before the command of this sample: apply the decisions due now (fdir.DecisionDelay) and watch the wheels
+    after a reconfiguration (fdir.Reconfiguration.review), to the allocation."""
     stamp = int(round(sample.time * 1e9))
-    confirmed = onboard.add(stamp, sample.tcv, sample.reaction_torque, sample.wheel_speed)
     for b, (r, delay) in enumerate(zip(reconfig, delays)):
-        if confirmed:
-            delay.confirm(confirmed[b], sample.time, r.settled)
         changed = False
         momentum = inertia_times(plant.inertia, sample.body_rate[b])
         for wheel, reason in delay.due(sample.time):

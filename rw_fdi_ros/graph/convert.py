@@ -14,6 +14,7 @@ from geometry_msgs.msg import Vector3Stamped
 
 from ..core.fdir import Reconfiguration
 from ..core.physics.wheel_set import joint_name
+from . import topics as T
 from ..storage.cdr import joint_state_cdr
 from .topics import FDIR_STATUS
 
@@ -108,6 +109,29 @@ def telemetry_channel(name: str, key: str) -> str:
         The channel's name.
     """
     return f"{joint_name(name)}/{key}"
+
+
+def fdi_messages(sample, names, bus_voltage: float) -> list:
+    """(topic, message) of one FDI sample, in the order they go out: its bus-voltage grid (when it has one; the
+    isolation node decides on the telemetry once the grid is in), then the telemetry (CDR).
+
+    Parameters
+    ----------
+    sample : core.fdi.telemetry.FdiSample
+        The sample.
+    names : sequence of str
+        The wheels.
+    bus_voltage : float
+        The wheel type's nominal bus voltage [V].
+
+    Returns
+    -------
+    list of tuple
+        (topic, message).
+    """
+    grid = bus_grid_msg(sample, names, bus_voltage)
+    telemetry = (T.FDI_TELEMETRY, fdi_telemetry_cdr(sample, names))
+    return ([(T.FDI_BUS_GRID, grid)] if grid is not None else []) + [telemetry]
 
 
 def fdi_telemetry_cdr(sample, names) -> bytes:

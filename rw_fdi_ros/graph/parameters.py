@@ -25,7 +25,6 @@ RANGES = {
     "diagnostics_readers": (0, COUNT_MAX),
     "estimate_readers": (0, COUNT_MAX),
     "attitude_readers": (0, COUNT_MAX),
-    "fdi_readers": (0, COUNT_MAX),
     "bus_grid_readers": (0, COUNT_MAX),
     "wheels_readers": (0, COUNT_MAX),
     "fdir_readers": (0, COUNT_MAX),
@@ -63,7 +62,8 @@ RANGES = {
 # where one executable's parameter means more than the shared one: 0 switches something off
 BY_NODE = {
     "plant": {"control_period": (0.0, 1.0)},           # 0: the scenario's, else 0.1
-    "recorder": {"fdi_period": (0.0, 100.0)},          # 0: no FDI nodes to record
+    "recorder": {"fdi_period": (0.0, 100.0),           # 0: no FDI nodes to record
+                 "telemetry_period": (0.0, 100.0)},    # 0: no FDI telemetry to wait for
 }
 
 

@@ -14,12 +14,10 @@ from std_msgs.msg import Header, String
 
 from ..core.physics.environment import MAGNETOMETER_NOISE
 from ..core.physics.faults import FAULT_KINDS
-from ..core.fdi.telemetry import TelemetrySampler
-from ..core.physics.wheel import WheelParams
 from ..core.physics.wheel_set import joint_name
 from ..storage.cdr import clock_cdr, joint_state_cdr
 from . import topics as T
-from .convert import bus_grid_msg, fdi_telemetry_cdr, time_msg
+from .convert import time_msg
 
 UNIT_FIELDS = (("torque_constant", "torque_constant"), ("driver_gain", "driver_gain"),
                ("viscous_friction_scale", "viscous_scale"), ("coulomb_friction", "coulomb_friction"))
@@ -76,18 +74,16 @@ def magnetometer_msg(stamp: int, field) -> MagneticField:
 
 class PlantReport:
     """The plant's messages of one run: the scenario at the start, per step (stamp k * period) the
-    attitude, clock, wheel state, fault effect (from the first onset), FDI telemetry (every FDI
-    period) and ground truth (on change and every ``truth_period``), and /plant/done at the end."""
+    attitude, clock, wheel state (what any wheel reports: the FDI telemetry is the wheel_telemetry node's),
+    fault effect (from the first onset) and ground truth (on change and every ``truth_period``), and
+    /plant/done at the end."""
 
-    def __init__(self, scenario_text: str, names, units: dict, fdi_period: float, truth_period: float = 1.0,
-                 wheel: WheelParams = WheelParams()):
+    def __init__(self, scenario_text: str, names, units: dict, truth_period: float = 1.0):
         self.scenario_text = scenario_text
         self.names = tuple(names)
         self.joints = tuple(joint_name(n) for n in self.names)
         self.units = units
         self.truth_period = truth_period
-        # the FDI's nominal wheel model is the vehicle's datasheet (``wheel``), whatever the plant's emf-limit choice
-        self.telemetry = TelemetrySampler(fdi_period, "mean", wheel, identification=True)
         self.truth_key = None
         self.truth_due = 0.0
 
@@ -101,7 +97,7 @@ class PlantReport:
         """
         return [(T.SCENARIO, String(data=self.scenario_text))]
 
-    def step(self, stamp: int, time: float, attitude, body_rate, wheel_angle, wheel_speed, reaction_torque, tcv,
+    def step(self, stamp: int, time: float, attitude, body_rate, wheel_angle, wheel_speed, reaction_torque,
              fault_effect, operating_point: dict, faults, magnetic_field=None) -> list:
         """(topic, CDR bytes or message) of one step, in the order they go out (the controllers' input
         first: they compute while the rest goes out). Wheel arrays (N,), body arrays (3,);
@@ -124,8 +120,6 @@ class PlantReport:
             (N,) wheel speeds Omega [rad/s].
         reaction_torque : array_like
             (N,) reaction torques r [N m].
-        tcv : array_like
-            (N,) torque command voltages u [V].
         fault_effect : array_like
             (N,) the faults' effect on the reaction torque [N m].
         operating_point : dict
@@ -147,12 +141,6 @@ class PlantReport:
             out.append((T.MAGNETOMETER, magnetometer_msg(stamp, magnetic_field)))
         if any(f.onset <= time for f in faults):   # zero by definition before
             out.append((T.FAULT_EFFECT, joint_state_cdr(stamp, self.joints, effort=fault_effect)))
-        report = self.telemetry.add(stamp, tcv, reaction_torque, wheel_speed)
-        if report is not None:
-            # first: the isolation node decides on the report
-            grid = bus_grid_msg(report, self.names, self.telemetry.params.bus_voltage)
-            out += ([(T.FDI_BUS_GRID, grid)] if grid is not None else []) + [
-                (T.FDI_TELEMETRY, fdi_telemetry_cdr(report, self.names))]
         truth = self._truth(stamp, time, fault_effect, operating_point, faults)
         return out + ([(T.FAULT_TRUTH, truth)] if truth is not None else [])
 

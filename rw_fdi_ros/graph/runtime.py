@@ -296,16 +296,19 @@ class GraphNode(Node):
             return None
 
 
-class RecorderReady:
-    """Whether the recorder has said /recorder/ready (latched): it hears the graph's writers. True at once
-    when not ``wanted`` (no recorder to wait for); the plant and the player start on it."""
+class ReadySignal:
+    """Whether a reader that must hear a run from its first message has said so on its latched ``topic``
+    (default /recorder/ready: the recorder hears the graph's writers; /wheel_telemetry/ready: the wheel_telemetry
+    node hears the wheels and their commands). A writer that counts a reader does not mean the reader has
+    matched the writer: the plant and the player start on these. True at once when not ``wanted``."""
 
-    def __init__(self, node: Node, wanted: bool):
+    def __init__(self, node: Node, wanted: bool, topic: str | None = None):
         self.seen = not wanted
         if wanted:
             from std_msgs.msg import String
             from . import topics as T
-            node.create_subscription(String, T.RECORDER_READY, self._on_ready, T.LATCHED)
+            self.topic = topic or T.RECORDER_READY
+            node.create_subscription(String, self.topic, self._on_ready, T.LATCHED)
 
     def _on_ready(self, msg):
         self.seen = True

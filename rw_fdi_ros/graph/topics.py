@@ -6,7 +6,8 @@ sensor_msgs/JointState, the standard way ROS reports rotational degrees of
 freedom (PlotJuggler and Foxglove plot them by joint name); the controllers
 answer with body-axis commands (geometry_msgs/Vector3Stamped, x, y, z the
 spacecraft axes) and the wheel allocation with one command per wheel. Once per
-FDI period the plant sends the FDI telemetry every FDI node reads. Whatever is
+FDI period the wheel_telemetry node makes of the wheel state and the commands
+the FDI telemetry every FDI node reads. Whatever is
 per wheel is a JointState with the wheels' joint names (reaction_wheel_<name>,
 the wheel set's names: x, y, z and the redundant s by default): N wheels, not
 three axes. Every message that analysis depends on carries a header stamp in
@@ -95,6 +96,7 @@ SCENARIO = "/scenario"                # the scenario YAML (latched)
 PLANT_DONE = "/plant/done"            # std_msgs/Header: stamp = last step, frame_id = why it ended
 RECORDER_CLOSED = "/recorder/closed"  # std_msgs/String (latched): index of the bag the recorder closed
 RECORDER_READY = "/recorder/ready"    # std_msgs/String (latched): the graph's writers of what it records are matched
+TELEMETRY_READY = "/wheel_telemetry/ready"   # std_msgs/String (latched): wheel_telemetry hears wheels and commands
 
 
 def tcv_command(axis: str) -> str:
@@ -446,7 +448,8 @@ def _wheel_set(p) -> str:
 # executable -> its parameters -> the topics it subscribes to
 READS = {
     "plant": lambda p: [WHEEL_COMMAND] + ([DIPOLE_COMMAND] if p.get("magnetorquers") else [])
-                       + ([RECORDER_READY] if p.get("recorder_ready") else []),
+                       + ([RECORDER_READY] if p.get("recorder_ready") else [])
+                       + ([TELEMETRY_READY] if p.get("telemetry_ready") else []),
     "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
     "wheel_allocation": lambda p: [*(tcv_command(a) for a in BODY_AXES), ATTITUDE, WHEELS]
                                   + ([DIAGNOSTICS] if p.get("fdir", True) else []) + _run_end(p),
@@ -475,8 +478,7 @@ def _observer_waits(observer: str, axis: str | None) -> dict:
 
 # executable -> its parameters -> {parameter: the topics of its own whose readers that parameter counts}
 WAITS = {
-    "plant": lambda p: {"attitude_readers": [ATTITUDE], "wheels_readers": [WHEELS], "fdi_readers": [FDI_TELEMETRY],
-                        "bus_grid_readers": [FDI_BUS_GRID],
+    "plant": lambda p: {"attitude_readers": [ATTITUDE], "wheels_readers": [WHEELS],
                         "wait_for_subscribers": [CLOCK, FAULT_EFFECT, FAULT_TRUTH, SCENARIO],
                         **({"magnetometer_readers": [MAGNETOMETER]} if p.get("magnetorquers") else {})},
     "pid_controller": lambda p: {"min_subscribers": [tcv_command(axis_of_joint(p["joint"], ATTITUDE_JOINTS))]},

@@ -6,10 +6,9 @@ of the set, core/physics/wheel_set.py), advances one control period and publishe
 step k+1. A command missing for ``command_timeout`` wall seconds stops the
 run with an error.
 
-It also plays the wheel electronics' part for the FDI: from the applied
-command, reaction torque and speed of every control step it makes the FDI
-telemetry (core/fdi/telemetry.py) and reports it once per FDI period, so the
-five FDI nodes read one message a second instead of three a step each.
+Its wheels report what any wheel reports, speed and reaction torque on
+/wheels: the FDI telemetry is made from that and the allocation's command by
+the wheel_telemetry node, the way the FDI attaches to anyone's wheels.
 """
 from __future__ import annotations
 
@@ -23,7 +22,7 @@ from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from geometry_msgs.msg import Vector3Stamped
-from sensor_msgs.msg import JointState, MagneticField, PointCloud2
+from sensor_msgs.msg import JointState, MagneticField
 from std_msgs.msg import Header, String
 
 from ..core.physics.plant import Plant
@@ -34,7 +33,7 @@ from ..graph import topics as T
 from ..storage.cdr import read_joint_state_cdr, read_vector_cdr
 from ..graph.convert import step_stamp_ns
 from ..graph.plant_report import PlantReport, run_units
-from ..graph.runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for, wall_time
+from ..graph.runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, ReadySignal, main_for, wall_time
 
 
 class PlantNode(GraphNode):
@@ -57,8 +56,6 @@ class PlantNode(GraphNode):
         # readers to wait for before the first step, per topic (runner/graph.py derives them from topics.READS)
         self.declare_parameter("attitude_readers", 3)    # the controllers (+ wheel allocation, recorder)
         self.declare_parameter("wheels_readers", 0)      # of /wheels: the wheel allocation (+ recorder)
-        self.declare_parameter("fdi_readers", 0)         # of the FDI telemetry: the FDI nodes (+ recorder)
-        self.declare_parameter("bus_grid_readers", 0)    # of its bus-voltage grid: the isolation node (+ recorder)
         self.declare_parameter("wait_for_subscribers", 0)  # of each other topic it sends per step (the recorder)
         self.declare_parameter("magnetometer_readers", 0)  # of /magnetometer: the momentum dumping (+ recorder)
         # in orbit with magnetorquers: wait for the momentum-dumping node's dipole on each magnetometer step
@@ -67,6 +64,7 @@ class PlantNode(GraphNode):
         # a recorder's reader may match the plant's writer later than the writer matches it (DDS discovery
         # is per direction): until /recorder/ready it could miss a whole run while the counts above look done
         self.declare_parameter("recorder_ready", False)  # wait for /recorder/ready (a recorder records the run)
+        self.declare_parameter("telemetry_ready", False)  # wait for /wheel_telemetry/ready (it makes the FDI's input)
         self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
         try:
             scenario = load_scenario(self.param("scenario"))
@@ -110,8 +108,7 @@ class PlantNode(GraphNode):
                                    "the rods stay off (no momentum_dumping node is waited for)")
         # this run's units (ground truth): datasheet values unless the scenario draws them
         self.report = PlantReport(scenario.effective_text(self.choices.scenario_dict()), self.names,
-                                  run_units(self.plant.wheel, 0, len(self.names)), self.choices.fdi_period,
-                                  self.param("truth_period"), scenario.spacecraft.wheel)
+                                  run_units(self.plant.wheel, 0, len(self.names)), self.param("truth_period"))
 
         self.publishers_by_topic = {}   # the table's topic name -> its publisher (resolved in our namespace)
 
@@ -122,8 +119,6 @@ class PlantNode(GraphNode):
         self.pub_attitude = pub(JointState, T.ATTITUDE)
         self.pub_wheels = pub(JointState, T.WHEELS)
         self.pub_effect = pub(JointState, T.FAULT_EFFECT)
-        self.pub_bus_grid = pub(PointCloud2, T.FDI_BUS_GRID)
-        self.pub_fdi = pub(JointState, T.FDI_TELEMETRY)
         self.pub_truth = pub(DiagnosticArray, T.FAULT_TRUTH)
         self.pub_scenario = pub(String, T.SCENARIO, T.LATCHED)
         self.pub_done = pub(Header, T.PLANT_DONE, T.LATCHED)
@@ -136,7 +131,8 @@ class PlantNode(GraphNode):
                                                                      self._on_dipole, T.RELIABLE, raw=True)
         self.tcv = self.dipole = None   # this step's answers, stepped on once both are in (dipole: when due)
         self.dipole_due = False
-        self.recorder = RecorderReady(self, self.param("recorder_ready"))
+        self.ready = [ReadySignal(self, self.param("recorder_ready")),
+                      ReadySignal(self, self.param("telemetry_ready"), T.TELEMETRY_READY)]
         self.started = False
         self.t_wait = wall_time()
         self.step_wall = []   # wall seconds from publishing step k to publishing step k+1
@@ -159,11 +155,9 @@ class PlantNode(GraphNode):
 
     # -- lockstep ------------------------------------------------------------------
     def _graph_ready(self) -> bool:
-        if any(s.get_publisher_count() < 1 for s in self.subs.values()) or not self.recorder.seen:
+        if any(s.get_publisher_count() < 1 for s in self.subs.values()) or not all(r.seen for r in self.ready):
             return False
-        need = [(self.pub_attitude, self.param("attitude_readers")), (self.pub_fdi, self.param("fdi_readers")),
-                (self.pub_bus_grid, self.param("bus_grid_readers")),
-                (self.pub_wheels, self.param("wheels_readers"))]
+        need = [(self.pub_attitude, self.param("attitude_readers")), (self.pub_wheels, self.param("wheels_readers"))]
         need += [(p, self.param("wait_for_subscribers")) for p in (self.pub_effect, self.pub_clock,
                                                                    self.pub_truth, self.pub_scenario)]
         if self.pub_magnetometer is not None:
@@ -181,9 +175,10 @@ class PlantNode(GraphNode):
             elif now - self.t_wait > self.param("startup_timeout"):
                 missing = [f"no {writer} on {s.topic_name}" for writer, s in self.subs.items()
                            if s.get_publisher_count() < 1]
+                silent = [r.topic for r in self.ready if not r.seen]
                 what = (", ".join(missing) if missing else
-                        "subscribers missing" if self.recorder.seen else
-                        f"the recorder never reported every topic matched on {T.RECORDER_READY}")
+                        f"never ready on {', '.join(silent)} (the writers it reads not matched)" if silent else
+                        "subscribers missing")
                 self.fail(f"graph not ready after {self.param('startup_timeout'):g} s ({what})", EXIT_TIMEOUT)
             return
         if self.exit_code is None and now - self.t_wait > self.param("command_timeout"):
@@ -247,13 +242,12 @@ class PlantNode(GraphNode):
         self.dipole_due = self.rods and field is not None
         self._send(self.report.step(stamp, sample.time, sample.attitude[0], sample.body_rate[0],
                                     self.plant.wheel_angle[0], sample.wheel_speed[0], sample.reaction_torque[0],
-                                    sample.tcv[0], sample.fault_effect[0],
+                                    sample.fault_effect[0],
                                     {kind: v[0] for kind, v in sample.operating_point.items()}, self.plant.faults(),
                                     field))
         if k >= self.last_step:
             # done only once every reader has the last sample: a recorder that sees done has it all
-            for pub in (self.pub_clock, self.pub_truth, self.pub_attitude, self.pub_wheels, self.pub_fdi,
-                        self.pub_bus_grid, self.pub_effect,
+            for pub in (self.pub_clock, self.pub_truth, self.pub_attitude, self.pub_wheels, self.pub_effect,
                         *([self.pub_magnetometer] if self.pub_magnetometer else [])):
                 if not pub.wait_for_all_acked(Duration(seconds=5.0)):
                     self.get_logger().warn(f"{pub.topic_name}: not every reader acknowledged the last step "

@@ -26,7 +26,7 @@ from std_msgs.msg import String
 from ..storage.bag import BagError, BagInfo, iter_messages, iter_time_order
 from ..graph import topics as T
 from ..graph.convert import stamp_ns
-from ..graph.runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, RecorderReady, main_for
+from ..graph.runtime import EXIT_BAD_INPUT, EXIT_TIMEOUT, GraphNode, NodeError, ReadySignal, main_for
 
 PLANT_OUTPUTS = [T.CLOCK, T.ATTITUDE, T.WHEELS, T.FAULT_EFFECT, T.FDI_BUS_GRID, T.FDI_TELEMETRY, T.FAULT_TRUTH,
                  T.SCENARIO, T.PLANT_DONE]
@@ -81,7 +81,7 @@ class PlayerNode(GraphNode):
                                                      T.RELIABLE)
         self.closed = set()
         # the recorder hears every FDI writer before the first bag goes out (nodes/recorder.py)
-        self.recorder = RecorderReady(self, self.param("await_recorder"))
+        self.recorder = ReadySignal(self, self.param("await_recorder"))
         if self.param("await_recorder"):
             self.create_subscription(String, T.RECORDER_CLOSED, lambda m: self.closed.add(m.data), T.LATCHED)
         self.started = None

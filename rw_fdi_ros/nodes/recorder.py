@@ -43,6 +43,7 @@ class RecorderNode(GraphNode):
         self.declare_parameter("extra_topics", Parameter.Type.STRING_ARRAY)   # 'name:pkg/msg/Type' beyond the graph's
         self.declare_parameter("drain_timeout", 5.0)          # after done: wall s without any message -> close
         self.declare_parameter("fdi_period", 0.0)             # > 0: the FDI nodes run; record their topics
+        self.declare_parameter("telemetry_period", 0.0)       # > 0: the FDI telemetry's, whose last sample ends a run
         self.declare_parameter("fdi_method", "speed_aware")   # whose observers' topics (with fdi_period > 0)
         self.declare_parameter("record_plant", True)          # False: FDI outputs only (bag replay)
         self.declare_parameter("wheel_set", DEFAULT_WHEEL_SET)  # whose wheels' FDI topics (one Elman node per wheel)
@@ -54,6 +55,7 @@ class RecorderNode(GraphNode):
         self.next_look = 0.0   # wall time of the next look for another graph
         self.output_index = 0
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
+        self.telemetry_period_ns = int(round(self.param("telemetry_period") * 1e9)) if self.record_plant else 0
         # what it subscribes to is the graph's table (topics.READS counts the recorder's reads from it)
         method = self.param("fdi_method")
         plugins = T.plugin_slots({"plugin_observers": self.param("plugin_observers")})
@@ -160,6 +162,9 @@ class RecorderNode(GraphNode):
                 t in self.writers and self.last_stamp[t] == last_fdi and self.at_last[t] < self.writers[t])]
         else:
             lagging_fdi = []
+        if self.telemetry_period_ns > 0:   # the wheel_telemetry node's last sample comes after the last command
+            last_sample = self.done_stamp - self.done_stamp % self.telemetry_period_ns
+            lagging_fdi += [t for t in (T.FDI_BUS_GRID, T.FDI_TELEMETRY) if self.last_stamp.get(t, -1) < last_sample]
         last_reading = self.done_stamp - self.done_stamp % int(round(MAGNETOMETER_PERIOD * 1e9))
         lagging = ([t for t in final if self.last_stamp.get(t, -1) < self.done_stamp] + lagging_fdi
                    + [t for t in self.final_orbit if self.last_stamp.get(t, -1) < last_reading])

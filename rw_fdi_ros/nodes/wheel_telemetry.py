@@ -13,21 +13,22 @@ The wheels are matched by joint name: the wheel set's reaction_wheel_<name>,
 or ``joint_names`` (the streams' own names, in the wheel set's order). Both
 topics remap as any ROS topic. The nominal model's torque, friction and ripple
 phasor come from ``wheel_type`` (the vehicle's datasheet), never from a
-simulator's internals: core/fdi/wheel_reports.ControlGrid puts the reports on
-the control grid, core/fdi/telemetry.TelemetrySampler averages them. Stamps
-are the messages' (sim time or wall time alike).
+simulator's internals: core/fdi/wheel_reports.ReportSampler puts the reports
+on the control grid and averages them. Stamps are the messages' (sim time or
+wall time alike). Our own graph goes this way too: the plant reports its
+wheels as any wheel does, and this node makes what the FDI sees.
 """
 from __future__ import annotations
 
 import numpy as np
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import String
 
-from ..core.fdi.telemetry import TelemetrySampler
-from ..core.fdi.wheel_reports import ControlGrid
+from ..core.fdi.wheel_reports import ReportSampler
 from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
 from ..graph import topics as T
-from ..graph.convert import bus_grid_msg, fdi_telemetry_cdr, stamp_ns
+from ..graph.convert import fdi_messages, stamp_ns
 from ..graph.gate import GatedPublisher
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, relative
 from ..graph.wheel_type import declare_wheel_type
@@ -63,14 +64,16 @@ class WheelTelemetryNode(GraphNode):
             raise NodeError("parameter control_period must divide fdi_period in whole nanoseconds", EXIT_BAD_INPUT)
         self.names, self.joints = names, tuple(joints)
         self.stamps = {}   # topic -> (its newest stamp [ns], messages in a row that did not advance it)
-        self.grid = ControlGrid(step, wheel.inertia, self.param("max_gap"))
-        self.telemetry = TelemetrySampler(fdi_period, "mean", wheel, identification=True)
-        self.pub_fdi = GatedPublisher(self.create_publisher(JointState, T.FDI_TELEMETRY, T.RELIABLE),
-                                      self.param("min_subscribers"))
-        self.pub_grid = GatedPublisher(self.create_publisher(PointCloud2, T.FDI_BUS_GRID, T.RELIABLE),
-                                       self.param("bus_grid_readers"))
-        self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE)
-        self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE)
+        self.wheel = wheel
+        self.reports = ReportSampler(wheel, fdi_period, step, self.param("max_gap"), identification=True)
+        self.pubs = {T.FDI_TELEMETRY: GatedPublisher(self.create_publisher(JointState, T.FDI_TELEMETRY, T.RELIABLE),
+                                                     self.param("min_subscribers")),
+                     T.FDI_BUS_GRID: GatedPublisher(self.create_publisher(PointCloud2, T.FDI_BUS_GRID, T.RELIABLE),
+                                                    self.param("bus_grid_readers"))}
+        self.inputs = [self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE),
+                       self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE)]
+        # once it hears a writer on each: a plant that must not step before (our graph) waits for it
+        self.pub_ready = self.create_publisher(String, T.TELEMETRY_READY, T.LATCHED)
         self.follow_run_end(period=fdi_period)   # a run that says its end (/plant/done): ours, a replay
 
     def _ordered(self, msg, field: str, topic: str):
@@ -105,31 +108,29 @@ class WheelTelemetryNode(GraphNode):
     def _on_command(self, msg):
         tcv = self._ordered(msg, "effort", T.WHEEL_COMMAND) if self._stamped(msg, T.WHEEL_COMMAND) else None
         if tcv is not None:
-            self._send(self.grid.add_command(stamp_ns(msg.header.stamp), tcv))
+            self._send(self.reports.add_command(stamp_ns(msg.header.stamp), tcv))
 
     def _on_wheels(self, msg):
         speed = self._ordered(msg, "velocity", T.WHEELS) if self._stamped(msg, T.WHEELS) else None
         if speed is None:
             return
         torque = self._ordered(msg, "effort", T.WHEELS) if msg.effort else None   # optional: r from the speed
-        self._send(self.grid.add_speed(stamp_ns(msg.header.stamp), speed, torque))
+        self._send(self.reports.add_speed(stamp_ns(msg.header.stamp), speed, torque))
 
-    def _send(self, rows):
-        """The FDI telemetry (and its bus grid) of every FDI stamp among the grid's rows."""
-        for t, tcv, reaction_torque, omega in rows:
-            report = self.telemetry.add(t, tcv, reaction_torque, omega)
-            if report is None:
-                continue
-            grid = bus_grid_msg(report, self.names, self.telemetry.params.bus_voltage)
-            if grid is not None:
-                self.pub_grid.publish(grid)
-            self.pub_fdi.publish(fdi_telemetry_cdr(report, self.names))
-            self.last_handled = report.stamp_ns
+    def _send(self, samples):
+        """The FDI telemetry (and its bus grid) of each FDI sample."""
+        for sample in samples:
+            for topic, message in fdi_messages(sample, self.names, self.wheel.bus_voltage):
+                self.pubs[topic].publish(message)
+            self.last_handled = sample.stamp_ns
 
     def poll(self):
+        if self.inputs and all(s.get_publisher_count() > 0 for s in self.inputs):
+            self.pub_ready.publish(String(data="ready"))
+            self.inputs = []
         if getattr(self, "_run_end", None) is not None or self.run_ended():   # the source ended (or left)
-            self._send(self.grid.flush())
-        if self.pub_grid.flush() and self.pub_fdi.flush() and self.run_ended():
+            self._send(self.reports.flush())
+        if all([p.flush() for p in self.pubs.values()]) and self.run_ended():
             self.finish()
 
 

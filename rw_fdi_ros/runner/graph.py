@@ -54,8 +54,8 @@ class ProcessSpec:
 # own process, as `ros2 run` starts them. The default was chosen by measurement (docs/benchmarks.md).
 _LOOP = {"plant": "loop", "player": "loop", "pid_controller": "loop", "wheel_allocation": "loop",
          "momentum_dumping": "loop"}
-_FDI = {"elman_observer": "fdi", "linear_observer": "fdi", "model_observer": "fdi", "plugin_observer": "fdi",
-        "isolation": "fdi"}
+_FDI = {"wheel_telemetry": "fdi", "elman_observer": "fdi", "linear_observer": "fdi", "model_observer": "fdi",
+        "plugin_observer": "fdi", "isolation": "fdi"}
 GROUPINGS = {
     "none": None,
     "all": dict.fromkeys([*_LOOP, *_FDI, "recorder"], "graph"),
@@ -139,7 +139,8 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
         "wheel_set": choices.wheel_set, "magnetic_field": choices.magnetic_field, "command_timeout": command_timeout,
-        "recorder_ready": bag is not None, "magnetorquers": scenario.magnetorquers is not None})]
+        "recorder_ready": bag is not None, "telemetry_ready": fdi is not None or bag is not None,
+        "magnetorquers": scenario.magnetorquers is not None})]
     for i, axis in enumerate(BODY_AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
             "joint": T.ATTITUDE_JOINTS[i], "control_period": period, "initial_tcv": float(hold[i]),
@@ -158,6 +159,8 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
             "wheel_set": choices.wheel_set, "dipole_limit": rods.dipole_limit, "gain": rods.gain,
             "start_speed": rods.start_speed, "stop_speed": rods.stop_speed, "enabled": rods.enabled,
             **({} if vehicle is None else {"wheel_inertia": float(vehicle.wheel.inertia)})}))
+    if fdi is not None or bag is not None:   # the FDI, and the bag, take the wheels' reports as it makes them
+        nodes.append(telemetry_node(choices, wheel_type))
     if fdi is not None:
         nodes += fdi_nodes(fdi, choices, await_bus_grid=True, wheel_type=wheel_type)   # a grid with every report
     if live is not None:
@@ -169,6 +172,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         # absolute: a bag named like a number or a YAML word ("1e3", "on") is a path, never retyped
         nodes.append(NodeSpec("recorder", "recorder", {"output": str(Path(bag).resolve()),
                                                        "fdi_period": choices.fdi_period if fdi is not None else 0.0,
+                                                       "telemetry_period": choices.fdi_period,
                                                        "fdi_method": fdi.method if fdi else "speed_aware",
                                                        "wheel_set": choices.wheel_set,
                                                        "orbit": scenario.environment is not None,
@@ -201,17 +205,39 @@ def attach_nodes(vehicle: str | None = None, fdi=None, joint_names=(), max_gap: 
     scenario = vehicle_scenario(vehicle, duration=1.0)
     choices = scenario.plant_choices()
     wheel_type = wheel_parameter(scenario.spacecraft.wheel, scenario.spacecraft.wheel_type)
-    telemetry = NodeSpec("wheel_telemetry", "wheel_telemetry", {
-        "wheel_set": choices.wheel_set, "fdi_period": choices.fdi_period, "control_period": choices.control_period,
-        **({"joint_names": list(joint_names)} if joint_names else {}),
-        **({"max_gap": float(max_gap)} if max_gap is not None else {}),
-        **({"wheel_type": wheel_type} if wheel_type else {})})
+    telemetry = telemetry_node(choices, wheel_type, joint_names, max_gap)
     fdi = FdiConfig.of(fdi or {})
     if vehicle and Path(vehicle).is_dir() and not (fdi.models or fdi.thresholds):
         from dataclasses import replace
         fdi = replace(fdi, models=str(Path(vehicle).resolve()))   # a vehicle's FDI directory judges with its FDI
     fdi_graph = fdi_nodes(fdi, choices, wheel_type=wheel_type)
     return checked_strings(with_reader_counts([telemetry, *fdi_graph]))
+
+
+def telemetry_node(choices: PlantChoices, wheel_type: str = "", joint_names=(), max_gap: float | None = None):
+    """The wheel_telemetry node: the FDI telemetry from the wheels' JointState streams (ours or anyone's).
+
+    Parameters
+    ----------
+    choices : PlantChoices
+        The wheel set, the FDI and control periods.
+    wheel_type : str
+        The vehicle's wheel type (core/mission/vehicle.wheel_parameter; '' the thesis' Type A).
+    joint_names : sequence of str
+        The streams' joint names in the wheel set's order; empty: ours.
+    max_gap : float, optional
+        [s] speed reports further apart leave the FDI periods between not judged; None: the node's.
+
+    Returns
+    -------
+    NodeSpec
+        The node.
+    """
+    return NodeSpec("wheel_telemetry", "wheel_telemetry", {
+        "wheel_set": choices.wheel_set, "fdi_period": choices.fdi_period, "control_period": choices.control_period,
+        **({"joint_names": list(joint_names)} if joint_names else {}),
+        **({"max_gap": float(max_gap)} if max_gap is not None else {}),
+        **({"wheel_type": wheel_type} if wheel_type else {})})
 
 
 def plugin_parameters(fdi) -> dict:

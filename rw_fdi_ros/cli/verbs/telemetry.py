@@ -2,7 +2,7 @@
 NAME = "telemetry"
 HELP = ("a telemetry table of any wheels (CSV or Parquet: time, <joint>.speed, <joint>.command, optional torque and "
         "ground truth, units in the header) checked, then judged by the vehicle's FDI (docs/telemetry.md)")
-PARENTS = ("fdi_files", "decision", "false_alarms", "jobs")   # --false-alarm-rate: with --fit, per segment
+PARENTS = ("fdi_files", "unit", "decision", "false_alarms", "jobs")   # --false-alarm-rate: with --fit, per segment
 
 
 def add_arguments(parser) -> None:
@@ -64,13 +64,19 @@ def main(args) -> int:
         from ...tools.evaluation.telemetry_file import fit
         bands = fit(tables, args.fit, args.vehicle, fdi, args.false_alarm_rate, args.segment, max_gap=args.max_gap,
                     train_runs=args.train_runs, epochs=args.epochs)
-        trained = bands.pop("trained_on")
+        trained, written = bands.pop("trained_on"), bands.pop("written_to")
         print((f"networks trained on {trained} segments of {args.segment:g} s; " if trained else "")
-              + f"bands fitted on {bands.pop('segments')} segments of {args.segment:g} s, written to {args.fit}:")
+              + f"bands fitted on {bands.pop('segments')} segments of {args.segment:g} s"
+              + (f", each wheel's unit learnt over its first {fdi.unit_calibration:g} s" if fdi.unit_calibration
+                 else "") + f", written to {written}:")
         for observer, by_wheel in bands.items():
             print(f"  {observer}: " + ", ".join(f"{a} {c * 1e3:.4g} mN m" for a, c in by_wheel.items()))
         if trained:
-            print(f"the vehicle's FDI: --vehicle {args.fit}")
+            print(f"the vehicle's FDI: --vehicle {args.fit}"
+                  + (f" --unit-calibration {fdi.unit_calibration:g}" if fdi.unit_calibration else ""))
+        else:
+            print(f"judge with: --thresholds {args.fit}"
+                  + (f" --unit-calibration {fdi.unit_calibration:g}" if fdi.unit_calibration else ""))
         return 0
     verdict = judge(tables[0], args.vehicle, fdi, max_gap=args.max_gap)
     print(format_verdict(verdict))

@@ -188,9 +188,11 @@ class UnitCalibration:
         p0 = prior_variances(params=params) if prior is None else np.asarray(prior, float)
         sigma_floor = SIGMA_FLOOR * wm.torque_scale(params) if sigma_floor is None else sigma_floor
         width = PHYSICAL + 2
-        if p0.shape != (width,) or np.any(p0 <= 0) or not np.all(np.isfinite(p0)):
-            raise ValueError(f"calibration prior variances must be {width} finite positive numbers, got {p0.tolist()}")
-        self.prior_information = np.diag(1.0 / p0)
+        if p0.shape != (width,) or np.any(p0 < 0) or not np.all(np.isfinite(p0)):
+            raise ValueError(f"calibration prior variances must be {width} finite numbers >= 0, got {p0.tolist()}")
+        # a prior variance of 0 holds its term at 0: a wheel type without ripple (B = 0) has no phasor to learn
+        self.free = p0 > 0
+        self.prior_information = np.diag(np.where(self.free, 1.0 / np.where(self.free, p0, 1.0), 0.0))
         self.tolerance = tolerances() if tolerance is None else np.asarray(tolerance, float)
         self.floor2 = float(sigma_floor) ** 2
         self.correlation = float(correlation)
@@ -207,8 +209,9 @@ class UnitCalibration:
     def _posterior(self) -> UnitEstimate:
         """b^ and Sigma for s^2 from the residual of a first fit at the noise floor (one refinement)."""
         def fit(s2):
-            information = self.prior_information + self.xtx / (self.correlation * s2)
-            cov = np.linalg.inv(information)
+            free = np.ix_(self.free, self.free)
+            cov = np.zeros_like(self.xtx)
+            cov[free] = np.linalg.inv((self.prior_information + self.xtx / (self.correlation * s2))[free])
             return cov @ self.xte / (self.correlation * s2), cov
         mean, _ = fit(self.floor2)
         rss = self.ete - 2.0 * mean @ self.xte + mean @ self.xtx @ mean

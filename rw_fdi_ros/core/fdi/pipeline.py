@@ -17,6 +17,7 @@ core loop (FDIR's verdict) and in the offline judge alike:
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import NamedTuple
 
 import numpy as np
 
@@ -26,7 +27,7 @@ from .verdict import (WHEEL_SPEED_ENVELOPE, DecisionRule, LatchedVerdict, Observ
                         in_envelope, speed_envelope)
 from .observer_plugin import PluginRun
 from .residuals import SignedResidual
-from .telemetry import TelemetrySampler
+from .wheel_reports import ReportSampler
 from ..physics.wheel import WheelParams
 
 
@@ -282,12 +283,21 @@ class ObserverBank:
         return out
 
 
-class FdiPipeline:
-    """Stages 1-5 for a batch of runs from control-rate telemetry: the FDI of the core loop.
+class Judged(NamedTuple):
+    """One FDI sample of a batch as :class:`FdiPipeline` judged it."""
 
-    TelemetrySampler -> :class:`ObserverBank` -> :class:`Isolation` per run, with the observers the decision
-    needs. ``watch``: another FDI's observers judged beside, acted on by nothing (each its own channel and
-    bands; their alarm intervals per run in :attr:`intervals`).
+    stamp_ns: int
+    sample: object          # telemetry.FdiSample, fields (B, N)
+    confirmed: list | None  # per run {wheel: first alarm [s] of a confirmed failure}; None: not judged (not finite)
+    rows: list | None       # per run the Isolation's rows (observer -> channel rows, wheel -> verdict row)
+
+
+class FdiPipeline:
+    """Stages 1-5 for a batch of runs from the wheels' reports: the FDI of the core loop.
+
+    wheel_reports.ReportSampler (the wheel_telemetry node's) -> :class:`ObserverBank` -> :class:`Isolation` per
+    run, with the observers the decision needs. ``watch``: another FDI's observers judged beside, acted on by
+    nothing (each its own channel and bands; their alarm intervals per run in :attr:`intervals`).
 
     Parameters
     ----------
@@ -305,10 +315,15 @@ class FdiPipeline:
         The observers judged beside (every one of its bands).
     wheel : WheelParams
         The datasheet wheel type (the nominal model, its ripple, calibration and envelope).
+    control_period : float
+        dt [s], the grid the reports are put on.
+    max_gap : float
+        [s] speed reports further apart leave the FDI periods between them not judged.
     """
 
     def __init__(self, names, fdi: LoadedFdi, batch: int, fdi_period: float = 1.0, identification: bool = False,
-                 watch: LoadedFdi | None = None, wheel: WheelParams = WheelParams()):
+                 watch: LoadedFdi | None = None, wheel: WheelParams = WheelParams(), control_period: float = 0.1,
+                 max_gap: float = 2.5):
         if fdi.method != "speed_aware":
             raise ValueError("FDIR in the core loop runs the speed_aware FDI (the thesis' residual is unsigned)")
         self.names = tuple(names)
@@ -316,7 +331,7 @@ class FdiPipeline:
         self.fdi_period_ns = int(round(fdi_period * 1e9))
         self.calibration_samples = fdi.calibration_samples
         decision = fdi.decision or decision_of("", fdi.method)
-        self.sampler = TelemetrySampler(fdi_period, "mean", wheel, identification=identification)
+        self.reports = ReportSampler(wheel, fdi_period, control_period, max_gap, identification)
         self.observers = ObserverBank(self.names, fdi, decision.observers, batch, fdi_period, wheel)
         curves = {slot: fdi.curves[slot] for slot in decision.observers}
         self.runs = [Isolation(self.names, curves, decision, fdi.persistence, wheel=wheel,
@@ -331,28 +346,43 @@ class FdiPipeline:
         self.intervals = [{slot: {a: [] for a in self.names} for slot in (watch.curves if watch else ())}
                           for _ in range(batch)]
 
-    def add(self, stamp_ns: int, tcv, reaction_torque, wheel_speed):
-        """One control-rate sample of the batch.
+    def add_speed(self, stamp_ns: int, wheel_speed, reaction_torque=None) -> list:
+        """A speed report of the batch (with its reaction torque where the wheels report it).
 
         Parameters
         ----------
         stamp_ns : int
-            The sample's stamp [ns].
-        tcv, reaction_torque, wheel_speed : ndarray
-            (B, N) commands [V], reaction torques [N m] and wheel speeds [rad/s].
+            The report's stamp [ns].
+        wheel_speed, reaction_torque : ndarray
+            (B, N) wheel speeds [rad/s] and reaction torques [N m] (None: from the speed).
 
         Returns
         -------
-        list of dict or None
-            On an FDI stamp, per run {wheel: first alarm [s] of a confirmed failure}; None elsewhere, and on an FDI
-            stamp whose sample is not finite (not judged).
+        list of Judged
+            The FDI samples the report completes (wheel_reports.ControlGrid: a speed report waits for the command
+            sent at its stamp).
         """
-        sample = self.sampler.add(stamp_ns, tcv, reaction_torque, wheel_speed)
-        if sample is None or not all(np.isfinite(x).all() for x in (sample.tcv, sample.reaction_torque,
-                                                                    sample.wheel_speed)):
+        torque = None if reaction_torque is None else self._batch(reaction_torque)
+        return [self._judge(s) for s in self.reports.add_speed(stamp_ns, self._batch(wheel_speed), torque)]
+
+    def add_command(self, stamp_ns: int, tcv) -> list:
+        """The commands sent at ``stamp_ns`` ((B, N) [V], in force over the next step); the FDI samples they
+        complete (list of Judged)."""
+        return [self._judge(s) for s in self.reports.add_command(stamp_ns, self._batch(tcv))]
+
+    def flush(self) -> list:
+        """The FDI samples of the reports still waiting: the streams have ended (list of Judged)."""
+        return [self._judge(s) for s in self.reports.flush()]
+
+    def _batch(self, values):
+        """(B, N) of a batch's values; a run's (N,) where the batch is one run."""
+        return np.reshape(np.asarray(values, float), (len(self.runs), len(self.names)))
+
+    def _judge(self, sample) -> Judged:
+        if not all(np.isfinite(x).all() for x in (sample.tcv, sample.reaction_torque, sample.wheel_speed)):
             # a period without reports (wheel_reports: NaN) is not judged: the observers' states wait for the next,
             # as the observer nodes do with a sample that is not finite
-            return None
+            return Judged(sample.stamp_ns, sample, None, None)
         x = (regressors(sample.motor_torque, sample.friction_torque, sample.wheel_speed, sample.ripple_phasor,
                         sample.free_motor_torque, params=self.wheel) if self.calibration_samples else None)
         if self.watch is not None:
@@ -364,7 +394,7 @@ class FdiPipeline:
         for b, (run, residuals) in enumerate(zip(self.runs, self.observers.residuals(sample, x))):
             self.rows[b] = run.step(sample.stamp_ns, residuals, run_of(sample, b))
             out.append({a: t for a, t in run.verdict.confirmed.items() if t is not None})
-        return out
+        return Judged(sample.stamp_ns, sample, out, list(self.rows))
 
     def _note_intervals(self, b: int, t: float, rows_of: dict):
         for slot, rows in rows_of.items():

@@ -16,8 +16,9 @@ the thesis' observers had to guess become known:
   (residuals.ripple_reach widens it to any gain that changes monotonically in the window)
 
 :class:`TelemetrySampler` feeds on the control-rate signals and returns one
-:class:`FdiSample` per FDI period (means over (t - T, t], core/fdi/sampling.py).
-The observer nodes and the offline tools both use it.
+:class:`FdiSample` per FDI period (means over (t - T, t], core/fdi/sampling.py);
+wheel_reports.ReportSampler feeds it the wheels' reports put on the control
+grid, for the wheel_telemetry node, the core loop and the offline tools alike.
 """
 from __future__ import annotations
 
@@ -224,7 +225,7 @@ class TelemetrySampler:
             return None if row is None else FdiSample(row[0], row[1][0], row[1][1])
         speed = np.asarray(wheel_speed, float)
         # the wheel angle advances sample by sample; the model terms wait for the FDI stamp and are
-        # computed for the whole period at once (elementwise, so the numbers are the same)
+        # computed for the whole period at once
         self.pending.append((stamp_ns, np.asarray(tcv, float), np.asarray(reaction_torque, float), speed,
                              self._advance(stamp_ns, speed)))
         if stamp_ns % self.sampler.period_ns:
@@ -234,35 +235,6 @@ class TelemetrySampler:
         signals = self._signals(np.array(u), np.array(r), np.array(w), np.array(theta))
         rows = [self._sample(s, [x[k] for x in signals]) for k, s in enumerate(stamps)]
         return rows[-1]
-
-    def add_series(self, stamps_ns, tcv, reaction_torque, wheel_speed=None) -> list:
-        """:meth:`add` over a whole series (time first), the same numbers: the wheel angle and the
-        sums advance sample by sample, the model terms (elementwise) are computed for all at once.
-
-        Parameters
-        ----------
-        stamps_ns : array_like
-            (n,) stamps [ns].
-        tcv : array_like
-            (n, N) torque command voltages u [V].
-        reaction_torque : array_like
-            (n, N) reaction torques r [N m].
-        wheel_speed : array_like or None
-            (n, N) wheel speeds Omega [rad/s].
-
-        Returns
-        -------
-        list of FdiSample
-            One per FDI stamp.
-        """
-        if wheel_speed is None:
-            rows = (self.add(int(s), u, r) for s, u, r in zip(stamps_ns, tcv, reaction_torque))
-            return [row for row in rows if row is not None]
-        speed = np.asarray(wheel_speed, float)
-        theta = np.array([self._advance(int(s), w) for s, w in zip(stamps_ns, speed)]).reshape(speed.shape)
-        signals = self._signals(np.asarray(tcv, float), np.asarray(reaction_torque, float), speed, theta)
-        rows = (self._sample(int(s), [x[k] for x in signals]) for k, s in enumerate(stamps_ns))
-        return [row for row in rows if row is not None]
 
     def _advance(self, stamp_ns: int, speed):
         """Wheel angle theta at this sample: trapezoid integral of the measured speed."""
@@ -294,35 +266,3 @@ class TelemetrySampler:
             return None
         return FdiSample(row[0], *row[1], tcv_instant=np.array(signals[0]),
                          reaction_torque_instant=np.array(signals[1]))
-
-
-def sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0, mode: str = "mean",
-                     params: wm.WheelParams = wm.WheelParams(), identification: bool = False):
-    """Whole control-rate series (time first) -> list of FdiSample, through :class:`TelemetrySampler`.
-
-    Parameters
-    ----------
-    stamps_ns : array_like of int, shape (n,)
-        Control sample stamps [ns].
-    tcv : array_like, shape (n, N)
-        Torque command voltage [V]: samples, wheels.
-    reaction_torque : array_like, shape (n, N)
-        Measured reaction torque [N m].
-    wheel_speed : array_like, shape (n, N), optional
-        Measured wheel speed [rad/s]; None for the thesis' observers (tcv and torque only).
-    period : float, optional
-        FDI period T [s].
-    mode : str, optional
-        ``mean`` or ``instant`` FDI sampling (``mean`` only, with ``wheel_speed``).
-    params : WheelParams
-        The nominal wheel model.
-    identification : bool, optional
-        Whether to add the bus-voltage grid of motor torques (identification.bus_motor_torque).
-
-    Returns
-    -------
-    list of FdiSample
-        One per FDI stamp (stamps that are multiples of ``period``), fields (N,).
-    """
-    return TelemetrySampler(period, mode, params, identification).add_series(stamps_ns, tcv, reaction_torque,
-                                                                             wheel_speed)

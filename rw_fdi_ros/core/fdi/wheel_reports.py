@@ -26,10 +26,19 @@ speed report waits until a command stamped at or after it has come (the
 commands before it are then all in) or until ``hold`` seconds of newer speed
 reports have, so the rows do not depend on the order the two streams arrive
 in; :meth:`ControlGrid.flush` gives what still waits at a stream's end.
+
+:class:`ReportSampler` is the grid and the sampler together: the one way FDI
+samples are made, from reports, by the wheel_telemetry node (our plant's
+streams and anyone's), the core loop (pipeline.FdiPipeline) and the offline
+tools (:func:`report_samples`). Our plant reports on the grid itself, with its
+reaction torque: there the rows are the reports as sent, u(t_k) the command
+sent at t_(k-1), and no row at the first report (no command is in force yet).
 """
 from __future__ import annotations
 
 import numpy as np
+
+from .telemetry import TelemetrySampler
 
 
 class ControlGrid:
@@ -176,6 +185,80 @@ class ControlGrid:
         while len(self.commands) > 1 and self.commands[1][0] < t:
             self.commands.pop(0)
         return self.commands[0][1] if self.commands and self.commands[0][0] < t else None
+
+
+class ReportSampler:
+    """A wheel set's reports in, its FDI samples (telemetry.FdiSample, every FDI period) out:
+    :class:`ControlGrid` then telemetry.TelemetrySampler, the nominal model the wheel type's.
+
+    Parameters
+    ----------
+    wheel : core.physics.wheel.WheelParams
+        The wheel type (its datasheet: the nominal model, the rotor inertia J).
+    fdi_period : float
+        T [s].
+    control_period : float
+        dt [s] of the grid, a divisor of T.
+    max_gap : float
+        [s] speed reports further apart leave the periods between them not judged (NaN).
+    identification : bool
+        The samples also carry the terms fault identification fits (the bus-voltage grid).
+    """
+
+    def __init__(self, wheel, fdi_period: float = 1.0, control_period: float = 0.1, max_gap: float = 2.5,
+                 identification: bool = False):
+        self.grid = ControlGrid(control_period, wheel.inertia, max_gap)
+        self.sampler = TelemetrySampler(fdi_period, "mean", wheel, identification=identification)
+
+    def add_command(self, stamp_ns: int, tcv) -> list:
+        """A command report (ControlGrid.add_command); the FDI samples it completes."""
+        return self._sampled(self.grid.add_command(stamp_ns, tcv))
+
+    def add_speed(self, stamp_ns: int, wheel_speed, reaction_torque=None) -> list:
+        """A speed report, with the reaction torque where the wheel reports it (ControlGrid.add_speed); the FDI
+        samples it completes."""
+        return self._sampled(self.grid.add_speed(stamp_ns, wheel_speed, reaction_torque))
+
+    def flush(self) -> list:
+        """The FDI samples of what still waits: the streams have ended."""
+        return self._sampled(self.grid.flush())
+
+    def _sampled(self, rows) -> list:
+        samples = (self.sampler.add(*row) for row in rows)
+        return [s for s in samples if s is not None]
+
+
+def report_samples(stamps_ns, tcv, reaction_torque, wheel_speed, wheel, fdi_period: float = 1.0,
+                   control_period: float = 0.1, identification: bool = False) -> list:
+    """The FDI samples of a run reported on the grid (time first, our plant's): at each stamp the speed and
+    reaction torque, then the command sent at it, through :class:`ReportSampler`.
+
+    Parameters
+    ----------
+    stamps_ns : array_like of int, shape (n,)
+        The steps' stamps [ns].
+    tcv : array_like, shape (n, N)
+        The command u [V] sent at each stamp (in force over the next step).
+    reaction_torque, wheel_speed : array_like, shape (n, N)
+        r [N m] and Omega [rad/s] at each stamp.
+    wheel : core.physics.wheel.WheelParams
+        The wheel type.
+    fdi_period, control_period : float
+        T and dt [s].
+    identification : bool
+        With the terms fault identification fits.
+
+    Returns
+    -------
+    list of telemetry.FdiSample
+        One per FDI stamp after the first.
+    """
+    reports = ReportSampler(wheel, fdi_period, control_period, identification=identification)
+    out = []
+    for stamp, u, r, w in zip(stamps_ns, tcv, reaction_torque, wheel_speed):
+        out += reports.add_speed(int(stamp), w, r)
+        out += reports.add_command(int(stamp), u)
+    return out + reports.flush()
 
 
 def speed_noise(stamps, speeds) -> float | None:

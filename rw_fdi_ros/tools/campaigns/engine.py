@@ -4,7 +4,8 @@ The core closed loop (core/closed_loop.simulate: the plant, PID and
 allocation code the nodes run) simulates a batch of runs at once; for each
 run the messages the graph's nodes would publish are made by the nodes' own
 code (nodes/plant_report.PlantReport for the plant, the controllers' and the
-allocation's CDR, convert.wheel_states_msg) and written through the
+allocation's CDR, convert.wheel_states_msg, and the wheel_telemetry node's
+core/fdi/wheel_reports.ReportSampler for the FDI telemetry) and written through the
 project's bag writer with the stamps the graph's recorder gives them. A bag
 says which engine recorded it (custom_data ``engine``). The bags equal the
 graph's topic for topic, message for message (test/test_engine.py); the
@@ -40,14 +41,17 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
     from ...core.physics.wheel_set import joint_name, wheel_set
     from ...graph import topics as T
     from ...core.physics.spacecraft import BODY_AXES
-    from ...graph.convert import offered_qos, step_stamp_ns, wheel_states_msg
+    from ...core.fdi.wheel_reports import ReportSampler
+    from ...graph.convert import fdi_messages, offered_qos, step_stamp_ns, wheel_states_msg
     from ...graph.plant_report import PlantReport, run_units
     from ...storage.cdr import joint_state_cdr, vector_cdr
     from ...storage.writer import BagWriter
     wheels = wheel_set(choices.wheel_set)
     names, joints = wheels.names, tuple(joint_name(n) for n in wheels.names)
-    report = PlantReport(scenario.effective_text(choices.scenario_dict()), names,
-                         run_units(units, run, wheels.count), choices.fdi_period, wheel=scenario.spacecraft.wheel)
+    report = PlantReport(scenario.effective_text(choices.scenario_dict()), names, run_units(units, run, wheels.count))
+    # the FDI's nominal wheel model is the vehicle's datasheet, whatever the plant's emf-limit choice
+    datasheet = scenario.spacecraft.wheel
+    reports = ReportSampler(datasheet, choices.fdi_period, choices.control_period, identification=True)
     orbit, rods = scenario.environment is not None, scenario.magnetorquers is not None
     reading_every = magnetometer_steps(choices.control_period) if orbit else None
     writer = BagWriter(bag)
@@ -70,8 +74,9 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
             magnetometer = orbit and k % reading_every == 0
             write(report.step(stamp, traj.time[k], traj.attitude[k, run], traj.body_rate[k, run],
                               traj.wheel_angle[k, run], traj.wheel_speed[k, run], traj.reaction_torque[k, run],
-                              traj.tcv[k, run], traj.fault_effect[k, run], {kind: v[k] for kind, v in ops.items()},
+                              traj.fault_effect[k, run], {kind: v[k] for kind, v in ops.items()},
                               faults, traj.magnetic_field[k, run] if magnetometer else None), stamp)
+            samples = reports.add_speed(stamp, traj.wheel_speed[k, run], traj.reaction_torque[k, run])
             if magnetometer and rods:
                 write([(T.DIPOLE_COMMAND, vector_cdr(stamp, traj.dipole[k, run]))], stamp)
             command = traj.axis_command[k, run]
@@ -81,6 +86,8 @@ def write_run_bag(bag: Path, scenario, choices, traj, run: int, units) -> int:
             if k == 0:   # the allocation says its wheels' states with its first command (no FDIR: never again)
                 write([(T.FDIR_WHEELS, wheel_states_msg(stamp, Reconfiguration(wheels), names))], stamp)
             write([(T.WHEEL_COMMAND, joint_state_cdr(stamp, joints, effort=traj.wheel_command[k, run]))], stamp)
+            for sample in samples + reports.add_command(stamp, traj.wheel_command[k, run]):   # wheel_telemetry's
+                write(fdi_messages(sample, names, datasheet.bus_voltage), sample.stamp_ns)
             if k == last:
                 write(report.done(stamp), stamp)
     finally:

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...core.closed_loop import simulate
 from ...core.controller_design import scenario_design
-from ...core.fdi.telemetry import sample_telemetry
+from ...core.fdi.wheel_reports import report_samples
 from ...core.physics.wheel import WheelParams
 from ...graph.convert import fdi_sample_of, stamp_ns, telemetry_wheels
 from ...core.physics.wheel_set import AXIS_WHEELS
@@ -55,13 +55,15 @@ class FdiSamples:
             yield FdiSample(int(round(t * 1e9)), self.tcv[k], self.reaction_torque[k], **extra)
 
 
-def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed=None, period: float = 1.0,
-                        sampling: str = "mean", bag=None, seed=None, identification: bool = False,
-                        wheels=AXIS_WHEELS, wheel_params: WheelParams = WheelParams()) -> FdiSamples:
-    """Control-rate series (time first) -> FdiSamples through the plant's TelemetrySampler, its nominal model
-    the wheel type ``wheel_params`` (``identification``: with the terms fault identification fits)."""
-    rows = sample_telemetry(stamps_ns, tcv, reaction_torque, wheel_speed, period, sampling, wheel_params,
-                            identification=identification)
+def samples_from_series(stamps_ns, tcv, reaction_torque, wheel_speed, period: float = 1.0, bag=None, seed=None,
+                        identification: bool = False, wheels=AXIS_WHEELS,
+                        wheel_params: WheelParams = WheelParams()) -> FdiSamples:
+    """A run reported on the control grid (time first; ``tcv`` the commands sent at each stamp) -> FdiSamples,
+    the way the wheel_telemetry node makes them (core/fdi/wheel_reports.report_samples), its nominal model the
+    wheel type ``wheel_params`` (``identification``: with the terms fault identification fits)."""
+    step = float(np.median(np.diff(stamps_ns))) * 1e-9 if len(stamps_ns) > 1 else 0.1
+    rows = report_samples(stamps_ns, tcv, reaction_torque, wheel_speed, wheel_params, period, round(step, 9),
+                          identification=identification)
     return samples_from_rows(rows, bag, seed, wheels, wheel_params)
 
 
@@ -83,13 +85,13 @@ def samples_from_rows(rows, bag=None, seed=None, wheels=AXIS_WHEELS,
 
 def fdi_samples(data, period: float = 1.0, sampling: str = "mean", speed_aware: bool = True,
                 identification: bool = False) -> FdiSamples:
-    """The FDI samples the observers of a run saw: the bag's FDI telemetry (what the plant reported
+    """The FDI samples the observers of a run saw: the bag's FDI telemetry (what the wheel_telemetry node reported
     once per FDI period), as the observers of FDI sampling ``sampling`` read it; with ``identification``
     also the terms only fault identification reads (the bus-voltage grid)."""
     msgs = data.topic(FDI_TELEMETRY)
     if not msgs:
         raise BagError(f"{data.path}: no {FDI_TELEMETRY} messages")
-    wheels = telemetry_wheels(msgs[0][1])   # the wheels the plant reported, in its order
+    wheels = telemetry_wheels(msgs[0][1])   # the wheels reported, in the set's order
     # the identification's bus-voltage grid goes beside each report (in a legacy text report, inside it)
     grids = {stamp_ns(m.header.stamp): m for _, m in data.topic(FDI_BUS_GRID)} if identification else {}
     legacy = hasattr(msgs[0][1], "status")   # a text report carries its grid itself
@@ -230,7 +232,7 @@ def simulated_fault_free_runs(ref, seeds, pool=None, desc: str = "fitting runs (
 
 def simulated_runs(scenarios, identification: bool = False, check=None, progress=None, on_run=None, fdir=None):
     """(scenario, FdiSamples, fault effect peak per wheel) of every scenario, by the core closed loop in
-    batches of BATCH (equal durations and plant choices within a batch): the FDI samples the plant
+    batches of BATCH (equal durations and plant choices within a batch): the FDI samples the wheel_telemetry
     node would report. ``check(plant_choices)`` runs before each batch is simulated; ``on_run(scenario,
     trajectory, index)`` sees each run's whole trajectory (what else a bench counts of it); ``fdir``
     (flight.Fdir): reconfigure on the FDI's verdict in the loop."""
@@ -245,9 +247,9 @@ def simulated_runs(scenarios, identification: bool = False, check=None, progress
         for b, scenario in enumerate(batch):
             if on_run is not None:
                 on_run(scenario, traj, b)
-            samples = samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
-                                          seed=scenario.seed, identification=identification, wheels=traj.wheel_names,
-                                          wheel_params=scenario.spacecraft.wheel)
+            samples = samples_from_series(stamps, traj.wheel_command[:, b], traj.reaction_torque[:, b],
+                                          traj.wheel_speed[:, b], seed=scenario.seed, identification=identification,
+                                          wheels=traj.wheel_names, wheel_params=scenario.spacecraft.wheel)
             onset = min((f.onset for f in scenario.faults), default=None)
             after = traj.time >= onset if onset is not None else np.zeros(len(traj.time), bool)
             yield scenario, samples, (np.abs(traj.fault_effect[after, b]).max(axis=0) if after.any()

@@ -41,8 +41,9 @@ def _run_batch(draws, act: bool = True) -> list:
     scenarios = [family.scenario(d) for d in draws]
     traj = simulate(scenarios, fdir=family.fdir_for(draws[0].units, vehicle=draws[0].vehicle) if act else None)
     stamps = np.round(traj.time * 1e9).astype(np.int64)
-    return [(d, samples_from_series(stamps, traj.tcv[:, b], traj.reaction_torque[:, b], traj.wheel_speed[:, b],
-                                    seed=d.seed, wheels=traj.wheel_names, wheel_params=scenarios[0].spacecraft.wheel))
+    return [(d, samples_from_series(stamps, traj.wheel_command[:, b], traj.reaction_torque[:, b],
+                                    traj.wheel_speed[:, b], seed=d.seed, wheels=traj.wheel_names,
+                                    wheel_params=scenarios[0].spacecraft.wheel))
             for b, d in enumerate(draws)]
 
 

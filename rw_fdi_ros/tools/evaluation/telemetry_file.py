@@ -10,7 +10,7 @@ The table (CSV, or Parquet with pyarrow) has one row per report, the unit of eac
 
 A channel may be empty in a row (speed and command at their own rates). The joints map to the vehicle's wheel
 set in its order (``joints``: the table's names; default the table's order). The reports go through
-core/fdi/wheel_reports.ControlGrid and the core loop's FdiPipeline: the wheel_telemetry node's and the FDI
+core/fdi/wheel_reports.ReportSampler and the core loop's FdiPipeline: the wheel_telemetry node's and the FDI
 nodes' code, so the verdict is the graph's.
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.fdi.wheel_reports import ControlGrid, speed_noise
+from ...core.fdi.wheel_reports import speed_noise
 
 UNITS = {"time": {"s": 1e9, "ns": 1.0}, "speed": {"rad/s": 1.0, "rpm": 2 * np.pi / 60.0},
          "command": {"V": 1.0}, "torque": {"N m": 1.0, "mN m": 1e-3}, "fault": {"1": 1.0, "": 1.0}}
@@ -228,18 +228,20 @@ def judge(table: Telemetry, vehicle=None, fdi=None, control_period: float = 0.1,
                              f"wheel set {len(names)} ({', '.join(names)}): give --joints in its order")
     fdi_period = 1.0
     loaded = (fdi or FdiConfig()).for_vehicle(v.name).loaded(fdi_period)
-    pipeline = FdiPipeline(names, loaded, 1, fdi_period, identification=True, wheel=v.wheel)
+    pipeline = FdiPipeline(names, loaded, 1, fdi_period, identification=True, wheel=v.wheel,
+                           control_period=control_period, max_gap=max_gap)
     samples, skipped = [], []
-    for t, u, r, w in grid_rows(table, v.wheel.inertia, control_period, max_gap):
-        if pipeline.add(t, u[None], r[None], w[None]) is None:
-            if t % int(fdi_period * 1e9) == 0:   # an FDI stamp without a judged sample: a gap in the reports
-                skipped.append(t * 1e-9)
+    for judged in feed(table, pipeline):
+        t = judged.stamp_ns * 1e-9
+        if judged.rows is None:   # an FDI stamp without a judged sample: a gap in the reports
+            skipped.append(t)
             continue
-        _, decided = pipeline.rows[0]
+        _, decided = judged.rows[0]
         for i, a in enumerate(names):
             residual, threshold = decided[a][0], decided[a][1]   # the decision's: its residual against its band
-            samples.append({"time_s": t * 1e-9, "wheel": a, "speed": float(w[i]), "residual": float(residual),
-                            "threshold": float(threshold), "alarm": bool(decided[a][2])})
+            samples.append({"time_s": t, "wheel": a, "speed": float(judged.sample.wheel_speed[0, i]),
+                            "residual": float(residual), "threshold": float(threshold),
+                            "alarm": bool(decided[a][2])})
     identified = pipeline.identified[0]
     truth = _onsets(table)
     wheels = {}
@@ -368,13 +370,15 @@ def fit(tables, out, vehicle=None, fdi=None, false_alarm_rate: float | None = No
     Returns
     -------
     dict
-        observer -> wheel -> band c [N m]; ``segments`` fitted on and ``trained_on`` (pieces, 0: none).
+        observer -> wheel -> band c [N m]; ``segments`` fitted on, ``trained_on`` (pieces, 0: none) and
+        ``written_to`` (the bands' directory: ``out``, or with ``fdi.unit_calibration`` its ``unit_calibrated``
+        beside the networks, where FdiConfig looks for them).
     """
     import yaml
     from ...fdi_config import FdiConfig
     from ...core.fdi.detection import FALSE_ALARM_RATE
     from ...core.fdi.elman import ModelError
-    from ...core.fdi.telemetry import TelemetrySampler
+    from ...core.fdi.wheel_reports import ReportSampler
     from ...core.fdi.threshold_fit import fitting_runs_needed
     from ...core.mission.scenario import vehicle_scenario
     from ...core.mission.vehicle import load_vehicle, to_mapping
@@ -388,12 +392,15 @@ def fit(tables, out, vehicle=None, fdi=None, false_alarm_rate: float | None = No
     n = int(segment)
     pieces, seconds = [], 0
     for table in tables:   # each table its own run: no piece spans two
-        sampler = TelemetrySampler(1.0, "mean", v.wheel, identification=False)
-        samples = [s for row in grid_rows(table, v.wheel.inertia, control_period, max_gap)
-                   if (s := sampler.add(*row)) is not None and np.isfinite(s.reaction_torque).all()]
+        reports = ReportSampler(v.wheel, 1.0, control_period, max_gap)
+        samples = [s for s in feed(table, reports) if np.isfinite(s.reaction_torque).all()]
         seconds += len(samples)
         pieces += [samples[i:i + n] for i in range(0, len(samples) - n + 1, n)]
     config = (fdi or FdiConfig()).for_vehicle(v.name)
+    calibration = config.unit_calibration
+    if calibration and calibration >= segment:
+        raise TelemetryError(f"--unit-calibration {calibration:g} s is not shorter than the {segment:g}-s fitting "
+                             "segments: give a longer --segment")
     if train_runs is None:
         try:
             config.load_models()
@@ -419,30 +426,31 @@ def fit(tables, out, vehicle=None, fdi=None, false_alarm_rate: float | None = No
         models, reference = load_models(out), "model_set.json"
     else:
         models, reference = load_models(config.models_dir), str(config.models_dir)
-    bands = fit_thresholds(runs, models, out, model_ref=reference, false_alarm_rate=rate, plant=plant)
-    return {**bands, "segments": len(runs), "trained_on": train_runs}
+    bands_dir = out / "unit_calibrated" if calibration else out   # FdiConfig.thresholds_dir's layout
+    bands = fit_thresholds(runs, models, bands_dir, model_ref=reference, false_alarm_rate=rate, plant=plant,
+                           unit_calibration=calibration)
+    return {**bands, "segments": len(runs), "trained_on": train_runs, "written_to": str(bands_dir)}
 
 
 TRAIN_RUNS = 20   # pieces a vehicle's networks learn from when it has none (rw-fdi defaults trains on 40 runs)
 
 
-def grid_rows(table: Telemetry, inertia: float, control_period: float = 0.1, max_gap: float = 2.5):
-    """The table's reports on the control grid, as the wheel_telemetry node puts them: (t_k [ns], u, r, Omega)
-    (core/fdi/wheel_reports.ControlGrid; NaN where the reports leave a point unknown)."""
-    grid = ControlGrid(control_period, inertia, max_gap)
+def feed(table: Telemetry, sink) -> list:
+    """The table's reports into ``sink`` (core/fdi/wheel_reports.ReportSampler, core/fdi/pipeline.FdiPipeline) in
+    the order two streams would bring them, as the wheel_telemetry node takes them; what the sink gives back."""
     # a command row may name some wheels only: each wheel holds its last command (the driver does)
     held = table.command.copy()
     for k in range(1, len(held)):
         held[k] = np.where(np.isnan(held[k]), held[k - 1], held[k])
     commands = [k for k in np.flatnonzero(~np.isnan(table.command).all(axis=1)) if np.isfinite(held[k]).all()]
-    c = 0
+    out, c = [], 0
     for k in np.flatnonzero(np.isfinite(table.speed).all(axis=1)):   # a speed row names every wheel (check)
         stamp = int(table.stamps_ns[k])
         while c < len(commands) and table.stamps_ns[commands[c]] <= stamp:
-            yield from grid.add_command(int(table.stamps_ns[commands[c]]), held[commands[c]])
+            out += sink.add_command(int(table.stamps_ns[commands[c]]), held[commands[c]])
             c += 1
         torque = None if table.torque is None or np.isnan(table.torque[k]).any() else table.torque[k]
-        yield from grid.add_speed(stamp, table.speed[k], torque)
+        out += sink.add_speed(stamp, table.speed[k], torque)
     for k in commands[c:]:
-        yield from grid.add_command(int(table.stamps_ns[k]), held[k])
-    yield from grid.flush()
+        out += sink.add_command(int(table.stamps_ns[k]), held[k])
+    return out + sink.flush()
