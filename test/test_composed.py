@@ -56,7 +56,7 @@ def test_the_groupings_deal_every_node_once():
         procs = processes(nodes, grouping)
         assert sorted(n.name for p in procs for n in p.nodes) == sorted(n.name for n in nodes)
     assert len(processes(nodes, "none")) == len(nodes) and len(processes(nodes, "all")) == 1
-    assert [p.name for p in processes(nodes, DEFAULT_GROUPING)] == ["loop", "fdi"]
+    assert [p.name for p in processes(nodes, DEFAULT_GROUPING)] == ["loop", "wheel_telemetry", "fdi"]
     with pytest.raises(ValueError, match="grouping must be one of"):
         processes(nodes, "some")
 
@@ -85,7 +85,8 @@ def test_diagnostics_carry_the_verdict_and_fdirs_state_each_fdi_period(bags):
         if states:
             fdir[m.header.stamp.sec] = {s.hardware_id: s for s in states}
     verdicts = verdict_messages(data)
-    assert len(fdir) == len(verdicts) == 81   # 0..80 s
+    # FDIR's state from 0 s, the FDI's verdict from its first sample at 1 s (no command in force at 0), to 80 s
+    assert len(fdir) == 81 and len(verdicts) == 80
     changes = sorted((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9,
                       {s.hardware_id: (s.level, s.message) for s in m.status}) for _, m in data.topic("/fdir/wheels"))
     for t, states in fdir.items():   # as /fdir/wheels last said, at or before that FDI period's step

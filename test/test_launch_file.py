@@ -126,9 +126,10 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     assert code == 0, output[-3000:]
     started = node_pids(output)
     nodes = expected_nodes(scenario, bag)
-    # plant, 3 controllers, the wheel allocation, 4 Elman (x, y, z, s), linear, model, isolation, recorder:
-    # composed by default into two processes (the loop and the recorder; the FDI nodes)
-    assert len(nodes) == 13 and len(started) == len(processes(nodes, DEFAULT_GROUPING)) == 2, output[-3000:]
+    # plant, 3 controllers, the wheel allocation, wheel_telemetry, 4 Elman (x, y, z, s), linear, model, isolation,
+    # recorder: composed by default into three processes (the loop and the recorder; wheel_telemetry, where a
+    # launch file may remap its streams; the FDI nodes)
+    assert len(nodes) == 14 and len(started) == len(processes(nodes, DEFAULT_GROUPING)) == 3, output[-3000:]
     for label in started:   # each ended by itself: exit 0, and launch never had to signal it
         assert f"[{label}]: process has finished cleanly" in output, label
     assert "sending signal" not in output and "Caught exception" not in output, output[-3000:]
@@ -150,7 +151,7 @@ def test_ros2_launch_runs_a_faulty_scenario_to_its_end_and_the_bag_holds_the_ver
     # every node its own process (compose:=none): the same bag, message for message
     launch, _, alone = launch_fault(colcon_workspace, tmp_path, 90, "compose:=none", bag_name="bag_none")
     code, output = launch.run()
-    assert code == 0 and len(node_pids(output)) == 13, output[-3000:]
+    assert code == 0 and len(node_pids(output)) == 14, output[-3000:]
     assert bag_differences(bag, alone) == []
 
 

@@ -43,9 +43,10 @@ FAULTS = {
 SMALL_FAULTS = {"torque_limit": (0.5, 0.95), "motor_gain": (0.9, 0.99), "coulomb": (0.6e-3, 4e-3),
                 "viscous": (3e-6, 2e-5)}
 # --units: each wheel its own unit, the 1-sigma shares our unit calibration assumes of a wheel type
-# (rw_fdi_ros.core.physics.wheel.DEFAULT_UNIT_SPREAD: torque constant and driver gain 2 % each, viscous and
-# Coulomb friction 20 %), each N(1, share) cut at 3 sigma
-UNIT_SPREAD = {"gain": (0.02, 0.02), "coulomb": (0.2,), "viscous": (0.2,)}
+# (rw_fdi_ros.core.physics.wheel.DEFAULT_UNIT_SPREAD), each N(1, share) cut at 3 sigma. The wheel's torque per volt
+# is k_t G_d; as in hr16_sat.yaml (whose bridge the EMF never limits on its 28-V bus) nothing but the 5-V command
+# limits it, so a unit's u_max is its torque at 5 V
+UNIT_SPREAD = {"torque_constant": 0.02, "driver_gain": 0.02, "viscous": 0.2, "coulomb": 0.2}
 
 
 def draw(seed: int, faults: str, duration: float, envelope: dict = FAULTS, units: bool = False) -> dict:
@@ -68,9 +69,8 @@ def draw(seed: int, faults: str, duration: float, envelope: dict = FAULTS, units
                         "onset_s": float(np.round(rng.uniform(0.25 * duration, 0.625 * duration), 1))}
     if units:
         spread = np.random.default_rng(seed + 5_000_000)
-        scale = {k: np.prod([np.clip(spread.normal(1.0, s, 3), 1 - 3 * s, 1 + 3 * s) for s in shares], axis=0)
-                 for k, shares in UNIT_SPREAD.items()}
-        run["units"] = {k: v.tolist() for k, v in scale.items()}   # shares of the datasheet's, per wheel
+        run["units"] = {k: np.clip(spread.normal(1.0, s, 3), 1 - 3 * s, 1 + 3 * s).tolist()   # per wheel
+                        for k, s in UNIT_SPREAD.items()}
     return run
 
 
@@ -91,6 +91,8 @@ def fly(run: dict) -> tuple:
                              cViscous=2e-6 * viscous, fCoulomb=5e-4 * coulomb, RWModel=messaging.BalancedWheels)
               for axis, rpm, viscous, coulomb in zip(np.eye(3).tolist(), run["wheel_speed_rpm"], units["viscous"],
                                                      units["coulomb"])]
+    for wheel, kt, gd in zip(wheels, units["torque_constant"], units["driver_gain"]):
+        wheel.u_max *= kt * gd
     rw = reactionWheelStateEffector.ReactionWheelStateEffector()
     factory.addToSpacecraft("wheels", rw, sc)
     disturbance = extForceTorque.ExtForceTorque()
@@ -99,7 +101,7 @@ def fly(run: dict) -> tuple:
     nav = simpleNav.SimpleNav()
     nav.scStateInMsg.subscribeTo(sc.scStateOutMsg)
     drive = motorVoltageInterface.MotorVoltageInterface()
-    gain = [wheels[0].u_max / V_MAX * g for g in units["gain"]]   # each unit's voltage-to-torque gain
+    gain = [w.u_max / V_MAX for w in wheels]   # each unit's torque per volt
     drive.setGains(gain)
     rw.rwMotorCmdInMsg.subscribeTo(drive.motorTorqueOutMsg)
     for model, priority in ((drive, 30), (rw, 20), (sc, 10), (disturbance, 5)):

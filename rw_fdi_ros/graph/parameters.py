@@ -42,6 +42,7 @@ RANGES = {
     "window": (1, 100_000),
     "control_period": (0.001, 1.0),
     "max_gap": (0.001, BIG),                          # [s] wheel_telemetry: reports further apart: not judged
+    "command_hold": (0.0, BIG),                       # [s] wheel_telemetry: 0 waits for every command
     "kp": (0.0, BIG),
     "ki": (0.0, BIG),
     "kd": (0.0, BIG),

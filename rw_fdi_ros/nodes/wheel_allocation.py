@@ -198,7 +198,8 @@ class WheelAllocationNode(GraphNode):
         if not self.param("fdir"):
             return -1
         made = stamp - int(round(self.delay.delay * 1e9))
-        return -1 if made < 0 else made - made % self.fdi_period_ns
+        # the first FDI sample is at one period: at 0 no command is in force yet (core/fdi/wheel_reports.py)
+        return -1 if made < self.fdi_period_ns else made - made % self.fdi_period_ns
 
     def _try_command(self):
         for stamp in sorted(self.axis_commands):

@@ -47,6 +47,9 @@ class WheelTelemetryNode(GraphNode):
         self.declare_parameter("fdi_period", 1.0)     # [s] T
         self.declare_parameter("control_period", 0.1)  # [s] dt, the grid the reports are put on
         self.declare_parameter("max_gap", 2.5)        # [s] speed reports further apart: the FDI cannot judge
+        # [s] of newer speed reports a speed report waits for its command (a driver sending on change only);
+        # 0: until it comes (a source in lockstep with its commands, as our plant is)
+        self.declare_parameter("command_hold", 1.0)
         self.declare_parameter("min_subscribers", 0)   # readers of the telemetry before the first sample goes
         self.declare_parameter("bus_grid_readers", 0)  # readers of its bus grid (the isolation node) before it goes
         wheel = declare_wheel_type(self)
@@ -65,7 +68,8 @@ class WheelTelemetryNode(GraphNode):
         self.names, self.joints = names, tuple(joints)
         self.stamps = {}   # topic -> (its newest stamp [ns], messages in a row that did not advance it)
         self.wheel = wheel
-        self.reports = ReportSampler(wheel, fdi_period, step, self.param("max_gap"), identification=True)
+        self.reports = ReportSampler(wheel, fdi_period, step, self.param("max_gap"), identification=True,
+                                     hold=self.param("command_hold"))
         self.pubs = {T.FDI_TELEMETRY: GatedPublisher(self.create_publisher(JointState, T.FDI_TELEMETRY, T.RELIABLE),
                                                      self.param("min_subscribers")),
                      T.FDI_BUS_GRID: GatedPublisher(self.create_publisher(PointCloud2, T.FDI_BUS_GRID, T.RELIABLE),

@@ -54,11 +54,11 @@ class ProcessSpec:
 # own process, as `ros2 run` starts them. The default was chosen by measurement (docs/benchmarks.md).
 _LOOP = {"plant": "loop", "player": "loop", "pid_controller": "loop", "wheel_allocation": "loop",
          "momentum_dumping": "loop"}
-_FDI = {"wheel_telemetry": "fdi", "elman_observer": "fdi", "linear_observer": "fdi", "model_observer": "fdi",
-        "plugin_observer": "fdi", "isolation": "fdi"}
+_FDI = {"elman_observer": "fdi", "linear_observer": "fdi", "model_observer": "fdi", "plugin_observer": "fdi",
+        "isolation": "fdi"}   # wheel_telemetry: a process of its own, where a launch file remaps its streams
 GROUPINGS = {
     "none": None,
-    "all": dict.fromkeys([*_LOOP, *_FDI, "recorder"], "graph"),
+    "all": dict.fromkeys([*_LOOP, *_FDI, "wheel_telemetry", "recorder"], "graph"),
     "loop_fdi": {**_LOOP, **_FDI, "recorder": "loop"},
     "loop_fdi_recorder": {**_LOOP, **_FDI, "recorder": "recorder"},
 }
@@ -160,7 +160,9 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
             "start_speed": rods.start_speed, "stop_speed": rods.stop_speed, "enabled": rods.enabled,
             **({} if vehicle is None else {"wheel_inertia": float(vehicle.wheel.inertia)})}))
     if fdi is not None or bag is not None:   # the FDI, and the bag, take the wheels' reports as it makes them
-        nodes.append(telemetry_node(choices, wheel_type))
+        telemetry = telemetry_node(choices, wheel_type)
+        telemetry.parameters["command_hold"] = 0.0   # our plant steps on each command: every report has its own
+        nodes.append(telemetry)
     if fdi is not None:
         nodes += fdi_nodes(fdi, choices, await_bus_grid=True, wheel_type=wheel_type)   # a grid with every report
     if live is not None:

@@ -94,7 +94,7 @@ class SignedResidual:
         """
         from .calibration import UnitCalibration
         from ..physics.wheel import WheelParams
-        calibration = (UnitCalibration(calibration_samples, params=wheel or WheelParams())
+        calibration = (UnitCalibration(calibration_samples, params=wheel or WheelParams(), period=period)
                        if calibration_samples else None)
         return cls(window, ripple_share(wheel), uncertainty_gain=uncertainty_gain, calibration=calibration,
                    noise_reach=speed_noise_reach(wheel, period))

@@ -55,14 +55,15 @@ class ControlGrid:
         [s] speed reports further apart than this leave the grid points between them NaN (2.5 s: reports at a
         1-s FDI period's rate pass, with jitter and one lost).
     hold : float
-        [s] how long, in newer speed reports, a speed report waits for the commands before it.
+        [s] how long, in newer speed reports, a speed report waits for the commands before it (a driver that
+        sends its command only on change); 0: until they come (a source in lockstep with its commands: ours).
     """
 
     def __init__(self, step: float = 0.1, inertia: float = 0.0077, max_gap: float = 2.5, hold: float = 1.0):
         self.step_ns = int(round(step * 1e9))
         self.inertia = float(inertia)
         self.max_gap_ns = int(round(max_gap * 1e9))
-        self.hold_ns = int(round(hold * 1e9))
+        self.hold_ns = int(round(hold * 1e9)) if hold > 0 else None
         self.waiting = []         # speed reports (stamp_ns, Omega, r or None) not yet put on the grid
         self.report = None        # the newest speed report put on the grid
         self.after_gap = False    # the grid point before next_k was unknown (a gap)
@@ -134,7 +135,8 @@ class ControlGrid:
         last_command = self.commands[-1][0] if self.commands else None
         rows = []
         while self.waiting and ((last_command is not None and last_command >= self.waiting[0][0])
-                                or self.waiting[-1][0] - self.waiting[0][0] >= self.hold_ns):
+                                or (self.hold_ns is not None
+                                    and self.waiting[-1][0] - self.waiting[0][0] >= self.hold_ns)):
             rows += self._take(*self.waiting.pop(0))
         return rows
 
@@ -203,11 +205,13 @@ class ReportSampler:
         [s] speed reports further apart leave the periods between them not judged (NaN).
     identification : bool
         The samples also carry the terms fault identification fits (the bus-voltage grid).
+    hold : float
+        [s] ControlGrid's: how long a speed report waits for its commands (0: until they come).
     """
 
     def __init__(self, wheel, fdi_period: float = 1.0, control_period: float = 0.1, max_gap: float = 2.5,
-                 identification: bool = False):
-        self.grid = ControlGrid(control_period, wheel.inertia, max_gap)
+                 identification: bool = False, hold: float = 1.0):
+        self.grid = ControlGrid(control_period, wheel.inertia, max_gap, hold)
         self.sampler = TelemetrySampler(fdi_period, "mean", wheel, identification=identification)
 
     def add_command(self, stamp_ns: int, tcv) -> list:
