@@ -99,6 +99,15 @@ class FdiConfig:
         from .core.mission.vehicle import DEFAULT_VEHICLE
         return replace(self, vehicle=None if vehicle == DEFAULT_VEHICLE else vehicle)
 
+    def with_vehicle_dir(self, vehicle) -> "FdiConfig":
+        """This configuration judging with ``vehicle``'s networks where ``vehicle`` is its FDI directory (`rw-fdi
+        defaults --vehicle`, `rw-fdi telemetry --fit`) and no --models is given (its bands too, without
+        --thresholds); else as it is."""
+        from dataclasses import replace
+        if vehicle and Path(vehicle).is_dir() and not self.models:
+            return replace(self, models=str(Path(vehicle).resolve()))
+        return self
+
     @property
     def observers(self) -> tuple:
         """The slots of the FDI's observers: the method's, then the plug-ins'."""

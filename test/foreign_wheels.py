@@ -7,7 +7,8 @@ joint names of its own (rw1-rw4), no torque reported. Wheel 2 loses ``--limiter`
 
 Run: python foreign_wheels.py OUT.json --duration 300 --onset 150; it waits for the FDI graph, streams the run
 paced by the graph's /wheels/fdi_telemetry, says /plant/done and writes every status it heard on /diagnostics
-and /fdi/identification.
+and /fdi/identification. ``--table CSV --joints A,B,C`` streams a telemetry table instead (docs/telemetry.md: a
+Basilisk run of examples/basilisk/closed_loop.py), each report at its own stamp.
 """
 import argparse
 import json
@@ -48,6 +49,15 @@ def stream(duration: float, onset: float, limiter: float, seed: int = 3, h: floa
     return speeds, commands
 
 
+def table(path: str, joints: list) -> tuple:
+    """(speed reports, commands) of a telemetry table, each a row where the channel has a value for every wheel."""
+    from rw_fdi_ros.tools.evaluation.telemetry_file import read_table
+    t = read_table(path, joints)
+    times = t.stamps_ns * 1e-9
+    return ([(s, w) for s, w in zip(times, t.speed) if np.isfinite(w).all()],
+            [(s, u) for s, u in zip(times, t.command) if np.isfinite(u).all()])
+
+
 def main():
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -65,8 +75,12 @@ def main():
     p.add_argument("--namespace", default="", help="the FDI graph's")
     p.add_argument("--speed-topic", default="wheels")
     p.add_argument("--command-topic", default="wheels/command")
+    p.add_argument("--table", default=None, help="a telemetry table to stream instead")
+    p.add_argument("--joints", default=",".join(JOINTS), help="the stream's joint names")
     args = p.parse_args()
-    speeds, commands = stream(args.duration, args.onset, args.limiter)
+    joints = args.joints.split(",")
+    speeds, commands = stream(args.duration, args.onset, args.limiter) if args.table is None else table(args.table,
+                                                                                                        joints)
     rclpy.init()
     # in the FDI graph's namespace: its topics relative, the streams where the driver puts them
     node = rclpy.create_node("foreign_wheels", namespace="/" + args.namespace.strip("/"))
@@ -92,7 +106,7 @@ def main():
         sys.exit("the FDI graph did not come up within 180 s")
 
     def joint_state(t, field, values):
-        msg = JointState(name=JOINTS)
+        msg = JointState(name=joints)
         msg.header.stamp = time_msg(int(round(t * 1e9)))
         setattr(msg, field, [float(v) for v in values])
         return msg

@@ -208,10 +208,7 @@ def attach_nodes(vehicle: str | None = None, fdi=None, joint_names=(), max_gap: 
     choices = scenario.plant_choices()
     wheel_type = wheel_parameter(scenario.spacecraft.wheel, scenario.spacecraft.wheel_type)
     telemetry = telemetry_node(choices, wheel_type, joint_names, max_gap)
-    fdi = FdiConfig.of(fdi or {})
-    if vehicle and Path(vehicle).is_dir() and not (fdi.models or fdi.thresholds):
-        from dataclasses import replace
-        fdi = replace(fdi, models=str(Path(vehicle).resolve()))   # a vehicle's FDI directory judges with its FDI
+    fdi = FdiConfig.of(fdi or {}).with_vehicle_dir(vehicle)
     fdi_graph = fdi_nodes(fdi, choices, wheel_type=wheel_type)
     return checked_strings(with_reader_counts([telemetry, *fdi_graph]))
 

@@ -43,10 +43,7 @@ def main(args) -> int:
     joints = [j.strip() for j in args.joints.split(",")] if args.joints else None
     vehicle = load_vehicle(args.vehicle)   # one line naming the field, before the table is read
     paths = table_paths(args.table)
-    fdi = fdi_config(args)
-    if args.vehicle and not (args.models or args.thresholds) and _is_fdi_dir(args.vehicle):
-        from dataclasses import replace
-        fdi = replace(fdi, models=args.vehicle)   # a vehicle's FDI directory judges with its own FDI
+    fdi = fdi_config(args).with_vehicle_dir(args.vehicle)
     if len(paths) > 1 and not (args.fit or args.check):
         return _campaign(args, paths, joints, vehicle, fdi)
     tables = [read_table(p, joints) for p in paths]
@@ -101,7 +98,3 @@ def _campaign(args, paths, joints, vehicle, fdi) -> int:
             print(f"wrote {path}")
     return 0
 
-
-def _is_fdi_dir(vehicle: str) -> bool:
-    from pathlib import Path
-    return Path(vehicle).is_dir()

@@ -227,7 +227,7 @@ def judge(table: Telemetry, vehicle=None, fdi=None, control_period: float = 0.1,
         raise TelemetryError(f"{table.path}: {len(table.joints)} wheels ({', '.join(table.joints)}), the vehicle's "
                              f"wheel set {len(names)} ({', '.join(names)}): give --joints in its order")
     fdi_period = 1.0
-    loaded = (fdi or FdiConfig()).for_vehicle(v.name).loaded(fdi_period)
+    loaded = (fdi or FdiConfig()).with_vehicle_dir(vehicle).for_vehicle(v.name).loaded(fdi_period)
     pipeline = FdiPipeline(names, loaded, 1, fdi_period, identification=True, wheel=v.wheel,
                            control_period=control_period, max_gap=max_gap)
     samples, skipped = [], []
@@ -396,7 +396,7 @@ def fit(tables, out, vehicle=None, fdi=None, false_alarm_rate: float | None = No
         samples = [s for s in feed(table, reports) if np.isfinite(s.reaction_torque).all()]
         seconds += len(samples)
         pieces += [samples[i:i + n] for i in range(0, len(samples) - n + 1, n)]
-    config = (fdi or FdiConfig()).for_vehicle(v.name)
+    config = (fdi or FdiConfig()).with_vehicle_dir(vehicle).for_vehicle(v.name)
     calibration = config.unit_calibration
     if calibration and calibration >= segment:
         raise TelemetryError(f"--unit-calibration {calibration:g} s is not shorter than the {segment:g}-s fitting "
