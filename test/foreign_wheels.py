@@ -49,6 +49,30 @@ def stream(duration: float, onset: float, limiter: float, seed: int = 3, h: floa
     return speeds, commands
 
 
+def drive_graph(nodes, log_dir, *driver_args) -> list:
+    """Start the FDI graph ``nodes`` (runner.graph.attach_nodes), this driver against it with ``driver_args``, and
+    return every status it heard once both have ended (the FDI nodes end with the run the driver says done);
+    every process torn down whatever happens."""
+    import subprocess
+    from pathlib import Path
+    from rw_fdi_ros.runner.launcher import DomainLease, GraphProcesses, stop_processes
+    next(n for n in nodes if n.name == "isolation").parameters["diagnostics_readers"] = 1   # the driver
+    out = Path(log_dir) / "heard.json"
+    with DomainLease() as lease:
+        procs = GraphProcesses(nodes, lease.domain_id, Path(log_dir), grouping="loop_fdi").start()
+        driver = subprocess.Popen([sys.executable, __file__, str(out), *map(str, driver_args)], env=procs.env,
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+        try:
+            log = driver.communicate(timeout=600)[0].decode()
+            assert driver.returncode == 0, log[-2000:]
+            result = procs.run(main="isolation", watchdog=60, finisher=None)
+            assert result.ok, result.reason
+        finally:
+            stop_processes([driver])
+            procs.stop_all()
+    return json.loads(out.read_text())["heard"]
+
+
 def table(path: str, joints: list) -> tuple:
     """(speed reports, commands) of a telemetry table, each a row where the channel has a value for every wheel."""
     from rw_fdi_ros.tools.evaluation.telemetry_file import read_table

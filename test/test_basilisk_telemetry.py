@@ -118,30 +118,17 @@ def test_a_basilisk_run_streamed_into_the_fdi_graph_gives_the_verdict_of_the_fil
     """The same run two ways in: Basilisk's telemetry streamed as JointState into the wheel_telemetry and FDI nodes
     (test/foreign_wheels.py --table), and judged from its file by `rw-fdi telemetry`'s code: the same wheels
     alarmed, at the same second."""
+    sys.path.insert(0, str(ROOT / "test"))
+    from foreign_wheels import drive_graph
     from rw_fdi_ros.runner.graph import attach_nodes
-    from rw_fdi_ros.runner.launcher import DomainLease, GraphProcesses, stop_processes
     from rw_fdi_ros.tools.evaluation.telemetry_file import judge, read_table
     from rw_fdi_ros.graph import topics as T
     table = basilisk(tmp_path / "run", "500..500", "coulomb", 200) / "bsk_500.csv"
     fdi, joints = ROOT / "examples" / "basilisk" / "fdi", ("rw1", "rw2", "rw3")
-    nodes = attach_nodes(vehicle=str(fdi), joint_names=joints)
-    next(n for n in nodes if n.name == "isolation").parameters["diagnostics_readers"] = 1   # the driver
-    out = tmp_path / "heard.json"
-    with DomainLease() as lease:
-        procs = GraphProcesses(nodes, lease.domain_id, tmp_path / "logs", grouping="loop_fdi").start()
-        driver = subprocess.Popen([sys.executable, str(ROOT / "test" / "foreign_wheels.py"), str(out), "--table",
-                                   str(table), "--joints", ",".join(joints)], env=procs.env, stdout=subprocess.PIPE,
-                                  stderr=subprocess.STDOUT, start_new_session=True)
-        try:
-            log = driver.communicate(timeout=600)[0].decode()
-            assert driver.returncode == 0, log[-2000:]
-            result = procs.run(main="isolation", watchdog=60, finisher=None)
-            assert result.ok, result.reason
-        finally:
-            stop_processes([driver])
-            procs.stop_all()
+    heard = drive_graph(attach_nodes(vehicle=str(fdi), joint_names=joints), tmp_path, "--table", table,
+                        "--joints", ",".join(joints))
     live = {}
-    for t, name, wheel, level, _, _ in json.loads(out.read_text())["heard"]:
+    for t, name, wheel, level, _, _ in heard:
         if name.startswith(T.VERDICT_STATUS) and level == 2:
             live.setdefault(wheel, t)
     offline = judge(read_table(table, list(joints)), str(fdi))["wheels"]

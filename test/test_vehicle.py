@@ -255,7 +255,8 @@ def test_another_wheel_type_flies_and_every_node_is_told_it(tmp_path):
     nodes = {n.name: n.parameters for n in graph_nodes(scenario, str(tmp_path / "o.yaml"), None, fdi={})}
     modelling = [name for name, p in nodes.items() if "wheel_type" in p]
     assert sorted(modelling) == sorted(["pid_controller_x", "pid_controller_y", "pid_controller_z", "wheel_allocation",
-                                        "elman_observer_x", "elman_observer_y", "elman_observer_z", "elman_observer_s",
+                                        "wheel_telemetry", "elman_observer_x", "elman_observer_y", "elman_observer_z",
+                                        "elman_observer_s",
                                         "linear_observer", "model_observer", "isolation"])
     assert all(wheel_from_parameter(nodes[n]["wheel_type"]) == scenario.spacecraft.wheel for n in modelling)
     thesis = parse_scenario("name: t\n", origin=str(tmp_path / "t.yaml"))

@@ -70,20 +70,22 @@ def test_the_operator_takes_a_wheel_out_and_it_is_never_commanded_again(node):
 
 def test_a_command_waits_for_the_verdict_it_depends_on(node):
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-    for k in range(10):   # before 1 s no verdict is due: the commands go out at once
+    # the first FDI sample is at 1 s (at 0 no command is in force yet): before 2 s no verdict is due
+    for k in range(20):
         _step(node, k)
-    assert len(_commands(node)) == 10
-    _step(node, 10)       # t = 1 s depends on the verdict of t = 0
-    assert len(_commands(node)) == 10
+    assert len(_commands(node)) == 20
+    _step(node, 20)       # t = 2 s depends on the verdict of t = 1 s
+    assert len(_commands(node)) == 20
     msg = DiagnosticArray()
+    msg.header.stamp.sec = 1
     msg.status = [DiagnosticStatus(level=DiagnosticStatus.ERROR if j == "reaction_wheel_y" else DiagnosticStatus.OK,
                                    name=f"{T.VERDICT_STATUS} {j[-1]}", hardware_id=j,
-                                   values=[KeyValue(key="first_alarm", value="0")])
+                                   values=[KeyValue(key="first_alarm", value="1")])
                   for j in node.joints]
-    node._on_diagnostics(msg)   # stamped 0: y confirmed faulty, applied from t = 1 s
+    node._on_diagnostics(msg)   # stamped 1 s: y confirmed faulty, applied from t = 2 s
     u = _commands(node)[-1]
     # s could not take y's momentum and slew from these speeds; y, reported giving no torque, is held
-    assert len(_commands(node)) == 11 and u[3] != 0.0 and node.reconfiguration.held == {"y": 19.0}
+    assert len(_commands(node)) == 21 and u[3] != 0.0 and node.reconfiguration.held == {"y": 19.0}
 
 
 def test_fdirs_state_goes_to_diagnostics_each_fdi_period_and_is_not_read_back_as_a_verdict(node):
@@ -99,23 +101,24 @@ def test_fdirs_state_goes_to_diagnostics_each_fdi_period_and_is_not_read_back_as
                                     hardware_id="reaction_wheel_y")]
     node._on_diagnostics(echo)
     assert node.verdict_ns == -1 and not node.delay.pending   # not a verdict: nothing decided, nothing waited on
-    _step(node, 10)
-    assert len(_commands(node)) == 10   # t = 1 s still waits for the verdict of t = 0
+    for k in range(10, 21):
+        _step(node, k)
+    assert len(_commands(node)) == 20   # t = 2 s still waits for the verdict of t = 1 s
 
 
 def test_without_verdicts_it_goes_blind_once_and_stays_blind_until_one_comes(node):
     import time
     from rclpy.parameter import Parameter
     node.set_parameters([Parameter("verdict_timeout", value=0.01)])
-    for k in range(11):
+    for k in range(21):
         _step(node, k)
-    assert len(_commands(node)) == 10        # t = 1 s waits for the verdict of t = 0
+    assert len(_commands(node)) == 20        # t = 2 s waits for the verdict of t = 1 s (the first FDI sample)
     time.sleep(0.05)
     node._try_command()                       # the timeout passed: said, and commanded without it
-    assert len(_commands(node)) == 11 and node.blind_said
-    for k in range(11, 31):                   # no new verdict: every later step goes out at once
+    assert len(_commands(node)) == 21 and node.blind_said
+    for k in range(21, 41):                   # no new verdict: every later step goes out at once
         _step(node, k)
-    assert len(_commands(node)) == 31
+    assert len(_commands(node)) == 41
 
 
 def test_an_operator_overrules_a_wheel_fdir_held():

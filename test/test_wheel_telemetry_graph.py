@@ -22,25 +22,9 @@ ONSET = 150.0
 
 
 def test_the_fdi_names_the_failed_wheel_of_a_stream_that_is_not_our_plants(tmp_path):
+    from foreign_wheels import drive_graph
     nodes = attach_nodes(joint_names=("rw1", "rw2", "rw3", "rw4"))   # the thesis' vehicle, its shipped FDI
-    next(n for n in nodes if n.name == "isolation").parameters["diagnostics_readers"] = 1   # the driver
-    out = tmp_path / "heard.json"
-    with DomainLease() as lease:
-        procs = GraphProcesses(nodes, lease.domain_id, Path(tempfile.mkdtemp(prefix="rw_fdi_test_")),
-                               grouping="loop_fdi").start()
-        driver = subprocess.Popen([sys.executable, str(DRIVER), str(out), "--duration", "300", "--onset", str(ONSET)],
-                                  env=procs.env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                  start_new_session=True)
-        try:
-            log = driver.communicate(timeout=600)[0].decode()
-            assert driver.returncode == 0, log[-2000:]
-            # the FDI nodes end with the run the driver said done
-            result = procs.run(main="isolation", watchdog=60, finisher=None)
-            assert result.ok, result.reason
-        finally:
-            stop_processes([driver])
-            procs.stop_all()
-    alarmed = check_verdicts(json.loads(out.read_text())["heard"])
+    alarmed = check_verdicts(drive_graph(nodes, tmp_path, "--duration", 300, "--onset", ONSET))
     # the same stream as a table, judged offline by `rw-fdi telemetry`'s code: the graph's verdict, to the second
     offline = judge(stream_table())["wheels"]
     assert {f"reaction_wheel_{a}": w["first_alarm_s"] for a, w in offline.items()

@@ -366,12 +366,30 @@ class FdiPipeline:
         return [self._judge(s) for s in self.reports.add_speed(stamp_ns, self._batch(wheel_speed), torque)]
 
     def add_command(self, stamp_ns: int, tcv) -> list:
-        """The commands sent at ``stamp_ns`` ((B, N) [V], in force over the next step); the FDI samples they
-        complete (list of Judged)."""
+        """The commands sent at ``stamp_ns``, in force over the next step.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The commands' stamp [ns].
+        tcv : ndarray
+            (B, N) torque command voltages u [V].
+
+        Returns
+        -------
+        list of Judged
+            The FDI samples they complete.
+        """
         return [self._judge(s) for s in self.reports.add_command(stamp_ns, self._batch(tcv))]
 
     def flush(self) -> list:
-        """The FDI samples of the reports still waiting: the streams have ended (list of Judged)."""
+        """The FDI samples of the reports still waiting: the streams have ended.
+
+        Returns
+        -------
+        list of Judged
+            Those samples, judged.
+        """
         return [self._judge(s) for s in self.reports.flush()]
 
     def _batch(self, values):

@@ -215,16 +215,49 @@ class ReportSampler:
         self.sampler = TelemetrySampler(fdi_period, "mean", wheel, identification=identification)
 
     def add_command(self, stamp_ns: int, tcv) -> list:
-        """A command report (ControlGrid.add_command); the FDI samples it completes."""
+        """A command report (ControlGrid.add_command).
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The command's stamp [ns].
+        tcv : array_like
+            (N,) torque command voltages u [V].
+
+        Returns
+        -------
+        list of telemetry.FdiSample
+            The FDI samples it completes.
+        """
         return self._sampled(self.grid.add_command(stamp_ns, tcv))
 
     def add_speed(self, stamp_ns: int, wheel_speed, reaction_torque=None) -> list:
-        """A speed report, with the reaction torque where the wheel reports it (ControlGrid.add_speed); the FDI
-        samples it completes."""
+        """A speed report, with the reaction torque where the wheel reports it (ControlGrid.add_speed).
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The report's stamp [ns].
+        wheel_speed : array_like
+            (N,) wheel speeds Omega [rad/s].
+        reaction_torque : array_like or None
+            (N,) reaction torques r [N m]; None: from the speed.
+
+        Returns
+        -------
+        list of telemetry.FdiSample
+            The FDI samples it completes.
+        """
         return self._sampled(self.grid.add_speed(stamp_ns, wheel_speed, reaction_torque))
 
     def flush(self) -> list:
-        """The FDI samples of what still waits: the streams have ended."""
+        """What still waits, the streams having ended.
+
+        Returns
+        -------
+        list of telemetry.FdiSample
+            The FDI samples it completes.
+        """
         return self._sampled(self.grid.flush())
 
     def _sampled(self, rows) -> list:
