@@ -64,7 +64,12 @@ class Launch:
         try:
             return self.proc.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
-            pytest.fail(f"ros2 launch did not end within {timeout:g} s:\n{self.output()[-3000:]}")
+            # where each node still running is: SIGUSR1 makes it write its stack (graph/runtime.spin_nodes)
+            running = [label for label, pid in node_pids(self.output()).items() if Path(f"/proc/{pid}").exists()
+                       and os.kill(pid, signal.SIGUSR1) is None]
+            time.sleep(3.0)
+            pytest.fail(f"ros2 launch did not end within {timeout:g} s; still running: {running}\n"
+                        f"{self.output()[-12000:]}")
 
     def output(self) -> str:
         return self.log.read_text(errors="replace")

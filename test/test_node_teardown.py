@@ -13,6 +13,7 @@ import time
 
 import pytest
 
+from rw_fdi_ros.graph import topics as T
 from rw_fdi_ros.runner.launcher import TEARDOWN_HUNG
 
 pytestmark = pytest.mark.graph   # run beside the other tests, one graph test at a time (scripts/run_tests.sh)
@@ -104,7 +105,27 @@ def test_a_node_whose_done_never_comes_ends_once_the_plant_has_left():
     ended = done.stdout.split("ended after", 1)[1].strip()
     assert ended != "None", done.stderr[-2000:]
     assert 1.0 <= float(ended) < 5.0, ended   # its grace after the writer left, looked at once a second
-    assert "its writer left without this node hearing it" in done.stderr
+    assert f"the writers of {T.PLANT_DONE[1:]} left without this node hearing {T.PLANT_DONE}" in done.stderr
+
+
+INPUT_WRITER_LEAVES = DONE_WRITER_LEAVES.replace(
+    "follower.follow_run_end(grace=1.0)", "follower.follow_run_end(grace=1.0, inputs=(T.FDI_TELEMETRY,))").replace(
+    "done = plant.create_publisher(Header, T.PLANT_DONE, T.LATCHED)",
+    "from sensor_msgs.msg import JointState\ndone = plant.create_publisher(JointState, T.FDI_TELEMETRY, T.RELIABLE)")
+
+
+def test_an_fdi_node_that_never_discovered_the_plant_ends_once_its_input_has_left():
+    """The launch test whose linear, model and isolation nodes never exited with a complete bag and silent
+    logs: they heard the run from wheel_telemetry but never discovered the plant, so neither its done nor
+    its leaving reached them. The writer of their input leaving ends the run for them too."""
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(150 + os.getpid() % 60))
+    done = subprocess.run([sys.executable, "-c", INPUT_WRITER_LEAVES], capture_output=True, text=True, timeout=90,
+                          env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    ended = done.stdout.split("ended after", 1)[1].strip()
+    assert ended != "None", done.stderr[-2000:]
+    assert 1.0 <= float(ended) < 5.0, ended
+    assert f"the writers of {T.PLANT_DONE[1:]}, {T.FDI_TELEMETRY[1:]} left without" in done.stderr
 
 
 LAGGING_FOLLOWER = """

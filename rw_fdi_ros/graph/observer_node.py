@@ -87,7 +87,7 @@ class ObserverNode(GraphNode):
         self.pub_residual = pub("residual", "min_subscribers")
         self.pub_bound = pub("ripple_bound", "min_subscribers")
         self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
-        self.follow_run_end(period=self.param("fdi_period"))
+        self.follow_run_end(period=self.param("fdi_period"), inputs=(T.FDI_TELEMETRY,))
 
     def observe(self, sample):
         """(estimate, residual, bound), one value per wheel of ``out_joints``, for one FdiSample.

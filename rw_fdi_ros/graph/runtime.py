@@ -31,9 +31,11 @@ PARENT_GONE_S = 1   # [s] to close after the launcher died (kill -9): gone well 
 
 @dataclass
 class _WriterWatch:
-    """The writer of /plant/done as a node following the run end last looked: seen once, gone since [monotonic s]
-    (None while it is here), and when to look next [monotonic s]."""
+    """The writers of /plant/done (and of a node's inputs) as a node following the run end last looked: the
+    topics watched, seen once, all gone since [monotonic s] (None while one is here), when to look next
+    [monotonic s]."""
 
+    topics: tuple = ()
     seen: bool = False
     gone_since: float | None = None
     next_look: float = 0.0
@@ -146,21 +148,25 @@ class GraphNode(Node):
             raise NodeError(f"parameter {name}: {parameter.value} is not a finite number", EXIT_BAD_INPUT)
         return parameter
 
-    def follow_run_end(self, grace: float = 10.0, period: float = 0.0):
+    def follow_run_end(self, grace: float = 10.0, period: float = 0.0, inputs: tuple = ()):
         """End this node once the plant has published /plant/done and this node has handled its
         last stamp (``self.last_handled``): the done stamp itself, or with ``period`` the last
         multiple of it. ``grace`` wall seconds after done is only a safety net. Parameter
         ``end_with_run`` false keeps the node for the next run (bag replay of many runs through one
-        graph); whoever started it stops it. A done that never arrives (its writer gone before this reader
-        acknowledged it, on a loaded machine) ends the node ``grace`` seconds after the writer left.
+        graph); whoever started it stops it. A done that never arrives ends the node ``grace`` seconds
+        after the writers it was watching left: the done writer's (gone before this reader acknowledged
+        it, on a loaded machine), or, where this node never discovered it, those of its ``inputs``
+        (an FDI node hears the run from wheel_telemetry, not the plant).
 
         Parameters
         ----------
         grace : float
-            Wall time after done without a new stamp handled (or after the done writer left) the node ends
+            Wall time after done without a new stamp handled (or after the writers left) the node ends
             at the latest [s].
         period : float
             The node's handling period [s]; 0: the done stamp itself is the last one handled.
+        inputs : tuple of str
+            Graph topics this node reads whose writers leaving also ends the run for it.
         """
         from std_msgs.msg import Header
         from . import topics as T
@@ -171,7 +177,7 @@ class GraphNode(Node):
         self.declare_parameter("end_with_run", True)
         if not self.param("end_with_run"):
             return
-        self._done_writer = _WriterWatch()
+        self._done_writer = _WriterWatch(topics=tuple(relative(t) for t in (T.PLANT_DONE, *inputs)))
         self._run_end_grace = grace
 
         period_ns = int(round(period * 1e9))
@@ -202,8 +208,9 @@ class GraphNode(Node):
         return now > end[1]
 
     def _done_writer_left(self) -> bool:
-        """Whether the writer of /plant/done (the plant, the player) was here and has been gone ``grace``
-        seconds without this node hearing its done: nothing more will come. Looked at once a second."""
+        """Whether the writers watched (of /plant/done: the plant, the player; of the inputs) were here and
+        have all been gone ``grace`` seconds without this node hearing done: nothing more will come. Looked
+        at once a second."""
         watch = getattr(self, "_done_writer", None)
         now = time.monotonic()
         if watch is None:
@@ -214,15 +221,15 @@ class GraphNode(Node):
             return False
         from . import topics as T
         watch.next_look = now + 1.0
-        if self.count_publishers(relative(T.PLANT_DONE)) > 0:
+        if any(self.count_publishers(topic) > 0 for topic in watch.topics):
             watch.seen, watch.gone_since = True, None
             return False
         if not watch.seen:
             return False
         if watch.gone_since is None:
             watch.gone_since = now
-            self.get_logger().warn(f"{T.PLANT_DONE}: its writer left without this node hearing it; ending "
-                                   f"{self._run_end_grace:.0f} s after")
+            self.get_logger().warn(f"the writers of {', '.join(watch.topics)} left without this node hearing "
+                                   f"{T.PLANT_DONE}; ending {self._run_end_grace:.0f} s after")
         return now - watch.gone_since > self._run_end_grace
 
     def finish(self, code: int = EXIT_OK, message: str = ""):

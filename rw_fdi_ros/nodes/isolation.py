@@ -162,7 +162,7 @@ class IsolationNode(GraphNode):
         self.sub_bus_grid = self.create_subscription(PointCloud2, T.FDI_BUS_GRID, self._on_bus_grid, T.RELIABLE)
         for obs in self.channels:   # one row per stamp: residual and bound of each of the observer's topics
             self._follow_observer(obs)
-        self.follow_run_end(period=plant.fdi_period)
+        self.follow_run_end(period=plant.fdi_period, inputs=(T.FDI_TELEMETRY,))
         self.live = bool(self.param("end_with_run"))   # a live run, where the input watchdog runs
 
     def _follow_observer(self, observer):
