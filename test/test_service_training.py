@@ -57,6 +57,33 @@ def test_a_network_of_the_model_error_that_learnt_nothing_is_the_model_observer(
     np.testing.assert_array_equal(est, samples.model_torque[:, 0])
 
 
+def test_beyond_the_speeds_it_learnt_a_grey_box_is_the_nominal_model(tmp_path):
+    """elman.speed_coverage: the bins of Omega its training held (COVERAGE_MIN samples each); outside them
+    WheelRecall's estimate is r_model exactly (its state runs on), inside them r_model plus the network."""
+    from rw_fdi_ros.core.fdi.elman import COVERAGE_BINS, COVERAGE_MIN, ElmanWeights, WheelRecall, speed_coverage
+    scale = 50.0   # [rad/s]: bins of 1 rad/s
+    trained = np.concatenate([np.full(COVERAGE_MIN, 20.5), np.full(COVERAGE_MIN - 1, 30.5), np.linspace(22, 28, 600)])
+    coverage = speed_coverage(trained, scale)
+    assert coverage.shape == (COVERAGE_BINS,)
+    learnt = np.flatnonzero(coverage)
+    assert learnt[0] == 70 and learnt[-1] == 77 and 80 not in learnt   # 20-28 rad/s; 30.5 held 29 samples
+    w = ElmanWeights.random(np.random.default_rng(1), speed_scale=scale, torque_scale=1e-3, model_error=True,
+                            speed_coverage=coverage)
+    w.save(tmp_path / "elman_x.npz")
+    back = ElmanWeights.load(tmp_path / "elman_x.npz")
+    assert np.array_equal(back.speed_coverage, coverage) and back.covers(25.0) and not back.covers(-25.0)
+    assert not back.covers(0.0) and not back.covers(60.0)
+    recall = WheelRecall(back)
+    model = 2e-4
+    inside = recall.update(1.0, model, 25.0, model)
+    assert inside != model
+    assert recall.update(1.0, model, 0.3, model) == model      # through zero, never learnt
+    assert recall.update(1.0, model, -24.0, model) == model    # the other direction
+    assert recall.update(1.0, model, 24.0, model) != model
+    older = ElmanWeights.random(np.random.default_rng(1), speed_scale=scale, torque_scale=1e-3, model_error=True)
+    assert older.covers(0.0)   # a network without coverage (config/fdi/service): every speed, as before
+
+
 @pytest.mark.graph
 def test_the_service_trained_set_runs_in_the_graph_with_the_screens_verdict(tmp_path):
     """config/fdi/service's grey-box networks in the Elman nodes (the model torque from the FDI telemetry): the

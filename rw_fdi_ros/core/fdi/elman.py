@@ -33,6 +33,10 @@ INPUTS = 2
 # From a zero state its first outputs were off by up to 2.4e-3 N m on a wheel that barely moved,
 # which the window mean carried for 40 s (a false alarm at t = 3 s). Training does the same.
 SETTLE_STEPS = 50
+# a grey box's learnt speeds (speed_coverage): 100 bins over +-speed_scale (2 % of its range each), a bin learnt
+# where its training held 30 samples (30 s)
+COVERAGE_BINS = 100
+COVERAGE_MIN = 30
 
 
 class ModelError(ValueError):
@@ -117,6 +121,27 @@ class ElmanWeights:
     # True: the network learnt the nominal wheel model's error r - r_model, and its estimate is r_model plus its
     # output (a grey box, tools/design/service_training.py); False: it learnt r itself (the thesis')
     model_error: bool = False
+    # a grey box's learnt speeds: bins of COVERAGE_BINS over [-speed_scale, speed_scale], True where its training
+    # held COVERAGE_MIN samples; outside them its estimate is r_model alone (None: every speed, as before)
+    speed_coverage: np.ndarray | None = None
+
+    def covers(self, wheel_speed: float) -> bool:
+        """Whether a grey box learnt the model's error at this wheel speed (:func:`speed_coverage`).
+
+        Parameters
+        ----------
+        wheel_speed : float
+            Omega [rad/s].
+
+        Returns
+        -------
+        bool
+            True where its training had the speed, or where it records no coverage.
+        """
+        if self.speed_coverage is None or not self.model_error:
+            return True
+        k = int(np.floor((wheel_speed / self.speed_scale + 1.0) * 0.5 * COVERAGE_BINS))
+        return 0 <= k < COVERAGE_BINS and bool(self.speed_coverage[k])
 
     @property
     def inputs(self) -> int:
@@ -155,6 +180,8 @@ class ElmanWeights:
             raise ModelError(f"{origin}: normalisation scales must be positive; {REGENERATE}")
         if self.model_error and not self.speed_aware:
             raise ModelError(f"{origin}: a network of the model's error needs the speed input; {REGENERATE}")
+        if self.speed_coverage is not None and np.shape(self.speed_coverage) != (COVERAGE_BINS,):
+            raise ModelError(f"{origin}: speed_coverage must hold {COVERAGE_BINS} bins; {REGENERATE}")
         return self
 
     def save(self, path, card: dict | None = None):
@@ -172,7 +199,8 @@ class ElmanWeights:
         np.savez(path, w_ih=self.w_ih, w_hh=self.w_hh, b_h=self.b_h, w_ho=self.w_ho, b_o=self.b_o,
                  tcv_scale=np.array(self.tcv_scale), torque_scale=np.array(self.torque_scale),
                  speed_scale=np.array(self.speed_scale), uncertainty_gain=np.array(self.uncertainty_gain),
-                 model_error=np.array(bool(self.model_error)))
+                 model_error=np.array(bool(self.model_error)),
+                 **({} if self.speed_coverage is None else {"speed_coverage": np.asarray(self.speed_coverage, bool)}))
         if card is not None:
             path.with_suffix(".json").write_text(json.dumps(card, indent=2))
 
@@ -199,7 +227,8 @@ class ElmanWeights:
                         tcv_scale=float(z["tcv_scale"]), torque_scale=float(z["torque_scale"]),
                         speed_scale=float(z["speed_scale"]) if "speed_scale" in z.files else 0.0,
                         uncertainty_gain=float(z["uncertainty_gain"]) if "uncertainty_gain" in z.files else 0.0,
-                        model_error=bool(z["model_error"]) if "model_error" in z.files else False)
+                        model_error=bool(z["model_error"]) if "model_error" in z.files else False,
+                        speed_coverage=np.asarray(z["speed_coverage"], bool) if "speed_coverage" in z.files else None)
         except ModelError:
             raise
         except Exception as exc:  # zip/npz damage, missing arrays, pickled content
@@ -281,7 +310,9 @@ class ElmanObserver:
             for _ in range(SETTLE_STEPS):
                 self._step(tcv, None, wheel_speed)
             self.settled = True
-        return self._step(tcv, reaction_torque, wheel_speed) * w.torque_scale
+        out = self._step(tcv, reaction_torque, wheel_speed) * w.torque_scale
+        # a grey box beyond the speeds it learnt adds nothing to the model: its state runs on, its guess is not used
+        return out if w.covers(wheel_speed) else 0.0
 
     def _step(self, tcv, reaction_torque, wheel_speed) -> float:
         w = self.w
@@ -396,3 +427,29 @@ def recall_series(weights: ElmanWeights, tcv, initial_torque: float = 0.0, wheel
     obs = ElmanObserver(weights)
     obs.reset(initial_torque - (base[0] if len(base) else 0.0))
     return base + np.array([obs.update(u, None, w) for u, w in zip(tcv, speeds)])
+
+
+def speed_coverage(wheel_speed, speed_scale: float, min_samples: int = None) -> np.ndarray:
+    """The speeds a network's training held: COVERAGE_BINS bins of Omega over [-speed_scale, speed_scale], True
+    where at least ``min_samples`` (COVERAGE_MIN) training samples fall. A grey box's correction is what it
+    learnt at those speeds; elsewhere (a wheel through zero it never crossed in training, beyond its speeds) it
+    would extrapolate, and its estimate is the nominal model's alone (:meth:`ElmanWeights.covers`).
+
+    Parameters
+    ----------
+    wheel_speed : array_like
+        Omega of every training sample [rad/s].
+    speed_scale : float
+        The network's speed normalisation [rad/s] (1.1 max |Omega| of training).
+    min_samples : int, optional
+        Samples a bin needs (default COVERAGE_MIN).
+
+    Returns
+    -------
+    ndarray of bool, shape (COVERAGE_BINS,)
+        Whether each bin is covered.
+    """
+    w = np.asarray(wheel_speed, float).ravel()
+    k = np.floor((w / speed_scale + 1.0) * 0.5 * COVERAGE_BINS).astype(int)
+    counts = np.bincount(k[(k >= 0) & (k < COVERAGE_BINS)], minlength=COVERAGE_BINS)
+    return counts >= (COVERAGE_MIN if min_samples is None else min_samples)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.fdi.elman import HIDDEN, standby
+from ...core.fdi.elman import HIDDEN, speed_coverage, standby
 from ...core.mission.vehicle import DEFAULT_VEHICLE
 from ..campaigns import service_family as family
 
@@ -98,30 +98,44 @@ def _pooled(runs, window: int = WINDOW) -> tuple:
 
 
 class _Window:
-    """A window as the kappa measurement reads a run (train.uncertainty_gain): one wheel's column."""
+    """A window as the kappa measurement reads a run (train.uncertainty_gain): one wheel's column, of the
+    wheel type ``wheel_params`` (its ripple and torque scale; None: the thesis' type)."""
 
-    def __init__(self, u, r, w, p, m):
+    def __init__(self, u, r, w, p, m, wheel_params=None):
         self.tcv, self.reaction_torque, self.wheel_speed, self.ripple_phasor, self.model_torque = (
             x[:, None] for x in (u, r, w, p, m))
+        self.wheel_params = wheel_params
 
 
 def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, units: str = "mixed",
                        model_error: bool = True, hidden: int = HIDDEN, window: int = WINDOW,
-                       loss: str = "mse") -> dict:
+                       loss: str = "mse", false_alarm_rate: float | None = None) -> dict:
     """One network for the wheel type on every wheel's healthy windows of ``train_runs`` pooled, saved as each
     wheel of ``names``' (its kappa from its own windows, or the largest where it has none); the card.
     ``model_error``: it learns the nominal model's error r - r_model (a grey box: its estimate r_model plus its
-    output), else r itself; ``hidden``, ``window`` and ``loss`` as train.train_axis and healthy_windows."""
+    output), else r itself; ``hidden``, ``window`` and ``loss`` as train.train_axis and healthy_windows;
+    ``false_alarm_rate``: the designed per-run rate kappa takes half of (default train's)."""
     from .train import train_axis, uncertainty_gain
+    from ...core.fdi.detection import FALSE_ALARM_RATE
+    rate = FALSE_ALARM_RATE if false_alarm_rate is None else false_alarm_rate
+    wheel_params = getattr(train_runs[0][1], "wheel_params", None)
     t0 = time.monotonic()
+    from tqdm import tqdm
     by_wheel, (u, r, w, m) = _pooled(train_runs, window)
-    weights, losses = train_axis(u, r - m if model_error else r, "recall", epochs, seed=seed, wheel_speed=w,
-                                 hidden=hidden, loss=loss)
+    with tqdm(total=epochs, desc=f"train the type network ({len(u)} windows of {window} samples)", unit="epoch",
+              file=sys.stderr, mininterval=1.0) as bar:
+        def tick(k, loss_now):
+            bar.update(k)
+            bar.set_postfix(mse=f"{loss_now:.2e}", refresh=False)
+        weights, losses = train_axis(u, r - m if model_error else r, "recall", epochs, seed=seed, wheel_speed=w,
+                                     hidden=hidden, loss=loss, progress=tick)
     weights.model_error = model_error
+    if model_error:   # beyond the speeds it learnt, the grey box is the nominal model (elman.speed_coverage)
+        weights.speed_coverage = speed_coverage(w, weights.speed_scale)
     kappas = {}
     for wheel in names:
         windows = by_wheel.get(wheel, [])
-        kappas[wheel] = (uncertainty_gain(weights, [_Window(*x) for x in windows], 0, wheel=wheel)
+        kappas[wheel] = (uncertainty_gain(weights, [_Window(*x, wheel_params) for x in windows], 0, rate, wheel=wheel)
                          if windows else None)
     widest = max(k for k in kappas.values() if k is not None)
     out_dir = Path(out_dir)
@@ -132,7 +146,7 @@ def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, u
             "seeds": sorted({d.seed for d, _ in train_runs}),
             "windows": {a: len(v) for a, v in by_wheel.items()}, "wheels": list(names),
             "type_network": "one network trained on every wheel's healthy windows pooled", "axes": {},
-            "final_loss": losses[-1]}
+            "final_loss": losses[-1], "speeds_learnt": _intervals(weights)}
     for wheel in names:
         weights.uncertainty_gain = kappas[wheel] if kappas[wheel] is not None else widest
         weights.save(out_dir / f"elman_{wheel}.npz", {**{k: v for k, v in card.items() if k != "axes"},
@@ -141,6 +155,16 @@ def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, u
     card["train_seconds"] = time.monotonic() - t0
     (out_dir / "model_set.json").write_text(json.dumps(card, indent=2))
     return card
+
+
+def _intervals(weights) -> list:
+    """[low, high] wheel speeds [rad/s] of each run of learnt bins of a grey box (every speed: [-inf, inf])."""
+    from ...core.fdi.elman import COVERAGE_BINS
+    if weights.speed_coverage is None:
+        return [[-np.inf, np.inf]]
+    edges = np.linspace(-weights.speed_scale, weights.speed_scale, COVERAGE_BINS + 1)
+    flips = np.flatnonzero(np.diff(np.concatenate([[0], weights.speed_coverage.astype(int), [0]])))
+    return [[round(float(edges[a]), 1), round(float(edges[b]), 1)] for a, b in zip(flips[::2], flips[1::2])]
 
 
 def family_plant(draw) -> dict:

@@ -3,12 +3,16 @@
 On the core loop (rw-fdi screen's: the graph's numbers, no bags), the speed-aware method:
 
 1. the controllers designed to the vehicle's targets (core/controller_design.py; the runs fly them);
-2. fault-free runs of the vehicle: training (seeds 1000-1039), fitting (1040-1139), held-out (5000-5099);
-   for the calibrated bands, fault-free 600-s runs of drawn wheel units as in service (the in-service
-   family's draws, tools/benches/service_bench.py: manoeuvres every 60-900 s, a share in orbit; seeds
+2. fault-free runs of the vehicle: fitting (seeds 1040-1139), held-out (5000-5099); for the network, fault-free
+   600-s runs of its datasheet wheels as in service (the in-service family's draws,
+   tools/benches/service_bench.py: manoeuvres every 60-900 s, a share in orbit with dumps through zero; seeds
+   61,000,000-61,000,039); for the calibrated bands, such runs of drawn wheel units (seeds
    60,000,000-60,000,299) and their held-out runs (5,200-5,299): training, fitting and checking never
    share a run;
-3. a speed-aware Elman network per wheel in use (a standby wheel runs its type's), its uncertainty gain;
+3. one speed-aware Elman network of the wheel type, a grey box that learns the nominal model's error
+   r - r_model on every wheel's healthy stretches (tools/design/service_training.py), each wheel's uncertainty
+   gain from its own: the nominal model carries the vehicle's physics to speeds and manoeuvres the network
+   never saw, where a network of r itself alarmed in every run from 0 or 40 rad/s (docs/fdi.md);
 4. the three observers' bands for the designed per-run false-alarm rate, for datasheet wheels and for
    observers that learn their wheel over the first 150 s (``unit_calibrated/``);
 5. the held-out runs judged by the FDI just made: their false alarms, with 95 % intervals.
@@ -31,9 +35,11 @@ from ...core.mission.vehicle import load_vehicle, to_mapping
 from ...scoring.metrics import wilson
 from .offline import alarmed_runs, fit_thresholds, load_models, observe, threshold_set
 from .samples import simulated_fault_free_runs
-from .train import EPOCHS, train_models
+from .service_training import family_plant, family_runs, train_type_network
+from .train import EPOCHS
 
-TRAIN_SEED, HELDOUT_SEED = 1000, 5000           # training then fitting runs; held-out runs (datasheet wheels)
+TRAIN_SEED, HELDOUT_SEED = 1000, 5000           # fitting runs from TRAIN_SEED + train_runs; held-out runs
+NETWORK_SEED = 61_000_000                       # the network's in-service training runs (datasheet wheels)
 UNITS_SEED, UNITS_HELDOUT_SEED = 60_000_000, 5200   # drawn wheel units: fitting; held-out
 UNIT_CALIBRATION = 150.0                        # [s] the calibrated observers' learning window (config/fdi's)
 DURATION = 400.0                                # [s] the fault-free runs (the thesis' operation)
@@ -65,7 +71,6 @@ def service_unit_runs(vehicle_file: Path, seeds, executor=None, desc: str = "uni
     dumping), flown without FDIR. A calibrated observer learns its unit at the speed it holds then; it is in
     service, after slews to other speeds and through dumps, that what it could not learn shows (viscous against
     coulomb friction), so its bands are fitted there, not on one-slew runs."""
-    from .service_training import family_plant, family_runs
     runs = family_runs(seeds, "units", True, executor, desc, vehicle=Path(vehicle_file).resolve(), act=False)
     return [s for _, s in runs], family_plant(runs[0][0])
 
@@ -100,9 +105,12 @@ def vehicle_defaults(vehicle_source, out, train_runs: int = 40, fit_runs: int = 
     t = time.monotonic()
     scenarios = vehicle_scenarios(vehicle_file, out)
     _log(f"[2/5] fault-free runs of {vehicle.name} on the core loop")
-    fitting, plant = simulated_fault_free_runs(scenarios["fault_free"], range(TRAIN_SEED,
-                                                                              TRAIN_SEED + train_runs + fit_runs),
-                                               executor, desc="training + fitting runs")
+    fit, plant = simulated_fault_free_runs(scenarios["fault_free"], range(TRAIN_SEED + train_runs,
+                                                                         TRAIN_SEED + train_runs + fit_runs),
+                                           executor, desc="fitting runs")
+    network_runs = family_runs(range(NETWORK_SEED, NETWORK_SEED + train_runs), "datasheet", True, executor,
+                               "in-service training runs (datasheet wheels)", vehicle=vehicle_file.resolve(),
+                               act=False)
     heldout, _ = simulated_fault_free_runs(scenarios["fault_free"], range(HELDOUT_SEED, HELDOUT_SEED + heldout_runs),
                                            executor, desc="held-out runs")
     units, units_plant = service_unit_runs(vehicle_file, range(UNITS_SEED, UNITS_SEED + unit_runs), executor,
@@ -110,13 +118,12 @@ def vehicle_defaults(vehicle_source, out, train_runs: int = 40, fit_runs: int = 
     units_heldout, _ = service_unit_runs(vehicle_file, range(UNITS_HELDOUT_SEED,
                                                              UNITS_HELDOUT_SEED + unit_heldout_runs),
                                          executor, "held-out in-service unit runs")
-    train, fit = fitting[:train_runs], fitting[train_runs:]
     stages["runs_s"] = time.monotonic() - t
 
     t = time.monotonic()
-    _log(f"[3/5] a speed-aware Elman network per wheel in use, {epochs} epochs on {train_runs} runs")
-    card = train_models(train, out, mode="recall", epochs=epochs, plant=plant, speed_aware=True,
-                        calibration=train + fit, false_alarm_rate=false_alarm_rate)
+    _log(f"[3/5] the wheel type's Elman network (the nominal model's error), {epochs} epochs on {train_runs} runs")
+    card = train_type_network(network_runs, out, tuple(fit[0].wheels), epochs, units="datasheet",
+                              false_alarm_rate=false_alarm_rate)
     stages["training_s"] = time.monotonic() - t
 
     t = time.monotonic()
@@ -139,13 +146,14 @@ def vehicle_defaults(vehicle_source, out, train_runs: int = 40, fit_runs: int = 
 
     report = {"command": f"rw-fdi defaults --vehicle {vehicle_source} --out {out}", "vehicle": vehicle.name,
               "wheel_set": plant["wheel_set"], "controller": controller, "plant": plant,
-              "seeds": {"training": [TRAIN_SEED, TRAIN_SEED + train_runs - 1],
+              "seeds": {"training": [NETWORK_SEED, NETWORK_SEED + train_runs - 1],
                         "fitting": [TRAIN_SEED + train_runs, TRAIN_SEED + train_runs + fit_runs - 1],
                         "held_out": [HELDOUT_SEED, HELDOUT_SEED + heldout_runs - 1],
                         "unit_fitting": [UNITS_SEED, UNITS_SEED + unit_runs - 1],
                         "unit_held_out": [UNITS_HELDOUT_SEED, UNITS_HELDOUT_SEED + unit_heldout_runs - 1]},
-              "networks": {"wheels": card["wheels"], "epochs": epochs,
-                           "final_loss": {a: c["final_loss"] for a, c in card["axes"].items()},
+              "networks": {"wheels": card["wheels"], "epochs": epochs, "learns": card["learns"],
+                           "speeds_learnt": card["speeds_learnt"],
+                           "final_loss": card["final_loss"], "windows": card["windows"],
                            "uncertainty_gain": {a: c["uncertainty_gain"] for a, c in card["axes"].items()}},
               "bands": {"datasheet": bands, "unit_calibrated": unit_bands,
                         "false_alarm_rate_design": false_alarm_rate, "persistence": PERSISTENCE_SPEED_AWARE,
@@ -168,7 +176,8 @@ def format_report(r: dict) -> str:
     lines = [f"# FDI of vehicle {r['vehicle']}", "",
              f"Made from nothing by `{r['command']}` on the core loop (the graph's numbers). Wheel set "
              f"{r['wheel_set']}; fault-free runs of {DURATION:g} s drawn from the vehicle's dispersions. Seeds: "
-             f"training {seeds('training')}, fitting {seeds('fitting')}, held-out {seeds('held_out')}. The calibrated "
+             f"fitting {seeds('fitting')}, held-out {seeds('held_out')}; the network's fault-free 600-s in-service "
+             f"runs {seeds('training')}. The calibrated "
              f"bands: fault-free 600-s runs of drawn units as in service (manoeuvres every 60-900 s, a share in "
              f"orbit), seeds {seeds('unit_fitting')}, held-out {seeds('unit_held_out')}.", "",
              "## Controllers (designed to the vehicle's targets)", "",
@@ -177,9 +186,12 @@ def format_report(r: dict) -> str:
         lines.append(f"| {axis} | {c['kp'][i]:.4g} | {c['ki'][i]:.4g} | {c['kd'][i]:.4g} | "
                      f"{c['natural_frequency'][i]:g} | {c['settling_time'][i]:.0f} | {c['overshoot'][i] * 100:.0f} % |")
     n = r["networks"]
-    lines += ["", f"## Elman networks (speed-aware, {n['epochs']} epochs, one per wheel in use)", "",
-              "| wheel | final training MSE | uncertainty gain kappa |", "|---|---|---|"]
-    lines += [f"| {a} | {n['final_loss'][a]:.2e} | {n['uncertainty_gain'][a]:.3f} |" for a in n["wheels"]]
+    lines += ["", f"## Elman network (speed-aware, {n['epochs']} epochs, one of the wheel type: it learns "
+              f"{n['learns']}; final training MSE {n['final_loss']:.2e})", "",
+              "| wheel | healthy 300-s training windows | uncertainty gain kappa |", "|---|---|---|"]
+    lines += [f"| {a} | {n['windows'].get(a, 0)} | {n['uncertainty_gain'][a]:.3f} |" for a in n["wheels"]]
+    lines += ["", "Speeds it learnt [rad/s] (beyond them its estimate is the nominal model's): "
+              + ", ".join(f"{lo:g} to {hi:g}" for lo, hi in n["speeds_learnt"]) + "."]
     lines += ["", f"## Bands (per-run false-alarm rate {b['false_alarm_rate_design']:g}, P = {b['persistence']})", "",
               "| set | observer | " + " | ".join(f"c {a} [1e-3 N m]" for a in wheels) + " |",
               "|---|---|" + "---|" * len(wheels)]
