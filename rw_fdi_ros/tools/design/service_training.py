@@ -115,12 +115,12 @@ def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, u
     ``model_error``: it learns the nominal model's error r - r_model (a grey box: its estimate r_model plus its
     output), else r itself; ``hidden``, ``window`` and ``loss`` as train.train_axis and healthy_windows;
     ``false_alarm_rate``: the designed per-run rate kappa takes half of (default train's)."""
+    from tqdm import tqdm
     from .train import train_axis, uncertainty_gain
     from ...core.fdi.detection import FALSE_ALARM_RATE
     rate = FALSE_ALARM_RATE if false_alarm_rate is None else false_alarm_rate
     wheel_params = getattr(train_runs[0][1], "wheel_params", None)
     t0 = time.monotonic()
-    from tqdm import tqdm
     by_wheel, (u, r, w, m) = _pooled(train_runs, window)
     with tqdm(total=epochs, desc=f"train the type network ({len(u)} windows of {window} samples)", unit="epoch",
               file=sys.stderr, mininterval=1.0) as bar:
@@ -157,11 +157,11 @@ def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, u
     return card
 
 
-def _intervals(weights) -> list:
-    """[low, high] wheel speeds [rad/s] of each run of learnt bins of a grey box (every speed: [-inf, inf])."""
+def _intervals(weights) -> list | None:
+    """[low, high] wheel speeds [rad/s] of each run of learnt bins of a grey box (None: it is used at every speed)."""
     from ...core.fdi.elman import COVERAGE_BINS
     if weights.speed_coverage is None:
-        return [[-np.inf, np.inf]]
+        return None
     edges = np.linspace(-weights.speed_scale, weights.speed_scale, COVERAGE_BINS + 1)
     flips = np.flatnonzero(np.diff(np.concatenate([[0], weights.speed_coverage.astype(int), [0]])))
     return [[round(float(edges[a]), 1), round(float(edges[b]), 1)] for a, b in zip(flips[::2], flips[1::2])]

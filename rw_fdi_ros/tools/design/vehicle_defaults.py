@@ -190,8 +190,9 @@ def format_report(r: dict) -> str:
               f"{n['learns']}; final training MSE {n['final_loss']:.2e})", "",
               "| wheel | healthy 300-s training windows | uncertainty gain kappa |", "|---|---|---|"]
     lines += [f"| {a} | {n['windows'].get(a, 0)} | {n['uncertainty_gain'][a]:.3f} |" for a in n["wheels"]]
-    lines += ["", "Speeds it learnt [rad/s] (beyond them its estimate is the nominal model's): "
-              + ", ".join(f"{lo:g} to {hi:g}" for lo, hi in n["speeds_learnt"]) + "."]
+    if n["speeds_learnt"] is not None:
+        lines += ["", "Speeds it learnt [rad/s] (beyond them its estimate is the nominal model's): "
+                  + ", ".join(f"{lo:g} to {hi:g}" for lo, hi in n["speeds_learnt"]) + "."]
     lines += ["", f"## Bands (per-run false-alarm rate {b['false_alarm_rate_design']:g}, P = {b['persistence']})", "",
               "| set | observer | " + " | ".join(f"c {a} [1e-3 N m]" for a in wheels) + " |",
               "|---|---|" + "---|" * len(wheels)]
