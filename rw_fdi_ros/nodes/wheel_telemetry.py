@@ -121,6 +121,15 @@ class WheelTelemetryNode(GraphNode):
         torque = self._ordered(msg, "effort", T.WHEELS) if msg.effort else None   # optional: r from the speed
         self._send(self.reports.add_speed(stamp_ns(msg.header.stamp), speed, torque))
 
+    def _commands_in(self) -> bool:
+        """Whether the run's end may flush what waits: at once where commands are held (``command_hold`` > 0),
+        else once the command stream has reached the last speed report, whose own command may come after
+        /plant/done (the last sample's command mean then never depends on which came first)."""
+        if self.param("command_hold") > 0:
+            return True
+        command, speed = self.stamps.get(T.WHEEL_COMMAND, (None, 0))[0], self.stamps.get(T.WHEELS, (None, 0))[0]
+        return speed is None or (command is not None and command >= speed)
+
     def _send(self, samples):
         """The FDI telemetry (and its bus grid) of each FDI sample."""
         for sample in samples:
@@ -132,8 +141,8 @@ class WheelTelemetryNode(GraphNode):
         if self.inputs and all(s.get_publisher_count() > 0 for s in self.inputs):
             self.pub_ready.publish(String(data="ready"))
             self.inputs = []
-        if getattr(self, "_run_end", None) is not None or self.run_ended():   # the source ended (or left)
-            self._send(self.reports.flush())
+        if (getattr(self, "_run_end", None) is not None and self._commands_in()) or self.run_ended():
+            self._send(self.reports.flush())   # the source ended (or left)
         if all([p.flush() for p in self.pubs.values()]) and self.run_ended():
             self.finish()
 
