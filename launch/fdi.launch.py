@@ -2,7 +2,9 @@
 
 No plant and no controllers: the wheel_telemetry node reads what the wheels and their driver report
 (sensor_msgs/JointState: speed in velocity, optionally reaction torque in effort, on ``wheels_topic``;
-commands in effort on ``command_topic``) and the FDI nodes of the vehicle judge them, reporting on
+commands in effort on ``command_topic``; optionally the bus voltage, sensor_msgs/BatteryState, on
+``bus_voltage_topic`` and the temperature, sensor_msgs/Temperature, on ``temperature_topic``, each naming its
+joint in frame_id) and the FDI nodes of the vehicle judge them, reporting on
 /diagnostics and /fdi/identification as in our own graph. Built by rw_fdi_ros.runner.graph.attach_nodes.
 The wheels are matched by joint name: ``joint_names`` gives the streams' own, in the vehicle's wheel set's
 order. Stamps are the messages' own: sim time or wall time alike.
@@ -38,7 +40,9 @@ def _nodes(context):
         node.parameters["use_sim_time"] = sim_time
     user = [os.path.abspath(arg("params_file"))] if arg("params_file") else []
     # relative from-names: the streams are found under the launch's namespace as well
-    remaps = {"wheel_telemetry": [("wheels", arg("wheels_topic")), ("wheels/command", arg("command_topic"))]}
+    remaps = {"wheel_telemetry": [("wheels", arg("wheels_topic")), ("wheels/command", arg("command_topic")),
+                                  ("wheels/bus_voltage", arg("bus_voltage_topic")),
+                                  ("wheels/temperature", arg("temperature_topic"))]}
     return node_actions(nodes, arg("compose"), arg("namespace"), user, remaps, sim_clock=sim_time)
 
 
@@ -57,6 +61,12 @@ def generate_launch_description():
                                           "effort [N m]"),
         DeclareLaunchArgument("command_topic", default_value="wheels/command",
                               description="JointState: torque command voltage in effort [V]"),
+        DeclareLaunchArgument("bus_voltage_topic", default_value="wheels/bus_voltage",
+                              description="BatteryState, optional: the bus at a wheel's driver in voltage [V], its "
+                                          "joint in header.frame_id (empty: every wheel)"),
+        DeclareLaunchArgument("temperature_topic", default_value="wheels/temperature",
+                              description="Temperature, optional: a wheel's in temperature [C], its joint in "
+                                          "header.frame_id (empty: every wheel)"),
         DeclareLaunchArgument("max_gap", default_value="",
                               description="[s] speed reports further apart: the periods between not judged "
                                           "(empty: the node's)"),

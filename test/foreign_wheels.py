@@ -25,8 +25,9 @@ JOINTS = ["rw1", "rw2", "rw3", "rw4"]   # x, y, z and the standby s of orthogona
 TYPE_A = wm.WheelParams()
 
 
-def stream(duration: float, onset: float, limiter: float, seed: int = 3, h: float = 0.01):
-    """(speed reports [(t, speeds)], commands [(t, u)]) of the four wheels; the fourth stands by at rest."""
+def stream(duration: float, onset: float, limiter: float, seed: int = 3, h: float = 0.01, bus: float | None = None):
+    """(speed reports [(t, speeds)], commands [(t, u)]) of the four wheels; the fourth stands by at rest. Wheel 2's
+    fault is a current loss to ``limiter``, or with ``bus`` a drop of its bus to ``bus`` [V]."""
     rng = np.random.default_rng(seed)
     nominal = nominal_values(TYPE_A)
     base = np.array([25.0, 22.0, 28.0, 0.0])
@@ -44,7 +45,11 @@ def stream(duration: float, onset: float, limiter: float, seed: int = 3, h: floa
                 speeds.append((t, w.copy()))
             next_report += rng.uniform(0.7, 1.3) / 25.0
         op = SimpleNamespace(**{kind: np.full(4, v, float) for kind, v in nominal.items()})
-        op.current_limiter = np.where((np.arange(4) == 1) & (t >= onset), limiter, 1.0)
+        faulty = (np.arange(4) == 1) & (t >= onset)
+        if bus is None:
+            op.current_limiter = np.where(faulty, limiter, 1.0)
+        else:
+            op.bus_voltage = np.where(faulty, bus, op.bus_voltage)
         w = w + h * active * wm.net_torque(u, w, t, op, TYPE_A)[0] / TYPE_A.inertia   # the standby one: at rest
     return speeds, commands
 
@@ -85,7 +90,7 @@ def table(path: str, joints: list) -> tuple:
 def main():
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
-    from sensor_msgs.msg import JointState
+    from sensor_msgs.msg import BatteryState, JointState, Temperature
     from std_msgs.msg import Header
     from rw_fdi_ros.graph import topics as T
     from rw_fdi_ros.graph.convert import stamp_ns, time_msg
@@ -101,6 +106,9 @@ def main():
     p.add_argument("--command-topic", default="wheels/command")
     p.add_argument("--table", default=None, help="a telemetry table to stream instead")
     p.add_argument("--joints", default=",".join(JOINTS), help="the stream's joint names")
+    p.add_argument("--housekeeping", action="store_true",
+                   help="also each wheel's bus voltage (BatteryState, its joint in frame_id) and one temperature for "
+                        "all (Temperature, frame_id empty) every second")
     args = p.parse_args()
     joints = args.joints.split(",")
     speeds, commands = stream(args.duration, args.onset, args.limiter) if args.table is None else table(args.table,
@@ -111,13 +119,19 @@ def main():
     pub_speed = node.create_publisher(JointState, args.speed_topic, T.RELIABLE)
     pub_command = node.create_publisher(JointState, args.command_topic, T.RELIABLE)
     pub_done = node.create_publisher(Header, relative(T.PLANT_DONE), T.LATCHED)
-    heard, fdi_at = [], [-1.0]
+    pub_bus = node.create_publisher(BatteryState, relative(T.WHEEL_BUS_VOLTAGE), T.RELIABLE)
+    pub_temperature = node.create_publisher(Temperature, relative(T.WHEEL_TEMPERATURE), T.RELIABLE)
+    heard, fdi_at, carried = [], [-1.0], {}
     for topic in (relative(T.DIAGNOSTICS), relative(T.IDENTIFICATION)):
         node.create_subscription(DiagnosticArray, topic, lambda m: heard.extend(
             (stamp_ns(m.header.stamp) * 1e-9, s.name, s.hardware_id, s.level[0] if isinstance(s.level, bytes)
              else s.level, s.message, {v.key: v.value for v in s.values}) for s in m.status), T.RELIABLE)
-    node.create_subscription(JointState, relative(T.FDI_TELEMETRY),
-                             lambda m: fdi_at.__setitem__(0, stamp_ns(m.header.stamp) * 1e-9), T.RELIABLE)
+
+    def on_fdi(m):
+        fdi_at[0] = stamp_ns(m.header.stamp) * 1e-9
+        # the housekeeping the FDI telemetry carries (the channels '<wheel>/bus_voltage', '.../temperature')
+        carried.update({n: v for n, v in zip(m.name, m.position) if n.endswith(("/bus_voltage", "/temperature"))})
+    node.create_subscription(JointState, relative(T.FDI_TELEMETRY), on_fdi, T.RELIABLE)
 
     def wait(ready, timeout):
         deadline = time.monotonic() + timeout
@@ -126,6 +140,8 @@ def main():
         return ready()
 
     if not wait(lambda: pub_speed.get_subscription_count() and pub_command.get_subscription_count()
+                and (not args.housekeeping
+                     or pub_bus.get_subscription_count() and pub_temperature.get_subscription_count())
                 and node.count_publishers(node.resolve_topic_name(relative(T.DIAGNOSTICS))), 180.0):
         sys.exit("the FDI graph did not come up within 180 s")
 
@@ -142,6 +158,12 @@ def main():
             if not wait(lambda: fdi_at[0] >= second - 5.0, 120.0):
                 sys.exit(f"no FDI telemetry for {second - 5} s within 120 s (heard up to {fdi_at[0]} s)")
             second += 1
+            if args.housekeeping:   # the driver's: the bus it sees at each wheel, one thermistor for the set
+                for j in joints:
+                    pub_bus.publish(BatteryState(header=Header(stamp=time_msg(int(round(t * 1e9))), frame_id=j),
+                                                 voltage=8.0))
+                pub_temperature.publish(Temperature(header=Header(stamp=time_msg(int(round(t * 1e9)))),
+                                                    temperature=23.0))
         (pub_command if kind == 0 else pub_speed).publish(joint_state(t, "effort" if kind == 0 else "velocity",
                                                                       values))
     last = int(speeds[-1][0])
@@ -149,7 +171,7 @@ def main():
     pub_done.publish(Header(stamp=time_msg(int(round(speeds[-1][0] * 1e9))), frame_id="completed"))
     wait(lambda: False, 1.0)
     with open(args.out, "w") as fh:
-        json.dump({"heard": heard, "fdi_at": fdi_at[0]}, fh)
+        json.dump({"heard": heard, "fdi_at": fdi_at[0], "housekeeping": carried}, fh)
     node.destroy_node()
     rclpy.shutdown()
 

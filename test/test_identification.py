@@ -421,3 +421,46 @@ def test_a_bag_s_identification_reads_through_the_decoder_with_the_names_now():
     assert judge_identification(run)["x"]["kind_right"]
     assert run_row(run)["identification"] == {"x": {"kind": "current_limiter", "size": "0.6", "size_low": "0.59",
                                                      "size_high": "0.61"}}
+
+
+def test_a_reported_bus_tells_a_current_loss_from_a_bus_drop_where_the_samples_cannot():
+    """At one operating point a limiter share and a bus that clips to the same current are the same wheel: a bus
+    report at its nominal 8 V leaves the current loss, a report of the dropped bus the bus drop (the limiter is
+    then ruled out: one fault), each with its size; a temperature at its nominal rules the temperature out."""
+    loss = wheel_rows("current_limiter", 0.7, constant=True, noise=idf.SIGMA_FLOOR)
+    found = idf.identify(*loss, reported={"bus_voltage": 8.0, "temperature": 23.0})
+    assert found.kind == "current_limiter" and found.low <= 0.7 <= found.high, found
+    # the bus that gives the same current at this point (limiter * the bridge's share of the bus)
+    u, w = 3.0, 30.0
+    target = 0.7 * wm.motor_current(u, w, 8.0, 1.0, P)
+    grid = idf.BUS_VOLTAGE_GRID
+    bus = float(grid[np.argmin(np.abs(wm.motor_current(u, w, grid, 1.0, P) - target))])
+    drop = wheel_rows("bus_voltage", bus, constant=True, noise=idf.SIGMA_FLOOR)
+    assert idf.identify(*drop).kind == "unknown"   # without the report: either
+    found = idf.identify(*drop, reported={"bus_voltage": bus})
+    assert found.kind == "bus_voltage" and found.low <= bus <= found.high, found
+    assert abs(found.size - bus) <= idf.REPORTED_TOLERANCE["bus_voltage"]
+    # a report of a bus no family can meet (below the grid's end): unknown, never an error
+    assert idf.identify(*drop, reported={"bus_voltage": 0.5}).kind == "unknown"
+
+
+def test_a_reported_temperature_holds_the_temperature_family_to_it():
+    hot = wheel_rows("temperature", 173.0)
+    assert idf.identify(*hot, reported={"temperature": 170.0}).kind == "temperature"
+    # a wheel that says it is at 23 C: no family explains its torque (the temperature held within the sensor's
+    # tolerance, the drive at its nominal bus): unknown, not a wrong kind
+    held = idf.identify(*hot, reported={"temperature": 23.0, "bus_voltage": 8.0})
+    assert held.kind == "unknown" and held.explained < idf.EXPLAINED, held
+    assert held.best_guess != "temperature" or held.size <= 23.0 + idf.REPORTED_TOLERANCE["temperature"]
+
+
+def test_the_identifier_reads_the_housekeeping_of_each_wheel_from_its_samples():
+    """FaultIdentifier takes a sample's bus_voltage and temperature (NaN: not reported), the bus on the wheel type's
+    own nominal scaled to the families' 8-V grid."""
+    identifier = idf.FaultIdentifier(wheels=("x",), params=wm.WheelParams(bus_voltage=16.0))
+    rows = wheel_rows("current_limiter", 0.7, n=3)
+    for k, row in enumerate(zip(*rows)):
+        s = sample(row)
+        s.bus_voltage, s.temperature = np.array([11.0 if k < 2 else np.nan]), np.array([40.0])
+        identifier.update(s, {"x": False})
+    assert identifier.reported["x"] == {"bus_voltage": 5.5, "temperature": 40.0}

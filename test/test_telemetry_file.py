@@ -16,10 +16,14 @@ from rw_fdi_ros.tools.evaluation.telemetry_file import TelemetryError, check, fi
 ONSET = 150.0
 
 
-def write_table(path, drop=(), duration=300.0, onset=ONSET):
-    """The driver's run as a CSV (speed in rpm), without the speed rows whose time falls in ``drop`` (lo, hi)."""
-    speeds, commands = stream(duration, onset, 0.5)
+def write_table(path, drop=(), duration=300.0, onset=ONSET, bus=None, housekeeping=False):
+    """The driver's run as a CSV (speed in rpm), without the speed rows whose time falls in ``drop`` (lo, hi); with
+    ``bus`` its fault a bus drop; with ``housekeeping`` each wheel's bus [V] and temperature [K] every 2 s."""
+    speeds, commands = stream(duration, onset, 0.5, bus=bus)
     rows = {}
+    for t in np.arange(0.0, duration, 2.0) if housekeeping else ():
+        volts = [8.0 if i != 1 or t < onset or bus is None else bus for i in range(4)]
+        rows.setdefault(round(t + 0.013, 6), {})["housekeeping"] = volts + [296.15] * 4
     for t, w in speeds:
         if not (drop and drop[0] <= t <= drop[1]):
             rows.setdefault(round(t, 6), {})["speed"] = w * 60.0 / (2.0 * np.pi)
@@ -27,13 +31,15 @@ def write_table(path, drop=(), duration=300.0, onset=ONSET):
         rows.setdefault(round(t, 6), {})["command"] = u
     with open(path, "w", newline="") as fh:
         out = csv.writer(fh)
+        kept = [*(f"{j}.bus_voltage [V]" for j in JOINTS), *(f"{j}.temperature [K]" for j in JOINTS)]
         out.writerow(["time [s]", *(f"{j}.speed [rpm]" for j in JOINTS), *(f"{j}.command [V]" for j in JOINTS),
-                      *(f"{j}.fault [1]" for j in JOINTS)])
+                      *(f"{j}.fault [1]" for j in JOINTS), *(kept if housekeeping else ())])
         for t in sorted(rows):
             r = rows[t]
             empty = [""] * 4
             out.writerow([t, *r.get("speed", empty), *r.get("command", empty),
-                          *(int(t >= onset and i == 1) for i in range(4))])
+                          *(int(t >= onset and i == 1) for i in range(4)),
+                          *(r.get("housekeeping", empty * 2) if housekeeping else ())])
     return path
 
 
@@ -49,6 +55,20 @@ def test_the_half_current_wheel_is_named_from_a_users_table_and_no_other(table_f
     assert ONSET < wheels["y"]["first_alarm_s"] <= ONSET + 30.0 and wheels["y"]["truth_onset_s"] == ONSET
     assert wheels["y"]["kind"] == "current_limiter", wheels["y"]
     assert not verdict["not_judged_s"] and len(verdict["samples"]) >= 4 * 295
+
+
+def test_a_wheels_reported_bus_and_temperature_hold_its_identification(tmp_path):
+    """A table with each wheel's bus voltage and temperature (in kelvin, every 2 s): the bus drop of wheel y is
+    named a bus drop at the voltage its bus reports; the half-current wheel beside a nominal bus a current loss."""
+    table = read_table(write_table(tmp_path / "bus.csv", bus=4.0, housekeeping=True))
+    assert np.allclose(table.temperature[np.isfinite(table.temperature)], 23.0)
+    assert "rw2.bus_voltage" in check(table, WheelParams())["channels"]
+    wheels = judge(table)["wheels"]
+    assert [a for a, w in wheels.items() if w["first_alarm_s"] is not None] == ["y"]
+    assert wheels["y"]["kind"] == "bus_voltage", wheels["y"]
+    assert wheels["y"]["identification"].startswith("bus voltage 4.0"), wheels["y"]
+    loss = judge(read_table(write_table(tmp_path / "loss.csv", housekeeping=True)))["wheels"]
+    assert loss["y"]["kind"] == "current_limiter", loss["y"]
 
 
 def test_the_check_sees_the_rates_and_a_gap_and_the_fdi_does_not_judge_across_it(tmp_path):

@@ -123,3 +123,27 @@ def test_a_plant_reporting_on_the_grid_gives_its_steps_with_the_command_in_force
         assert reports.add_speed(int(stamps[k]), speed[k], torque[k] * 1e-3) == []   # it waits for its command
         streamed += [(k, s.stamp_ns) for s in reports.add_command(int(stamps[k]), sent[k])]
     assert streamed == [(10 * k, 10**9 * k) for k in range(1, 5)]   # each with the command sent at its stamp
+
+
+def test_housekeeping_is_held_from_its_stamp_wheel_by_wheel_and_absent_without_a_report():
+    """A driver's bus voltage and temperature are not averaged: each FDI sample carries the report in force at its
+    stamp; a report naming one wheel (NaN for the other) leaves the other's as it was; a channel never reported is
+    not in the samples."""
+    def samples(housekeeping):
+        reports = ReportSampler(WheelParams(), 1.0, 0.1, identification=False)
+        out, pending = [], sorted(housekeeping)
+        for s in np.arange(0.0, 6.0, 0.05):
+            while pending and pending[0][0] <= s:
+                t, bus, temperature = pending.pop(0)
+                reports.add_housekeeping(int(round(t * 1e9)), bus, temperature)
+            out += reports.add_command(int(round(s * 1e9)), [1.0, -1.0])
+            out += reports.add_speed(int(round(s * 1e9)), speed_at(s))
+        return {x.stamp_ns // 10**9: x for x in out + reports.flush()}
+    nan = np.nan
+    by_t = samples([(1.5, [8.0, 8.0], None), (2.5, [5.5, nan], [30.0, 31.0]), (4.0, [nan, 6.0], None)])
+    assert by_t[1].bus_voltage is None and by_t[1].temperature is None   # none reported yet
+    assert np.array_equal(by_t[2].bus_voltage, [8.0, 8.0]) and by_t[2].temperature is None
+    assert np.array_equal(by_t[3].bus_voltage, [5.5, 8.0]) and np.array_equal(by_t[3].temperature, [30.0, 31.0])
+    assert np.array_equal(by_t[4].bus_voltage, [5.5, 6.0]) and np.array_equal(by_t[5].temperature, [30.0, 31.0])
+    quiet = samples([])
+    assert quiet[3].bus_voltage is None and quiet[3].temperature is None   # a wheel that reports none: as before

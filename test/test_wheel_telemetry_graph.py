@@ -24,7 +24,12 @@ ONSET = 150.0
 def test_the_fdi_names_the_failed_wheel_of_a_stream_that_is_not_our_plants(tmp_path):
     from foreign_wheels import drive_graph
     nodes = attach_nodes(joint_names=("rw1", "rw2", "rw3", "rw4"))   # the thesis' vehicle, its shipped FDI
-    alarmed = check_verdicts(drive_graph(nodes, tmp_path, "--duration", 300, "--onset", ONSET))
+    alarmed = check_verdicts(drive_graph(nodes, tmp_path, "--duration", 300, "--onset", ONSET, "--housekeeping"))
+    # the driver's housekeeping reached the FDI samples: each wheel's bus voltage and the set's temperature
+    carried = json.loads((tmp_path / "heard.json").read_text())["housekeeping"]
+    assert {k: v for k, v in carried.items() if k.endswith("/bus_voltage")} == {
+        f"reaction_wheel_{a}/bus_voltage": 8.0 for a in "xyzs"}, carried
+    assert [v for k, v in carried.items() if k.endswith("/temperature")] == [23.0] * 4, carried
     # the same stream as a table, judged offline by `rw-fdi telemetry`'s code: the graph's verdict, to the second
     offline = judge(stream_table())["wheels"]
     assert {f"reaction_wheel_{a}": w["first_alarm_s"] for a, w in offline.items()

@@ -192,8 +192,11 @@ def wheel_torque(wheel, gain: float, volts: float, speed: float, healthy: bool =
     return float(np.clip(gain * volts, -u_max, u_max) - coulomb * np.sign(speed) - viscous * speed)
 
 
-def write(rows: list, run: dict, effect: float, out: Path) -> None:
-    """bsk_<seed>.csv (docs/telemetry.md's layout) and bsk_<seed>.json (the draw and the fault's size)."""
+def write(rows: list, run: dict, effect: float, out: Path, speed_every: int = 1) -> None:
+    """bsk_<seed>.csv (docs/telemetry.md's layout) and bsk_<seed>.json (the draw and the fault's size); the speed
+    in every ``speed_every``-th row only (a slower tachometer: the commands stay at the FSW's rate)."""
+    rows = [row if k % speed_every == 0 else [row[0], *[""] * len(JOINTS), *row[1 + len(JOINTS):]]
+            for k, row in enumerate(rows)]
     header = (["time [s]"] + [f"{j}.speed [rad/s]" for j in JOINTS] + [f"{j}.command [V]" for j in JOINTS]
               + [f"{j}.fault [1]" for j in JOINTS])
     with open(out / f"bsk_{run['seed']}.csv", "w", newline="") as fh:
@@ -215,8 +218,13 @@ def main(argv=None) -> int:
                         help="fault sizes: the in-service ranges (default) or small ones, from the band up")
     parser.add_argument("--units", action="store_true",
                         help="each wheel its own unit: gain, Coulomb and viscous friction drawn around the datasheet's")
+    parser.add_argument("--speed-rate", type=float, default=1.0 / FSW_PERIOD,
+                        help=f"Hz the speed is reported at, a divisor of the FSW's {1.0 / FSW_PERIOD:g} Hz (default)")
     parser.add_argument("--out", required=True)
     args = parser.parse_args(argv)
+    speed_every = round(1.0 / (FSW_PERIOD * args.speed_rate))
+    if speed_every < 1 or abs(speed_every * FSW_PERIOD * args.speed_rate - 1.0) > 1e-9:
+        parser.error(f"--speed-rate: {args.speed_rate:g} Hz does not divide the FSW's {1.0 / FSW_PERIOD:g} Hz")
     low, _, high = args.seeds.partition("..")
     seeds = range(int(low), int(high or low) + 1)
     unknown = [k for k in args.faults.split(",") if k not in FAULTS]
@@ -229,7 +237,7 @@ def main(argv=None) -> int:
         run = draw(seed, args.faults, args.duration, SMALL_FAULTS if args.envelope == "small" else FAULTS,
                    args.units)
         rows, effect = fly(run)
-        write(rows, run, effect, out)
+        write(rows, run, effect, out, speed_every)
         print(f"\r{n}/{len(seeds)} runs", end="", file=sys.stderr, flush=True)
     print(file=sys.stderr)
     return 0

@@ -38,6 +38,11 @@ WHEELS = "/wheels"
 # JointState reaction_wheel_<name>, effort = torque command voltage [V] (what the wheel electronics take),
 # from the wheel allocation to the plant every step; a wheel out of use gets 0
 WHEEL_COMMAND = "/wheels/command"
+# A wheel driver's housekeeping, optional (the wheel_telemetry node reads them; our plant sends none):
+# sensor_msgs/BatteryState voltage = the bus voltage at the wheel's driver [V]; sensor_msgs/Temperature
+# temperature = the wheel's [C]. header.frame_id names the joint; empty: every wheel (one bus, one sensor)
+WHEEL_BUS_VOLTAGE = "/wheels/bus_voltage"
+WHEEL_TEMPERATURE = "/wheels/temperature"
 # DiagnosticArray, one status per wheel: in use (OK), standby (OK), given up (ERROR) and why; on every
 # reconfiguration decision and at the start (nodes/wheel_allocation.py)
 FDIR_WHEELS = "/fdir/wheels"
@@ -464,7 +469,7 @@ READS = {
                                                        _wheel_set(p), p.get("orbit", False),
                                                        p.get("magnetorquers", False), plugin_slots(p))],
     "live_view": lambda p: [r[0] for r in live_rows(p)],   # /plant/done among them: its end
-    "wheel_telemetry": lambda p: [WHEELS, WHEEL_COMMAND] + _run_end(p),
+    "wheel_telemetry": lambda p: [WHEELS, WHEEL_COMMAND, WHEEL_BUS_VOLTAGE, WHEEL_TEMPERATURE] + _run_end(p),
     # paced by what the isolation node reports done (rate 0); between bags it waits for the recorder
     "player": lambda p: ([p.get("pace_topic", DIAGNOSTICS)] if p.get("rate", 0.0) <= 0 else [])
                         + ([RECORDER_CLOSED, RECORDER_READY] if p.get("await_recorder", False) else []),

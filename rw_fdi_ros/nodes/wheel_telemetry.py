@@ -7,7 +7,12 @@ above the FDI's, with jitter and dropped messages:
 * /wheels, sensor_msgs/JointState: velocity = wheel speed Omega [rad/s];
   effort, where it has a value per joint, = reaction torque r [N m] (else r
   from the speed, core/fdi/wheel_reports.py);
-* /wheels/command, sensor_msgs/JointState: effort = torque command voltage u [V].
+* /wheels/command, sensor_msgs/JointState: effort = torque command voltage u [V];
+* optionally the driver's housekeeping, held until the next report: /wheels/bus_voltage,
+  sensor_msgs/BatteryState (voltage [V]) and /wheels/temperature, sensor_msgs/Temperature (temperature [C]),
+  each naming its joint in header.frame_id (empty: every wheel). The identification holds its bus and
+  temperature families to them (core/fdi/identification: a report, not the samples, then tells a current
+  loss from a bus drop).
 
 The wheels are matched by joint name: the wheel set's reaction_wheel_<name>,
 or ``joint_names`` (the streams' own names, in the wheel set's order). Both
@@ -22,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import JointState, PointCloud2
+from sensor_msgs.msg import BatteryState, JointState, PointCloud2, Temperature
 from std_msgs.msg import String
 
 from ..core.fdi.wheel_reports import ReportSampler
@@ -34,6 +39,9 @@ from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for, rela
 from ..graph.wheel_type import declare_wheel_type
 
 
+# FdiSample channel -> (message type, topic, its field): the driver's housekeeping, optional
+HOUSEKEEPING = {"bus_voltage": (BatteryState, T.WHEEL_BUS_VOLTAGE, "voltage"),
+                "temperature": (Temperature, T.WHEEL_TEMPERATURE, "temperature")}
 STALLED = 10   # messages in a row whose stamps do not advance: an unstamped stream, said in one line
 
 
@@ -76,6 +84,9 @@ class WheelTelemetryNode(GraphNode):
                                                     self.param("bus_grid_readers"))}
         self.inputs = [self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE),
                        self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE)]
+        self.housekeeping = [self.create_subscription(kind, topic, self._on_housekeeping(channel, topic, field),
+                                                      T.RELIABLE)
+                             for channel, (kind, topic, field) in HOUSEKEEPING.items()]
         # once it hears a writer on each: a plant that must not step before (our graph) waits for it
         self.pub_ready = self.create_publisher(String, T.TELEMETRY_READY, T.LATCHED)
         self.follow_run_end(period=fdi_period)   # a run that says its end (/plant/done): ours, a replay
@@ -120,6 +131,20 @@ class WheelTelemetryNode(GraphNode):
             return
         torque = self._ordered(msg, "effort", T.WHEELS) if msg.effort else None   # optional: r from the speed
         self._send(self.reports.add_speed(stamp_ns(msg.header.stamp), speed, torque))
+
+    def _on_housekeeping(self, channel: str, topic: str, field: str):
+        """The callback of a bus voltage or temperature report: the wheel its frame_id names (empty: every wheel)
+        holds the value until the next report."""
+        def take(msg):
+            joint = msg.header.frame_id
+            if joint and joint not in self.joints:
+                self.fail(f"{self.resolve_topic_name(relative(topic))}: frame_id {joint!r} is none of the joints "
+                          f"{', '.join(self.joints)}", EXIT_BAD_INPUT)
+                return
+            values = np.full(len(self.joints), np.nan)
+            values[[self.joints.index(joint)] if joint else slice(None)] = getattr(msg, field)
+            self.reports.add_housekeeping(stamp_ns(msg.header.stamp), **{channel: values})
+        return take
 
     def _commands_in(self) -> bool:
         """Whether the run's end may flush what waits: at once where commands are held (``command_hold`` > 0),

@@ -382,6 +382,19 @@ class FdiPipeline:
         """
         return [self._judge(s) for s in self.reports.add_command(stamp_ns, self._batch(tcv))]
 
+    def add_housekeeping(self, stamp_ns: int, bus_voltage=None, temperature=None):
+        """The batch's bus voltages [V] and temperatures [C] from ``stamp_ns`` on (ReportSampler.add_housekeeping).
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The report's stamp [ns].
+        bus_voltage, temperature : ndarray or None
+            (B, N) values, NaN for a wheel not reported.
+        """
+        self.reports.add_housekeeping(stamp_ns, *(None if v is None else self._batch(v)
+                                                  for v in (bus_voltage, temperature)))
+
     def flush(self) -> list:
         """The FDI samples of the reports still waiting: the streams have ended.
 

@@ -81,6 +81,10 @@ class FdiSample:
     # the control sample at the FDI stamp itself (the thesis' instantaneous sampling)
     tcv_instant: np.ndarray | None = None              # [V]
     reaction_torque_instant: np.ndarray | None = None  # [N m]
+    # the wheel's housekeeping as last reported at the stamp, NaN where it never was (wheel_reports.ReportSampler):
+    # fault identification holds its families to them (identification.held_to_reports)
+    bus_voltage: np.ndarray | None = None   # [V]
+    temperature: np.ndarray | None = None   # [C]
 
     def sampled(self, mode: str) -> "FdiSample":
         """This sample as the observers of FDI sampling ``mode`` see it: ``instant`` puts the values at
@@ -109,7 +113,8 @@ REPORT_FIELDS = (("tcv", "tcv"), ("reaction_torque", "reaction_torque"), ("wheel
                  ("model_reaction_torque", "model_torque"), ("motor_torque", "motor_torque"),
                  ("friction_torque", "friction_torque"), ("free_motor_torque", "free_motor_torque"),
                  ("tcv_instant", "tcv_instant"),
-                 ("reaction_torque_instant", "reaction_torque_instant"))
+                 ("reaction_torque_instant", "reaction_torque_instant"),
+                 ("bus_voltage", "bus_voltage"), ("temperature", "temperature"))
 
 
 IDENTIFICATION_FIELDS = ("bus_motor_torque",)   # what only fault identification reads (costly: 651 per wheel)

@@ -33,8 +33,14 @@ streams and anyone's), the core loop (pipeline.FdiPipeline) and the offline
 tools (:func:`report_samples`). Our plant reports on the grid itself, with its
 reaction torque: there the rows are the reports as sent, u(t_k) the command
 sent at t_(k-1), and no row at the first report (no command is in force yet).
+
+A wheel's housekeeping (bus voltage, temperature: :meth:`ReportSampler.add_housekeeping`) comes at its own slow
+rate and is not averaged: each FDI sample carries the value last reported at its stamp, for the identification
+to hold its families to.
 """
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -213,6 +219,31 @@ class ReportSampler:
                  identification: bool = False, hold: float = 1.0):
         self.grid = ControlGrid(control_period, wheel.inertia, max_gap, hold)
         self.sampler = TelemetrySampler(fdi_period, "mean", wheel, identification=identification)
+        self.housekeeping = {}   # channel -> [(stamp_ns, values)], rising, the first in force at the next sample
+
+    def add_housekeeping(self, stamp_ns: int, bus_voltage=None, temperature=None):
+        """A housekeeping report: the wheels' bus voltage and temperature from ``stamp_ns`` on, NaN for a wheel it
+        does not name (that wheel keeps its last report).
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The report's stamp [ns].
+        bus_voltage : array_like or None
+            (N,) the bus voltage at each wheel's driver [V].
+        temperature : array_like or None
+            (N,) each wheel's temperature [C].
+        """
+        for channel, values in (("bus_voltage", bus_voltage), ("temperature", temperature)):
+            if values is None:
+                continue
+            values = np.asarray(values, float)
+            reports = self.housekeeping.setdefault(channel, [])
+            if reports and stamp_ns < reports[-1][0]:
+                continue   # late: a newer report is in force
+            if reports:
+                values = np.where(np.isnan(values), reports[-1][1], values)
+            reports.append((int(stamp_ns), values))
 
     def add_command(self, stamp_ns: int, tcv) -> list:
         """A command report (ControlGrid.add_command).
@@ -262,7 +293,17 @@ class ReportSampler:
 
     def _sampled(self, rows) -> list:
         samples = (self.sampler.add(*row) for row in rows)
-        return [s for s in samples if s is not None]
+        return [self._with_housekeeping(s) for s in samples if s is not None]
+
+    def _with_housekeeping(self, sample):
+        """The sample with each housekeeping channel's report in force at its stamp (NaN: none yet)."""
+        held = {}
+        for channel, reports in self.housekeeping.items():
+            while len(reports) > 1 and reports[1][0] <= sample.stamp_ns:
+                reports.pop(0)
+            values = reports[0][1]
+            held[channel] = values if reports[0][0] <= sample.stamp_ns else np.full_like(values, np.nan)
+        return replace(sample, **held) if held else sample
 
 
 def report_samples(stamps_ns, tcv, reaction_torque, wheel_speed, wheel, fdi_period: float = 1.0,

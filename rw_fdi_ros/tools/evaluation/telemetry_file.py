@@ -6,6 +6,8 @@ The table (CSV, or Parquet with pyarrow) has one row per report, the unit of eac
     <joint>.speed [rad/s]         (or [rpm]) the wheel's speed
     <joint>.command [V]           the torque command voltage, held until the next
     <joint>.torque [N m]          (or [mN m]; optional) its reaction torque, else from the speed
+    <joint>.bus_voltage [V]       (optional) the bus at its driver, held until the next
+    <joint>.temperature [C]       (or [K]; optional) its temperature, held until the next
     <joint>.fault [1]             (optional) ground truth: 1 from a fault's onset on, else 0
 
 A channel may be empty in a row (speed and command at their own rates). The joints map to the vehicle's wheel
@@ -26,8 +28,11 @@ import numpy as np
 from ...core.fdi.wheel_reports import speed_noise
 
 UNITS = {"time": {"s": 1e9, "ns": 1.0}, "speed": {"rad/s": 1.0, "rpm": 2 * np.pi / 60.0},
-         "command": {"V": 1.0}, "torque": {"N m": 1.0, "mN m": 1e-3}, "fault": {"1": 1.0, "": 1.0}}
-HEADER = re.compile(r"^\s*(?:(?P<joint>[^.\[\]]+)\.)?(?P<quantity>[a-z]+)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
+         "command": {"V": 1.0}, "torque": {"N m": 1.0, "mN m": 1e-3}, "fault": {"1": 1.0, "": 1.0},
+         "bus_voltage": {"V": 1.0}, "temperature": {"C": 1.0, "K": 1.0}}
+OFFSETS = {("temperature", "K"): -273.15}   # what a unit's zero is off by
+HOUSEKEEPING = ("bus_voltage", "temperature")   # a wheel driver's, held until the next (wheel_reports.py)
+HEADER = re.compile(r"^\s*(?:(?P<joint>[^.\[\]]+)\.)?(?P<quantity>[a-z_]+)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
 
 
 class TelemetryError(ValueError):
@@ -46,6 +51,8 @@ class Telemetry:
     torque: np.ndarray | None = None
     fault: np.ndarray | None = None
     units: dict = field(default_factory=dict)
+    bus_voltage: np.ndarray | None = None   # [V]
+    temperature: np.ndarray | None = None   # [C]
 
 
 def read_table(path, joints=None) -> Telemetry:
@@ -71,14 +78,15 @@ def read_table(path, joints=None) -> Telemetry:
     for i, name in enumerate(names):
         m = HEADER.match(name)
         if not m or m["quantity"] not in UNITS or (m["quantity"] == "time") == bool(m["joint"]):
-            raise TelemetryError(f"{path}: column {name!r} is not 'time [s]' or '<joint>.speed|command|torque|fault "
+            raise TelemetryError(f"{path}: column {name!r} is not 'time [s]' or '<joint>.{'|'.join(list(UNITS)[1:])} "
                                  "[unit]'")
         quantity, unit = m["quantity"], (m["unit"] or "").strip()
         if unit not in UNITS[quantity]:
             raise TelemetryError(f"{path}: column {name!r}: unit [{unit}] is not one of "
                                  f"{', '.join(f'[{u}]' for u in UNITS[quantity] if u)}")
         key = (m["joint"], quantity)
-        columns[key], units[name] = rows[:, i] * UNITS[quantity][unit], unit
+        columns[key] = rows[:, i] * UNITS[quantity][unit] + OFFSETS.get((quantity, unit), 0.0)
+        units[name] = unit
         if m["joint"] and m["joint"] not in order:
             order.append(m["joint"])
     if (None, "time") not in columns:
@@ -99,7 +107,7 @@ def read_table(path, joints=None) -> Telemetry:
             return None
         return np.stack([columns.get((j, quantity), np.full(len(time), np.nan)) for j in joints], axis=1)
     return Telemetry(str(path), joints, np.round(time).astype(np.int64), stacked("speed"), stacked("command"),
-                     stacked("torque"), stacked("fault"), units)
+                     stacked("torque"), stacked("fault"), units, stacked("bus_voltage"), stacked("temperature"))
 
 
 def _columns(path: Path) -> tuple:
@@ -156,14 +164,14 @@ def check(table: Telemetry, wheel, fdi_period: float = 1.0, max_gap: float = 2.5
     """
     from ...core.physics.wheel import top_speed
     limits = {"speed": 2.0 * top_speed(wheel), "command": wheel.command_limit * 1.001, "torque": np.inf,
-              "fault": 1.0}
+              "fault": 1.0, "bus_voltage": 2.0 * wheel.bus_voltage, "temperature": 300.0}
     t = table.stamps_ns * 1e-9
     out = {"duration_s": float(t[-1] - t[0]), "rows": int(t.size), "channels": {}, "problems": [], "notes": []}
     partial = int(np.sum(np.isnan(table.speed).any(axis=1) & ~np.isnan(table.speed).all(axis=1)))
     if partial:
         out["problems"].append(f"{partial} rows give the speeds of some wheels only: a speed row must give every "
                                "wheel's (those rows are not read)")
-    for quantity in ("speed", "command", "torque", "fault"):
+    for quantity in ("speed", "command", "torque", "fault", *HOUSEKEEPING):
         values = getattr(table, quantity)
         if values is None:
             continue
@@ -443,9 +451,14 @@ def feed(table: Telemetry, sink) -> list:
     for k in range(1, len(held)):
         held[k] = np.where(np.isnan(held[k]), held[k - 1], held[k])
     commands = [k for k in np.flatnonzero(~np.isnan(table.command).all(axis=1)) if np.isfinite(held[k]).all()]
-    out, c = [], 0
+    kept = {q: getattr(table, q) for q in HOUSEKEEPING if getattr(table, q) is not None}
+    kept_rows = np.flatnonzero(np.any([~np.isnan(v).all(axis=1) for v in kept.values()], axis=0)) if kept else []
+    out, c, h = [], 0, 0
     for k in np.flatnonzero(np.isfinite(table.speed).all(axis=1)):   # a speed row names every wheel (check)
         stamp = int(table.stamps_ns[k])
+        while h < len(kept_rows) and table.stamps_ns[kept_rows[h]] <= stamp:
+            sink.add_housekeeping(int(table.stamps_ns[kept_rows[h]]), **{q: v[kept_rows[h]] for q, v in kept.items()})
+            h += 1
         while c < len(commands) and table.stamps_ns[commands[c]] <= stamp:
             out += sink.add_command(int(table.stamps_ns[commands[c]]), held[commands[c]])
             c += 1

@@ -30,7 +30,9 @@ beta) - X_u(theta) db ||^2 + c s^2 db' Sigma^-1 db.
 Samples count from the fault's onset on (FaultIdentifier finds it in the samples kept before the alarm)
 and are never forgotten. A wheel given up (its driver off) goes on through its spin-down, which shows only
 a temperature; its ripple is then one regressor of the phase its healthy samples before the onset give,
-and under MIN_DRIVEN driven samples a current loss and a bus drop are named together (``between``).
+and under MIN_DRIVEN driven samples a current loss and a bus drop are named together (``between``). A wheel
+that reports its bus voltage or temperature holds those families to the report (decision.held_to_reports):
+then the report, not the samples, tells a current loss from a bus drop.
 The derivation, the choices and their measurements: docs/fdi.md, "Fault
 identification".
 
@@ -46,9 +48,10 @@ The package, one idea a module:
 * identifiability: whether the physics tells a current loss from a bus drop on a wheel's driven samples.
 """
 from .decision import (CHI2_95, CORRELATION, DECISIVE, EXPLAINED, FREE_UNIT_SHARE, MIN_DRIVEN, decide,
-                       identify)
-from .families import (BUS_VOLTAGE_GRID, CURRENT_LIMITER_GRID, DRIVE, GRIDS, KINDS, SIGMA_FLOOR, TEMPERATURE_GRID,
-                       UNITS, UNKNOWN, bus_motor_torque, bus_voltage_grid, family_predictions, unit_sensitivities)
+                       held_to_reports, identify)
+from .families import (BUS_VOLTAGE_GRID, CURRENT_LIMITER_GRID, DRIVE, GRIDS, KINDS, REPORTED_TOLERANCE, SIGMA_FLOOR,
+                       TEMPERATURE_GRID, UNITS, UNKNOWN, bus_motor_torque, bus_voltage_grid, family_predictions,
+                       unit_sensitivities)
 from .identifier import FaultIdentifier
 from .onset import ONSET_HEALTHY, onset_index
 from .ramps import (RAMP_LENGTH, RAMP_NOTED_S, RAMP_SECONDS, RAMP_SHARE, RAMP_START_SHARES, SLOW_SECONDS,
@@ -59,6 +62,8 @@ from .sums import KAPPA_MAX, ProfileSums
 __all__ = ["BUS_VOLTAGE_GRID", "CHI2_95", "CORRELATION", "CURRENT_LIMITER_GRID", "DECISIVE", "DRIVE", "EXPLAINED",
            "FORMER_NAMES", "FREE_UNIT_SHARE", "FaultIdentifier", "GRIDS", "Identification", "KAPPA_MAX", "KINDS",
            "MIN_DRIVEN", "MIN_SAMPLES", "NONE", "ONSET_HEALTHY", "ProfileSums", "RAMP_LENGTH", "RAMP_NOTED_S",
+           "REPORTED_TOLERANCE",
            "RAMP_SECONDS", "RAMP_SHARE", "RAMP_START_SHARES", "SIGMA_FLOOR", "SLOW_SECONDS", "SLOW_START_SHARES",
            "SPOKEN", "TEMPERATURE_GRID", "UNITS", "UNKNOWN", "bus_motor_torque", "bus_voltage_grid", "decide",
-           "family_predictions", "identify", "kind_name", "onset_index", "ramp_fractions", "unit_sensitivities"]
+           "family_predictions", "held_to_reports", "identify", "kind_name", "onset_index", "ramp_fractions",
+           "unit_sensitivities"]

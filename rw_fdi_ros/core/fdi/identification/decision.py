@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..calibration import UnitShares
-from .families import DRIVE, GRIDS, KINDS, SIGMA_FLOOR, UNKNOWN, _SLICES
+from .families import DRIVE, GRIDS, KINDS, REPORTED_TOLERANCE, SIGMA_FLOOR, UNKNOWN, _SLICES
 from .ramps import RAMP_LENGTH, RAMP_SHARE, _NEIGHBOURS, ramp_fractions
 from .result import MIN_SAMPLES, Identification
 from .sums import ProfileSums
@@ -33,7 +33,37 @@ def _noise(sums: ProfileSums, known) -> tuple:
     return s2, sums.rss(CORRELATION * s2)
 
 
-def decide(sums: ProfileSums) -> Identification:
+def held_to_reports(fits: dict, sums: ProfileSums, reported: dict) -> dict:
+    """The families' RSS with what the wheel reports of itself: a family whose parameter is reported (its bus
+    voltage, its temperature) keeps only the sizes within REPORTED_TOLERANCE of the report (inf elsewhere), so a
+    report at the nominal value rules its family out; a bus reported off nominal rules the current limiter out,
+    as one fault is the cause (a limiter share and a bus drop that clip to the same current are the same wheel
+    at one operating point, and only the report tells them apart).
+
+    Parameters
+    ----------
+    fits : dict of str to ndarray, shape (H, G)
+        Kind -> RSS per ramp and grid point.
+    sums : ProfileSums
+        The wheel's sums (the sizes now of every ramp).
+    reported : dict of str to float
+        Kind -> the reported value in the family's unit (the bus on the 8-V grid).
+
+    Returns
+    -------
+    dict of str to ndarray
+        The RSS held to the reports.
+    """
+    out = dict(fits)
+    for kind, value in reported.items():
+        near = np.abs(sums.sizes_now(kind) - value) <= REPORTED_TOLERANCE[kind]
+        out[kind] = np.where(near, fits[kind], np.inf)
+        if kind == "bus_voltage" and abs(value - GRIDS[kind][0]) > REPORTED_TOLERANCE[kind]:
+            out["current_limiter"] = np.full_like(fits["current_limiter"], np.inf)
+    return out
+
+
+def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     """Kind and size from the profile sums of one wheel's samples (the package's docstring); the size is the fault's
     at the last sample (a ramp may still be growing).
 
@@ -41,6 +71,8 @@ def decide(sums: ProfileSums) -> Identification:
     ----------
     sums : ProfileSums
         The wheel's sums since the fault's onset.
+    reported : dict of str to float, optional
+        What the wheel reports of a family's parameter (:func:`held_to_reports`).
 
     Returns
     -------
@@ -58,7 +90,11 @@ def decide(sums: ProfileSums) -> Identification:
         return Identification(UNKNOWN, samples=n)
     fits = {k: rss_all[:, _SLICES[k]] for k in KINDS}
     nominal = fits["current_limiter"][0, 0]          # grid[0] of every family is the healthy wheel, whatever the ramp
+    if reported:
+        fits = held_to_reports(fits, sums, reported)
     best = min(KINDS, key=lambda k: fits[k].min())
+    if not np.isfinite(fits[best].min()):   # reports no family can meet (a bus below the grid's end)
+        return Identification(UNKNOWN, samples=n)
     rss = fits[best]
     ramp, point = np.unravel_index(int(rss.argmin()), rss.shape)
     rss_min = float(rss[ramp, point])
@@ -82,7 +118,7 @@ def decide(sums: ProfileSums) -> Identification:
         out.unit_limited = (held[1] - held[0]) > 2.0 * (alone[1] - alone[0])
     # a current loss and a bus drop differ only in how the motor torque varies with the command and speed: under
     # MIN_DRIVEN driven samples (a wheel given up at once) that is no evidence, whatever the spin-down's count
-    few_driven = best in DRIVE and sums.n_driven < MIN_DRIVEN
+    few_driven = best in DRIVE and sums.n_driven < MIN_DRIVEN and "bus_voltage" not in (reported or {})
     if explained < EXPLAINED or margin < DECISIVE or out.healthy or few_driven:
         out.kind = UNKNOWN
         # the fault is in the drive, which of its two the samples cannot say: said so, not hidden in 'unknown'
@@ -101,7 +137,8 @@ def _interval(sizes, rss, s2, step, neighbours: bool = True) -> tuple:
     best = int(rss.min(axis=1).argmin())
     if neighbours:
         for h in _NEIGHBOURS[best]:
-            inside[h, rss[h].argmin()] = True
+            if np.isfinite(rss[h]).any():   # a ramp the reports leave a size on
+                inside[h, rss[h].argmin()] = True
     ends = float(sizes[inside].min()), float(sizes[inside].max())
     bounds = float(sizes.min()), float(sizes.max())
     return max(ends[0] - step / 2, bounds[0]), min(ends[1] + step / 2, bounds[1])
@@ -109,7 +146,7 @@ def _interval(sizes, rss, s2, step, neighbours: bool = True) -> tuple:
 
 def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor,
              unit: UnitShares | None = None, free_motor_torque=None, times=None,
-             viscous_scale: float = 1.0, floor: float = SIGMA_FLOOR) -> Identification:
+             viscous_scale: float = 1.0, floor: float = SIGMA_FLOOR, reported: dict | None = None) -> Identification:
     """Kind and size of one wheel's fault from its n FDI samples since the onset (whole arrays; ``times`` [s]
     default: 1 s apart).
 
@@ -137,6 +174,8 @@ def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_to
         The wheel type's viscous friction over eq. 2.15's law.
     floor : float, optional
         The smallest misfit taken for real [N m] (SIGMA_FLOOR times the type's wheel.torque_scale).
+    reported : dict of str to float, optional
+        What the wheel reports of a family's parameter at the last sample (:func:`held_to_reports`).
 
     Returns
     -------
@@ -149,4 +188,4 @@ def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_to
     for *row, t in zip(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor, free,
                        times):
         sums.add(tuple(row), t)
-    return decide(sums)
+    return decide(sums, reported)

@@ -28,6 +28,10 @@ UNITS = {"current_limiter": "", "temperature": "C", "bus_voltage": "V"}
 # The two families that show only through the motor torque: at one operating point a limiter share and a bus
 # voltage that clips to the same current are the same wheel, and a few samples may not tell them apart
 DRIVE = ("current_limiter", "bus_voltage")
+# How far from a wheel's reported bus voltage or temperature (its housekeeping telemetry, wheel_reports.py) a family's
+# size may lie and still be that wheel: a bus monitor's few per cent (on the 8-V grid), a housing thermistor's
+# lag behind the bearing's lubricant
+REPORTED_TOLERANCE = {"bus_voltage": 0.25, "temperature": 10.0}
 # [N m] per FDI sample, the smallest misfit taken for real: the bearing torque noise the models
 # leave out (1.5e-5, eq. 2.16) plus half a grid step, up to 4e-5 N m where the bus family is steep.
 SIGMA_FLOOR = 5e-5

@@ -59,6 +59,7 @@ class FaultIdentifier:
         self.latest = {a: None for a in self.wheels}
         self.stale = set()   # lazy: wheels whose sums moved since their latest answer
         self.unpowered = set()   # wheels whose driver went off (given up) after their alarm
+        self.reported = {a: {} for a in self.wheels}   # kind -> the wheel's last reported bus voltage, temperature
         # (row, model error, calibration regressors, time) of the samples before an alarm
         self.backlog = {a: deque(maxlen=self.BACKLOG) for a in self.wheels}
 
@@ -82,6 +83,7 @@ class FaultIdentifier:
         time = self.samples if stamp is None else 1e-9 * stamp     # [s] (1 s samples where it has no stamp)
         self.samples += 1
         for i, a in enumerate(self.wheels):
+            self._note_reports(a, sample, i)
             calibration = None if self.calibrations is None else self.calibrations[a]
             free = None if sample.free_motor_torque is None else sample.free_motor_torque[i]
             row = (sample.reaction_torque[i], sample.motor_torque[i], sample.friction_torque[i],
@@ -139,8 +141,16 @@ class FaultIdentifier:
             self.stale.discard(a)
             self.latest[a] = self._decide(a)
 
+    def _note_reports(self, a, sample, i):
+        """The wheel's housekeeping at this sample (FdiSample.bus_voltage, .temperature), in its family's unit."""
+        scale = {"bus_voltage": wm.NOMINAL.bus_voltage / self.params.bus_voltage, "temperature": 1.0}
+        for kind, factor in scale.items():
+            values = getattr(sample, kind, None)
+            if values is not None and np.isfinite(values[i]):
+                self.reported[a][kind] = float(values[i]) * factor   # the bus family is on the 8-V grid
+
     def _decide(self, a) -> Identification:
-        found = decide(self.sums[a])
+        found = decide(self.sums[a], self.reported[a])
         bus, thesis_bus = self.params.bus_voltage, wm.NOMINAL.bus_voltage
         if bus != thesis_bus:   # the sums' bus family is on the 8-V grid; this wheel's is it scaled (bus_voltage_grid)
             # a size from the bus family: named, or the best guess of an 'unknown'
