@@ -131,7 +131,7 @@ def main():
         fdi_at[0] = stamp_ns(m.header.stamp) * 1e-9
         # the housekeeping the FDI telemetry carries (the channels '<wheel>/bus_voltage', '.../temperature')
         carried.update({n: v for n, v in zip(m.name, m.position) if n.endswith(("/bus_voltage", "/temperature"))})
-    node.create_subscription(JointState, relative(T.FDI_TELEMETRY), on_fdi, T.RELIABLE)
+    sub_fdi = node.create_subscription(JointState, relative(T.FDI_TELEMETRY), on_fdi, T.RELIABLE)
 
     def wait(ready, timeout):
         deadline = time.monotonic() + timeout
@@ -142,7 +142,9 @@ def main():
     if not wait(lambda: pub_speed.get_subscription_count() and pub_command.get_subscription_count()
                 and (not args.housekeeping
                      or pub_bus.get_subscription_count() and pub_temperature.get_subscription_count())
-                and node.count_publishers(node.resolve_topic_name(relative(T.DIAGNOSTICS))), 180.0):
+                and node.count_publishers(node.resolve_topic_name(relative(T.DIAGNOSTICS)))
+                # the pacing hears the telemetry: a sample sent before this reader matched is never heard again
+                and sub_fdi.get_publisher_count(), 180.0):
         sys.exit("the FDI graph did not come up within 180 s")
 
     def joint_state(t, field, values):

@@ -65,11 +65,12 @@ def test_targets_nobody_meets_are_refused_with_the_best_design(tmp_path, capsys)
     # where a run starts, one line before anything runs: `rw-fdi vehicle`, `run` (and the launch file), `screen`
     for argv in (["vehicle", str(tmp_path / "strict.yaml")], ["run", "--scenario", str(tmp_path / "s.yaml"),
                                                               "--out", str(tmp_path / "bags")],
-                 ["screen", "--scenario", str(tmp_path / "s.yaml"), "--seeds", "1..1", "--jobs", "1"]):
+                 ["screen", "--scenario", str(tmp_path / "s.yaml"), "--seeds", "1..1", "--jobs", "1"],
+                 ["defaults", "--vehicle", str(tmp_path / "strict.yaml"), "--out", str(tmp_path / "fdi")]):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "vehicle strict: controller: no design settles" in err, (argv, err)
-    assert not (tmp_path / "bags").exists()
+    assert not (tmp_path / "bags").exists() and not (tmp_path / "fdi").exists()   # refused before it writes
 
 
 def test_parsing_a_recorded_scenario_designs_nothing_and_simulates_nothing(monkeypatch):

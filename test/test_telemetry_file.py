@@ -54,7 +54,8 @@ def test_the_half_current_wheel_is_named_from_a_users_table_and_no_other(table_f
     assert [a for a, w in wheels.items() if w["first_alarm_s"] is not None] == ["y"]
     assert ONSET < wheels["y"]["first_alarm_s"] <= ONSET + 30.0 and wheels["y"]["truth_onset_s"] == ONSET
     assert wheels["y"]["kind"] == "current_limiter", wheels["y"]
-    assert not verdict["not_judged_s"] and len(verdict["samples"]) >= 4 * 295
+    # every FDI sample judged but the first, whose period the reports began inside (the first report was lost)
+    assert verdict["not_judged_s"] in ([], [1.0]) and len(verdict["samples"]) >= 4 * 295
 
 
 def test_a_wheels_reported_bus_and_temperature_hold_its_identification(tmp_path):

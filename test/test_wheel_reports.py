@@ -147,3 +147,41 @@ def test_housekeeping_is_held_from_its_stamp_wheel_by_wheel_and_absent_without_a
     assert np.array_equal(by_t[4].bus_voltage, [5.5, 6.0]) and np.array_equal(by_t[5].temperature, [30.0, 31.0])
     quiet = samples([])
     assert quiet[3].bus_voltage is None and quiet[3].temperature is None   # a wheel that reports none: as before
+
+
+def test_between_slow_reports_the_speed_bends_with_what_the_commands_explain():
+    """A healthy wheel (its torque the nominal model's) commanded in steps at 10 Hz, its speed reported at 1 Hz half a
+    second off the FDI's stamps: with the model the derived torque is the model's in every FDI sample (a slew's
+    torque step between two reports no longer leaks into the speed at the stamp); the straight line between reports
+    does not give it. The first period, which the reports began inside, is not judged."""
+    from rw_fdi_ros.core.fdi.telemetry import model_reaction_torque
+    wheel = WheelParams()
+    h = 1e-3
+    def command(t):
+        return np.array([2.0 if (t % 20.0) < 3.0 else 0.3, -1.5 if (t % 7.0) < 2.0 else 0.5])
+    omega, speeds = np.array([30.0, -25.0]), []
+    for k in range(int(40.0 / h) + 1):
+        t = k * h
+        if abs((t - 0.5) - round(t - 0.5)) < h / 2:
+            speeds.append((t, omega.copy()))
+        u = command(np.floor(t * 10.0 + 1e-9) / 10.0 if k % 100 else round(t, 1))   # the last 0.1-s stamp's, held
+        omega = omega - h * model_reaction_torque(u, omega, wheel)[0] / wheel.inertia
+    def residuals(grid_model):
+        reports = ReportSampler(wheel, 1.0, 0.1)
+        if not grid_model:
+            reports.grid.model = None
+        out = []
+        for t, w in speeds:
+            for k in range(int(np.ceil((t - 1.0) * 10.0 - 1e-9)), int(np.ceil(t * 10.0 - 1e-9))):
+                if k >= 0:   # the commands sent at 0.1-s stamps since the last report
+                    out += reports.add_command(k * 10**8, command(k / 10.0))
+            out += reports.add_speed(int(round(t * 1e9)), w)
+        return out + reports.flush()
+    bent, straight = residuals(True), residuals(False)
+    assert not np.isfinite(bent[0].reaction_torque).any()   # the first period: reports from 0.5 s on
+    error = np.array([s.reaction_torque - s.model_torque for s in bent[1:]])
+    assert np.isfinite(error).all() and len(error) >= 37
+    scale = np.abs([s.model_torque for s in bent[1:]]).max()
+    assert np.abs(error).max() < 1e-3 * scale, np.abs(error).max()   # what is left: the simulator's Euler steps
+    lines = np.array([s.reaction_torque - s.model_torque for s in straight[1:]])
+    assert np.abs(lines).max() > 100 * np.abs(error).max()

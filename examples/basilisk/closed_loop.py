@@ -192,11 +192,12 @@ def wheel_torque(wheel, gain: float, volts: float, speed: float, healthy: bool =
     return float(np.clip(gain * volts, -u_max, u_max) - coulomb * np.sign(speed) - viscous * speed)
 
 
-def write(rows: list, run: dict, effect: float, out: Path, speed_every: int = 1) -> None:
+def write(rows: list, run: dict, effect: float, out: Path, speed_every: int = 1, speed_offset: int = 0) -> None:
     """bsk_<seed>.csv (docs/telemetry.md's layout) and bsk_<seed>.json (the draw and the fault's size); the speed
-    in every ``speed_every``-th row only (a slower tachometer: the commands stay at the FSW's rate)."""
-    rows = [row if k % speed_every == 0 else [row[0], *[""] * len(JOINTS), *row[1 + len(JOINTS):]]
-            for k, row in enumerate(rows)]
+    in every ``speed_every``-th row only, from row ``speed_offset`` on (a slower tachometer, its reports between
+    the FDI's stamps: the commands stay at the FSW's rate)."""
+    rows = [row if k % speed_every == speed_offset % speed_every
+            else [row[0], *[""] * len(JOINTS), *row[1 + len(JOINTS):]] for k, row in enumerate(rows)]
     header = (["time [s]"] + [f"{j}.speed [rad/s]" for j in JOINTS] + [f"{j}.command [V]" for j in JOINTS]
               + [f"{j}.fault [1]" for j in JOINTS])
     with open(out / f"bsk_{run['seed']}.csv", "w", newline="") as fh:
@@ -220,9 +221,12 @@ def main(argv=None) -> int:
                         help="each wheel its own unit: gain, Coulomb and viscous friction drawn around the datasheet's")
     parser.add_argument("--speed-rate", type=float, default=1.0 / FSW_PERIOD,
                         help=f"Hz the speed is reported at, a divisor of the FSW's {1.0 / FSW_PERIOD:g} Hz (default)")
+    parser.add_argument("--speed-offset", type=float, default=0.0,
+                        help="s after each FSW step the tachometer's reports are stamped at (default 0: on them)")
     parser.add_argument("--out", required=True)
     args = parser.parse_args(argv)
     speed_every = round(1.0 / (FSW_PERIOD * args.speed_rate))
+    speed_offset = round(args.speed_offset / FSW_PERIOD)
     if speed_every < 1 or abs(speed_every * FSW_PERIOD * args.speed_rate - 1.0) > 1e-9:
         parser.error(f"--speed-rate: {args.speed_rate:g} Hz does not divide the FSW's {1.0 / FSW_PERIOD:g} Hz")
     low, _, high = args.seeds.partition("..")
@@ -237,7 +241,7 @@ def main(argv=None) -> int:
         run = draw(seed, args.faults, args.duration, SMALL_FAULTS if args.envelope == "small" else FAULTS,
                    args.units)
         rows, effect = fly(run)
-        write(rows, run, effect, out, speed_every)
+        write(rows, run, effect, out, speed_every, speed_offset)
         print(f"\r{n}/{len(seeds)} runs", end="", file=sys.stderr, flush=True)
     print(file=sys.stderr)
     return 0

@@ -1,4 +1,4 @@
-"""model_observer: the nominal wheel model of the three wheels, driven by what the wheel reports.
+"""model_observer: the nominal wheel model of each wheel of the set, driven by what the wheel reports.
 
 With the tachometer measuring the wheel's state the observer needs no state
 estimate: r^ is the nominal Bialke model's reaction torque at the measured

@@ -62,7 +62,9 @@ def main(args) -> int:
 def _vehicle(args) -> int:
     from ...core.mission.vehicle import load_vehicle
     from ...tools.design.vehicle_defaults import vehicle_defaults
+    from ...core.controller_design import design_controller
     vehicle = load_vehicle(args.vehicle)   # a bad file: one line naming the field, before anything runs
+    design_controller(vehicle)   # targets it cannot meet: one line too (the design is cached for the first stage)
     out = args.out or f"fdi_{vehicle.name}"
     report = vehicle_defaults(args.vehicle, out, train_runs=args.train_runs, fit_runs=args.fit_runs,
                               heldout_runs=args.heldout_runs or 100, unit_runs=args.unit_runs,

@@ -47,8 +47,8 @@ def _nodes(args, wheels, fdi) -> str:
     return nodes + (", live view" if args.live is not None else "")
 
 
-def _report(args, outcome) -> int:
-    """The outcome printed (JSON, or the summary and the FDI verdict); the exit status."""
+def _report(args, outcome, fdi=None) -> int:
+    """The outcome printed (JSON, or the summary and the FDI verdict, as ``fdi`` ran it); the exit status."""
     from ...runner.summary import format_summary
     if args.json:
         print(dumps({"ok": outcome.ok, "reason": outcome.reason, "bag": str(outcome.bag),
@@ -59,9 +59,9 @@ def _report(args, outcome) -> int:
             print(format_summary(outcome.summary))
         if "fdi" in outcome.summary:
             from ...runner.verdict import format_verdict
-            print(f"fault detection and isolation ({args.fdi_method}"
-                  + (f", persistence P = {args.persistence}" if args.persistence else "")
-                  + (f", wheels learnt over the first {args.unit_calibration:g} s" if args.unit_calibration else "")
+            print(f"fault detection and isolation ({fdi.method}"
+                  + (f", persistence P = {fdi.persistence}" if fdi.persistence else "")
+                  + (f", wheels learnt over the first {fdi.unit_calibration:g} s" if fdi.unit_calibration else "")
                   + "):")
             print(format_verdict(outcome.summary["fdi"]))
             print(f"  figure: {outcome.summary.get('figure')}")
@@ -111,4 +111,4 @@ def main(args) -> int:
             outcome = run_with_fdi(ref, fdi=fdi, figure=True, **common)
         else:
             outcome = run_scenario(ref, **common)
-    return _report(args, outcome)
+    return _report(args, outcome, fdi)

@@ -89,14 +89,13 @@ def vehicle_defaults(vehicle_source, out, train_runs: int = 40, fit_runs: int = 
     report (also written as out/defaults.json and out/defaults_report.md)."""
     t0 = time.monotonic()
     vehicle = load_vehicle(vehicle_source)   # one line naming the field, before any run
+    stages = {}
+    _log(f"[1/5] controllers designed to {vehicle.name}'s targets")
+    design = design_controller(vehicle)   # a vehicle that cannot meet its targets is refused before out is written
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     vehicle_file = out / "vehicle.yaml"
     vehicle_file.write_text(yaml.safe_dump(to_mapping(vehicle), sort_keys=False))
-    stages = {}
-
-    _log(f"[1/5] controllers designed to {vehicle.name}'s targets")
-    design = design_controller(vehicle)
     controller = {"kp": list(map(float, design.gains.kp)), "ki": list(map(float, design.gains.ki)),
                   "kd": list(map(float, design.gains.kd)), "natural_frequency": list(design.natural_frequency),
                   "settling_time": list(design.settling_time), "overshoot": list(design.overshoot)}
