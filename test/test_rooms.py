@@ -4,7 +4,7 @@ count."""
 import subprocess
 import sys
 
-PRODUCT_PATH = ("rw_fdi_ros.cli.verbs.run", "rw_fdi_ros.cli.verbs.bag", "rw_fdi_ros.runner.graph",
+PRODUCT_PATH = ("rw_fdi_ros.cli", "rw_fdi_ros.cli.verbs.run", "rw_fdi_ros.cli.verbs.bag", "rw_fdi_ros.runner.graph",
                 "rw_fdi_ros.runner.launcher", "rw_fdi_ros.runner.shm", "rw_fdi_ros.runner.scenario_run",
                 "rw_fdi_ros.runner.summary", "rw_fdi_ros.runner.verdict", "rw_fdi_ros.runner.residual_figure",
                 "rw_fdi_ros.runner.fdi_run")

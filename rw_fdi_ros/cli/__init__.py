@@ -48,8 +48,11 @@ def main(argv=None) -> int:
         print(f"rw-fdi: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        from ..tools.campaigns.campaign import end_interrupted
-        end_interrupted()
+        # the maps in progress end their pools; a command that never imported the campaigns has none (and `run`,
+        # the product path, imports no tools)
+        campaign = sys.modules.get("rw_fdi_ros.tools.campaigns.campaign")
+        if campaign is not None:
+            campaign.end_interrupted()
         print("rw-fdi: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
