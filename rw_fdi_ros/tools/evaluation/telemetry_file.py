@@ -382,29 +382,36 @@ def fit(tables, out, vehicle=None, fdi=None, false_alarm_rate: float | None = No
         ``written_to`` (the bands' directory: ``out``, or with ``fdi.unit_calibration`` its ``unit_calibrated``
         beside the networks, where FdiConfig looks for them).
     """
-    import yaml
     from ...fdi_config import FdiConfig
     from ...core.fdi.detection import FALSE_ALARM_RATE
-    from ...core.fdi.elman import ModelError
-    from ...core.fdi.wheel_reports import ReportSampler
-    from ...core.fdi.threshold_fit import fitting_runs_needed
     from ...core.mission.scenario import vehicle_scenario
-    from ...core.mission.vehicle import load_vehicle, to_mapping
+    from ...core.mission.vehicle import load_vehicle
     from ..design.offline import fit_thresholds, load_models
     from ..design.samples import samples_from_rows
-    from ..design.train import EPOCHS, train_models
-    tables = [tables] if isinstance(tables, Telemetry) else list(tables)
-    v = load_vehicle(vehicle)
-    rate = false_alarm_rate or FALSE_ALARM_RATE
-    names = v.wheel_set.names
-    n = int(segment)
-    pieces, seconds = [], 0
-    for table in tables:   # each table its own run: no piece spans two
-        reports = ReportSampler(v.wheel, 1.0, control_period, max_gap)
-        samples = [s for s in feed(table, reports) if np.isfinite(s.reaction_torque).all()]
-        seconds += len(samples)
-        pieces += [samples[i:i + n] for i in range(0, len(samples) - n + 1, n)]
+    tables, out = ([tables] if isinstance(tables, Telemetry) else list(tables)), Path(out)
+    v, rate = load_vehicle(vehicle), false_alarm_rate or FALSE_ALARM_RATE
+    pieces, seconds = _fitting_pieces(tables, v.wheel, segment, control_period, max_gap)
     config = (fdi or FdiConfig()).with_vehicle_dir(vehicle).for_vehicle(v.name)
+    calibration, train_runs = _fit_plan(config, segment, train_runs)
+    _refuse_too_little(tables, len(pieces), seconds, segment, rate, len(v.wheel_set.active), train_runs)
+    runs = [samples_from_rows(piece, seed=k, wheels=v.wheel_set.names, wheel_params=v.wheel)
+            for k, piece in enumerate(pieces)]
+    plant = vehicle_scenario(vehicle, duration=1.0).plant_choices().as_dict()
+    if train_runs:   # the first pieces train the networks, the rest fit the bands
+        runs = _train_networks(runs, train_runs, out, v, plant, rate, epochs)
+        models, reference = load_models(out), "model_set.json"
+    else:
+        models, reference = load_models(config.models_dir), str(config.models_dir)
+    bands_dir = out / "unit_calibrated" if calibration else out   # FdiConfig.thresholds_dir's layout
+    bands = fit_thresholds(runs, models, bands_dir, model_ref=reference, false_alarm_rate=rate, plant=plant,
+                           unit_calibration=calibration)
+    return {**bands, "segments": len(runs), "trained_on": train_runs, "written_to": str(bands_dir)}
+
+
+def _fit_plan(config, segment: float, train_runs: int | None) -> tuple:
+    """(unit calibration [s], pieces to train on) of a fit: a calibration as long as a segment is refused, and a
+    vehicle without networks of its own trains TRAIN_RUNS pieces unless told."""
+    from ...core.fdi.elman import ModelError
     calibration = config.unit_calibration
     if calibration and calibration >= segment:
         raise TelemetryError(f"--unit-calibration {calibration:g} s is not shorter than the {segment:g}-s fitting "
@@ -415,29 +422,49 @@ def fit(tables, out, vehicle=None, fdi=None, false_alarm_rate: float | None = No
             train_runs = 0
         except ModelError:   # a vehicle nobody made an FDI for: its networks learn from this telemetry
             train_runs = TRAIN_RUNS
-    needed = fitting_runs_needed(rate, 0.5, len(v.wheel_set.active))
-    if len(pieces) < needed + train_runs:
+    return calibration, train_runs
+
+
+def _train_networks(runs, train_runs: int, out: Path, vehicle, plant: dict, rate: float, epochs) -> list:
+    """Train the vehicle's speed-aware Elman networks on the first ``train_runs`` runs into ``out`` beside its
+    vehicle.yaml (the directory becomes its whole FDI); the runs left to fit the bands on."""
+    import yaml
+    from ...core.mission.vehicle import to_mapping
+    from ..design.train import EPOCHS, train_models
+    train, runs = runs[:train_runs], runs[train_runs:]
+    train_models(train, out, mode="recall", epochs=epochs or EPOCHS, plant=plant, speed_aware=True,
+                 calibration=train + runs, false_alarm_rate=rate)
+    (out / "vehicle.yaml").write_text(yaml.safe_dump(to_mapping(vehicle), sort_keys=False))
+    return runs
+
+
+def _refuse_too_little(tables, pieces: int, seconds: int, segment: float, rate: float, wheels: int,
+                       train_runs: int):
+    """TelemetryError, with what it needs, where ``pieces`` fitting runs are too few for ``rate`` on ``wheels``
+    wheels and ``train_runs`` more to train on."""
+    from ...core.fdi.threshold_fit import fitting_runs_needed
+    needed = fitting_runs_needed(rate, 0.5, wheels)
+    if pieces < needed + train_runs:
         where = tables[0].path if len(tables) == 1 else f"{len(tables)} tables"
         training = f" and {train_runs} more to train the networks on" if train_runs else ""
-        raise TelemetryError(f"{where}: {seconds} s of judged healthy telemetry make {len(pieces)} fitting runs of "
-                             f"{segment:g} s; a per-run false-alarm rate of {rate:g} on {len(v.wheel_set.active)} "
+        raise TelemetryError(f"{where}: {seconds} s of judged healthy telemetry make {pieces} fitting runs of "
+                             f"{segment:g} s; a per-run false-alarm rate of {rate:g} on {wheels} "
                              f"wheels needs {needed}{training} ({(needed + train_runs) * segment / 3600:.1f} h), "
                              "or ask for a higher --false-alarm-rate")
-    runs = [samples_from_rows(piece, seed=k, wheels=names, wheel_params=v.wheel) for k, piece in enumerate(pieces)]
-    plant = vehicle_scenario(vehicle, duration=1.0).plant_choices().as_dict()
-    out = Path(out)
-    if train_runs:
-        train, runs = runs[:train_runs], runs[train_runs:]
-        train_models(train, out, mode="recall", epochs=epochs or EPOCHS, plant=plant, speed_aware=True,
-                     calibration=train + runs, false_alarm_rate=rate)
-        (out / "vehicle.yaml").write_text(yaml.safe_dump(to_mapping(v), sort_keys=False))
-        models, reference = load_models(out), "model_set.json"
-    else:
-        models, reference = load_models(config.models_dir), str(config.models_dir)
-    bands_dir = out / "unit_calibrated" if calibration else out   # FdiConfig.thresholds_dir's layout
-    bands = fit_thresholds(runs, models, bands_dir, model_ref=reference, false_alarm_rate=rate, plant=plant,
-                           unit_calibration=calibration)
-    return {**bands, "segments": len(runs), "trained_on": train_runs, "written_to": str(bands_dir)}
+
+
+def _fitting_pieces(tables, wheel, segment: float, control_period: float, max_gap: float) -> tuple:
+    """(pieces of ``segment`` judged FDI samples, seconds of judged samples) of healthy tables, each table its own
+    run (no piece spans two), the samples made as the wheel_telemetry node makes them."""
+    from ...core.fdi.wheel_reports import ReportSampler
+    n = int(segment)
+    pieces, seconds = [], 0
+    for table in tables:
+        reports = ReportSampler(wheel, 1.0, control_period, max_gap)
+        samples = [s for s in feed(table, reports) if np.isfinite(s.reaction_torque).all()]
+        seconds += len(samples)
+        pieces += [samples[i:i + n] for i in range(0, len(samples) - n + 1, n)]
+    return pieces, seconds
 
 
 TRAIN_RUNS = 20   # pieces a vehicle's networks learn from when it has none (rw-fdi defaults trains on 40 runs)

@@ -105,17 +105,7 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best,
                          {k: float(fits[k].min()) for k in KINDS})
     out.healthy = point == 0
-    out.at_s = float(sums.start + sums.seen(best))
-    phi = ramp_fractions(sums.seen(best))[ramp]
-    out.growing = bool(phi < 1.0)
-    if RAMP_LENGTH[ramp] > 0.0:
-        out.ramp_s = float(RAMP_LENGTH[ramp] / (1.0 - RAMP_SHARE[ramp]))
-    if sums.unit is not None:
-        out.unit = sums.unit.source
-        # the interval were the unit known exactly, both without the ramps' neighbours (they are the same)
-        alone = _interval(now, known[:, _SLICES[best]], s2, step, neighbours=False)
-        held = _interval(now, rss, s2, step, neighbours=False)
-        out.unit_limited = (held[1] - held[0]) > 2.0 * (alone[1] - alone[0])
+    _describe_fit(out, sums, ramp, rss, known[:, _SLICES[best]], s2, step)
     # a current loss and a bus drop differ only in how the motor torque varies with the command and speed: under
     # MIN_DRIVEN driven samples (a wheel given up at once) that is no evidence, whatever the spin-down's count
     few_driven = best in DRIVE and sums.n_driven < MIN_DRIVEN and "bus_voltage" not in (reported or {})
@@ -126,6 +116,24 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
         if explained >= EXPLAINED and not out.healthy and drive_only:
             out.between = DRIVE
     return out
+
+
+def _describe_fit(out: Identification, sums: ProfileSums, ramp: int, rss, known, s2: float, step: float):
+    """The best fit's when, ramp and unit on ``out`` (its kind's RSS ``rss``; ``known``: with the unit at its
+    mean): the time of its size, whether it still grows, the ramp's length, and whether the unit's uncertainty
+    rather than the samples limits its interval."""
+    seen = sums.seen(out.kind)
+    out.at_s = float(sums.start + seen)
+    out.growing = bool(ramp_fractions(seen)[ramp] < 1.0)
+    if RAMP_LENGTH[ramp] > 0.0:
+        out.ramp_s = float(RAMP_LENGTH[ramp] / (1.0 - RAMP_SHARE[ramp]))
+    if sums.unit is not None:
+        out.unit = sums.unit.source
+        # the interval were the unit known exactly, both without the ramps' neighbours (they are the same)
+        now = sums.sizes_now(out.kind)
+        alone = _interval(now, known, s2, step, neighbours=False)
+        held = _interval(now, rss, s2, step, neighbours=False)
+        out.unit_limited = (held[1] - held[0]) > 2.0 * (alone[1] - alone[0])
 
 
 def _interval(sizes, rss, s2, step, neighbours: bool = True) -> tuple:
