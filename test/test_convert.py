@@ -150,3 +150,23 @@ def test_clock_cdr_decodes_as_rclpy_would():
     from rw_fdi_ros.storage.cdr import clock_cdr
     msg = deserialize_message(clock_cdr(399_900_000_001), Clock)
     assert (msg.clock.sec, msg.clock.nanosec) == (399, 900_000_001)
+
+
+def test_housekeeping_rides_after_every_wheels_block_and_reads_back():
+    """A driver's bus voltage and temperature, from their first report on, go after all wheels' quantities: a layout
+    that reads a wheel's block by index keeps its places; the values read back by name (NaN where not reported)."""
+    import dataclasses
+    import numpy as np
+    from rclpy.serialization import deserialize_message as des
+    from sensor_msgs.msg import JointState
+    from rw_fdi_ros.graph.convert import fdi_sample_of, fdi_telemetry_cdr
+    sample, names = _telemetry_sample(4), ("x", "y", "z", "s")
+    plain = des(fdi_telemetry_cdr(sample, names), JointState)
+    kept = dataclasses.replace(sample, bus_voltage=np.array([8.0, 7.5, np.nan, 8.0]), temperature=np.full(4, 31.0))
+    report = des(fdi_telemetry_cdr(kept, names), JointState)
+    assert report.name[:len(plain.name)] == plain.name and report.position[:len(plain.name)] == plain.position
+    assert report.name[len(plain.name):len(plain.name) + 2] == ["reaction_wheel_x/bus_voltage",
+                                                                 "reaction_wheel_x/temperature"]
+    back = fdi_sample_of(report, names, identification=False)
+    np.testing.assert_array_equal(back.bus_voltage, kept.bus_voltage)
+    np.testing.assert_array_equal(back.temperature, kept.temperature)

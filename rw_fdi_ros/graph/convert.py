@@ -152,10 +152,14 @@ def fdi_telemetry_cdr(sample, names) -> bytes:
         The serialised sensor_msgs/JointState.
     """
     from ..core.fdi.telemetry import report_columns
+    from ..core.fdi.telemetry import HOUSEKEEPING_FIELDS
     columns = report_columns(sample)
-    channels = tuple(telemetry_channel(n, key) for n in names for key in columns)
-    return joint_state_cdr(sample.stamp_ns, channels, position=[columns[key][i] for i in range(len(names))
-                                                                for key in columns])
+    # a wheel's quantities in a block each, then the housekeeping a driver may start reporting mid-run: a layout
+    # that reads the blocks by index (config/foxglove) keeps its places
+    order = [[k for k in columns if k not in HOUSEKEEPING_FIELDS], [k for k in columns if k in HOUSEKEEPING_FIELDS]]
+    pairs = [(i, n, key) for keys in order for i, n in enumerate(names) for key in keys]
+    return joint_state_cdr(sample.stamp_ns, tuple(telemetry_channel(n, key) for _, n, key in pairs),
+                           position=[columns[key][i] for i, _, key in pairs])
 
 
 def bus_grid_msg(sample, names, bus_voltage: float = 8.0):

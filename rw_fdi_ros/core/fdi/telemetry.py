@@ -117,6 +117,7 @@ REPORT_FIELDS = (("tcv", "tcv"), ("reaction_torque", "reaction_torque"), ("wheel
                  ("bus_voltage", "bus_voltage"), ("temperature", "temperature"))
 
 
+HOUSEKEEPING_FIELDS = ("bus_voltage", "temperature")   # reported by some drivers, from their first report on
 IDENTIFICATION_FIELDS = ("bus_motor_torque",)   # what only fault identification reads (costly: 651 per wheel)
 # bags recorded before the report was numeric carry the grid in the text report, as base64 of its
 # little-endian float64 bytes (read, never written)

@@ -28,6 +28,9 @@ the grid takes what the commands explain and spreads only the rest linearly:
 
 so a healthy wheel's derived torque is its model's, and a fault's torque is
 spread over the reports' interval (exact at the reports, whatever their rate).
+That holds for commands stamped on the grid (a driver in step with the FSW): a
+command stamped inside a step is in force over the whole step in the rows,
+over part of it in the bend.
 
 Speed reports further apart than ``max_gap`` leave the grid points between
 them without values (NaN): the FDI sample of that period is not finite and the
@@ -51,7 +54,8 @@ sent at t_(k-1), and no row at the first report (no command is in force yet).
 
 A wheel's housekeeping (bus voltage, temperature: :meth:`ReportSampler.add_housekeeping`) comes at its own slow
 rate and is not averaged: each FDI sample carries the value last reported at its stamp, for the identification
-to hold its families to.
+to hold its families to. A report arriving after the sample of its stamp went out counts from the next one,
+and one stamped before the newest report of its channel is dropped, whichever wheel it names.
 """
 from __future__ import annotations
 
@@ -354,7 +358,8 @@ class ReportSampler:
                 continue
             if self.rows < self.period_rows:   # the reports began inside its period: not judged (module docstring)
                 nan = np.full(np.shape(sample.tcv), np.nan)
-                sample = replace(sample, tcv=nan, reaction_torque=nan, wheel_speed=nan)
+                sample = replace(sample, tcv=nan, reaction_torque=nan, wheel_speed=nan, tcv_instant=nan,
+                                 reaction_torque_instant=nan)
             self.rows = 0
             out.append(self._with_housekeeping(sample))
         return out

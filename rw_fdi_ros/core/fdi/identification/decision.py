@@ -33,12 +33,14 @@ def _noise(sums: ProfileSums, known) -> tuple:
     return s2, sums.rss(CORRELATION * s2)
 
 
-def held_to_reports(fits: dict, sums: ProfileSums, reported: dict) -> dict:
+def held_to_reports(fits: dict, sums: ProfileSums, reported: dict, noise_variance: float) -> dict:
     """The families' RSS with what the wheel reports of itself: a family whose parameter is reported (its bus
     voltage, its temperature) keeps only the sizes within REPORTED_TOLERANCE of the report (inf elsewhere), so a
-    report at the nominal value rules its family out; a bus reported off nominal rules the current limiter out,
-    as one fault is the cause (a limiter share and a bus drop that clip to the same current are the same wheel
-    at one operating point, and only the report tells them apart).
+    report at the nominal value (or a bus above it) rules its family out; a bus reported below nominal that
+    explains the torque within DECISIVE s^2 of the best family rules the current limiter out, as one fault is
+    the cause (a limiter share and a bus drop that clip to the same current are the same wheel at one operating
+    point, and only the report tells them apart); one that does not leaves the limiter in (a bus a little low
+    beside a current loss).
 
     Parameters
     ----------
@@ -48,6 +50,8 @@ def held_to_reports(fits: dict, sums: ProfileSums, reported: dict) -> dict:
         The wheel's sums (the sizes now of every ramp).
     reported : dict of str to float
         Kind -> the reported value in the family's unit (the bus on the 8-V grid).
+    noise_variance : float
+        s^2 [N^2 m^2], the decision's.
 
     Returns
     -------
@@ -55,10 +59,15 @@ def held_to_reports(fits: dict, sums: ProfileSums, reported: dict) -> dict:
         The RSS held to the reports.
     """
     out = dict(fits)
+    best = min(float(f.min()) for f in fits.values())
     for kind, value in reported.items():
+        if kind == "bus_voltage":
+            value = min(value, GRIDS[kind][0])   # a bus above its nominal clips no more current than the nominal
         near = np.abs(sums.sizes_now(kind) - value) <= REPORTED_TOLERANCE[kind]
         out[kind] = np.where(near, fits[kind], np.inf)
-        if kind == "bus_voltage" and abs(value - GRIDS[kind][0]) > REPORTED_TOLERANCE[kind]:
+        # a bus reported low that explains the torque as well as any family is the cause: not a current loss too
+        dropped = kind == "bus_voltage" and GRIDS[kind][0] - value > REPORTED_TOLERANCE[kind]
+        if dropped and out[kind].min() - best <= DECISIVE * noise_variance:
             out["current_limiter"] = np.full_like(fits["current_limiter"], np.inf)
     return out
 
@@ -91,7 +100,7 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     fits = {k: rss_all[:, _SLICES[k]] for k in KINDS}
     nominal = fits["current_limiter"][0, 0]          # grid[0] of every family is the healthy wheel, whatever the ramp
     if reported:
-        fits = held_to_reports(fits, sums, reported)
+        fits = held_to_reports(fits, sums, reported, s2)
     best = min(KINDS, key=lambda k: fits[k].min())
     if not np.isfinite(fits[best].min()):   # reports no family can meet (a bus below the grid's end)
         return Identification(UNKNOWN, samples=n)
