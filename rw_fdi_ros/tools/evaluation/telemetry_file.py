@@ -25,13 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ...core.fdi.telemetry import HOUSEKEEPING_FIELDS
 from ...core.fdi.wheel_reports import speed_noise
 
 UNITS = {"time": {"s": 1e9, "ns": 1.0}, "speed": {"rad/s": 1.0, "rpm": 2 * np.pi / 60.0},
          "command": {"V": 1.0}, "torque": {"N m": 1.0, "mN m": 1e-3}, "fault": {"1": 1.0, "": 1.0},
          "bus_voltage": {"V": 1.0}, "temperature": {"C": 1.0, "K": 1.0}}
 OFFSETS = {("temperature", "K"): -273.15}   # what a unit's zero is off by
-HOUSEKEEPING = ("bus_voltage", "temperature")   # a wheel driver's, held until the next (wheel_reports.py)
+HOUSEKEEPING = HOUSEKEEPING_FIELDS   # a wheel driver's, held until the next (wheel_reports.py)
 HEADER = re.compile(r"^\s*(?:(?P<joint>[^.\[\]]+)\.)?(?P<quantity>[a-z_]+)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
 
 
