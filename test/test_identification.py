@@ -140,7 +140,7 @@ def test_a_wheel_given_up_has_its_ripple_of_the_healthy_samples_phase():
     sums.set_ripple_prior(r + (tm - tf) + 2e-4, before[5])    # an offset (a unit not calibrated) leaves the phase
     assert sums.ripple_prior == pytest.approx(ripple, rel=1e-9)
     sums.prior_on = True
-    rss = sums.rss()[0]
+    rss = sums.rss()["current_limiter"][0]
     z = np.column_stack([after[5].imag, after[5].real]) @ np.array(ripple)
     for k in (0, 200, 400, 600):        # limiter 1.0, 0.8, 0.6, 0.4
         share = idf.CURRENT_LIMITER_GRID[k]
@@ -152,7 +152,7 @@ def test_a_wheel_given_up_has_its_ripple_of_the_healthy_samples_phase():
             assert not 0.0 <= free <= idf.KAPPA_MAX and rss[k] > np.sum((e - free * z) ** 2)
     assert rss[400] < 1e-20 and rss[0] > 1e-8
     sums.prior_on = False      # the four samples alone hold the ripple's two coefficients: less is left
-    assert sums.rss()[0][0] < rss[0]
+    assert sums.rss()["current_limiter"][0][0] < rss[0]
 
 
 @pytest.mark.parametrize("driven", [8, 5, 4])
@@ -384,8 +384,8 @@ def test_a_ramp_between_the_grid_ramps_is_named_with_its_size_and_its_ramp():
     found = idf.decide(sums)
     assert found.kind == "bus_voltage" and found.low <= 4.4 <= found.high, found
     assert abs(found.size - 4.4) <= 0.05 and not found.growing and 60.0 <= found.ramp_s <= 160.0
-    step_only = sums.rss()[0]
-    assert step_only.min() > 10.0 * min(found.rss.values())
+    step_only = min(fit[0].min() for fit in sums.rss().values())
+    assert step_only > 10.0 * min(found.rss.values())
     assert "(grew over ~" in found.message()
 
 
@@ -470,3 +470,52 @@ def test_the_identifier_reads_the_housekeeping_of_each_wheel_from_its_samples():
         s.bus_voltage, s.temperature = np.array([11.0 if k < 2 else np.nan]), np.array([40.0])
         identifier.update(s, {"x": False})
     assert identifier.reported["x"] == {"bus_voltage": 5.5, "temperature": 40.0}
+
+
+@pytest.mark.parametrize("calibrated", [False, True])
+@pytest.mark.parametrize("prior_on", [False, True])
+def test_the_sums_give_each_points_least_squares_misfit(calibrated, prior_on):
+    """ProfileSums' RSS at grid points of every family and ramp (the linear families from their closed form, the
+    bus family from its per-point sums) equals the misfit fitted directly: e = r - r^(theta(t)) of the families'
+    definition (family_predictions, each sample at its ramp's phi), min over the ripple and unit regressors
+    of ||e - X b||^2 + b^T Pi b."""
+    rows = wheel_rows("current_limiter", 0.7, n=40, seed=11, noise=2e-4)
+    free = free_torque(rows, n=40, seed=11)
+    unit = (calibration.UnitShares(np.array([0.02, -0.03, 0.1, -0.05]), np.diag([1e-4, 2e-4, 1e-3, 1e-3]),
+                                   "calibrated") if calibrated else None)
+    sums = idf.ProfileSums(unit)
+    times = 5.0 * np.arange(40)          # 200 s: some ramps end inside, the longest still grow
+    for *row, f, t in zip(*rows, free, times):
+        sums.add((*row, f), t)
+    w = np.array([0.4, -0.9])
+    if prior_on:
+        sums.ripple_prior, sums.prior_on = w, True
+    noise_variance = 1e-7 if calibrated else None
+    fits = sums.rss(noise_variance)
+    r, tm, tf, speed, bus, p = rows
+    offsets = np.cumsum([0] + [len(idf.GRIDS[k]) for k in idf.KINDS])
+    for h in (0, 5, 120, len(idf.RAMP_LENGTH) - 1):
+        phis = np.array([idf.ramp_fractions(t - times[0])[h] for t in times])
+        for k, kind in enumerate(idf.KINDS):
+            for g in (0, 37, len(idf.GRIDS[kind]) - 1):
+                column = offsets[k] + g
+                e = r - np.array([idf.family_predictions(tm[i], tf[i], speed[i], bus[i][None], sums.scales, free[i],
+                                                         fraction=[phis[i]])[0, column] for i in range(40)])
+                ripple = np.column_stack([p.imag, p.real])
+                x = ripple @ w[:, None] if prior_on else ripple
+                penalty = np.zeros((x.shape[1],) * 2)
+                if calibrated:
+                    sens = idf.unit_sensitivities(tm, tf, speed, bus, free)[column]       # (n, 4)
+                    x = np.column_stack([x, sens])
+                    penalty = np.zeros((x.shape[1],) * 2)
+                    penalty[-4:, -4:] = noise_variance * np.linalg.inv(unit.covariance + 1e-12 * np.eye(4))
+                    if prior_on:
+                        penalty[0, 0] = noise_variance / idf.KAPPA_MAX ** 2
+                if prior_on and not calibrated:   # kappa held within [0, KAPPA_MAX]
+                    z = x[:, 0]
+                    kappa = np.clip(z @ e / (z @ z), 0.0, idf.KAPPA_MAX)
+                    direct = np.sum((e - kappa * z) ** 2)
+                else:
+                    b = np.linalg.solve(x.T @ x + penalty, x.T @ e)
+                    direct = np.sum((e - x @ b) ** 2) + b @ penalty @ b
+                assert fits[kind][h, g] == pytest.approx(direct, rel=1e-7, abs=1e-14), (kind, h, g)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..calibration import UnitShares
-from .families import DRIVE, GRIDS, KINDS, REPORTED_TOLERANCE, SIGMA_FLOOR, UNKNOWN, _SLICES
+from .families import DRIVE, GRIDS, KINDS, REPORTED_TOLERANCE, SIGMA_FLOOR, UNKNOWN
 from .ramps import RAMP_LENGTH, RAMP_SHARE, _NEIGHBOURS, ramp_fractions
 from .result import MIN_SAMPLES, Identification
 from .sums import ProfileSums
@@ -27,10 +27,19 @@ def _noise(sums: ProfileSums, known) -> tuple:
     the RSS ``known`` with the unit at its mean, or with a calibrated unit held to what the calibration knows."""
     floor2 = sums.floor ** 2
     if sums.unit is None:
-        return max(float(known.min()) / max(sums.n - 3, 1), floor2), known
+        return max(_least(known) / max(sums.n - 3, 1), floor2), known
     # the noise from the fit where the unit is free (a unit taken at a wrong mean is no noise)
-    s2 = max(float(sums.rss(FREE_UNIT_SHARE * floor2).min()) / max(sums.n - 7, 1), floor2)
+    s2 = max(_least(sums.rss(FREE_UNIT_SHARE * floor2)) / max(sums.n - 7, 1), floor2)
     return s2, sums.rss(CORRELATION * s2)
+
+
+def _least(fits: dict) -> float:
+    """The least RSS of every family's."""
+    return min(float(f.min()) for f in fits.values())
+
+
+def _finite(fits: dict) -> bool:
+    return all(np.all(np.isfinite(f)) for f in fits.values())
 
 
 def held_to_reports(fits: dict, sums: ProfileSums, reported: dict, noise_variance: float) -> dict:
@@ -92,12 +101,11 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     if n < MIN_SAMPLES:
         return Identification(UNKNOWN, samples=n)
     known = sums.rss()                  # the unit at its mean (the datasheet wheel without a unit)
-    if not np.all(np.isfinite(known)):
+    if not _finite(known):
         return Identification(UNKNOWN, samples=n)
-    s2, rss_all = _noise(sums, known)
-    if not np.all(np.isfinite(rss_all)):
+    s2, fits = _noise(sums, known)
+    if not _finite(fits):
         return Identification(UNKNOWN, samples=n)
-    fits = {k: rss_all[:, _SLICES[k]] for k in KINDS}
     nominal = fits["current_limiter"][0, 0]          # grid[0] of every family is the healthy wheel, whatever the ramp
     if reported:
         fits = held_to_reports(fits, sums, reported, s2)
@@ -114,7 +122,7 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best,
                          {k: float(fits[k].min()) for k in KINDS})
     out.healthy = point == 0
-    _describe_fit(out, sums, ramp, rss, known[:, _SLICES[best]], s2, step)
+    _describe_fit(out, sums, ramp, rss, known[best], s2, step)
     # a current loss and a bus drop differ only in how the motor torque varies with the command and speed: under
     # MIN_DRIVEN driven samples (a wheel given up at once) that is no evidence, whatever the spin-down's count
     few_driven = best in DRIVE and sums.n_driven < MIN_DRIVEN and "bus_voltage" not in (reported or {})

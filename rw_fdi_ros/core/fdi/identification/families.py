@@ -83,7 +83,8 @@ def bus_motor_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelParams()
 def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, scales=None, free_motor_torque=None,
                        fraction=None, viscous_scale: float = 1.0):
     """Predicted reaction torque of every grid point of every family, (sum of grid sizes, n), families
-    in KINDS order, for n FDI samples of one wheel.
+    in KINDS order, for n FDI samples of one wheel: the definition of the families (ProfileSums keeps their
+    sums without evaluating the two linear ones point by point, sums.py).
 
     ``motor_torque``, ``friction_torque``, ``wheel_speed``: (n,) period means of the nominal
     wheel's tau_m and tau_f and of Omega; ``bus_torque``: (n, len(BUS_VOLTAGE_GRID)); ``scales``:
@@ -118,7 +119,6 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
         Predicted reaction torque r^ [N m]; S = the sum of the grid sizes (the grids of GRIDS in KINDS order).
     """
     tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
-    bus = np.atleast_2d(np.asarray(bus_torque, float)).T          # (len(BUS_VOLTAGE_GRID), n)
     if fraction is None:      # grid points down axis 0, samples along axis 1
         limiter, tv = CURRENT_LIMITER_GRID[:, None], viscous_scale * _VISCOUS_GRID[:, None]
     else:                     # ramps down axis 0, grid points along axis 1, the one sample along axis 2
@@ -126,24 +126,57 @@ def family_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, s
         limiter = (1.0 + phi * (CURRENT_LIMITER_GRID - 1.0))[..., None]
         tv = viscous_scale * wm.viscous_coefficient(TEMPERATURE_GRID[0] + phi * (TEMPERATURE_GRID
                                                                                  - TEMPERATURE_GRID[0]))[..., None]
-        volts = BUS_VOLTAGE_GRID[0] + phi * (BUS_VOLTAGE_GRID - BUS_VOLTAGE_GRID[0])   # 8-V units: any bus's, scaled
-        bus = np.interp(volts, BUS_VOLTAGE_GRID[::-1], bus[::-1, 0])[..., None]
     viscous = viscous_scale * _VISCOUS_NOMINAL * w
     coulomb = tf - viscous
+    bus = bus_predictions(tm, tf, w, bus_torque, scales, free_motor_torque, fraction, viscous_scale)
+    if fraction is not None:
+        bus = bus[..., None]
     if scales is None:
-        out = np.concatenate([-limiter * tm + tf, -tm + tv * w + coulomb, -bus + tf], axis=-2)
+        out = np.concatenate([-limiter * tm + tf, -tm + tv * w + coulomb, bus], axis=-2)
     else:
         kt, gd, sv, sc = (float(x) for x in scales)
-        free = _free(tm, free_motor_torque)
-        motor = kt * (tm + (gd - 1.0) * free)          # the unit's k_t clip((1 + d_Gd) G_d u, I_max), first order
+        motor = kt * (tm + (gd - 1.0) * _free(tm, free_motor_torque))   # k_t clip((1 + d_Gd) G_d u, I_max), 1st order
         friction = sv * viscous + sc * coulomb
-        out = np.concatenate([-limiter * motor + friction, -motor + sv * tv * w + sc * coulomb,
-                              -kt * (bus + (gd - 1.0) * _bus_free(tm, free, bus)) + friction], axis=-2)
+        out = np.concatenate([-limiter * motor + friction, -motor + sv * tv * w + sc * coulomb, bus], axis=-2)
+    return out if fraction is None else out[..., 0]
+
+
+def bus_predictions(motor_torque, friction_torque, wheel_speed, bus_torque, scales=None, free_motor_torque=None,
+                    fraction=None, viscous_scale: float = 1.0, first: int = 0):
+    """The bus family's predicted reaction torque, r^ = -tau_m(u, Omega; V) + tau_f(Omega; 23 C) at every voltage
+    of BUS_VOLTAGE_GRID: (G, n), or (H, G - first) for one sample on H ramps (``fraction``) at the grid's points
+    from ``first`` on.
+
+    Parameters
+    ----------
+    motor_torque, friction_torque, wheel_speed, bus_torque, scales, free_motor_torque, fraction, viscous_scale
+        As :func:`family_predictions` takes them.
+    first : int, optional
+        With ``fraction``: the first grid point predicted (those before it clip no current: sums.ProfileSums).
+
+    Returns
+    -------
+    ndarray, shape (G, n) or (H, G - first)
+        Predicted reaction torque r^ [N m].
+    """
+    tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
+    bus = np.atleast_2d(np.asarray(bus_torque, float)).T          # (len(BUS_VOLTAGE_GRID), n)
+    if fraction is not None:   # the one sample's torque at each ramp's voltage now (8-V units: any bus's, scaled)
+        phi = np.asarray(fraction, float)[:, None]
+        volts = BUS_VOLTAGE_GRID[0] + phi * (BUS_VOLTAGE_GRID[first:] - BUS_VOLTAGE_GRID[0])
+        bus = np.interp(volts, BUS_VOLTAGE_GRID[::-1], bus[::-1, 0])[..., None]
+    if scales is None:
+        out = -bus + tf
+    else:
+        kt, gd, sv, sc = (float(x) for x in scales)
+        viscous = viscous_scale * _VISCOUS_NOMINAL * w
+        free = _free(tm, free_motor_torque)
+        out = -kt * (bus + (gd - 1.0) * _bus_free(tm, free, bus)) + sv * viscous + sc * (tf - viscous)
     return out if fraction is None else out[..., 0]
 
 
 def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, free_motor_torque=None,
-                       viscous_scale: float = 1.0):
+                       viscous_scale: float = 1.0, kinds=KINDS):
     """dr^/d(d_kt, d_Gd, b_v, b_c) of every grid point, (sum of grid sizes, n, 4): the directions in which
     what the calibration does not know of the unit moves each family's prediction (to first order).
 
@@ -161,24 +194,29 @@ def unit_sensitivities(motor_torque, friction_torque, wheel_speed, bus_torque, f
         tau_m where the bridge does not clip, else 0 [N m]; None: ``motor_torque``.
     viscous_scale : float, optional
         The wheel type's viscous friction over eq. 2.15's law.
+    kinds : sequence of str, optional
+        The families, in KINDS order (``("bus_voltage",)``: the bus family's grid alone).
 
     Returns
     -------
     ndarray, shape (S, n, 4)
-        dr^/db [N m] per unit share, S = the sum of the grid sizes.
+        dr^/db [N m] per unit share, S = the sum of the kinds' grid sizes.
     """
     tm, tf, w = (np.atleast_1d(np.asarray(x, float)) for x in (motor_torque, friction_torque, wheel_speed))
     bus = np.atleast_2d(np.asarray(bus_torque, float)).T
     free = _free(tm, free_motor_torque)
     n, temperatures, limiters = len(tm), len(TEMPERATURE_GRID), CURRENT_LIMITER_GRID[:, None]
     viscous = viscous_scale * _VISCOUS_NOMINAL * w
-    motor = np.concatenate([-limiters * tm[None], np.broadcast_to(-tm[None], (temperatures, n)), -bus])
-    gain = np.concatenate([-limiters * free[None], np.broadcast_to(-free[None], (temperatures, n)),
-                           -_bus_free(tm, free, bus)])
-    visc = np.concatenate([np.broadcast_to(viscous[None], (len(CURRENT_LIMITER_GRID), n)),
-                           viscous_scale * _VISCOUS_GRID[:, None] * w[None],
-                           np.broadcast_to(viscous[None], (len(BUS_VOLTAGE_GRID), n))])
-    return np.stack([motor, gain, visc, np.broadcast_to((tf - viscous)[None], (_SIZE, n))], axis=-1)
+    parts = {"current_limiter": lambda: (-limiters * tm[None], -limiters * free[None],
+                                         np.broadcast_to(viscous[None], (len(CURRENT_LIMITER_GRID), n))),
+             "temperature": lambda: (np.broadcast_to(-tm[None], (temperatures, n)),
+                                     np.broadcast_to(-free[None], (temperatures, n)),
+                                     viscous_scale * _VISCOUS_GRID[:, None] * w[None]),
+             "bus_voltage": lambda: (-bus, -_bus_free(tm, free, bus),
+                                     np.broadcast_to(viscous[None], (len(BUS_VOLTAGE_GRID), n)))}
+    columns = [parts[k]() for k in kinds]
+    motor, gain, visc = (np.concatenate([c[i] for c in columns]) for i in range(3))
+    return np.stack([motor, gain, visc, np.broadcast_to((tf - viscous)[None], motor.shape)], axis=-1)
 
 
 def _free(tm, free_motor_torque):
@@ -193,6 +231,14 @@ def _bus_free(tm, free, bus):
 
 _VISCOUS_GRID = wm.viscous_coefficient(TEMPERATURE_GRID)
 _VISCOUS_NOMINAL = float(wm.viscous_coefficient(wm.NOMINAL.temperature))
+# The two families linear in their parameter's change Delta = theta - theta_0 (the bus family is not: the bridge
+# clips): the limiter's share scales the motor torque (1 per share), the temperature moves eq. 2.15's viscous
+# coefficient by its slope [N m s/rad per C] (linear up to 215 C, the grid's end); the unit's directions
+# dr^/db they scale (motor, gain, viscous, coulomb), per unit of Delta (sums.ProfileSums)
+LINEAR_SLOPES = {"current_limiter": 1.0,
+                 "temperature": float(wm.viscous_coefficient(123.0) - wm.viscous_coefficient(23.0)) / 100.0}
+LINEAR_DIRECTIONS = {"current_limiter": np.array([1.0, 1.0, 0.0, 0.0]),
+                     "temperature": np.array([0.0, 0.0, LINEAR_SLOPES["temperature"] / _VISCOUS_NOMINAL, 0.0])}
 GRIDS = {"current_limiter": CURRENT_LIMITER_GRID, "temperature": TEMPERATURE_GRID, "bus_voltage": BUS_VOLTAGE_GRID}
 _SIZE = sum(map(len, GRIDS.values()))
 _SLICES = dict(zip(KINDS, np.split(np.arange(sum(map(len, GRIDS.values()))),

@@ -6,12 +6,16 @@ from __future__ import annotations
 import numpy as np
 
 from ..calibration import UnitShares
-from .families import GRIDS, SIGMA_FLOOR, _SIZE, family_predictions, unit_sensitivities
+from .families import (BUS_VOLTAGE_GRID, GRIDS, KINDS, LINEAR_DIRECTIONS, LINEAR_SLOPES, SIGMA_FLOOR,
+                       _VISCOUS_NOMINAL, _free,
+                       bus_predictions, unit_sensitivities)
 from .ramps import RAMP_LENGTH, _LENGTH_LONGEST_FIRST, _LONGEST_FIRST, _RAMP_ORDER, ramp_fractions
 
 # the ripple's amplitude once a wheel's driver is off, in units of its healthy samples' (set_ripple_prior): a
 # current loss or a bus drop scales the real ripple down (kappa <= 1); twice, for the scatter of that estimate
 KAPPA_MAX = 2.0
+_LINEAR = tuple(LINEAR_SLOPES)
+_H = len(RAMP_LENGTH)
 
 
 class ProfileSums:
@@ -21,12 +25,23 @@ class ProfileSums:
         RSS = sum e^2 - c^T (G + Pi)^-1 c,  e = r - r^(theta(t)),  c = sum e x,  G = sum x x^T,
         x = (Im p, Re p[, dr^/db(theta)]),  Pi = the unit's prior information (0 on the ripple)
 
-    theta(t) is the grid value throughout for the step and theta_0 + phi(t) (theta - theta_0) for a ramp
-    (RAMP_SHARE, RAMP_LENGTH). A sample costs O(grid) once every ramp is over (O(ramps x grid) before) and the
-    memory does not grow with the samples; the unit's directions are taken at the grid value for a ramp too (a
-    difference of second order). ``unit``: what is known of the wheel's unit (calibration.UnitShares); None for
-    the datasheet wheel; ``viscous_scale``: the wheel type's (family_predictions); ``floor``: the smallest misfit
-    taken for real [N m] (SIGMA_FLOOR of the Type A, wheel.torque_scale of another type).
+    theta(t) is the grid value throughout for the step and theta_0 + phi_h(t) (theta - theta_0) for ramp h
+    (RAMP_SHARE, RAMP_LENGTH). The unit's directions are taken at the grid value for a ramp too (a difference
+    of second order).
+
+    The current limiter and the temperature are linear in their parameter (families.LINEAR_SLOPES): with
+    Delta = theta - theta_0, e_h = y + phi_h Delta z and x(Delta) = D(Delta) x~, D = I + Delta diag(d), so
+
+        RSS_h(Delta) = S_yy + 2 Delta S_yz,h + Delta^2 S_zz,h - (u + Delta v_h)^T N(Delta) (u + Delta v_h),
+        N(Delta) = D (D G~ D + Pi)^-1 D,   u = sum y x~,  v_h = sum phi_h z x~,  G~ = sum x~ x~^T,
+
+    and a sample costs O(ramps), whatever the grid. The bus family is not linear in its voltage: its sums are
+    kept per grid point, a ramp's as its difference from the step's while it grows (O(ramps x grid) a sample
+    for the first 400 s, O(grid) after). Memory does not grow with the samples.
+
+    ``unit``: what is known of the wheel's unit (calibration.UnitShares); None for the datasheet wheel;
+    ``viscous_scale``: the wheel type's (family_predictions); ``floor``: the smallest misfit taken for real
+    [N m] (SIGMA_FLOOR of the Type A, wheel.torque_scale of another type).
     """
 
     def __init__(self, unit: UnitShares | None = None, viscous_scale: float = 1.0, floor: float = SIGMA_FLOOR):
@@ -35,13 +50,21 @@ class ProfileSums:
         self.floor = float(floor)
         self.scales = None if unit is None else unit.scales()
         width = 2 if unit is None else 6
-        self.sq = np.zeros(_SIZE)
-        self.cross = np.zeros((_SIZE, width))
-        # the ripple's Gram is the same for every grid point; the unit's directions are not
-        self.gram = np.zeros((2, 2)) if unit is None else np.zeros((_SIZE, width, width))
+        # the linear families: S_yy, u, G~ shared (y and x~ are the nominal wheel's), S_yz, S_zz, v per ramp
+        self.syy = 0.0
+        self.u = np.zeros(width)
+        self.lin_gram = np.zeros((width, width))
+        self.syz = np.zeros((len(_LINEAR), _H))
+        self.szz = np.zeros((len(_LINEAR), _H))
+        self.v = np.zeros((len(_LINEAR), _H, width))
+        # the bus family per grid point; its ripple Gram is the same for every point, the unit's directions not
+        g = len(BUS_VOLTAGE_GRID)
+        self.sq = np.zeros(g)
+        self.cross = np.zeros((g, width))
+        self.gram = np.zeros((2, 2)) if unit is None else np.zeros((g, width, width))
         # each ramp's sums less the step's, longest ramp first: nothing once the ramp is over
-        self.ramp_sq = np.zeros((len(RAMP_LENGTH), _SIZE))
-        self.ramp_cross = np.zeros((len(RAMP_LENGTH), _SIZE, width))
+        self.ramp_sq = np.zeros((_H, g))
+        self.ramp_cross = np.zeros((_H, g, width))
         self.n = 0
         self.start = None     # [s] the first sample's time
         self.elapsed = 0.0    # [s] from the first sample to the last
@@ -79,16 +102,15 @@ class ProfileSums:
             return
         self.ripple_prior = np.linalg.solve(gram, x.T @ e)[:2]
 
-    def _ripple_columns(self, cross, gram):
-        """(cross, gram, ripple columns): the ripple's two regressors, or its one of the healthy samples' phase
-        while ``prior_on`` (set_ripple_prior)."""
+    def _shape(self, width: int):
+        """(shape matrix, ripple columns): (Im p, Re p, rest) -> (w^T (Im p, Re p), rest) while ``prior_on``
+        (set_ripple_prior), else None and 2."""
         if not (self.prior_on and self.ripple_prior is not None):
-            return cross, gram, 2
-        width = gram.shape[-1]
-        shape = np.zeros((width - 1, width))       # (Im p, Re p, rest) -> (w^T (Im p, Re p), rest)
+            return None, 2
+        shape = np.zeros((width - 1, width))
         shape[0, :2] = self.ripple_prior
         shape[1:, 2:] = np.eye(width - 2)
-        return cross @ shape.T, shape @ gram @ shape.T, 1
+        return shape, 1
 
     def add(self, row, time: float | None = None):
         """Add one FDI sample.
@@ -110,33 +132,60 @@ class ProfileSums:
             self.driven = self.elapsed
             self.n_driven += 1
         self.prior_on = tm == 0.0    # its driver off (set_ripple_prior)
-        e = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free, viscous_scale=self.viscous_scale)[:, 0]
+        phi = ramp_fractions(self.elapsed)
         ripple = np.array([np.imag(p), np.real(p)])
+        self._add_linear(float(r), float(tm), float(tf), float(w), ripple, free, phi)
+        e = r - bus_predictions(tm, tf, w, bus[None, :], self.scales, free, viscous_scale=self.viscous_scale)[:, 0]
         if self.unit is None:
             x = ripple[None, :]
             self.gram += np.outer(ripple, ripple)
         else:
-            x = np.empty((_SIZE, 6))
+            x = np.empty((len(e), 6))
             x[:, :2] = ripple
-            x[:, 2:] = unit_sensitivities(tm, tf, w, bus[None, :], free, self.viscous_scale)[:, 0]
+            x[:, 2:] = unit_sensitivities(tm, tf, w, bus[None, :], free, self.viscous_scale, ("bus_voltage",))[:, 0]
             self.gram += x[:, :, None] * x[:, None, :]
         self.cross += e[:, None] * x
         self.sq += e * e
         growing = int(np.count_nonzero(_LENGTH_LONGEST_FIRST > self.elapsed))   # phi < 1
-        if growing:
-            phi = ramp_fractions(self.elapsed)[_LONGEST_FIRST[:growing]]
-            e_ramp = r - family_predictions(tm, tf, w, bus[None, :], self.scales, free, fraction=phi,
-                                            viscous_scale=self.viscous_scale)
-            self.ramp_sq[:growing] += e_ramp * e_ramp - e * e
-            self.ramp_cross[:growing] += (e_ramp - e)[:, :, None] * x[None]
+        # where the bridge does not clip at V it does not at any voltage above: a ramp to V moves nothing there
+        clips = bus != bus[0]
+        first = int(clips.argmax()) if clips.any() else len(bus)
+        if growing and first < len(bus):
+            e_ramp = r - bus_predictions(tm, tf, w, bus[None, :], self.scales, free, first=first,
+                                         fraction=phi[_LONGEST_FIRST[:growing]], viscous_scale=self.viscous_scale)
+            e, x = e[first:], x[first:] if len(x) > 1 else x
+            self.ramp_sq[:growing, first:] += e_ramp * e_ramp - e * e
+            self.ramp_cross[:growing, first:] += (e_ramp - e)[:, :, None] * x[None]
         self.n += 1
+
+    def _add_linear(self, r, tm, tf, w, ripple, free, phi):
+        """The linear families' sums of one sample (the class docstring): y, x~ and each family's z."""
+        viscous = self.viscous_scale * _VISCOUS_NOMINAL * w
+        if self.scales is None:
+            motor, friction, sv, x = tm, tf, 1.0, ripple
+        else:
+            kt, gd, sv, sc = (float(s) for s in self.scales)
+            f = float(_free(np.atleast_1d(tm), free)[0])
+            motor, friction = kt * (tm + (gd - 1.0) * f), sv * viscous + sc * (tf - viscous)
+            x = np.concatenate([ripple, (-tm, -f, viscous, tf - viscous)])
+        y = r + motor - friction                     # the nominal wheel's error
+        self.syy += y * y
+        self.u += y * x
+        self.lin_gram += np.outer(x, x)
+        for i, kind in enumerate(_LINEAR):
+            # e = y + phi Delta z: the limiter scales the (unit's) motor torque, the temperature the viscous drag
+            z = motor if kind == "current_limiter" else -sv * self.viscous_scale * LINEAR_SLOPES[kind] * w
+            pz = phi * z
+            self.syz[i] += pz * y
+            self.szz[i] += pz * pz
+            self.v[i] += pz[:, None] * x[None]
 
     def _ripple_usable(self, gram) -> bool:
         return (self.n > 2 and bool(np.all(np.isfinite(gram))) and np.abs(gram).max() > 0.0
                 and np.linalg.cond(gram) <= 1e12)
 
-    def rss(self, noise_variance: float | None = None) -> np.ndarray:
-        """RSS of every ramp and grid point, (ramps, grid), the ripple projected out; with ``noise_variance``
+    def rss(self, noise_variance: float | None = None) -> dict:
+        """RSS of every ramp and grid point of every family, the ripple projected out; with ``noise_variance``
         (c s^2) and a unit, the unit's uncertainty too (penalised by its prior), else the unit taken at its
         mean.
 
@@ -147,17 +196,64 @@ class ProfileSums:
 
         Returns
         -------
-        ndarray, shape (H, S)
-            RSS [N^2 m^2] per ramp and grid point (S: every family's grid, KINDS order).
+        dict of str to ndarray, shape (H, G)
+            Kind -> RSS [N^2 m^2] per ramp (RAMP_LENGTH order) and grid point of its grid (GRIDS).
         """
-        sq = self.sq[None] + self.ramp_sq[_RAMP_ORDER]
-        cross = self.cross[None] + self.ramp_cross[_RAMP_ORDER]          # (ramps, grid, width)
-        cross, gram, nr = self._ripple_columns(cross, self.gram)
-        ripple_gram = gram if self.unit is None else gram[0, :nr, :nr]
-        ripple = self._ripple_usable(ripple_gram)
-        if noise_variance is None or self.unit is None:
+        width = self.u.size
+        shape, nr = self._shape(width)
+        gram = self.lin_gram if shape is None else shape @ self.lin_gram @ shape.T
+        ripple = self._ripple_usable(gram[:nr, :nr])
+        penalty = None
+        if noise_variance is not None and self.unit is not None:
+            penalty = np.zeros((gram.shape[0],) * 2)
+            penalty[nr:, nr:] = noise_variance * np.linalg.inv(self.unit.covariance + 1e-12 * np.eye(4))
+            if nr == 1:   # its driver off: kappa held to its scale by a prior N(0, KAPPA_MAX^2)
+                penalty[0, 0] = noise_variance / KAPPA_MAX**2
+        out = {kind: self._rss_linear(i, kind, shape, nr, gram, ripple, penalty) for i, kind in enumerate(_LINEAR)}
+        out["bus_voltage"] = self._rss_bus(shape, nr, ripple, penalty)
+        return {k: out[k] for k in KINDS}
+
+    def _rss_linear(self, i, kind, shape, nr, gram, ripple, penalty):
+        """One linear family's RSS (H, G) in closed form (the class docstring)."""
+        delta = GRIDS[kind] - GRIDS[kind][0]
+        u, v = (self.u, self.v[i]) if shape is None else (shape @ self.u, self.v[i] @ shape.T)
+        sq = self.syy + 2.0 * delta[None] * self.syz[i][:, None] + delta[None] ** 2 * self.szz[i][:, None]
+        if penalty is None:
             if not ripple:
                 return np.maximum(sq, 0.0)
+            if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
+                g = float(gram[0, 0])
+                c = u[0] + delta[None] * v[:, 0][:, None]
+                kappa = np.clip(c / g, 0.0, KAPPA_MAX)
+                return np.maximum(sq - 2.0 * kappa * c + kappa * kappa * g, 0.0)
+            inverse = np.linalg.inv(gram[:nr, :nr])
+            ur, vr = u[:nr], v[:, :nr]
+            a0, a1, a2 = ur @ inverse @ ur, vr @ inverse @ ur, np.einsum("hi,ij,hj->h", vr, inverse, vr)
+            return np.maximum(sq - (a0 + 2.0 * delta[None] * a1[:, None] + delta[None] ** 2 * a2[:, None]), 0.0)
+        keep = slice(0, gram.shape[0]) if ripple else slice(nr, gram.shape[0])
+        d = np.zeros(gram.shape[0])
+        d[nr:] = LINEAR_DIRECTIONS[kind]
+        scale = (1.0 + delta[:, None] * d[None])[:, keep]                  # D(Delta), (G, k)
+        matrix = scale[:, :, None] * gram[keep, keep][None] * scale[:, None, :] + penalty[keep, keep][None]
+        n_of = scale[:, :, None] * np.linalg.inv(matrix) * scale[:, None, :]   # N(Delta), (G, k, k)
+        u, v = u[keep], v[:, keep]
+        nu = n_of @ u                                                        # (G, k)
+        alpha = nu @ u                                                       # (G,)
+        beta = v @ nu.T                                                      # (H, G)
+        gamma = np.einsum("hi,hj->hij", v, v).reshape(len(v), -1) @ n_of.reshape(len(delta), -1).T
+        return np.maximum(sq - (alpha[None] + 2.0 * delta[None] * beta + delta[None] ** 2 * gamma), 0.0)
+
+    def _rss_bus(self, shape, nr, ripple, penalty):
+        """The bus family's RSS (H, G) of its per-point sums."""
+        sq = self.sq[None] + self.ramp_sq[_RAMP_ORDER]
+        cross = self.cross[None] + self.ramp_cross[_RAMP_ORDER]          # (ramps, grid, width)
+        gram = self.gram
+        if shape is not None:
+            cross, gram = cross @ shape.T, shape @ gram @ shape.T
+        if penalty is None:
+            if not ripple:
+                return np.maximum(sq, 0.0)
+            ripple_gram = gram if self.unit is None else gram[0, :nr, :nr]
             c = cross[..., :nr]
             if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
                 g = float(ripple_gram.reshape(-1)[0])
@@ -166,10 +262,6 @@ class ProfileSums:
             return np.maximum(sq - np.einsum("hij,hij->hi", c @ np.linalg.inv(ripple_gram), c), 0.0)
         width = gram.shape[-1]
         keep = slice(0, width) if ripple else slice(nr, width)
-        penalty = np.zeros((width, width))
-        penalty[nr:, nr:] = noise_variance * np.linalg.inv(self.unit.covariance + 1e-12 * np.eye(4))
-        if nr == 1:   # its driver off: kappa held to its scale by a prior N(0, KAPPA_MAX^2)
-            penalty[0, 0] = noise_variance / KAPPA_MAX**2
         # one (k, k) inverse per grid point serves all its ramps: c^T (G + Pi)^-1 c as batched products,
         # five times faster than a solve per ramp
         inverse = np.linalg.inv((gram + penalty)[:, keep, keep])        # (grid, k, k)
@@ -210,4 +302,3 @@ class ProfileSums:
         grid = GRIDS[kind]
         phi = ramp_fractions(self.seen(kind))[:, None]
         return grid[0] + phi * (grid[None] - grid[0])
-
