@@ -244,29 +244,30 @@ class ProfileSums:
         return np.maximum(sq - (alpha[None] + 2.0 * delta[None] * beta + delta[None] ** 2 * gamma), 0.0)
 
     def _rss_bus(self, shape, nr, ripple, penalty):
-        """The bus family's RSS (H, G) of its per-point sums."""
-        sq = self.sq[None] + self.ramp_sq[_RAMP_ORDER]
-        cross = self.cross[None] + self.ramp_cross[_RAMP_ORDER]          # (ramps, grid, width)
+        """The bus family's RSS (H, G) of its per-point sums (computed in their stored order, longest ramp first)."""
+        sq = self.sq[None] + self.ramp_sq
+        if penalty is None:
+            if not ripple:
+                return np.maximum(sq, 0.0)[_RAMP_ORDER]
+            # the ripple's columns alone: they are the first two of every point's, and their Gram is the same
+            c = self.cross[None, :, :2] + self.ramp_cross[:, :, :2]      # (ramps, grid, 2)
+            ripple_gram = self.gram if self.unit is None else self.gram[0, :2, :2]
+            if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
+                c, g = c @ self.ripple_prior, float(self.ripple_prior @ ripple_gram @ self.ripple_prior)
+                kappa = np.clip(c / g, 0.0, KAPPA_MAX)
+                return np.maximum(sq - 2.0 * kappa * c + kappa * kappa * g, 0.0)[_RAMP_ORDER]
+            return np.maximum(sq - np.einsum("hij,hij->hi", c @ np.linalg.inv(ripple_gram), c), 0.0)[_RAMP_ORDER]
+        cross = self.cross[None] + self.ramp_cross          # (ramps, grid, width)
         gram = self.gram
         if shape is not None:
             cross, gram = cross @ shape.T, shape @ gram @ shape.T
-        if penalty is None:
-            if not ripple:
-                return np.maximum(sq, 0.0)
-            ripple_gram = gram if self.unit is None else gram[0, :nr, :nr]
-            c = cross[..., :nr]
-            if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
-                g = float(ripple_gram.reshape(-1)[0])
-                kappa = np.clip(c[..., 0] / g, 0.0, KAPPA_MAX)
-                return np.maximum(sq - 2.0 * kappa * c[..., 0] + kappa * kappa * g, 0.0)
-            return np.maximum(sq - np.einsum("hij,hij->hi", c @ np.linalg.inv(ripple_gram), c), 0.0)
         width = gram.shape[-1]
         keep = slice(0, width) if ripple else slice(nr, width)
         # one (k, k) inverse per grid point serves all its ramps: c^T (G + Pi)^-1 c as batched products,
         # five times faster than a solve per ramp
         inverse = np.linalg.inv((gram + penalty)[:, keep, keep])        # (grid, k, k)
         c = np.moveaxis(cross[..., keep], 0, 1)                          # (grid, ramps, k)
-        return np.maximum(sq - np.einsum("irk,irk->ri", c @ inverse, c), 0.0)
+        return np.maximum(sq - np.einsum("irk,irk->ri", c @ inverse, c), 0.0)[_RAMP_ORDER]
 
     def seen(self, kind: str) -> float:
         """[s] from the first sample to the last that shows ``kind``'s parameter: a current loss or a bus drop
