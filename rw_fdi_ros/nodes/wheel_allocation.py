@@ -104,6 +104,7 @@ class WheelAllocationNode(GraphNode):
         self.commands_sent = {}     # stamp -> the wheel commands sent for it (in force over the next step)
         self.delivery = DeliveryLog(params=self.wheel)   # what the wheels gave for their commands (as the core loop)
         self.verdict_ns = -1        # the latest /diagnostics stamp in
+        self.decision_cpu = []      # [s] CPU of each /diagnostics callback that carried a verdict (timing)
         self.waiting_since = None   # wall time a complete command started waiting for a verdict
         self.blind_said = False
         self.blind_at = None        # the verdict stamp FDIR went blind at: blind until a newer one comes
@@ -166,6 +167,7 @@ class WheelAllocationNode(GraphNode):
         verdicts = T.verdict_statuses(msg)   # not FDIR's own state, which comes here too
         if not verdicts:
             return
+        c0 = time.thread_time()   # the FDIR decision of one FDI period, and the command it releases (bench fdi)
         for status in verdicts:
             name = status.hardware_id.removeprefix("reaction_wheel_")
             if status.level == DiagnosticStatus.ERROR and name in self.wheels.names:
@@ -174,6 +176,18 @@ class WheelAllocationNode(GraphNode):
         self.delay.confirm(confirmed, stamp_seconds(stamp), self.reconfiguration.settled)
         self.verdict_ns = max(self.verdict_ns, stamp)
         self._try_command()
+        self.decision_cpu.append(time.thread_time() - c0)
+
+    def timing(self):
+        """Figures for ``rw-fdi bench``: the CPU time of each FDI period's FDIR decision.
+
+        Returns
+        -------
+        dict
+            graph.timing.summary's figures of 'callback_cpu'.
+        """
+        from ..graph.timing import summary
+        return summary(callback_cpu=self.decision_cpu)
 
     def _on_parameters(self, params):
         for p in params:

@@ -85,8 +85,23 @@ def _step_times(fn, n=20000):
     return float(np.median(out) * 1e6), float(np.percentile(out, 99) * 1e6)
 
 
-def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
-    """Compute time of one FDI step per observer, callback times in the live nodes, node memory."""
+# the sitting `docs/benchmarks.md`'s records were measured in: `bench graph` composed at 115x real time
+RECORD_REAL_TIME_FACTOR = 115.0
+# bench fdi's run: what an FDI node meets in service, on the four-wheel set (x, y, z and the redundant s): manoeuvres,
+# a current loss growing over 60 s on x (alarm, identification while it grows), x given up (its wheels slow enough
+# for s to take it all) and spinning down beside s; then a bearing heating up on y, kept in use with no spare left
+# (the worst period: identified on every sample while its ramps may still be growing)
+BUDGET_SCENARIO = ("name: bench_fdi\nduration: {duration}\nseed: {seed}\ninitial: {{wheel_speed: [2.0, 2.0, 2.0]}}\n"
+                   "faults: [{{kind: current_limiter, wheel: x, onset: {onset:g}, value: 0.3, ramp: 60.0}},\n"
+                   "         {{kind: temperature, wheel: y, onset: {second:g}, value: 80.0}}]\n"
+                   "manoeuvres: {{interval_s: [100.0, 300.0], size_deg: [-5.0, 5.0]}}\n")
+
+
+def bench_fdi(duration: float = 600.0, seed: int = 1, models=None) -> dict:
+    """The flight budget: compute time of one FDI step per observer (core code), and CPU per FDI period of every
+    FDI node (observers, isolation with the identification, the FDIR decision in wheel_allocation) over an
+    in-service run, p50 / p99 / max, scaled to the record's sitting by this sitting's `bench graph` real-time
+    factor; each node's peak memory and whether its process imported torch."""
     import numpy as np
     from ...core.fdi.residuals import SignedResidual
     from ...core.fdi.elman import ElmanObserver
@@ -122,27 +137,46 @@ def bench_fdi(duration: float = 400.0, seed: int = 1, models=None) -> dict:
                "elman (one axis)": _step_times(elman_step), "linear (three axes)": _step_times(linear_step),
                "model (three axes)": _step_times(model_step)}
 
+    from ...runner.graph import DEFAULT_GROUPING
+    # the sitting: `bench graph`'s composed run, its real-time factor scales the budget to the record's
+    sitting = _bench_graph_run(400.0, seed, DEFAULT_GROUPING)["real_time_factor"]
+    scale = sitting / RECORD_REAL_TIME_FACTOR
     os.environ["RW_FDI_TIMING"] = "1"
     out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_"))
     scenario = out / "bench_fdi.yaml"
-    scenario.write_text(f"name: bench_fdi\nduration: {duration}\nseed: {seed}\n"
-                        f"faults: [{{kind: current_limiter, wheel: x, onset: {duration / 2:g}, value: 0.6}}]\n")
+    scenario.write_text(BUDGET_SCENARIO.format(duration=duration, seed=seed, onset=duration / 3,
+                                               second=duration * 7 / 12))
     outcome = run_with_fdi(str(scenario), out_dir=out, fdi={"models": models}, keep_logs=True)
     nodes = _timing_reports(outcome.log_dir) if outcome.log_dir else {}
     lines = [f"FDI bench: one FDI step, core code only ({len(u)} samples)"]
     for name, (med, p99) in compute.items():
         lines.append(f"  {name:22s} median {med:7.1f} us   p99 {p99:7.1f} us")
-    lines.append(f"live graph ({duration:g} s, {outcome.wall_time:.1f} s wall, "
-                 f"{'ok' if outcome.ok else outcome.reason}): "
-                 "callback time per FDI sample, memory")
+    acts = "; ".join(f"{d['time']:g} s {d['wheel']} {d['state']}"
+                     for d in (outcome.summary or {}).get("reconfiguration", []))
+    lines.append(f"live graph ({duration:g} s in service on the four-wheel set: manoeuvres, a current loss on x "
+                 f"growing over 60 s from {duration / 3:g} s, +57 C on y from {duration * 7 / 12:g} s; "
+                 f"{outcome.wall_time:.1f} s wall, "
+                 f"{'ok' if outcome.ok else outcome.reason}); FDIR: {acts or 'nothing'}")
+    lines.append(f"  this sitting: `bench graph` composed {sitting:.1f}x real time; 'at {RECORD_REAL_TIME_FACTOR:g}x' "
+                 f"scales a time by {scale:.2f} to the record's sitting")
+    lines.append(f"  CPU per FDI period [ms]: {'node':18s} {'p50':>7s} {'p99':>7s} {'max':>7s} {'p99 at':>7s} "
+                 f"{'max at':>7s}  peak memory, torch")
+    budget = {}
     for name, rep in sorted(nodes.items()):
-        cb = (f"callback wall median {rep['callback_median_ms'] * 1e3:6.0f} us "
-              f"p99 {rep['callback_p99_ms'] * 1e3:6.0f} us,"
-              f" CPU median {rep['callback_cpu_median_ms'] * 1e3:5.0f} us "
-              f"p99 {rep['callback_cpu_p99_ms'] * 1e3:5.0f} us max {rep['callback_cpu_max_ms'] * 1e3:6.0f} us"
-              if "callback_median_ms" in rep else " " * 99)
-        lines.append(f"  {name:18s} {cb}  max RSS {rep['max_rss_mb']:6.1f} MB  cpu {rep['cpu_s']:5.2f} s")
-    return {"ok": outcome.ok, "compute_us": compute, "nodes": nodes, "text": "\n".join(lines)}
+        if "callback_cpu_median_ms" not in rep:
+            continue
+        row = {k: rep[f"callback_cpu_{k}_ms"] for k in ("median", "p99", "max")}
+        row.update(p99_at_record=row["p99"] * scale, max_at_record=row["max"] * scale,
+                   periods=rep["callback_cpu_count"], max_rss_mb=rep["max_rss_mb"],
+                   torch_imported=rep.get("torch_imported"))
+        budget[name] = row
+        lines.append(f"  {'':25s} {name:18s} {row['median']:7.2f} {row['p99']:7.2f} {row['max']:7.2f} "
+                     f"{row['p99_at_record']:7.2f} {row['max_at_record']:7.2f}  {row['max_rss_mb']:6.1f} MB"
+                     f"{', torch' if row['torch_imported'] else ''}")
+    lines.append(f"  goal (issue 58): p99 <= 1 ms and max <= 5 ms per node at {RECORD_REAL_TIME_FACTOR:g}x; "
+                 "memory is the node's process' (the FDI nodes share one)")
+    return {"ok": outcome.ok, "compute_us": compute, "nodes": nodes, "budget": budget,
+            "sitting_real_time_factor": sitting, "text": "\n".join(lines)}
 
 
 def bench_study(runs: int = 8, duration: float = 400.0, seed: int = 1, jobs: int | None = None,
