@@ -27,7 +27,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--fit-runs", type=COUNT, default=100)
     parser.add_argument("--heldout-runs", type=COUNT, default=None,
                         help="default: 20 (--vehicle: 100 of datasheet wheels and 100 of drawn units)")
-    parser.add_argument("--train-runs", type=COUNT, default=40)
+    parser.add_argument("--train-runs", type=COUNT, default=40,
+                        help="runs the Elman networks learn from: the thesis' 400-s one-slew runs; with --vehicle or "
+                             "--service, the in-service family's fault-free 600-s runs (manoeuvres)")
     parser.add_argument("--unit-runs", type=COUNT, default=300,
                         help="with --vehicle: runs of drawn wheel units the calibrated bands are fitted on")
     parser.add_argument("--epochs", type=COUNT, default=None,

@@ -459,7 +459,7 @@ def run_of(sample, b: int):
         Its fields (N, ...).
     """
     values = {f.name: getattr(sample, f.name) for f in fields(sample)}
-    return type(sample)(**{k: v[b] if isinstance(v, np.ndarray) and v.ndim >= 2 else v for k, v in values.items()})
+    return type(sample)(**{k: v[b] if getattr(v, "ndim", 0) >= 2 else v for k, v in values.items()})
 
 
 class _ElmanRecalls:

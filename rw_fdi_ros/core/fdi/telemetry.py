@@ -62,6 +62,42 @@ def model_reaction_torque(tcv, wheel_speed, params: wm.WheelParams = wm.WheelPar
     return -(tau_m - wm.friction_torque(wheel_speed, nominal.temperature, params)), tau_m, free
 
 
+class PeriodBusGrid:
+    """The bus grid's period mean, tau_m(u_k, Omega_k; V) averaged over the K control samples of one FDI period at
+    every V of the wheel type's grid (identification.bus_motor_torque), computed only where it is read: 651 values a
+    wheel a sample cost more than the rest of the FDI telemetry together, and fault identification reads them only
+    for an alarmed wheel and the samples kept before its alarm. Indexing fixes leading axes (a run of a batch, a
+    wheel); ``np.asarray`` computes, summing the K samples in their order as FdiSampler's mean does.
+
+    Parameters
+    ----------
+    tcv, wheel_speed : ndarray, shape (K, ..., N)
+        The period's control samples u [V] and Omega [rad/s].
+    params : WheelParams
+        The wheel type.
+    """
+
+    def __init__(self, tcv, wheel_speed, params: wm.WheelParams, index: tuple = ()):
+        self.tcv, self.wheel_speed, self.params, self.index = tcv, wheel_speed, params, index
+
+    @property
+    def ndim(self) -> int:
+        return self.tcv.ndim - len(self.index)   # the K axis gives way to the grid's
+
+    def __getitem__(self, i) -> "PeriodBusGrid":
+        return PeriodBusGrid(self.tcv, self.wheel_speed, self.params, self.index + (i,))
+
+    def __array__(self, dtype=None, copy=None):
+        from .identification import bus_motor_torque
+        at = (slice(None),) + self.index
+        grids = bus_motor_torque(self.tcv[at], self.wheel_speed[at], self.params)
+        total = grids[0]
+        for g in grids[1:]:
+            total = total + g
+        out = total / len(grids)
+        return out if dtype is None else out.astype(dtype)
+
+
 @dataclass
 class FdiSample:
     """One FDI sample of the wheel set's wheels; every field (N,) and a mean over the FDI period."""
@@ -77,7 +113,7 @@ class FdiSample:
     friction_torque: np.ndarray | None = None  # nominal tau_f(Omega; 23 C) [N m]
     free_motor_torque: np.ndarray | None = None  # nominal tau_m where the bridge does not clip, else 0 [N m]
     # fault identification only, when the sampler is asked for it:
-    bus_motor_torque: np.ndarray | None = None  # (N, bus grid) tau_m(u, Omega; V) [N m]
+    bus_motor_torque: np.ndarray | None = None  # (N, bus grid) tau_m(u, Omega; V) [N m] (or its PeriodBusGrid)
     # the control sample at the FDI stamp itself (the thesis' instantaneous sampling)
     tcv_instant: np.ndarray | None = None              # [V]
     reaction_torque_instant: np.ndarray | None = None  # [N m]
@@ -238,8 +274,11 @@ class TelemetrySampler:
             return None
         stamps, u, r, w, theta = zip(*self.pending)
         self.pending = []
-        signals = self._signals(np.array(u), np.array(r), np.array(w), np.array(theta))
+        u, w = np.array(u), np.array(w)
+        signals = self._signals(u, np.array(r), w, np.array(theta))
         rows = [self._sample(s, [x[k] for x in signals]) for k, s in enumerate(stamps)]
+        if self.identification and rows[-1] is not None:
+            rows[-1].bus_motor_torque = PeriodBusGrid(u, w, self.params)
         return rows[-1]
 
     def _advance(self, stamp_ns: int, speed):
@@ -260,11 +299,7 @@ class TelemetrySampler:
             raise ValueError("speed-aware FDI needs fdi_sampling 'mean' (the ripple bound is a mean)")
         model, tau_m, free = model_reaction_torque(tcv, speed, self.params)
         phasor = tau_m * np.exp(1j * self.params.poles * theta)
-        out = [tcv, reaction_torque, speed, model, phasor, tau_m, model + tau_m, free]
-        if self.identification:
-            from .identification import bus_motor_torque
-            out.append(bus_motor_torque(tcv, speed, self.params))
-        return out
+        return [tcv, reaction_torque, speed, model, phasor, tau_m, model + tau_m, free]
 
     def _sample(self, stamp_ns: int, signals) -> FdiSample | None:
         row = self.sampler.add(stamp_ns, *signals)

@@ -124,6 +124,7 @@ class ProfileSums:
             The sample's time [s]; default: its index (1 s samples).
         """
         r, tm, tf, w, bus, p, *rest = row
+        bus = np.asarray(bus, float)   # a PeriodBusGrid is computed here, for an alarmed wheel only
         free = rest[0] if rest else None
         time = float(self.n if time is None else time)
         self.start = time if self.start is None else self.start
