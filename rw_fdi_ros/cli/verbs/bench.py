@@ -44,8 +44,10 @@ def _service_options(option):
 
 def _long_run_options(option):
     """The benches of long operations: scaling, dumping in orbit, memory, continuous operations."""
-    option("--scaling-runs", type=COUNT, default=12,
-           help="scaling: in-service runs timed on each worker count (default 12)")
+    option("--scaling-runs", type=COUNT, default=100,
+           help="scaling: in-service runs timed on each worker count (default 100: enough that the family's "
+                "batches fill about as in a campaign of thousands; a dozen runs are batches of one or two, 4x dearer "
+                "a run)")
     option("--day-hours", type=number(float, 0, 240, low_open=True), default=24.0,
            help="dumping: the length of the day in orbit [h] (default 24)")
     option("--orbit-runs", type=COUNT, default=20,
