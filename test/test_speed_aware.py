@@ -185,3 +185,24 @@ def test_a_tachometers_noise_telescopes_in_the_window_and_its_reach_bounds_it():
     # the check's estimate of sigma from the speeds' second differences
     t = np.arange(2000) * 0.1
     assert speed_noise(t, 50.0 + 0.3 * t + rng.normal(0.0, 0.01, t.size)) == pytest.approx(0.01, rel=0.1)
+
+
+def test_the_bus_grid_is_the_period_mean_of_each_control_samples_grid():
+    """The FDI sample's bus grid (computed where it is read, telemetry.PeriodBusGrid) is the mean over the
+    period's control samples of tau_m(u_k, Omega_k; V) at every V of the grid, wheel by wheel and for the
+    whole set alike, summed in the samples' order (FdiSampler's mean, bit for bit)."""
+    from rw_fdi_ros.core.fdi.identification import bus_motor_torque
+    rng = np.random.default_rng(4)
+    sampler = TelemetrySampler(1.0, identification=True)
+    u, w = rng.uniform(-5.0, 5.0, (10, 4)), rng.uniform(5.0, 60.0, (10, 4))
+    for k in range(10):
+        sample = sampler.add((k + 1) * 100_000_000, u[k], np.zeros(4), w[k])
+    grids = bus_motor_torque(u, w)                      # (10, 4, G), each control sample's
+    expected = grids[0]
+    for g in grids[1:]:
+        expected = expected + g
+    expected = expected / 10
+    whole = np.asarray(sample.bus_motor_torque)
+    assert whole.shape == (4, len(grids[0, 0])) and np.array_equal(whole, expected)
+    assert np.array_equal(np.asarray(sample.bus_motor_torque[2]), expected[2])
+    assert not np.allclose(expected[2], expected[2][0])    # the grid's low voltages clip: a grid, not a value

@@ -173,7 +173,7 @@ def bench_fdi(duration: float = 600.0, seed: int = 1, models=None) -> dict:
         lines.append(f"  {'':25s} {name:18s} {row['median']:7.2f} {row['p99']:7.2f} {row['max']:7.2f} "
                      f"{row['p99_at_record']:7.2f} {row['max_at_record']:7.2f}  {row['max_rss_mb']:6.1f} MB"
                      f"{', torch' if row['torch_imported'] else ''}")
-    lines.append(f"  goal (issue 58): p99 <= 1 ms and max <= 5 ms per node at {RECORD_REAL_TIME_FACTOR:g}x; "
+    lines.append(f"  goal: p99 <= 1 ms and max <= 5 ms per node at {RECORD_REAL_TIME_FACTOR:g}x; "
                  "memory is the node's process' (the FDI nodes share one)")
     return {"ok": outcome.ok, "compute_us": compute, "nodes": nodes, "budget": budget,
             "sitting_real_time_factor": sitting, "text": "\n".join(lines)}
