@@ -336,7 +336,7 @@ BENCHES = [
     ("scaling", "in-service runs per second on 1 and 2 local workers (or a Dask cluster's) and the wall time "
      "projected for 100,000 in-service runs (core loop)", ("--scaling-runs", "--max-hours", "--scheduler"),
      _scaling),
-    ("figures", "every figure of the README's table re-measured at small n (about 8 min on 2 cores at the "
+    ("figures", "every figure of the README's table re-measured at small n (about 13 min on 2 cores at the "
      "record's machine speed), printed beside the README's and the record's, flagged where the two disagree "
      "beyond chance", ("--only",), _figures),
 ]
