@@ -240,6 +240,3 @@ LINEAR_SLOPES = {"current_limiter": 1.0,
 LINEAR_DIRECTIONS = {"current_limiter": np.array([1.0, 1.0, 0.0, 0.0]),
                      "temperature": np.array([0.0, 0.0, LINEAR_SLOPES["temperature"] / _VISCOUS_NOMINAL, 0.0])}
 GRIDS = {"current_limiter": CURRENT_LIMITER_GRID, "temperature": TEMPERATURE_GRID, "bus_voltage": BUS_VOLTAGE_GRID}
-_SIZE = sum(map(len, GRIDS.values()))
-_SLICES = dict(zip(KINDS, np.split(np.arange(sum(map(len, GRIDS.values()))),
-                                   np.cumsum([len(GRIDS[k]) for k in KINDS])[:-1])))
