@@ -206,3 +206,6 @@ def test_the_bus_grid_is_the_period_mean_of_each_control_samples_grid():
     assert whole.shape == (4, len(grids[0, 0])) and np.array_equal(whole, expected)
     assert np.array_equal(np.asarray(sample.bus_motor_torque[2]), expected[2])
     assert not np.allclose(expected[2], expected[2][0])    # the grid's low voltages clip: a grid, not a value
+    assert sample.bus_motor_torque.shape == whole.shape and sample.bus_motor_torque[2].shape == whole[2].shape
+    with pytest.raises(TypeError):
+        sample.bus_motor_torque[1:3]

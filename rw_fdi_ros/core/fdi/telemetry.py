@@ -67,7 +67,8 @@ class PeriodBusGrid:
     every V of the wheel type's grid (identification.bus_motor_torque), computed only where it is read: 651 values a
     wheel a sample cost more than the rest of the FDI telemetry together, and fault identification reads them only
     for an alarmed wheel and the samples kept before its alarm. Indexing fixes leading axes (a run of a batch, a
-    wheel); ``np.asarray`` computes, summing the K samples in their order as FdiSampler's mean does.
+    wheel); ``np.asarray`` computes, summing the K samples in their order as FdiSampler's mean does. (The graph's
+    wheel_telemetry node publishes every wheel's, so there it is computed at once.)
 
     Parameters
     ----------
@@ -84,8 +85,17 @@ class PeriodBusGrid:
     def ndim(self) -> int:
         return self.tcv.ndim - len(self.index)   # the K axis gives way to the grid's
 
-    def __getitem__(self, i) -> "PeriodBusGrid":
-        return PeriodBusGrid(self.tcv, self.wheel_speed, self.params, self.index + (i,))
+    @property
+    def shape(self) -> tuple:
+        from .identification import bus_voltage_grid
+        return self.tcv.shape[1 + len(self.index):] + (len(bus_voltage_grid(self.params.bus_voltage)),)
+
+    def __getitem__(self, key) -> "PeriodBusGrid":
+        keys = key if isinstance(key, tuple) else (key,)
+        if not all(isinstance(k, (int, np.integer)) for k in keys) or len(keys) > self.ndim - 1:
+            raise TypeError(f"a PeriodBusGrid takes integer indices of its leading axes (a run, a wheel), not "
+                            f"{key!r}: np.asarray it for the rest")
+        return PeriodBusGrid(self.tcv, self.wheel_speed, self.params, self.index + tuple(int(k) for k in keys))
 
     def __array__(self, dtype=None, copy=None):
         from .identification import bus_motor_torque

@@ -109,7 +109,10 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     nominal = fits["current_limiter"][0, 0]          # grid[0] of every family is the healthy wheel, whatever the ramp
     if reported:
         fits = held_to_reports(fits, sums, reported, s2)
-    best = min(KINDS, key=lambda k: fits[k].min())
+    # the first family (KINDS order) at the least misfit: every family's grid[0] is the healthy wheel, and their
+    # closed forms and sums may leave a tie there a few rounding errors apart
+    least = min(float(f.min()) for f in fits.values())
+    best = next(k for k in KINDS if fits[k].min() <= least + 1e-12 * abs(least))
     if not np.isfinite(fits[best].min()):   # reports no family can meet (a bus below the grid's end)
         return Identification(UNKNOWN, samples=n)
     rss = fits[best]
