@@ -102,13 +102,41 @@ def bench_fdi(duration: float = 600.0, seed: int = 1, models=None) -> dict:
     FDI node (observers, isolation with the identification, the FDIR decision in wheel_allocation) over an
     in-service run, p50 / p99 / max, scaled to the record's sitting by this sitting's `bench graph` real-time
     factor; each node's peak memory and whether its process imported torch."""
+    from ...runner.fdi_run import run_with_fdi
+    from ...runner.graph import DEFAULT_GROUPING
+    compute, samples = _core_step_times(models)
+    # the sitting: `bench graph`'s composed run, its real-time factor scales the budget to the record's
+    sitting = _bench_graph_run(400.0, seed, DEFAULT_GROUPING)["real_time_factor"]
+    scale = sitting / RECORD_REAL_TIME_FACTOR
+    os.environ["RW_FDI_TIMING"] = "1"
+    out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_"))
+    scenario = out / "bench_fdi.yaml"
+    scenario.write_text(BUDGET_SCENARIO.format(duration=duration, seed=seed, onset=duration / 3,
+                                               second=duration * 7 / 12))
+    outcome = run_with_fdi(str(scenario), out_dir=out, fdi={"models": models}, keep_logs=True)
+    nodes = _timing_reports(outcome.log_dir) if outcome.log_dir else {}
+    lines = [f"FDI bench: one FDI step, core code only ({samples} samples)"]
+    for name, (med, p99) in compute.items():
+        lines.append(f"  {name:22s} median {med:7.1f} us   p99 {p99:7.1f} us")
+    acts = "; ".join(f"{d['time']:g} s {d['wheel']} {d['state']}"
+                     for d in (outcome.summary or {}).get("reconfiguration", []))
+    lines.append(f"live graph ({duration:g} s in service on the four-wheel set: manoeuvres, a current loss on x "
+                 f"growing over 60 s from {duration / 3:g} s, +57 C on y from {duration * 7 / 12:g} s; "
+                 f"{outcome.wall_time:.1f} s wall, "
+                 f"{'ok' if outcome.ok else outcome.reason}); FDIR: {acts or 'nothing'}")
+    budget, table = _budget(nodes, sitting, scale)
+    return {"ok": outcome.ok, "compute_us": compute, "nodes": nodes, "budget": budget,
+            "sitting_real_time_factor": sitting, "text": "\n".join(lines + table)}
+
+
+def _core_step_times(models) -> tuple:
+    """({step: (median, p99) [us]}, samples): one FDI step of each observer's core code on random inputs."""
     import numpy as np
     from ...core.fdi.residuals import SignedResidual
     from ...core.fdi.elman import ElmanObserver
     from ...core.fdi.linear_observer import LinearObserver
     from ...core.fdi.telemetry import TelemetrySampler
     from ...paths import config_dir
-    from ...runner.fdi_run import run_with_fdi
     from ..design.offline import load_models
     rng = np.random.default_rng(0)
     u, r = rng.uniform(-5, 5, (20000, 3)), rng.uniform(-0.01, 0.01, (20000, 3))
@@ -136,31 +164,15 @@ def bench_fdi(duration: float = 600.0, seed: int = 1, models=None) -> dict:
     compute = {"telemetry (per control sample)": _step_times(telemetry_step),
                "elman (one axis)": _step_times(elman_step), "linear (three axes)": _step_times(linear_step),
                "model (three axes)": _step_times(model_step)}
+    return compute, len(u)
 
-    from ...runner.graph import DEFAULT_GROUPING
-    # the sitting: `bench graph`'s composed run, its real-time factor scales the budget to the record's
-    sitting = _bench_graph_run(400.0, seed, DEFAULT_GROUPING)["real_time_factor"]
-    scale = sitting / RECORD_REAL_TIME_FACTOR
-    os.environ["RW_FDI_TIMING"] = "1"
-    out = Path(tempfile.mkdtemp(prefix="rw_fdi_bench_"))
-    scenario = out / "bench_fdi.yaml"
-    scenario.write_text(BUDGET_SCENARIO.format(duration=duration, seed=seed, onset=duration / 3,
-                                               second=duration * 7 / 12))
-    outcome = run_with_fdi(str(scenario), out_dir=out, fdi={"models": models}, keep_logs=True)
-    nodes = _timing_reports(outcome.log_dir) if outcome.log_dir else {}
-    lines = [f"FDI bench: one FDI step, core code only ({len(u)} samples)"]
-    for name, (med, p99) in compute.items():
-        lines.append(f"  {name:22s} median {med:7.1f} us   p99 {p99:7.1f} us")
-    acts = "; ".join(f"{d['time']:g} s {d['wheel']} {d['state']}"
-                     for d in (outcome.summary or {}).get("reconfiguration", []))
-    lines.append(f"live graph ({duration:g} s in service on the four-wheel set: manoeuvres, a current loss on x "
-                 f"growing over 60 s from {duration / 3:g} s, +57 C on y from {duration * 7 / 12:g} s; "
-                 f"{outcome.wall_time:.1f} s wall, "
-                 f"{'ok' if outcome.ok else outcome.reason}); FDIR: {acts or 'nothing'}")
-    lines.append(f"  this sitting: `bench graph` composed {sitting:.1f}x real time; 'at {RECORD_REAL_TIME_FACTOR:g}x' "
-                 f"scales a time by {scale:.2f} to the record's sitting")
-    lines.append(f"  CPU per FDI period [ms]: {'node':18s} {'p50':>7s} {'p99':>7s} {'max':>7s} {'p99 at':>7s} "
-                 f"{'max at':>7s}  peak memory, torch")
+
+def _budget(nodes: dict, sitting: float, scale: float) -> tuple:
+    """({node: its budget row}, the table's lines) of the nodes that time their FDI periods."""
+    lines = [f"  this sitting: `bench graph` composed {sitting:.1f}x real time; 'at {RECORD_REAL_TIME_FACTOR:g}x' "
+             f"scales a time by {scale:.2f} to the record's sitting",
+             f"  CPU per FDI period [ms]: {'node':18s} {'p50':>7s} {'p99':>7s} {'max':>7s} {'p99 at':>7s} "
+             f"{'max at':>7s}  peak memory, torch"]
     budget = {}
     for name, rep in sorted(nodes.items()):
         if "callback_cpu_median_ms" not in rep:
@@ -175,8 +187,7 @@ def bench_fdi(duration: float = 600.0, seed: int = 1, models=None) -> dict:
                      f"{', torch' if row['torch_imported'] else ''}")
     lines.append(f"  goal: p99 <= 1 ms and max <= 5 ms per node at {RECORD_REAL_TIME_FACTOR:g}x; "
                  "memory is the node's process' (the FDI nodes share one)")
-    return {"ok": outcome.ok, "compute_us": compute, "nodes": nodes, "budget": budget,
-            "sitting_real_time_factor": sitting, "text": "\n".join(lines)}
+    return budget, lines
 
 
 def bench_study(runs: int = 8, duration: float = 400.0, seed: int = 1, jobs: int | None = None,

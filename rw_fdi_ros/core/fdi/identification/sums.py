@@ -18,6 +18,12 @@ _LINEAR = tuple(LINEAR_SLOPES)
 _H = len(RAMP_LENGTH)
 
 
+def _held_ripple_misfit(sq, c, g):
+    """min over kappa in [0, KAPPA_MAX] of sum (e - kappa z)^2 = sq - 2 kappa c + kappa^2 g (c: sum e z, g: sum z^2)."""
+    kappa = np.clip(c / g, 0.0, KAPPA_MAX)
+    return np.maximum(sq - 2.0 * kappa * c + kappa * kappa * g, 0.0)
+
+
 class ProfileSums:
     """Running sums that give RSS(theta) of every grid point of every ramp with the ripple (and the unit's
     uncertainty) projected out:
@@ -223,10 +229,7 @@ class ProfileSums:
             if not ripple:
                 return np.maximum(sq, 0.0)
             if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
-                g = float(gram[0, 0])
-                c = u[0] + delta[None] * v[:, 0][:, None]
-                kappa = np.clip(c / g, 0.0, KAPPA_MAX)
-                return np.maximum(sq - 2.0 * kappa * c + kappa * kappa * g, 0.0)
+                return _held_ripple_misfit(sq, u[0] + delta[None] * v[:, 0][:, None], float(gram[0, 0]))
             inverse = np.linalg.inv(gram[:nr, :nr])
             ur, vr = u[:nr], v[:, :nr]
             a0, a1, a2 = ur @ inverse @ ur, vr @ inverse @ ur, np.einsum("hi,ij,hj->h", vr, inverse, vr)
@@ -254,9 +257,8 @@ class ProfileSums:
             c = self.cross[None, :, :2] + self.ramp_cross[:, :, :2]      # (ramps, grid, 2)
             ripple_gram = self.gram if self.unit is None else self.gram[0, :2, :2]
             if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
-                c, g = c @ self.ripple_prior, float(self.ripple_prior @ ripple_gram @ self.ripple_prior)
-                kappa = np.clip(c / g, 0.0, KAPPA_MAX)
-                return np.maximum(sq - 2.0 * kappa * c + kappa * kappa * g, 0.0)[_RAMP_ORDER]
+                w = self.ripple_prior
+                return _held_ripple_misfit(sq, c @ w, float(w @ ripple_gram @ w))[_RAMP_ORDER]
             return np.maximum(sq - np.einsum("hij,hij->hi", c @ np.linalg.inv(ripple_gram), c), 0.0)[_RAMP_ORDER]
         cross = self.cross[None] + self.ramp_cross          # (ramps, grid, width)
         gram = self.gram
