@@ -49,6 +49,24 @@ def test_joint_state_cdr_decodes_as_rclpy_would_and_reads_back(position, velocit
                                                                                   list(effort))
 
 
+def test_diagnostic_array_cdr_decodes_as_rclpy_would():
+    """The isolation node's statuses, serialised without message objects, decode to the message rclpy would
+    build: odd string lengths (alignment after the one-byte level), empty fields, no values, non-ASCII text."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rw_fdi_ros.storage.cdr import Status, diagnostic_array_cdr
+    statuses = [Status(2, "rw_fdi: wheel x (model)", "faulty since 3 s: 0.7 \u00b1 0.1", "reaction_wheel_x",
+                       [("residual", "1.2e-04"), ("first_alarm", "3"), ("k", "")]),
+                Status(0), Status(3, "ab", "c", "d", [("e", "fg")])]
+    msg = deserialize_message(diagnostic_array_cdr(12_300_000_001, statuses, "body"), DiagnosticArray)
+    want = DiagnosticArray(status=[DiagnosticStatus(level=bytes([s.level]), name=s.name, message=s.message,
+                                                    hardware_id=s.hardware_id,
+                                                    values=[KeyValue(key=k, value=v) for k, v in s.values])
+                                   for s in statuses])
+    want.header.stamp.sec, want.header.stamp.nanosec, want.header.frame_id = 12, 300_000_001, "body"
+    assert msg == want
+    assert deserialize_message(diagnostic_array_cdr(5, []), DiagnosticArray).status == []
+
+
 def _telemetry_sample(wheels: int = 3):
     import numpy as np
     from rw_fdi_ros.core.fdi.telemetry import TelemetrySampler

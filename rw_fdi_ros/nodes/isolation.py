@@ -38,20 +38,20 @@ from __future__ import annotations
 import math
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState, PointCloud2
 
 import numpy as np
 
 from ..core.fdi.calibration import calibration_samples
-from ..core.fdi.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, InputMonitor
+from ..core.fdi.input_health import ERROR, NEW_RUN, OK, OUT_OF_ORDER, STALE, WARN, InputMonitor
 from ..core.fdi.verdict import stamp_seconds
 from ..core.fdi.pipeline import Isolation
 from ..core.mission.plant_choices import DEFAULT as DEFAULT_CHOICES, PlantChoiceError, PlantChoices
 from ..core.physics.wheel_set import joint_name, wheel_set
-from ..storage.cdr import joint_state_cdr
+from ..storage.cdr import Status, diagnostic_array_cdr, joint_state_cdr
 from ..graph import topics as T
-from ..graph.convert import fdi_sample_of, stamp_ns, time_msg
+from ..graph.convert import fdi_sample_of, stamp_ns
 from ..graph.runtime import EXIT_BAD_INPUT, GraphNode, NodeError, main_for
 from ..graph.gate import GatedPublisher
 from ..graph.report_pairing import ReportGridPairing
@@ -60,17 +60,16 @@ from ..graph.fdi_parameters import declare_fdi
 from ..graph.wheel_type import declare_wheel_type
 
 
-def _identification_status(wheel: str, found) -> DiagnosticStatus:
+def _identification_status(wheel: str, found) -> Status:
     """/fdi/identification's status of ``wheel``: its Identification (None: no alarm)."""
-    status = DiagnosticStatus(name=f"rw_fdi: identification wheel {wheel}", hardware_id=f"reaction_wheel_{wheel}")
+    status = Status(name=f"rw_fdi: identification wheel {wheel}", hardware_id=f"reaction_wheel_{wheel}")
     if found is None:
-        status.level, status.message = DiagnosticStatus.OK, "no alarm"
-        status.values = [KeyValue(key="fault_kind", value="none")]
+        status.level, status.message = OK, "no alarm"
+        status.values = [("fault_kind", "none")]
         return status
-    status.level = DiagnosticStatus.WARN if found.kind == "unknown" else DiagnosticStatus.ERROR
+    status.level = WARN if found.kind == "unknown" else ERROR
     status.message = found.message()
-    status.values = [KeyValue(key=k, value=v) for k, v in found.values().items()]
-    status.values.append(KeyValue(key="samples", value=str(found.samples)))
+    status.values = [*found.values().items(), ("samples", str(found.samples))]
     return status
 
 
@@ -78,7 +77,7 @@ def _status(name, axis, residual, threshold, alarm, first, extra=(), identificat
             latched=False):
     """One wheel's status. ``unjudged``: why this sample could not be judged (STALE unless alarmed,
     the alarm held); ``note``: what the input stream did (WARN unless worse)."""
-    s = DiagnosticStatus(name=name, hardware_id=f"reaction_wheel_{axis}")
+    s = Status(name=name, hardware_id=f"reaction_wheel_{axis}")
     level = ERROR if alarm else OK
     s.message = f"faulty since {first:g} s" if alarm else ("recovered" if first is not None else "nominal")
     if latched:   # confirmed, held although the residual is back under its threshold
@@ -89,16 +88,16 @@ def _status(name, axis, residual, threshold, alarm, first, extra=(), identificat
     if note is not None:
         s.message += f"; {note.message}"
         level = level if level == ERROR else max(level, note.level)
-    s.level = bytes([level])   # rclpy's DiagnosticStatus.level is a byte
+    s.level = level
     # what the FDI says of itself, as values a tool reads (bag_series.health_from_bag), not only as words
-    extra = [*extra, *([KeyValue(key="judged", value="false")] if unjudged else []),
-             *([KeyValue(key="input", value=note.message)] if note is not None else [])]
+    extra = [*extra, *([("judged", "false")] if unjudged else []),
+             *([("input", note.message)] if note is not None else [])]
     if identification is not None:
         s.message += f": {identification.message()}"
-        extra = [*extra, *(KeyValue(key=k, value=v) for k, v in identification.values().items())]
-    s.values = [KeyValue(key="residual", value=f"{residual:.6g}"), KeyValue(key="threshold", value=f"{threshold:.6g}"),
-                KeyValue(key="margin", value=f"{threshold - abs(residual):.6g}"),
-                KeyValue(key="first_alarm", value="none" if first is None else f"{first:g}"), *extra]
+        extra = [*extra, *identification.values().items()]
+    s.values = [("residual", f"{residual:.6g}"), ("threshold", f"{threshold:.6g}"),
+                ("margin", f"{threshold - abs(residual):.6g}"),
+                ("first_alarm", "none" if first is None else f"{first:g}"), *extra]
     return s
 
 
@@ -292,31 +291,27 @@ class IsolationNode(GraphNode):
         """/diagnostics and /fdi/identification of one stamp from every observer's rows, the decision's
         (``main``, latched) and the identification of that same stamp; ``silent``: the deciding observers whose
         rows never came."""
-        msg = DiagnosticArray()
-        msg.header.stamp = time_msg(stamp)
-        ident = DiagnosticArray()
-        ident.header.stamp = time_msg(stamp)
+        statuses, ident = [], []
         note = self.inputs["telemetry"].take_note(stamp)
         for a in self.names:
             found = identified.get(a)
-            ident.status.append(_identification_status(a, found))
+            ident.append(_identification_status(a, found))
             extra = []
             for obs in self.channels:
                 if self.decision.observers != (obs,):   # a vote shows every observer's row
                     r, c, alarm, first = rows_of[obs][a]
-                    extra += [KeyValue(key=f"{obs}_residual", value=f"{r:.6g}"),
-                              KeyValue(key=f"{obs}_threshold", value=f"{c:.6g}"),
-                              KeyValue(key=f"{obs}_alarm", value=str(bool(alarm)).lower())]
+                    extra += [(f"{obs}_residual", f"{r:.6g}"), (f"{obs}_threshold", f"{c:.6g}"),
+                              (f"{obs}_alarm", str(bool(alarm)).lower())]
             if self.calibration_time:
                 learning = stamp <= self.calibration_time * 1e9
-                extra.append(KeyValue(key="unit_calibration", value="learning" if learning else "calibrated"))
+                extra.append(("unit_calibration", "learning" if learning else "calibrated"))
             if self.verdict.latched[a]:
-                extra.append(KeyValue(key="latched", value="true"))
+                extra.append(("latched", "true"))
             # an observer beside the decision that cannot judge is named: the FDI is never silently blind
             blind = [o for o in self.channels if o not in self.decision.observers
                      and self._why_unjudged(o, stamp, rows_of[o][a]) is not None]
             if blind:
-                extra.append(KeyValue(key="blind_observers", value=",".join(blind)))
+                extra.append(("blind_observers", ",".join(blind)))
             # a vote judges only where every voter could: one silent or non-finite, and it cannot say
             unjudged = next((why for why in (self._why_unjudged(o, stamp, rows_of[o][a], o in silent)
                                              for o in self.decision.observers) if why is not None), None)
@@ -329,33 +324,31 @@ class IsolationNode(GraphNode):
                              latched=self.verdict.latched[a])
             if blind:
                 status.message += f"; {', '.join(blind)} observer{'s' if len(blind) > 1 else ''} cannot judge"
-            if self.calibration_time and learning and status.level == DiagnosticStatus.OK:
+            if self.calibration_time and learning and status.level == OK:
                 # judged against the wheel type's spread until then: only gross faults show (calibration.py),
                 # which is no judgement of the wheel: say so, and count it in the FDI's health
-                status.level = DiagnosticStatus.STALE
+                status.level = STALE
                 status.message = f"cannot judge yet: learning its unit until {self.calibration_time:g} s"
-                status.values.append(KeyValue(key="judged", value="false"))
+                status.values.append(("judged", "false"))
             channel = self.channels[self.decision.lead]
             beyond = stamp_seconds(stamp) > channel.curves.horizon   # this stamp's, not the channel's latest
-            if beyond and status.level == DiagnosticStatus.OK:   # never OK while it cannot judge
-                status.level = DiagnosticStatus.STALE
-                status.values.append(KeyValue(key="judged", value="false"))
+            if beyond and status.level == OK:   # never OK while it cannot judge
+                status.level = STALE
+                status.values.append(("judged", "false"))
                 status.message = (f"cannot judge: the threshold curves end at {channel.curves.horizon:g} s "
                                   f"({self.fdi.threshold_path(self.decision.lead)})")
-            msg.status.append(status)
-        self.pub_diag.publish(msg)
-        self.pub_ident.publish(ident)
+            statuses.append(status)
+        self.pub_diag.publish(diagnostic_array_cdr(stamp, statuses))
+        self.pub_ident.publish(diagnostic_array_cdr(stamp, ident))
 
     def _publish_observer(self, observer, stamp, rows, note=None, silent=False):
         """Thresholds, alarms and the per-wheel status of one observer's sample."""
         pubs = self.pubs[observer]
         pubs["threshold"].publish(joint_state_cdr(stamp, self.joints, effort=[rows[a][1] for a in self.names]))
         pubs["alarm"].publish(joint_state_cdr(stamp, self.joints, effort=[float(rows[a][2]) for a in self.names]))
-        status = DiagnosticArray()
-        status.header.stamp = time_msg(stamp)
-        status.status = [_status(f"{observer} observer: wheel {a}", a, *rows[a], note=note,
-                                 unjudged=self._why_unjudged(observer, stamp, rows[a], silent)) for a in self.names]
-        pubs["status"].publish(status)
+        pubs["status"].publish(diagnostic_array_cdr(stamp, [
+            _status(f"{observer} observer: wheel {a}", a, *rows[a], note=note,
+                    unjudged=self._why_unjudged(observer, stamp, rows[a], silent)) for a in self.names]))
 
     def _why_unjudged(self, observer, stamp, row, silent=False):
         """Why an observer's sample of a wheel (its ``row`` of that stamp: the channel has moved on by the
@@ -383,14 +376,10 @@ class IsolationNode(GraphNode):
         last = self.inputs["telemetry"].last_ns
         if last is not None and not self.silent_said and now - self.last_input > timeout and not self.run_ended():
             self.silent_said = True
-            msg = DiagnosticArray()
-            msg.header.stamp = time_msg(last)
-            for a in self.names:
-                msg.status.append(DiagnosticStatus(
-                    level=bytes([STALE]), name=f"{T.VERDICT_STATUS} {a} ({self.decision.phrase})",
-                    hardware_id=f"reaction_wheel_{a}",
-                    message=f"cannot judge: no input for {timeout:g} s after {last * 1e-9:g} s"))
-            self.pub_diag.publish(msg)
+            self.pub_diag.publish(diagnostic_array_cdr(last, [
+                Status(STALE, f"{T.VERDICT_STATUS} {a} ({self.decision.phrase})",
+                       f"cannot judge: no input for {timeout:g} s after {last * 1e-9:g} s", f"reaction_wheel_{a}")
+                for a in self.names]))
 
     def poll(self):
         self._watch_inputs()

@@ -155,6 +155,75 @@ def joint_state_cdr(stamp_ns_: int, names: tuple, position=(), velocity=(), effo
     return b"".join(parts)
 
 
+class Status:
+    """One diagnostic_msgs/DiagnosticStatus as plain data, for :func:`diagnostic_array_cdr`: what a node builds
+    on every FDI period without a message object (rclpy's field checks and conversion cost more than the rest
+    of the isolation node's period).
+
+    Attributes
+    ----------
+    level : int
+        OK 0, WARN 1, ERROR 2, STALE 3.
+    name, message, hardware_id : str
+        As in DiagnosticStatus.
+    values : list of (str, str)
+        The key-value pairs, in order.
+    """
+
+    __slots__ = ("level", "name", "message", "hardware_id", "values")
+
+    def __init__(self, level: int = 0, name: str = "", message: str = "", hardware_id: str = "", values=None):
+        self.level, self.name, self.message, self.hardware_id = int(level), name, message, hardware_id
+        self.values = [] if values is None else list(values)
+
+
+def diagnostic_array_cdr(stamp_ns_: int, statuses, frame_id: str = "") -> bytes:
+    """diagnostic_msgs/DiagnosticArray serialised (plain CDR, little endian) without a message object; decoded
+    equal to what rclpy would send (test_convert; the padding bytes are zero where rclpy leaves them unset).
+
+    Parameters
+    ----------
+    stamp_ns_ : int
+        Header stamp [ns].
+    statuses : sequence of Status
+        The array's statuses, in order.
+    frame_id : str
+        Header frame_id.
+
+    Returns
+    -------
+    bytes
+        The message's CDR bytes, encapsulation header included.
+    """
+    sec, nsec = divmod(int(stamp_ns_), 1_000_000_000)
+    parts = [_CDR_LE, struct.pack("<iI", sec, nsec)]
+    out, offset = _cdr_string(frame_id, 8)
+    parts.append(out)
+
+    def count(n):   # a sequence's uint32 length, 4-aligned
+        nonlocal offset
+        pad = -offset % 4
+        parts.append(b"\x00" * pad + struct.pack("<I", n))
+        offset += pad + 4
+
+    def text(value):
+        nonlocal offset
+        out, offset = _cdr_string(value, offset)
+        parts.append(out)
+    count(len(statuses))
+    for s in statuses:
+        parts.append(bytes((s.level,)))   # an octet: no alignment
+        offset += 1
+        text(s.name)
+        text(s.message)
+        text(s.hardware_id)
+        count(len(s.values))
+        for key, value in s.values:
+            text(key)
+            text(value)
+    return b"".join(parts)
+
+
 def read_joint_state_cdr(raw: bytes):
     """(stamp_ns, position, velocity, effort) of a serialised sensor_msgs/JointState, either byte
     order; the arrays are np.ndarray (empty where the message leaves them out).

@@ -39,7 +39,8 @@ def _least(fits: dict) -> float:
 
 
 def _finite(fits: dict) -> bool:
-    return all(np.all(np.isfinite(f)) for f in fits.values())
+    # RSS are >= 0, so a sum is finite exactly where every term is (one pass, no temporary)
+    return all(np.isfinite(f.sum()) for f in fits.values())
 
 
 def held_to_reports(fits: dict, sums: ProfileSums, reported: dict, noise_variance: float) -> dict:
@@ -111,19 +112,19 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
         fits = held_to_reports(fits, sums, reported, s2)
     # the first family (KINDS order) at the least misfit: every family's grid[0] is the healthy wheel, and their
     # closed forms and sums may leave a tie there a few rounding errors apart
-    least = min(float(f.min()) for f in fits.values())
-    best = next(k for k in KINDS if fits[k].min() <= least + 1e-12 * abs(least))
-    if not np.isfinite(fits[best].min()):   # reports no family can meet (a bus below the grid's end)
+    mins = {k: float(fits[k].min()) for k in KINDS}
+    least = min(mins.values())
+    best = next(k for k in KINDS if mins[k] <= least + 1e-12 * abs(least))
+    if not np.isfinite(mins[best]):   # reports no family can meet (a bus below the grid's end)
         return Identification(UNKNOWN, samples=n)
     rss = fits[best]
     ramp, point = np.unravel_index(int(rss.argmin()), rss.shape)
     rss_min = float(rss[ramp, point])
     explained = 1.0 - rss_min / nominal if nominal > 0 else 0.0
-    margin = min((fits[k].min() - rss_min) / s2 for k in KINDS if k != best)
+    margin = min((mins[k] - rss_min) / s2 for k in KINDS if k != best)
     now, step = sums.sizes_now(best), abs(GRIDS[best][1] - GRIDS[best][0])
     low, high = _interval(now, rss, s2, step)
-    out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best,
-                         {k: float(fits[k].min()) for k in KINDS})
+    out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best, mins)
     out.healthy = point == 0
     _describe_fit(out, sums, ramp, rss, known[best], s2, step)
     # a current loss and a bus drop differ only in how the motor torque varies with the command and speed: under
@@ -132,7 +133,7 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     if explained < EXPLAINED or margin < DECISIVE or out.healthy or few_driven:
         out.kind = UNKNOWN
         # the fault is in the drive, which of its two the samples cannot say: said so, not hidden in 'unknown'
-        drive_only = best in DRIVE and all((fits[k].min() - rss_min) / s2 >= DECISIVE for k in KINDS if k not in DRIVE)
+        drive_only = best in DRIVE and all((mins[k] - rss_min) / s2 >= DECISIVE for k in KINDS if k not in DRIVE)
         if explained >= EXPLAINED and not out.healthy and drive_only:
             out.between = DRIVE
     return out

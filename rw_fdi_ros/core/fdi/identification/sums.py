@@ -24,6 +24,28 @@ def _held_ripple_misfit(sq, c, g):
     return np.maximum(sq - 2.0 * kappa * c + kappa * kappa * g, 0.0)
 
 
+def _quadratic(c0: float, c1, c2, delta):
+    """max(c0 + Delta (c1_h + Delta c2_h), 0) for every ramp h and grid offset Delta, (H, G), in place."""
+    out = c2[:, None] * delta[None]
+    out += c1[:, None]
+    out *= delta[None]
+    out += c0
+    return np.maximum(out, 0.0, out=out)
+
+
+def _quadratic_form(c0, c1, inverse):
+    """c^T M c for c = (c0, c1) elementwise and the symmetric 2 x 2 M = ``inverse``."""
+    out = c0 * c0
+    out *= inverse[0, 0]
+    term = c0 * c1
+    term *= 2.0 * inverse[0, 1]
+    out += term
+    np.multiply(c1, c1, out=term)
+    term *= inverse[1, 1]
+    out += term
+    return out
+
+
 class ProfileSums:
     """Running sums that give RSS(theta) of every grid point of every ramp with the ripple (and the unit's
     uncertainty) projected out:
@@ -70,7 +92,7 @@ class ProfileSums:
         self.gram = np.zeros((2, 2)) if unit is None else np.zeros((g, width, width))
         # each ramp's sums less the step's, longest ramp first: nothing once the ramp is over
         self.ramp_sq = np.zeros((_H, g))
-        self.ramp_cross = np.zeros((_H, g, width))
+        self.ramp_cross = np.zeros((width, _H, g))   # a column's ramps and points contiguous (decide reads them)
         self.n = 0
         self.start = None     # [s] the first sample's time
         self.elapsed = 0.0    # [s] from the first sample to the last
@@ -162,7 +184,9 @@ class ProfileSums:
                                          fraction=phi[_LONGEST_FIRST[:growing]], viscous_scale=self.viscous_scale)
             e, x = e[first:], x[first:] if len(x) > 1 else x
             self.ramp_sq[:growing, first:] += e_ramp * e_ramp - e * e
-            self.ramp_cross[:growing, first:] += (e_ramp - e)[:, :, None] * x[None]
+            moved = e_ramp - e
+            for j in range(x.shape[1]):
+                self.ramp_cross[j, :growing, first:] += moved * x[:, j]
         self.n += 1
 
     def _add_linear(self, r, tm, tf, w, ripple, free, phi):
@@ -224,16 +248,17 @@ class ProfileSums:
         """One linear family's RSS (H, G) in closed form (the class docstring)."""
         delta = GRIDS[kind] - GRIDS[kind][0]
         u, v = (self.u, self.v[i]) if shape is None else (shape @ self.u, self.v[i] @ shape.T)
+        if penalty is None and not ripple:
+            return _quadratic(self.syy, 2.0 * self.syz[i], self.szz[i], delta)
         sq = self.syy + 2.0 * delta[None] * self.syz[i][:, None] + delta[None] ** 2 * self.szz[i][:, None]
         if penalty is None:
-            if not ripple:
-                return np.maximum(sq, 0.0)
             if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
                 return _held_ripple_misfit(sq, u[0] + delta[None] * v[:, 0][:, None], float(gram[0, 0]))
             inverse = np.linalg.inv(gram[:nr, :nr])
             ur, vr = u[:nr], v[:, :nr]
             a0, a1, a2 = ur @ inverse @ ur, vr @ inverse @ ur, np.einsum("hi,ij,hj->h", vr, inverse, vr)
-            return np.maximum(sq - (a0 + 2.0 * delta[None] * a1[:, None] + delta[None] ** 2 * a2[:, None]), 0.0)
+            # one quadratic in Delta per ramp, its coefficients first: (S_yy - a0) + Delta (2 b + Delta c)
+            return _quadratic(self.syy - a0, 2.0 * (self.syz[i] - a1), self.szz[i] - a2, delta)
         keep = slice(0, gram.shape[0]) if ripple else slice(nr, gram.shape[0])
         d = np.zeros(gram.shape[0])
         d[nr:] = LINEAR_DIRECTIONS[kind]
@@ -254,13 +279,16 @@ class ProfileSums:
             if not ripple:
                 return np.maximum(sq, 0.0)[_RAMP_ORDER]
             # the ripple's columns alone: they are the first two of every point's, and their Gram is the same
-            c = self.cross[None, :, :2] + self.ramp_cross[:, :, :2]      # (ramps, grid, 2)
+            c0 = self.ramp_cross[0] + self.cross[None, :, 0]      # (ramps, grid): the two ripple columns
+            c1 = self.ramp_cross[1] + self.cross[None, :, 1]
             ripple_gram = self.gram if self.unit is None else self.gram[0, :2, :2]
             if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
                 w = self.ripple_prior
-                return _held_ripple_misfit(sq, c @ w, float(w @ ripple_gram @ w))[_RAMP_ORDER]
-            return np.maximum(sq - np.einsum("hij,hij->hi", c @ np.linalg.inv(ripple_gram), c), 0.0)[_RAMP_ORDER]
-        cross = self.cross[None] + self.ramp_cross          # (ramps, grid, width)
+                return _held_ripple_misfit(sq, w[0] * c0 + w[1] * c1, float(w @ ripple_gram @ w))[_RAMP_ORDER]
+            sq -= _quadratic_form(c0, c1, np.linalg.inv(ripple_gram))
+            return np.maximum(sq, 0.0, out=sq)[_RAMP_ORDER]
+        cross = np.empty(self.ramp_cross.shape[1:] + self.ramp_cross.shape[:1])   # (ramps, grid, width), C order:
+        np.add(np.moveaxis(self.ramp_cross, 0, -1), self.cross[None], out=cross)   # the batched products read rows
         gram = self.gram
         if shape is not None:
             cross, gram = cross @ shape.T, shape @ gram @ shape.T
