@@ -264,6 +264,61 @@ def test_the_identifier_learns_the_unit_before_the_alarm():
     assert out is not None and ident.sums["x"] is None and ident.calibrations["x"].frozen
 
 
+@pytest.mark.parametrize("calibrated", [False, True])
+def test_a_bounded_identification_answers_as_the_unbounded_one_a_few_samples_later(calibrated, monkeypatch):
+    """With ``work`` (the isolation node's budget) no sample takes more than that many steps (sums added, pieces of a
+    decision), every answer is the unbounded identifier's of the same samples to the digit, only later, and the
+    lazy identifier (the core loop's) keeps the same schedule: asked at any sample, it answers as the live one."""
+    from rw_fdi_ros.core.fdi.identification import identifier as module
+    healthy = wheel_rows("current_limiter", 1.0, n=120, seed=1, unit=UNIT)
+    faulty = wheel_rows("temperature", 140.0, n=70, seed=2, unit=UNIT)
+    rows = [*zip(*healthy), *zip(*faulty)]
+    steps = []
+
+    def counted(sums, reported=None):   # every next() the live identifier takes of a decision
+        inner = idf.decide_steps(sums, reported)
+        while True:
+            steps.append(1)
+            try:
+                next(inner)
+            except StopIteration as end:
+                return end.value
+            yield
+    monkeypatch.setattr(module, "decide_steps", counted)
+    adds = []
+    real_add = idf.ProfileSums.add
+    monkeypatch.setattr(idf.ProfileSums, "add", lambda self, *a: (adds.append(1), real_add(self, *a))[1])
+    cal = 100 if calibrated else 0
+    free, live, lazy = (idf.FaultIdentifier(("x",), cal, lazy=lazy, work=work)
+                        for lazy, work in ((False, None), (False, 3), (True, 3)))
+    answers, lags = {}, []
+    for k, row in enumerate(rows):
+        alarmed = {"x": k >= 125}
+        now = free.update(sample(row), alarmed)["x"]
+        if now is not None:
+            answers[now.samples] = now
+        del steps[:], adds[:]
+        got = live.update(sample(row), alarmed)["x"]
+        assert len(steps) + len(adds) <= 3, k
+        lazy.update(sample(row), alarmed)
+        if got is None:
+            continue
+        if got.samples:   # decided: the unbounded answer of that many samples
+            want = answers[got.samples]
+            assert (got.kind, got.size, got.low, got.high, got.unit) == (want.kind, want.size, want.low, want.high,
+                                                                         want.unit), k
+            lags.append(now.samples - got.samples)
+        if k % 5 == 0 or k == len(rows) - 1:
+            asked = lazy.identifications()["x"]
+            assert (asked.kind, asked.size, asked.low, asked.high, asked.samples) == (
+                got.kind, got.size, got.low, got.high, got.samples), k
+    assert got.kind == now.kind == "temperature"
+    # later, by at most a decision's steps at ``work`` a sample twice (the one under way and the next) and the samples
+    # that queued meanwhile, added at work - 1 a sample beside the new one
+    took = idf.decision_steps(live.sums["x"]) / 3
+    assert 0 < max(lags) <= 2 * took + took / 2 + 6, lags
+
+
 @pytest.mark.parametrize("found, text", [
     (idf.Identification("current_limiter", 0.62, 0.58, 0.66), "current loss, limiter 0.62 [0.58, 0.66]"),
     (idf.Identification("temperature", 173.0, 171.0, 175.0), "temperature 173 C [171, 175]"),

@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .calibration import regressors
-from .identification import FaultIdentifier
+from .identification import IDENTIFICATION_WORK, FaultIdentifier
 from .verdict import (WHEEL_SPEED_ENVELOPE, DecisionRule, LatchedVerdict, ObserverChannel, decision_of,
                         in_envelope, speed_envelope)
 from .observer_plugin import PluginRun
@@ -109,6 +109,10 @@ class Isolation:
         Whether stage 5 runs.
     lazy : bool
         The identification answers only when asked (:meth:`identified`), not every sample.
+
+    The identification takes IDENTIFICATION_WORK steps a sample (FaultIdentifier's ``work``), in the isolation node,
+    the core loop and the offline judge alike: the node's time per FDI period is bounded, and all three answer the
+    same.
     """
 
     def __init__(self, names, curves: dict, decision: DecisionRule | None = None, persistence: int | None = None,
@@ -122,8 +126,8 @@ class Isolation:
             raise ValueError(f"the decision {self.decision.label} needs the bands of {', '.join(sorted(missing))}")
         self.channels = {slot: ObserverChannel(slot, c, persistence, self.names) for slot, c in curves.items()}
         self.verdict = Verdict(self.names, self.decision, latch, speed_envelope(wheel))
-        self.identifier = (FaultIdentifier(self.names, calibration_samples, lazy=lazy, params=wheel)
-                           if identification else None)
+        self.identifier = (FaultIdentifier(self.names, calibration_samples, lazy=lazy, params=wheel,
+                                           work=IDENTIFICATION_WORK) if identification else None)
 
     def observe(self, slot: str, stamp_ns: int, residual, bound=None) -> dict:
         """Stage 2 for one observer's sample.

@@ -42,17 +42,18 @@ The package, one idea a module:
 * ramps: the ramps a fault may grow by (RAMP_SHARE, RAMP_LENGTH, ramp_fractions);
 * sums: ProfileSums, a wheel's running sums giving RSS of every grid point and ramp;
 * result: the Identification type, its message and /diagnostics values, and their decoder (from_values);
-* decision: decide (kind, size, interval) and identify (whole arrays);
+* decision: decide (kind, size, interval; decide_steps: the same a piece at a time) and identify (whole
+  arrays);
 * onset: onset_index, where a fault's effect begins;
 * identifier: FaultIdentifier, the wheels sample by sample;
 * identifiability: whether the physics tells a current loss from a bus drop on a wheel's driven samples.
 """
 from .decision import (CHI2_95, CORRELATION, DECISIVE, EXPLAINED, FREE_UNIT_SHARE, MIN_DRIVEN, decide,
-                       held_to_reports, identify)
+                       decide_steps, decision_steps, held_to_reports, identify)
 from .families import (BUS_VOLTAGE_GRID, CURRENT_LIMITER_GRID, DRIVE, GRIDS, KINDS, REPORTED_TOLERANCE, SIGMA_FLOOR,
                        TEMPERATURE_GRID, UNITS, UNKNOWN, bus_motor_torque, bus_voltage_grid, family_predictions,
                        unit_sensitivities)
-from .identifier import FaultIdentifier
+from .identifier import IDENTIFICATION_WORK, FaultIdentifier
 from .onset import ONSET_HEALTHY, onset_index
 from .ramps import (RAMP_LENGTH, RAMP_NOTED_S, RAMP_SECONDS, RAMP_SHARE, RAMP_START_SHARES, SLOW_SECONDS,
                     SLOW_START_SHARES, ramp_fractions)
@@ -60,10 +61,12 @@ from .result import FORMER_NAMES, MIN_SAMPLES, NONE, SPOKEN, Identification, kin
 from .sums import KAPPA_MAX, ProfileSums
 
 __all__ = ["BUS_VOLTAGE_GRID", "CHI2_95", "CORRELATION", "CURRENT_LIMITER_GRID", "DECISIVE", "DRIVE", "EXPLAINED",
-           "FORMER_NAMES", "FREE_UNIT_SHARE", "FaultIdentifier", "GRIDS", "Identification", "KAPPA_MAX", "KINDS",
+           "FORMER_NAMES", "FREE_UNIT_SHARE", "FaultIdentifier", "GRIDS", "IDENTIFICATION_WORK",
+           "Identification", "KAPPA_MAX", "KINDS",
            "MIN_DRIVEN", "MIN_SAMPLES", "NONE", "ONSET_HEALTHY", "ProfileSums", "RAMP_LENGTH", "RAMP_NOTED_S",
            "REPORTED_TOLERANCE",
            "RAMP_SECONDS", "RAMP_SHARE", "RAMP_START_SHARES", "SIGMA_FLOOR", "SLOW_SECONDS", "SLOW_START_SHARES",
            "SPOKEN", "TEMPERATURE_GRID", "UNITS", "UNKNOWN", "bus_motor_torque", "bus_voltage_grid", "decide",
+           "decide_steps", "decision_steps",
            "family_predictions", "held_to_reports", "identify", "kind_name", "onset_index", "ramp_fractions",
            "unit_sensitivities"]

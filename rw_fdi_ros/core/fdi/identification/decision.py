@@ -9,7 +9,9 @@ from ..calibration import UnitShares
 from .families import DRIVE, GRIDS, KINDS, REPORTED_TOLERANCE, SIGMA_FLOOR, UNKNOWN
 from .ramps import RAMP_LENGTH, RAMP_SHARE, _NEIGHBOURS, ramp_fractions
 from .result import MIN_SAMPLES, Identification
-from .sums import ProfileSums
+from .sums import RSS_PIECES, ProfileSums, finish
+
+DECISION_PIECES = 5   # steps of the decision after its misfits (decide_steps): checks, least, sizes, interval
 
 EXPLAINED = 0.9        # share of the nominal misfit a family must explain to be named
 DECISIVE = 25.0        # likelihood-ratio margin over every other family (in s^2)
@@ -22,15 +24,17 @@ MIN_DRIVEN = 2
 FREE_UNIT_SHARE = 1e-3   # of the floor^2: a ridge only, the unit's shares all but free (noise estimate)
 
 
-def _noise(sums: ProfileSums, known) -> tuple:
+def _noise(sums: ProfileSums, known):
     """(s^2, every family's RSS) of the sums: the noise variance of the best fit (at least the floor's), and
-    the RSS ``known`` with the unit at its mean, or with a calibrated unit held to what the calibration knows."""
+    the RSS ``known`` with the unit at its mean, or with a calibrated unit held to what the calibration knows
+    (a generator of ProfileSums.rss_steps' pieces)."""
     floor2 = sums.floor ** 2
     if sums.unit is None:
         return max(_least(known) / max(sums.n - 3, 1), floor2), known
     # the noise from the fit where the unit is free (a unit taken at a wrong mean is no noise)
-    s2 = max(_least(sums.rss(FREE_UNIT_SHARE * floor2)) / max(sums.n - 7, 1), floor2)
-    return s2, sums.rss(CORRELATION * s2)
+    free = yield from sums.rss_steps(FREE_UNIT_SHARE * floor2)
+    s2 = max(_least(free) / max(sums.n - 7, 1), floor2)
+    return s2, (yield from sums.rss_steps(CORRELATION * s2))
 
 
 def _least(fits: dict) -> float:
@@ -98,14 +102,71 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     Identification
         Kind, size (in the kind's unit: share, [C] or [V]) and interval; ``unknown`` under MIN_SAMPLES.
     """
+    return finish(_decide(sums, reported))
+
+
+def decision_steps(sums: ProfileSums) -> int:
+    """The steps :func:`decide_steps` takes on ``sums``, whatever its answer: a misfit's RSS_PIECES at most, one
+    misfit on the datasheet wheel and three on a unit (:func:`_noise`), and the decision's own DECISION_PIECES.
+
+    Parameters
+    ----------
+    sums : ProfileSums
+        The wheel's sums.
+
+    Returns
+    -------
+    int
+        The number of ``next`` calls the generator takes to return.
+    """
+    return (1 if sums.unit is None else 3) * RSS_PIECES + DECISION_PIECES
+
+
+def decide_steps(sums: ProfileSums, reported: dict | None = None):
+    """:func:`decide` one piece at a time, for a caller whose time is bounded: a generator that takes exactly
+    :func:`decision_steps` ``next`` calls, whatever the answer (an early 'unknown' waits out the rest, so the
+    answer's timing depends on the counts alone), and returns the Identification. ``sums`` must not change
+    until it has returned.
+
+    Parameters
+    ----------
+    sums : ProfileSums
+        The wheel's sums since the fault's onset.
+    reported : dict of str to float, optional
+        What the wheel reports of a family's parameter (:func:`held_to_reports`).
+
+    Returns
+    -------
+    generator
+        Yields None; returns the Identification.
+    """
+    taken, steps = 1, _decide(sums, reported)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as end:
+            found = end.value
+            break
+        taken += 1
+        yield
+    if taken > decision_steps(sums):
+        raise RuntimeError("decide_steps took more steps than decision_steps counts")
+    for _ in range(decision_steps(sums) - taken):
+        yield
+    return found
+
+
+def _decide(sums: ProfileSums, reported: dict | None):
+    """decide's body, a generator of the misfits' pieces (ProfileSums.rss_steps)."""
     n = sums.n
     if n < MIN_SAMPLES:
         return Identification(UNKNOWN, samples=n)
-    known = sums.rss()                  # the unit at its mean (the datasheet wheel without a unit)
+    known = yield from sums.rss_steps()      # the unit at its mean (the datasheet wheel without a unit)
     if not _finite(known):
         return Identification(UNKNOWN, samples=n)
-    s2, fits = _noise(sums, known)
-    if not _finite(fits):
+    yield
+    s2, fits = yield from _noise(sums, known)
+    if fits is not known and not _finite(fits):
         return Identification(UNKNOWN, samples=n)
     nominal = fits["current_limiter"][0, 0]          # grid[0] of every family is the healthy wheel, whatever the ramp
     if reported:
@@ -113,6 +174,7 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     # the first family (KINDS order) at the least misfit: every family's grid[0] is the healthy wheel, and their
     # closed forms and sums may leave a tie there a few rounding errors apart
     mins = {k: float(fits[k].min()) for k in KINDS}
+    yield
     least = min(mins.values())
     best = next(k for k in KINDS if mins[k] <= least + 1e-12 * abs(least))
     if not np.isfinite(mins[best]):   # reports no family can meet (a bus below the grid's end)
@@ -123,7 +185,9 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
     explained = 1.0 - rss_min / nominal if nominal > 0 else 0.0
     margin = min((mins[k] - rss_min) / s2 for k in KINDS if k != best)
     now, step = sums.sizes_now(best), abs(GRIDS[best][1] - GRIDS[best][0])
+    yield
     low, high = _interval(now, rss, s2, step)
+    yield
     out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best, mins)
     out.healthy = point == 0
     _describe_fit(out, sums, ramp, rss, known[best], s2, step)

@@ -9,11 +9,17 @@ import numpy as np
 
 from ...physics import wheel as wm
 from ..calibration import PHYSICAL, UnitCalibration, regressors
-from .decision import decide
+from .decision import decide, decide_steps, decision_steps
 from .families import SIGMA_FLOOR
 from .onset import onset_index
 from .result import Identification
 from .sums import ProfileSums
+
+
+# steps of a wheel's identification per FDI sample where time is bounded (the isolation node, and the core loop and
+# offline judge that answer as it does): a sample added and two pieces of a decision, about 1 ms of this machine's
+# at the record's sitting; a decision then comes every 10-15 samples on the datasheet wheel (docs/benchmarks.md)
+IDENTIFICATION_WORK = 3
 
 
 class FaultIdentifier:
@@ -30,11 +36,19 @@ class FaultIdentifier:
 
     With ``calibration_samples`` each wheel's unit is learnt from the first samples of the run as the
     model observer learns it (the same calibration.UnitCalibration on the nominal model's error), and
-    a wheel's fault is identified on the unit known at its first alarm."""
+    a wheel's fault is identified on the unit known at its first alarm.
+
+    With ``work`` the identification of a wheel takes at most that many steps a sample (the isolation node's
+    budget per FDI period): adding one sample to its sums, or one piece of a decision (decision.decide_steps). A
+    wheel's samples queue, a decision runs on the sums as they were when it began (the samples that come
+    meanwhile wait) and its answer stands until the next one is done: the answer comes some samples later, and
+    no period pays for a whole decision or for the samples kept before the alarm at once. The schedule depends
+    on the counts alone, so the lazy identifier (the core loop's) keeps it too, without deciding, and answers
+    what the last decision done would have. None: every sample is added and decided at once."""
 
     BACKLOG = 60   # FDI samples: the 40-sample window and the persistence the alarm lags by, and a margin
     def __init__(self, wheels=("x", "y", "z"), calibration_samples: int = 0, lazy: bool = False,
-                 params: wm.WheelParams = wm.WheelParams()):
+                 params: wm.WheelParams = wm.WheelParams(), work: int | None = None):
         self.wheels = tuple(wheels)
         self.params = params   # the wheel type: its viscous law, its calibration regressors, its rest
         self.floor = SIGMA_FLOOR * wm.torque_scale(params)   # its torques' noise floor
@@ -42,6 +56,7 @@ class FaultIdentifier:
         # lazy: decide only when asked (identifications()), for a reader that wants the last answer of a run
         # (the core loop's onboard verdict): the same answers, without the grid fits of every sample between
         self.lazy = bool(lazy)
+        self.work = None if work is None else max(int(work), 1)
         self.reset()
 
     def reset(self):
@@ -58,6 +73,12 @@ class FaultIdentifier:
         self.sums = {a: None for a in self.wheels}     # wheel -> ProfileSums once alarmed
         self.latest = {a: None for a in self.wheels}
         self.stale = set()   # lazy: wheels whose sums moved since their latest answer
+        self.queue = {a: deque() for a in self.wheels}   # (row, time) not in the sums yet
+        self.moved = set()   # wheels whose sums moved since their last decision began
+        # wheel -> the decision under way: [steps (the generator, or the lazy's count left), its flags, its n]
+        self.job = {a: None for a in self.wheels}
+        self.held = {a: deque() for a in self.wheels}   # lazy: rows the schedule added, not yet in the sums
+        self.pending = {a: None for a in self.wheels}   # lazy: the flags of the last decision done, not yet made
         self.unpowered = set()   # wheels whose driver went off (given up) after their alarm
         self.reported = {a: {} for a in self.wheels}   # kind -> the wheel's last reported bus voltage, temperature
         # (row, model error, calibration regressors, time) of the samples before an alarm
@@ -103,6 +124,7 @@ class FaultIdentifier:
                     continue
                 self.sums[a] = ProfileSums(None if calibration is None else calibration.unit(),
                                            self.params.viscous_scale, self.floor)
+                self.latest[a] = Identification("unknown", samples=0)   # identifying
                 self._add_since_onset(a, list(self.backlog[a]) + [(row, error, x, time)], calibration)
                 self.backlog[a].clear()
             tcv = getattr(sample, "tcv", None)
@@ -114,14 +136,14 @@ class FaultIdentifier:
                 if abs(float(sample.wheel_speed[i])) < 2.0 * self.params.coulomb_smoothing_speed:   # at rest
                     if self.latest[a] is not None and not self.latest[a].unpowered:
                         self.latest[a] = replace(self.latest[a], unpowered=True)
+                    if self.pending[a] is not None:
+                        self.pending[a] = (self.pending[a][0], True)
+                    self._work(a)
                     continue
             else:
                 self.unpowered.discard(a)   # driven (again)
-            self.sums[a].add(row, time)
-            if self.lazy:
-                self.stale.add(a)
-            else:
-                self.latest[a] = self._decide(a)
+            self.queue[a].append((row, time))
+            self._work(a)
         return dict(self.latest)
 
     def identifications(self) -> dict:
@@ -139,8 +161,69 @@ class FaultIdentifier:
     def _resolve(self, a):
         if a in self.stale:
             self.stale.discard(a)
-            self.latest[a] = self._decide(a)
+            reported, unpowered = self.pending[a]
+            self.pending[a] = None
+            self.latest[a] = self._answer(decide(self.sums[a], reported), unpowered)
 
+    def _work(self, a):
+        """The wheel's identification of this sample: its queued samples added and decided at once, or with
+        ``work`` that many steps (the class docstring)."""
+        if self.work is None:
+            while self.queue[a]:
+                self._add(a, *self.queue[a].popleft())
+            if a in self.moved:
+                self.moved.discard(a)
+                flags = self._flags(a)
+                self._done(a, flags, None if self.lazy else decide(self.sums[a], flags[0]))
+            return
+        for _ in range(self.work):
+            job = self.job[a]
+            if job is None and self.queue[a]:
+                self._add(a, *self.queue[a].popleft())
+                continue
+            if job is None:
+                if a not in self.moved:
+                    return
+                self.moved.discard(a)   # a decision on the sums as they are now
+                sums, flags = self.sums[a], self._flags(a)
+                job = self.job[a] = [decision_steps(sums) if self.lazy else decide_steps(sums, flags[0]), flags,
+                                     sums.n + len(self.held[a])]
+            if self.lazy:
+                job[0] -= 1
+                done = job[0] == 0
+                found = None
+            else:
+                try:
+                    next(job[0])
+                    done = False
+                except StopIteration as end:
+                    done, found = True, end.value
+            if done:
+                self.job[a] = None
+                self._done(a, job[1], found, job[2])
+
+    def _add(self, a, row, time):
+        """One queued sample into the wheel's sums (the lazy's held back until a decision done needs it)."""
+        if self.lazy and self.work is not None:
+            self.held[a].append((row, time))
+        else:
+            self.sums[a].add(row, time)
+        self.moved.add(a)
+
+    def _flags(self, a) -> tuple:
+        """What a decision beginning now takes beside the sums: the wheel's reports, whether its driver is off."""
+        return dict(self.reported[a]), a in self.unpowered
+
+    def _done(self, a, flags, found, n=None):
+        """A decision done: its answer the wheel's latest (the lazy's made when asked, on the sums of its ``n``
+        samples)."""
+        if not self.lazy:
+            self.latest[a] = self._answer(found, flags[1])
+            return
+        while self.held[a] and self.sums[a].n < n:
+            self.sums[a].add(*self.held[a].popleft())
+        self.pending[a] = flags
+        self.stale.add(a)
     def _note_reports(self, a, sample, i):
         """The wheel's housekeeping at this sample (FdiSample.bus_voltage, .temperature), in its family's unit."""
         scale = {"bus_voltage": wm.NOMINAL.bus_voltage / self.params.bus_voltage, "temperature": 1.0}
@@ -149,15 +232,15 @@ class FaultIdentifier:
             if values is not None and np.isfinite(values[i]):
                 self.reported[a][kind] = float(values[i]) * factor   # the bus family is on the 8-V grid
 
-    def _decide(self, a) -> Identification:
-        found = decide(self.sums[a], self.reported[a])
+    def _answer(self, found: Identification, unpowered: bool) -> Identification:
+        """A decision's Identification in the wheel type's units, said unpowered where its driver was off."""
         bus, thesis_bus = self.params.bus_voltage, wm.NOMINAL.bus_voltage
         if bus != thesis_bus:   # the sums' bus family is on the 8-V grid; this wheel's is it scaled (bus_voltage_grid)
             # a size from the bus family: named, or the best guess of an 'unknown'
             scale = bus / thesis_bus if "bus_voltage" in (found.kind, found.best_guess) else 1.0
             found = replace(found, size=found.size * scale, low=found.low * scale, high=found.high * scale,
                             bus_nominal=bus)
-        return replace(found, unpowered=True) if a in self.unpowered else found
+        return replace(found, unpowered=True) if unpowered else found
 
     def _add_since_onset(self, a, past, calibration):
         """Add the kept samples after the onset (the last of ``past`` is the alarm's own, added after)."""
@@ -169,5 +252,4 @@ class FaultIdentifier:
         errors = [e if mean is None else e - float(z[:PHYSICAL] @ mean) for _, e, z, _ in past]
         onset = onset_index(errors, [r[5] for r, _, _, _ in past], self.floor)
         self.sums[a].set_ripple_prior(errors[:onset], [r[5] for r, _, _, _ in past[:onset]])
-        for earlier, _, _, time in past[onset + 1:-1]:
-            self.sums[a].add(earlier, time)
+        self.queue[a].extend((earlier, time) for earlier, _, _, time in past[onset + 1:-1])

@@ -16,6 +16,20 @@ from .ramps import RAMP_LENGTH, _LENGTH_LONGEST_FIRST, _LONGEST_FIRST, _RAMP_ORD
 KAPPA_MAX = 2.0
 _LINEAR = tuple(LINEAR_SLOPES)
 _H = len(RAMP_LENGTH)
+# the misfits are computed in chunks of ramps, so that a caller whose time is bounded (the isolation node) spreads
+# a decision over its periods (FaultIdentifier's work): RSS_PIECES pieces a misfit of every family
+RAMP_CHUNK = 33
+_CHUNKS = [slice(k, min(k + RAMP_CHUNK, _H)) for k in range(0, _H, RAMP_CHUNK)]
+RSS_PIECES = (len(_CHUNKS) + 1) * len(KINDS)   # at most: each family's chunks, and what its chunks share
+
+
+def finish(steps):
+    """Run a generator of steps (ProfileSums.rss_steps, decision.decide_steps) to its end: what it returns."""
+    while True:
+        try:
+            next(steps)
+        except StopIteration as end:
+            return end.value
 
 
 def _held_ripple_misfit(sq, c, g):
@@ -230,6 +244,12 @@ class ProfileSums:
         dict of str to ndarray, shape (H, G)
             Kind -> RSS [N^2 m^2] per ramp (RAMP_LENGTH order) and grid point of its grid (GRIDS).
         """
+        return finish(self.rss_steps(noise_variance))
+
+    def rss_steps(self, noise_variance: float | None = None):
+        """:meth:`rss` one piece at a time: a generator that yields after each of at most RSS_PIECES pieces (a chunk
+        of RAMP_CHUNK ramps of one family, or what a family's chunks share) and returns what rss returns, for a
+        caller whose time is bounded."""
         width = self.u.size
         shape, nr = self._shape(width)
         gram = self.lin_gram if shape is None else shape @ self.lin_gram @ shape.T
@@ -240,17 +260,32 @@ class ProfileSums:
             penalty[nr:, nr:] = noise_variance * np.linalg.inv(self.unit.covariance + 1e-12 * np.eye(4))
             if nr == 1:   # its driver off: kappa held to its scale by a prior N(0, KAPPA_MAX^2)
                 penalty[0, 0] = noise_variance / KAPPA_MAX**2
-        out = {kind: self._rss_linear(i, kind, shape, nr, gram, ripple, penalty) for i, kind in enumerate(_LINEAR)}
-        out["bus_voltage"] = self._rss_bus(shape, nr, ripple, penalty)
+        out = {}
+        for i, kind in enumerate(_LINEAR):
+            out[kind] = np.empty((_H, len(GRIDS[kind])))
+            prepared = {}
+            if penalty is not None:
+                self._prepare_linear(i, kind, shape, nr, gram, ripple, penalty, prepared)
+                yield
+            for rows in _CHUNKS:
+                out[kind][rows] = self._rss_linear(i, kind, shape, nr, gram, ripple, penalty, rows, prepared)
+                yield
+        stored, prepared = np.empty((_H, len(BUS_VOLTAGE_GRID))), {}
+        for rows in _CHUNKS:
+            stored[rows] = self._rss_bus(shape, nr, ripple, penalty, rows, prepared)
+            yield
+        out["bus_voltage"] = stored[_RAMP_ORDER]
         return {k: out[k] for k in KINDS}
 
-    def _rss_linear(self, i, kind, shape, nr, gram, ripple, penalty):
-        """One linear family's RSS (H, G) in closed form (the class docstring)."""
+    def _rss_linear(self, i, kind, shape, nr, gram, ripple, penalty, rows, prepared):
+        """Rows ``rows`` of one linear family's RSS (H, G) in closed form (the class docstring); ``prepared``:
+        what every chunk of one call shares, filled by the first."""
         delta = GRIDS[kind] - GRIDS[kind][0]
-        u, v = (self.u, self.v[i]) if shape is None else (shape @ self.u, self.v[i] @ shape.T)
+        u, v = (self.u, self.v[i][rows]) if shape is None else (shape @ self.u, self.v[i][rows] @ shape.T)
+        syz, szz = self.syz[i][rows], self.szz[i][rows]
         if penalty is None and not ripple:
-            return _quadratic(self.syy, 2.0 * self.syz[i], self.szz[i], delta)
-        sq = self.syy + 2.0 * delta[None] * self.syz[i][:, None] + delta[None] ** 2 * self.szz[i][:, None]
+            return _quadratic(self.syy, 2.0 * syz, szz, delta)
+        sq = self.syy + 2.0 * delta[None] * syz[:, None] + delta[None] ** 2 * szz[:, None]
         if penalty is None:
             if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
                 return _held_ripple_misfit(sq, u[0] + delta[None] * v[:, 0][:, None], float(gram[0, 0]))
@@ -258,47 +293,57 @@ class ProfileSums:
             ur, vr = u[:nr], v[:, :nr]
             a0, a1, a2 = ur @ inverse @ ur, vr @ inverse @ ur, np.einsum("hi,ij,hj->h", vr, inverse, vr)
             # one quadratic in Delta per ramp, its coefficients first: (S_yy - a0) + Delta (2 b + Delta c)
-            return _quadratic(self.syy - a0, 2.0 * (self.syz[i] - a1), self.szz[i] - a2, delta)
+            return _quadratic(self.syy - a0, 2.0 * (syz - a1), szz - a2, delta)
+        keep = slice(0, gram.shape[0]) if ripple else slice(nr, gram.shape[0])
+        n_of, nu, alpha = prepared["n_of"], prepared["nu"], prepared["alpha"]
+        v = v[:, keep]
+        beta = v @ nu.T                                                      # (h, G)
+        gamma = np.einsum("hi,hj->hij", v, v).reshape(len(v), -1) @ n_of.reshape(len(delta), -1).T
+        return np.maximum(sq - (alpha[None] + 2.0 * delta[None] * beta + delta[None] ** 2 * gamma), 0.0)
+
+    def _prepare_linear(self, i, kind, shape, nr, gram, ripple, penalty, prepared):
+        """What every ramp of a linear family shares with a unit's penalty: N(Delta) and its products with u."""
+        delta = GRIDS[kind] - GRIDS[kind][0]
+        u = self.u if shape is None else shape @ self.u
         keep = slice(0, gram.shape[0]) if ripple else slice(nr, gram.shape[0])
         d = np.zeros(gram.shape[0])
         d[nr:] = LINEAR_DIRECTIONS[kind]
         scale = (1.0 + delta[:, None] * d[None])[:, keep]                  # D(Delta), (G, k)
         matrix = scale[:, :, None] * gram[keep, keep][None] * scale[:, None, :] + penalty[keep, keep][None]
         n_of = scale[:, :, None] * np.linalg.inv(matrix) * scale[:, None, :]   # N(Delta), (G, k, k)
-        u, v = u[keep], v[:, keep]
-        nu = n_of @ u                                                        # (G, k)
-        alpha = nu @ u                                                       # (G,)
-        beta = v @ nu.T                                                      # (H, G)
-        gamma = np.einsum("hi,hj->hij", v, v).reshape(len(v), -1) @ n_of.reshape(len(delta), -1).T
-        return np.maximum(sq - (alpha[None] + 2.0 * delta[None] * beta + delta[None] ** 2 * gamma), 0.0)
+        nu = n_of @ u[keep]                                                  # (G, k)
+        prepared.update(n_of=n_of, nu=nu, alpha=nu @ u[keep])                # alpha (G,)
 
-    def _rss_bus(self, shape, nr, ripple, penalty):
-        """The bus family's RSS (H, G) of its per-point sums (computed in their stored order, longest ramp first)."""
-        sq = self.sq[None] + self.ramp_sq
+    def _rss_bus(self, shape, nr, ripple, penalty, rows, prepared):
+        """Rows ``rows`` (of their stored order, longest ramp first) of the bus family's RSS (H, G) of its per-point
+        sums; ``prepared``: what every chunk of one call shares, filled by the first."""
+        sq = self.sq[None] + self.ramp_sq[rows]
         if penalty is None:
             if not ripple:
-                return np.maximum(sq, 0.0)[_RAMP_ORDER]
+                return np.maximum(sq, 0.0)
             # the ripple's columns alone: they are the first two of every point's, and their Gram is the same
-            c0 = self.ramp_cross[0] + self.cross[None, :, 0]      # (ramps, grid): the two ripple columns
-            c1 = self.ramp_cross[1] + self.cross[None, :, 1]
+            c0 = self.ramp_cross[0, rows] + self.cross[None, :, 0]      # (ramps, grid): the two ripple columns
+            c1 = self.ramp_cross[1, rows] + self.cross[None, :, 1]
             ripple_gram = self.gram if self.unit is None else self.gram[0, :2, :2]
             if nr == 1:   # its driver off: kappa within [0, KAPPA_MAX], not free (set_ripple_prior)
                 w = self.ripple_prior
-                return _held_ripple_misfit(sq, w[0] * c0 + w[1] * c1, float(w @ ripple_gram @ w))[_RAMP_ORDER]
+                return _held_ripple_misfit(sq, w[0] * c0 + w[1] * c1, float(w @ ripple_gram @ w))
             sq -= _quadratic_form(c0, c1, np.linalg.inv(ripple_gram))
-            return np.maximum(sq, 0.0, out=sq)[_RAMP_ORDER]
-        cross = np.empty(self.ramp_cross.shape[1:] + self.ramp_cross.shape[:1])   # (ramps, grid, width), C order:
-        np.add(np.moveaxis(self.ramp_cross, 0, -1), self.cross[None], out=cross)   # the batched products read rows
+            return np.maximum(sq, 0.0, out=sq)
+        part = self.ramp_cross[:, rows]
+        cross = np.empty(part.shape[1:] + part.shape[:1])   # (ramps, grid, width), C order: the products read rows
+        np.add(np.moveaxis(part, 0, -1), self.cross[None], out=cross)
         gram = self.gram
         if shape is not None:
             cross, gram = cross @ shape.T, shape @ gram @ shape.T
         width = gram.shape[-1]
         keep = slice(0, width) if ripple else slice(nr, width)
-        # one (k, k) inverse per grid point serves all its ramps: c^T (G + Pi)^-1 c as batched products,
-        # five times faster than a solve per ramp
-        inverse = np.linalg.inv((gram + penalty)[:, keep, keep])        # (grid, k, k)
+        if not prepared:
+            # one (k, k) inverse per grid point serves all its ramps: c^T (G + Pi)^-1 c as batched products,
+            # five times faster than a solve per ramp
+            prepared["inverse"] = np.linalg.inv((gram + penalty)[:, keep, keep])        # (grid, k, k)
         c = np.moveaxis(cross[..., keep], 0, 1)                          # (grid, ramps, k)
-        return np.maximum(sq - np.einsum("irk,irk->ri", c @ inverse, c), 0.0)[_RAMP_ORDER]
+        return np.maximum(sq - np.einsum("irk,irk->ri", c @ prepared["inverse"], c), 0.0)
 
     def seen(self, kind: str) -> float:
         """[s] from the first sample to the last that shows ``kind``'s parameter: a current loss or a bus drop
