@@ -270,36 +270,37 @@ def test_a_bounded_identification_answers_as_the_unbounded_one_a_few_samples_lat
     decision), every answer is the unbounded identifier's of the same samples to the digit, only later, and the
     lazy identifier (the core loop's) keeps the same schedule: asked at any sample, it answers as the live one."""
     from rw_fdi_ros.core.fdi.identification import identifier as module
+    from rw_fdi_ros.core.fdi.identification.sums import add_pieces
     healthy = wheel_rows("current_limiter", 1.0, n=120, seed=1, unit=UNIT)
     faulty = wheel_rows("temperature", 140.0, n=70, seed=2, unit=UNIT)
     rows = [*zip(*healthy), *zip(*faulty)]
     steps = []
 
-    def counted(sums, reported=None):   # every next() the live identifier takes of a decision
-        inner = idf.decide_steps(sums, reported)
-        while True:
-            steps.append(1)
-            try:
-                next(inner)
-            except StopIteration as end:
-                return end.value
-            yield
-    monkeypatch.setattr(module, "decide_steps", counted)
-    adds = []
-    real_add = idf.ProfileSums.add
-    monkeypatch.setattr(idf.ProfileSums, "add", lambda self, *a: (adds.append(1), real_add(self, *a))[1])
+    def counted(make):   # every next() the live identifier takes of a piece of work
+        def wrapped(*args):
+            inner = make(*args)
+            while True:
+                steps.append(1)
+                try:
+                    next(inner)
+                except StopIteration as end:
+                    return end.value
+                yield
+        return wrapped
+    monkeypatch.setattr(module, "decide_steps", counted(idf.decide_steps))
+    monkeypatch.setattr(idf.ProfileSums, "add_steps", counted(idf.ProfileSums.add_steps))
     cal = 100 if calibrated else 0
     free, live, lazy = (idf.FaultIdentifier(("x",), cal, lazy=lazy, work=work)
-                        for lazy, work in ((False, None), (False, 3), (True, 3)))
+                        for lazy, work in ((False, None), (False, 8), (True, 8)))
     answers, lags = {}, []
     for k, row in enumerate(rows):
         alarmed = {"x": k >= 125}
         now = free.update(sample(row), alarmed)["x"]
         if now is not None:
             answers[now.samples] = now
-        del steps[:], adds[:]
+        del steps[:]
         got = live.update(sample(row), alarmed)["x"]
-        assert len(steps) + len(adds) <= 3, k
+        assert len(steps) <= 8, k
         lazy.update(sample(row), alarmed)
         if got is None:
             continue
@@ -314,9 +315,9 @@ def test_a_bounded_identification_answers_as_the_unbounded_one_a_few_samples_lat
                 got.kind, got.size, got.low, got.high, got.samples), k
     assert got.kind == now.kind == "temperature"
     # later, by at most a decision's steps at ``work`` a sample twice (the one under way and the next) and the samples
-    # that queued meanwhile, added at work - 1 a sample beside the new one
-    took = idf.decision_steps(live.sums["x"]) / 3
-    assert 0 < max(lags) <= 2 * took + took / 2 + 6, lags
+    # that queued meanwhile, added in what is left beside the new one's pieces
+    took, pieces = idf.decision_steps(live.sums["x"]) / 8, add_pieces(0.0)
+    assert 0 < max(lags) <= 2 * took + took * pieces / (8 - pieces) + 6, lags
 
 
 @pytest.mark.parametrize("found, text", [

@@ -9,9 +9,8 @@ from ..calibration import UnitShares
 from .families import DRIVE, GRIDS, KINDS, REPORTED_TOLERANCE, SIGMA_FLOOR, UNKNOWN
 from .ramps import RAMP_LENGTH, RAMP_SHARE, _NEIGHBOURS, ramp_fractions
 from .result import MIN_SAMPLES, Identification
-from .sums import RSS_PIECES, ProfileSums, finish
+from .sums import ProfileSums, finish, rss_pieces
 
-DECISION_PIECES = 5   # steps of the decision after its misfits (decide_steps): checks, least, sizes, interval
 
 EXPLAINED = 0.9        # share of the nominal misfit a family must explain to be named
 DECISIVE = 25.0        # likelihood-ratio margin over every other family (in s^2)
@@ -42,9 +41,13 @@ def _least(fits: dict) -> float:
     return min(float(f.min()) for f in fits.values())
 
 
-def _finite(fits: dict) -> bool:
-    # RSS are >= 0, so a sum is finite exactly where every term is (one pass, no temporary)
-    return all(np.isfinite(f.sum()) for f in fits.values())
+def _finite(fits: dict):
+    """Whether every RSS is finite, a family a piece (a generator: yields after each, returns the answer)."""
+    for f in fits.values():
+        if not np.isfinite(f.sum()):   # RSS are >= 0: a sum is finite where every term is (one pass, no temporary)
+            return False
+        yield
+    return True
 
 
 def held_to_reports(fits: dict, sums: ProfileSums, reported: dict, noise_variance: float) -> dict:
@@ -106,8 +109,9 @@ def decide(sums: ProfileSums, reported: dict | None = None) -> Identification:
 
 
 def decision_steps(sums: ProfileSums) -> int:
-    """The steps :func:`decide_steps` takes on ``sums``, whatever its answer: a misfit's RSS_PIECES at most, one
-    misfit on the datasheet wheel and three on a unit (:func:`_noise`), and the decision's own DECISION_PIECES.
+    """The steps :func:`decide_steps` takes on ``sums``, whatever its answer: the misfits' pieces (one misfit on the
+    datasheet wheel, three on a unit: :func:`_noise`; ProfileSums.rss_steps) and the decision's own (the checks
+    and the least misfit a family a piece, the reports, the best point, its sizes, its interval, the unit's two).
 
     Parameters
     ----------
@@ -119,7 +123,9 @@ def decision_steps(sums: ProfileSums) -> int:
     int
         The number of ``next`` calls the generator takes to return.
     """
-    return (1 if sums.unit is None else 3) * RSS_PIECES + DECISION_PIECES
+    unit = sums.unit is not None
+    misfits = rss_pieces(False) + (2 * rss_pieces(True) if unit else 0)
+    return misfits + len(KINDS) * (3 if unit else 2) + 5 + (2 if unit else 0)
 
 
 def decide_steps(sums: ProfileSums, reported: dict | None = None):
@@ -162,19 +168,21 @@ def _decide(sums: ProfileSums, reported: dict | None):
     if n < MIN_SAMPLES:
         return Identification(UNKNOWN, samples=n)
     known = yield from sums.rss_steps()      # the unit at its mean (the datasheet wheel without a unit)
-    if not _finite(known):
+    if not (yield from _finite(known)):
         return Identification(UNKNOWN, samples=n)
-    yield
     s2, fits = yield from _noise(sums, known)
-    if fits is not known and not _finite(fits):
+    if fits is not known and not (yield from _finite(fits)):
         return Identification(UNKNOWN, samples=n)
     nominal = fits["current_limiter"][0, 0]          # grid[0] of every family is the healthy wheel, whatever the ramp
     if reported:
         fits = held_to_reports(fits, sums, reported, s2)
+    yield
     # the first family (KINDS order) at the least misfit: every family's grid[0] is the healthy wheel, and their
     # closed forms and sums may leave a tie there a few rounding errors apart
-    mins = {k: float(fits[k].min()) for k in KINDS}
-    yield
+    mins = {}
+    for k in KINDS:
+        mins[k] = float(fits[k].min())
+        yield
     least = min(mins.values())
     best = next(k for k in KINDS if mins[k] <= least + 1e-12 * abs(least))
     if not np.isfinite(mins[best]):   # reports no family can meet (a bus below the grid's end)
@@ -184,13 +192,14 @@ def _decide(sums: ProfileSums, reported: dict | None):
     rss_min = float(rss[ramp, point])
     explained = 1.0 - rss_min / nominal if nominal > 0 else 0.0
     margin = min((mins[k] - rss_min) / s2 for k in KINDS if k != best)
+    yield
     now, step = sums.sizes_now(best), abs(GRIDS[best][1] - GRIDS[best][0])
     yield
     low, high = _interval(now, rss, s2, step)
     yield
     out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best, mins)
     out.healthy = point == 0
-    _describe_fit(out, sums, ramp, rss, known[best], s2, step)
+    yield from _describe_fit(out, sums, ramp, rss, known[best], s2, step)
     # a current loss and a bus drop differ only in how the motor torque varies with the command and speed: under
     # MIN_DRIVEN driven samples (a wheel given up at once) that is no evidence, whatever the spin-down's count
     few_driven = best in DRIVE and sums.n_driven < MIN_DRIVEN and "bus_voltage" not in (reported or {})
@@ -206,7 +215,7 @@ def _decide(sums: ProfileSums, reported: dict | None):
 def _describe_fit(out: Identification, sums: ProfileSums, ramp: int, rss, known, s2: float, step: float):
     """The best fit's when, ramp and unit on ``out`` (its kind's RSS ``rss``; ``known``: with the unit at its
     mean): the time of its size, whether it still grows, the ramp's length, and whether the unit's uncertainty
-    rather than the samples limits its interval."""
+    rather than the samples limits its interval (a generator: yields after each of the unit's two intervals)."""
     seen = sums.seen(out.kind)
     out.at_s = float(sums.start + seen)
     out.growing = bool(ramp_fractions(seen)[ramp] < 1.0)
@@ -217,7 +226,9 @@ def _describe_fit(out: Identification, sums: ProfileSums, ramp: int, rss, known,
         # the interval were the unit known exactly, both without the ramps' neighbours (they are the same)
         now = sums.sizes_now(out.kind)
         alone = _interval(now, known, s2, step, neighbours=False)
+        yield
         held = _interval(now, rss, s2, step, neighbours=False)
+        yield
         out.unit_limited = (held[1] - held[0]) > 2.0 * (alone[1] - alone[0])
 
 

@@ -13,13 +13,39 @@ from .decision import decide, decide_steps, decision_steps
 from .families import SIGMA_FLOOR
 from .onset import onset_index
 from .result import Identification
-from .sums import ProfileSums
+from .sums import ProfileSums, add_pieces, sums_buffers
 
 
 # steps of a wheel's identification per FDI sample where time is bounded (the isolation node, and the core loop and
-# offline judge that answer as it does): a sample added and two pieces of a decision, about 1 ms of this machine's
-# at the record's sitting; a decision then comes every 10-15 samples on the datasheet wheel (docs/benchmarks.md)
-IDENTIFICATION_WORK = 3
+# offline judge that answer as it does): pieces of 0.1-0.5 ms of this machine's at the record's sitting, a sample
+# added in at most five of them (docs/benchmarks.md "Flight budget")
+IDENTIFICATION_WORK = 8
+
+
+class _Task:
+    """A piece of a wheel's identification under way: its steps (a generator, or the lazy identifier's count of
+    them) and what is done with what they return once the last is taken."""
+
+    __slots__ = ("steps", "done")
+
+    def __init__(self, steps, done):
+        self.steps, self.done = steps, done
+
+    def step(self) -> bool:
+        """Take one step; True once it was the last (``done`` called)."""
+        if isinstance(self.steps, int):
+            self.steps -= 1
+            if self.steps > 0:
+                return False
+            value = None
+        else:
+            try:
+                next(self.steps)
+                return False
+            except StopIteration as end:
+                value = end.value
+        self.done(value)
+        return True
 
 
 class FaultIdentifier:
@@ -57,6 +83,10 @@ class FaultIdentifier:
         # (the core loop's onboard verdict): the same answers, without the grid fits of every sample between
         self.lazy = bool(lazy)
         self.work = None if work is None else max(int(work), 1)
+        # the live identifier's ramp sums made now, not at an alarm (sums_buffers); the lazy ones of a batch of runs
+        # would hold hundreds of MB for wheels that are never alarmed
+        self.buffers = None if self.lazy else {a: sums_buffers(self.calibration_samples > 0) for a in self.wheels}
+        self.sums = {}
         self.reset()
 
     def reset(self):
@@ -70,13 +100,17 @@ class FaultIdentifier:
     def clear(self):
         """Forget every wheel's fault (an operator's reset); the units learnt stay, and a calibration a
         fault interrupted does not learn again (the wheel may still be faulty)."""
+        for a, sums in self.sums.items():   # a buffer used is zeroed for the next fault
+            if sums is not None and self.buffers is not None:
+                for array in self.buffers[a].values():
+                    array.fill(0.0)
         self.sums = {a: None for a in self.wheels}     # wheel -> ProfileSums once alarmed
         self.latest = {a: None for a in self.wheels}
         self.stale = set()   # lazy: wheels whose sums moved since their latest answer
         self.queue = {a: deque() for a in self.wheels}   # (row, time) not in the sums yet
         self.moved = set()   # wheels whose sums moved since their last decision began
-        # wheel -> the decision under way: [steps (the generator, or the lazy's count left), its flags, its n]
-        self.job = {a: None for a in self.wheels}
+        self.job = {a: None for a in self.wheels}     # wheel -> the _Task under way (a sample added, a decision)
+        self.first = {a: None for a in self.wheels}   # [s] the time of the first sample of the wheel's sums
         self.held = {a: deque() for a in self.wheels}   # lazy: rows the schedule added, not yet in the sums
         self.pending = {a: None for a in self.wheels}   # lazy: the flags of the last decision done, not yet made
         self.unpowered = set()   # wheels whose driver went off (given up) after their alarm
@@ -123,7 +157,8 @@ class FaultIdentifier:
                     self.backlog[a].append((row, error, x, time))
                     continue
                 self.sums[a] = ProfileSums(None if calibration is None else calibration.unit(),
-                                           self.params.viscous_scale, self.floor)
+                                           self.params.viscous_scale, self.floor,
+                                           None if self.buffers is None else self.buffers[a])
                 self.latest[a] = Identification("unknown", samples=0)   # identifying
                 self._add_since_onset(a, list(self.backlog[a]) + [(row, error, x, time)], calibration)
                 self.backlog[a].clear()
@@ -177,38 +212,42 @@ class FaultIdentifier:
                 self._done(a, flags, None if self.lazy else decide(self.sums[a], flags[0]))
             return
         for _ in range(self.work):
-            job = self.job[a]
-            if job is None and self.queue[a]:
-                self._add(a, *self.queue[a].popleft())
-                continue
-            if job is None:
-                if a not in self.moved:
+            task = self.job[a]
+            if task is None:
+                if self.queue[a]:
+                    task = self._adding(a, *self.queue[a].popleft())
+                elif a in self.moved:
+                    self.moved.discard(a)
+                    task = self._deciding(a)
+                else:
                     return
-                self.moved.discard(a)   # a decision on the sums as they are now
-                sums, flags = self.sums[a], self._flags(a)
-                job = self.job[a] = [decision_steps(sums) if self.lazy else decide_steps(sums, flags[0]), flags,
-                                     sums.n + len(self.held[a])]
-            if self.lazy:
-                job[0] -= 1
-                done = job[0] == 0
-                found = None
-            else:
-                try:
-                    next(job[0])
-                    done = False
-                except StopIteration as end:
-                    done, found = True, end.value
-            if done:
+                self.job[a] = task
+            if task.step():
                 self.job[a] = None
-                self._done(a, job[1], found, job[2])
 
     def _add(self, a, row, time):
-        """One queued sample into the wheel's sums (the lazy's held back until a decision done needs it)."""
-        if self.lazy and self.work is not None:
-            self.held[a].append((row, time))
-        else:
-            self.sums[a].add(row, time)
+        """One queued sample into the wheel's sums at once (without ``work``)."""
+        self.sums[a].add(row, time)
         self.moved.add(a)
+
+    def _adding(self, a, row, time) -> "_Task":
+        """A queued sample's way into the sums, ProfileSums.add_steps' pieces (the lazy's held back until a decision
+        done needs it, its pieces counted)."""
+        self.first[a] = time if self.first[a] is None else self.first[a]
+
+        def added(_):
+            if self.lazy:
+                self.held[a].append((row, time))
+            self.moved.add(a)
+        steps = add_pieces(time - self.first[a]) if self.lazy else self.sums[a].add_steps(row, time)
+        return _Task(steps, added)
+
+    def _deciding(self, a) -> "_Task":
+        """A decision on the wheel's sums as they are now (decide_steps; the lazy's steps counted, made when asked)."""
+        sums, flags = self.sums[a], self._flags(a)
+        n = sums.n + len(self.held[a])
+        steps = decision_steps(sums) if self.lazy else decide_steps(sums, flags[0])
+        return _Task(steps, lambda found: self._done(a, flags, found, n))
 
     def _flags(self, a) -> tuple:
         """What a decision beginning now takes beside the sums: the wheel's reports, whether its driver is off."""

@@ -18,13 +18,87 @@ _LINEAR = tuple(LINEAR_SLOPES)
 _H = len(RAMP_LENGTH)
 # the misfits are computed in chunks of ramps, so that a caller whose time is bounded (the isolation node) spreads
 # a decision over its periods (FaultIdentifier's work): RSS_PIECES pieces a misfit of every family
-RAMP_CHUNK = 33
+RAMP_CHUNK = 33    # ramps of a misfit a piece (they fit a cache: 33 x 651 x 6 doubles on a unit)
+ADD_CHUNK = 66     # ramps a piece of a sample added: at most five pieces a sample
 _CHUNKS = [slice(k, min(k + RAMP_CHUNK, _H)) for k in range(0, _H, RAMP_CHUNK)]
-RSS_PIECES = (len(_CHUNKS) + 1) * len(KINDS)   # at most: each family's chunks, and what its chunks share
+GRID_CHUNK = 256   # grid points of a linear family's N(Delta) a piece, with a unit's penalty
+
+
+def rss_pieces(penalty: bool) -> int:
+    """The yields of ProfileSums.rss_steps: each family's chunks of ramps, and with a unit's ``penalty`` what the
+    chunks of each share (N(Delta) in chunks of grid points, the bus family's inverses).
+
+    Parameters
+    ----------
+    penalty : bool
+        Whether the misfit carries a unit's penalty (a noise variance and a unit).
+
+    Returns
+    -------
+    int
+        The pieces.
+    """
+    shared = sum(-(-len(GRIDS[k]) // GRID_CHUNK) for k in KINDS) if penalty else 0
+    return len(_CHUNKS) * len(KINDS) + shared
+
+
+def add_pieces(elapsed: float) -> int:
+    """The ``next`` calls ProfileSums.add_steps takes for a sample ``elapsed`` seconds after the first added: one,
+    and one a chunk of ADD_CHUNK of the ramps still growing then.
+
+    Parameters
+    ----------
+    elapsed : float
+        [s] from the first sample added to this one.
+
+    Returns
+    -------
+    int
+        The pieces.
+    """
+    growing = int(np.count_nonzero(_LENGTH_LONGEST_FIRST > elapsed))
+    return 1 + -(-growing // ADD_CHUNK)
+
+
+def sums_buffers(unit: bool, touched: bool = True) -> dict:
+    """Zeroed arrays for the bus family's ramp sums of one wheel's ProfileSums (most of its memory: 261 x 651 x 3
+    doubles, 7 on a unit), made before a wheel is alarmed and ``touched`` (every page written now), so that a
+    caller whose time is bounded (the isolation node) pays no page faults then: the first samples of a unit's
+    sums cost 30 ms in page faults. Zero them again (``fill(0)``) before they serve another wheel's sums.
+
+    Parameters
+    ----------
+    unit : bool
+        For a unit's sums (six columns: the ripple's and the unit's four), else the datasheet wheel's (two).
+    touched : bool
+        Write every page now.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``ramp_sq`` (H, G) and ``ramp_cross`` (columns, H, G), zero.
+    """
+    g = len(BUS_VOLTAGE_GRID)
+    out = {"ramp_sq": np.zeros((_H, g)), "ramp_cross": np.zeros((6 if unit else 2, _H, g))}
+    if touched:
+        for array in out.values():
+            array.fill(0.0)
+    return out
 
 
 def finish(steps):
-    """Run a generator of steps (ProfileSums.rss_steps, decision.decide_steps) to its end: what it returns."""
+    """Run a generator of steps (ProfileSums.rss_steps, decision.decide_steps) to its end.
+
+    Parameters
+    ----------
+    steps : generator
+        The steps.
+
+    Returns
+    -------
+    object
+        What the generator returns.
+    """
     while True:
         try:
             next(steps)
@@ -83,10 +157,12 @@ class ProfileSums:
 
     ``unit``: what is known of the wheel's unit (calibration.UnitShares); None for the datasheet wheel;
     ``viscous_scale``: the wheel type's (family_predictions); ``floor``: the smallest misfit taken for real
-    [N m] (SIGMA_FLOOR of the Type A, wheel.torque_scale of another type).
+    [N m] (SIGMA_FLOOR of the Type A, wheel.torque_scale of another type); ``buffers``: zero arrays of
+    :func:`sums_buffers` for its ramp sums (made on the spot without).
     """
 
-    def __init__(self, unit: UnitShares | None = None, viscous_scale: float = 1.0, floor: float = SIGMA_FLOOR):
+    def __init__(self, unit: UnitShares | None = None, viscous_scale: float = 1.0, floor: float = SIGMA_FLOOR,
+                 buffers: dict | None = None):
         self.unit = unit
         self.viscous_scale = float(viscous_scale)
         self.floor = float(floor)
@@ -105,8 +181,9 @@ class ProfileSums:
         self.cross = np.zeros((g, width))
         self.gram = np.zeros((2, 2)) if unit is None else np.zeros((g, width, width))
         # each ramp's sums less the step's, longest ramp first: nothing once the ramp is over
-        self.ramp_sq = np.zeros((_H, g))
-        self.ramp_cross = np.zeros((width, _H, g))   # a column's ramps and points contiguous (decide reads them)
+        buffers = buffers if buffers is not None else sums_buffers(unit is not None, touched=False)
+        self.ramp_sq = buffers["ramp_sq"]
+        self.ramp_cross = buffers["ramp_cross"][:width]   # a column's ramps and points contiguous (decide reads them)
         self.n = 0
         self.start = None     # [s] the first sample's time
         self.elapsed = 0.0    # [s] from the first sample to the last
@@ -165,6 +242,25 @@ class ProfileSums:
         time : float, optional
             The sample's time [s]; default: its index (1 s samples).
         """
+        finish(self.add_steps(row, time))
+
+    def add_steps(self, row, time: float | None = None):
+        """:meth:`add` one piece at a time, for a caller whose time is bounded: a generator that takes exactly
+        :func:`add_pieces` ``next`` calls (the linear families' and the step's sums, then a chunk of ADD_CHUNK of
+        the bus ramps still growing each), whatever the sample. The sums are whole only once it has returned.
+
+        Parameters
+        ----------
+        row : tuple
+            As for :meth:`add`.
+        time : float, optional
+            As for :meth:`add`.
+
+        Returns
+        -------
+        generator
+            Yields None; returns None.
+        """
         r, tm, tf, w, bus, p, *rest = row
         bus = np.asarray(bus, float)   # a PeriodBusGrid is computed here, for an alarmed wheel only
         free = rest[0] if rest else None
@@ -193,14 +289,18 @@ class ProfileSums:
         # where the bridge does not clip at V it does not at any voltage above: a ramp to V moves nothing there
         clips = bus != bus[0]
         first = int(clips.argmax()) if clips.any() else len(bus)
-        if growing and first < len(bus):
+        e, x = e[first:], x[first:] if len(x) > 1 else x
+        for start in range(0, growing, ADD_CHUNK):
+            yield
+            rows = slice(start, min(start + ADD_CHUNK, growing))
+            if first == len(bus):
+                continue
             e_ramp = r - bus_predictions(tm, tf, w, bus[None, :], self.scales, free, first=first,
-                                         fraction=phi[_LONGEST_FIRST[:growing]], viscous_scale=self.viscous_scale)
-            e, x = e[first:], x[first:] if len(x) > 1 else x
-            self.ramp_sq[:growing, first:] += e_ramp * e_ramp - e * e
+                                         fraction=phi[_LONGEST_FIRST[rows]], viscous_scale=self.viscous_scale)
+            self.ramp_sq[rows, first:] += e_ramp * e_ramp - e * e
             moved = e_ramp - e
             for j in range(x.shape[1]):
-                self.ramp_cross[j, :growing, first:] += moved * x[:, j]
+                self.ramp_cross[j, rows, first:] += moved * x[:, j]
         self.n += 1
 
     def _add_linear(self, r, tm, tf, w, ripple, free, phi):
@@ -247,9 +347,20 @@ class ProfileSums:
         return finish(self.rss_steps(noise_variance))
 
     def rss_steps(self, noise_variance: float | None = None):
-        """:meth:`rss` one piece at a time: a generator that yields after each of at most RSS_PIECES pieces (a chunk
-        of RAMP_CHUNK ramps of one family, or what a family's chunks share) and returns what rss returns, for a
-        caller whose time is bounded."""
+        """:meth:`rss` one piece at a time: a generator that yields after each of :func:`rss_pieces` pieces (a chunk
+        of RAMP_CHUNK ramps of one family, or what a family's chunks share) and returns what rss returns (the bus
+        family put in RAMP_LENGTH order on the last ``next``), for a caller whose time is bounded.
+
+        Parameters
+        ----------
+        noise_variance : float, optional
+            As for :meth:`rss`.
+
+        Returns
+        -------
+        generator
+            Yields None; returns what :meth:`rss` returns.
+        """
         width = self.u.size
         shape, nr = self._shape(width)
         gram = self.lin_gram if shape is None else shape @ self.lin_gram @ shape.T
@@ -265,12 +376,13 @@ class ProfileSums:
             out[kind] = np.empty((_H, len(GRIDS[kind])))
             prepared = {}
             if penalty is not None:
-                self._prepare_linear(i, kind, shape, nr, gram, ripple, penalty, prepared)
-                yield
+                yield from self._prepare_linear(i, kind, shape, nr, gram, ripple, penalty, prepared)
             for rows in _CHUNKS:
                 out[kind][rows] = self._rss_linear(i, kind, shape, nr, gram, ripple, penalty, rows, prepared)
                 yield
         stored, prepared = np.empty((_H, len(BUS_VOLTAGE_GRID))), {}
+        if penalty is not None:
+            yield from self._bus_inverse(shape, nr, ripple, penalty, prepared)
         for rows in _CHUNKS:
             stored[rows] = self._rss_bus(shape, nr, ripple, penalty, rows, prepared)
             yield
@@ -302,17 +414,37 @@ class ProfileSums:
         return np.maximum(sq - (alpha[None] + 2.0 * delta[None] * beta + delta[None] ** 2 * gamma), 0.0)
 
     def _prepare_linear(self, i, kind, shape, nr, gram, ripple, penalty, prepared):
-        """What every ramp of a linear family shares with a unit's penalty: N(Delta) and its products with u."""
+        """What every ramp of a linear family shares with a unit's penalty: N(Delta) and its products with u, in
+        GRID_CHUNK grid points a piece (a generator: yields after each)."""
         delta = GRIDS[kind] - GRIDS[kind][0]
         u = self.u if shape is None else shape @ self.u
         keep = slice(0, gram.shape[0]) if ripple else slice(nr, gram.shape[0])
         d = np.zeros(gram.shape[0])
         d[nr:] = LINEAR_DIRECTIONS[kind]
-        scale = (1.0 + delta[:, None] * d[None])[:, keep]                  # D(Delta), (G, k)
-        matrix = scale[:, :, None] * gram[keep, keep][None] * scale[:, None, :] + penalty[keep, keep][None]
-        n_of = scale[:, :, None] * np.linalg.inv(matrix) * scale[:, None, :]   # N(Delta), (G, k, k)
-        nu = n_of @ u[keep]                                                  # (G, k)
-        prepared.update(n_of=n_of, nu=nu, alpha=nu @ u[keep])                # alpha (G,)
+        k = len(range(gram.shape[0])[keep])
+        n_of, nu = np.empty((len(delta), k, k)), np.empty((len(delta), k))
+        for start in range(0, len(delta), GRID_CHUNK):
+            points = slice(start, start + GRID_CHUNK)
+            scale = (1.0 + delta[points, None] * d[None])[:, keep]             # D(Delta), (g, k)
+            matrix = scale[:, :, None] * gram[keep, keep][None] * scale[:, None, :] + penalty[keep, keep][None]
+            n_of[points] = scale[:, :, None] * np.linalg.inv(matrix) * scale[:, None, :]   # N(Delta), (g, k, k)
+            nu[points] = n_of[points] @ u[keep]                                # (g, k)
+            yield
+        prepared.update(n_of=n_of, nu=nu, alpha=nu @ u[keep])                   # alpha (G,)
+
+    def _bus_inverse(self, shape, nr, ripple, penalty, prepared):
+        """What every ramp of the bus family shares with a unit's penalty: one (k, k) inverse per grid point, in
+        GRID_CHUNK points a piece (a generator: yields after each)."""
+        gram = self.gram if shape is None else shape @ self.gram @ shape.T
+        width = gram.shape[-1]
+        keep = slice(0, width) if ripple else slice(nr, width)
+        # one (k, k) inverse per grid point serves all its ramps: c^T (G + Pi)^-1 c as batched products,
+        # five times faster than a solve per ramp
+        inverse = prepared["inverse"] = np.empty((len(gram), len(range(width)[keep]), len(range(width)[keep])))
+        for start in range(0, len(gram), GRID_CHUNK):
+            points = slice(start, start + GRID_CHUNK)
+            inverse[points] = np.linalg.inv((gram[points] + penalty)[:, keep, keep])        # (g, k, k)
+            yield
 
     def _rss_bus(self, shape, nr, ripple, penalty, rows, prepared):
         """Rows ``rows`` (of their stored order, longest ramp first) of the bus family's RSS (H, G) of its per-point
@@ -333,15 +465,9 @@ class ProfileSums:
         part = self.ramp_cross[:, rows]
         cross = np.empty(part.shape[1:] + part.shape[:1])   # (ramps, grid, width), C order: the products read rows
         np.add(np.moveaxis(part, 0, -1), self.cross[None], out=cross)
-        gram = self.gram
         if shape is not None:
-            cross, gram = cross @ shape.T, shape @ gram @ shape.T
-        width = gram.shape[-1]
-        keep = slice(0, width) if ripple else slice(nr, width)
-        if not prepared:
-            # one (k, k) inverse per grid point serves all its ramps: c^T (G + Pi)^-1 c as batched products,
-            # five times faster than a solve per ramp
-            prepared["inverse"] = np.linalg.inv((gram + penalty)[:, keep, keep])        # (grid, k, k)
+            cross = cross @ shape.T
+        keep = slice(0, cross.shape[-1]) if ripple else slice(nr, cross.shape[-1])
         c = np.moveaxis(cross[..., keep], 0, 1)                          # (grid, ramps, k)
         return np.maximum(sq - np.einsum("irk,irk->ri", c @ prepared["inverse"], c), 0.0)
 
