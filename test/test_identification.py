@@ -289,9 +289,9 @@ def test_a_bounded_identification_answers_as_the_unbounded_one_a_few_samples_lat
         return wrapped
     monkeypatch.setattr(module, "decide_steps", counted(idf.decide_steps))
     monkeypatch.setattr(idf.ProfileSums, "add_steps", counted(idf.ProfileSums.add_steps))
-    cal = 100 if calibrated else 0
-    free, live, lazy = (idf.FaultIdentifier(("x",), cal, lazy=lazy, work=work)
-                        for lazy, work in ((False, None), (False, 8), (True, 8)))
+    cal, work = (100 if calibrated else 0), idf.IDENTIFICATION_WORK
+    free, live, lazy = (idf.FaultIdentifier(("x",), cal, lazy=lazy, work=w)
+                        for lazy, w in ((False, None), (False, work), (True, work)))
     answers, lags = {}, []
     for k, row in enumerate(rows):
         alarmed = {"x": k >= 125}
@@ -300,7 +300,7 @@ def test_a_bounded_identification_answers_as_the_unbounded_one_a_few_samples_lat
             answers[now.samples] = now
         del steps[:]
         got = live.update(sample(row), alarmed)["x"]
-        assert len(steps) <= 8, k
+        assert len(steps) <= work, k
         lazy.update(sample(row), alarmed)
         if got is None:
             continue
@@ -316,8 +316,8 @@ def test_a_bounded_identification_answers_as_the_unbounded_one_a_few_samples_lat
     assert got.kind == now.kind == "temperature"
     # later, by at most a decision's steps at ``work`` a sample twice (the one under way and the next) and the samples
     # that queued meanwhile, added in what is left beside the new one's pieces
-    took, pieces = idf.decision_steps(live.sums["x"]) / 8, add_pieces(0.0)
-    assert 0 < max(lags) <= 2 * took + took * pieces / (8 - pieces) + 6, lags
+    took, pieces = idf.decision_steps(live.sums["x"]) / work, add_pieces(0.0)
+    assert 0 < max(lags) <= 2 * took + took * pieces / (work - pieces) + 6, lags
 
 
 @pytest.mark.parametrize("found, text", [

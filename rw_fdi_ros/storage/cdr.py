@@ -196,32 +196,45 @@ def diagnostic_array_cdr(stamp_ns_: int, statuses, frame_id: str = "") -> bytes:
         The message's CDR bytes, encapsulation header included.
     """
     sec, nsec = divmod(int(stamp_ns_), 1_000_000_000)
-    parts = [_CDR_LE, struct.pack("<iI", sec, nsec)]
-    out, offset = _cdr_string(frame_id, 8)
-    parts.append(out)
-
-    def count(n):   # a sequence's uint32 length, 4-aligned
-        nonlocal offset
-        pad = -offset % 4
-        parts.append(b"\x00" * pad + struct.pack("<I", n))
-        offset += pad + 4
-
-    def text(value):
-        nonlocal offset
-        out, offset = _cdr_string(value, offset)
-        parts.append(out)
-    count(len(statuses))
+    out = bytearray(_CDR_LE)
+    out += struct.pack("<iI", sec, nsec)
+    # offsets count from after the 4-byte encapsulation header, so len(out) % 4 is the offset's
+    out += _named(frame_id)
+    out += _PAD[-len(out) % 4]
+    out += struct.pack("<I", len(statuses))
     for s in statuses:
-        parts.append(bytes((s.level,)))   # an octet: no alignment
-        offset += 1
-        text(s.name)
-        text(s.message)
-        text(s.hardware_id)
-        count(len(s.values))
+        out.append(s.level)   # an octet: no alignment
+        for text in (_named(s.name), _string(s.message), _named(s.hardware_id)):
+            out += _PAD[-len(out) % 4]
+            out += text
+        out += _PAD[-len(out) % 4]
+        out += struct.pack("<I", len(s.values))
         for key, value in s.values:
-            text(key)
-            text(value)
-    return b"".join(parts)
+            out += _PAD[-len(out) % 4]
+            out += _named(key)
+            out += _PAD[-len(out) % 4]
+            out += _string(value)
+    return bytes(out)
+
+
+_PAD = (b"", b"\x00", b"\x00\x00", b"\x00\x00\x00")
+_NAMED = {}
+
+
+def _string(text: str) -> bytes:
+    """A CDR string without its alignment: uint32 length with the NUL, the bytes, the NUL."""
+    data = text.encode()
+    return struct.pack("<I", len(data) + 1) + data + b"\x00"
+
+
+def _named(text: str) -> bytes:
+    """:func:`_string` of a name that recurs (a status' name, a key), kept."""
+    out = _NAMED.get(text)
+    if out is None:
+        out = _string(text)
+        if len(_NAMED) < 10_000:   # names recur; a stream of new ones must not grow it without end
+            _NAMED[text] = out
+    return out
 
 
 def read_joint_state_cdr(raw: bytes):

@@ -18,8 +18,8 @@ from .sums import ProfileSums, add_pieces, sums_buffers
 
 # steps of a wheel's identification per FDI sample where time is bounded (the isolation node, and the core loop and
 # offline judge that answer as it does): pieces of 0.1-0.5 ms of this machine's at the record's sitting, a sample
-# added in at most five of them (docs/benchmarks.md "Flight budget")
-IDENTIFICATION_WORK = 8
+# added in at most three of them (docs/benchmarks.md "Flight budget")
+IDENTIFICATION_WORK = 4
 
 
 class _Task:
@@ -65,12 +65,13 @@ class FaultIdentifier:
     a wheel's fault is identified on the unit known at its first alarm.
 
     With ``work`` the identification of a wheel takes at most that many steps a sample (the isolation node's
-    budget per FDI period): adding one sample to its sums, or one piece of a decision (decision.decide_steps). A
-    wheel's samples queue, a decision runs on the sums as they were when it began (the samples that come
-    meanwhile wait) and its answer stands until the next one is done: the answer comes some samples later, and
-    no period pays for a whole decision or for the samples kept before the alarm at once. The schedule depends
-    on the counts alone, so the lazy identifier (the core loop's) keeps it too, without deciding, and answers
-    what the last decision done would have. None: every sample is added and decided at once."""
+    budget per FDI period): a piece of a sample's addition to its sums (ProfileSums.add_steps) or of a decision
+    (decision.decide_steps). A wheel's samples queue, a decision runs on the sums as they were when it began (the
+    samples that come meanwhile wait) and its answer stands until the next one is done: the answer comes some
+    samples later, and no period pays for a whole decision or for the samples kept before the alarm at once. The
+    number of steps depends on the counts and times alone, so the lazy identifier (the core loop's) keeps the
+    same schedule without deciding, and answers what the last decision done would have. None: every sample is
+    added and decided at once."""
 
     BACKLOG = 60   # FDI samples: the 40-sample window and the persistence the alarm lags by, and a margin
     def __init__(self, wheels=("x", "y", "z"), calibration_samples: int = 0, lazy: bool = False,

@@ -19,7 +19,7 @@ _H = len(RAMP_LENGTH)
 # the misfits are computed in chunks of ramps, so that a caller whose time is bounded (the isolation node) spreads
 # a decision over its periods (FaultIdentifier's work): RSS_PIECES pieces a misfit of every family
 RAMP_CHUNK = 33    # ramps of a misfit a piece (they fit a cache: 33 x 651 x 6 doubles on a unit)
-ADD_CHUNK = 66     # ramps a piece of a sample added: at most five pieces a sample
+ADD_CHUNK = 131    # ramps a piece of a sample added: at most three pieces a sample
 _CHUNKS = [slice(k, min(k + RAMP_CHUNK, _H)) for k in range(0, _H, RAMP_CHUNK)]
 GRID_CHUNK = 256   # grid points of a linear family's N(Delta) a piece, with a unit's penalty
 
