@@ -197,6 +197,26 @@ def test_the_onset_is_the_step_not_the_ripple():
 
 
 
+def test_the_change_point_is_each_steps_least_squares_fit_at_once():
+    """The step's change point from suffix sums (onset._step_change_point) is the argmin of the RSS of each step
+    fitted by least squares beside a constant and the ripple, also where the ripple's columns vanish."""
+    from rw_fdi_ros.core.fdi.identification.onset import _step_change_point
+    rng = np.random.default_rng(3)
+    for trial in range(200):
+        n = int(rng.integers(2, 61))
+        p = 0.01 * np.exp(1j * np.cumsum(rng.uniform(0.0, 0.5, n))) * (trial % 10 != 0)
+        e = (3e-3 * p.imag + 1e-4 * rng.standard_normal() + rng.choice([0.0, 1e-4, 1e-3]) * (np.arange(n) >= n // 2)
+             + 2e-5 * rng.standard_normal(n))
+        healthy = np.column_stack([np.ones(n), p.imag, p.real])
+        fewest = min(4, n - 1)
+        rss = []
+        for k in range(fewest, n):
+            columns = np.column_stack([healthy, np.arange(n) >= k])
+            fit, *_ = np.linalg.lstsq(columns, e, rcond=None)
+            rss.append(np.sum((e - columns @ fit) ** 2))
+        assert _step_change_point(e, healthy, fewest) == fewest + int(np.argmin(rss)), trial
+
+
 def test_the_onset_of_a_growing_effect_is_where_it_begins_not_its_change_point():
     """An effect that grows (a ramp, a bus drop as the command rises) has its single change point inside it: the
     onset walks back to the first sample that leaves the healthy fit, also beside the constant a unit not yet

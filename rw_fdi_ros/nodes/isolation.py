@@ -390,7 +390,10 @@ class IsolationNode(GraphNode):
     def timing(self):
         """Figures for ``rw-fdi bench``: the node's wall time per callback, its CPU per FDI period (stamp)."""
         from ..graph.timing import summary
-        return summary(callback=self.compute, callback_cpu=list(self.period_cpu.values()))
+        out = summary(callback=self.compute, callback_cpu=list(self.period_cpu.values()))
+        if self.period_cpu:   # where the worst period was: an alarm, a decision, a run's start
+            out["callback_cpu_max_at_s"] = 1e-9 * max(self.period_cpu, key=self.period_cpu.get)
+        return out
 
 
 main = main_for(IsolationNode)

@@ -59,17 +59,22 @@ def onset_index(errors, ripple_phasors, floor: float = SIGMA_FLOOR) -> int:
 
 
 def _step_change_point(e, healthy, fewest: int) -> int:
-    """k^ = argmin_k RSS_k over k >= ``fewest``: the least-squares step of ``e`` beside the ``healthy`` columns."""
+    """k^ = argmin_k RSS_k over k >= ``fewest``: the least-squares step of ``e`` beside the ``healthy`` columns H,
+    every k at once: with P the projection off H's columns and s_k = 1[j >= k],
+
+        RSS_k = |P e|^2 - (s_k^T P e)^2 / (s_k^T P s_k),
+
+    s_k^T P e a suffix sum of P e and s_k^T P s_k = (n - k) - h_k^T (H^T H)^+ h_k, h_k the suffix sums of H's
+    rows (a step H already holds leaves RSS_k = |P e|^2)."""
     n = e.size
-    best, best_rss = fewest, np.inf
-    columns = np.column_stack([healthy, np.zeros(n)])
-    for k in range(fewest, n):
-        columns[:, 3] = np.arange(n) >= k
-        fit, *_ = np.linalg.lstsq(columns, e, rcond=None)
-        rss = float(np.sum((e - columns @ fit) ** 2))
-        if rss < best_rss:
-            best, best_rss = k, rss
-    return best
+    pinv = np.linalg.pinv(healthy.T @ healthy)
+    residual = e - healthy @ (pinv @ (healthy.T @ e))             # P e
+    suffix_e = np.cumsum(residual[::-1])[::-1]                     # s_k^T P e for k = 0..n-1
+    suffix_h = np.cumsum(healthy[::-1], axis=0)[::-1]              # H^T s_k, (n, 3)
+    size = (n - np.arange(n)) - np.einsum("ki,ij,kj->k", suffix_h, pinv, suffix_h)
+    scale = np.arange(n, 0, -1)   # s_k^T s_k: a step left of it by rounding alone is none
+    gain = np.where(size > 1e-9 * scale, suffix_e ** 2 / np.where(size > 1e-9 * scale, size, 1.0), 0.0)
+    return fewest + int(np.argmax(gain[fewest:]))   # the least RSS is the largest gain
 
 
 def _departure(e, healthy, k: int, floor: float) -> tuple:
