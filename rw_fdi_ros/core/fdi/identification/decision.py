@@ -193,11 +193,12 @@ def _decide(sums: ProfileSums, reported: dict | None):
     explained = 1.0 - rss_min / nominal if nominal > 0 else 0.0
     margin = min((mins[k] - rss_min) / s2 for k in KINDS if k != best)
     yield
-    now, step = sums.sizes_now(best), abs(GRIDS[best][1] - GRIDS[best][0])
+    step = abs(GRIDS[best][1] - GRIDS[best][0])
     yield
-    low, high = _interval(now, rss, s2, step)
+    low, high = _interval(sums, best, rss, s2, step)
     yield
-    out = Identification(best, float(now[ramp, point]), low, high, n, float(explained), best, mins)
+    size = float(_sizes(sums, best, np.array([ramp]), np.array([point]))[0])
+    out = Identification(best, size, low, high, n, float(explained), best, mins)
     out.healthy = point == 0
     yield from _describe_fit(out, sums, ramp, rss, known[best], s2, step)
     # a current loss and a bus drop differ only in how the motor torque varies with the command and speed: under
@@ -224,28 +225,41 @@ def _describe_fit(out: Identification, sums: ProfileSums, ramp: int, rss, known,
     if sums.unit is not None:
         out.unit = sums.unit.source
         # the interval were the unit known exactly, both without the ramps' neighbours (they are the same)
-        now = sums.sizes_now(out.kind)
-        alone = _interval(now, known, s2, step, neighbours=False)
+        alone = _interval(sums, out.kind, known, s2, step, neighbours=False)
         yield
-        held = _interval(now, rss, s2, step, neighbours=False)
+        held = _interval(sums, out.kind, rss, s2, step, neighbours=False)
         yield
         out.unit_limited = (held[1] - held[0]) > 2.0 * (alone[1] - alone[0])
 
 
-def _interval(sizes, rss, s2, step, neighbours: bool = True) -> tuple:
-    """{theta : RSS(theta) - RSS_min <= chi2_1(0.95) s^2 c} over every ramp (``sizes``: theta at the last sample
-    of each ramp and grid point), widened to the best size of each ramp next to the best one on the ramps'
-    grid (the fault's own ramp lies between grid ramps, and a neighbour's size is as near it as the best's),
-    never narrower than the grid's own resolution (half a ``step`` either side) nor outside the grid."""
+def _interval(sums: ProfileSums, kind: str, rss, s2, step, neighbours: bool = True) -> tuple:
+    """{theta : RSS(theta) - RSS_min <= chi2_1(0.95) s^2 c} over every ramp (theta at the last sample that shows
+    ``kind``, ProfileSums.sizes_now, computed only where needed), widened to the best size of each ramp next to
+    the best one on the ramps' grid (the fault's own ramp lies between grid ramps, and a neighbour's size is as
+    near it as the best's), never narrower than the grid's own resolution (half a ``step`` either side) nor
+    outside the grid."""
     inside = rss - rss.min() <= CHI2_95 * s2 * CORRELATION
     best = int(rss.min(axis=1).argmin())
     if neighbours:
         for h in _NEIGHBOURS[best]:
             if np.isfinite(rss[h]).any():   # a ramp the reports leave a size on
                 inside[h, rss[h].argmin()] = True
-    ends = float(sizes[inside].min()), float(sizes[inside].max())
-    bounds = float(sizes.min()), float(sizes.max())
+    ramps, points = np.nonzero(inside)
+    sizes = _sizes(sums, kind, ramps, points)
+    ends = float(sizes.min()), float(sizes.max())
+    # every ramp's sizes run between those of the grid's two ends (theta_0 + phi (theta - theta_0), monotone)
+    every = np.arange(rss.shape[0])
+    grid = GRIDS[kind]
+    ends_of_grid = [_sizes(sums, kind, every, np.full(every.size, k)) for k in (int(grid.argmin()), int(grid.argmax()))]
+    bounds = float(min(e.min() for e in ends_of_grid)), float(max(e.max() for e in ends_of_grid))
     return max(ends[0] - step / 2, bounds[0]), min(ends[1] + step / 2, bounds[1])
+
+
+def _sizes(sums: ProfileSums, kind: str, ramps, points) -> np.ndarray:
+    """theta of ramps ``ramps`` at grid points ``points`` (arrays of indices), as ProfileSums.sizes_now gives them."""
+    grid = GRIDS[kind]
+    phi = ramp_fractions(sums.seen(kind))
+    return grid[0] + phi[ramps] * (grid[points] - grid[0])
 
 
 def identify(reaction_torque, motor_torque, friction_torque, wheel_speed, bus_torque, ripple_phasor,
