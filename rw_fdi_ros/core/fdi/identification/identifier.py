@@ -163,24 +163,27 @@ class FaultIdentifier:
                 self.latest[a] = Identification("unknown", samples=0)   # identifying
                 self._add_since_onset(a, list(self.backlog[a]) + [(row, error, x, time)], calibration)
                 self.backlog[a].clear()
-            tcv = getattr(sample, "tcv", None)
-            if tcv is not None and float(tcv[i]) == 0.0:
-                # its driver off (given up by FDIR): it spins down on its friction alone, which still shows a
-                # temperature; once at rest it shows nothing (every family gives 0), and its fault's size is
-                # the one it had when last seen
-                self.unpowered.add(a)
-                if abs(float(sample.wheel_speed[i])) < 2.0 * self.params.coulomb_smoothing_speed:   # at rest
-                    if self.latest[a] is not None and not self.latest[a].unpowered:
-                        self.latest[a] = replace(self.latest[a], unpowered=True)
-                    if self.pending[a] is not None:
-                        self.pending[a] = (self.pending[a][0], True)
-                    self._work(a)
-                    continue
-            else:
-                self.unpowered.discard(a)   # driven (again)
-            self.queue[a].append((row, time))
+            if not self._at_rest(a, sample, i):
+                self.queue[a].append((row, time))
             self._work(a)
         return dict(self.latest)
+
+    def _at_rest(self, a, sample, i) -> bool:
+        """Whether the wheel's driver is off and it is at rest: its sample shows nothing (every family gives 0), and
+        its fault's size is the one it had when last seen. Driver off, it spins down on its friction alone, which
+        still shows a temperature (given up by FDIR)."""
+        tcv = getattr(sample, "tcv", None)
+        if tcv is None or float(tcv[i]) != 0.0:
+            self.unpowered.discard(a)   # driven (again)
+            return False
+        self.unpowered.add(a)
+        if abs(float(sample.wheel_speed[i])) >= 2.0 * self.params.coulomb_smoothing_speed:
+            return False
+        if self.latest[a] is not None and not self.latest[a].unpowered:
+            self.latest[a] = replace(self.latest[a], unpowered=True)
+        if self.pending[a] is not None:
+            self.pending[a] = (self.pending[a][0], True)
+        return True
 
     def identifications(self) -> dict:
         """What update returns, the lazy identifier's decided now.
