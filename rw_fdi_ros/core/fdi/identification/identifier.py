@@ -19,7 +19,10 @@ from .sums import ProfileSums, add_pieces, sums_buffers
 # steps of a wheel's identification per FDI sample where time is bounded (the isolation node, and the core loop and
 # offline judge that answer as it does): pieces of 0.1-0.5 ms of this machine's at the record's sitting, a sample
 # added in at most three of them (docs/benchmarks.md "Flight budget")
-IDENTIFICATION_WORK = 4
+IDENTIFICATION_WORK = 8
+# samples added to a wheel's sums, while more wait, before a decision is made on those so far: the samples kept before
+# an alarm take a minute or two to add at this budget (all their ramps still growing), and the answer must not wait
+DECIDE_EVERY = 25
 
 
 class _Task:
@@ -49,8 +52,8 @@ class _Task:
 
 
 class FaultIdentifier:
-    """The wheels, sample by sample: identifies an alarmed wheel's fault on every new sample from the
-    fault's onset on (the isolation node and the offline tools).
+    """The wheels, sample by sample: identifies an alarmed wheel's fault on its samples from the fault's onset on
+    (the isolation node, the core loop and the offline tools).
 
     The alarm comes after the onset (a window mean must cross the band, then the persistence): the
     seconds in between, while the controller moves the command, are what tells a current loss from a
@@ -68,7 +71,8 @@ class FaultIdentifier:
     budget per FDI period): a piece of a sample's addition to its sums (ProfileSums.add_steps) or of a decision
     (decision.decide_steps). A wheel's samples queue, a decision runs on the sums as they were when it began (the
     samples that come meanwhile wait) and its answer stands until the next one is done: the answer comes some
-    samples later, and no period pays for a whole decision or for the samples kept before the alarm at once. The
+    samples later (a decision also every DECIDE_EVERY samples added while more wait: the samples kept before the
+    alarm take minutes to add), and no period pays for a whole decision or for them at once. The
     number of steps depends on the counts and times alone, so the lazy identifier (the core loop's) keeps the
     same schedule without deciding, and answers what the last decision done would have. None: every sample is
     added and decided at once."""
@@ -83,7 +87,8 @@ class FaultIdentifier:
         # lazy: decide only when asked (identifications()), for a reader that wants the last answer of a run
         # (the core loop's onboard verdict): the same answers, without the grid fits of every sample between
         self.lazy = bool(lazy)
-        self.work = None if work is None else max(int(work), 1)
+        # more than a sample's addition takes (add_pieces), or the samples would queue without end
+        self.work = None if work is None else max(int(work), add_pieces(0.0) + 1)
         # the live identifier's ramp sums made now, not at an alarm (sums_buffers); the lazy ones of a batch of runs
         # would hold hundreds of MB for wheels that are never alarmed
         self.buffers = None if self.lazy else {a: sums_buffers(self.calibration_samples > 0) for a in self.wheels}
@@ -107,9 +112,10 @@ class FaultIdentifier:
                     array.fill(0.0)
         self.sums = {a: None for a in self.wheels}     # wheel -> ProfileSums once alarmed
         self.latest = {a: None for a in self.wheels}
-        self.stale = set()   # lazy: wheels whose sums moved since their latest answer
+        self.stale = set()   # lazy: wheels with a decision done whose answer is not made yet
         self.queue = {a: deque() for a in self.wheels}   # (row, time) not in the sums yet
         self.moved = set()   # wheels whose sums moved since their last decision began
+        self.since = {a: 0 for a in self.wheels}   # samples added since the wheel's last decision began
         self.job = {a: None for a in self.wheels}     # wheel -> the _Task under way (a sample added, a decision)
         self.first = {a: None for a in self.wheels}   # [s] the time of the first sample of the wheel's sums
         self.held = {a: deque() for a in self.wheels}   # lazy: rows the schedule added, not yet in the sums
@@ -218,10 +224,11 @@ class FaultIdentifier:
         for _ in range(self.work):
             task = self.job[a]
             if task is None:
-                if self.queue[a]:
+                if self.queue[a] and not (a in self.moved and self.since[a] >= DECIDE_EVERY):
                     task = self._adding(a, *self.queue[a].popleft())
                 elif a in self.moved:
                     self.moved.discard(a)
+                    self.since[a] = 0
                     task = self._deciding(a)
                 else:
                     return
@@ -243,6 +250,7 @@ class FaultIdentifier:
             if self.lazy:
                 self.held[a].append((row, time))
             self.moved.add(a)
+            self.since[a] += 1
         steps = add_pieces(time - self.first[a]) if self.lazy else self.sums[a].add_steps(row, time)
         return _Task(steps, added)
 

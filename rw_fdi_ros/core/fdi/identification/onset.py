@@ -64,16 +64,21 @@ def _step_change_point(e, healthy, fewest: int) -> int:
 
         RSS_k = |P e|^2 - (s_k^T P e)^2 / (s_k^T P s_k),
 
-    s_k^T P e a suffix sum of P e and s_k^T P s_k = (n - k) - h_k^T (H^T H)^+ h_k, h_k the suffix sums of H's
-    rows (a step H already holds leaves RSS_k = |P e|^2)."""
+    s_k^T P e a suffix sum of P e and s_k^T P s_k = (n - k) - |B^T s_k|^2, B an orthonormal basis of H's columns
+    (each scaled to unit length first: a ripple of 1e-8 N m is a column as good as any; rank as lstsq takes it),
+    B^T s_k the suffix sums of B's rows; a step H already holds leaves RSS_k = |P e|^2."""
     n = e.size
-    pinv = np.linalg.pinv(healthy.T @ healthy)
-    residual = e - healthy @ (pinv @ (healthy.T @ e))             # P e
-    suffix_e = np.cumsum(residual[::-1])[::-1]                     # s_k^T P e for k = 0..n-1
-    suffix_h = np.cumsum(healthy[::-1], axis=0)[::-1]              # H^T s_k, (n, 3)
-    size = (n - np.arange(n)) - np.einsum("ki,ij,kj->k", suffix_h, pinv, suffix_h)
+    norms = np.linalg.norm(healthy, axis=0)
+    columns = healthy / np.where(norms > 0.0, norms, 1.0)
+    u, singular, _ = np.linalg.svd(columns, full_matrices=False)
+    basis = u[:, singular > singular.max() * max(columns.shape) * np.finfo(float).eps]
+    residual = e - basis @ (basis.T @ e)                            # P e
+    suffix_e = np.cumsum(residual[::-1])[::-1]                      # s_k^T P e for k = 0..n-1
+    suffix_b = np.cumsum(basis[::-1], axis=0)[::-1]                 # B^T s_k, (n, rank)
+    size = (n - np.arange(n)) - np.sum(suffix_b ** 2, axis=1)
     scale = np.arange(n, 0, -1)   # s_k^T s_k: a step left of it by rounding alone is none
-    gain = np.where(size > 1e-9 * scale, suffix_e ** 2 / np.where(size > 1e-9 * scale, size, 1.0), 0.0)
+    held = size > 1e-9 * scale
+    gain = np.where(held, suffix_e ** 2 / np.where(held, size, 1.0), 0.0)
     return fewest + int(np.argmax(gain[fewest:]))   # the least RSS is the largest gain
 
 

@@ -96,7 +96,8 @@ class Identification:
             why += " (its driver off: its spin-down counted, its rest not)"
         if self.kind == UNKNOWN:
             if self.samples < MIN_SAMPLES:
-                return f"identifying ({self.samples} samples)"
+                # 0: alarmed, its first decision under way (FaultIdentifier's work)
+                return f"identifying ({self.samples} samples)" if self.samples else "identifying"
             if self.healthy:
                 return "fits a healthy wheel: alarm not confirmed"
             guess = SPOKEN.get(self.best_guess, self.best_guess.replace("_", " "))

@@ -17,7 +17,7 @@ KAPPA_MAX = 2.0
 _LINEAR = tuple(LINEAR_SLOPES)
 _H = len(RAMP_LENGTH)
 # the misfits are computed in chunks of ramps, so that a caller whose time is bounded (the isolation node) spreads
-# a decision over its periods (FaultIdentifier's work): RSS_PIECES pieces a misfit of every family
+# a decision over its periods (FaultIdentifier's work): rss_pieces() pieces a misfit of every family
 RAMP_CHUNK = 33    # ramps of a misfit a piece (they fit a cache: 33 x 651 x 6 doubles on a unit)
 ADD_CHUNK = 131    # ramps a piece of a sample added: at most three pieces a sample
 _CHUNKS = [slice(k, min(k + RAMP_CHUNK, _H)) for k in range(0, _H, RAMP_CHUNK)]
