@@ -429,3 +429,57 @@ def test_one_observers_bands_with_a_unit_calibration_are_that_observer_learning_
     assert short.fdi == LoadedFdi({"model": curves}, calibration_samples=150)
     with pytest.raises(ValueError, match="calibration_samples goes with one observer's bands"):
         Fdir(LoadedFdi({"model": curves}), calibration_samples=150)
+
+
+def test_the_null_space_hold_turns_no_axis_and_returns_the_pyramids_null_speed_with_its_time_constant():
+    """P_N = M - D G_u: symmetric, idempotent, G P_N = 0, none with three wheels in use; the hold's commands
+    u_n = -k_n P_N (Omega - Omega_0) give no body torque, and J dOmega/dt = G_d k_t u_n returns the null-space
+    speed to its hold as exp(-t / tau_n)."""
+    from rw_fdi_ros.core.control.allocation import null_projector, null_space_gain
+    from rw_fdi_ros.core.physics.wheel import WheelParams
+    p = null_projector(PYRAMID.matrix, PYRAMID.mask(PYRAMID.names))
+    np.testing.assert_allclose(p, p.T, atol=1e-15)
+    np.testing.assert_allclose(p @ p, p, atol=1e-15)
+    np.testing.assert_allclose(PYRAMID.matrix @ p, 0.0, atol=1e-15)
+    assert np.linalg.matrix_rank(p) == 1
+    assert null_projector(PYRAMID.matrix, PYRAMID.mask(("p1", "p2", "p4"))) is None
+    assert null_projector(SKEW.matrix, SKEW.mask(("x", "y", "z"))) is None
+    wheel = WheelParams()
+    tau = 10.0
+    a = TorqueAllocator(PYRAMID, 1, null_time_constant=tau)
+    speed = np.array([[30.0, 20.0, 25.0, 28.0]])
+    hold = p @ speed[0]
+    assert np.array_equal(a.wheel_commands(np.zeros((1, 3)), speed), np.zeros((1, 4)))   # held where it starts
+    kick = speed + 2.0 * p[0]   # 2 rad/s along the null space, nothing else
+    dt, u = 0.01, None
+    for _ in range(int(tau / dt)):
+        u = a.wheel_commands(np.zeros((1, 3)), kick)
+        np.testing.assert_allclose(PYRAMID.matrix @ u[0], 0.0, atol=1e-12)   # no body torque
+        kick = kick + dt * wheel.driver_gain * wheel.torque_constant * u / wheel.inertia
+    left = np.linalg.norm(p @ kick[0] - hold) / np.linalg.norm(2.0 * p[0])
+    assert left == pytest.approx(np.exp(-1.0), rel=2e-3)
+    assert null_space_gain(0.0) == 0.0
+    off = TorqueAllocator(PYRAMID, 1, null_time_constant=0.0)   # no hold: minimum norm alone, no speeds needed
+    v = np.array([[1.0, -2.0, 0.5]])
+    assert not off.needs_speeds
+    np.testing.assert_allclose(off.wheel_commands(v)[0], distribution(PYRAMID.matrix, PYRAMID.mask(PYRAMID.names))
+                               @ v[0], rtol=0, atol=1e-15)
+
+
+def test_a_pyramid_keeps_its_wheels_together_when_a_hot_wheels_friction_error_drives_them_apart():
+    """Seed 10,600,003 (p4 +173 C at 134.7 s) on the microsatellite, friction fed forward: without the hold the
+    null vector's speed grew until p2 reached its 5-V limit (p1 and p3 at 7-9 rad/s, p2 and p4 at 46-47); with
+    it every wheel stays within a few rad/s of where it started and no command reaches the limit."""
+    import dataclasses
+    sc = parse_scenario("{name: p, vehicle: microsat_pyramid, duration: 600, seed: 10600003, faults: "
+                        "[{kind: temperature, wheel: p4, onset: 134.7, value: 173}]}")
+    assert sc.vehicle.controller.null_space_time_constant == 10.0
+    runs = {}
+    for tau in (0.0, 10.0):
+        controller = dataclasses.replace(sc.vehicle.controller, null_space_time_constant=tau)
+        runs[tau] = simulate([dataclasses.replace(sc, vehicle=dataclasses.replace(sc.vehicle, controller=controller))])
+    apart = np.abs(runs[0.0].wheel_speed[-1, 0] - runs[0.0].wheel_speed[0, 0]).max()
+    together = np.abs(runs[10.0].wheel_speed[-1, 0] - runs[10.0].wheel_speed[0, 0]).max()
+    assert apart > 15.0 and together < 5.0, (apart, together)
+    assert np.abs(runs[0.0].wheel_command[:, 0]).max() == pytest.approx(5.0)
+    assert np.abs(runs[10.0].wheel_command[:, 0]).max() < 4.9

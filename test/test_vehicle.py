@@ -130,6 +130,8 @@ BAD = [
     ("controller", None, "missing 'controller'"),
     ("controller.overshoot", 1.5, "controller.overshoot: a share below 1"),
     ("controller.friction_feedforward", "yes please", "controller.friction_feedforward: true or false"),
+    ("controller.null_space_time_constant", "-1 s", "controller.null_space_time_constant: must be >= 0"),
+    ("controller.null_space_time_constant", "10 rad/s", "controller.null_space_time_constant: the unit must be s"),
     ("residual_dipole", {"unit": "A m2", "vector": [0, 0, 0]}, "residual_dipole.unit: must be 'A m^2'"),
     ("residual_dipole", {"unit": "A m^2", "vector": [0, 0]}, "residual_dipole.vector: expected 3 numbers"),
     ("disturbance_sigma", "-1e-5 N m", "disturbance_sigma: must be >= 0"),

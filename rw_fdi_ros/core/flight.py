@@ -125,7 +125,8 @@ def fly(scenarios, gains: PidGains, wheel: WheelParams | None = None,
     dumper = Dumper([s.magnetorquers for s in scenarios]) if plant.in_orbit else None
     wheel = plant.datasheet
     allocator = TorqueAllocator(plant.wheels, plant.batch, wheel.command_limit, wheel,
-                                feedforward=plant.vehicle.controller.friction_feedforward)
+                                feedforward=plant.vehicle.controller.friction_feedforward,
+                                null_time_constant=plant.vehicle.controller.null_space_time_constant)
     # the controllers' integrators hold the body-axis command of the wheels' holding voltages
     pid = PidController(gains, control_period, initial_tcv=allocator.integrator_start(plant.tcv, plant.wheel_speed),
                         wheel=wheel)

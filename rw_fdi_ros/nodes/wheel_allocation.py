@@ -26,7 +26,9 @@ A wheel given up is never commanded again; a held one (its momentum
 more than the wheels in use could take) gets only the speed-hold command,
 from its speed of the same step (allocation.hold_command). With
 ``friction_feedforward`` (a vehicle's choice) every command adds the wheels'
-modelled friction at that step's speeds (allocation.friction_feedforward).
+modelled friction at that step's speeds (allocation.friction_feedforward). A set
+with more wheels in use than axes holds its null-space speeds
+(``null_space_time_constant``, allocation.null_projector).
 """
 from __future__ import annotations
 
@@ -40,7 +42,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from ..core.control.allocation import TorqueAllocator
+from ..core.control.allocation import NULL_SPACE_TIME_CONSTANT, TorqueAllocator
 from ..core.fdir import DecisionDelay, DeliveryLog, Reconfiguration
 from ..core.fdi.verdict import speed_envelope, stamp_seconds
 from ..core.physics.spacecraft import BODY_AXES, INERTIA, inertia_times
@@ -75,6 +77,9 @@ class WheelAllocationNode(GraphNode):
         # the wheels' modelled friction cancelled from their speeds (the vehicle's controller.friction_feedforward;
         # core/control/allocation.friction_feedforward): every command then waits for its step's wheel speeds
         self.declare_parameter("friction_feedforward", False)
+        # [s] the null-space speed hold of a set with more wheels in use than axes (the vehicle's
+        # controller.null_space_time_constant; core/control/allocation.null_projector), 0 for none
+        self.declare_parameter("null_space_time_constant", NULL_SPACE_TIME_CONSTANT)
         self.declare_parameter("fdir_readers", 0)                # of /fdir/wheels (the recorder) before it goes
         self.declare_parameter("diagnostics_readers", 0)         # of /diagnostics before FDIR's state goes there
         try:
@@ -85,7 +90,8 @@ class WheelAllocationNode(GraphNode):
         self.period = self.param("control_period")
         self.fdi_period_ns = int(round(self.param("fdi_period") * 1e9))
         self.allocator = TorqueAllocator(self.wheels, limit=self.wheel.command_limit, params=self.wheel,
-                                         feedforward=self.param("friction_feedforward"))
+                                         feedforward=self.param("friction_feedforward"),
+                                         null_time_constant=self.param("null_space_time_constant"))
         inertia = np.asarray(self.param("body_inertia"), float)
         if inertia.size not in (3, 9) or not np.all(np.isfinite(inertia)) or self.param("wheel_inertia") <= 0:
             raise NodeError("parameter body_inertia: 3 numbers (the diagonal) or 9 (the matrix, row by row) "
@@ -224,7 +230,7 @@ class WheelAllocationNode(GraphNode):
             t = stamp_seconds(stamp)
             due = self.delay.due(t) + [(j.removeprefix("reaction_wheel_"), OPERATOR) for j in self.operator]
             # after a reconfiguration: review on this step's state; the feed-forward reads its speeds
-            watched = bool(self.reconfiguration.decisions) or self.allocator.feedforward
+            watched = bool(self.reconfiguration.decisions) or self.allocator.needs_speeds
             if (due or watched) and any(x is None for x in self.state.get(stamp, (None,))):
                 self.delay.pending[:0] = [(t, w) for w in due if w[1] != OPERATOR]
                 return   # the momentum check and a held wheel read this step's state: it comes with the attitude

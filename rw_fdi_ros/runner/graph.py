@@ -151,6 +151,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         "wheel_set": choices.wheel_set, "control_period": period,
         "fdir": fdi is not None and fdi.fdir,
         "fdi_period": choices.fdi_period, **typed, **({"friction_feedforward": True} if feedforward else {}),
+        "null_space_time_constant": start.vehicle.controller.null_space_time_constant,
         **({} if vehicle is None else {"body_inertia": [float(v) for v in vehicle.inertia_matrix.ravel()],
                                        "wheel_inertia": float(vehicle.wheel.inertia)})}))
     if scenario.magnetorquers is not None:

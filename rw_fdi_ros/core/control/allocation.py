@@ -29,6 +29,13 @@ have to find it, which they do slowly: on a light body a wheel crossing
 zero speed flips its coulomb friction, and a wheel given up coasts on its
 friction until it stops, and either step costs the pointing until the
 integrator has caught up.
+
+Null-space speed hold (a set with more wheels in use than axes, e.g. the pyramid): the commands along
+the null space of G_u turn no axis, so the axis controllers never see their effect. Without it a
+torque error of one wheel (a hot wheel's friction, a fault) drives the wheels apart along the null
+vector until one saturates. The allocation holds the null-space part of the speeds where it was when
+the wheels in use last changed (:func:`null_projector`, :func:`null_space_gain`), as flight software
+does; with three wheels in use there is no null space and the commands are the thesis' to the digit.
 """
 from __future__ import annotations
 
@@ -37,6 +44,9 @@ import numpy as np
 from ..physics.wheel import WheelParams, holding_tcv
 from ..physics.wheel_set import WheelSet
 
+# [s] the null-space speed hold's time constant: slow beside the attitude loop's 30-s settling is not needed (the
+# hold turns no axis), fast beside the minutes a hot wheel's friction error takes to drive the wheels apart
+NULL_SPACE_TIME_CONSTANT = 10.0
 HOLD_GAIN = 2.0   # [V/(rad/s)] speed-hold gain: a 0.7 s time constant on the datasheet wheel, stable at 0.1 s
 
 
@@ -61,6 +71,55 @@ def distribution(spin_axes, in_use) -> np.ndarray:
     if np.linalg.matrix_rank(gram) < 3:
         raise ValueError("the wheels in use do not span the three body axes")
     return g.T @ np.linalg.inv(gram)
+
+
+def null_projector(spin_axes, in_use):
+    """P_N (N, N), the projector onto the null space of the wheels in use, or None where it is empty:
+
+        P_N = M - D G_u                (M: diag(in_use); D = G_u^T (G_u G_u^T)^-1, :func:`distribution`)
+
+    P_N Omega is the part of the wheel speeds that turns no body axis; G P_N = 0 and P_N is symmetric.
+
+    Parameters
+    ----------
+    spin_axes : array_like, shape (3, N)
+        G (WheelSet.matrix).
+    in_use : array_like of bool, shape (N,)
+        The wheels in use (spanning the body).
+
+    Returns
+    -------
+    ndarray, shape (N, N), or None
+        P_N, None with three wheels in use or fewer.
+    """
+    m = np.asarray(in_use, bool)
+    if m.sum() <= 3:
+        return None
+    g = np.asarray(spin_axes, float) * m
+    return np.diag(m.astype(float)) - distribution(spin_axes, m) @ g
+
+
+def null_space_gain(time_constant: float, params: WheelParams = WheelParams()) -> float:
+    """k_n [V/(rad/s)] of the null-space speed hold u_n = -k_n P_N (Omega - Omega_0): the wheels' speeds
+    along the null space return to their hold with the time constant ``time_constant`` [s],
+
+        J dOmega/dt = G_d k_t u   =>   k_n = J / (G_d k_t tau_n)            (0 for tau_n = 0: no hold)
+
+    Parameters
+    ----------
+    time_constant : float
+        tau_n [s]; 0 turns the hold off.
+    params : WheelParams
+        The wheel type (J, G_d, k_t).
+
+    Returns
+    -------
+    float
+        k_n [V/(rad/s)].
+    """
+    if time_constant <= 0.0:
+        return 0.0
+    return params.inertia / (params.driver_gain * params.torque_constant * time_constant)
 
 
 def limited(wheel_commands, limit: float):
@@ -156,7 +215,7 @@ class TorqueAllocator:
     """Wheel commands of a batch of runs, each with its own wheels in use (``in_use``: (B, N) bool)."""
 
     def __init__(self, wheels: WheelSet, batch: int = 1, limit: float = 5.0, params: WheelParams = WheelParams(),
-                 feedforward: bool = False):
+                 feedforward: bool = False, null_time_constant: float = NULL_SPACE_TIME_CONSTANT):
         self.wheels = wheels
         self.limit = float(limit)
         self.params = params   # the wheel type whose friction a held wheel's feed-forward cancels
@@ -165,14 +224,28 @@ class TorqueAllocator:
         self.hold_speed = np.full(self.in_use.shape, np.nan)   # [rad/s] per held wheel, NaN for the others
         self.held = np.zeros(self.in_use.shape, bool)
         self._holding = False    # any wheel held in any run: decided in use(), not on every command
+        self.null_gain = null_space_gain(null_time_constant, params)   # [V/(rad/s)], 0: no null-space hold
         self._matrix = {}
         self._dist = np.stack([self._distribution(row) for row in self.in_use])
+        # P_N per run (zeros without a null space) and P_N Omega_0, NaN until the run's first command
+        self._null = np.stack([self._projector(row) for row in self.in_use])
+        self._has_null = self._null.any(axis=(1, 2))
+        self.null_hold = np.full(self.in_use.shape, np.nan)
+
+    @property
+    def needs_speeds(self) -> bool:
+        """Whether a command needs its step's wheel speeds (the feed-forward, a held wheel or a null-space hold)."""
+        return self.feedforward or self._holding or bool(self._has_null.any())
 
     def _distribution(self, row) -> np.ndarray:
         key = tuple(bool(x) for x in row)
         if key not in self._matrix:
             self._matrix[key] = distribution(self.wheels.matrix, row)
         return self._matrix[key]
+
+    def _projector(self, row) -> np.ndarray:
+        p = null_projector(self.wheels.matrix, row) if self.null_gain else None
+        return np.zeros((len(row), len(row))) if p is None else p
 
     def use(self, names, b: int = 0, held=None):
         """Run ``b`` uses the wheels ``names`` from the next command on (ValueError: they do not span) and
@@ -190,6 +263,9 @@ class TorqueAllocator:
         row = self.wheels.mask(names)
         self._dist[b] = self._distribution(row)
         self.in_use[b] = row
+        self._null[b] = self._projector(row)
+        self._has_null[b] = self._null[b].any()
+        self.null_hold[b] = np.nan   # the null space changed: held where the next command finds it
         self.hold_speed[b] = np.nan
         for name, speed in (held or {}).items():
             self.hold_speed[b, self.wheels.index(name)] = speed
@@ -216,6 +292,8 @@ class TorqueAllocator:
         u = np.einsum("bnk,bk->bn", self._dist, v)
         if self.feedforward:
             u = u + self.friction_commands(wheel_speed)
+        if self._has_null.any():
+            u = u + self.null_commands(wheel_speed)
         u = limited(u, self.limit)
         if self._holding:
             if wheel_speed is None:
@@ -224,6 +302,28 @@ class TorqueAllocator:
             u[self.held] = hold_command(self.hold_speed[self.held], speed[self.held], limit=self.limit,
                                          params=self.params)
         return u
+
+    def null_commands(self, wheel_speed) -> np.ndarray:
+        """u_n (B, N) [V] = -k_n P_N (Omega - Omega_0) at ``wheel_speed`` (B, N): the null-space speed hold
+        (:func:`null_projector`), Omega_0 the speeds of the first command since the wheels in use changed; zeros
+        for a run without a null space.
+
+        Parameters
+        ----------
+        wheel_speed : array_like
+            (B, N) wheel speeds Omega [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, N) u_n [V], each run's in its wheels' null space (G u_n = 0).
+        """
+        if wheel_speed is None:
+            raise ValueError("the null-space speed hold needs the wheel speeds")
+        along = np.einsum("bmn,bn->bm", self._null, np.asarray(wheel_speed, float).reshape(self.in_use.shape))
+        fresh = np.isnan(self.null_hold[:, 0])
+        self.null_hold[fresh] = along[fresh]
+        return -self.null_gain * (along - self.null_hold)
 
     def friction_commands(self, wheel_speed) -> np.ndarray:
         """u_ff (B, N) [V] at ``wheel_speed`` (B, N) for the wheels as they are used now (:func:`friction_feedforward`;

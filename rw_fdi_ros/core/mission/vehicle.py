@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ...paths import DEFAULT_VEHICLE, config_dir, file_name
+from ..control.allocation import NULL_SPACE_TIME_CONSTANT
 from ..physics.environment import DEFAULT_RESIDUAL_DIPOLE
 from ..physics.magnetorquers import MomentumDumping
 from ..physics.spacecraft import DISTURBANCE_SIGMA, INERTIA
@@ -66,7 +67,7 @@ WHEEL_MAX = {
 }
 NUMBER_MAX = 1e9   # any other number of a vehicle file, in its unit: nothing of a spacecraft is larger
 MAGNETORQUER_UNITS = {"dipole_limit": "A m^2", "gain": "1/s", "start_speed": "rad/s", "stop_speed": "rad/s"}
-CONTROLLER_UNITS = {"overshoot": "", "settling_time": "s", "pointing": "deg"}
+CONTROLLER_UNITS = {"overshoot": "", "settling_time": "s", "pointing": "deg", "null_space_time_constant": "s"}
 REQUIRED_KEYS = ("name", "inertia", "disturbance_sigma", "wheel", "wheel_set", "controller", "magnetorquers",
                  "dispersions")
 # the largest a dispersion may reach (what a scenario may ask: scenario.ANGLE_LIMIT_DEG, INITIAL_LIMITS)
@@ -93,6 +94,9 @@ class ControllerTargets:
     # the wheels' modelled friction cancelled by feed-forward (allocation.friction_feedforward); the thesis
     # has none: its PID integrators hold the friction
     friction_feedforward: bool = False
+    # [s] the null-space speed hold's time constant (allocation.null_projector), 0 for none; only a set with more
+    # wheels in use than axes has a null space, so the thesis' three wheels never feel it
+    null_space_time_constant: float = NULL_SPACE_TIME_CONSTANT
 
 
 @dataclass(frozen=True)
@@ -474,7 +478,8 @@ def _positive(where: str, raw, units: dict, may_be_zero=()) -> dict:
 
 def _controller(where: str, raw) -> ControllerTargets:
     raw = _mapping(where, raw, {*CONTROLLER_UNITS, "friction_feedforward"})
-    values = _positive(where, {k: v for k, v in raw.items() if k != "friction_feedforward"}, CONTROLLER_UNITS)
+    values = _positive(where, {k: v for k, v in raw.items() if k != "friction_feedforward"}, CONTROLLER_UNITS,
+                       ("null_space_time_constant",))
     if values.get("overshoot", 0.0) >= 1.0:
         raise VehicleError(f"{where}.overshoot: a share below 1, got {values['overshoot']:g}")
     if "friction_feedforward" in raw:
@@ -719,6 +724,7 @@ def to_mapping(vehicle: Vehicle) -> dict:
         "controller": {"overshoot": vehicle.controller.overshoot,
                        "settling_time": _with_unit(vehicle.controller.settling_time, "s"),
                        "pointing": _with_unit(vehicle.controller.pointing, "deg"),
+                       "null_space_time_constant": _with_unit(vehicle.controller.null_space_time_constant, "s"),
                        # written where set: a vehicle without it records as it did before the option
                        **({"friction_feedforward": True} if vehicle.controller.friction_feedforward else {})},
         "magnetorquers": {**{k: _with_unit(getattr(vehicle.magnetorquers, k), u)
