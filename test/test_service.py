@@ -96,6 +96,11 @@ def test_a_ramp_that_hides_until_it_takes_the_pointing_is_counted_with_its_reaso
                              "reconfigured_before_fault": [], "fault_effect_peak": 0.02, "acted_right": True,
                              "healthy_acted": [], "delay_s": 128.5, "action": "held", "at_limit": []}])
     assert figures["pointing_lost_showing"]["k"] == 1 and figures["pointing_lost_unexplained"]["k"] == 0
+    assert figures["pointing_kept_allowed"]["n"] == 1 and figures["pointing_kept_allowed"]["k"] == 0   # not said
+    said = sb.summarize([{**lost, "fault_free_family": False, "duration": 600.0, "units": False, "momentum_said": "p1",
+                          "reconfigured_before_fault": [], "fault_effect_peak": 0.02, "acted_right": True,
+                          "healthy_acted": [], "delay_s": 128.5, "action": "held", "at_limit": ["p1"]}])
+    assert said["pointing_kept_allowed"]["n"] == 0 and said["pointing_lost_said"]["k"] == 1
 
 
 def test_a_wheel_given_up_at_its_decision_is_identified_from_the_samples_before():

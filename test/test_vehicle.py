@@ -487,6 +487,10 @@ def test_the_recovery_bench_flies_a_vehicle_with_its_wheels_left_taking_over():
     scenarios = rb.cell_scenarios(rb.CELLS[2], 3, 2, rb.SEED_BASES["tuning"], "microsat_pyramid")
     assert {s.wheel_set().name for s in scenarios} == {"pyramid"} and all(
         s.spacecraft.name == "microsat_pyramid" for s in scenarios)
+    # one initial speed per wheel in use, none near zero (three body-axis speeds over the pyramid start two there)
+    lo, hi = rb.CELLS[2].speeds
+    assert all(len(s.initial["wheel_speed"]) == 4 and min(s.initial["wheel_speed"]) >= lo
+               and max(s.initial["wheel_speed"]) <= hi for s in scenarios)
     i, runs = rb._batch((2, rb.SEED_BASES["tuning"], range(0, 2), "microsat_pyramid"))   # current loss 40 %
     assert i == 2 and all(r["wheel"].startswith("p") for r in runs)
     assert all(any(w == r["wheel"] for _, w, _ in r["decisions"]) for r in runs), runs   # the faulty wheel acted on

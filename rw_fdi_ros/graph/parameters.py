@@ -34,6 +34,7 @@ RANGES = {
     "start_speed": (0.0, 1000.0),                     # [rad/s]
     "stop_speed": (0.0, 1000.0),
     "wheel_inertia": (1e-6, 100.0),                    # [kg m^2] the vehicle's wheel J
+    "null_space_time_constant": (0.0, 1e6),            # [s] the allocation's null-space hold, 0: none
     "verdict_timeout": TIMEOUT,
     "wait_for_subscribers": (0, COUNT_MAX),
     "speed_up": (0.01, 1000.0),

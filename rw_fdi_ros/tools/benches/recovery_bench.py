@@ -100,7 +100,9 @@ def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int, vehicle: s
             if cell.second is not None:   # on the standby wheel
                 faults += (Fault(cell.second[0], wheels.names.index(wheels.standby[0]), onset + 100.0,
                                  cell.second[1]),)
-        speeds = tuple(float(v) for v in rng.uniform(*cell.speeds, 3))
+        # one speed per wheel in use: three body-axis speeds spread minimum-norm over a pyramid leave two wheels
+        # near zero, where the Coulomb friction flips and the null-space hold keeps them (the thesis' set: three)
+        speeds = tuple(float(v) for v in rng.uniform(*cell.speeds, len(wheels.active)))
         # the thesis' runs name their set (the default's), as they always did
         plant = {"plant": {"wheel_set": WHEELS.name}} if vehicle == DEFAULT_VEHICLE else {}
         out.append(bench_scenario(vehicle, cell.name, seed=seed, faults=faults, initial={"wheel_speed": speeds},

@@ -286,6 +286,9 @@ def summarize(all_runs: list) -> dict:
         "pointing_kept": rate(r["pointing_kept"] for r in runs),
         "pointing_kept_faulty": rate(r["pointing_kept"] for r in faulty),
         "pointing_lost_said": rate(not r["pointing_kept"] and r["momentum_said"] is not None for r in runs),
+        # the goal's "where the wheels allow it": every run but those lost where FDIR said they could not
+        "pointing_kept_allowed": rate(r["pointing_kept"] for r in runs
+                                      if r["pointing_kept"] or r["momentum_said"] is None),
         "pointing_lost_showing": rate(_lost_as_it_showed(r) for r in runs),
         "pointing_lost_unexplained": rate(not r["pointing_kept"] and r["momentum_said"] is None
                                           and not _lost_as_it_showed(r) for r in runs),
@@ -511,6 +514,8 @@ def _service_table(f: dict) -> list:
              f"| pointing kept, every run | {format_rate(f['pointing_kept'])} | >= 99 % |",
              f"| pointing lost where FDIR said the momentum could not allow it | "
              f"{format_rate(f['pointing_lost_said'])} | said |",
+             *([f"| pointing kept where the wheels allowed it (every run but those) | "
+                f"{format_rate(f['pointing_kept_allowed'])} | >= 99 % |"] if "pointing_kept_allowed" in f else []),
              f"| pointing lost within {SETTLE_S:.0f} s of a ramp's effect first showing, before the FDI could "
              f"confirm it | {format_rate(f['pointing_lost_showing'])} | said |",
              f"| pointing lost, unexplained | {format_rate(f['pointing_lost_unexplained'])} | 0 |",
