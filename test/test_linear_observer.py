@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from rw_fdi_ros.core.fdi.linear_observer import LinearObserver, discretise, observer_gain
+from rw_fdi_ros.core.fdi.linear_observer import LinearObserver, discretise, observer_gain, steady_fault_gain
 from rw_fdi_ros.core.physics.wheel import LinearWheel, linearised_wheel
 
 THESIS = LinearWheel(A=-0.04987, B=0.01563, C=0.01759, D=-0.00551)
@@ -52,6 +52,21 @@ def test_estimates_follow_the_linear_wheel_and_a_bias_decays_at_the_observer_pol
     np.testing.assert_allclose(e, d / 4 + 0.75 * d * phi ** np.arange(60), rtol=1e-9)
     assert e[40] < 0.26 * d
 
+
+
+@pytest.mark.parametrize("speed_up", [2.0, 4.0, 8.0])
+@pytest.mark.parametrize("period", [0.1, 1.0])
+def test_a_steady_fault_leaves_one_over_the_speed_up_in_the_residual(speed_up, period):
+    """r_inf / d = A / (A - L C) = 1 / speed_up (ZOH keeps the DC gain), and the observer stepped on a
+    constant offset settles there: what `defaults --vehicle` says of the linear observer's misses."""
+    model = discretise(THESIS, period, speed_up)
+    assert steady_fault_gain(model) == pytest.approx(1.0 / speed_up, rel=1e-9)
+    obs = LinearObserver(period, THESIS, speed_up)
+    held = THESIS.C * (-THESIS.B / THESIS.A) + THESIS.D   # the wheel's torque held at u = 1 V
+    obs.update(1.0, held)
+    d = 0.002
+    settled = [held + d - obs.update(1.0, held + d) for _ in range(int(400 / period))][-1]
+    assert settled == pytest.approx(steady_fault_gain(model) * d, rel=1e-6)
 
 def test_the_speed_aware_model_error_term_covers_held_out_runs():
     """UNCERTAINTY_GAIN (kappa of the speed-aware bound) was fitted on runs 1000-1139; on the held-out

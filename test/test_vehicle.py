@@ -6,6 +6,7 @@ import csv
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -368,7 +369,7 @@ def test_one_command_makes_the_fdi_of_a_vehicle_and_every_command_takes_it(tmp_p
     out = tmp_path / "micro_fdi"
     made = _rw_fdi(tmp_path, "defaults", "--vehicle", "microsat_pyramid", "--out", str(out), "--train-runs", "3",
                    "--fit-runs", "20", "--heldout-runs", "4", "--unit-runs", "20", "--epochs", "3",
-                   "--false-alarm-rate", "0.05")
+                   "--false-alarm-rate", "0.05", "--fault-runs", "3")
     assert made.returncode == 0, made.stderr
     assert "networks for p1, p2, p3, p4" in made.stdout
     card = yaml.safe_load((out / "model_set.json").read_text())
@@ -382,6 +383,18 @@ def test_one_command_makes_the_fdi_of_a_vehicle_and_every_command_takes_it(tmp_p
     assert report["controller"]["natural_frequency"] == list(design_controller(load_vehicle("microsat_pyramid"))
                                                              .natural_frequency)
     assert "## Held-out fault-free runs" in (out / "defaults_report.md").read_text()
+    # each observer judged alone on faults it must see; one that missed is named, with its cause and figure
+    caught = report["faults_caught"]
+    assert list(caught) == ["current loss 10 %", "temperature +30 C"] and report["seeds"]["faults"] == [5400, 5402]
+    assert all(sorted(rows) == ["elman", "linear", "model"] and all(x["runs"] == 3 for x in rows.values())
+               for rows in caught.values())
+    for case, rows in caught.items():
+        for obs, x in rows.items():
+            assert ("why" in x) == (x["right"] < 3)
+            if "why" in x:
+                assert Path(x["worst_miss"]["figure"]).is_file()
+                assert f"{obs} observer: {case} right in {x['right']} of 3 runs" in made.stdout
+    assert "## Each observer on its own" in (out / "defaults_report.md").read_text()
     (tmp_path / "cl.yaml").write_text("name: micro_cl\nduration: 300\nvehicle: microsat_pyramid\nfaults: "
                                       "[{kind: current_limiter, wheel: p2, onset: 200, value: 0.6}]\n")
     for extra in ([], ["--unit-calibration", "150"]):

@@ -32,6 +32,9 @@ def add_arguments(parser) -> None:
                              "--service, the in-service family's fault-free 600-s runs (manoeuvres)")
     parser.add_argument("--unit-runs", type=COUNT, default=300,
                         help="with --vehicle: runs of drawn wheel units the calibrated bands are fitted on")
+    parser.add_argument("--fault-runs", type=COUNT, default=40,
+                        help="with --vehicle: runs of a 10 %% current loss and of +30 C each observer is judged on "
+                             "alone (an observer that misses is named with its cause and residuals)")
     parser.add_argument("--epochs", type=COUNT, default=None,
                         help="speed-aware set (default 1000; the thesis set: 300)")
     parser.add_argument("--hidden", type=COUNT, default=None,
@@ -63,7 +66,7 @@ def main(args) -> int:
 
 def _vehicle(args) -> int:
     from ...core.mission.vehicle import load_vehicle
-    from ...tools.design.vehicle_defaults import vehicle_defaults
+    from ...tools.design.vehicle_defaults import short_of_goal, vehicle_defaults
     from ...core.controller_design import design_controller
     vehicle = load_vehicle(args.vehicle)   # a bad file: one line naming the field, before anything runs
     design_controller(vehicle)   # targets it cannot meet: one line too (the design is cached for the first stage)
@@ -72,12 +75,14 @@ def _vehicle(args) -> int:
                               heldout_runs=args.heldout_runs or 100, unit_runs=args.unit_runs,
                               unit_heldout_runs=args.heldout_runs or 100,
                               **({"epochs": args.epochs} if args.epochs else {}), executor=executor(args),
-                              false_alarm_rate=args.false_alarm_rate)
+                              false_alarm_rate=args.false_alarm_rate, fault_runs=args.fault_runs)
     held = report["held_out_false_alarms"]
     print(f"FDI of vehicle {vehicle.name} in {out} ({report['stages']['total_s'] / 60:.1f} min): networks for "
           f"{', '.join(report['networks']['wheels'])}; held-out fault-free runs alarmed: "
           + "; ".join(f"{kind} " + ", ".join(f"{obs} {x['alarmed']}/{x['runs']}" for obs, x in rows.items())
                       for kind, rows in held.items()))
+    for line in short_of_goal(report["faults_caught"]):
+        print(line)
     print(f"use it: rw-fdi run --scenario {out}/scenarios/fault_free.yaml --models {out} (report: "
           f"{out}/defaults_report.md)")
     return 0

@@ -97,6 +97,27 @@ def discretise(wheel: LinearWheel, period: float, speed_up: float = 4.0) -> Disc
                             C=wheel.C, D=wheel.D, L=L, period=period)
 
 
+def steady_fault_gain(model: DiscreteObserver) -> float:
+    """The share of a steady torque error Delta (y = y_nominal + Delta from some sample on) that stays in the
+    residual r = y - y^ once the observer has settled: r_inf / Delta = 1 - C Gamma_y / (1 - Phi).
+
+    The output injection L (y - y^) pulls the estimate onto the faulty measurement. ZOH keeps the DC gain, so
+    this is the continuous observer's A / (A - L C): 1 / speed_up for the pole placed at speed_up x the wheel's
+    (:func:`observer_gain`). A current loss or a hot wheel is such a steady error while the command holds.
+
+    Parameters
+    ----------
+    model : DiscreteObserver
+        The discretised observer (:func:`discretise`).
+
+    Returns
+    -------
+    float
+        r_inf / Delta, dimensionless.
+    """
+    return 1.0 - model.C * model.gamma_y / (1.0 - model.phi)
+
+
 class LinearObserver:
     """Reaction-torque estimator for any number of wheels (arrays broadcast)."""
 

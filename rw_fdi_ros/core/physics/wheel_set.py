@@ -218,3 +218,22 @@ def wheel_set(name: str) -> WheelSet:
     if name not in WHEEL_SETS:
         raise ValueError(f"wheel_set must be one of {', '.join(WHEEL_SETS)}, got {name!r}")
     return WHEEL_SETS[name]
+
+
+def fault_wheel(seed: int, wheels: WheelSet = WHEEL_SETS[DEFAULT_WHEEL_SET]) -> int:
+    """The wheel a bench run's fault goes on, drawn from its seed over the set's wheels in use (a standby wheel
+    is at rest, unpowered: a fault there shows nothing until it is brought in, which only FDIR does).
+
+    Parameters
+    ----------
+    seed : int
+        The run's seed.
+    wheels : WheelSet, optional
+        The run's wheel set (default: the default set, x y z in use and s standing by).
+
+    Returns
+    -------
+    int
+        The wheel's index in ``wheels.names``: seed mod 3 on the default set.
+    """
+    return wheels.names.index(wheels.active[seed % len(wheels.active)])

@@ -18,6 +18,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...paths import config_dir
 from ...scoring.metrics import rate
 from .kit import format_rate
 
@@ -47,6 +48,9 @@ SMALL = {
     "cubesat_recovery": {"runs_per_cell": 6, "fault_free_runs": 40, "vehicle": "cubesat_6u"},
     "cubesat_service": {"runs": 24, "fault_free_runs": 40, "max_hours": 0.5, "given_up_runs": 16,
                         "vehicle": "cubesat_6u"},
+    # each observer on its own: the thesis' spacecraft with its FDI made the vehicle way (docs/fdi.md)
+    "maksat_operations": {"fault_free_runs": 40, "runs_per_cell": 12, "hours_runs": 2,
+                          "vehicle": str(config_dir() / "fdi" / "vehicles" / "maksat")},
 }
 RECORDS = {"detection": "reports/detection/detection.json", "operations": "reports/operations/operations.json",
            "identification_units": "reports/identification_units/identification.json",
@@ -58,7 +62,8 @@ RECORDS = {"detection": "reports/detection/detection.json", "operations": "repor
            "vehicle_service": "reports/vehicles/microsat_pyramid/service/service.json",
            "cubesat_detection": "reports/vehicles/cubesat_6u/detection/detection.json",
            "cubesat_recovery": "reports/vehicles/cubesat_6u/recovery/recovery.json",
-           "cubesat_service": "reports/vehicles/cubesat_6u/service/service.json"}
+           "cubesat_service": "reports/vehicles/cubesat_6u/service/service.json",
+           "maksat_operations": "reports/vehicles/maksat/operations/operations.json"}
 
 
 @dataclass(frozen=True)
@@ -163,6 +168,11 @@ FIGURES = [
            lambda r: r["groupings"]["none"]["real_time_factor"], None, "x"),
     *_vehicle_figures("**another vehicle**", "microsat", "vehicle"),
     *_vehicle_figures("**a wheel type of its own**", "cubesat", "cubesat"),
+    *[Figure("**each observer on its own**", f"{label} alone: {what}", "maksat_operations", _cell(cell, obs, key))
+      for obs, label in (("elman", "Elman"), ("linear", "Luenberger"))
+      for what, cell, key in (("false alarms in operations", "fault-free operations", "false_alarm"),
+                              ("current loss 10 % right", "current loss 10 %", "correct"),
+                              ("temperature +30 C right", "temperature +30 C", "correct"))],
     *[Figure("judging a recorded bag", f"judging a bag: {how}", "study",
              lambda r, how=how: next(v for k, v in r["judge_s_per_bag"].items() if k.startswith(how)), None, "s")
       for how in ("core engine", "replay through the FDI graph")],
@@ -197,6 +207,7 @@ BENCH_FUNCTIONS = {
     "cubesat_detection": (".detection_bench", "bench_detection", "detection.json"),
     "cubesat_recovery": (".recovery_bench", "bench_recovery", "recovery.json"),
     "cubesat_service": (".service_bench", "bench_service", "service.json"),
+    "maksat_operations": (".operations_bench", "bench_operations", "operations.json"),
 }
 
 

@@ -16,7 +16,7 @@ from ...core.physics.environment import OrbitEnvironment
 from ...core.mission.scenario import Fault, Manoeuvres, Scenario, vehicle_scenario as core_vehicle_scenario
 from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle, shipped_vehicles
 from ...core.physics.wheel import NOMINAL
-from ...core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet
+from ...core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet, fault_wheel  # noqa: F401
 from ...scoring.metrics import alarm_before_onset, judge, observable, rate
 from ..evaluation.screen import screen_sets
 from .journal import finish
@@ -65,25 +65,6 @@ class Cell:
 
 # what the detection and identification benches vary and report of a cell
 DETECTION_FIELDS = ("name", "kind", "value", "ramp", "disturbance", "thesis_size", "target_detection")
-
-
-def fault_wheel(seed: int, wheels: WheelSet = WHEEL_SETS[DEFAULT_WHEEL_SET]) -> int:
-    """The wheel a bench run's fault goes on, drawn from its seed over the set's wheels in use (a standby wheel
-    is at rest, unpowered: a fault there shows nothing until it is brought in, which only FDIR does).
-
-    Parameters
-    ----------
-    seed : int
-        The run's seed.
-    wheels : WheelSet, optional
-        The run's wheel set (default: the default set, x y z in use and s standing by).
-
-    Returns
-    -------
-    int
-        The wheel's index in ``wheels.names``: seed mod 3 on the default set.
-    """
-    return wheels.names.index(wheels.active[seed % len(wheels.active)])
 
 
 # the votes of the three speed-aware observers the benches judge beside /diagnostics' decision (an observer
@@ -227,6 +208,13 @@ def configured(fdi) -> dict | None:
     if fdi is None:
         return None
     return {"thresholds": str(fdi.thresholds_dir), "plugins": list(fdi.plugins), "slots": list(fdi.plugin_slots)}
+
+
+def own_fdi(report: dict) -> str:
+    """How a report names the FDI it was measured on when none was given: the shipped one of its vehicle, or the
+    one in the vehicle's directory (``rw-fdi defaults --vehicle FILE --out DIR``)."""
+    vehicle = report.get("vehicle", DEFAULT_VEHICLE)
+    return "the shipped speed-aware FDI" if vehicle in shipped_vehicles() else f"the speed-aware FDI in `{vehicle}`"
 
 
 def fdi_phrase(report: dict, shipped: str) -> str:

@@ -27,8 +27,8 @@ from ...fdi_config import FdiConfig
 from ...core.mission.scenario import Fault, Manoeuvres, Scenario
 from ...core.mission.vehicle import DEFAULT_VEHICLE
 from .kit import (VOTES, Cell, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, cell_on_bus, configured,
-                  fault_wheel,
-                  fdi_phrase, format_rate, screen_cells, workers, write_cells_table, write_report, vehicle_words)
+                  fault_wheel, fdi_phrase, format_rate, own_fdi, screen_cells, workers, write_cells_table, write_report,
+                  vehicle_words)
 from ...scoring.metrics import observable_level
 
 SEED_BASES = {"tuning": 80_000_000, "evaluation": 81_000_000}
@@ -140,7 +140,7 @@ def format_operations(report: dict) -> str:
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
     lines = ["# The FDI in operations (`rw-fdi bench operations`)"
              + ("" if vehicle == DEFAULT_VEHICLE else f", vehicle {vehicle_words(vehicle)}"), "",
-             f"Measured {report['date']} on {fdi_phrase(report, 'the shipped speed-aware FDI')}, {report['seed_set']} "
+             f"Measured {report['date']} on {fdi_phrase(report, own_fdi(report))}, {report['seed_set']} "
              f"seeds from "
              f"{report['seed_base']:,}; {report['seconds'] / 60:.0f} min on this machine. Rates with 95 % Wilson "
              "intervals. `verdict`: what /diagnostics says (the decision observer's alarm, latched).", "",

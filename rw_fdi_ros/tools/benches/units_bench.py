@@ -27,8 +27,8 @@ from ...core.fdi.calibration import calibration_samples
 from ...core.mission.plant_choices import FDI_PERIOD
 from ...core.mission.vehicle import DEFAULT_VEHICLE
 from .detection_bench import cell_results, cell_sizes, cells_of, observable_levels
-from .kit import (cell_scenarios, configured, fdi_phrase, format_rate, screen_cells, workers, write_cells_table,
-                  write_report, vehicle_words)
+from .kit import (cell_scenarios, configured, fdi_phrase, format_rate, own_fdi, screen_cells, workers,
+                  write_cells_table, write_report, vehicle_words)
 from ..evaluation.screen import screen_sets
 
 CALIBRATION_TIME = 150.0   # [s]: the shipped config/fdi/unit_calibrated bands
@@ -83,7 +83,7 @@ def format_units(report: dict) -> str:
     vehicle = report.get("vehicle", DEFAULT_VEHICLE)
     lines = ["# The FDI on wheels that are not the datasheet (`rw-fdi bench units`)"
              + ("" if vehicle == DEFAULT_VEHICLE else f", vehicle {vehicle_words(vehicle)}"), "",
-             f"Measured {report['date']} on {fdi_phrase(report, 'the shipped speed-aware FDI')}; `datasheet model`: "
+             f"Measured {report['date']} on {fdi_phrase(report, own_fdi(report))}; `datasheet model`: "
              f"the datasheet bands, observers modelling Table 2.2's wheel; `calibrated`: each observer learns its "
              f"wheel over the first {report['unit_calibration_time_s']:g} s of the run (`--unit-calibration "
              f"{report['unit_calibration_time_s']:g}`, bands `unit_calibrated`). Faults on a wheel in use drawn "

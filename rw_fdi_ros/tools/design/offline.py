@@ -25,6 +25,9 @@ from ...core.mission.plant_choices import FDI_PERIOD, FDI_SAMPLING, PlantChoices
 from ...core.physics.wheel import WheelParams, bearing_noise_mean, linearised_wheel
 from ...core.physics.wheel_set import AXIS_WHEELS, wheel_set
 from ...core.mission.yaml_text import read_yaml
+from ...core.fdi.verdict import in_envelope, speed_envelope
+from ...graph.topics import DIAGNOSTICS
+from ...scoring.metrics import RunEval
 
 
 
@@ -315,3 +318,33 @@ def alarmed_runs(runs, curves: dict, persistence: int | None = None) -> dict:
     """observer -> how many of ``runs`` (ObserverRun) it alarmed anywhere: on fault-free runs, its false alarms."""
     judged = [decisions(r, curves, persistence) for r in runs]
     return {obs: sum(any(first is not None for _, first in d[obs].values()) for d in judged) for obs in curves}
+
+
+def judge_run(scenario, samples, peak, weights, curves, persistence: int | None = None,
+              identification: bool = False, calibration_samples: int = 0, bag: str | None = None,
+              decision=None, other_decisions=()) -> RunEval:
+    """The RunEval of one run from its FDI samples, by the observer and isolation nodes' code: each
+    observer's series, ``verdict`` (what /diagnostics says: the ``decision``'s alarm, latched, None: the
+    method's decision observer; offline.judge) and with ``identification`` the faults of the wheels
+    the verdict names (the isolation node's FaultIdentifier; the samples must carry the bus grid). ``peak``:
+    |fault effect| per wheel after the first onset. ``other_decisions`` (core/fdi/verdict.DecisionRule): the verdict
+    each would give, beside (metrics.decision_slot)."""
+    series, last = judge(observe(samples, weights, calibration_samples=calibration_samples), curves, samples,
+                         decision, persistence, calibration_samples, identification and len(samples.time) > 0,
+                         other_decisions)
+    found = {a: v.values() for a, v in last.items() if v is not None}
+    return RunEval(bag=bag or f"screen:{scenario.name}:{scenario.seed}", scenario=scenario.name, seed=scenario.seed,
+                   faults=list(scenario.faults), series=series, fault_effect_peak=peak, identification=found,
+                   health=envelope_health(samples), wheels=samples.wheels)
+
+
+def envelope_health(samples) -> dict:
+    """What the isolation node's /diagnostics says of samples outside the operating envelope (STALE, not
+    judged), in health_from_bag's form: {/diagnostics: {axis: {cannot_judge: samples, first_s, message}}}."""
+    if samples.wheel_speed is None or not len(samples.time):
+        return {}
+    outside = ~in_envelope(samples.wheel_speed, speed_envelope(samples.wheel_params))
+    return {DIAGNOSTICS: {a: {"cannot_judge": {"samples": int(outside[:, i].sum()),
+                                               "first_s": float(samples.time[int(np.argmax(outside[:, i]))]),
+                                               "message": "outside the operating envelope"}}
+                          for i, a in enumerate(samples.wheels) if outside[:, i].any()}} if outside.any() else {}
