@@ -220,7 +220,7 @@ def format_report(r: dict) -> str:
               "|---|---|" + "---|" * len(wheels)]
     for kind in ("datasheet", "unit_calibrated"):
         for obs, row in b[kind].items():
-            lines.append(f"| {kind} | {obs} | " + " | ".join(f"{row[a] * 1e3:.4f}" for a in wheels) + " |")
+            lines.append(f"| {kind} | {obs} | " + " | ".join(f"{row[a] * 1e3:.4g}" for a in wheels) + " |")
     lines += ["", "## Held-out fault-free runs with any alarm (95 % Wilson interval)", "",
               "| set | observer | alarmed | runs | rate | 95 % interval |", "|---|---|---|---|---|---|"]
     for kind, rows in r["held_out_false_alarms"].items():
