@@ -1,5 +1,7 @@
 """The Elman networks' training for service (tools/design/service_training.py): what a wheel's healthy running
 stretches are, window by window."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -107,3 +109,30 @@ def test_the_service_trained_set_runs_in_the_graph_with_the_screens_verdict(tmp_
     assert [a for a, iv in verdict["elman"].items() if iv] == judge(screened, "elman")["alarmed_wheels"] == ["z"]
     first = verdict["elman"]["z"][0][0]
     assert first - 50.0 == pytest.approx(judge(screened, "elman")["axes"]["z"]["delay"])
+
+
+def test_a_grey_box_whose_model_is_the_telemetry_learns_a_zero_correction(tmp_path):
+    """Basilisk's HR16 wheel as a vehicle (examples/basilisk/hr16_sat.yaml) has no noise, ripple or back-EMF:
+    the nominal model gives its torque to the bit, r - r_model is 0, and a target scale of 0 made the network
+    non-finite (`defaults --vehicle` stopped at its stage 2). The grey box now learns nothing, finite, and its
+    correction is exactly 0: its estimate is the model's."""
+    from rw_fdi_ros.core.fdi.elman import ElmanObserver, ElmanWeights
+    from rw_fdi_ros.tools.design.service_training import family_runs, train_type_network
+    vehicle = (Path(__file__).parents[1] / "examples" / "basilisk" / "hr16_sat.yaml").resolve()
+    runs = family_runs(range(61_000_000, 61_000_002), "datasheet", True, None, "hr16", vehicle=vehicle, act=False)
+    assert all(not np.any(s.reaction_torque - s.model_torque) for _, s in runs)   # what makes this case
+    card = train_type_network(runs, tmp_path, ("x", "y", "z"), epochs=2, units="datasheet")
+    assert card["final_loss"] == 0.0
+    weights = ElmanWeights.load(tmp_path / "elman_x.npz").validate()
+    observer = ElmanObserver(weights)
+    observer.reset(0.0)
+    assert all(observer.update(u, None, w) == 0.0 for u, w in ((1.0, 50.0), (-3.0, 200.0), (5.0, 10.0)))
+
+
+def test_a_fault_the_model_observer_cannot_see_either_is_said_invisible():
+    from rw_fdi_ros.tools.design.observer_check import why_missed
+    hidden = why_missed("elman", {"peak_over_band": 0.08, "seed": 5428, "wheel": "y", "model_peak_over_band": 0.1})
+    assert "physically invisible here" in hidden and "the model observer's 0.10" in hidden
+    assert "physically invisible" in why_missed("model", {"peak_over_band": 0.5, "seed": 1, "wheel": "x"})
+    seen = why_missed("linear", {"peak_over_band": 0.3, "seed": 1, "wheel": "x", "model_peak_over_band": 37.0})
+    assert "invisible" not in seen and "A / (A - L C) = 0.25" in seen

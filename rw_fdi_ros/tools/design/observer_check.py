@@ -102,6 +102,10 @@ def why_missed(obs: str, worst: dict) -> str:
     observer's on the same run) and, for the Luenberger observer, its closed form."""
     said = (f"its residual peaked at {worst['peak_over_band']:.2f} of its band on its worst miss (seed "
             f"{worst['seed']}, wheel {worst['wheel']})")
+    model = worst["peak_over_band"] if obs == "model" else worst.get("model_peak_over_band")
+    if model is not None and model < 1.0:   # the wheel's own model cannot see it either: the physics hides it
+        return (said + (f", the model observer's {model:.2f}" if obs != "model" else "") +
+                ": the fault barely changes this wheel's torque, physically invisible here, not the observer's miss")
     if worst.get("model_peak_over_band") is not None and obs != "model":
         said += f", where the model observer's reached {worst['model_peak_over_band']:.1f}"
     if obs == "linear":

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.fdi.elman import HIDDEN, speed_coverage, standby
+from ...core.fdi.elman import HIDDEN, ElmanWeights, speed_coverage, standby
 from ...core.mission.vehicle import DEFAULT_VEHICLE
 from ..campaigns import service_family as family
 
@@ -122,13 +122,23 @@ def train_type_network(train_runs, out_dir, names, epochs: int, seed: int = 0, u
     wheel_params = getattr(train_runs[0][1], "wheel_params", None)
     t0 = time.monotonic()
     by_wheel, (u, r, w, m) = _pooled(train_runs, window)
-    with tqdm(total=epochs, desc=f"train the type network ({len(u)} windows of {window} samples)", unit="epoch",
-              file=sys.stderr, mininterval=1.0) as bar:
-        def tick(k, loss_now):
-            bar.update(k)
-            bar.set_postfix(mse=f"{loss_now:.2e}", refresh=False)
-        weights, losses = train_axis(u, r - m if model_error else r, "recall", epochs, seed=seed, wheel_speed=w,
-                                     hidden=hidden, loss=loss, progress=tick)
+    if model_error and not np.any(r - m):
+        # the nominal model is the telemetry to the bit (a simulator without noise): nothing to learn, and a
+        # target scale of 0 would make the network non-finite; its correction is 0, the grey box the model
+        print("the nominal model gives every training sample exactly: the grey box learns nothing, its "
+              "correction is 0", file=sys.stderr, flush=True)
+        zero = ElmanWeights.random(np.random.default_rng(seed), hidden, tcv_scale=5.0,
+                                   torque_scale=float(np.abs(r).max() * 1.1) or 1.0,
+                                   speed_scale=float(np.abs(w).max() * 1.1) or 1.0)
+        weights, losses = replace(zero, w_ho=np.zeros_like(zero.w_ho), b_o=np.zeros_like(zero.b_o)), [0.0]
+    else:
+        with tqdm(total=epochs, desc=f"train the type network ({len(u)} windows of {window} samples)",
+                  unit="epoch", file=sys.stderr, mininterval=1.0) as bar:
+            def tick(k, loss_now):
+                bar.update(k)
+                bar.set_postfix(mse=f"{loss_now:.2e}", refresh=False)
+            weights, losses = train_axis(u, r - m if model_error else r, "recall", epochs, seed=seed,
+                                         wheel_speed=w, hidden=hidden, loss=loss, progress=tick)
     weights.model_error = model_error
     if model_error:   # beyond the speeds it learnt, the grey box is the nominal model (elman.speed_coverage)
         weights.speed_coverage = speed_coverage(w, weights.speed_scale)
