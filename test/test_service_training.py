@@ -131,8 +131,11 @@ def test_a_grey_box_whose_model_is_the_telemetry_learns_a_zero_correction(tmp_pa
 
 def test_a_fault_the_model_observer_cannot_see_either_is_said_invisible():
     from rw_fdi_ros.tools.design.observer_check import why_missed
-    hidden = why_missed("elman", {"peak_over_band": 0.08, "seed": 5428, "wheel": "y", "model_peak_over_band": 0.1})
-    assert "physically invisible here" in hidden and "the model observer's 0.10" in hidden
-    assert "physically invisible" in why_missed("model", {"peak_over_band": 0.5, "seed": 1, "wheel": "x"})
-    seen = why_missed("linear", {"peak_over_band": 0.3, "seed": 1, "wheel": "x", "model_peak_over_band": 37.0})
+    hidden = why_missed("elman", {"peak_over_band": 0.08, "seed": 5428, "wheel": "y", "model_peak_over_band": 0.1,
+                                  "hidden": True})
+    assert "physically invisible here" in hidden and "0.08 of its band" in hidden
+    assert "physically invisible" in why_missed("model", {"peak_over_band": 0.5, "seed": 1, "wheel": "x",
+                                                          "hidden": True})
+    seen = why_missed("linear", {"peak_over_band": 0.3, "seed": 1, "wheel": "x", "model_peak_over_band": 37.0,
+                                 "hidden": False})
     assert "invisible" not in seen and "A / (A - L C) = 0.25" in seen

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .wheel import NOMINAL, WheelParams, nominal_point
-from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS
+from .wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet, fault_wheel
 
 FAULT_KINDS = ("bus_voltage", "current_limiter", "temperature", "ripple_gain")
 NOMINAL_VALUES = {k: getattr(NOMINAL, k) for k in FAULT_KINDS}   # the thesis wheel's (8 V bus)
@@ -85,6 +85,35 @@ class Fault:
         names = wheel_names or WHEEL_SETS[DEFAULT_WHEEL_SET].names
         return {"kind": self.kind, "wheel": names[self.wheel], "onset": self.onset,
                 "value": self.value, "ramp": self.ramp}
+
+
+def drawn_fault(kind: str, value: float, seed: int, wheels: WheelSet, onset_range: tuple,
+                ramp: float = 0.0) -> "Fault":
+    """A run's fault drawn from its seed: on a wheel in use (:func:`wheel_set.fault_wheel`) at an onset uniform
+    in ``onset_range``, to 0.1 s; what every bench and `defaults --vehicle`'s check fly.
+
+    Parameters
+    ----------
+    kind : str
+        The fault kind.
+    value : float
+        Its size (the kind's unit).
+    seed : int
+        The run's seed.
+    wheels : WheelSet
+        The run's wheel set.
+    onset_range : tuple of float
+        (earliest, latest) onset [s].
+    ramp : float, optional
+        Ramp time [s].
+
+    Returns
+    -------
+    Fault
+        The fault.
+    """
+    onset = float(np.round(np.random.default_rng(seed).uniform(*onset_range), 1))
+    return Fault(kind, fault_wheel(seed, wheels), onset, value, ramp)
 
 
 def operating_point_at(faults, t, count: int = 3, nominal: dict = NOMINAL_VALUES):

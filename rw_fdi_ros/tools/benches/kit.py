@@ -13,10 +13,11 @@ import numpy as np
 
 from ...fdi_config import FdiConfig
 from ...core.physics.environment import OrbitEnvironment
-from ...core.mission.scenario import Fault, Manoeuvres, Scenario, vehicle_scenario as core_vehicle_scenario
+from ...core.mission.scenario import Manoeuvres, Scenario, vehicle_scenario as core_vehicle_scenario
 from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle, shipped_vehicles
 from ...core.physics.wheel import NOMINAL
-from ...core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet, fault_wheel  # noqa: F401
+from ...core.physics.faults import drawn_fault
+from ...core.physics.wheel_set import DEFAULT_WHEEL_SET, WHEEL_SETS, WheelSet, fault_wheel  # noqa: F401 (the benches')
 from ...scoring.metrics import alarm_before_onset, judge, observable, rate
 from ..evaluation.screen import screen_sets
 from .journal import finish
@@ -136,8 +137,7 @@ def cell_scenarios(cell: Cell, runs: int, index: int, seed_base: int = SEED_BASE
         seed = seed_base + 100_000 * index + n
         faults = ()
         if cell.kind is not None:
-            onset = float(np.round(np.random.default_rng(seed).uniform(*onset_range), 1))
-            faults = (Fault(cell.kind, fault_wheel(seed, wheel_set), onset, cell.value, cell.ramp),)
+            faults = (drawn_fault(cell.kind, cell.value, seed, wheel_set, onset_range, cell.ramp),)
         out.append(bench_scenario(vehicle, cell.name, seed=seed, faults=faults, wheels=dict(wheels or {})))
     return out
 

@@ -24,10 +24,11 @@ from pathlib import Path
 import numpy as np
 
 from ...fdi_config import FdiConfig
-from ...core.mission.scenario import Fault, Manoeuvres, Scenario
+from ...core.mission.scenario import Manoeuvres, Scenario
+from ...core.physics.faults import drawn_fault
 from ...core.mission.vehicle import DEFAULT_VEHICLE
 from .kit import (VOTES, Cell, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, cell_on_bus, configured,
-                  fault_wheel, fdi_phrase, format_rate, own_fdi, screen_cells, workers, write_cells_table, write_report,
+                  fdi_phrase, format_rate, own_fdi, screen_cells, workers, write_cells_table, write_report,
                   vehicle_words)
 from ...scoring.metrics import observable_level
 
@@ -76,8 +77,7 @@ def cell_scenarios(cell: Cell, seeds, index: int, seed_base: int, vehicle: str =
         seed = seed_base + 100_000 * index + n
         faults = ()
         if cell.kind is not None:
-            onset = float(np.round(np.random.default_rng(seed).uniform(*cell.onset_range), 1))
-            faults = (Fault(cell.kind, fault_wheel(seed, wheels), onset, cell.value),)
+            faults = (drawn_fault(cell.kind, cell.value, seed, wheels, cell.onset_range),)
         initial = {} if cell.wheel_speed is None else {"wheel_speed": (cell.wheel_speed,) * 3}
         out.append(bench_scenario(vehicle, cell.name, duration=cell.duration, seed=seed, faults=faults,
                                   initial=initial, manoeuvres=cell.manoeuvres))

@@ -14,11 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from ...core.fdi.linear_observer import LinearObserver, steady_fault_gain
-from ...core.mission.scenario import Fault, Manoeuvres, load_scenario
-from ...core.physics.faults import nominal_values
+from ...core.mission.scenario import Manoeuvres, load_scenario
+from ...core.physics.faults import drawn_fault, nominal_values
 from ...core.physics.wheel import linearised_wheel
-from ...core.physics.wheel_set import fault_wheel
-from ...scoring.metrics import judge as judge_verdict, wilson
+from ...scoring.metrics import judge as judge_verdict, observable, observable_level, wilson
 from .offline import judge_run
 from .samples import simulated_runs
 
@@ -37,10 +36,7 @@ def fault_scenarios(fault_free_path, kind: str, value: float, seeds) -> list:
     """The vehicle's fault-free scenario with manoeuvres and one fault of ``kind`` of ``value`` per seed, on a
     wheel in use (benches' fault_wheel) at an onset drawn from the seed in ONSETS."""
     base = replace(load_scenario(fault_free_path), manoeuvres=MANOEUVRES)
-    wheels = base.wheel_set()
-    return [base.with_seed(s).with_faults([Fault(kind, fault_wheel(s, wheels),
-                                                 float(np.round(np.random.default_rng(s).uniform(*ONSETS), 1)),
-                                                 value)]) for s in seeds]
+    return [base.with_seed(s).with_faults([drawn_fault(kind, value, s, base.wheel_set(), ONSETS)]) for s in seeds]
 
 
 def check_observers(fault_free_path, wheel_params, models: dict, curves: dict, seeds, out_dir) -> dict:
@@ -72,17 +68,18 @@ def check_observers(fault_free_path, wheel_params, models: dict, curves: dict, s
     for case, kind, value in fault_cases(wheel_params):
         scenarios = fault_scenarios(fault_free_path, kind, value, seeds)
         runs = [judge_run(sc, samples, peak, models, curves) for sc, samples, peak in simulated_runs(scenarios)]
+        level = observable_level(curves)   # the benches' criterion of a fault the physics hides
         out[case] = {}
         for obs in curves:
             right = [bool(judge_verdict(r, obs)["correct"]) for r in runs]
             entry = {"right": sum(right), "runs": len(runs), "ci95": list(wilson(sum(right), len(runs)))}
             missed = [r for r, ok in zip(runs, right) if not ok]
             if missed:
-                worst = min(missed, key=lambda r: _signal_to_band(r, obs))
-                entry["worst_miss"] = {"seed": worst.seed, "wheel": worst.faulty_wheels[0],
-                                       "peak_over_band": _signal_to_band(worst, obs),
+                peak, worst = min(((_signal_to_band(r, obs), r) for r in missed), key=lambda x: x[0])
+                entry["worst_miss"] = {"seed": worst.seed, "wheel": worst.faulty_wheels[0], "peak_over_band": peak,
                                        "model_peak_over_band": _signal_to_band(worst, "model")
-                                       if "model" in worst.series else None,
+                                       if "model" in worst.series and obs != "model" else None,
+                                       "hidden": not observable(worst, level),
                                        "figure": str(plot_miss(worst, obs, Path(out_dir) / "observer_misses",
                                                                case))}
                 entry["why"] = why_missed(obs, entry["worst_miss"])
@@ -99,14 +96,14 @@ def _signal_to_band(run, obs: str) -> float:
 
 def why_missed(obs: str, worst: dict) -> str:
     """The cause of an observer's misses, measured (its worst miss's peak residual over its band, the model
-    observer's on the same run) and, for the Luenberger observer, its closed form."""
+    observer's on the same run), a fault the physics hides said as such, and for the Luenberger observer its
+    closed form."""
     said = (f"its residual peaked at {worst['peak_over_band']:.2f} of its band on its worst miss (seed "
             f"{worst['seed']}, wheel {worst['wheel']})")
-    model = worst["peak_over_band"] if obs == "model" else worst.get("model_peak_over_band")
-    if model is not None and model < 1.0:   # the wheel's own model cannot see it either: the physics hides it
-        return (said + (f", the model observer's {model:.2f}" if obs != "model" else "") +
-                ": the fault barely changes this wheel's torque, physically invisible here, not the observer's miss")
-    if worst.get("model_peak_over_band") is not None and obs != "model":
+    if worst.get("hidden"):   # its torque effect below the fault-free level (metrics.observable)
+        return said + (": the fault barely changes this wheel's torque, physically invisible here, not the "
+                       "observer's miss")
+    if worst.get("model_peak_over_band") is not None:
         said += f", where the model observer's reached {worst['model_peak_over_band']:.1f}"
     if obs == "linear":
         observer = LinearObserver(wheel=linearised_wheel())

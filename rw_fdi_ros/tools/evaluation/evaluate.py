@@ -101,10 +101,10 @@ def judge_bags(chunk) -> list:
     """The core engine's evaluation of a chunk: ``chunk`` = (bags, FdiConfig); [(bag, RunEval or the one-line
     reason it is skipped)]. Each bag is checked as for a
     replay (_check_bag), then the observer and isolation nodes' code runs on its recorded FDI telemetry
-    (screen.judge_run), no replay. Module level: process pools and Dask workers run it."""
+    (offline.judge_run), no replay. Module level: process pools and Dask workers run it."""
     from ...core.fdi.calibration import calibration_samples
     from ..design.samples import fdi_samples
-    from .screen import judge_run
+    from ..design.offline import judge_run
     bags, fdi = chunk
     weights, curves = fdi.load()
     out = []

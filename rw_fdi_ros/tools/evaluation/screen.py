@@ -13,7 +13,7 @@ import numpy as np
 
 from ...core.flight import Fdir
 from ...scoring.metrics import judge as judge_verdict, observers_of_runs
-from ..design.offline import envelope_health, judge_run  # noqa: F401 (judge_run: this module's callers')
+from ..design.offline import judge_run
 from ..design.samples import BATCH, simulated_runs
 
 
