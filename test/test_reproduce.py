@@ -64,7 +64,7 @@ def test_small_reproduce_writes_a_report_that_passes_its_schema(study):
     # the same evaluation
     check = raw["engines"]["graph_sample"]
     assert raw["engines"]["recorded_and_judged_by"] == "core" and raw["engine"] == "core"
-    assert check["runs"] == 6 and check["identical_bags"] == 6 and check["differing"] == []
+    assert check["runs"] == 6 and check["identical_bags"] == 6 and check["differing"] == [], check["differing"]
     assert check["evaluated"] == 6 and check["evaluation_agrees"]
     assert "6 of 6** bags the same" in text
     from rw_fdi_ros.storage.bag import bag_engine
