@@ -601,3 +601,26 @@ def test_the_sums_give_each_points_least_squares_misfit(calibrated, prior_on):
                     b = np.linalg.solve(x.T @ x + penalty, x.T @ e)
                     direct = np.sum((e - x @ b) ** 2) + b @ penalty @ b
                 assert fits[kind][h, g] == pytest.approx(direct, rel=1e-7, abs=1e-14), (kind, h, g)
+
+
+def test_the_noise_floors_are_the_drives_and_eq_2_16s_bearing_noise():
+    """Driven: SIGMA_FLOOR scaled by the torque; driver off: A = J theta_a w_a^2 alone (Type A: 1.54e-5 N m)."""
+    from rw_fdi_ros.core.fdi.identification.families import UNPOWERED_FLOOR_MIN, noise_floors
+    driven, off = noise_floors()
+    assert driven == pytest.approx(idf.SIGMA_FLOOR) and off == pytest.approx(0.0077 * 0.05 * 0.2 ** 2)
+    small = wm.WheelParams(inertia=2.94e-5, driver_gain=0.128, torque_constant=0.005)   # a CubeSat wheel
+    driven, off = noise_floors(small)
+    assert driven == pytest.approx(idf.SIGMA_FLOOR * wm.torque_scale(small))
+    assert off == pytest.approx(2.94e-5 * 0.05 * 0.2 ** 2) and off < driven / 50
+    quiet = wm.WheelParams(noise_angle=0.0)   # a noiseless simulator: still a floor the decision can divide by
+    assert noise_floors(quiet)[1] == pytest.approx(UNPOWERED_FLOOR_MIN * idf.SIGMA_FLOOR)
+
+
+def test_the_decisions_floor_is_the_samples_mean_floor_squared():
+    """sigma_floor^2 = (n_driven f_on^2 + n_off f_off^2) / n over the samples added, driven or not."""
+    sums = idf.ProfileSums(floor=4.0, unpowered_floor=1.0)
+    grid = np.zeros(len(idf.BUS_VOLTAGE_GRID))
+    for t, motor in enumerate([0.01, 0.01, 0.0, 0.0, 0.0]):   # two driven samples, then the driver off
+        sums.add((0.0, motor, 0.0, 10.0, grid + motor, 0j), float(t))
+    assert sums.n_driven == 2 and sums.floor_variance() == pytest.approx((2 * 16.0 + 3 * 1.0) / 5)
+    assert idf.ProfileSums(floor=4.0).floor_variance() == pytest.approx(16.0)   # none yet: the driven one

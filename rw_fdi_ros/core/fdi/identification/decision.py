@@ -24,16 +24,19 @@ FREE_UNIT_SHARE = 1e-3   # of the floor^2: a ridge only, the unit's shares all b
 
 
 def _noise(sums: ProfileSums, known):
-    """(s^2, every family's RSS) of the sums: the noise variance of the best fit (at least the floor's), and
-    the RSS ``known`` with the unit at its mean, or with a calibrated unit held to what the calibration knows
-    (a generator of ProfileSums.rss_steps' pieces)."""
+    """(s^2, s^2 across, every family's RSS) of the sums: the noise variance of the best fit, at least the
+    driven floor's (s^2) or at least the samples' mean floor (ProfileSums.floor_variance: what tells a temperature
+    from a drive fault, a spin-down's samples included), and the RSS ``known`` with the unit at its mean, or with a
+    calibrated unit held to what the calibration knows (a generator of ProfileSums.rss_steps' pieces)."""
     floor2 = sums.floor ** 2
     if sums.unit is None:
-        return max(_least(known) / max(sums.n - 3, 1), floor2), known
+        noise = _least(known) / max(sums.n - 3, 1)
+        return max(noise, floor2), max(noise, sums.floor_variance()), known
     # the noise from the fit where the unit is free (a unit taken at a wrong mean is no noise)
     free = yield from sums.rss_steps(FREE_UNIT_SHARE * floor2)
-    s2 = max(_least(free) / max(sums.n - 7, 1), floor2)
-    return s2, (yield from sums.rss_steps(CORRELATION * s2))
+    noise = _least(free) / max(sums.n - 7, 1)
+    s2 = max(noise, floor2)
+    return s2, max(noise, sums.floor_variance()), (yield from sums.rss_steps(CORRELATION * s2))
 
 
 def _least(fits: dict) -> float:
@@ -170,7 +173,7 @@ def _decide(sums: ProfileSums, reported: dict | None):
     known = yield from sums.rss_steps()      # the unit at its mean (the datasheet wheel without a unit)
     if not (yield from _finite(known)):
         return Identification(UNKNOWN, samples=n)
-    s2, fits = yield from _noise(sums, known)
+    s2, s2_across, fits = yield from _noise(sums, known)
     if fits is not known and not (yield from _finite(fits)):
         return Identification(UNKNOWN, samples=n)
     nominal = fits["current_limiter"][0, 0]          # grid[0] of every family is the healthy wheel, whatever the ramp
@@ -191,7 +194,10 @@ def _decide(sums: ProfileSums, reported: dict | None):
     ramp, point = np.unravel_index(int(rss.argmin()), rss.shape)
     rss_min = float(rss[ramp, point])
     explained = 1.0 - rss_min / nominal if nominal > 0 else 0.0
-    margin = min((mins[k] - rss_min) / s2 for k in KINDS if k != best)
+    # a current loss and a bus drop differ only while driven (the driven floor); a temperature and a drive fault
+    # also in a spin-down, whose floor is the bearing noise alone
+    margin = min((mins[k] - rss_min) / (s2 if k in DRIVE and best in DRIVE else s2_across)
+                 for k in KINDS if k != best)
     yield
     step = abs(GRIDS[best][1] - GRIDS[best][0])
     yield
@@ -207,7 +213,8 @@ def _decide(sums: ProfileSums, reported: dict | None):
     if explained < EXPLAINED or margin < DECISIVE or out.healthy or few_driven:
         out.kind = UNKNOWN
         # the fault is in the drive, which of its two the samples cannot say: said so, not hidden in 'unknown'
-        drive_only = best in DRIVE and all((mins[k] - rss_min) / s2 >= DECISIVE for k in KINDS if k not in DRIVE)
+        drive_only = best in DRIVE and all((mins[k] - rss_min) / s2_across >= DECISIVE for k in KINDS
+                                           if k not in DRIVE)
         if explained >= EXPLAINED and not out.healthy and drive_only:
             out.between = DRIVE
     return out

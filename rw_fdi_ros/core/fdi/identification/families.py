@@ -35,6 +35,31 @@ REPORTED_TOLERANCE = {"bus_voltage": 0.25, "temperature": 10.0}
 # [N m] per FDI sample, the smallest misfit taken for real: the bearing torque noise the models
 # leave out (1.5e-5, eq. 2.16) plus half a grid step, up to 4e-5 N m where the bus family is steep.
 SIGMA_FLOOR = 5e-5
+# a driver that is off leaves only the bearing noise: a noiseless model's floor is still no finer than this share of
+# the driven one (the decision divides by it)
+UNPOWERED_FLOOR_MIN = 0.01
+
+
+def noise_floors(params=None) -> tuple:
+    """(driven, unpowered) [N m]: the smallest misfit taken for real in an FDI sample of a wheel type, its driver on
+    and off. Driven: SIGMA_FLOOR scaled by wheel.torque_scale (the bus family's grid step is a torque of the drive).
+    Off: eq. 2.16's bearing noise alone, A = J theta_a w_a^2 (the Type A's 1.5e-5 N m): no drive family acts, and
+    a small wheel's friction (where a temperature shows) lies far under its drive's torque.
+
+    Parameters
+    ----------
+    params : WheelParams, optional
+        The wheel type; None: the thesis' Type A.
+
+    Returns
+    -------
+    tuple of float
+        The two floors [N m].
+    """
+    params = wm.WheelParams() if params is None else params
+    driven = SIGMA_FLOOR * wm.torque_scale(params)
+    bearing = params.inertia * params.noise_angle * params.noise_frequency ** 2
+    return driven, max(bearing, UNPOWERED_FLOOR_MIN * driven)
 
 
 def bus_voltage_grid(bus_voltage: float = 8.0) -> np.ndarray:

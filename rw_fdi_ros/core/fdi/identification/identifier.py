@@ -10,7 +10,7 @@ import numpy as np
 from ...physics import wheel as wm
 from ..calibration import PHYSICAL, UnitCalibration, regressors
 from .decision import decide, decide_steps, decision_steps
-from .families import SIGMA_FLOOR
+from .families import noise_floors
 from .onset import onset_index
 from .result import Identification
 from .sums import ProfileSums, add_pieces, sums_buffers
@@ -82,7 +82,7 @@ class FaultIdentifier:
                  params: wm.WheelParams = wm.WheelParams(), work: int | None = None):
         self.wheels = tuple(wheels)
         self.params = params   # the wheel type: its viscous law, its calibration regressors, its rest
-        self.floor = SIGMA_FLOOR * wm.torque_scale(params)   # its torques' noise floor
+        self.floor, self.unpowered_floor = noise_floors(params)   # its torques' noise floors, driver on and off
         self.calibration_samples = int(calibration_samples)
         # lazy: decide only when asked (identifications()), for a reader that wants the last answer of a run
         # (the core loop's onboard verdict): the same answers, without the grid fits of every sample between
@@ -165,7 +165,7 @@ class FaultIdentifier:
                     continue
                 self.sums[a] = ProfileSums(None if calibration is None else calibration.unit(),
                                            self.params.viscous_scale, self.floor,
-                                           None if self.buffers is None else self.buffers[a])
+                                           None if self.buffers is None else self.buffers[a], self.unpowered_floor)
                 self.latest[a] = Identification("unknown", samples=0)   # identifying
                 self._add_since_onset(a, list(self.backlog[a]) + [(row, error, x, time)], calibration)
                 self.backlog[a].clear()

@@ -157,15 +157,17 @@ class ProfileSums:
 
     ``unit``: what is known of the wheel's unit (calibration.UnitShares); None for the datasheet wheel;
     ``viscous_scale``: the wheel type's (family_predictions); ``floor``: the smallest misfit taken for real
-    [N m] (SIGMA_FLOOR of the Type A, wheel.torque_scale of another type); ``buffers``: zero arrays of
+    [N m] (SIGMA_FLOOR of the Type A, wheel.torque_scale of another type), ``unpowered_floor`` that of a sample of
+    the driver off (families.noise_floors; None: ``floor``); ``buffers``: zero arrays of
     :func:`sums_buffers` for its ramp sums (made on the spot without).
     """
 
     def __init__(self, unit: UnitShares | None = None, viscous_scale: float = 1.0, floor: float = SIGMA_FLOOR,
-                 buffers: dict | None = None):
+                 buffers: dict | None = None, unpowered_floor: float | None = None):
         self.unit = unit
         self.viscous_scale = float(viscous_scale)
         self.floor = float(floor)
+        self.unpowered_floor = self.floor if unpowered_floor is None else float(unpowered_floor)
         self.scales = None if unit is None else unit.scales()
         width = 2 if unit is None else 6
         # the linear families: S_yy, u, G~ shared (y and x~ are the nominal wheel's), S_yz, S_zz, v per ramp
@@ -191,6 +193,19 @@ class ProfileSums:
         self.n_driven = 0     # samples with motor torque
         self.ripple_prior = None    # w: the ripple's phase, of the healthy samples before the onset
         self.prior_on = False       # the ripple one regressor of that phase: the driver off at the last sample
+
+    def floor_variance(self) -> float:
+        """The least noise variance the decision takes [N^2 m^2]: the floors' squares averaged over the samples,
+        ``floor`` for those with motor torque and ``unpowered_floor`` for those of a driver off.
+
+        Returns
+        -------
+        float
+            sigma_floor^2.
+        """
+        if not self.n:
+            return self.floor ** 2
+        return (self.n_driven * self.floor ** 2 + (self.n - self.n_driven) * self.unpowered_floor ** 2) / self.n
 
     def set_ripple_prior(self, errors, ripple_phasors):
         """The ripple's phase as the wheel's healthy samples before the onset give it (their model ``errors`` and
