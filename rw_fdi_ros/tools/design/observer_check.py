@@ -21,7 +21,7 @@ from ...scoring.metrics import judge as judge_verdict, observable, observable_le
 from .offline import judge_run
 from .samples import simulated_runs
 
-GOAL = 0.99                                    # right on the faults below, each observer alone (the goal of docs/fdi.md)
+GOAL = 0.99   # right on the faults below, each observer alone (the goal of docs/fdi.md)
 ONSETS = (60.0, 300.0)                         # [s] the fault's onset, drawn from the seed
 MANOEUVRES = Manoeuvres(interval_s=(100.0, 300.0))   # the operations bench's 400-s runs
 
