@@ -204,18 +204,23 @@ def test_nan_torque_command_stops_the_run_naming_the_axis(scenario_file, tmp_pat
         lease.release()
 
 
-def test_the_plant_starts_only_once_the_recorder_has_matched_every_writer(scenario_file, tmp_path):
+def test_the_plant_starts_only_once_the_recorder_and_every_node_hear_their_writers(scenario_file, tmp_path):
     """DDS matches each direction on its own: a recorder counted by the plant's writers may not yet hear
-    them (a CI run once recorded no /attitude at all). The plant waits for /recorder/ready as well."""
-    def no_recorder(nodes):
+    them (a CI run once recorded no /attitude at all), nor a controller (a CI run's pid_controller_z never heard
+    step 0). The plant waits for /recorder/ready and for each node's name on /graph/ready."""
+    def no_recorder_no_z(nodes):
         nodes.pop()   # the recorder; the plant still asks for its /recorder/ready, and for no reader count of it
-        nodes[0].parameters.update(attitude_readers=4, wheels_readers=2, wait_for_subscribers=0,
+        nodes[:] = [n for n in nodes if n.name != "pid_controller_z"]   # still in the plant's ready_nodes
+        nodes[0].parameters.update(attitude_readers=3, wheels_readers=2, wait_for_subscribers=0,
                                    startup_timeout=3.0)
-    procs, lease, _ = graph(scenario_file, tmp_path, tweak=no_recorder)
+        assert "pid_controller_z" in nodes[0].parameters["ready_nodes"]
+    procs, lease, _ = graph(scenario_file, tmp_path, tweak=no_recorder_no_z)
     try:
         result = procs.run(watchdog=60)
         assert not result.ok and "plant stopped (exit code 3)" in result.reason, result.reason
-        assert "never ready on /recorder/ready" in result.reason, result.reason
+        assert "never ready on /recorder/ready, /graph/ready (" in result.reason, result.reason
+        # the allocation does not hear z's axis either; every node that heard its writers said so
+        assert "pid_controller_z, wheel_allocation not heard)" in result.reason, result.reason
     finally:
         procs.stop_all()
         lease.release()

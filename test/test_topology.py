@@ -50,20 +50,27 @@ def test_the_counts_are_the_graph_we_know():
     # the attitude: 3 controllers, the wheel allocation (its momentum check), the recorder; the wheels: the
     # allocation, the wheel_telemetry node, the recorder; the FDI telemetry that node makes from them and the
     # allocation's command: 4 Elman (one per wheel, the redundant s included), the linear and model observers,
-    # isolation, recorder; its bus-voltage grid: the isolation node (fault identification) and the recorder
+    # isolation, recorder and the plant (it keeps within telemetry_lead of it); its bus-voltage grid: the
+    # isolation node (fault identification) and the recorder
     assert full["plant"] == {"attitude_readers": 5, "wheels_readers": 3, "wait_for_subscribers": 1}
-    assert full["wheel_telemetry"] == {"min_subscribers": 8, "bus_grid_readers": 2}
+    assert full["wheel_telemetry"] == {"min_subscribers": 9, "bus_grid_readers": 2}
     assert full["pid_controller_y"] == {"min_subscribers": 2}   # the wheel allocation and the recorder
     assert full["wheel_allocation"] == {"min_subscribers": 3, "fdir_readers": 1, "diagnostics_readers": 2}
     assert full["elman_observer_z"] == full["linear_observer"] == full["model_observer"] == {
         "estimate_readers": 1, "min_subscribers": 2}
     assert full["isolation"] == {"diagnostics_readers": 2, "min_subscribers": 1}   # the recorder, the wheel allocation
+    # the plant steps once every node it steps with hears its inputs (/graph/ready), the recorder its own way
+    plant = run_graph(True, True)[0]
+    assert plant.parameters["ready_nodes"] == [
+        "pid_controller_x", "pid_controller_y", "pid_controller_z", "wheel_allocation", "wheel_telemetry",
+        *(f"elman_observer_{a}" for a in "xyzs"), "linear_observer", "model_observer", "isolation"]
+    assert plant.parameters["recorder_ready"] and plant.parameters["telemetry_lead"] == pytest.approx(25.0)
     bare = counts(run_graph(False, False))
     assert bare["plant"] == {"attitude_readers": 4, "wheels_readers": 1, "wait_for_subscribers": 0}
     assert bare["pid_controller_x"] == {"min_subscribers": 1}
     assert "wheel_telemetry" not in bare   # no FDI and no bag: nobody reads the telemetry
-    # the recorder records the telemetry
-    assert counts(run_graph(False, True))["wheel_telemetry"] == {"min_subscribers": 1, "bus_grid_readers": 1}
+    # the recorder records the telemetry, and the plant keeps within telemetry_lead of it
+    assert counts(run_graph(False, True))["wheel_telemetry"] == {"min_subscribers": 2, "bus_grid_readers": 1}
     replay = counts(replay_graph())
     # the FDI nodes; the isolation node its grid; the replay's recorder reads neither
     assert replay["player"] == {"min_subscribers": 7, "bus_grid_readers": 1}
@@ -86,7 +93,7 @@ def test_the_thesis_method_runs_its_two_observers():
     scenario, path = resolve_scenario("bus_5v5_x", 3)
     nodes = graph_nodes(scenario, path, "bags/demo", fdi={"method": "thesis"})
     assert "model_observer" not in {n.name for n in nodes}
-    assert counts(nodes)["wheel_telemetry"]["min_subscribers"] == 7
+    assert counts(nodes)["wheel_telemetry"]["min_subscribers"] == 8   # 6 FDI nodes, the recorder, the plant
     iso = next(n for n in nodes if n.name == "isolation")
     assert T.observer_topic("model", "residual") not in T.reads(iso)
     assert T.observer_topic("linear", "residual") in T.reads(iso)

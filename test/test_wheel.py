@@ -61,6 +61,8 @@ def test_full_command_holds_wheel_near_66_rad_s():
 def test_torque_noise_amplitude_eq_2_16():
     t = np.linspace(0, 2 * np.pi / 0.2, 1001)
     assert np.abs(wm.torque_noise(t)).max() == pytest.approx(1.54e-5, rel=0.01)
+    # its amplitude, the one the FDI's floors and bounds take (J theta_a w_a^2, one implementation)
+    assert wm.bearing_noise_amplitude() == pytest.approx(np.abs(wm.torque_noise(t)).max(), rel=1e-3)
 
 
 def test_ripple_amplitude_half_b():

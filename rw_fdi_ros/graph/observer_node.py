@@ -86,7 +86,8 @@ class ObserverNode(GraphNode):
         self.pub_estimate = pub("estimate", "estimate_readers")
         self.pub_residual = pub("residual", "min_subscribers")
         self.pub_bound = pub("ripple_bound", "min_subscribers")
-        self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
+        self.say_ready_when_heard([self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry,
+                                                            T.RELIABLE)])
         self.follow_run_end(period=self.param("fdi_period"), inputs=(T.FDI_TELEMETRY,))
 
     def observe(self, sample):

@@ -54,6 +54,7 @@ RANGES = {
     "command_timeout": TIMEOUT,
     "startup_timeout": TIMEOUT,
     "truth_period": (0.01, BIG),
+    "telemetry_lead": (0.0, BIG),                      # [s] of sim time; 0: not paced on the telemetry
     "rate": (0.0, BIG),                                # 0: paced by the consumers
     "pace_period": (0.01, 100.0),
     "pace_window": (1, 1_000_000),

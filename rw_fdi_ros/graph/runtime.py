@@ -76,6 +76,30 @@ class GraphNode(Node):
         super().__init__(name or self.node_name, **kwargs)
         self.exit_code: int | None = None
         self.exit_message = ""
+        self.unheard = []   # the inputs that must hear a writer before this node says it is ready
+
+    def say_ready_when_heard(self, subscriptions):
+        """Say this node's name on /graph/ready (latched) once each of ``subscriptions`` hears a writer. DDS
+        matches each direction on its own: a writer that counts this node's reader does not mean the reader
+        hears it, and a sample sent before then is lost for good (a CI run's controller never heard step 0).
+        The plant starts once every node of its ``ready_nodes`` has said so.
+
+        Parameters
+        ----------
+        subscriptions : list of rclpy.subscription.Subscription
+            The inputs the node steps on (not the optional ones).
+        """
+        from std_msgs.msg import String
+        from . import topics as T
+        self.unheard = list(subscriptions)
+        self.pub_heard = self.create_publisher(String, T.NODE_READY, T.LATCHED)
+        self.ready_message = String(data=self.get_name())
+
+    def say_ready(self):
+        """Called before each :meth:`poll`: says ready once every input of :meth:`say_ready_when_heard` hears."""
+        if self.unheard and all(s.get_publisher_count() > 0 for s in self.unheard):
+            self.unheard = []
+            self.pub_heard.publish(self.ready_message)
 
     def create_publisher(self, msg_type, topic, *args, **kwargs):
         """rclpy's, with ``topic`` resolved in the node's namespace (:func:`relative`).
@@ -304,21 +328,36 @@ class GraphNode(Node):
 
 
 class ReadySignal:
-    """Whether a reader that must hear a run from its first message has said so on its latched ``topic``
-    (default /recorder/ready: the recorder hears the graph's writers; /wheel_telemetry/ready: the wheel_telemetry
-    node hears the wheels and their commands). A writer that counts a reader does not mean the reader has
-    matched the writer: the plant and the player start on these. True at once when not ``wanted``."""
+    """Whether the readers that must hear a run from its first message have said so on their latched ``topic``:
+    /recorder/ready (default: the recorder hears the graph's writers) or /graph/ready, where each node of
+    ``names`` says it hears its inputs (GraphNode.say_ready_when_heard). A writer that counts a reader does not
+    mean the reader has matched the writer: the plant and the player start on these. True at once when not
+    ``wanted``."""
 
-    def __init__(self, node: Node, wanted: bool, topic: str | None = None):
-        self.seen = not wanted
+    def __init__(self, node: Node, wanted: bool, topic: str | None = None, names=()):
+        self.seen, self.waiting = not wanted, set(names)
         if wanted:
+            from copy import copy
             from std_msgs.msg import String
             from . import topics as T
             self.topic = topic or T.RECORDER_READY
-            node.create_subscription(String, self.topic, self._on_ready, T.LATCHED)
+            qos = copy(T.LATCHED)   # one writer per node, and a reader of depth 1 would keep only the last one's
+            qos.depth = max(1, len(self.waiting))
+            node.create_subscription(String, self.topic, self._on_ready, qos)
 
     def _on_ready(self, msg):
-        self.seen = True
+        self.waiting.discard(msg.data)
+        self.seen = not self.waiting
+
+    def missing(self) -> str:
+        """What it still waits for, for an error line.
+
+        Returns
+        -------
+        str
+            The topic, and the nodes not heard on it.
+        """
+        return self.topic + (f" ({', '.join(sorted(self.waiting))} not heard)" if self.waiting else "")
 
 
 def spin_node(factory, args=None) -> int:
@@ -427,6 +466,7 @@ def spin_nodes(factories, args=None) -> int:
                     break
             for node in list(live):
                 if due and node.exit_code is None:
+                    node.say_ready()
                     node.poll()
                 if node.exit_code is None:
                     continue

@@ -101,7 +101,11 @@ SCENARIO = "/scenario"                # the scenario YAML (latched)
 PLANT_DONE = "/plant/done"            # std_msgs/Header: stamp = last step, frame_id = why it ended
 RECORDER_CLOSED = "/recorder/closed"  # std_msgs/String (latched): index of the bag the recorder closed
 RECORDER_READY = "/recorder/ready"    # std_msgs/String (latched): the graph's writers of what it records are matched
-TELEMETRY_READY = "/wheel_telemetry/ready"   # std_msgs/String (latched): wheel_telemetry hears wheels and commands
+# std_msgs/String (latched), one writer per node: the node's name, once it hears a writer of each input it steps on
+NODE_READY = "/graph/ready"
+# the nodes that say so (GraphNode.say_ready_when_heard); the plant waits for those of its graph (ready_nodes)
+SAYS_READY = ("pid_controller", "wheel_allocation", "momentum_dumping", "wheel_telemetry", "elman_observer",
+              "linear_observer", "model_observer", "plugin_observer", "isolation")
 
 
 def tcv_command(axis: str) -> str:
@@ -124,11 +128,15 @@ def tcv_command(axis: str) -> str:
 STEP_TOPICS = (CLOCK, ATTITUDE, WHEELS, *(tcv_command(a) for a in BODY_AXES), WHEEL_COMMAND)
 
 
+# messages a reliable topic's writer and reader keep: a reader further behind loses the oldest for good
+QUEUE_DEPTH = 1000
+
+
 def _profiles() -> dict:
     """The graph's QoS profiles. Deep reliable queues: the recorder is not part of the lockstep and
     must not lose samples; latched: a late joiner still gets the scenario and the run's end."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-    return {"RELIABLE": QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+    return {"RELIABLE": QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=QUEUE_DEPTH,
                                    reliability=ReliabilityPolicy.RELIABLE),
             "LATCHED": QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                                   durability=DurabilityPolicy.TRANSIENT_LOCAL)}
@@ -453,8 +461,9 @@ def _wheel_set(p) -> str:
 # executable -> its parameters -> the topics it subscribes to
 READS = {
     "plant": lambda p: [WHEEL_COMMAND] + ([DIPOLE_COMMAND] if p.get("magnetorquers") else [])
+                       + ([FDI_TELEMETRY] if p.get("telemetry_lead", 0.0) > 0 else [])
                        + ([RECORDER_READY] if p.get("recorder_ready") else [])
-                       + ([TELEMETRY_READY] if p.get("telemetry_ready") else []),
+                       + ([NODE_READY] if p.get("ready_nodes") else []),
     "pid_controller": lambda p: [ATTITUDE] + _run_end(p),
     "wheel_allocation": lambda p: [*(tcv_command(a) for a in BODY_AXES), ATTITUDE, WHEELS]
                                   + ([DIAGNOSTICS] if p.get("fdir", True) else []) + _run_end(p),

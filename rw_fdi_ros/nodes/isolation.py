@@ -157,16 +157,18 @@ class IsolationNode(GraphNode):
         self.said_no_grid = False
         # else only once the grid's publisher is seen: discovery may bring the report's publisher first
         self.await_bus_grid = self.param("await_bus_grid")
-        self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)
+        inputs = [self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE)]
         self.sub_bus_grid = self.create_subscription(PointCloud2, T.FDI_BUS_GRID, self._on_bus_grid, T.RELIABLE)
         for obs in self.channels:   # one row per stamp: residual and bound of each of the observer's topics
-            self._follow_observer(obs)
+            inputs += self._follow_observer(obs)
+        self.say_ready_when_heard([*inputs, self.sub_bus_grid] if self.await_bus_grid else inputs)
         self.follow_run_end(period=plant.fdi_period, inputs=(T.FDI_TELEMETRY,))
         self.live = bool(self.param("end_with_run"))   # a live run, where the input watchdog runs
 
     def _follow_observer(self, observer):
         """Subscribe to an observer's residual and bound topics (one per wheel for the Elman nodes, one for
-        all the wheels otherwise) and decide its rows stamp by stamp once every topic of the stamp is in."""
+        all the wheels otherwise) and decide its rows stamp by stamp once every topic of the stamp is in; returns
+        the subscriptions."""
         axes = T.observer_axes(observer, self.wheel_set)
         topics = {(kind, a): T.observer_topic(observer, kind, a) for a in axes for kind in ("residual", "ripple_bound")}
 
@@ -175,8 +177,7 @@ class IsolationNode(GraphNode):
                 return v[kind, None] if axes == (None,) else [v[kind, a][0] for a in self.names]
             self._on_residual(observer, stamp, column("residual"), column("ripple_bound"))
         sync = StampSync(tuple(topics), row)
-        for key, topic in topics.items():
-            sync.subscribe(self, key, topic, T.RELIABLE)
+        return [sync.subscribe(self, key, topic, T.RELIABLE) for key, topic in topics.items()]
 
     def _accept(self, source, stamp) -> bool:
         """Whether to use a source's input stamped ``stamp``; a new run resets what the source feeds."""

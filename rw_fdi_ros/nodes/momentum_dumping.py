@@ -61,10 +61,12 @@ class MomentumDumpingNode(GraphNode):
         self.speeds = {}         # stamp -> wheel speeds (N,), the latest few
         self.pub = GatedPublisher(self.create_publisher(Vector3Stamped, T.DIPOLE_COMMAND, T.RELIABLE),
                                   self.param("min_subscribers"))
-        self.create_subscription(MagneticField, T.MAGNETOMETER, self._on_field, T.RELIABLE)
-        self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE, raw=True)
+        inputs = [self.create_subscription(MagneticField, T.MAGNETOMETER, self._on_field, T.RELIABLE),
+                  self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE, raw=True)]
         if self.param("fdir"):
-            self.create_subscription(DiagnosticArray, T.FDIR_WHEELS, self._on_wheel_states, T.RELIABLE)
+            inputs.append(self.create_subscription(DiagnosticArray, T.FDIR_WHEELS, self._on_wheel_states,
+                                                   T.RELIABLE))
+        self.say_ready_when_heard(inputs)
         self.follow_run_end(period=MAGNETOMETER_PERIOD)   # it answers the magnetometer's stamps only
 
     def _on_wheel_states(self, msg):

@@ -55,7 +55,8 @@ class PidControllerNode(GraphNode):
         self.axis, self.index = axis, i
         self.pub = GatedPublisher(self.create_publisher(Vector3Stamped, T.tcv_command(axis), T.RELIABLE),
                                   self.param("min_subscribers"))
-        self.create_subscription(JointState, T.ATTITUDE, self._on_state, T.RELIABLE, raw=True)
+        self.say_ready_when_heard([self.create_subscription(JointState, T.ATTITUDE, self._on_state, T.RELIABLE,
+                                                            raw=True)])
         # the run is over when the plant says so; the answer to its last sample goes out first
         self.follow_run_end()
 

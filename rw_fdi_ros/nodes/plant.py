@@ -64,8 +64,12 @@ class PlantNode(GraphNode):
         # a recorder's reader may match the plant's writer later than the writer matches it (DDS discovery
         # is per direction): until /recorder/ready it could miss a whole run while the counts above look done
         self.declare_parameter("recorder_ready", False)  # wait for /recorder/ready (a recorder records the run)
-        self.declare_parameter("telemetry_ready", False)  # wait for /wheel_telemetry/ready (it makes the FDI's input)
+        # the nodes to hear on /graph/ready before the first step (runner/graph.py: every one that says it)
+        self.declare_parameter("ready_nodes", Parameter.Type.STRING_ARRAY)
         self.declare_parameter("truth_period", 1.0)      # ground truth republished every [s]
+        # [s] of its own time the plant may run ahead of the newest /wheels/fdi_telemetry: wheel_telemetry is
+        # not in the lockstep, and a reader further behind than its queue loses /wheels for good; 0: not paced
+        self.declare_parameter("telemetry_lead", 0.0)
         try:
             scenario = load_scenario(self.param("scenario"))
             self.choices = scenario.plant_choices(emf_limit=self.param("emf_limit"),
@@ -130,9 +134,14 @@ class PlantNode(GraphNode):
             self.subs["momentum dumping"] = self.create_subscription(Vector3Stamped, T.DIPOLE_COMMAND,
                                                                      self._on_dipole, T.RELIABLE, raw=True)
         self.tcv = self.dipole = None   # this step's answers, stepped on once both are in (dipole: when due)
+        self.lead_ns = round(self.param("telemetry_lead") * 1e9)
+        self.telemetry_ns, self.held = 0, None   # the newest telemetry's stamp; a step waiting for it to catch up
+        if self.lead_ns > 0:
+            self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE, raw=True)
         self.dipole_due = False
+        ready_nodes = list(self.param("ready_nodes") or [])
         self.ready = [ReadySignal(self, self.param("recorder_ready")),
-                      ReadySignal(self, self.param("telemetry_ready"), T.TELEMETRY_READY)]
+                      ReadySignal(self, bool(ready_nodes), T.NODE_READY, ready_nodes)]
         self.started = False
         self.t_wait = wall_time()
         self.step_wall = []   # wall seconds from publishing step k to publishing step k+1
@@ -175,14 +184,15 @@ class PlantNode(GraphNode):
             elif now - self.t_wait > self.param("startup_timeout"):
                 missing = [f"no {writer} on {s.topic_name}" for writer, s in self.subs.items()
                            if s.get_publisher_count() < 1]
-                silent = [r.topic for r in self.ready if not r.seen]
+                silent = [r.missing() for r in self.ready if not r.seen]
                 what = (", ".join(missing) if missing else
-                        f"never ready on {', '.join(silent)} (the writers it reads not matched)" if silent else
+                        f"never ready on {', '.join(silent)}: a reader not matched to its writers" if silent else
                         "subscribers missing")
                 self.fail(f"graph not ready after {self.param('startup_timeout'):g} s ({what})", EXIT_TIMEOUT)
             return
         if self.exit_code is None and now - self.t_wait > self.param("command_timeout"):
-            what = (f"wheel command on {T.WHEEL_COMMAND}" if self.tcv is None else
+            what = (f"FDI telemetry on {T.FDI_TELEMETRY}" if self.held is not None else
+                    f"wheel command on {T.WHEEL_COMMAND}" if self.tcv is None else
                     f"magnetorquer dipole on {T.DIPOLE_COMMAND}")
             self.fail(f"no {what} for step t={self.plant.time:.1f} s within {self.param('command_timeout'):g} s",
                       EXIT_TIMEOUT)
@@ -228,7 +238,17 @@ class PlantNode(GraphNode):
             os.replace(tmp, self.progress_file)
         self.compute_wall.append(wall_time() - t0)
         self.step_wall.append(t0 - self.t_wait)
+        if step_stamp_ns(self.plant.step_index, self.period) - self.telemetry_ns > self.lead_ns > 0:
+            self.held, self.t_wait = sample, wall_time()   # published once the telemetry catches up
+            return
         self._publish(sample)
+
+    def _on_telemetry(self, raw):
+        self.telemetry_ns = max(self.telemetry_ns, read_joint_state_cdr(raw)[0])
+        if self.held is not None and self.exit_code is None and (
+                step_stamp_ns(self.plant.step_index, self.period) - self.telemetry_ns <= self.lead_ns):
+            sample, self.held = self.held, None
+            self._publish(sample)
 
     def _send(self, messages):
         for topic, message in messages:

@@ -127,13 +127,15 @@ class WheelAllocationNode(GraphNode):
                                        self.param("fdir_readers"))
         self.pub_diag = GatedPublisher(self.create_publisher(DiagnosticArray, T.DIAGNOSTICS, T.RELIABLE),
                                        self.param("diagnostics_readers"))
-        for i, axis in enumerate(BODY_AXES):
-            self.create_subscription(Vector3Stamped, T.tcv_command(axis), lambda raw, i=i: self._on_axis(i, raw),
-                                     T.RELIABLE, raw=True)
-        self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE, raw=True)
-        self.create_subscription(JointState, T.ATTITUDE, self._on_attitude, T.RELIABLE, raw=True)
+        inputs = [self.create_subscription(Vector3Stamped, T.tcv_command(axis),
+                                           lambda raw, i=i: self._on_axis(i, raw), T.RELIABLE, raw=True)
+                  for i, axis in enumerate(BODY_AXES)]
+        inputs.append(self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE, raw=True))
+        inputs.append(self.create_subscription(JointState, T.ATTITUDE, self._on_attitude, T.RELIABLE, raw=True))
         if self.param("fdir"):
-            self.create_subscription(DiagnosticArray, T.DIAGNOSTICS, self._on_diagnostics, T.RELIABLE)
+            inputs.append(self.create_subscription(DiagnosticArray, T.DIAGNOSTICS, self._on_diagnostics,
+                                                   T.RELIABLE))
+        self.say_ready_when_heard(inputs)
 
     # -- inputs ----------------------------------------------------------------------
     def _on_axis(self, i, raw):

@@ -28,7 +28,6 @@ from __future__ import annotations
 import numpy as np
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import BatteryState, JointState, PointCloud2, Temperature
-from std_msgs.msg import String
 
 from ..core.fdi.wheel_reports import ReportSampler
 from ..core.physics.wheel_set import DEFAULT_WHEEL_SET, joint_name, wheel_set
@@ -82,13 +81,13 @@ class WheelTelemetryNode(GraphNode):
                                                      self.param("min_subscribers")),
                      T.FDI_BUS_GRID: GatedPublisher(self.create_publisher(PointCloud2, T.FDI_BUS_GRID, T.RELIABLE),
                                                     self.param("bus_grid_readers"))}
-        self.inputs = [self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command, T.RELIABLE),
-                       self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE)]
+        # once it hears a writer on both: a plant that must not step before (our graph) waits for it
+        self.say_ready_when_heard([self.create_subscription(JointState, T.WHEEL_COMMAND, self._on_command,
+                                                            T.RELIABLE),
+                                   self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE)])
         self.housekeeping = [self.create_subscription(kind, topic, self._on_housekeeping(channel, topic, field),
                                                       T.RELIABLE)
                              for channel, (kind, topic, field) in HOUSEKEEPING.items()]
-        # once it hears a writer on each: a plant that must not step before (our graph) waits for it
-        self.pub_ready = self.create_publisher(String, T.TELEMETRY_READY, T.LATCHED)
         self.follow_run_end(period=fdi_period)   # a run that says its end (/plant/done): ours, a replay
 
     def _ordered(self, msg, field: str, topic: str):
@@ -163,9 +162,6 @@ class WheelTelemetryNode(GraphNode):
             self.last_handled = sample.stamp_ns
 
     def poll(self):
-        if self.inputs and all(s.get_publisher_count() > 0 for s in self.inputs):
-            self.pub_ready.publish(String(data="ready"))
-            self.inputs = []
         if (getattr(self, "_run_end", None) is not None and self._commands_in()) or self.run_ended():
             self._send(self.reports.flush())   # the source ended (or left)
         if all([p.flush() for p in self.pubs.values()]) and self.run_ended():

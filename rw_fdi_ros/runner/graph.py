@@ -139,7 +139,7 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         "scenario": scenario_ref, "seed": scenario.seed, "control_period": period,
         "emf_limit": choices.emf_limit, "wheel_momentum_coupling": choices.wheel_momentum_coupling,
         "wheel_set": choices.wheel_set, "magnetic_field": choices.magnetic_field, "command_timeout": command_timeout,
-        "recorder_ready": bag is not None, "telemetry_ready": fdi is not None or bag is not None,
+        "recorder_ready": bag is not None,
         "magnetorquers": scenario.magnetorquers is not None})]
     for i, axis in enumerate(BODY_AXES):
         nodes.append(NodeSpec(f"pid_controller_{axis}", "pid_controller", {
@@ -164,6 +164,8 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         telemetry = telemetry_node(choices, wheel_type)
         telemetry.parameters["command_hold"] = 0.0   # our plant steps on each command: every report has its own
         nodes.append(telemetry)
+        # the plant keeps within a quarter of the telemetry's /wheels queue of it (a loaded CI lost 19 s of it)
+        nodes[0].parameters["telemetry_lead"] = T.QUEUE_DEPTH * period / 4
     if fdi is not None:
         nodes += fdi_nodes(fdi, choices, await_bus_grid=True, wheel_type=wheel_type)   # a grid with every report
     if live is not None:
@@ -331,7 +333,8 @@ def checked_strings(nodes):
 
 def with_reader_counts(nodes):
     """``nodes``, each told how many readers of its topics to wait for: what the others read
-    (graph/topics.py READS), so a node added to the graph is waited for. Call it on the finished list.
+    (graph/topics.py READS), so a node added to the graph is waited for, and the plant the nodes to hear
+    ready. Call it on the finished list.
 
     Parameters
     ----------
@@ -345,6 +348,8 @@ def with_reader_counts(nodes):
     """
     for node in nodes:
         node.parameters.update(T.reader_counts(node, nodes))
+        if node.executable == "plant":   # and it steps once every node that says so hears its inputs
+            node.parameters["ready_nodes"] = [n.name for n in nodes if n.executable in T.SAYS_READY]
     return nodes
 
 

@@ -246,8 +246,24 @@ def friction_torque(speed, temperature, params: WheelParams = WheelParams()):
     return viscous_coefficient(temperature, params) * w + coulomb
 
 
+def bearing_noise_amplitude(params: WheelParams = WheelParams()):
+    """The bearing noise's amplitude A = J theta_a w_a^2 [N m], eq. 2.16 (the Type A's 1.54e-5 N m).
+
+    Parameters
+    ----------
+    params : WheelParams
+        The wheel type; its fields may be arrays, one unit per wheel (:func:`unit_wheel`).
+
+    Returns
+    -------
+    float or ndarray
+        A [N m], shaped as the fields of ``params``.
+    """
+    return params.inertia * params.noise_angle * params.noise_frequency ** 2
+
+
 def torque_noise(t, params: WheelParams = WheelParams()):
-    """Bearing torque noise J theta_a w_a^2 sin(w_a t) [N m], eq. 2.16 (1.54e-5 N m).
+    """Bearing torque noise A sin(w_a t) [N m], eq. 2.16, A = J theta_a w_a^2 (:func:`bearing_noise_amplitude`).
 
     Parameters
     ----------
@@ -261,8 +277,7 @@ def torque_noise(t, params: WheelParams = WheelParams()):
     float or ndarray
         Noise torque [N m], ``t``'s shape broadcast with the fields of ``params``.
     """
-    p = params
-    return p.inertia * p.noise_angle * p.noise_frequency**2 * np.sin(p.noise_frequency * np.asarray(t, float))
+    return bearing_noise_amplitude(params) * np.sin(params.noise_frequency * np.asarray(t, float))
 
 
 def net_torque(tcv, speed, t, op, params: WheelParams = WheelParams()):
@@ -359,8 +374,7 @@ def bearing_noise_mean(params: WheelParams = WheelParams(), seconds: float = 40.
     float
         The bound [N m].
     """
-    amplitude = params.inertia * params.noise_angle * params.noise_frequency ** 2
-    return float(amplitude * min(1.0, 2.0 / max(params.noise_frequency * seconds, 1e-12)))
+    return float(bearing_noise_amplitude(params) * min(1.0, 2.0 / max(params.noise_frequency * seconds, 1e-12)))
 
 
 def torque_scale(params: WheelParams = WheelParams()) -> float:

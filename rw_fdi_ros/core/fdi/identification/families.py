@@ -58,8 +58,7 @@ def noise_floors(params=None) -> tuple:
     """
     params = wm.WheelParams() if params is None else params
     driven = SIGMA_FLOOR * wm.torque_scale(params)
-    bearing = params.inertia * params.noise_angle * params.noise_frequency ** 2
-    return driven, max(bearing, UNPOWERED_FLOOR_MIN * driven)
+    return driven, max(wm.bearing_noise_amplitude(params), UNPOWERED_FLOOR_MIN * driven)
 
 
 def bus_voltage_grid(bus_voltage: float = 8.0) -> np.ndarray:
