@@ -3,6 +3,7 @@
 Every process runs in a private ROS_DOMAIN_ID with loopback-only discovery
 and is torn down (SIGKILL after a grace period) also when a test fails.
 """
+import json
 import os
 import signal
 import subprocess
@@ -199,6 +200,26 @@ def test_nan_torque_command_stops_the_run_naming_the_axis(scenario_file, tmp_pat
         # the wheel allocation takes the controllers' commands: it stops the run naming the axis
         assert "wheel_allocation" in result.reason and "axis y" in result.reason and "nan" in result.reason
         assert read_bag(bag).topic(T.ATTITUDE)            # the bag was finalised and reads
+    finally:
+        procs.stop_all()
+        lease.release()
+
+
+def test_a_plant_held_on_the_telemetry_records_the_same_run(runs, scenario_file, tmp_path, monkeypatch):
+    """telemetry_lead at its least (an FDI period and a step): the plant holds its step whenever
+    wheel_telemetry lags; the run ends and its bag is the free-running one's, message for message."""
+    from rw_fdi_ros.storage.compare import bag_differences
+    alone = runs[0]
+    monkeypatch.setenv("RW_FDI_TIMING", "1")   # the plant's figures at exit: how often it held
+    procs, lease, bag = graph(scenario_file, tmp_path, tweak=lambda nodes: nodes[0].parameters.update(
+        telemetry_lead=1.1, duration=40.0))
+    try:
+        result = procs.run(watchdog=120)
+        assert result.ok, result.reason
+        assert bag_differences(alone.bag, bag) == []
+        figures = [json.loads(line.split(" ", 1)[1]) for p in result.log_dir.glob("*.log")
+                   for line in p.read_text().splitlines() if line.startswith("RW_FDI_TIMING ")]
+        assert next(f for f in figures if f["node"] == "plant")["telemetry_holds"] > 0
     finally:
         procs.stop_all()
         lease.release()

@@ -135,7 +135,12 @@ class PlantNode(GraphNode):
                                                                      self._on_dipole, T.RELIABLE, raw=True)
         self.tcv = self.dipole = None   # this step's answers, stepped on once both are in (dipole: when due)
         self.lead_ns = round(self.param("telemetry_lead") * 1e9)
+        least = self.choices.fdi_period + self.period   # the telemetry of a period comes after its last step
+        if 0 < self.param("telemetry_lead") < least:
+            raise NodeError(f"parameter telemetry_lead: 0 or at least the FDI period and a control step "
+                            f"({least:g} s), got {self.param('telemetry_lead'):g}", EXIT_BAD_INPUT)
         self.telemetry_ns, self.held = 0, None   # the newest telemetry's stamp; a step waiting for it to catch up
+        self.holds = 0
         if self.lead_ns > 0:
             self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE, raw=True)
         self.dipole_due = False
@@ -240,6 +245,7 @@ class PlantNode(GraphNode):
         self.step_wall.append(t0 - self.t_wait)
         if step_stamp_ns(self.plant.step_index, self.period) - self.telemetry_ns > self.lead_ns > 0:
             self.held, self.t_wait = sample, wall_time()   # published once the telemetry catches up
+            self.holds += 1
             return
         self._publish(sample)
 
@@ -287,7 +293,8 @@ class PlantNode(GraphNode):
             phases["discovery_s"] = self.t_first - self.t_created   # node up -> every reader matched
             if self.t_last is not None:
                 phases["stepping_s"] = self.t_last - self.t_first
-        return {"steps": len(self.step_wall), **phases, **summary(step=self.step_wall, compute=self.compute_wall)}
+        return {"steps": len(self.step_wall), "telemetry_holds": self.holds, **phases,
+                **summary(step=self.step_wall, compute=self.compute_wall)}
 
 main = main_for(PlantNode)
 
