@@ -206,13 +206,13 @@ def test_nan_torque_command_stops_the_run_naming_the_axis(scenario_file, tmp_pat
 
 
 def test_a_plant_held_on_the_telemetry_records_the_same_run(runs, scenario_file, tmp_path, monkeypatch):
-    """telemetry_lead at its least (an FDI period and a step): the plant holds its step whenever
-    wheel_telemetry lags; the run ends and its bag is the free-running one's, message for message."""
+    """telemetry_lead at its least, one FDI period: the step after each FDI stamp is held until
+    wheel_telemetry has sent that stamp; the run ends and its bag is the free-running one's, message for message."""
     from rw_fdi_ros.storage.compare import bag_differences
     alone = runs[0]
     monkeypatch.setenv("RW_FDI_TIMING", "1")   # the plant's figures at exit: how often it held
     procs, lease, bag = graph(scenario_file, tmp_path, tweak=lambda nodes: nodes[0].parameters.update(
-        telemetry_lead=1.1, duration=40.0))
+        telemetry_lead=1.0, duration=40.0))
     try:
         result = procs.run(watchdog=120)
         assert result.ok, result.reason

@@ -86,18 +86,19 @@ class GraphNode(Node):
 
         Parameters
         ----------
-        subscriptions : list of rclpy.subscription.Subscription
-            The inputs the node steps on (not the optional ones).
+        subscriptions : list of rclpy.subscription.Subscription or (Subscription, int)
+            The inputs the node steps on (not the optional ones), each with the writers to hear (default 1; a
+            topic the node writes too counts its own writer).
         """
         from std_msgs.msg import String
         from . import topics as T
-        self.unheard = list(subscriptions)
+        self.unheard = [s if isinstance(s, tuple) else (s, 1) for s in subscriptions]
         self.pub_heard = self.create_publisher(String, T.NODE_READY, T.LATCHED)
         self.ready_message = String(data=self.get_name())
 
     def say_ready(self):
         """Called before each :meth:`poll`: says ready once every input of :meth:`say_ready_when_heard` hears."""
-        if self.unheard and all(s.get_publisher_count() > 0 for s in self.unheard):
+        if self.unheard and all(s.get_publisher_count() >= n for s, n in self.unheard):
             self.unheard = []
             self.pub_heard.publish(self.ready_message)
 

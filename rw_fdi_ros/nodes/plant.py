@@ -135,14 +135,16 @@ class PlantNode(GraphNode):
                                                                      self._on_dipole, T.RELIABLE, raw=True)
         self.tcv = self.dipole = None   # this step's answers, stepped on once both are in (dipole: when due)
         self.lead_ns = round(self.param("telemetry_lead") * 1e9)
-        least = self.choices.fdi_period + self.period   # the telemetry of a period comes after its last step
-        if 0 < self.param("telemetry_lead") < least:
-            raise NodeError(f"parameter telemetry_lead: 0 or at least the FDI period and a control step "
-                            f"({least:g} s), got {self.param('telemetry_lead'):g}", EXIT_BAD_INPUT)
+        # a step held at s waits for the FDI sample at or before s - lead; the newest one whose command is in
+        # is at least s - fdi_period: a lead under the period could wait for what comes after the held step
+        if 0 < self.param("telemetry_lead") < self.choices.fdi_period:
+            raise NodeError(f"parameter telemetry_lead: 0 or at least the FDI period ({self.choices.fdi_period:g} "
+                            f"s), got {self.param('telemetry_lead'):g}", EXIT_BAD_INPUT)
         self.telemetry_ns, self.held = 0, None   # the newest telemetry's stamp; a step waiting for it to catch up
         self.holds = 0
         if self.lead_ns > 0:
-            self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry, T.RELIABLE, raw=True)
+            self.subs["wheel telemetry"] = self.create_subscription(JointState, T.FDI_TELEMETRY, self._on_telemetry,
+                                                                    T.RELIABLE, raw=True)
         self.dipole_due = False
         ready_nodes = list(self.param("ready_nodes") or [])
         self.ready = [ReadySignal(self, self.param("recorder_ready")),

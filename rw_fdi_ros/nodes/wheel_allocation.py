@@ -132,9 +132,9 @@ class WheelAllocationNode(GraphNode):
                   for i, axis in enumerate(BODY_AXES)]
         inputs.append(self.create_subscription(JointState, T.WHEELS, self._on_wheels, T.RELIABLE, raw=True))
         inputs.append(self.create_subscription(JointState, T.ATTITUDE, self._on_attitude, T.RELIABLE, raw=True))
-        if self.param("fdir"):
-            inputs.append(self.create_subscription(DiagnosticArray, T.DIAGNOSTICS, self._on_diagnostics,
-                                                   T.RELIABLE))
+        if self.param("fdir"):   # the isolation node's verdicts; it writes FDIR's state there too
+            inputs.append((self.create_subscription(DiagnosticArray, T.DIAGNOSTICS, self._on_diagnostics,
+                                                    T.RELIABLE), 2))
         self.say_ready_when_heard(inputs)
 
     # -- inputs ----------------------------------------------------------------------

@@ -164,8 +164,9 @@ def graph_nodes(scenario: Scenario, scenario_ref: str, bag: Path | None, command
         telemetry = telemetry_node(choices, wheel_type)
         telemetry.parameters["command_hold"] = 0.0   # our plant steps on each command: every report has its own
         nodes.append(telemetry)
-        # the plant keeps within a quarter of the telemetry's /wheels queue of it (a loaded CI lost 19 s of it)
-        nodes[0].parameters["telemetry_lead"] = T.QUEUE_DEPTH * period / 4
+        # the plant keeps within a quarter of the telemetry's /wheels queue of it (a loaded CI lost 19 s of it),
+        # at least the FDI period the telemetry needs (a tick of 4 ms or less: the queue is not a period long)
+        nodes[0].parameters["telemetry_lead"] = max(T.QUEUE_DEPTH * period / 4, choices.fdi_period)
     if fdi is not None:
         nodes += fdi_nodes(fdi, choices, await_bus_grid=True, wheel_type=wheel_type)   # a grid with every report
     if live is not None:
