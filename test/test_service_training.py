@@ -129,13 +129,27 @@ def test_a_grey_box_whose_model_is_the_telemetry_learns_a_zero_correction(tmp_pa
     assert all(observer.update(u, None, w) == 0.0 for u, w in ((1.0, 50.0), (-3.0, 200.0), (5.0, 10.0)))
 
 
-def test_a_fault_the_model_observer_cannot_see_either_is_said_invisible():
-    from rw_fdi_ros.tools.design.observer_check import why_missed
-    hidden = why_missed("elman", {"peak_over_band": 0.08, "seed": 5428, "wheel": "y", "model_peak_over_band": 0.1,
-                                  "hidden": True})
-    assert "physically invisible here" in hidden and "0.08 of its band" in hidden
-    assert "physically invisible" in why_missed("model", {"peak_over_band": 0.5, "seed": 1, "wheel": "x",
-                                                          "hidden": True})
-    seen = why_missed("linear", {"peak_over_band": 0.3, "seed": 1, "wheel": "x", "model_peak_over_band": 37.0,
-                                 "hidden": False})
+def test_a_fault_under_the_tachometers_noise_floor_is_said_invisible_not_missed():
+    """Basilisk's HR16 reads speeds with sigma 0.01 rad/s: every threshold carries the noise's reach
+    s / n = 3 sqrt(2) J sigma / (n T) above a band of 0, and a +30 C (a 5e-5 N m torque change) under it is
+    physically invisible. The level left the floor out (0 N m) and counted such runs as observers' misses."""
+    from rw_fdi_ros.core.fdi.threshold_file import ThresholdCurves
+    from rw_fdi_ros.core.physics.wheel import WheelParams
+    from rw_fdi_ros.scoring.metrics import RunEval, observable, observable_level
+    from rw_fdi_ros.tools.design.observer_check import invisible_why, why_missed
+    from rw_fdi_ros.core.physics.faults import Fault
+    curves = {obs: ThresholdCurves(obs, {a: np.zeros(1) for a in "xyz"}, window=40) for obs in ("model", "elman")}
+    hr16 = WheelParams(inertia=0.0796, speed_noise=0.01)
+    level = observable_level(curves, hr16)
+    assert level["y"] == pytest.approx(3.0 * np.sqrt(2.0) * 0.0796 * 0.01 / 40, rel=1e-12)   # 8.44e-5 N m
+    assert observable_level(curves) == {"x": 0.0, "y": 0.0, "z": 0.0}                          # exact speeds
+    def run(peak):
+        return RunEval(bag="b", scenario="s", seed=1, faults=[Fault("temperature", 1, 100.0, 53.0)], series={},
+                       fault_effect_peak=np.array([0.0, peak, 0.0]), wheels=["x", "y", "z"])
+    small, large = run(5.5e-5), run(2e-4)
+    assert not observable(small, level) and observable(large, level)
+    said = invisible_why([small], level)
+    assert "at most 0.055 mN m" in said and "under the 0.0844 mN m" in said and "physically invisible" in said
+    assert invisible_why([], level) is None
+    seen = why_missed("linear", {"peak_over_band": 0.3, "seed": 1, "wheel": "x", "model_peak_over_band": 37.0})
     assert "invisible" not in seen and "A / (A - L C) = 0.25" in seen

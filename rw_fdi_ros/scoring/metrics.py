@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.fdi.identification import NONE, UNKNOWN, Identification
+from ..core.fdi.residuals import speed_noise_reach
 from ..core.mission.plant_choices import FDI_PERIOD
 from ..core.physics.faults import NOMINAL_VALUES
 from ..core.physics.wheel_set import AXIS_WHEELS, fitted_for
@@ -479,18 +480,21 @@ def observable(run: RunEval, level: dict) -> bool:
                for a in run.faulty_wheels)
 
 
-def observable_level(curves: dict) -> dict:
+def observable_level(curves: dict, wheel=None) -> dict:
     """axis -> the fault-free residual level [N m] a fault effect must rise above to count as observable
     (:func:`observable`), one physical criterion for every observer of an FDI set (``curves``: observer ->
     ThresholdCurves): the largest of the observers' median thresholds after the manoeuvre (a band may be
-    negative: it is a level over the ripple bound, not a residual level). With the model observer in the
-    set the Luenberger observer is left out: its band is its linearised model's own error, not what the
-    wheel shows.
+    negative: it is a level over the ripple bound, not a residual level), plus the tachometer's noise floor
+    s / n of a full window (residuals.speed_noise_reach) that every threshold carries above its band. With
+    the model observer in the set the Luenberger observer is left out: its band is its linearised model's
+    own error, not what the wheel shows.
 
     Parameters
     ----------
     curves : dict of str to ThresholdCurves
         Observer -> its threshold curves [N m], of one FDI set.
+    wheel : WheelParams, optional
+        The fitted wheel type (its ``speed_noise`` and ``inertia``); None: exact speeds, no noise floor.
 
     Returns
     -------
@@ -498,7 +502,11 @@ def observable_level(curves: dict) -> dict:
         Fitted wheel -> level [N m].
     """
     judges = [c for obs, c in curves.items() if obs != "linear" or "model" not in curves]
-    return {a: max(float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a])) for c in judges)
+    # why: where speeds are read with noise, a torque derived from them cannot show less than its floor,
+    # whatever the band (Basilisk's HR16: a band of 0 above a floor of 0.084 mN m)
+    floor = speed_noise_reach(wheel, judges[0].sample_period) / judges[0].window
+    return {a: floor + max(float(np.median(c.curves[a][60:] if len(c.curves[a]) > 60 else c.curves[a]))
+                           for c in judges)
             for a in judges[0].curves}   # the fitted wheels; another of their type: observable()
 
 

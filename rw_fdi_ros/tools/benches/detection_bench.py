@@ -20,7 +20,7 @@ from pathlib import Path
 
 
 from ...fdi_config import FdiConfig
-from ...core.mission.vehicle import DEFAULT_VEHICLE
+from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle
 from ...core.fdi.verdict import decision_of
 from ...scoring.metrics import observable_level, observers_of_runs
 from ..evaluation.screen import screen_sets
@@ -67,10 +67,11 @@ def _judge_chunk(cell_index: int, seeds_range, vehicle: str = DEFAULT_VEHICLE, f
                        other_decisions=tuple(decision_of(d, "speed_aware") for d in VOTES))
 
 
-def observable_levels(sets: dict) -> dict:
+def observable_levels(sets: dict, wheel=None) -> dict:
     """set -> observer -> axis -> the fault-free residual level a fault effect must rise above to count as
-    observable: the set's metrics.observable_level, the same for each of its observers."""
-    return {name: {obs: observable_level(entry[1]) for obs in entry[1]} for name, entry in sets.items()}
+    observable: the set's metrics.observable_level (of the ``wheel`` type's tachometer), the same for each
+    of its observers."""
+    return {name: {obs: observable_level(entry[1], wheel) for obs in entry[1]} for name, entry in sets.items()}
 
 
 def cell_sizes(fault_free_runs: int, runs_per_cell: int) -> list:
@@ -94,7 +95,7 @@ def cell_results(judged: list, sizes: list, seed_base: int, levels: dict, key: s
 def bench_detection(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str | Path = "reports/detection",
                     executor=None, vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None) -> dict:
     sets = _fdi_sets(vehicle, fdi)
-    levels = observable_levels(sets)
+    levels = observable_levels(sets, load_vehicle(vehicle).wheel)
     t0 = time.monotonic()
     sizes = cell_sizes(fault_free_runs, runs_per_cell)
     judged = screen_cells(sizes, partial(_judge_chunk, vehicle=vehicle, fdi=fdi),

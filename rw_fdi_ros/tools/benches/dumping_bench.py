@@ -233,7 +233,7 @@ def bench_dumping(hours: float = 24.0, seed: int = 1, operations_runs: int = 20,
     t0 = time.monotonic()
     day = day if day is not None else bench_day(hours, seed, Path(out), vehicle)
     _, curves = FdiConfig().for_vehicle(vehicle).load()
-    level = observable_level(curves)
+    level = observable_level(curves, load_vehicle(vehicle).wheel)
     cells_run = cells_of(vehicle)
     sizes = [operations_runs if c.kind is None else runs_per_cell for c in cells_run]
     judged = screen_cells(sizes, SpeedAwareChunk(partial(_cell_runs, vehicle=vehicle), SEED_BASE, dumping_of,

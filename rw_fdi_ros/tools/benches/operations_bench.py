@@ -26,7 +26,7 @@ import numpy as np
 from ...fdi_config import FdiConfig
 from ...core.mission.scenario import Manoeuvres, Scenario
 from ...core.physics.faults import drawn_fault
-from ...core.mission.vehicle import DEFAULT_VEHICLE
+from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle
 from .kit import (VOTES, Cell, SpeedAwareChunk, bench_scenario, bench_wheels, cell_figures, cell_on_bus, configured,
                   fdi_phrase, format_rate, own_fdi, screen_cells, workers, write_cells_table, write_report,
                   vehicle_words)
@@ -102,7 +102,7 @@ def bench_operations(fault_free_runs: int = 1000, runs_per_cell: int = 200, hour
     seed_base = SEED_BASES[seeds]
     fdi = fdi or FdiConfig()
     _, curves = fdi.for_vehicle(vehicle).load()
-    level = observable_level(curves)
+    level = observable_level(curves, load_vehicle(vehicle).wheel)
     sizes = [hours_runs if c.duration > 400.0 else fault_free_runs if c.kind is None and c.wheel_speed is None
              else runs_per_cell for c in cells_of(vehicle)]
     t0 = time.monotonic()

@@ -25,7 +25,7 @@ from pathlib import Path
 from ...fdi_config import FdiConfig
 from ...core.fdi.calibration import calibration_samples
 from ...core.mission.plant_choices import FDI_PERIOD
-from ...core.mission.vehicle import DEFAULT_VEHICLE
+from ...core.mission.vehicle import DEFAULT_VEHICLE, load_vehicle
 from .detection_bench import cell_results, cell_sizes, cells_of, observable_levels
 from .kit import (cell_scenarios, configured, fdi_phrase, format_rate, own_fdi, screen_cells, workers,
                   write_cells_table, write_report, vehicle_words)
@@ -58,7 +58,7 @@ def bench_units(fault_free_runs: int = 1000, runs_per_cell: int = 200, out: str 
                 executor=None, vehicle: str = DEFAULT_VEHICLE, fdi: FdiConfig | None = None) -> dict:
     t0 = time.monotonic()   # loading both calibrations' bands included
     sets = _fdi_sets(vehicle, fdi)
-    levels, sizes = observable_levels(sets), cell_sizes(fault_free_runs, runs_per_cell)
+    levels, sizes = observable_levels(sets, load_vehicle(vehicle).wheel), cell_sizes(fault_free_runs, runs_per_cell)
     populations = {}
     for population, (seed_base, wheels) in POPULATIONS.items():
         judged = screen_cells(sizes, partial(_judge_chunk, population, vehicle=vehicle, fdi=fdi),

@@ -17,6 +17,7 @@ from ...core.fdi.linear_observer import LinearObserver, steady_fault_gain
 from ...core.mission.scenario import Manoeuvres, load_scenario
 from ...core.physics.faults import drawn_fault, nominal_values
 from ...core.physics.wheel import linearised_wheel
+from ...core.physics.wheel_set import fitted_for
 from ...scoring.metrics import judge as judge_verdict, observable, observable_level, wilson
 from .offline import judge_run
 from .samples import simulated_runs
@@ -65,26 +66,43 @@ def check_observers(fault_free_path, wheel_params, models: dict, curves: dict, s
         case -> observer -> figures; ``why`` only where an observer missed.
     """
     out = {}
+    level = observable_level(curves, wheel_params)   # the benches' criterion of a fault the physics hides
     for case, kind, value in fault_cases(wheel_params):
         scenarios = fault_scenarios(fault_free_path, kind, value, seeds)
         runs = [judge_run(sc, samples, peak, models, curves) for sc, samples, peak in simulated_runs(scenarios)]
-        level = observable_level(curves)   # the benches' criterion of a fault the physics hides
+        seen = [observable(r, level) for r in runs]   # the rest: no observer's miss (metrics.observable)
+        visible = [r for r, ok in zip(runs, seen) if ok]
+        hidden = [r for r, ok in zip(runs, seen) if not ok]
+        invisible = {"runs": len(hidden), "why": invisible_why(hidden, level)}
         out[case] = {}
         for obs in curves:
-            right = [bool(judge_verdict(r, obs)["correct"]) for r in runs]
-            entry = {"right": sum(right), "runs": len(runs), "ci95": list(wilson(sum(right), len(runs)))}
-            missed = [r for r, ok in zip(runs, right) if not ok]
+            right = [bool(judge_verdict(r, obs)["correct"]) for r in visible]
+            entry = {"right": sum(right), "runs": len(visible), "ci95": list(wilson(sum(right), len(visible))),
+                     "invisible": invisible}
+            missed = [r for r, ok in zip(visible, right) if not ok]
             if missed:
                 peak, worst = min(((_signal_to_band(r, obs), r) for r in missed), key=lambda x: x[0])
                 entry["worst_miss"] = {"seed": worst.seed, "wheel": worst.faulty_wheels[0], "peak_over_band": peak,
                                        "model_peak_over_band": _signal_to_band(worst, "model")
                                        if "model" in worst.series and obs != "model" else None,
-                                       "hidden": not observable(worst, level),
                                        "figure": str(plot_miss(worst, obs, Path(out_dir) / "observer_misses",
                                                                case))}
                 entry["why"] = why_missed(obs, entry["worst_miss"])
             out[case][obs] = entry
     return out
+
+
+def invisible_why(hidden, level: dict) -> str | None:
+    """Why the ``hidden`` runs (not observable) cannot be judged: their largest fault torque against the
+    fault-free level it had to rise above (metrics.observable_level: the band and the tachometer's noise
+    floor); None without such runs."""
+    if not hidden:
+        return None
+    peak = max(float(r.fault_effect_peak[r.wheels.index(a)]) for r in hidden for a in r.faulty_wheels)
+    floor = min(max(level[k] for k in fitted_for(a, level)) for r in hidden for a in r.faulty_wheels)
+    return (f"the fault changes its wheel's torque by at most {peak * 1e3:.3g} mN m, under the "
+            f"{floor * 1e3:.3g} mN m a fault-free residual already reaches (the band and the tachometer's noise "
+            "over the window): physically invisible here, no observer's miss")
 
 
 def _signal_to_band(run, obs: str) -> float:
@@ -95,14 +113,11 @@ def _signal_to_band(run, obs: str) -> float:
 
 
 def why_missed(obs: str, worst: dict) -> str:
-    """The cause of an observer's misses, measured (its worst miss's peak residual over its band, the model
-    observer's on the same run), a fault the physics hides said as such, and for the Luenberger observer its
-    closed form."""
+    """The cause of an observer's misses among runs whose fault is observable, measured (its worst miss's peak
+    residual over its band, the model observer's on the same run), and for the Luenberger observer its closed
+    form."""
     said = (f"its residual peaked at {worst['peak_over_band']:.2f} of its band on its worst miss (seed "
             f"{worst['seed']}, wheel {worst['wheel']})")
-    if worst.get("hidden"):   # its torque effect below the fault-free level (metrics.observable)
-        return said + (": the fault barely changes this wheel's torque, physically invisible here, not the "
-                       "observer's miss")
     if worst.get("model_peak_over_band") is not None:
         said += f", where the model observer's reached {worst['model_peak_over_band']:.1f}"
     if obs == "linear":

@@ -178,9 +178,14 @@ def vehicle_defaults(vehicle_source, out, train_runs: int = 40, fit_runs: int = 
 
 
 def short_of_goal(caught: dict) -> list:
-    """One line per observer that missed faults it must see, with the cause (observer_check.why_missed)."""
+    """One line per case with runs the physics hides (observer_check.invisible_why), and one per observer that
+    missed observable faults it must see, with the cause (observer_check.why_missed)."""
     lines = []
     for case, rows in caught.items():
+        hidden = next(iter(rows.values()))["invisible"]
+        if hidden["runs"]:
+            lines.append(f"{case}: {hidden['runs']} of {hidden['runs'] + next(iter(rows.values()))['runs']} runs "
+                         f"not judged: {hidden['why']}")
         for obs, x in rows.items():
             if "why" in x:
                 verdict = "below" if x["ci95"][1] < GOAL else "short of"
@@ -232,12 +237,14 @@ def format_report(r: dict) -> str:
         f = r["faults_caught"]
         lines += ["", f"## Each observer on its own: faults it must see (seeds {seeds('faults')}, datasheet wheels, "
                   f"manoeuvres every 100-300 s, onset at 60-300 s)", "",
-                  "| case | observer | right | runs | rate | 95 % interval |", "|---|---|---|---|---|---|"]
+                  "| case | observer | right | observable runs | rate | 95 % interval | physically invisible |",
+                  "|---|---|---|---|---|---|---|"]
         for case, rows in f.items():
             for obs, x in rows.items():
                 lo, hi = x["ci95"]
-                lines.append(f"| {case} | {obs} | {x['right']} | {x['runs']} | {x['right'] / x['runs'] * 100:.1f} % "
-                             f"| [{lo * 100:.1f}, {hi * 100:.1f}] % |")
+                judged = (f"{x['right'] / x['runs'] * 100:.1f} % | [{lo * 100:.1f}, {hi * 100:.1f}] %" if x["runs"]
+                          else "- | -")
+                lines.append(f"| {case} | {obs} | {x['right']} | {x['runs']} | {judged} | {x['invisible']['runs']} |")
         short = short_of_goal(f)
         lines += [""] + ([f"- {line}" for line in short] if short else
                          [f"Every observer caught every fault here (the goal: >= {GOAL * 100:g} % each)."])

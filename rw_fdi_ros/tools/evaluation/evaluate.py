@@ -123,6 +123,15 @@ def judge_bags(chunk) -> list:
     return out
 
 
+def _recorded_wheel(bag):
+    """The wheel type a bag's run flew (its /scenario), whose tachometer floors what counts as observable
+    (metrics.observable_level); None where the bag does not say (said where the bag is checked)."""
+    try:
+        return scenario_of(read_series(bag, topics=["/scenario"])).spacecraft.wheel
+    except (BagError, OSError, ValueError):
+        return None
+
+
 def _recorded_vehicle(bag) -> str:
     """The vehicle a bag's run flew (its /scenario's plant choices; the thesis' for a bag before vehicles): whose
     shipped FDI judges it where none is given (each bag is checked against the bands still, _check_bag)."""
@@ -207,7 +216,7 @@ def evaluate(bags_root, report_dir, fdi=None, executor=None, plots: bool = True,
                     skip(bag, f"{bag.name}: replay failed: {outcome.reason}")
     bar.close()
     runs.sort(key=lambda r: (r.scenario, r.seed))
-    level = {obs: observable_level(curves) for obs in curves}
+    level = {obs: observable_level(curves, _recorded_wheel(bags[0])) for obs in curves}
     try:
         training = model_card(models).get("seeds", [])
     except ModelError:   # a model set without its card: nothing known to exclude
