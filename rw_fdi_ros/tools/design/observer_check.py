@@ -73,7 +73,7 @@ def check_observers(fault_free_path, wheel_params, models: dict, curves: dict, s
         seen = [observable(r, level) for r in runs]   # the rest: no observer's miss (metrics.observable)
         visible = [r for r, ok in zip(runs, seen) if ok]
         hidden = [r for r, ok in zip(runs, seen) if not ok]
-        invisible = {"runs": len(hidden), "why": invisible_why(hidden, level)}
+        invisible = {"runs": len(hidden), "of": len(runs), "why": invisible_why(hidden, level)}
         out[case] = {}
         for obs in curves:
             right = [bool(judge_verdict(r, obs)["correct"]) for r in visible]

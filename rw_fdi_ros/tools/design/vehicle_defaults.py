@@ -182,10 +182,9 @@ def short_of_goal(caught: dict) -> list:
     missed observable faults it must see, with the cause (observer_check.why_missed)."""
     lines = []
     for case, rows in caught.items():
-        hidden = next(iter(rows.values()))["invisible"]
+        hidden = next(iter(rows.values()))["invisible"]   # the same runs for every observer
         if hidden["runs"]:
-            lines.append(f"{case}: {hidden['runs']} of {hidden['runs'] + next(iter(rows.values()))['runs']} runs "
-                         f"not judged: {hidden['why']}")
+            lines.append(f"{case}: {hidden['runs']} of {hidden['of']} runs not judged: {hidden['why']}")
         for obs, x in rows.items():
             if "why" in x:
                 verdict = "below" if x["ci95"][1] < GOAL else "short of"

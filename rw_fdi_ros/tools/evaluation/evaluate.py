@@ -216,7 +216,7 @@ def evaluate(bags_root, report_dir, fdi=None, executor=None, plots: bool = True,
                     skip(bag, f"{bag.name}: replay failed: {outcome.reason}")
     bar.close()
     runs.sort(key=lambda r: (r.scenario, r.seed))
-    level = {obs: observable_level(curves, _recorded_wheel(bags[0])) for obs in curves}
+    level = dict.fromkeys(curves, observable_level(curves, _recorded_wheel(bags[0])))   # one criterion for all
     try:
         training = model_card(models).get("seeds", [])
     except ModelError:   # a model set without its card: nothing known to exclude
